@@ -1,1 +1,7 @@
-"""network"""
+"""Wiring: builds the populations and synapses of the CPG from ``astrocpg.models``."""
+
+from .build import CPG, build_cpg, check_runs, same_limb_mask, trial_seeds
+from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout, interlimb_labels
+
+__all__ = ["CPG", "build_cpg", "check_runs", "same_limb_mask", "trial_seeds", "Layout", "LEGS",
+           "POOLS", "THIGH_POOLS", "INTERNEURONS", "interlimb_labels"]

@@ -1,0 +1,89 @@
+"""Li-Rinzel astrocyte with 2-AG input and adenosine release (one per thigh motor-neuron pool).
+
+Paper: "Astrocyte Regulation" and Table II; the Li-Rinzel equations and constants are SPEC
+section 1 (time in s, concentrations in uM). 2-AG is released by the astrocyte's own pool
+(``n_pool`` spikes in a step add ``r_AG`` each). Adenosine is released (``+r_ADO``) when
+[Ca2+] exceeds its threshold and the release refractory period has passed, then decays.
+"""
+
+from brian2 import second, umolar
+
+from .base import NeuronModel, Parameter, ParameterTable
+
+EQUATIONS = """
+dCa/dt = J_chan + J_leak - J_pump : mmolar
+J_chan = r_C*(m_inf*n_inf*h)**3*(C0 - (1 + c1)*Ca) : mmolar/second
+J_leak = r_L*(C0 - (1 + c1)*Ca) : mmolar/second
+J_pump = v_ER*Ca**2/(k_ER**2 + Ca**2) : mmolar/second
+m_inf = IP3/(IP3 + d1) : 1
+n_inf = Ca/(Ca + d5) : 1
+dh/dt = (h_inf - h)/tau_h : 1
+h_inf = Q2/(Q2 + Ca) : 1
+tau_h = 1/(a2*(Q2 + Ca)) : second
+Q2 = d2*(IP3 + d1)/(IP3 + d3) : mmolar
+dIP3/dt = (IP3_star - IP3)/tau_IP3 + r_IP3*AG : mmolar
+dAG/dt = -AG/tau_AG + r_AG*n_pool/dt : 1
+dADO/dt = -ADO/tau_ADO : 1
+n_pool : 1 (linked)
+"""
+
+# Adenosine release: the "spike" of an astrocyte.
+THRESHOLD = "Ca > Thres_Ca_ADO"
+RESET = "ADO += r_ADO"
+
+INITIAL_STATE = {"Ca": 0.071006*umolar, "h": 0.7791, "IP3": 0.16*umolar, "AG": 0.0, "ADO": 0.0}
+
+PARAMETERS = ParameterTable("astrocyte", [
+    Parameter(name="IP3_star", value=0.16*umolar, symbol=r"IP_3^*",
+              meaning="resting IP3 concentration (SPEC)"),
+    Parameter(name="tau_IP3", value=7*second, symbol=r"\tau_{IP_3}",
+              meaning="IP3 decay time constant (SPEC)", positive=True),
+    Parameter(name="r_IP3", value=0.5*umolar/second, symbol=r"r_{IP_3}",
+              meaning="IP3 production per unit of 2-AG (SPEC)"),
+    Parameter(name="r_C", value=6/second, symbol=r"r_C",
+              meaning="maximal IP3R channel flux rate (SPEC)"),
+    Parameter(name="r_L", value=0.11/second, symbol=r"r_L", meaning="ER leak rate (SPEC)"),
+    Parameter(name="C0", value=2*umolar, symbol=r"C_0",
+              meaning="total cell free Ca2+ per cytosolic volume (SPEC)"),
+    Parameter(name="c1", value=0.185, symbol=r"c_1",
+              meaning="ER to cytosol volume ratio (SPEC)"),
+    Parameter(name="v_ER", value=0.8*umolar/second, symbol=r"v_{ER}",
+              meaning="maximal SERCA pump rate (SPEC)"),
+    Parameter(name="k_ER", value=0.1*umolar, symbol=r"k_{ER}",
+              meaning="SERCA pump half-activation (SPEC)", positive=True),
+    Parameter(name="a2", value=0.2/(umolar*second), symbol=r"a_2",
+              meaning="IP3R Ca2+ inactivation binding rate (SPEC)", positive=True),
+    Parameter(name="d1", value=0.13*umolar, symbol=r"d_1",
+              meaning="IP3 dissociation constant (SPEC)", positive=True),
+    Parameter(name="d2", value=1.049*umolar, symbol=r"d_2",
+              meaning="Ca2+ inactivation dissociation constant (SPEC)", positive=True),
+    Parameter(name="d3", value=0.9434*umolar, symbol=r"d_3",
+              meaning="IP3 dissociation constant (SPEC)", positive=True),
+    Parameter(name="d5", value=0.08234*umolar, symbol=r"d_5",
+              meaning="Ca2+ activation dissociation constant (SPEC)", positive=True),
+    Parameter(name="r_AG", value=1e-3, symbol=r"r_{\mathrm{AG}}",
+              meaning="2-AG released per motor-neuron spike of the pool"),
+    Parameter(name="tau_AG", value=1*second, symbol=r"\tau_{\mathrm{AG}}",
+              meaning="[2-AG] decay time constant", positive=True),
+    Parameter(name="Thres_Ca_ADO", value=0.3*umolar, symbol=r"\mathrm{Thres\_Ca}_{\mathrm{ADO}}",
+              meaning="[Ca2+] threshold for adenosine release"),
+    Parameter(name="r_ADO", value=0.01, symbol=r"r_{\mathrm{ADO}}",
+              meaning="adenosine released per release event"),
+    Parameter(name="tau_ADO", value=1*second, symbol=r"\tau_{\mathrm{ADO}}",
+              meaning="[ADO] decay time constant (the paper's table calls it tau_AG: a typo)",
+              positive=True),
+    Parameter(name="refractory_ADO", value=0.3*second, symbol=r"\mathrm{refractory}_{\mathrm{ADO}}",
+              meaning="adenosine release refractory period", positive=True),
+])
+
+ASTROCYTE = NeuronModel(
+    name="astrocyte",
+    equations=EQUATIONS,
+    parameters=PARAMETERS,
+    threshold=THRESHOLD,
+    reset=RESET,
+    refractory="refractory_ADO",
+    method="euler",
+    initial_values=INITIAL_STATE,
+    description=__doc__,
+)

@@ -1,0 +1,77 @@
+"""Pacemaker stochastic leaky integrate-and-fire (PSLIF) motor neuron.
+
+Paper: "Locomotion Unit" (membrane equation, Ca2+ dynamics, spike probability) and Table I.
+The background drive grows with torso speed and carries uniform noise drawn per neuron per step.
+Input (background, inter-limb, limit-position inhibition, synaptic) reaches only neurons that are
+not refractory; the K+ current acts on every neuron (SPEC section 1, authors' discretisation).
+"""
+
+from brian2 import Hz, meter, ms, mV, second
+
+from .base import NeuronModel, Parameter, ParameterTable
+from .integration import input_then_decay
+
+EQUATIONS = """
+dv/dt = (v_motor_rest - v)/tau_motor + int(not_refractory)*I_input - C_K_chan*K_open : volt
+I_input = I_background*(1 + A_random*noise) + I_interlimb - C_limit_position*limit_inhibition : volt/second
+I_background = I_background_0 + k_background_v*torso_speed : volt/second
+K_open = 1/(1 + exp(-S_K_chan*(Ca - Thres_Ca))) : 1
+dCa/dt = -Ca/tau_Ca : 1
+noise = 2*rand() - 1 : 1 (constant over dt)
+torso_speed : meter/second (linked)
+limit_inhibition : 1 (linked)
+I_interlimb : volt/second (linked)
+x_position : 1 (constant)
+y_position : 1 (constant)
+z_position : 1 (constant)
+"""
+
+# p_spike = Sigmoid((v - v_th)/(S_spike/2)) of the paper, written as the identical
+# 0.5*(1 + tanh((v - v_th)/S_spike)), which cannot overflow for strongly inhibited neurons.
+THRESHOLD = "rand() < 0.5*(1 + tanh((v - v_motor_th)/S_motor_spike))"
+RESET = "v = v_motor_rest; Ca += r_Ca"
+
+PARAMETERS = ParameterTable("motor_neuron", [
+    Parameter(name="v_motor_rest", value=0*mV, symbol=r"v_{\mathrm{motor\_rest}}",
+              meaning="resting and reset potential"),
+    Parameter(name="v_motor_th", value=10*mV, symbol=r"v_{\mathrm{motor\_th}}",
+              meaning="threshold potential (spike probability 1/2)"),
+    Parameter(name="tau_motor", value=9*ms, symbol=r"\tau_{\mathrm{motor}}",
+              meaning="membrane potential decay time constant", positive=True),
+    Parameter(name="refractory_motor", value=5*ms, symbol=r"\mathrm{refractory}_{\mathrm{motor}}",
+              meaning="refractory period", positive=True),
+    Parameter(name="S_motor_spike", value=0.2*mV, symbol=r"S_{\mathrm{motor\_spike}}",
+              meaning="transition width of the sigmoid spike probability", positive=True),
+    Parameter(name="r_Ca", value=1.0, symbol=r"r_{\mathrm{Ca^{2+}}}",
+              meaning="[Ca2+] increment per action potential"),
+    Parameter(name="tau_Ca", value=250*ms, symbol=r"\tau_{\mathrm{Ca^{2+}}}",
+              meaning="[Ca2+] decay time constant", positive=True),
+    Parameter(name="Thres_Ca", value=10.0, symbol=r"\mathrm{Thres}_{\mathrm{Ca^{2+}}}",
+              meaning="[Ca2+] at which the K+ channel is half open"),
+    Parameter(name="S_K_chan", value=10.0, symbol=r"S_{\mathrm{K\_chan}}",
+              meaning="sensitivity of the K+ channel to [Ca2+]"),
+    Parameter(name="C_K_chan", value=8000*mV/second, symbol=r"C_{\mathrm{K\_chan}}",
+              meaning="potential drop rate with the K+ channel fully open"),
+    Parameter(name="C_limit_position", value=400*mV/second, symbol=r"C_{\mathrm{limit\_position}}",
+              meaning="limit-position inhibition (potential drop rate)"),
+    Parameter(name="I_background_0", value=1380*mV/second, symbol=r"I_{\mathrm{background},0}",
+              meaning="background stimulation at zero torso speed"),
+    Parameter(name="k_background_v", value=40*mV/meter, symbol=r"k_{\mathrm{background},v}",
+              meaning="background stimulation increment per m/s of torso speed"),
+    Parameter(name="A_random", value=0.5, symbol=r"\mathrm{A}_{\mathrm{random}}",
+              meaning="amplitude of the uniform noise on the background stimulation"),
+])
+
+MOTOR_NEURON = NeuronModel(
+    name="motor_neuron",
+    equations=EQUATIONS,
+    parameters=PARAMETERS,
+    threshold=THRESHOLD,
+    reset=RESET,
+    refractory="refractory_motor",
+    method=input_then_decay,
+    description=__doc__,
+)
+
+# Hz is re-exported for equations edited by users who write rates in Hz.
+__all__ = ["MOTOR_NEURON", "EQUATIONS", "PARAMETERS", "Hz"]

@@ -1,0 +1,299 @@
+"""Build the CPG (locomotion units, interneurons, astrocytes, torque traces, inter-limb
+projection) for ``n_trials`` independent copies from a :class:`~astrocpg.models.ModelSet`.
+
+Nothing here is biophysics: every equation and constant comes from ``models``. This module
+decides which element connects to which, and schedules the few objects whose order within a
+1 ms step matters (see :func:`build_cpg`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Iterable
+
+import brian2
+import numpy as np
+from brian2 import Network, NeuronGroup, Synapses, linked_var, ms, second
+
+from ..errors import InputError
+from ..models import DEFAULT_MODELS, ModelSet
+from ..models.base import NeuronModel, SynapseModel, brian_error_line
+from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
+
+brian2.prefs.codegen.target = "numpy"
+brian2.prefs.codegen.loop_invariant_optimisations = True
+# Brian2 logs a debug file for every exception it sees; our errors are user-facing.
+brian2.prefs.logging.delete_log_on_exit = True
+
+
+@dataclass
+class CPG:
+    """The built network: Brian2 groups, synapses and the index layout."""
+
+    layout: Layout
+    models: ModelSet
+    seed: int
+    dt: Any
+    net: Network
+    motor: NeuronGroup
+    interneuron: NeuronGroup
+    astrocyte: NeuronGroup
+    pool: NeuronGroup
+    torque: NeuronGroup
+    synapses: dict[str, Synapses]
+    interlimb_pairs: np.ndarray  # (n_synapses, 2): (row, col) in the per-trial table
+    _arrays: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
+
+    @property
+    def n_trials(self) -> int:
+        return self.layout.n_trials
+
+    def array(self, group: str, variable: str) -> np.ndarray:
+        """The raw state array of ``group.variable`` (numpy target: the live array, writes in
+        place change the simulation). Cached: use it in hot loops instead of ``G.v[:]``."""
+        key = (group, variable)
+        if key not in self._arrays:
+            obj = getattr(self, group) if hasattr(self, group) else self.synapses[group]
+            arr = obj.variables[variable].get_value()
+            if not isinstance(arr, np.ndarray):  # pragma: no cover - other devices
+                raise RuntimeError("astrocpg needs Brian2's runtime (numpy) target")
+            self._arrays[key] = arr
+        return self._arrays[key]
+
+    # ---- inter-limb weights, as (n_trials, 8, 8) tables in volt
+    def interlimb_weights(self) -> np.ndarray:
+        n = self.layout.thigh_pools_per_trial
+        table = np.zeros((self.n_trials, n, n))
+        if len(self.interlimb_pairs):
+            w = self.array("interlimb", "w").reshape(self.n_trials, -1)
+            table[:, self.interlimb_pairs[:, 0], self.interlimb_pairs[:, 1]] = w
+        return table
+
+    def set_interlimb_weights(self, weights: np.ndarray) -> None:
+        """Set the inter-limb tables: shape (8, 8) for every trial or (n_trials, 8, 8), in volt."""
+        n = self.layout.thigh_pools_per_trial
+        w = np.asarray(weights, dtype=float)
+        if w.shape == (n, n):
+            w = np.broadcast_to(w, (self.n_trials, n, n))
+        if w.shape != (self.n_trials, n, n):
+            raise InputError(
+                f"inter-limb weights: expected shape ({n}, {n}) or ({self.n_trials}, {n}, {n}), "
+                f"got {w.shape}"
+            )
+        mask = same_limb_mask(self.layout)
+        if np.any(w[:, mask] != 0):
+            raise InputError("inter-limb weights: the same-limb 2x2 blocks must be zero")
+        if not len(self.interlimb_pairs):
+            return
+        self.array("interlimb", "w")[:] = w[:, self.interlimb_pairs[:, 0],
+                                            self.interlimb_pairs[:, 1]].ravel()
+
+
+def same_limb_mask(layout: Layout) -> np.ndarray:
+    """Boolean (8, 8): True on the same-limb blocks, which carry no synapse."""
+    limb = np.repeat(np.arange(layout.n_legs), len(THIGH_POOLS))
+    return limb[:, None] == limb[None, :]
+
+
+def trial_seeds(seed: int, n_trials: int) -> list[int]:
+    """Trial ``b`` of a batch started with ``seed`` draws its connectivity from ``seed + b``, so
+    a trial's network does not depend on the batch it runs in."""
+    return [int(seed) + b for b in range(n_trials)]
+
+
+def build_cpg(
+    models: ModelSet = DEFAULT_MODELS,
+    *,
+    n_trials: int = 1,
+    seed: int = 0,
+    legs: Iterable[str] = LEGS,
+    dt: Any = 1 * ms,
+    interlimb_weights: np.ndarray | None = None,
+) -> CPG:
+    """Build ``n_trials`` independent copies of the CPG.
+
+    Order within one step (Brian2 schedule): motor neurons, interneurons and astrocytes integrate
+    (``groups``), spike (``thresholds``), synapses deliver (``synapses``), neurons reset. Right
+    after the thresholds, each pool counts its spikes (``pool_activity``) and the torque traces
+    take them in, so the torque of step n holds the spikes of step n (SPEC: torque from this
+    step's spikes drives this step's physics). The inter-limb input of the pools' spikes reaches
+    the target neurons at the next step, like every other synapse.
+    """
+    legs = tuple(legs)
+    for leg in legs:
+        if leg not in LEGS:
+            raise InputError(f"build_cpg: unknown leg '{leg}' (legs are {', '.join(LEGS)})")
+    if int(n_trials) < 1:
+        raise InputError(f"build_cpg: n_trials must be at least 1, got {n_trials}")
+    pool_size = int(np.asarray(models.pool.parameters["pool_size"].value))
+    layout = Layout(n_trials=int(n_trials), pool_size=pool_size, legs=legs)
+    brian2.seed(int(seed))
+
+    objects: list[Any] = []
+
+    def group(model: NeuronModel, n: int, name: str) -> NeuronGroup:
+        try:
+            g = NeuronGroup(
+                n, model.equations, threshold=model.threshold, reset=model.reset,
+                refractory=model.refractory if model.refractory else False,
+                method=model.method, namespace=model.parameters.namespace(), name=name, dt=dt,
+            )
+            for var, value in model.initial_values.items():
+                setattr(g, var, value)
+        except InputError:
+            raise
+        except Exception as e:
+            raise InputError(f"{model.name}: {brian_error_line(e)}") from None
+        objects.append(g)
+        return g
+
+    def synapses(model: SynapseModel, source, target, name: str, i, j) -> Synapses:
+        try:
+            s = Synapses(source, target, model=model.model, on_pre=model.on_pre,
+                         method=model.method, namespace=model.parameters.namespace(), name=name,
+                         dt=dt)
+            s.connect(i=np.asarray(i, dtype=np.int32), j=np.asarray(j, dtype=np.int32))
+            if model.weight:
+                s.w = model.weight
+        except InputError:
+            raise
+        except Exception as e:
+            raise InputError(f"{model.name}: {brian_error_line(e)}") from None
+        objects.append(s)
+        return s
+
+    B, L = layout.n_trials, layout
+    motor = group(models.motor_neuron, B * L.motor_per_trial, "motor")
+    interneuron = group(models.interneuron, B * L.interneurons_per_trial, "interneuron")
+    astrocyte = group(models.astrocyte, B * L.thigh_pools_per_trial, "astrocyte")
+    pool = group(models.pool, B * L.pools_per_trial, "pool")
+    torque = group(models.torque, B * L.joints_per_trial, "torque")
+
+    # Anatomy: neuron positions in the unit cube, drawn per trial from the trial's own seed.
+    positions = np.concatenate([
+        np.random.default_rng(s).uniform(0.0, 1.0, size=(L.motor_per_trial, 3))
+        for s in trial_seeds(seed, B)
+    ])
+    motor.x_position = positions[:, 0]
+    motor.y_position = positions[:, 1]
+    motor.z_position = positions[:, 2]
+
+    # Pool-level inputs reach every neuron of the pool.
+    pool_index = L.pool_of_motor_neuron
+    try:
+        # every linked variable of the motor neuron model is a pool variable of the same name
+        for var, eq in motor.equations.items():
+            if "linked" in eq.flags:
+                if var not in pool.variables:
+                    raise InputError(f"motor_neuron: linked variable '{var}' is not a variable "
+                                     f"of the pool model")
+                setattr(motor, var, linked_var(pool, var, index=pool_index))
+        astrocyte.n_pool = linked_var(pool, "n", index=L.pool_of_astrocyte)
+        joints = [(b, leg, jt) for b in range(B) for leg in range(L.n_legs)
+                  for jt in ("thigh", "calf")]
+        torque.n_extensor = linked_var(
+            pool, "n", index=np.array([L.pool(b, leg, f"{jt}_extensor") for b, leg, jt in joints]))
+        torque.n_flexor = linked_var(
+            pool, "n", index=np.array([L.pool(b, leg, f"{jt}_flexor") for b, leg, jt in joints]))
+        tp = models.torque.parameters
+        # the value (with its unit) of I_thigh or I_calf, joint by joint
+        torque.I_joint = brian2.Quantity([
+            tp["I_thigh"].value if jt == "thigh" else tp["I_calf"].value
+            for _, _, jt in joints])
+    except InputError:
+        raise
+    except Exception as e:
+        raise InputError(f"network wiring: {brian_error_line(e)}") from None
+
+    syn: dict[str, Synapses] = {}
+    syn["pool_activity"] = synapses(models.pool_activity, motor, pool, "pool_activity",
+                                    np.arange(len(pool_index)), pool_index)
+    for updater in syn["pool_activity"].summed_updaters.values():
+        updater.when, updater.order = "after_thresholds", 0
+    torque.state_updater.when, torque.state_updater.order = "after_thresholds", 1
+
+    # Intra-pool: all ordered pairs of distinct neurons of a pool.
+    a, b_ = np.meshgrid(np.arange(L.pool_size), np.arange(L.pool_size), indexing="ij")
+    off = a != b_
+    base_i, base_j = a[off], b_[off]
+    starts = np.arange(B * L.pools_per_trial) * L.pool_size
+    syn["intra_pool"] = synapses(models.intra_pool_synapse, motor, motor, "intra_pool",
+                                 (starts[:, None] + base_i).ravel(),
+                                 (starts[:, None] + base_j).ravel())
+
+    # Interneurons: each driven by every neuron of one pool, inhibiting every neuron of another.
+    pre_i, pre_j, post_i, post_j = [], [], [], []
+    for b in range(B):
+        for leg in range(L.n_legs):
+            for name, _, source, target in INTERNEURONS:
+                k = L.interneuron(b, leg, name)
+                src = L.motor_neurons(b, leg, source)
+                tgt = L.motor_neurons(b, leg, target)
+                pre_i.append(src); pre_j.append(np.full(len(src), k))
+                post_i.append(np.full(len(tgt), k)); post_j.append(tgt)
+    syn["pool_to_interneuron"] = synapses(models.pool_to_interneuron, motor, interneuron,
+                                          "pool_to_interneuron", np.concatenate(pre_i),
+                                          np.concatenate(pre_j))
+    syn["interneuron_to_pool"] = synapses(models.interneuron_to_pool, interneuron, motor,
+                                          "interneuron_to_pool", np.concatenate(post_i),
+                                          np.concatenate(post_j))
+
+    # Inter-limb: thigh pool x -> thigh pool y of another limb, one weight per pair and trial.
+    n_thigh = L.thigh_pools_per_trial
+    mask = same_limb_mask(L)
+    pairs = np.argwhere(~mask)  # (row, col) in the per-trial table
+    if len(pairs):
+        thigh_pool_index = np.array([L.pool(0, leg, p) for leg in range(L.n_legs)
+                                     for p in THIGH_POOLS])
+        inter_i = np.concatenate([b * L.pools_per_trial + thigh_pool_index[pairs[:, 0]]
+                                  for b in range(B)])
+        inter_j = np.concatenate([b * L.pools_per_trial + thigh_pool_index[pairs[:, 1]]
+                                  for b in range(B)])
+        syn["interlimb"] = synapses(models.interlimb_synapse, pool, pool, "interlimb",
+                                    inter_i, inter_j)
+
+    net = Network(*objects)
+    cpg = CPG(layout=layout, models=models, seed=int(seed), dt=dt, net=net, motor=motor,
+              interneuron=interneuron, astrocyte=astrocyte, pool=pool, torque=torque,
+              synapses=syn, interlimb_pairs=pairs)
+    if interlimb_weights is not None:
+        cpg.set_interlimb_weights(interlimb_weights)
+    return cpg
+
+
+def check_runs(cpg: CPG) -> None:
+    """Prepare every object once (units, names, code generation), turning Brian2's errors into
+    one line that names the model at fault. Costs about as much as the start of a run."""
+    names = {"motor": "motor_neuron", "interneuron": "interneuron", "astrocyte": "astrocyte",
+             "pool": "pool", "torque": "torque", "pool_activity": "pool_activity",
+             "intra_pool": "intra_pool_synapse", "pool_to_interneuron": "pool_to_interneuron",
+             "interneuron_to_pool": "interneuron_to_pool", "interlimb": "interlimb_synapse"}
+    try:
+        cpg.net.run(0 * second, namespace={})
+    except Exception as e:
+        culprit = "network"
+        err: BaseException | None = e
+        while err is not None:
+            text = str(err)
+            for obj, model in names.items():
+                if f"object named '{obj}" in text:
+                    culprit = model
+                    break
+            if culprit != "network":
+                break
+            err = err.__cause__
+        raise InputError(f"{culprit}: {_root_message(e)}") from None
+
+
+def _root_message(e: BaseException) -> str:
+    chain = []
+    err: BaseException | None = e
+    while err is not None:
+        chain.append(err)
+        err = err.__cause__
+    # the innermost error names the expression; its first line is enough
+    for err in reversed(chain):
+        text = " ".join(str(err).split())
+        if text:
+            return text[:300]
+    return type(e).__name__

@@ -1,0 +1,320 @@
+"""The ``astrocpg`` command line.
+
+    astrocpg unit  --seconds S --seed K --out DIR [--trials N]
+    astrocpg run   --seconds S --seed K [--trials N] [--weights FILE] [--robot XML] --out DIR
+    astrocpg robot export PATH.xml
+
+Common options: ``--set NAME=VALUE`` overrides a model parameter (with units),
+``--equations MODEL=FILE`` replaces a model's equation string by the text of FILE.
+Bad input ends with one line on stderr naming the culprit, exit code 2, and nothing written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import warnings
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..errors import InputError
+
+DEFAULT_RUN_OUT = "out/run"
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2 (argparse prints usage too)
+        sys.stderr.write(f"astrocpg: error: {message}\n")
+        raise SystemExit(2)
+
+
+def _add_model_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a model parameter, with units (e.g. --set tau_motor=9*ms)")
+    p.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
+                   help="replace the equation string of MODEL (e.g. motor_neuron) by FILE's text")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="astrocpg", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    unit = sub.add_parser("unit", help="one locomotion unit, open loop (paper Fig. 1c)")
+    unit.add_argument("--seconds", type=float, default=30.0)
+    unit.add_argument("--seed", type=int, default=1)
+    unit.add_argument("--trials", type=int, default=1, help="independent units, seeds K, K+1...")
+    unit.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
+                      help="sampling interval of the Ca2+ traces in ms (default 1)")
+    unit.add_argument("--out", required=True)
+    _add_model_options(unit)
+
+    run = sub.add_parser("run", help="the closed loop: CPG drives the A1 (fixed weights)")
+    run.add_argument("--seconds", type=float, default=10.0)
+    run.add_argument("--seed", type=int, default=1)
+    run.add_argument("--trials", type=int, default=1)
+    run.add_argument("--weights", help="8x8 inter-limb table in mV (.npy, .csv/.txt, .json)")
+    run.add_argument("--robot", help="an MJCF file with the A1's joint and actuator names")
+    run.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
+                     help="sampling interval of the Ca2+/2-AG/adenosine traces in ms")
+    run.add_argument("--robot-stride", type=int, default=1, metavar="STEPS",
+                     help="record the robot every STEPS physics steps (default 1)")
+    run.add_argument("--out", default=DEFAULT_RUN_OUT)
+    _add_model_options(run)
+
+    robot = sub.add_parser("robot", help="the project's A1 model")
+    robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
+    export = robot_sub.add_parser("export", help="write the A1 model as MJCF")
+    export.add_argument("path")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    warnings.filterwarnings("ignore", module="brian2")
+    try:
+        if args.command == "unit":
+            return _cmd_unit(args)
+        if args.command == "run":
+            return _cmd_run(args)
+        if args.command == "robot":
+            return _cmd_robot(args)
+    except InputError as e:
+        sys.stderr.write(f"astrocpg: error: {e}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("astrocpg: interrupted\n")
+        return 130
+    return 0
+
+
+# ---------------------------------------------------------------- helpers
+def load_models(overrides: Sequence[str], equations: Sequence[str]):
+    from ..models import DEFAULT_MODELS
+
+    models = DEFAULT_MODELS
+    for item in equations:
+        name, sep, file = item.partition("=")
+        if not sep:
+            raise InputError(f"--equations '{item}': expected MODEL=FILE")
+        model = dict(models.items()).get(name)
+        if model is None:
+            raise InputError(f"--equations: unknown model '{name}' "
+                             f"(models: {', '.join(n for n, _ in models.items())})")
+        try:
+            text = Path(file).read_text()
+        except OSError as e:
+            raise InputError(f"--equations {name}: cannot read '{file}' ({e.strerror})") from None
+        field = {"NeuronModel": "equations", "SynapseModel": "model",
+                 "ExpressionModel": "expression"}[type(model).__name__]
+        models = models.replace(**{name: model.replace(**{field: text})})
+    values = dict(models.parse_assignment(item) for item in overrides)
+    return models.with_values(values) if values else models
+
+
+def load_weights(path: str) -> np.ndarray:
+    """An 8x8 inter-limb table in mV from .npy, .npz ('weights'), .json or text; returns volt."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"--weights {path}: no such file")
+    try:
+        if p.suffix == ".npy":
+            w = np.load(p)
+        elif p.suffix == ".npz":
+            with np.load(p) as z:
+                w = z["weights_mV"] if "weights_mV" in z else z["weights"]
+        elif p.suffix == ".json":
+            import json
+            obj = json.loads(p.read_text())
+            w = np.asarray(obj["weights_mV"] if isinstance(obj, dict) else obj, dtype=float)
+        else:
+            w = np.loadtxt(p, delimiter="," if p.suffix == ".csv" else None)
+    except Exception as e:
+        raise InputError(f"--weights {path}: cannot read an 8x8 table ({type(e).__name__})") from None
+    w = np.asarray(w, dtype=float)
+    if w.shape[-2:] != (8, 8) or w.ndim not in (2, 3):
+        raise InputError(f"--weights {path}: expected an 8x8 table, got shape {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise InputError(f"--weights {path}: contains non-finite values")
+    return w * 1e-3
+
+
+def _settings(args: argparse.Namespace) -> dict[str, Any]:
+    return {k: v for k, v in vars(args).items() if k not in ("func",)}
+
+
+def _check_common(args: argparse.Namespace) -> None:
+    if not np.isfinite(args.seconds) or args.seconds <= 0:
+        raise InputError(f"--seconds must be positive, got {args.seconds:g}")
+    if args.trials < 1:
+        raise InputError(f"--trials must be at least 1, got {args.trials}")
+    if args.trace_dt <= 0:
+        raise InputError(f"--trace-dt must be positive, got {args.trace_dt:g}")
+
+
+# ---------------------------------------------------------------- commands
+def _cmd_unit(args: argparse.Namespace) -> int:
+    from brian2 import ms
+
+    from . import plots
+    from .analysis import rhythm_summary
+    from .outputs import prepare_output_dir, save_npz, write_manifest
+    from .simulate import simulate_unit
+
+    _check_common(args)
+    models = load_models(args.overrides, args.equations)
+    result = simulate_unit(models, seconds=args.seconds, seed=args.seed, n_trials=args.trials,
+                           trace_dt=args.trace_dt * ms, progress=not args.no_progress)
+    out = prepare_output_dir(args.out)
+    L = result.cpg.layout
+    summaries = []
+    for b in range(L.n_trials):
+        pools = {name: L.motor_neurons(b, 0, name) for name in ("thigh_flexor", "thigh_extensor",
+                                                                 "calf_flexor", "calf_extensor")}
+        t, i = result.spikes["motor"]
+        s = rhythm_summary(t, i, pools, t_stop=args.seconds)
+        summaries.append(s)
+        print(_format_unit_summary(b, args.seed + b, s))
+    files = _save_common(out, result, save_npz)
+    plots.plot_unit(out / "unit.png", result.spikes, L)
+    files["unit.png"] = "raster of the motor neurons and interneurons, and pool activity (trial 0)"
+    write_manifest(out, command="unit", seed=args.seed, settings=_settings(args),
+                   models_json=models.to_json(), files=files,
+                   results={"rhythm": summaries, "wall_seconds": result.wall_seconds,
+                            "layout": _layout_json(L)})
+    print(f"wrote {out}/ ({', '.join(files)})")
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from brian2 import ms
+
+    from ..coupling.robot import A1Parameters, RobotLayout, build_model, load_robot
+    from . import plots
+    from .outputs import file_sha256, prepare_output_dir, save_npz, write_manifest
+    from .simulate import firing_rates, simulate_closed_loop
+
+    _check_common(args)
+    if args.robot_stride < 1:
+        raise InputError(f"--robot-stride must be at least 1, got {args.robot_stride}")
+    models = load_models(args.overrides, args.equations)
+    weights = load_weights(args.weights) if args.weights else None
+    if weights is not None and weights.ndim == 3 and weights.shape[0] != args.trials:
+        raise InputError(f"--weights {args.weights}: holds {weights.shape[0]} tables for "
+                         f"{args.trials} trials")
+    params = A1Parameters()
+    robot = load_robot(args.robot) if args.robot else build_model(params)
+    layout = RobotLayout.from_model(robot, params)
+    result = simulate_closed_loop(models, robot, layout, seconds=args.seconds, seed=args.seed,
+                                  n_trials=args.trials, weights=weights,
+                                  trace_dt=args.trace_dt * ms, robot_stride=args.robot_stride,
+                                  progress=not args.no_progress)
+    out = prepare_output_dir(args.out)
+    rec = result.robot
+    files = _save_common(out, result, save_npz)
+    save_npz(out / "robot.npz", {
+        "t": rec.t, "joint_angles": rec.joint_angles, "torques": rec.torques,
+        "torso_position": rec.torso_position, "torso_velocity": rec.torso_velocity,
+        "reward": rec.reward, "alive": rec.alive,
+        "legs": np.array(["FR", "FL", "RR", "RL"]), "joints": np.array(["hip", "thigh", "calf"]),
+        "interlimb_weights_mV": result.cpg.interlimb_weights() * 1e3,
+    })
+    files["robot.npz"] = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t, leg, "
+                          "joint) N m; torso_position/velocity (trial, t, xyz) m, m/s world; "
+                          "reward, alive (trial, t); interlimb_weights_mV (trial, 8, 8)")
+    plots.plot_thigh_extensor_activity(out / "thigh_extensor_activity.png", result.spikes,
+                                       result.cpg.layout)
+    files["thigh_extensor_activity.png"] = "thigh-extensor activity of the 4 limbs (trial 0)"
+    x = rec.torso_position[:, :, 0]
+    start_x = layout.reset_qpos[layout.free_qpos_adr]
+    distance = x[:, -1] - start_x
+    mean_speed = rec.torso_velocity[:, :, 0].mean(axis=1)
+    rates = firing_rates(result)
+    for b in range(args.trials):
+        print(f"trial {b} (seed {args.seed}+{b}): distance {distance[b]:+.3f} m, mean forward "
+              f"speed {mean_speed[b]:+.3f} m/s, upright {rec.alive[b].mean() * 100:.0f}% of steps")
+        print("  rate per neuron (Hz): " + ", ".join(f"{k} {v[b]:.1f}" for k, v in rates.items()))
+    print(f"wall time {result.wall_seconds:.1f} s for {args.seconds:g} simulated s "
+          f"x {args.trials} trial(s)")
+    robot_info = {"file": os.path.abspath(args.robot), "sha256": file_sha256(args.robot)} \
+        if args.robot else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)}
+    write_manifest(out, command="run", seed=args.seed, settings=_settings(args),
+                   models_json=models.to_json(), files=files,
+                   results={"distance_m": distance, "mean_forward_speed_m_per_s": mean_speed,
+                            "rate_per_neuron_Hz": rates, "wall_seconds": result.wall_seconds,
+                            "robot": robot_info, "layout": _layout_json(result.cpg.layout)})
+    print(f"wrote {out}/ ({', '.join(files)})")
+    return 0
+
+
+def _cmd_robot(args: argparse.Namespace) -> int:
+    from ..coupling.robot import A1Parameters, export_xml
+
+    path = Path(args.path)
+    if path.suffix.lower() != ".xml":
+        raise InputError(f"robot export {path}: the file name must end in .xml")
+    if not path.parent.exists():
+        raise InputError(f"robot export {path}: folder '{path.parent}' does not exist")
+    export_xml(path, A1Parameters())
+    print(f"wrote {path}")
+    return 0
+
+
+def _save_common(out: Path, result, save_npz) -> dict[str, str]:
+    files: dict[str, str] = {}
+    arrays: dict[str, np.ndarray] = {}
+    for pop, (t, i) in result.spikes.items():
+        arrays[f"{pop}_times"] = t
+        arrays[f"{pop}_indices"] = i
+    save_npz(out / "spikes.npz", arrays)
+    files["spikes.npz"] = ("per population (motor, interneuron, astrocyte = adenosine release): "
+                           "<pop>_times (s) and <pop>_indices (see manifest results.layout)")
+    if result.traces:
+        tr: dict[str, np.ndarray] = {}
+        for name, (t, v) in result.traces.items():
+            tr[name] = v
+            tr[f"{name}_t"] = t
+        save_npz(out / "traces.npz", tr)
+        files["traces.npz"] = ("motor_Ca (t, neuron); astrocyte_Ca, astrocyte_IP3 (uM), "
+                               "astrocyte_AG, astrocyte_ADO (t, astrocyte); each with <name>_t (s)")
+    return files
+
+
+def _layout_json(L) -> dict[str, Any]:
+    from ..network import INTERNEURONS, POOLS, THIGH_POOLS
+    return {
+        "n_trials": L.n_trials, "legs": list(L.legs), "pools": list(POOLS),
+        "pool_size": L.pool_size,
+        "motor_index": "trial*motor_per_trial + (leg*4 + pool)*pool_size + k",
+        "motor_per_trial": L.motor_per_trial,
+        "interneurons": [n for n, *_ in INTERNEURONS],
+        "interneuron_index": "trial*interneurons_per_trial + leg*6 + interneuron",
+        "interneurons_per_trial": L.interneurons_per_trial,
+        "astrocyte_index": "trial*thigh_pools_per_trial + leg*2 + (0 flexor, 1 extensor)",
+        "thigh_pools": list(THIGH_POOLS),
+    }
+
+
+def _format_unit_summary(b: int, seed: int, s: dict[str, Any]) -> str:
+    def f(key: str, fmt: str = ".3f") -> str:
+        v = s.get(key)
+        return "n/a" if v is None or (isinstance(v, float) and not np.isfinite(v)) else format(v, fmt)
+    return (f"unit {b} (seed {seed}): period {f('period')} s; phases vs thigh flexor: "
+            f"{_phases(s)}; rate per neuron: {_rates(s)}")
+
+
+def _phases(s: dict[str, Any]) -> str:
+    ph = s.get("phases", {})
+    return ", ".join(f"{k} {v:.2f}" for k, v in ph.items()) if ph else "n/a"
+
+
+def _rates(s: dict[str, Any]) -> str:
+    r = s.get("rates", {})
+    return ", ".join(f"{k} {v:.1f} Hz" for k, v in r.items()) if r else "n/a"
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

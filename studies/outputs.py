@@ -1,0 +1,118 @@
+"""Result folders: every one holds ``manifest.json`` (parameters with units, seed, package
+versions, git commit, command) next to its ``.npz`` arrays. Files are written atomically (to a
+temporary name, then renamed), so an interrupted run never leaves a half-written file.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from importlib import metadata
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from ..errors import InputError
+
+PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib")
+
+
+def package_versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for name in PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def git_commit() -> dict[str, Any]:
+    """The commit of the astrocpg source tree, and whether it had uncommitted changes."""
+    root = Path(__file__).resolve().parents[1]
+    try:
+        commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
+                                text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain"],
+                               capture_output=True, text=True, timeout=10).stdout.strip() != ""
+        return {"commit": commit or None, "dirty": dirty if commit else None}
+    except (OSError, subprocess.SubprocessError):
+        return {"commit": None, "dirty": None}
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def prepare_output_dir(path: str | os.PathLike) -> Path:
+    """Create the output folder (parents too). Refuses a path that is a file."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise InputError(f"--out {p}: exists and is not a folder")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise InputError(f"--out {p}: cannot create the folder ({e.strerror})") from None
+    return p
+
+
+def _atomic(path: Path, write) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def save_npz(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
+    _atomic(path, lambda f: np.savez_compressed(f, **arrays))
+
+
+def save_json(path: Path, obj: Any) -> None:
+    text = json.dumps(obj, indent=2, default=_json_default).encode()
+    _atomic(path, lambda f: f.write(text))
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.integer, np.floating, np.bool_)):
+        return o.item()
+    return str(o)
+
+
+def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str, Any],
+                   models_json: Mapping[str, Any], files: Mapping[str, str],
+                   results: Mapping[str, Any] | None = None) -> None:
+    """``manifest.json``: what was run, with what, and what each file holds."""
+    save_json(out / "manifest.json", {
+        "astrocpg_command": command,
+        "argv": sys.argv,
+        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "seed": seed,
+        "settings": dict(settings),
+        "models": dict(models_json),
+        "files": dict(files),
+        "results": dict(results or {}),
+        "package_versions": package_versions(),
+        "git": git_commit(),
+        "machine": {"platform": platform.platform(), "processor": platform.processor(),
+                    "cpu_count": os.cpu_count()},
+    })

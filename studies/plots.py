@@ -1,0 +1,81 @@
+"""Figures of a unit or a closed-loop run (matplotlib, written as PNG)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # headless: files only
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..network import INTERNEURONS, LEGS, POOLS, Layout  # noqa: E402
+
+POOL_COLOURS = {"thigh_flexor": "tab:blue", "thigh_extensor": "tab:red",
+                "calf_flexor": "tab:cyan", "calf_extensor": "tab:orange"}
+
+
+def _activity(times: np.ndarray, sel: np.ndarray, t0: float, t1: float, dt: float) -> np.ndarray:
+    """Number of the selected spikes in each dt bin of [t0, t1)."""
+    n = int(round((t1 - t0) / dt))
+    k = np.floor((times[sel] - t0) / dt + 1e-9).astype(int)
+    k = k[(k >= 0) & (k < n)]
+    return np.bincount(k, minlength=n)
+
+
+def plot_unit(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
+              window: tuple[float, float] | None = None, dt: float = 1e-3) -> None:
+    """Raster of one unit's 80 motor neurons and 6 interneurons, and each pool's activity
+    (neurons spiking per step, as in the paper's Fig. 1c)."""
+    t, i = spikes["motor"]
+    ti, ii = spikes["interneuron"]
+    t_end = max(float(t.max()) if len(t) else 1.0, 1.0)
+    t0, t1 = window or (max(0.0, t_end - 3.0), t_end)
+    fig, (ax_r, ax_i, ax_a) = plt.subplots(3, 1, figsize=(11, 7), sharex=True,
+                                           gridspec_kw={"height_ratios": [4, 1, 2]})
+    base = trial * layout.motor_per_trial
+    for k, name in enumerate(POOLS):
+        ids = layout.motor_neurons(trial, 0, name)
+        sel = (i >= ids[0]) & (i <= ids[-1]) & (t >= t0) & (t < t1)
+        ax_r.plot(t[sel], i[sel] - base, "|", ms=3, color=POOL_COLOURS[name], label=name)
+        act = _activity(t, (i >= ids[0]) & (i <= ids[-1]), t0, t1, dt)
+        ax_a.plot(t0 + np.arange(len(act)) * dt, act, lw=0.7, color=POOL_COLOURS[name])
+    ibase = trial * layout.interneurons_per_trial
+    sel = (ii >= ibase) & (ii < ibase + len(INTERNEURONS)) & (ti >= t0) & (ti < t1)
+    ax_i.plot(ti[sel], ii[sel] - ibase, "|", ms=5, color="k")
+    ax_i.set_yticks(range(len(INTERNEURONS)), [n.replace("_to_", "→") for n, *_ in INTERNEURONS],
+                    fontsize=6)
+    ax_r.set_ylabel("motor neuron")
+    ax_r.legend(loc="upper right", fontsize=7, ncol=4)
+    ax_a.set_ylabel("neurons spiking\nper step")
+    ax_a.set_xlabel("time (s)")
+    ax_r.set_title("Locomotion unit, open loop")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
+                                 window: tuple[float, float] | None = None,
+                                 smooth: float = 0.02, dt: float = 1e-3) -> None:
+    """Thigh-extensor activity of the four limbs (the paper's Fig. 3b style)."""
+    t, i = spikes["motor"]
+    t_end = float(t.max()) if len(t) else 1.0
+    t0, t1 = window or (max(0.0, t_end - 2.0), t_end)
+    fig, axes = plt.subplots(len(layout.legs), 1, figsize=(10, 6), sharex=True)
+    kernel = np.ones(max(1, int(round(smooth / dt))))
+    for ax, (leg_i, leg) in zip(np.atleast_1d(axes), enumerate(layout.legs)):
+        ids = layout.motor_neurons(trial, leg_i, "thigh_extensor")
+        act = _activity(t, (i >= ids[0]) & (i <= ids[-1]), t0, t1, dt)
+        rate = np.convolve(act, kernel, "same") / (len(kernel) * dt * layout.pool_size)
+        x = t0 + np.arange(len(act)) * dt
+        ax.fill_between(x, rate, color="tab:red", alpha=0.6, lw=0)
+        ax.set_ylabel(leg, rotation=0, labelpad=15)
+        ax.set_yticks([])
+    np.atleast_1d(axes)[-1].set_xlabel("time (s)")
+    np.atleast_1d(axes)[0].set_title(f"Thigh extensor activity (trial {trial}, "
+                                     f"{smooth * 1e3:.0f} ms smoothing)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

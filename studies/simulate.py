@@ -1,0 +1,164 @@
+"""Run the CPG: one locomotion unit open loop (``simulate_unit``), or the full network driving
+the robot (``simulate_closed_loop``). Both return plain numpy results; ``save_*`` write them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import brian2
+import mujoco
+import numpy as np
+from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second
+from tqdm.auto import tqdm
+
+from ..coupling.bridge import Bridge, Recording
+from ..coupling.robot import RobotLayout
+from ..errors import InputError
+from ..models import ModelSet
+from ..network import CPG, LEGS, build_cpg, check_runs
+
+POPULATIONS = ("motor", "interneuron", "astrocyte")
+
+
+@dataclass
+class SimulationResult:
+    """Spikes per population, sampled traces, and (closed loop) the robot's recording."""
+
+    cpg: CPG
+    seconds: float
+    spikes: dict[str, tuple[np.ndarray, np.ndarray]]  # population -> (times s, indices)
+    traces: dict[str, tuple[np.ndarray, np.ndarray]]  # name -> (t s, values (samples, n))
+    robot: Recording | None = None
+    wall_seconds: float = 0.0
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def _monitors(cpg: CPG, trace_dt: Any, record_traces: bool) -> dict[str, Any]:
+    mons: dict[str, Any] = {p: SpikeMonitor(getattr(cpg, p), name=f"spikes_{p}")
+                            for p in POPULATIONS}
+    if record_traces:
+        mons["motor_state"] = StateMonitor(cpg.motor, ["Ca"], record=True, dt=trace_dt,
+                                           name="trace_motor")
+        mons["astrocyte_state"] = StateMonitor(cpg.astrocyte, ["Ca", "IP3", "AG", "ADO"],
+                                               record=True, dt=trace_dt, name="trace_astrocyte")
+    cpg.net.add(*mons.values())
+    return mons
+
+
+def _collect(mons: dict[str, Any]) -> tuple[dict, dict]:
+    spikes = {p: (np.asarray(mons[p].t_[:]), np.asarray(mons[p].i_[:], dtype=np.int32))
+              for p in POPULATIONS}
+    traces = {}
+    if "motor_state" in mons:
+        m = mons["motor_state"]
+        traces["motor_Ca"] = (np.asarray(m.t_[:]), np.asarray(m.Ca_[:].T, dtype=np.float32))
+        a = mons["astrocyte_state"]
+        for var in ("Ca", "IP3", "AG", "ADO"):
+            # concentrations in uM (Brian2 keeps mol/m^3 = mM internally)
+            scale = 1e3 if var in ("Ca", "IP3") else 1.0
+            traces[f"astrocyte_{var}"] = (np.asarray(a.t_[:]),
+                                          np.asarray(getattr(a, f"{var}_")[:].T * scale,
+                                                     dtype=np.float32))
+    return spikes, traces
+
+
+class _Progress:
+    """A tqdm bar over simulated seconds, updated every ``every`` steps from inside the run."""
+
+    def __init__(self, seconds: float, desc: str, enabled: bool, every: int = 100):
+        self.every = every
+        self.bar = tqdm(total=round(seconds, 3), unit="sim s", desc=desc, disable=not enabled,
+                        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s "
+                                   "[{elapsed}<{remaining}]")
+
+    def __call__(self, step: int) -> None:
+        if step % self.every == 0:
+            self.bar.update(self.every * 1e-3)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int = 1,
+                  trace_dt: Any = 1 * ms, record_traces: bool = True,
+                  progress: bool = True) -> SimulationResult:
+    """One locomotion unit (the FR limb's CPG) open loop: no robot, torso speed 0, no
+    limit-position inhibition (the paper's Fig. 1c). ``n_trials`` units with seeds seed..."""
+    _check_seconds(seconds)
+    cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=("FR",))
+    check_runs(cpg)
+    mons = _monitors(cpg, trace_dt, record_traces)
+    bar = _Progress(seconds, "unit", progress and seconds > 3)
+    steps = [0]
+
+    def tick() -> None:
+        steps[0] += 100
+        bar(steps[0])
+
+    cpg.net.add(NetworkOperation(tick, dt=100 * ms, when="end", name="progress"))
+    import time
+    t0 = time.perf_counter()
+    try:
+        cpg.net.run(seconds * second, namespace={})
+    finally:
+        bar.close()
+    wall = time.perf_counter() - t0
+    spikes, traces = _collect(mons)
+    return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces,
+                            wall_seconds=wall)
+
+
+def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: RobotLayout, *,
+                         seconds: float, seed: int, n_trials: int = 1,
+                         weights: np.ndarray | None = None, trace_dt: Any = 1 * ms,
+                         robot_stride: int = 1, record_traces: bool = True,
+                         record_spikes: bool = True, progress: bool = True) -> SimulationResult:
+    """The whole CPG driving ``n_trials`` robots for ``seconds``, inter-limb weights fixed
+    (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero)."""
+    _check_seconds(seconds)
+    cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=LEGS, dt=robot.opt.timestep * second,
+                    interlimb_weights=weights)
+    check_runs(cpg)
+    bar = _Progress(seconds, f"run ({n_trials} trial{'s' if n_trials > 1 else ''})",
+                    progress and seconds * n_trials > 3)
+    bridge = Bridge(cpg, robot, robot_layout, models, on_step=bar)
+    n_steps = int(round(seconds / robot.opt.timestep))
+    rec = bridge.start_recording(n_steps, robot_stride)
+    mons = _monitors(cpg, trace_dt, record_traces) if record_spikes else {}
+    cpg.net.add(bridge.operation())
+    import time
+    t0 = time.perf_counter()
+    try:
+        cpg.net.run(seconds * second, namespace={})
+    finally:
+        bar.close()
+    wall = time.perf_counter() - t0
+    spikes, traces = _collect(mons) if mons else ({}, {})
+    return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces, robot=rec,
+                            wall_seconds=wall, extra={"bridge": bridge})
+
+
+def _check_seconds(seconds: float) -> None:
+    if not np.isfinite(seconds) or seconds <= 0:
+        raise InputError(f"--seconds must be positive, got {seconds:g}")
+
+
+def firing_rates(result: SimulationResult) -> dict[str, Any]:
+    """Mean rate per neuron (Hz) of each population and of each pool type, per trial."""
+    cpg, T = result.cpg, result.seconds
+    L = cpg.layout
+    out: dict[str, Any] = {}
+    t, i = result.spikes["motor"]
+    per_trial = i // L.motor_per_trial
+    pool_kind = (i % L.motor_per_trial) // L.pool_size % 4
+    from ..network import POOLS
+    for k, name in enumerate(POOLS):
+        counts = np.bincount(per_trial[pool_kind == k], minlength=L.n_trials)
+        out[name] = counts / (L.n_legs * L.pool_size * T)
+    for pop, n in (("interneuron", L.interneurons_per_trial),
+                   ("astrocyte", L.thigh_pools_per_trial)):
+        _, idx = result.spikes[pop]
+        out[pop] = np.bincount(idx // n, minlength=L.n_trials) / (n * T)
+    return {k: np.asarray(v) for k, v in out.items()}
