@@ -24,6 +24,8 @@ brian2.prefs.codegen.target = "numpy"
 brian2.prefs.codegen.loop_invariant_optimisations = True
 # Brian2 logs a debug file for every exception it sees; our errors are user-facing.
 brian2.prefs.logging.delete_log_on_exit = True
+# A network that failed validation is dropped on purpose; don't warn about its objects.
+brian2.BrianLogger.suppress_name("unused_brian_object")
 
 
 @dataclass
