@@ -58,24 +58,26 @@ def plot_unit(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
 
 def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
                                  window: tuple[float, float] | None = None,
-                                 smooth: float = 0.02, dt: float = 1e-3) -> None:
+                                 smooth: float = 0.01, dt: float = 1e-3) -> None:
     """Thigh-extensor activity of the four limbs (the paper's Fig. 3b style)."""
     t, i = spikes["motor"]
     t_end = float(t.max()) if len(t) else 1.0
     t0, t1 = window or (max(0.0, t_end - 2.0), t_end)
     fig, axes = plt.subplots(len(layout.legs), 1, figsize=(10, 6), sharex=True)
-    kernel = np.ones(max(1, int(round(smooth / dt))))
+    # Gaussian smoothing (sigma = smooth) hides the ~18 ms volleys inside a burst
+    half = int(round(4 * smooth / dt))
+    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) * dt / smooth) ** 2)
+    kernel /= kernel.sum()
     for ax, (leg_i, leg) in zip(np.atleast_1d(axes), enumerate(layout.legs)):
         ids = layout.motor_neurons(trial, leg_i, "thigh_extensor")
         act = _activity(t, (i >= ids[0]) & (i <= ids[-1]), t0, t1, dt)
-        rate = np.convolve(act, kernel, "same") / (len(kernel) * dt * layout.pool_size)
+        rate = np.convolve(act, kernel, "same") / (dt * layout.pool_size)  # Hz per neuron
         x = t0 + np.arange(len(act)) * dt
         ax.fill_between(x, rate, color="tab:red", alpha=0.6, lw=0)
-        ax.set_ylabel(leg, rotation=0, labelpad=15)
-        ax.set_yticks([])
+        ax.set_ylabel(f"{leg}\n(Hz/neuron)", rotation=0, labelpad=25, fontsize=8)
     np.atleast_1d(axes)[-1].set_xlabel("time (s)")
     np.atleast_1d(axes)[0].set_title(f"Thigh extensor activity (trial {trial}, "
-                                     f"{smooth * 1e3:.0f} ms smoothing)")
+                                     f"Gaussian smoothing sigma {smooth * 1e3:.0f} ms)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
