@@ -1,0 +1,112 @@
+"""Bad input: one clear line naming the culprit, exit code 2, no traceback, nothing written."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from astrocpg.studies.cli import main
+
+MOTOR_EQS = (Path(__file__).resolve().parents[1] / "models" / "motor_neuron.py")
+
+
+def _fails_cleanly(capsys, argv: list[str], out: Path, *expected: str) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("astrocpg: error:"), err
+    assert "Traceback" not in err
+    for word in expected:
+        assert word in err, (word, err)
+    assert not out.exists(), "nothing may be written on bad input"
+    return err
+
+
+def _equations_file(tmp_path: Path, text: str) -> Path:
+    f = tmp_path / "eqs.txt"
+    f.write_text(text)
+    return f
+
+
+def _default_motor_equations() -> str:
+    from astrocpg.models.motor_neuron import EQUATIONS
+    return EQUATIONS
+
+
+@pytest.mark.parametrize("command", ["unit", "run"])
+def test_equation_syntax_error(capsys, tmp_path, command):
+    eqs = _equations_file(tmp_path, _default_motor_equations().replace(
+        "(v_motor_rest - v)/tau_motor", "(v_motor_rest - v/tau_motor"))
+    _fails_cleanly(capsys, [command, "--seconds", "1", "--equations",
+                            f"motor_neuron={eqs}", "--out", str(tmp_path / "o")],
+                   tmp_path / "o", "motor_neuron", "equation")
+
+
+def test_equation_inconsistent_units(capsys, tmp_path):
+    eqs = _equations_file(tmp_path, _default_motor_equations().replace(
+        "- C_K_chan*K_open : volt", "- C_K_chan*K_open + Ca : volt"))
+    _fails_cleanly(capsys, ["unit", "--seconds", "1", "--equations", f"motor_neuron={eqs}",
+                            "--out", str(tmp_path / "o")], tmp_path / "o", "motor_neuron", "unit")
+
+
+def test_unknown_parameter_name(capsys, tmp_path):
+    _fails_cleanly(capsys, ["unit", "--seconds", "1", "--set", "tau_motr=9*ms",
+                            "--out", str(tmp_path / "o")], tmp_path / "o", "tau_motr")
+
+
+def test_wrong_unit_for_a_parameter(capsys, tmp_path):
+    _fails_cleanly(capsys, ["unit", "--seconds", "1", "--set", "tau_motor=9*mV",
+                            "--out", str(tmp_path / "o")], tmp_path / "o", "tau_motor", "units")
+
+
+@pytest.mark.parametrize("name", ["tau_motor", "tau_Ca", "tau_h", "tau_ADO", "tau_interneuron"])
+def test_non_positive_time_constant(capsys, tmp_path, name):
+    _fails_cleanly(capsys, ["run", "--seconds", "1", "--set", f"{name}=-5*ms",
+                            "--out", str(tmp_path / "o")], tmp_path / "o", name, "positive")
+
+
+@pytest.mark.parametrize("seconds", ["0", "-3", "nan"])
+def test_non_positive_seconds(capsys, tmp_path, seconds):
+    for command in ("unit", "run"):
+        _fails_cleanly(capsys, [command, "--seconds", seconds, "--out", str(tmp_path / "o")],
+                       tmp_path / "o", "--seconds")
+
+
+def test_missing_robot_file(capsys, tmp_path):
+    _fails_cleanly(capsys, ["run", "--seconds", "1", "--robot", str(tmp_path / "none.xml"),
+                            "--out", str(tmp_path / "o")], tmp_path / "o", "none.xml")
+
+
+def test_malformed_robot_file(capsys, tmp_path):
+    bad = tmp_path / "broken.xml"
+    bad.write_text("<mujoco><worldbody><body name='trunk'>")
+    _fails_cleanly(capsys, ["run", "--seconds", "1", "--robot", str(bad),
+                            "--out", str(tmp_path / "o")], tmp_path / "o", "broken.xml")
+
+
+def test_robot_without_a1_joints(capsys, tmp_path):
+    other = tmp_path / "pendulum.xml"
+    other.write_text("""<mujoco><worldbody><body name="trunk"><freejoint/>
+      <geom type="sphere" size="0.1"/><body name="arm"><joint name="swing" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.02"/></body></body></worldbody>
+      <actuator><motor joint="swing"/></actuator></mujoco>""")
+    _fails_cleanly(capsys, ["run", "--seconds", "1", "--robot", str(other),
+                            "--out", str(tmp_path / "o")], tmp_path / "o", "pendulum.xml", "joint")
+
+
+def test_bad_weights_file(capsys, tmp_path):
+    w = tmp_path / "w.csv"
+    w.write_text("1,2,3\n4,5,6\n")
+    _fails_cleanly(capsys, ["run", "--seconds", "1", "--weights", str(w),
+                            "--out", str(tmp_path / "o")], tmp_path / "o", "w.csv", "8x8")
+
+
+def test_argparse_errors_are_one_line(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "astrocpg.studies.cli", "run", "--seconds",
+                           "abc"], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1 and "--seconds" in proc.stderr
