@@ -176,6 +176,9 @@ def _cmd_unit(args: argparse.Namespace) -> int:
                                                                  "calf_flexor", "calf_extensor")}
         t, i = result.spikes["motor"]
         s = rhythm_summary(t, i, pools, t_stop=args.seconds)
+        ti, ii = result.spikes["interneuron"]
+        mine = (ii // L.interneurons_per_trial == b) & (ti >= 1.0)
+        s["interneurons_total_Hz"] = float(mine.sum() / max(args.seconds - 1.0, 1e-9))
         summaries.append(s)
         print(_format_unit_summary(b, args.seed + b, s))
     files = _save_common(out, result, save_npz)
@@ -303,7 +306,8 @@ def _format_unit_summary(b: int, seed: int, s: dict[str, Any]) -> str:
         v = s.get(key)
         return "n/a" if v is None or (isinstance(v, float) and not np.isfinite(v)) else format(v, fmt)
     return (f"unit {b} (seed {seed}): period {f('period')} s; phases vs thigh flexor: "
-            f"{_phases(s)}; rate per neuron: {_rates(s)}")
+            f"{_phases(s)}; rate per neuron: {_rates(s)}; interneurons "
+            f"{s.get('interneurons_total_Hz', float('nan')):.0f} Hz in total")
 
 
 def _phases(s: dict[str, Any]) -> str:
