@@ -72,7 +72,6 @@ class Bridge:
         layout: RobotLayout,
         models: ModelSet,
         *,
-        alive_threshold: float = 0.5,
         on_step: Callable[[int], None] | None = None,
     ) -> None:
         if abs(model.opt.timestep - float(cpg.dt)) > 1e-12:
@@ -86,7 +85,6 @@ class Bridge:
         self.data = [mujoco.MjData(model) for _ in range(B)]
         self.step_count = 0
         self.on_step = on_step
-        self.alive_threshold = alive_threshold
         self.recording: Recording | None = None
 
         # cached raw views into the Brian2 state (numpy target: live arrays)
@@ -105,6 +103,7 @@ class Bridge:
         self._hip_target = np.array([target if leg[1] == "L" else -target for leg in LEGS])
         self._hip_torque = models.hip_controller.compile()
         self._reward = models.reward.compile()
+        self._alive = models.alive.compile()
         self.dt = float(cpg.dt)
 
         # batched robot state, refreshed after every physics step
@@ -182,7 +181,7 @@ class Bridge:
                                       omega_pitch=omega[:, 1], omega_yaw=omega[:, 2])
         # alive: z component of the torso's z axis in the world frame, from the quaternion
         qx, qy = self.qpos[:, fq + 4], self.qpos[:, fq + 5]
-        self.alive[:] = (1.0 - 2.0 * (qx * qx + qy * qy)) >= self.alive_threshold
+        self.alive[:] = self._alive(torso_z_up=1.0 - 2.0 * (qx * qx + qy * qy))
 
     def _record(self) -> None:
         rec = self.recording

@@ -13,6 +13,7 @@ from typing import Any, Iterator, Mapping
 import brian2
 
 from ..errors import InputError
+from .alive import ALIVE
 from .astrocyte import ASTROCYTE
 from .base import ExpressionModel, NeuronModel, Parameter, ParameterTable, SynapseModel
 from .hip_controller import HIP_CONTROLLER
@@ -46,6 +47,7 @@ class ModelSet:
     interlimb_synapse: SynapseModel = INTERLIMB_SYNAPSE
     hip_controller: ExpressionModel = HIP_CONTROLLER
     reward: ExpressionModel = REWARD
+    alive: ExpressionModel = ALIVE
 
     def __post_init__(self) -> None:
         owners: dict[str, str] = {}
