@@ -213,6 +213,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
                          f"{args.trials} trials")
     params = A1Parameters()
     robot = load_robot(args.robot) if args.robot else build_model(params)
+    if abs(robot.opt.timestep - params.timestep) > 1e-12:
+        raise InputError(f"--robot {Path(args.robot).name}: timestep is {robot.opt.timestep:g} s; "
+                         f"the CPG steps with the physics at {params.timestep:g} s "
+                         f"(set <option timestep=\"{params.timestep:g}\"/>)")
     layout = RobotLayout.from_model(robot, params)
     result = simulate_closed_loop(models, robot, layout, seconds=args.seconds, seed=args.seed,
                                   n_trials=args.trials, weights=weights,

@@ -110,3 +110,13 @@ def test_argparse_errors_are_one_line(tmp_path):
                            "abc"], capture_output=True, text=True)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and "--seconds" in proc.stderr
+
+
+def test_robot_with_another_timestep(capsys, tmp_path):
+    from astrocpg.coupling.robot import export_xml
+    path = tmp_path / "a1_2ms.xml"
+    export_xml(path)
+    path.write_text(path.read_text().replace('timestep="0.001"', 'timestep="0.002"'))
+    assert 'timestep="0.002"' in path.read_text()
+    _fails_cleanly(capsys, ["run", "--seconds", "1", "--robot", str(path),
+                            "--out", str(tmp_path / "o")], tmp_path / "o", "a1_2ms.xml", "timestep")

@@ -128,3 +128,11 @@ def test_edited_equation_takes_effect_in_run(tmp_path):
     assert "I_extra" in changed["manifest"]["models"]["motor_neuron"]["equations"]
     for pool in ("thigh_flexor", "thigh_extensor", "calf_flexor", "calf_extensor"):
         assert r1[pool][0] < 0.7 * r0[pool][0], (pool, r0[pool], r1[pool])
+
+
+def test_runs_a_user_supplied_a1(tmp_path, reference_a1_path):
+    """--robot takes any MJCF with the A1's joint and motor names (here the authors' model)."""
+    r = _run(tmp_path / "user", "--seconds", "1", "--robot", str(reference_a1_path))
+    assert r["manifest"]["results"]["robot"]["file"] == str(reference_a1_path)
+    q = r["robot"]["joint_angles"][0, :, :, 1]
+    assert np.ptp(q, axis=0).min() > 0.05  # every thigh moved
