@@ -73,6 +73,7 @@ class Bridge:
         models: ModelSet,
         *,
         on_step: Callable[[int], None] | None = None,
+        after_physics: Callable[[], None] | None = None,
     ) -> None:
         if abs(model.opt.timestep - float(cpg.dt)) > 1e-12:
             raise ValueError(
@@ -85,6 +86,7 @@ class Bridge:
         self.data = [mujoco.MjData(model) for _ in range(B)]
         self.step_count = 0
         self.on_step = on_step
+        self.after_physics = after_physics  # e.g. the session loop of training
         self.recording: Recording | None = None
 
         # cached raw views into the Brian2 state (numpy target: live arrays)
@@ -162,6 +164,8 @@ class Bridge:
             self.qvel[b] = d.qvel
         # 3. senses for the next step, and the reward
         self._sense()
+        if self.after_physics is not None:
+            self.after_physics()
         if self.recording is not None:
             self._record()
         self.step_count += 1

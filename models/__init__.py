@@ -24,6 +24,7 @@ from .intra_pool_synapse import INTRA_POOL_SYNAPSE
 from .motor_neuron import MOTOR_NEURON
 from .pool import POOL, POOL_ACTIVITY
 from .reward import REWARD
+from .session import LEARNING_START, PROGRESS
 from .torque import TORQUE
 
 Model = NeuronModel | SynapseModel | ExpressionModel
@@ -48,6 +49,8 @@ class ModelSet:
     hip_controller: ExpressionModel = HIP_CONTROLLER
     reward: ExpressionModel = REWARD
     alive: ExpressionModel = ALIVE
+    progress: ExpressionModel = PROGRESS
+    learning_start: ExpressionModel = LEARNING_START
 
     def __post_init__(self) -> None:
         owners: dict[str, str] = {}
@@ -110,7 +113,7 @@ class ModelSet:
         for name, model in self.items():
             entry: dict[str, Any] = {"parameters": model.parameters.to_json()}
             for attr in ("equations", "model", "expression", "threshold", "reset", "on_pre",
-                         "weight", "refractory"):
+                         "weight", "on_step", "refractory"):
                 val = getattr(model, attr, None)
                 if val:
                     entry[attr] = val

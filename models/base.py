@@ -159,6 +159,8 @@ class SynapseModel:
     model: the synapse equation string (may hold ``(summed)`` variables).
     on_pre: statements run for each presynaptic spike, or None.
     weight: an expression for the initial weight ``w`` (evaluated per synapse), or None.
+    on_step: statements run once per step after the robot has moved (the weight update of a
+        learning rule), or None.
     """
 
     name: str
@@ -166,6 +168,7 @@ class SynapseModel:
     parameters: ParameterTable
     on_pre: str | None = None
     weight: str | None = None
+    on_step: str | None = None
     method: Any = "euler"
     description: str = ""
 

@@ -1,25 +1,59 @@
-"""Inter-limb projection between thigh pools of different limbs. Every neuron of pool x reaches
-every neuron of pool y with one shared weight w[x, y] (the 8x8 table of the paper's Fig. 3a), so
-the projection acts pool to pool: pool y receives w[x, y] per spike of pool x.
-Paper: "Inter-limb Connection" and Table II (weight range). The learning rule is separate.
+"""Inter-limb projection between thigh pools of different limbs, and its learning rule.
+
+Every neuron of pool x reaches every neuron of pool y with one shared weight w[x, y] (the 8x8
+table of the paper's Fig. 3a), so the projection acts pool to pool: pool y receives w[x, y] per
+spike of pool x. Paper: "Inter-limb Connection", "Gait Learning Algorithm", "Astrocyte
+Regulation", Table II.
+
+Learning, once per step after the robot has moved (paper eqs. for Delta w):
+  Delta w = Progress * (eta * r_eff * STDP  -  eta_ADO * [ADO_y]) * zeta(w)
+with the STDP signal of the pool pair (``n``: spikes of a pool in this step, ``u``: its trace),
+r_eff = r - c_average * (mean r over the last 0.1 s), and zeta(w) keeping w in [w_min, w_max].
+``astrocyte_regulation`` = 0 removes the adenosine term (the paper's ablation). ``ADO`` is the
+adenosine of the target pool's astrocyte. The paper's learning rates are per 1 ms step.
 """
 
-from brian2 import mV
+from brian2 import mV, second
 
 from .base import Parameter, ParameterTable, SynapseModel
+from .integration import input_then_decay
 
 MODEL = """
 w : volt
+dSTDP/dt = -STDP/tau_STDP + (n_post*u_pre - eta_negative_relative*n_pre*u_post)/dt : 1 (clock-driven)
 I_interlimb_post = w*n_pre/dt : volt/second (summed)
+zeta = (w_max - w)*(w - w_min)/(w_max - w_min)**2 : 1
+r_eff = reward_post - c_average*reward_mean_post : 1
+ADO : 1 (linked)
+astrocyte_index : integer (constant)
 """
+
+ON_STEP = (
+    "w = clip(w + learning_post*progress_post*(eta*r_eff*STDP"
+    " - astrocyte_regulation*eta_ADO*ADO)*zeta, w_min, w_max)"
+)
 
 PARAMETERS = ParameterTable("interlimb_synapse", [
     Parameter(name="w_min", value=-0.05*mV, symbol=r"w_{\mathrm{min}}",
               meaning="lower bound of an inter-limb weight"),
     Parameter(name="w_max", value=0.05*mV, symbol=r"w_{\mathrm{max}}",
               meaning="upper bound of an inter-limb weight"),
+    Parameter(name="tau_STDP", value=2*second, symbol=r"\tau_{\mathrm{STDP}}",
+              meaning="STDP signal decay time constant", positive=True),
+    Parameter(name="eta_negative_relative", value=0.3,
+              symbol=r"\eta_{\mathrm{negative\_relative}}",
+              meaning="relative learning rate of the negative (pre-after-post) STDP term"),
+    Parameter(name="eta", value=5e-10*mV, symbol=r"\eta",
+              meaning="learning rate (weight change per step per unit of r_eff*STDP)"),
+    Parameter(name="c_average", value=0.5, symbol=r"c_{\mathrm{average}}",
+              meaning="weight of the 0.1 s mean reward subtracted from the reward"),
+    Parameter(name="eta_ADO", value=1.8e-5*mV, symbol=r"\eta_{\mathrm{ADO}}",
+              meaning="adenosine inhibition efficacy (weight change per step per unit [ADO])"),
+    Parameter(name="astrocyte_regulation", value=1.0, symbol="-",
+              meaning="1: adenosine depresses the weights into its pool; 0: the paper's ablation"),
 ])
 
 INTERLIMB_SYNAPSE = SynapseModel(
-    name="interlimb_synapse", model=MODEL, parameters=PARAMETERS, description=__doc__,
+    name="interlimb_synapse", model=MODEL, on_step=ON_STEP, parameters=PARAMETERS,
+    method=input_then_decay, description=__doc__,
 )

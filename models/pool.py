@@ -2,29 +2,44 @@
 all of its neurons alike (torso speed for the background drive, limit-position inhibition, the
 summed inter-limb input). The motor neurons read these through linked variables.
 
+``u`` is the pool's spike trace of the reward-modulated STDP (paper: "Gait Learning Algorithm").
+``reward``, ``reward_mean`` (its mean over the last 0.1 s of the session), ``progress`` and
+``learning`` (1 once the session has passed t_learning_start) are the trial's learning signals,
+set by the session loop and read by the inter-limb synapses.
+
 ``limit_margin`` is the distance from a thigh joint limit within which the pool that drives the
 joint toward that limit is inhibited (paper: 0.05 rad; SPEC: the authors' code in effect used 0).
 """
 
+from brian2 import second
 from brian2.units.allunits import radian
 
 from .base import NeuronModel, Parameter, ParameterTable, SynapseModel
+from .integration import input_then_decay
 
 EQUATIONS = """
 n : 1
+du/dt = -u/tau_trace + n/dt : 1
 torso_speed : meter/second
 limit_inhibition : 1
 I_interlimb : volt/second
+reward : 1
+reward_mean : 1
+progress : 1
+learning : 1
 """
 
 PARAMETERS = ParameterTable("pool", [
     Parameter(name="pool_size", value=20, symbol=r"\mathbf{Size}_{\mathrm{pool}}",
               meaning="number of motor neurons in a pool", positive=True),
+    Parameter(name="tau_trace", value=0.01*second, symbol=r"\tau_{\mathrm{trace}}",
+              meaning="pool spike trace decay time constant (STDP)", positive=True),
     Parameter(name="limit_margin", value=0.05*radian, symbol=r"\mathrm{margin}",
               meaning="inhibition region next to a thigh joint limit (paper 0.05 rad; SPEC)"),
 ])
 
-POOL = NeuronModel(name="pool", equations=EQUATIONS, parameters=PARAMETERS, description=__doc__)
+POOL = NeuronModel(name="pool", equations=EQUATIONS, parameters=PARAMETERS,
+                   method=input_then_decay, description=__doc__)
 
 # Every motor neuron reports its spike of this step to its pool.
 POOL_ACTIVITY = SynapseModel(

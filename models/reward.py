@@ -22,6 +22,9 @@ PARAMETERS = ParameterTable("reward", [
               symbol=r"\alpha_{\omega_{\mathrm{pitch}}}", meaning="pitch-rate coefficient"),
     Parameter(name="alpha_omega_yaw", value=-0.1*second/radian,
               symbol=r"\alpha_{\omega_{\mathrm{yaw}}}", meaning="yaw-rate coefficient"),
+    Parameter(name="reward_window", value=0.1*second, symbol=r"0.1\,\mathrm{s}",
+              meaning="length of the sliding mean of r subtracted in r_eff (within the session)",
+              positive=True),
 ])
 
 REWARD = ExpressionModel(

@@ -55,7 +55,7 @@ class CPG:
         place change the simulation). Cached: use it in hot loops instead of ``G.v[:]``."""
         key = (group, variable)
         if key not in self._arrays:
-            obj = getattr(self, group) if hasattr(self, group) else self.synapses[group]
+            obj = self.synapses[group] if group in self.synapses else getattr(self, group)
             arr = obj.variables[variable].get_value()
             if not isinstance(arr, np.ndarray):  # pragma: no cover - other devices
                 raise RuntimeError("astrocpg needs Brian2's runtime (numpy) target")
@@ -89,6 +89,56 @@ class CPG:
             return
         self.array("interlimb", "w")[:] = w[:, self.interlimb_pairs[:, 0],
                                             self.interlimb_pairs[:, 1]].ravel()
+
+
+    def reset_trial(self, trial: int, keep: tuple[str, ...] = ("astrocyte",)) -> None:
+        """Reset one trial's state to the start of a session: every state variable of the
+        groups not in ``keep`` (astrocytes keep theirs: SPEC) and every dynamic variable of the
+        inter-limb synapses except the weights. Array-slice writes only (no code generation)."""
+        L = self.layout
+        per_trial = {"motor": L.motor_per_trial, "interneuron": L.interneurons_per_trial,
+                     "astrocyte": L.thigh_pools_per_trial, "pool": L.pools_per_trial,
+                     "torque": L.joints_per_trial}
+        for name, n in per_trial.items():
+            if name in keep:
+                continue
+            for var, arr in self._reset_arrays(name):
+                sl = slice(trial * n, (trial + 1) * n)
+                arr[sl] = self._initial(name, var)
+        if "interlimb" in self.synapses:
+            n = len(self.interlimb_pairs)
+            for var, arr in self._reset_arrays("interlimb"):
+                arr[trial * n:(trial + 1) * n] = 0.0
+
+    def _reset_arrays(self, name: str) -> list[tuple[str, np.ndarray]]:
+        """(variable, live array) of what a session reset sets back: the model's differential
+        equations and non-constant parameters (not linked ones, not the weights ``w``)."""
+        key = ("reset", name)
+        if key not in self._arrays:
+            obj = self.synapses[name] if name in self.synapses else getattr(self, name)
+            out = []
+            for var, eq in obj.equations.items():
+                if eq.type == "subexpression" or var == "w":
+                    continue
+                if {"constant", "linked", "shared"} & set(eq.flags):
+                    continue
+                out.append((var, self.array(name, var)))
+            for var in ("lastspike", "not_refractory"):
+                if var in obj.variables and all(v != var for v, _ in out):
+                    out.append((var, self.array(name, var)))
+            self._arrays[key] = out  # type: ignore[assignment]
+        return self._arrays[key]  # type: ignore[return-value]
+
+    def _initial(self, group: str, var: str) -> Any:
+        if var == "lastspike":
+            return -1e4  # Brian2's "never spiked"
+        if var == "not_refractory":
+            return True
+        model = {"motor": self.models.motor_neuron, "interneuron": self.models.interneuron,
+                 "astrocyte": self.models.astrocyte, "pool": self.models.pool,
+                 "torque": self.models.torque}[group]
+        value = model.initial_values.get(var, 0.0)
+        return float(np.asarray(value))
 
 
 def same_limb_mask(layout: Layout) -> np.ndarray:
@@ -212,7 +262,10 @@ def build_cpg(
                                     np.arange(len(pool_index)), pool_index)
     for updater in syn["pool_activity"].summed_updaters.values():
         updater.when, updater.order = "after_thresholds", 0
-    torque.state_updater.when, torque.state_updater.order = "after_thresholds", 1
+    # pool traces and torque traces take this step's spike counts in
+    for g in (torque, pool):
+        if getattr(g, "state_updater", None) is not None:
+            g.state_updater.when, g.state_updater.order = "after_thresholds", 1
 
     # Intra-pool: all ordered pairs of distinct neurons of a pool.
     a, b_ = np.meshgrid(np.arange(L.pool_size), np.arange(L.pool_size), indexing="ij")
@@ -251,8 +304,25 @@ def build_cpg(
                                   for b in range(B)])
         inter_j = np.concatenate([b * L.pools_per_trial + thigh_pool_index[pairs[:, 1]]
                                   for b in range(B)])
-        syn["interlimb"] = synapses(models.interlimb_synapse, pool, pool, "interlimb",
-                                    inter_i, inter_j)
+        inter = syn["interlimb"] = synapses(models.interlimb_synapse, pool, pool, "interlimb",
+                                            inter_i, inter_j)
+        try:
+            # the astrocyte of each synapse's target pool (the table's column)
+            if "astrocyte_index" in inter.variables:
+                inter.astrocyte_index = np.concatenate([b * n_thigh + pairs[:, 1]
+                                                        for b in range(B)])
+            for var, eq in inter.equations.items():
+                if "linked" in eq.flags:
+                    setattr(inter, var, linked_var(astrocyte, var, index="astrocyte_index"))
+            if getattr(inter, "state_updater", None) is not None:  # STDP: after the counts
+                inter.state_updater.when, inter.state_updater.order = "after_thresholds", 2
+            if models.interlimb_synapse.on_step:  # after the robot moved and the reward is known
+                objects.append(inter.run_regularly(models.interlimb_synapse.on_step, dt=dt,
+                                                   when="end", order=10, name="interlimb_learning"))
+        except InputError:
+            raise
+        except Exception as e:
+            raise InputError(f"interlimb_synapse: {brian_error_line(e)}") from None
 
     net = Network(*objects)
     cpg = CPG(layout=layout, models=models, seed=int(seed), dt=dt, net=net, motor=motor,

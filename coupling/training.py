@@ -1,0 +1,178 @@
+"""Training sessions, run inside the 1 ms loop (SPEC section 1, "Sessions"; paper "Training
+Session and Training Progress").
+
+Each trial of a batch has its own sessions: a session ends at L_max or once the robot has spent
+L_non_alive (not necessarily consecutive) non-upright; then that trial alone is reset (neurons,
+traces, torque traces, STDP signals, hip integrator, physics; astrocytes and weights persist),
+and its Progress and t_learning_start are set from the mean length of its last sessions.
+Per step, this writes the trial's reward, its sliding mean and the learning flag where the
+inter-limb synapses read them. Constants come from ``models`` (reward, progress, learning_start,
+alive).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+from brian2 import SpikeMonitor
+
+from ..models import ModelSet
+from ..network import CPG, POOLS
+from .bridge import Bridge
+
+SESSION_COLUMNS = (
+    "trial", "session", "length_s", "final_x_m", "mean_reward", "mean_forward_speed_m_per_s",
+    "spikes_thigh_motor", "spikes_calf_motor", "spikes_interneuron", "adenosine_releases",
+    "progress", "t_learning_start_s",
+)
+
+
+def _si(value: Any) -> float:
+    return float(np.asarray(value))
+
+
+@dataclass
+class SessionMemory:
+    """What a trial carries from session to session (all of it goes into checkpoints)."""
+
+    lengths: list[list[float]]
+    weights: list[list[np.ndarray]]  # per trial, the 8x8 table (volt) after each session
+    rows: list[dict[str, Any]] = field(default_factory=list)
+
+
+class Training:
+    """The session loop of ``n_sessions`` sessions per trial, hooked into a :class:`Bridge`."""
+
+    def __init__(self, cpg: CPG, bridge: Bridge, models: ModelSet, *, n_sessions: int,
+                 on_session: Callable[["Training", int], None] | None = None) -> None:
+        self.cpg, self.bridge, self.models = cpg, bridge, models
+        self.n_sessions = int(n_sessions)
+        self.on_session = on_session
+        B = self.n_trials = cpg.n_trials
+        dt = self.dt = bridge.dt
+        pp = models.progress.parameters
+        self.max_steps = int(round(_si(pp["L_max"].value) / dt))
+        self.non_alive_limit = int(round(_si(pp["L_non_alive"].value) / dt))
+        self.memory_size = int(_si(pp["session_memory"].value))
+        self.window = int(round(_si(models.reward.parameters["reward_window"].value) / dt))
+        self._progress_fn = models.progress.compile()
+        self._learning_start_fn = models.learning_start.compile()
+
+        n_pools = len(POOLS)
+        self._reward = cpg.array("pool", "reward").reshape(B, -1)
+        self._reward_mean = cpg.array("pool", "reward_mean").reshape(B, -1)
+        self._progress_arr = cpg.array("pool", "progress").reshape(B, -1)
+        self._learning = cpg.array("pool", "learning").reshape(B, -1)
+        self._pool_n = cpg.array("pool", "n").reshape(B, -1)
+        L = cpg.layout
+        kinds = np.arange(L.pools_per_trial) % n_pools
+        self._thigh_pools = np.flatnonzero(kinds < 2)
+        self._calf_pools = np.flatnonzero(kinds >= 2)
+
+        # spike counts of interneurons and adenosine releases (counts only, no spike times)
+        self.interneuron_count = SpikeMonitor(cpg.interneuron, record=False,
+                                              name="count_interneuron")
+        self.astrocyte_count = SpikeMonitor(cpg.astrocyte, record=False, name="count_astrocyte")
+        cpg.net.add(self.interneuron_count, self.astrocyte_count)
+
+        self.step_in_session = np.zeros(B, dtype=np.int64)
+        self.non_alive = np.zeros(B, dtype=np.int64)
+        self.ring = np.zeros((B, self.window))
+        self.ring_sum = np.zeros(B)
+        self.reward_sum = np.zeros(B)
+        self.speed_sum = np.zeros(B)
+        self.pool_counts = np.zeros((B, L.pools_per_trial), dtype=np.int64)
+        self.count_base_in = np.zeros(B, dtype=np.int64)
+        self.count_base_ado = np.zeros(B, dtype=np.int64)
+        self.sessions_done = np.zeros(B, dtype=np.int64)
+        self.done = np.zeros(B, dtype=bool)
+        self.progress = np.zeros(B)
+        self.t_learning_start = np.zeros(B)
+        self.memory = SessionMemory(lengths=[[] for _ in range(B)],
+                                    weights=[[] for _ in range(B)])
+        self._arange = np.arange(B)
+        self._start_x = bridge.layout.reset_qpos[bridge.layout.free_qpos_adr]
+        for b in range(B):
+            self._plan_session(b)
+        bridge.after_physics = self.step
+
+    # ---- per step (after the physics step and the reward)
+    def step(self) -> None:
+        br = self.bridge
+        r = br.reward
+        self.step_in_session += 1
+        self.non_alive += ~br.alive
+        idx = self.step_in_session % self.window
+        old = self.ring[self._arange, idx]
+        self.ring[self._arange, idx] = r
+        self.ring_sum += r - old
+        self._reward[:] = r[:, None]
+        self._reward_mean[:] = (self.ring_sum / self.window)[:, None]
+        learning = (self.step_in_session * self.dt >= self.t_learning_start) & ~self.done
+        self._learning[:] = learning[:, None]
+        self.reward_sum += r
+        self.speed_sum += br.qvel[:, br._fv]
+        self.pool_counts += self._pool_n.astype(np.int64)
+        ended = (self.step_in_session >= self.max_steps) | (self.non_alive >= self.non_alive_limit)
+        if ended.any():
+            for b in np.flatnonzero(ended & ~self.done):
+                self._finish(int(b))
+            if self.done.all():
+                self.cpg.net.stop()
+
+    # ---- session boundaries
+    def _plan_session(self, b: int) -> None:
+        """Progress and t_learning_start of trial b's next session (missing sessions count 0)."""
+        last = self.memory.lengths[b][-self.memory_size:]
+        mean_length = sum(last) / self.memory_size
+        self.progress[b] = 0.0 if self.done[b] else float(self._progress_fn(mean_length=mean_length))
+        self.t_learning_start[b] = float(self._learning_start_fn(mean_length=mean_length))
+        self._progress_arr[b, :] = self.progress[b]
+
+    def _finish(self, b: int) -> None:
+        steps = int(self.step_in_session[b])
+        length = steps * self.dt
+        br = self.bridge
+        in_counts = self.interneuron_count.variables["count"].get_value()
+        ado_counts = self.astrocyte_count.variables["count"].get_value()
+        L = self.cpg.layout
+        n_in = int(in_counts[b * L.interneurons_per_trial:(b + 1) * L.interneurons_per_trial].sum())
+        n_ado = int(ado_counts[b * L.thigh_pools_per_trial:(b + 1) * L.thigh_pools_per_trial].sum())
+        row = {
+            "trial": b, "session": int(self.sessions_done[b]) + 1, "length_s": length,
+            "final_x_m": float(br.qpos[b, br._fq] - self._start_x),
+            "mean_reward": self.reward_sum[b] / steps,
+            "mean_forward_speed_m_per_s": self.speed_sum[b] / steps,
+            "spikes_thigh_motor": int(self.pool_counts[b, self._thigh_pools].sum()),
+            "spikes_calf_motor": int(self.pool_counts[b, self._calf_pools].sum()),
+            "spikes_interneuron": n_in - int(self.count_base_in[b]),
+            "adenosine_releases": n_ado - int(self.count_base_ado[b]),
+            "progress": float(self.progress[b]),
+            "t_learning_start_s": float(self.t_learning_start[b]),
+        }
+        self.count_base_in[b], self.count_base_ado[b] = n_in, n_ado
+        self.memory.rows.append(row)
+        self.memory.lengths[b].append(length)
+        self.memory.weights[b].append(self.cpg.interlimb_weights()[b].copy())
+        self.sessions_done[b] += 1
+        if self.sessions_done[b] >= self.n_sessions:
+            self.done[b] = True
+        # next session: reset everything but astrocytes and weights
+        self.cpg.reset_trial(b)
+        br.reset_trial(b)
+        self.step_in_session[b] = 0
+        self.non_alive[b] = 0
+        self.ring[b] = 0.0
+        self.ring_sum[b] = 0.0
+        self.reward_sum[b] = 0.0
+        self.speed_sum[b] = 0.0
+        self.pool_counts[b] = 0
+        self._plan_session(b)
+        if self.on_session is not None:
+            self.on_session(self, b)
+
+    @property
+    def total_done(self) -> int:
+        return int(self.sessions_done.sum())
