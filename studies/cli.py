@@ -65,6 +65,16 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default=DEFAULT_RUN_OUT)
     _add_model_options(run)
 
+    train = sub.add_parser("train", help="gait learning over sessions (reward-modulated STDP)")
+    train.add_argument("--sessions", type=int, default=None, help="sessions per trial (400)")
+    train.add_argument("--seed", type=int, default=None, help="seed (1)")
+    train.add_argument("--trials", type=int, default=None, help="independent trials (1)")
+    train.add_argument("--no-astrocytes", action="store_true", default=None,
+                       help="remove the adenosine term (the paper's ablation)")
+    train.add_argument("--out", help="output folder (new, or empty)")
+    train.add_argument("--resume", metavar="DIR", help="continue the run in DIR")
+    _add_model_options(train)
+
     robot = sub.add_parser("robot", help="the project's A1 model")
     robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
     export = robot_sub.add_parser("export", help="write the A1 model as MJCF")
@@ -80,6 +90,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_unit(args)
         if args.command == "run":
             return _cmd_run(args)
+        if args.command == "train":
+            return _cmd_train(args)
         if args.command == "robot":
             return _cmd_robot(args)
     except InputError as e:
@@ -95,27 +107,38 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 # ---------------------------------------------------------------- helpers
-def load_models(overrides: Sequence[str], equations: Sequence[str]):
-    from ..models import DEFAULT_MODELS
-
-    models = DEFAULT_MODELS
+def read_equation_files(equations: Sequence[str]) -> dict[str, str]:
+    """``MODEL=FILE`` items -> {model: text}."""
+    out: dict[str, str] = {}
     for item in equations:
         name, sep, file = item.partition("=")
         if not sep:
             raise InputError(f"--equations '{item}': expected MODEL=FILE")
+        try:
+            out[name] = Path(file).read_text()
+        except OSError as e:
+            raise InputError(f"--equations {name}: cannot read '{file}' ({e.strerror})") from None
+    return out
+
+
+def models_from(overrides: Sequence[str], equation_texts: dict[str, str]):
+    from ..models import DEFAULT_MODELS
+
+    models = DEFAULT_MODELS
+    for name, text in equation_texts.items():
         model = dict(models.items()).get(name)
         if model is None:
             raise InputError(f"--equations: unknown model '{name}' "
                              f"(models: {', '.join(n for n, _ in models.items())})")
-        try:
-            text = Path(file).read_text()
-        except OSError as e:
-            raise InputError(f"--equations {name}: cannot read '{file}' ({e.strerror})") from None
         field = {"NeuronModel": "equations", "SynapseModel": "model",
                  "ExpressionModel": "expression"}[type(model).__name__]
         models = models.replace(**{name: model.replace(**{field: text})})
     values = dict(models.parse_assignment(item) for item in overrides)
     return models.with_values(values) if values else models
+
+
+def load_models(overrides: Sequence[str], equations: Sequence[str]):
+    return models_from(overrides, read_equation_files(equations))
 
 
 def load_weights(path: str) -> np.ndarray:
@@ -258,6 +281,98 @@ def _cmd_run(args: argparse.Namespace) -> int:
                             "robot": robot_info, "layout": _layout_json(result.cpg.layout)})
     print(f"wrote {out}/ ({', '.join(files)})")
     return 0
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    from .outputs import prepare_output_dir, write_manifest
+    from .train import CHECKPOINT, Trainer, TrainSettings, read_checkpoint
+
+    given = {"sessions": args.sessions, "seed": args.seed, "trials": args.trials,
+             "astrocytes": None if args.no_astrocytes is None else not args.no_astrocytes}
+    if args.resume:
+        out = Path(args.resume)
+        payload = read_checkpoint(out / CHECKPOINT)
+        settings = TrainSettings(**payload["settings"])
+        stored = {"sessions": settings.n_sessions, "seed": settings.seed,
+                  "trials": settings.n_trials, "astrocytes": settings.astrocytes}
+        for key, value in given.items():
+            if value is not None and value != stored[key]:
+                raise InputError(f"--resume {out}: that run has {key}={stored[key]}, "
+                                 f"not {value}")
+        if (args.overrides and sorted(args.overrides) != sorted(settings.overrides)) or \
+                (args.equations and read_equation_files(args.equations) != settings.equations):
+            raise InputError(f"--resume {out}: that run has other model settings "
+                             f"({', '.join(settings.overrides) or 'defaults'})")
+        if args.out and Path(args.out).resolve() != out.resolve():
+            raise InputError("--resume writes into its own folder; drop --out")
+        if payload["fingerprint"] != settings.fingerprint():
+            raise InputError(f"--resume: {out / CHECKPOINT} is not consistent with its settings")
+    else:
+        if not args.out:
+            raise InputError("--out is required (or --resume DIR)")
+        settings = TrainSettings(
+            n_sessions=400 if args.sessions is None else args.sessions,
+            seed=1 if args.seed is None else args.seed,
+            n_trials=1 if args.trials is None else args.trials,
+            astrocytes=not args.no_astrocytes, overrides=list(args.overrides),
+            equations=read_equation_files(args.equations))
+        if settings.n_sessions < 1:
+            raise InputError(f"--sessions must be at least 1, got {settings.n_sessions}")
+        if settings.n_trials < 1:
+            raise InputError(f"--trials must be at least 1, got {settings.n_trials}")
+        out = Path(args.out)
+        if (out / CHECKPOINT).exists() or (out / "sessions.csv").exists():
+            raise InputError(f"--out {out}: already holds a training run "
+                             f"(continue it with --resume {out})")
+        payload = None
+    models = models_from(settings.overrides, settings.equations)
+    trainer = Trainer(models, settings, out, progress=not args.no_progress)  # validates models
+    prepare_output_dir(out)
+    if payload is not None:
+        trainer.restore(payload)
+    write_manifest(out, command="train", seed=settings.seed, settings=settings.__dict__,
+                   models_json=trainer.models.to_json(),
+                   files=_train_files(), results={"status": "running"})
+    wall = trainer.run()
+    trainer.write_outputs()
+    rows = trainer.training.memory.rows
+    L_max = float(np.asarray(trainer.models.progress.parameters["L_max"].value))
+    summary = _train_summary(rows, settings, L_max)
+    for b, line in summary["lines"].items():
+        print(line)
+    write_manifest(out, command="train", seed=settings.seed, settings=settings.__dict__,
+                   models_json=trainer.models.to_json(), files=_train_files(),
+                   results={"status": "finished", "wall_seconds_last_invocation": wall,
+                            "per_trial": summary["per_trial"]})
+    print(f"wrote {out}/ (sessions.csv, weights.npz, checkpoint.pkl, manifest.json)")
+    return 0
+
+
+def _train_files() -> dict[str, str]:
+    return {
+        "sessions.csv": "one row per trial and session: " + ", ".join(
+            __import__("astrocpg.coupling.training", fromlist=["x"]).SESSION_COLUMNS),
+        "weights.npz": "weights_mV (trial, session, 8, 8): each trial's inter-limb table after "
+                       "each session (NaN after a trial's last); final_weights_mV; labels",
+        "checkpoint.pkl": "state to continue exactly (astrocpg train --resume DIR)",
+    }
+
+
+def _train_summary(rows: list[dict], settings, L_max: float) -> dict[str, Any]:
+    per_trial: dict[int, dict[str, float]] = {}
+    lines: dict[int, str] = {}
+    for b in range(settings.n_trials):
+        mine = [r for r in rows if r["trial"] == b]
+        if not mine:
+            continue
+        last20, last50 = mine[-20:], mine[-50:]
+        speed = float(np.mean([r["mean_forward_speed_m_per_s"] for r in last20]))
+        full = float(np.mean([r["length_s"] >= L_max - 1e-6 for r in last50]))
+        per_trial[b] = {"sessions": len(mine), "mean_speed_last20_m_per_s": speed,
+                        "full_length_share_last50": full}
+        lines[b] = (f"trial {b}: {len(mine)} sessions; mean forward speed over the last 20: "
+                    f"{speed:.3f} m/s; sessions reaching L_max in the last 50: {full:.0%}")
+    return {"per_trial": per_trial, "lines": lines}
 
 
 def _cmd_robot(args: argparse.Namespace) -> int:

@@ -1,0 +1,199 @@
+"""Gait learning: ``n_trials`` independent trials, each training for ``n_sessions`` sessions, in
+one network. After every session the folder gets, atomically: ``sessions.csv`` (one row per
+trial and session), ``weights.npz`` (each trial's table after each session) and
+``checkpoint.pkl`` (everything needed to continue exactly: Brian2 state and random state,
+MuJoCo states, the session loop's memory). ``resume`` continues a killed run and ends with the
+same files as a run never interrupted.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import pickle
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+from brian2 import NetworkOperation, second
+from tqdm.auto import tqdm
+
+from ..coupling.bridge import Bridge
+from ..coupling.robot import A1Parameters, RobotLayout, build_model
+from ..coupling.training import SESSION_COLUMNS, Training
+from ..errors import InputError
+from ..models import ModelSet
+from ..network import build_cpg, check_runs, interlimb_labels
+from .outputs import _atomic, save_npz
+
+CHECKPOINT = "checkpoint.pkl"
+MAGIC = b"ASTROCPG-CHECKPOINT-1\n"
+
+
+@dataclass
+class TrainSettings:
+    """What defines a training run (a resumed run must have the same)."""
+
+    n_sessions: int
+    seed: int
+    n_trials: int
+    astrocytes: bool
+    overrides: list[str] = field(default_factory=list)
+    equations: dict[str, str] = field(default_factory=dict)  # model -> equation text
+
+    def fingerprint(self) -> str:
+        text = repr((self.n_sessions, self.seed, self.n_trials, self.astrocytes,
+                     sorted(self.overrides), sorted(self.equations.items())))
+        return hashlib.sha256(text.encode()).hexdigest()
+
+
+class Trainer:
+    """Builds the network, robot, bridge and session loop; runs; checkpoints; resumes."""
+
+    def __init__(self, models: ModelSet, settings: TrainSettings, out: Path,
+                 progress: bool = True) -> None:
+        self.settings, self.out = settings, out
+        if not settings.astrocytes:
+            models = models.with_values({"astrocyte_regulation": 0.0})
+        self.models = models
+        params = A1Parameters()
+        self.robot = build_model(params)
+        self.layout = RobotLayout.from_model(self.robot, params)
+        self.cpg = build_cpg(models, n_trials=settings.n_trials, seed=settings.seed,
+                             dt=self.robot.opt.timestep * second)
+        check_runs(self.cpg)
+        self.bridge = Bridge(self.cpg, self.robot, self.layout, models)
+        self.training = Training(self.cpg, self.bridge, models, n_sessions=settings.n_sessions,
+                                 on_session=self._on_session)
+        self.cpg.net.add(self.bridge.operation())
+        # after the weight update of the step (interlimb_learning, order 10)
+        self.cpg.net.add(NetworkOperation(self._maybe_checkpoint, dt=self.cpg.dt, when="end",
+                                          order=20, name="checkpoint"))
+        self._pending = False
+        total = settings.n_sessions * settings.n_trials
+        self.bar = tqdm(total=total, unit="session", desc="train", disable=not progress,
+                        dynamic_ncols=True)
+
+    # ---- during the run
+    def _on_session(self, training: Training, trial: int) -> None:
+        self._pending = True
+        row = training.memory.rows[-1]
+        self.bar.update(1)
+        recent = training.memory.rows[-10 * self.settings.n_trials:]
+        self.bar.set_postfix(speed=f"{np.mean([r['mean_forward_speed_m_per_s'] for r in recent]):.2f}",
+                             length=f"{np.mean([r['length_s'] for r in recent]):.1f}s",
+                             last=f"t{trial}:{row['length_s']:.1f}s")
+
+    def _maybe_checkpoint(self) -> None:
+        if self._pending:
+            self._pending = False
+            self.write_outputs()
+            self.write_checkpoint()
+
+    # ---- files
+    def write_outputs(self) -> None:
+        rows = self.training.memory.rows
+        buf = io.StringIO()
+        writer = csv.DictWriter(buf, fieldnames=SESSION_COLUMNS, lineterminator="\n")
+        writer.writeheader()
+        for r in rows:
+            writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v) for k, v in r.items()})
+        data = buf.getvalue().encode()
+        _atomic(self.out / "sessions.csv", lambda f: f.write(data))
+        mem = self.training.memory
+        n_max = max(len(w) for w in mem.weights)
+        table = np.full((self.settings.n_trials, n_max, 8, 8), np.nan)
+        for b, ws in enumerate(mem.weights):
+            if ws:
+                table[b, :len(ws)] = np.array(ws) * 1e3
+        save_npz(self.out / "weights.npz", {
+            "weights_mV": table, "sessions_done": self.training.sessions_done.copy(),
+            "final_weights_mV": self.cpg.interlimb_weights() * 1e3,
+            "labels": np.array(interlimb_labels()),
+        })
+
+    def write_checkpoint(self) -> None:
+        net = self.cpg.net
+        net.store("checkpoint")
+        brian_state = net._stored_state.pop("checkpoint")
+        # the step in progress is complete: the resumed run starts at the next one
+        brian_state["0_t"] = brian_state["0_t"] + float(self.cpg.dt)
+        mj = []
+        spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        size = mujoco.mj_stateSize(self.robot, spec)
+        for d in self.bridge.data:
+            s = np.empty(size)
+            mujoco.mj_getState(self.robot, d, s, spec)
+            mj.append(s)
+        tr, br = self.training, self.bridge
+        payload = {
+            "fingerprint": self.settings.fingerprint(),
+            "settings": self.settings.__dict__,
+            "brian": brian_state,
+            "mujoco": mj,
+            "bridge": {k: getattr(br, k).copy() for k in
+                       ("qpos", "qvel", "hip_integral", "ctrl", "reward", "alive")}
+            | {"step_count": br.step_count},
+            "training": {k: getattr(tr, k).copy() for k in
+                         ("step_in_session", "non_alive", "ring", "ring_sum", "reward_sum",
+                          "speed_sum", "pool_counts", "count_base_in", "count_base_ado",
+                          "sessions_done", "done", "progress", "t_learning_start")},
+            "memory": tr.memory,
+        }
+        body = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)
+        digest = hashlib.sha256(body).hexdigest().encode() + b"\n"
+        _atomic(self.out / CHECKPOINT, lambda f: (f.write(MAGIC), f.write(digest), f.write(body)))
+
+    def restore(self, payload: dict[str, Any]) -> None:
+        net = self.cpg.net
+        net._stored_state["checkpoint"] = payload["brian"]
+        net.restore("checkpoint", restore_random_state=True)
+        del net._stored_state["checkpoint"]
+        spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        for d, s in zip(self.bridge.data, payload["mujoco"]):
+            mujoco.mj_setState(self.robot, d, s, spec)
+        for k, v in payload["bridge"].items():
+            if k == "step_count":
+                self.bridge.step_count = v
+            else:
+                getattr(self.bridge, k)[...] = v
+        for k, v in payload["training"].items():
+            getattr(self.training, k)[...] = v
+        self.training.memory = payload["memory"]
+        self.bar.update(int(self.training.sessions_done.sum()))
+
+    # ---- run
+    def run(self) -> float:
+        """Run until every trial has done its sessions; returns wall seconds."""
+        import time
+        L_max = float(np.asarray(self.models.progress.parameters["L_max"].value))
+        left = (self.settings.n_sessions - self.training.sessions_done.min()) * L_max
+        t0 = time.perf_counter()
+        try:
+            if not self.training.done.all():
+                # an upper bound: the session loop stops the network when all trials are done
+                self.cpg.net.run((left + 1.0) * second, namespace={})
+        finally:
+            self.bar.close()
+        return time.perf_counter() - t0
+
+
+def read_checkpoint(path: Path) -> dict[str, Any]:
+    """Load and verify a checkpoint; a corrupt or foreign file is an ``InputError``."""
+    try:
+        raw = path.read_bytes()
+    except OSError as e:
+        raise InputError(f"--resume: cannot read {path} ({e.strerror})") from None
+    if not raw.startswith(MAGIC):
+        raise InputError(f"--resume: {path} is not an astrocpg checkpoint")
+    rest = raw[len(MAGIC):]
+    digest, _, body = rest.partition(b"\n")
+    if hashlib.sha256(body).hexdigest().encode() != digest:
+        raise InputError(f"--resume: {path} is corrupt (checksum mismatch)")
+    try:
+        return pickle.loads(body)
+    except Exception:
+        raise InputError(f"--resume: {path} is corrupt (cannot be read)") from None
