@@ -1,0 +1,148 @@
+"""Training: the learning rule's structure, exact resume after SIGKILL, and bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from astrocpg.studies.cli import main
+
+SHORT = ["--set", "L_max=0.4*second", "--set", "L_non_alive=0.2*second", "--no-progress"]
+
+
+def _train(out: Path, *args: str) -> int:
+    return main(["train", "--out", str(out), *SHORT, *args])
+
+
+def _weights(out: Path) -> np.ndarray:
+    with np.load(out / "weights.npz") as z:
+        return z["final_weights_mV"]
+
+
+def test_adenosine_alone_only_depresses(tmp_path):
+    """With the reward term off (eta = 0) only adenosine acts: every learned weight is <= 0, and
+    some are < 0 (the astrocytes release adenosine within a few sessions)."""
+    assert _train(tmp_path / "a", "--sessions", "6", "--trials", "1", "--seed", "2",
+                  "--set", "eta=0*mV", "--set", "eta_ADO=1e-3*mV") == 0
+    w = _weights(tmp_path / "a")
+    assert np.all(w <= 0) and np.any(w < 0)
+
+
+def test_no_astrocytes_and_no_reward_learns_nothing(tmp_path):
+    assert _train(tmp_path / "b", "--sessions", "3", "--seed", "2", "--no-astrocytes",
+                  "--set", "eta=0*mV", "--set", "eta_ADO=1e-3*mV") == 0
+    assert np.all(_weights(tmp_path / "b") == 0)
+    manifest = json.loads((tmp_path / "b" / "manifest.json").read_text())
+    value = manifest["models"]["interlimb_synapse"]["parameters"]["astrocyte_regulation"]["value"]
+    assert float(value) == 0.0
+
+
+def test_sessions_csv_rows(tmp_path):
+    assert _train(tmp_path / "c", "--sessions", "3", "--trials", "2", "--seed", "1") == 0
+    lines = (tmp_path / "c" / "sessions.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[:4] == ["trial", "session", "length_s", "final_x_m"]
+    assert len(lines) == 1 + 3 * 2
+    rows = [dict(zip(header, line.split(","))) for line in lines[1:]]
+    assert all(0 < float(r["length_s"]) <= 0.4 + 1e-9 for r in rows)
+    assert sorted((int(r["trial"]), int(r["session"])) for r in rows) == \
+        [(b, s) for b in range(2) for s in (1, 2, 3)]
+    with np.load(tmp_path / "c" / "weights.npz") as z:
+        assert z["weights_mV"].shape == (2, 3, 8, 8)
+
+
+def _cli(*args: str, **kw) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "astrocpg.studies.cli", *args],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, **kw)
+
+
+@pytest.mark.slow
+def test_resume_after_sigkill_is_exact(tmp_path):
+    args = ["train", "--sessions", "20", "--trials", "2", "--seed", "4", *SHORT]
+    whole = tmp_path / "whole"
+    p = _cli(*args, "--out", str(whole))
+    assert p.wait(timeout=600) == 0, p.stderr.read()
+
+    killed = tmp_path / "killed"
+    p = _cli(*args, "--out", str(killed))
+    ckpt = killed / "checkpoint.pkl"
+    deadline = time.time() + 300
+    while not ckpt.exists() and time.time() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.4)  # somewhere inside a later session
+    os.kill(p.pid, signal.SIGKILL)
+    p.wait()
+    assert ckpt.exists()
+    done_before = (killed / "sessions.csv").read_text().count("\n") - 1
+    assert done_before < 40, "the kill came too late to test anything"
+    r = _cli("train", "--resume", str(killed), "--no-progress")
+    assert r.wait(timeout=600) == 0, r.stderr.read()
+    assert (killed / "sessions.csv").read_text() == (whole / "sessions.csv").read_text()
+    with np.load(whole / "weights.npz") as a, np.load(killed / "weights.npz") as b:
+        assert np.array_equal(a["weights_mV"], b["weights_mV"], equal_nan=True)
+        assert np.array_equal(a["final_weights_mV"], b["final_weights_mV"])
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    out = tmp_path_factory.mktemp("done") / "run"
+    assert main(["train", "--out", str(out), *SHORT, "--sessions", "2", "--seed", "3"]) == 0
+    return out
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in folder.iterdir()}
+
+
+def _fails(capsys, argv, *words) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1, err
+    for w in words:
+        assert w in err, (w, err)
+    return err
+
+
+def test_bad_set_name_and_unit(capsys, tmp_path):
+    _fails(capsys, ["train", "--out", str(tmp_path / "x"), "--set", "eta_ADOO=1e-5*mV"],
+           "eta_ADOO")
+    _fails(capsys, ["train", "--out", str(tmp_path / "x"), "--set", "eta_ADO=2.3e-5*second"],
+           "eta_ADO", "units")
+    assert not (tmp_path / "x").exists()
+
+
+def test_corrupt_and_foreign_checkpoints(capsys, tmp_path, finished):
+    for name, mutate in (("corrupt", lambda b: b[:-10] + b"0123456789"),
+                         ("foreign", lambda b: b"not a checkpoint" + b)):
+        folder = tmp_path / name
+        shutil.copytree(finished, folder)
+        ck = folder / "checkpoint.pkl"
+        ck.write_bytes(mutate(ck.read_bytes()))
+        before = _snapshot(folder)
+        _fails(capsys, ["train", "--resume", str(folder)], "checkpoint" if name == "foreign"
+               else "corrupt")
+        assert _snapshot(folder) == before, "nothing may be overwritten"
+
+
+def test_resume_with_other_parameters(capsys, tmp_path, finished):
+    folder = tmp_path / "other"
+    shutil.copytree(finished, folder)
+    before = _snapshot(folder)
+    _fails(capsys, ["train", "--resume", str(folder), "--seed", "9"], "seed")
+    _fails(capsys, ["train", "--resume", str(folder), "--set", "eta=1e-9*mV"], "model settings")
+    assert _snapshot(folder) == before
+
+
+def test_out_that_holds_a_run_is_not_overwritten(capsys, finished):
+    before = _snapshot(finished)
+    _fails(capsys, ["train", "--out", str(finished), "--sessions", "2"], "--resume")
+    assert _snapshot(finished) == before
