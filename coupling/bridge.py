@@ -43,6 +43,7 @@ class Recording:
     torso_velocity: np.ndarray  # (trials, samples, 3) m/s, world
     reward: np.ndarray  # (trials, samples)
     alive: np.ndarray  # (trials, samples) bool
+    foot_force: np.ndarray  # (trials, samples, 4) N, foot touch sensors (NaN if the model has none)
 
     @classmethod
     def allocate(cls, n_trials: int, n_steps: int, stride: int, dt: float) -> "Recording":
@@ -56,6 +57,7 @@ class Recording:
             torso_velocity=np.zeros((n_trials, n, 3)),
             reward=np.zeros((n_trials, n)),
             alive=np.zeros((n_trials, n), dtype=bool),
+            foot_force=np.full((n_trials, n, 4), np.nan),
         )
 
 
@@ -199,6 +201,9 @@ class Bridge:
         rec.torso_velocity[:, k] = self.qvel[:, fv:fv + 3]
         rec.reward[:, k] = self.reward
         rec.alive[:, k] = self.alive
+        if self.layout.touch_adr is not None:
+            for b, d in enumerate(self.data):
+                rec.foot_force[b, k] = d.sensordata[self.layout.touch_adr]
 
     def start_recording(self, n_steps: int, stride: int = 1) -> Recording:
         self.recording = Recording.allocate(self.n_trials, n_steps, stride, self.dt)

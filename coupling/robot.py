@@ -274,6 +274,7 @@ class RobotLayout:
     free_dof_adr: int
     trunk_body: int
     reset_qpos: np.ndarray = field(repr=False)
+    touch_adr: np.ndarray | None = None  # (4,) sensordata addresses of foot touch sensors
 
     @classmethod
     def from_model(cls, model: mujoco.MjModel,
@@ -300,10 +301,14 @@ class RobotLayout:
             for j in (1, 2):  # thigh and calf: weighted sum of their limits (paper)
                 lo, hi = ranges[leg, j]
                 qpos0[qadr[leg, j]] = w * lo + (1 - w) * hi
+        touch = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, f"{leg}_foot_touch")
+                 for leg in LEGS]
+        touch_adr = (np.array([model.sensor_adr[k] for k in touch], dtype=np.intp)
+                     if min(touch) >= 0 else None)
         return cls(qpos_adr=qadr.astype(np.intp), dof_adr=model.jnt_dofadr[jid].astype(np.intp),
                    actuator=act.astype(np.intp), joint_range=ranges.copy(), free_qpos_adr=fq,
                    free_dof_adr=int(model.jnt_dofadr[free]),
-                   trunk_body=int(model.jnt_bodyid[free]), reset_qpos=qpos0)
+                   trunk_body=int(model.jnt_bodyid[free]), reset_qpos=qpos0, touch_adr=touch_adr)
 
 
 def reset(model: mujoco.MjModel, data: mujoco.MjData, layout: RobotLayout) -> None:

@@ -56,7 +56,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--seconds", type=float, default=10.0)
     run.add_argument("--seed", type=int, default=1)
     run.add_argument("--trials", type=int, default=1)
-    run.add_argument("--weights", help="8x8 inter-limb table in mV (.npy, .csv/.txt, .json)")
+    run.add_argument("--weights", help="8x8 inter-limb table in mV (.npy, .csv/.txt, .json), or "
+                     "a training folder (its final weights)")
+    run.add_argument("--trial", type=int, default=None,
+                     help="with --weights DIR: use that trial's table for every trial")
     run.add_argument("--robot", help="an MJCF file with the A1's joint and actuator names")
     run.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
                      help="sampling interval of the Ca2+/2-AG/adenosine traces in ms")
@@ -75,6 +78,18 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--resume", metavar="DIR", help="continue the run in DIR")
     _add_model_options(train)
 
+    gait = sub.add_parser("gait", help="run trained weights and name the gait")
+    gait.add_argument("dir", help="a training folder")
+    gait.add_argument("--seconds", type=float, default=10.0)
+    gait.add_argument("--seed", type=int, default=1)
+    gait.add_argument("--no-progress", action="store_true")
+
+    plot = sub.add_parser("plot", help="figures of a training folder (Fig. 3 style)")
+    plot.add_argument("dir", help="a training folder")
+    plot.add_argument("--trial", type=int, default=0)
+    plot.add_argument("--seconds", type=float, default=10.0,
+                      help="length of the run with the trained weights (for activity and gait)")
+
     robot = sub.add_parser("robot", help="the project's A1 model")
     robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
     export = robot_sub.add_parser("export", help="write the A1 model as MJCF")
@@ -92,6 +107,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_run(args)
         if args.command == "train":
             return _cmd_train(args)
+        if args.command == "gait":
+            return _cmd_gait(args)
+        if args.command == "plot":
+            return _cmd_plot(args)
         if args.command == "robot":
             return _cmd_robot(args)
     except InputError as e:
@@ -141,9 +160,20 @@ def load_models(overrides: Sequence[str], equations: Sequence[str]):
     return models_from(overrides, read_equation_files(equations))
 
 
-def load_weights(path: str) -> np.ndarray:
-    """An 8x8 inter-limb table in mV from .npy, .npz ('weights'), .json or text; returns volt."""
+def load_weights(path: str, trial: int | None = None) -> np.ndarray:
+    """An 8x8 inter-limb table in mV from .npy, .npz ('weights'), .json or text, or a training
+    folder (its final tables: all trials, or ``trial``); returns volt."""
     p = Path(path)
+    if p.is_dir():
+        if not (p / "weights.npz").is_file():
+            raise InputError(f"--weights {path}: folder holds no weights.npz (not a training run)")
+        with np.load(p / "weights.npz") as z:
+            w = np.asarray(z["final_weights_mV"], dtype=float)
+        if trial is not None:
+            if not 0 <= trial < len(w):
+                raise InputError(f"--trial {trial}: {path} has {len(w)} trial(s)")
+            w = w[trial]
+        return w * 1e-3
     if not p.is_file():
         raise InputError(f"--weights {path}: no such file")
     try:
@@ -230,7 +260,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.robot_stride < 1:
         raise InputError(f"--robot-stride must be at least 1, got {args.robot_stride}")
     models = load_models(args.overrides, args.equations)
-    weights = load_weights(args.weights) if args.weights else None
+    weights = load_weights(args.weights, args.trial) if args.weights else None
     if weights is not None and weights.ndim == 3 and weights.shape[0] != args.trials:
         raise InputError(f"--weights {args.weights}: holds {weights.shape[0]} tables for "
                          f"{args.trials} trials")
@@ -251,13 +281,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
     save_npz(out / "robot.npz", {
         "t": rec.t, "joint_angles": rec.joint_angles, "torques": rec.torques,
         "torso_position": rec.torso_position, "torso_velocity": rec.torso_velocity,
-        "reward": rec.reward, "alive": rec.alive,
+        "reward": rec.reward, "alive": rec.alive, "foot_force": rec.foot_force,
         "legs": np.array(["FR", "FL", "RR", "RL"]), "joints": np.array(["hip", "thigh", "calf"]),
         "interlimb_weights_mV": result.cpg.interlimb_weights() * 1e3,
     })
     files["robot.npz"] = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t, leg, "
                           "joint) N m; torso_position/velocity (trial, t, xyz) m, m/s world; "
-                          "reward, alive (trial, t); interlimb_weights_mV (trial, 8, 8)")
+                          "reward, alive (trial, t); foot_force (trial, t, leg) N; "
+                          "interlimb_weights_mV (trial, 8, 8)")
     plots.plot_thigh_extensor_activity(out / "thigh_extensor_activity.png", result.spikes,
                                        result.cpg.layout)
     files["thigh_extensor_activity.png"] = "thigh-extensor activity of the 4 limbs (trial 0)"
@@ -373,6 +404,72 @@ def _train_summary(rows: list[dict], settings, L_max: float) -> dict[str, Any]:
         lines[b] = (f"trial {b}: {len(mine)} sessions; mean forward speed over the last 20: "
                     f"{speed:.3f} m/s; sessions reaching L_max in the last 50: {full:.0%}")
     return {"per_trial": per_trial, "lines": lines}
+
+
+def _trained_run(folder: str, seconds: float, seed: int, progress: bool):
+    """The trained tables of every trial of ``folder``, run for ``seconds`` (one batch)."""
+    import json
+
+    from ..coupling.robot import A1Parameters, RobotLayout, build_model
+    from .simulate import simulate_closed_loop
+
+    if not np.isfinite(seconds) or seconds <= 0:
+        raise InputError(f"--seconds must be positive, got {seconds:g}")
+    weights = load_weights(folder)
+    try:
+        settings = json.loads((Path(folder) / "manifest.json").read_text())["settings"]
+    except (OSError, ValueError, KeyError):
+        raise InputError(f"{folder}: no readable manifest.json (not a training run)") from None
+    models = models_from(settings.get("overrides", []), settings.get("equations", {}))
+    if not settings.get("astrocytes", True):
+        models = models.with_values({"astrocyte_regulation": 0.0})
+    params = A1Parameters()
+    robot = build_model(params)
+    layout = RobotLayout.from_model(robot, params)
+    result = simulate_closed_loop(models, robot, layout, seconds=seconds, seed=seed,
+                                  n_trials=len(weights), weights=weights, record_traces=False,
+                                  progress=progress)
+    return result, weights
+
+
+def _cmd_gait(args: argparse.Namespace) -> int:
+    from .gait import gait_label, leg_phases
+
+    result, _ = _trained_run(args.dir, args.seconds, args.seed, not args.no_progress)
+    t, i = result.spikes["motor"]
+    rec = result.robot
+    for b in range(result.cpg.n_trials):
+        g = leg_phases(t, i, result.cpg.layout, b, min(1.0, args.seconds / 5), args.seconds)
+        label = gait_label(g["phases"], g["locking"])
+        speed = float(rec.torso_velocity[b, :, 0].mean())
+        ph = ", ".join(f"{leg} {g['phases'][leg]:.2f} (lock {g['locking'][leg]:.2f})"
+                       for leg in ("FR", "FL", "RR", "RL"))
+        print(f"trial {b}: phases relative to FR: {ph}; gait: {label}; "
+              f"mean forward speed {speed:.3f} m/s; upright {rec.alive[b].mean():.0%}")
+    return 0
+
+
+def _cmd_plot(args: argparse.Namespace) -> int:
+    from . import plots
+    from .gait import leg_phases, phase_matrix
+
+    folder = Path(args.dir)
+    result, weights = _trained_run(args.dir, args.seconds, 1, False)
+    if not 0 <= args.trial < len(weights):
+        raise InputError(f"--trial {args.trial}: {folder} has {len(weights)} trial(s)")
+    b = args.trial
+    plots.plot_weights(folder / "weights.png", weights[b] * 1e3, trial=b)
+    plots.plot_training_curves(folder / "training.png", folder / "sessions.csv")
+    t_end = args.seconds
+    plots.plot_thigh_extensor_activity(folder / "thigh_extensor_activity.png", result.spikes,
+                                       result.cpg.layout, trial=b,
+                                       window=(max(0.0, t_end - 2.0), t_end))
+    t, i = result.spikes["motor"]
+    g = leg_phases(t, i, result.cpg.layout, b, min(1.0, t_end / 5), t_end)
+    plots.plot_gait(folder / "gait.png", result.robot, b, phase_matrix(g["phases"]), g,
+                    window=(max(0.0, t_end - 2.0), t_end))
+    print(f"wrote {folder}/weights.png, training.png, thigh_extensor_activity.png, gait.png")
+    return 0
 
 
 def _cmd_robot(args: argparse.Namespace) -> int:

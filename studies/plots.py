@@ -81,3 +81,90 @@ def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, tr
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_weights(path: Path, table_mV: np.ndarray, *, trial: int = 0) -> None:
+    """The 8x8 inter-limb table as a diverging heatmap (the paper's Fig. 3a)."""
+    from ..network import interlimb_labels
+
+    labels = [lab.replace("thigh_", "").replace("flexor", "F").replace("extensor", "E")
+              for lab in interlimb_labels()]
+    lim = max(float(np.nanmax(np.abs(table_mV))), 1e-9)
+    fig, ax = plt.subplots(figsize=(5.6, 4.8))
+    im = ax.imshow(table_mV, cmap="RdBu_r", vmin=-lim, vmax=lim)
+    ax.set_xticks(range(8), labels, rotation=45)
+    ax.set_yticks(range(8), labels)
+    ax.set_xlabel("to (target pool)")
+    ax.set_ylabel("from (source pool)")
+    for k in range(1, 4):
+        ax.axhline(2 * k - 0.5, color="k", lw=0.5)
+        ax.axvline(2 * k - 0.5, color="k", lw=0.5)
+    fig.colorbar(im, ax=ax, label="weight (mV)")
+    ax.set_title(f"Inter-limb weights (trial {trial})")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_training_curves(path: Path, sessions_csv: Path) -> None:
+    """Mean reward, final x and session length per session: mean +- std over trials (Fig. 3c)."""
+    import csv
+
+    with open(sessions_csv) as f:
+        rows = list(csv.DictReader(f))
+    trials = sorted({int(r["trial"]) for r in rows})
+    n = max(int(r["session"]) for r in rows)
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+    for ax, key, label in zip(axes, ("mean_reward", "final_x_m", "length_s"),
+                              ("mean reward", "final x (m)", "session length (s)")):
+        table = np.full((len(trials), n), np.nan)
+        for r in rows:
+            table[trials.index(int(r["trial"])), int(r["session"]) - 1] = float(r[key])
+        mean, std = np.nanmean(table, axis=0), np.nanstd(table, axis=0)
+        x = np.arange(1, n + 1)
+        ax.plot(x, mean, lw=1)
+        ax.fill_between(x, mean - std, mean + std, alpha=0.3, lw=0)
+        ax.set_ylabel(label)
+    axes[-1].set_xlabel("session")
+    axes[0].set_title(f"Training ({len(trials)} trial(s), mean +- std)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_gait(path: Path, recording, trial: int, phases: np.ndarray, gait: dict,
+              window: tuple[float, float]) -> None:
+    """Gait diagram (stance = foot contact, or thigh-extensor bursts without touch sensors)
+    and the inter-limb phase matrix."""
+    fig, (ax, axm) = plt.subplots(1, 2, figsize=(11, 3.6), gridspec_kw={"width_ratios": [3, 1]})
+    t = recording.t
+    sel = (t >= window[0]) & (t < window[1])
+    force = recording.foot_force[trial]
+    for k, leg in enumerate(LEGS):
+        if np.all(np.isfinite(force[:, k])):
+            stance = force[sel, k] > 0
+            x = t[sel]
+            edges = np.diff(np.concatenate([[0], stance.astype(int), [0]]))
+            for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+                ax.broken_barh([(x[a], x[b - 1] - x[a] + 1e-3)], (k - 0.4, 0.8), color="k")
+        else:
+            for a, b in gait["bursts"][leg]:
+                if b >= window[0] and a < window[1]:
+                    ax.broken_barh([(a, b - a)], (k - 0.4, 0.8), color="tab:red")
+    ax.set_yticks(range(len(LEGS)), LEGS)
+    ax.invert_yaxis()
+    ax.set_xlim(*window)
+    ax.set_xlabel("time (s)")
+    ax.set_title("Gait diagram (black: foot contact)")
+    im = axm.imshow(phases, cmap="twilight", vmin=0, vmax=1)
+    axm.set_xticks(range(4), LEGS)
+    axm.set_yticks(range(4), LEGS)
+    for i in range(4):
+        for j in range(4):
+            axm.text(j, i, f"{phases[i, j]:.2f}", ha="center", va="center", fontsize=7,
+                     color="w" if 0.25 < phases[i, j] < 0.75 else "k")
+    axm.set_title("phase of column vs row")
+    fig.colorbar(im, ax=axm, fraction=0.046)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,84 @@
+"""Gait of a controller: the phase of each leg's thigh-extensor bursts relative to FR, a gait
+label from those phases, and stance/swing per leg (foot contact, or extensor bursts when the
+robot has no foot touch sensors).
+
+Labels (phases relative to FR, within ``tolerance`` of a cycle):
+  trot  FR-RL and FL-RR in phase, the two pairs in anti-phase;
+  pace  FR-RR and FL-RL in phase, pairs in anti-phase;
+  bound FR-FL and RR-RL in phase, pairs in anti-phase;
+  walk  four distinct quarter phases (0, 1/4, 1/2, 3/4 in some order);
+  none  anything else, or phases that are not stable (resultant length below ``min_locking``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..network import LEGS, Layout
+from .analysis import detect_bursts
+
+LEG_INDEX = {leg: k for k, leg in enumerate(LEGS)}
+
+
+def _circ(a: float, b: float) -> float:
+    d = abs(a - b) % 1.0
+    return min(d, 1.0 - d)
+
+
+def leg_phases(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: int,
+               t_start: float, t_stop: float) -> dict[str, Any]:
+    """Phase of each leg's thigh-extensor burst onsets within FR's cycles (circular mean) and
+    how locked it is (resultant length, 1 = every cycle the same)."""
+    keep = (times >= t_start) & (times < t_stop)
+    t, i = times[keep], indices[keep]
+    bursts = {leg: detect_bursts(t, i, layout.motor_neurons(trial, k, "thigh_extensor"), t_stop,
+                                 t_start=t_start)
+              for k, leg in enumerate(layout.legs)}
+    ref = bursts["FR"][:, 0]
+    phases, locking = {}, {}
+    for leg, b in bursts.items():
+        ph = []
+        for onset in b[:, 0]:
+            k = np.searchsorted(ref, onset, side="right") - 1
+            if 0 <= k < len(ref) - 1:
+                ph.append((onset - ref[k]) / (ref[k + 1] - ref[k]))
+        if ph:
+            z = np.mean(np.exp(2j * np.pi * np.array(ph)))
+            phases[leg] = float((np.angle(z) / (2 * np.pi)) % 1.0)
+            locking[leg] = float(abs(z))
+        else:
+            phases[leg], locking[leg] = float("nan"), 0.0
+    period = float(np.median(np.diff(ref))) if len(ref) > 1 else float("nan")
+    return {"phases": phases, "locking": locking, "period": period,
+            "bursts": {leg: b for leg, b in bursts.items()}}
+
+
+def gait_label(phases: dict[str, float], locking: dict[str, float], *, tolerance: float = 0.15,
+               min_locking: float = 0.7) -> str:
+    if any(not np.isfinite(phases[leg]) or locking[leg] < min_locking for leg in LEGS):
+        return "none"
+    p = phases
+
+    def pairs(a: tuple[str, str], b: tuple[str, str]) -> bool:
+        return (_circ(p[a[0]], p[a[1]]) <= tolerance and _circ(p[b[0]], p[b[1]]) <= tolerance
+                and abs(_circ(p[a[0]], p[b[0]]) - 0.5) <= tolerance)
+
+    if pairs(("FR", "RL"), ("FL", "RR")):
+        return "trot"
+    if pairs(("FR", "RR"), ("FL", "RL")):
+        return "pace"
+    if pairs(("FR", "FL"), ("RR", "RL")):
+        return "bound"
+    quarters = sorted(round((p[leg] % 1.0) * 4) % 4 for leg in LEGS)
+    if quarters == [0, 1, 2, 3] and all(
+            _circ(p[leg], round(p[leg] * 4) / 4) <= tolerance / 2 for leg in LEGS):
+        return "walk"
+    return "none"
+
+
+def phase_matrix(phases: dict[str, float]) -> np.ndarray:
+    """(4, 4) phase of leg j relative to leg i."""
+    v = np.array([phases[leg] for leg in LEGS])
+    return (v[None, :] - v[:, None]) % 1.0
