@@ -433,9 +433,10 @@ def _trained_run(folder: str, seconds: float, seed: int, progress: bool):
 
 
 def _cmd_gait(args: argparse.Namespace) -> int:
-    from .gait import gait_label, leg_phases
+    from .gait import gait_label, leg_phases, weight_structure
 
-    result, _ = _trained_run(args.dir, args.seconds, args.seed, not args.no_progress)
+    result, weights = _trained_run(args.dir, args.seconds, args.seed, not args.no_progress)
+    w_max = float(np.asarray(result.cpg.models.interlimb_synapse.parameters["w_max"].value))
     t, i = result.spikes["motor"]
     rec = result.robot
     for b in range(result.cpg.n_trials):
@@ -444,8 +445,12 @@ def _cmd_gait(args: argparse.Namespace) -> int:
         speed = float(rec.torso_velocity[b, :, 0].mean())
         ph = ", ".join(f"{leg} {g['phases'][leg]:.2f} (lock {g['locking'][leg]:.2f})"
                        for leg in ("FR", "FL", "RR", "RL"))
+        ws = weight_structure(weights[b], w_max)
         print(f"trial {b}: phases relative to FR: {ph}; gait: {label}; "
-              f"mean forward speed {speed:.3f} m/s; upright {rec.alive[b].mean():.0%}")
+              f"mean forward speed {speed:.3f} m/s; upright {rec.alive[b].mean():.0%}; "
+              f"weights: {ws['mixed_limb_pairs']} of {ws['limb_pairs']} limb pairs with two "
+              f"inhibitory and two excitatory synapses, {ws['share_above_0.9_w_max']:.0%} "
+              f"above 0.9 w_max")
     return 0
 
 

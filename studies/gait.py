@@ -82,3 +82,22 @@ def phase_matrix(phases: dict[str, float]) -> np.ndarray:
     """(4, 4) phase of leg j relative to leg i."""
     v = np.array([phases[leg] for leg in LEGS])
     return (v[None, :] - v[:, None]) % 1.0
+
+
+def weight_structure(table: np.ndarray, w_max: float) -> dict[str, float]:
+    """How a trained 8x8 table looks: limb pairs (of 12) whose 2x2 block holds two inhibitory and
+    two excitatory synapses (the paper's structure with astrocytes), and the share of inter-limb
+    weights above 0.9 w_max (saturation, the paper's ablation)."""
+    n_legs = table.shape[0] // 2
+    mixed = 0
+    values = []
+    for a in range(n_legs):
+        for b in range(n_legs):
+            if a == b:
+                continue
+            block = table[2 * a:2 * a + 2, 2 * b:2 * b + 2]
+            values.append(block.ravel())
+            mixed += int((block < 0).sum() == 2 and (block > 0).sum() == 2)
+    v = np.concatenate(values)
+    return {"mixed_limb_pairs": mixed, "limb_pairs": n_legs * (n_legs - 1),
+            "share_above_0.9_w_max": float(np.mean(v > 0.9 * w_max))}

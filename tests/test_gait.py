@@ -52,3 +52,13 @@ def test_gait_plot_and_replay(trained, capsys, tmp_path):
                  "--no-progress", "--out", str(tmp_path / "replay")]) == 0
     with np.load(tmp_path / "replay" / "robot.npz") as z, np.load(trained / "weights.npz") as w:
         assert np.allclose(z["interlimb_weights_mV"][0], w["final_weights_mV"][1])
+
+
+def test_weight_structure():
+    from astrocpg.studies.gait import weight_structure
+    t = np.zeros((8, 8))
+    t[0:2, 2:4] = [[-1, 1], [1, -1]]  # FR -> FL: the paper's pattern
+    t[4:6, 0:2] = 1.0  # RR -> FR: all excitatory
+    s = weight_structure(t * 0.05e-3, 0.05e-3)
+    assert s["mixed_limb_pairs"] == 1 and s["limb_pairs"] == 12
+    assert s["share_above_0.9_w_max"] == pytest.approx((2 + 4) / 48)
