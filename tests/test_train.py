@@ -65,7 +65,6 @@ def _cli(*args: str, **kw) -> subprocess.Popen:
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, **kw)
 
 
-@pytest.mark.slow
 def test_resume_after_sigkill_is_exact(tmp_path):
     args = ["train", "--sessions", "20", "--trials", "2", "--seed", "4", *SHORT]
     whole = tmp_path / "whole"
