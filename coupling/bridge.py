@@ -118,6 +118,8 @@ class Bridge:
         self.reward = np.zeros(B)
         self.alive = np.ones(B, dtype=bool)
         self._qa = layout.qpos_adr  # (4, 3)
+        self._ctrl_lo = model.actuator_ctrlrange[layout.actuator, 0]
+        self._ctrl_hi = model.actuator_ctrlrange[layout.actuator, 1]
         self._act = layout.actuator  # (4, 3)
         self._fq = int(layout.free_qpos_adr)
         self._fv = int(layout.free_dof_adr)
@@ -196,7 +198,8 @@ class Bridge:
             return
         fq, fv = self._fq, self._fv
         rec.joint_angles[:, k] = self.qpos[:, self._qa]
-        rec.torques[:, k] = self.ctrl[:, self._act]
+        # as applied: MuJoCo clamps ctrl to the motors' ctrlrange
+        rec.torques[:, k] = np.clip(self.ctrl[:, self._act], self._ctrl_lo, self._ctrl_hi)
         rec.torso_position[:, k] = self.qpos[:, fq:fq + 3]
         rec.torso_velocity[:, k] = self.qvel[:, fv:fv + 3]
         rec.reward[:, k] = self.reward
