@@ -90,6 +90,20 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("--seconds", type=float, default=10.0,
                       help="length of the run with the trained weights (for activity and gait)")
 
+    study = sub.add_parser("study", help="a parameter study (TOML) on Dask; resumable")
+    study.add_argument("file", help="study file, e.g. studies/quick.toml")
+    study.add_argument("--out", help="study folder (default: out/<study name>)")
+    study.add_argument("--workers", type=int, default=None,
+                       help="local cluster size (default: one worker per core)")
+    study.add_argument("--scheduler", metavar="ADDRESS",
+                       help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
+    study.add_argument("--no-progress", action="store_true")
+
+    report = sub.add_parser("report", help="Fig. 3c curves and final figures of a study")
+    report.add_argument("dir", help="a study folder")
+    report.add_argument("--last", type=int, default=20,
+                        help="sessions at the end over which final figures are averaged (20)")
+
     robot = sub.add_parser("robot", help="the project's A1 model")
     robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
     export = robot_sub.add_parser("export", help="write the A1 model as MJCF")
@@ -113,6 +127,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_plot(args)
         if args.command == "robot":
             return _cmd_robot(args)
+        if args.command == "study":
+            return _cmd_study(args)
+        if args.command == "report":
+            return _cmd_report(args)
     except InputError as e:
         sys.stderr.write(f"astrocpg: error: {e}\n")
         return 2
@@ -474,6 +492,41 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     plots.plot_gait(folder / "gait.png", result.robot, b, phase_matrix(g["phases"]), g,
                     window=(max(0.0, t_end - 2.0), t_end))
     print(f"wrote {folder}/weights.png, training.png, thigh_extensor_activity.png, gait.png")
+    return 0
+
+
+def _cmd_study(args: argparse.Namespace) -> int:
+    from .study import FAILURES, RESULTS, load_study, run_study
+
+    study = load_study(args.file)
+    out = Path(args.out) if args.out else Path("out") / study.name
+    n_trials = sum(r.n_trials for r in study.runs)
+    print(f"study {study.name}: {len(study.runs)} runs ({n_trials} trials x "
+          f"{study.n_sessions} sessions) -> {out}/")
+    try:
+        res = run_study(study, out, workers=args.workers, scheduler=args.scheduler,
+                        progress=not args.no_progress)
+    except KeyboardInterrupt:
+        sys.stderr.write(f"astrocpg: study interrupted; run the same command again to "
+                         f"continue (finished runs are kept)\n")
+        return 130
+    counts = ", ".join(f"{v} {k}" for k, v in res["counts"].items())
+    print(f"runs: {counts}; {res['rows']} rows in {out / RESULTS}")
+    if res["failed"]:
+        print(f"not finished: {', '.join(res['failed'])} (errors in {out / FAILURES}); "
+              f"rerun the same command to retry them")
+        return 1
+    return 0
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from .report import report
+
+    if args.last < 1:
+        raise InputError(f"--last must be at least 1, got {args.last}")
+    written = report(Path(args.dir), last=args.last)
+    print(written["text"])
+    print(f"wrote {', '.join(str(p) for p in written['files'])}")
     return 0
 
 

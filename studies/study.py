@@ -1,0 +1,555 @@
+"""Parameter studies: a TOML file of conditions, sweep axes and seeds, run on Dask.
+
+A study file::
+
+    [study]
+    name = "ablation"
+    sessions = 400                    # training sessions per trial
+    seeds = { first = 1, count = 20 } # or a list: seeds = [1, 2, 3]
+    batch = 20                        # seeds trained together in one network (one run)
+
+    [base]                            # parameter overrides for every run, with units
+    L_max = "10*second"
+
+    [sweep]                           # optional axes; every combination ("grid") or
+    mode = "grid"                     # element by element ("zip")
+    [sweep.axes]
+    A_plus = ["0.01", "0.02"]
+
+    [conditions.astrocytes]           # at least one condition
+    astrocytes = true
+    [conditions.no_astrocytes]
+    astrocytes = false
+    set = { }                         # overrides of this condition only
+
+Every (condition, sweep point) is trained for every seed. Consecutive seeds of one point run as
+one *run*: ``batch`` trials in one network (trial ``b`` of a run that starts at seed ``s`` is
+seed ``s + b``, whatever the batch, so the result of a seed does not depend on the batching).
+
+Each run lives in ``OUT/runs/<run id>/`` as an ordinary training folder (``sessions.csv``,
+``weights.npz``, ``checkpoint.pkl``, ``manifest.json``) plus ``status.json``. A run whose
+status is ``finished`` is never run again; any other run resumes from its checkpoint, so
+repeating the command after a crash, a killed worker or Ctrl-C continues where it stopped.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import itertools
+import json
+import logging
+import os
+import re
+import socket
+import time
+import tomllib
+import traceback
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..errors import InputError
+
+RUNS = "runs"
+STATUS = "status.json"
+RESULTS = "results.csv"
+FAILURES = "failures.csv"
+STUDY_COPY = "study.toml"
+STUDY_INDEX = "study.json"
+
+_STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch"}
+_CONDITION_KEYS = {"astrocytes", "set"}
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunSpec:
+    """One run of a study: ``n_trials`` consecutive seeds of one (condition, sweep point).
+
+    run_id: folder name under ``OUT/runs``; condition: the condition's name; point: the swept
+    parameters' values (as written in the study file); seed: the first seed; n_trials: seeds
+    seed..seed+n_trials-1; n_sessions: sessions per trial; astrocytes: False for the ablation;
+    overrides: every ``NAME=VALUE`` applied (base, sweep point, condition).
+    """
+
+    run_id: str
+    condition: str
+    point: dict[str, str]
+    seed: int
+    n_trials: int
+    n_sessions: int
+    astrocytes: bool
+    overrides: tuple[str, ...]
+
+    def train_settings(self):
+        from .train import TrainSettings
+        return TrainSettings(n_sessions=self.n_sessions, seed=self.seed, n_trials=self.n_trials,
+                             astrocytes=self.astrocytes, overrides=list(self.overrides))
+
+    def fingerprint(self) -> str:
+        return self.train_settings().fingerprint()
+
+
+@dataclass(kw_only=True)
+class Study:
+    """A parsed, validated study file."""
+
+    name: str
+    description: str
+    path: Path
+    text: str
+    n_sessions: int
+    seeds: list[int]
+    batch: int
+    sweep: list[str]  # names of the swept parameters (table columns)
+    runs: list[RunSpec] = field(default_factory=list)
+
+
+def _value_text(key: str, value: Any, where: str) -> str:
+    if isinstance(value, bool) or not isinstance(value, (str, int, float)):
+        raise InputError(f"{where}: '{key}' must be a number or a quantity string like "
+                         f"\"9*ms\", got {value!r}")
+    return str(value)
+
+
+def _check_override(models, key: str, value: str, where: str) -> str:
+    item = f"{key}={value}"
+    try:
+        models.parse_assignment(item)
+    except InputError as e:
+        raise InputError(f"{where}: {e}") from None
+    return item
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9.+-]+", "-", text).strip("-") or "x"
+
+
+def load_study(path: str | os.PathLike) -> Study:
+    """Read and validate a study file; every error names the file and the offending key."""
+    from ..models import DEFAULT_MODELS
+
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except OSError as e:
+        raise InputError(f"study {p}: cannot read ({e.strerror})") from None
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise InputError(f"study {p}: not valid TOML ({e})") from None
+    where = f"study {p.name}"
+    unknown = set(doc) - {"study", "base", "sweep", "conditions"}
+    if unknown:
+        raise InputError(f"{where}: unknown section [{sorted(unknown)[0]}] "
+                         f"(sections: study, base, sweep, conditions)")
+    head = doc.get("study", {})
+    bad = set(head) - _STUDY_KEYS
+    if bad:
+        raise InputError(f"{where}: [study] has unknown key '{sorted(bad)[0]}' "
+                         f"(keys: {', '.join(sorted(_STUDY_KEYS))})")
+    name = str(head.get("name", p.stem))
+    n_sessions = head.get("sessions", 400)
+    if not isinstance(n_sessions, int) or isinstance(n_sessions, bool) or n_sessions < 1:
+        raise InputError(f"{where}: [study] sessions must be a positive integer, "
+                         f"got {n_sessions!r}")
+    seeds_doc = head.get("seeds", {"first": 1, "count": 1})
+    if isinstance(seeds_doc, dict):
+        first, count = seeds_doc.get("first", 1), seeds_doc.get("count", 1)
+        if not all(isinstance(v, int) and not isinstance(v, bool) for v in (first, count)) \
+                or count < 1 or set(seeds_doc) - {"first", "count"}:
+            raise InputError(f"{where}: [study] seeds must be {{ first = K, count = N }} with "
+                             f"integers, N >= 1, or a list of integers")
+        seeds = list(range(first, first + count))
+    elif isinstance(seeds_doc, list) and seeds_doc and all(
+            isinstance(s, int) and not isinstance(s, bool) for s in seeds_doc):
+        seeds = sorted(set(seeds_doc))
+        if len(seeds) != len(seeds_doc):
+            raise InputError(f"{where}: [study] seeds lists a seed twice")
+    else:
+        raise InputError(f"{where}: [study] seeds must be {{ first = K, count = N }} or a "
+                         f"non-empty list of integers")
+    if min(seeds) < 0:
+        raise InputError(f"{where}: [study] seeds must be non-negative")
+    batch = head.get("batch", len(seeds))
+    if not isinstance(batch, int) or isinstance(batch, bool) or batch < 1:
+        raise InputError(f"{where}: [study] batch must be a positive integer, got {batch!r}")
+
+    models = DEFAULT_MODELS
+    base = [_check_override(models, k, _value_text(k, v, f"{where} [base]"), f"{where} [base]")
+            for k, v in doc.get("base", {}).items()]
+
+    sweep_doc = doc.get("sweep", {})
+    bad = set(sweep_doc) - {"mode", "axes"}
+    if bad:
+        raise InputError(f"{where}: [sweep] has unknown key '{sorted(bad)[0]}' "
+                         f"(keys: mode, axes)")
+    mode = sweep_doc.get("mode", "grid")
+    if mode not in ("grid", "zip"):
+        raise InputError(f"{where}: [sweep] mode must be \"grid\" or \"zip\", got {mode!r}")
+    axes: dict[str, list[str]] = {}
+    for k, values in sweep_doc.get("axes", {}).items():
+        if not isinstance(values, list) or not values:
+            raise InputError(f"{where}: [sweep.axes] '{k}' must be a non-empty list")
+        axes[k] = [_value_text(k, v, f"{where} [sweep.axes]") for v in values]
+        for v in axes[k]:
+            _check_override(models, k, v, f"{where} [sweep.axes]")
+    if mode == "zip" and len({len(v) for v in axes.values()}) > 1:
+        raise InputError(f"{where}: [sweep] mode \"zip\" needs axes of equal length "
+                         f"({', '.join(f'{k}: {len(v)}' for k, v in axes.items())})")
+    names = list(axes)
+    if not names:
+        points: list[dict[str, str]] = [{}]
+    elif mode == "grid":
+        points = [dict(zip(names, combo)) for combo in itertools.product(*axes.values())]
+    else:
+        points = [dict(zip(names, combo)) for combo in zip(*axes.values())]
+
+    conditions = doc.get("conditions", {"default": {"astrocytes": True}})
+    if not isinstance(conditions, dict) or not conditions:
+        raise InputError(f"{where}: [conditions] must name at least one condition")
+    runs: list[RunSpec] = []
+    groups = _consecutive_groups(seeds, batch)
+    for cname, cond in conditions.items():
+        cw = f"{where} [conditions.{cname}]"
+        if not isinstance(cond, dict):
+            raise InputError(f"{cw}: must be a table")
+        bad = set(cond) - _CONDITION_KEYS
+        if bad:
+            raise InputError(f"{cw}: unknown key '{sorted(bad)[0]}' (keys: astrocytes, set)")
+        astro = cond.get("astrocytes", True)
+        if not isinstance(astro, bool):
+            raise InputError(f"{cw}: astrocytes must be true or false")
+        cset = [_check_override(models, k, _value_text(k, v, cw), cw)
+                for k, v in cond.get("set", {}).items()]
+        for point in points:
+            overrides = tuple(base + [f"{k}={v}" for k, v in point.items()] + cset)
+            # one model set per point: catches e.g. a value out of a parameter's range
+            try:
+                models.with_values(dict(models.parse_assignment(o) for o in overrides))
+            except InputError as e:
+                raise InputError(f"{cw}: {e}") from None
+            tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
+            for first, n in groups:
+                seeds_tag = f"seed{first}" if n == 1 else f"seeds{first}-{first + n - 1}"
+                run_id = "__".join(x for x in (_slug(cname), tag, seeds_tag) if x)
+                runs.append(RunSpec(run_id=run_id, condition=cname, point=dict(point),
+                                    seed=first, n_trials=n, n_sessions=n_sessions,
+                                    astrocytes=astro, overrides=overrides))
+    ids = [r.run_id for r in runs]
+    if len(set(ids)) != len(ids):
+        dup = next(i for i in ids if ids.count(i) > 1)
+        raise InputError(f"{where}: two runs would share the folder '{dup}' (condition names or "
+                         f"swept values that differ only in punctuation)")
+    return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
+                 n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs)
+
+
+def _consecutive_groups(seeds: Sequence[int], batch: int) -> list[tuple[int, int]]:
+    """Split sorted seeds into runs of consecutive seeds, at most ``batch`` per run."""
+    groups: list[tuple[int, int]] = []
+    for s in seeds:
+        if groups and groups[-1][0] + groups[-1][1] == s and groups[-1][1] < batch:
+            groups[-1] = (groups[-1][0], groups[-1][1] + 1)
+        else:
+            groups.append((s, 1))
+    return groups
+
+
+# ---------------------------------------------------------------- one run (on a worker)
+def read_status(folder: Path) -> dict[str, Any]:
+    try:
+        return json.loads((folder / STATUS).read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _write_status(folder: Path, status: dict[str, Any]) -> None:
+    from .outputs import save_json
+    save_json(folder / STATUS, status)
+
+
+def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
+    """Train one run in ``folder`` (resuming from its checkpoint if there is one).
+
+    Runs on a Dask worker. Never raises for a failure of the run itself: the error and its
+    traceback go into ``status.json`` and the returned dict, so one failed run does not stop
+    the study. Returns the final status.
+    """
+    import warnings
+
+    warnings.filterwarnings("ignore", module="brian2")
+    from .cli import models_from
+    from .outputs import prepare_output_dir, write_manifest
+    from .train import CHECKPOINT, Trainer, read_checkpoint
+
+    out = prepare_output_dir(folder)
+    status = read_status(out)
+    if status.get("state") == "finished":
+        return status
+    status.update({
+        "run_id": spec.run_id, "state": "running", "attempts": status.get("attempts", 0) + 1,
+        "host": socket.gethostname(), "pid": os.getpid(), "started": time.time(),
+        "spec": asdict(spec),
+    })
+    status.pop("error", None)
+    t0 = time.perf_counter()
+    try:
+        _write_status(out, status)
+        settings = spec.train_settings()
+        payload = None
+        if (out / CHECKPOINT).exists():
+            payload = read_checkpoint(out / CHECKPOINT)
+            if payload["fingerprint"] != settings.fingerprint():
+                raise InputError(f"{out}: its checkpoint belongs to other settings")
+        models = models_from(settings.overrides, {})
+        trainer = Trainer(models, settings, out, progress=False)
+        if payload is not None:
+            trainer.restore(payload)
+        status["sessions_at_start"] = int(trainer.training.sessions_done.sum())
+        _write_status(out, status)
+        write_manifest(out, command="study-run", seed=spec.seed, settings=asdict(spec),
+                       models_json=trainer.models.to_json(), files=_run_files(),
+                       results={"status": "running"})
+        wall = trainer.run()
+        trainer.write_outputs()
+        write_manifest(out, command="study-run", seed=spec.seed, settings=asdict(spec),
+                       models_json=trainer.models.to_json(), files=_run_files(),
+                       results={"status": "finished", "wall_seconds_last_attempt": wall})
+        status.update({"state": "finished", "finished": time.time(),
+                       "wall_seconds": status.get("wall_seconds", 0.0) + time.perf_counter() - t0})
+    except Exception as e:  # recorded, not raised: the other runs go on
+        status.update({"state": "failed", "error": f"{type(e).__name__}: {e}",
+                       "traceback": traceback.format_exc(), "finished": time.time()})
+    _write_status(out, status)
+    return status
+
+
+def _run_files() -> dict[str, str]:
+    from .cli import _train_files
+    return _train_files() | {STATUS: "state of the run in its study (running, finished, failed), "
+                                     "attempts, error"}
+
+
+# ---------------------------------------------------------------- the study (client side)
+def _check_folder(study: Study, out: Path) -> None:
+    """A study folder belongs to one study: a rerun may add runs but not change one."""
+    index_path = out / STUDY_INDEX
+    known: dict[str, str] = {}
+    if index_path.exists():
+        try:
+            known = json.loads(index_path.read_text())["runs"]
+        except (OSError, ValueError, KeyError):
+            raise InputError(f"--out {out}: {STUDY_INDEX} is unreadable") from None
+    elif (out / RUNS).exists() or (out / RESULTS).exists():
+        raise InputError(f"--out {out}: holds runs of something else (no {STUDY_INDEX})")
+    for run in study.runs:
+        fp = known.get(run.run_id)
+        if fp is not None and fp != run.fingerprint():
+            raise InputError(f"--out {out}: run '{run.run_id}' there has other settings than "
+                             f"in {study.path.name} (use a new --out)")
+
+
+def _save_index(study: Study, out: Path) -> None:
+    from .outputs import _atomic, save_json
+    index_path = out / STUDY_INDEX
+    known: dict[str, str] = {}
+    if index_path.exists():
+        known = json.loads(index_path.read_text())["runs"]
+    known.update({r.run_id: r.fingerprint() for r in study.runs})
+    save_json(index_path, {"name": study.name, "sweep": study.sweep, "runs": known,
+                           "specs": {r.run_id: asdict(r) for r in study.runs}})
+    data = study.text.encode()
+    _atomic(out / STUDY_COPY, lambda f: f.write(data))
+
+
+def _sessions_done(folder: Path) -> int:
+    try:
+        with open(folder / "sessions.csv", "rb") as f:
+            return max(0, sum(1 for _ in f) - 1)
+    except OSError:
+        return 0
+
+
+def run_study(study: Study, out: Path, *, workers: int | None = None,
+              scheduler: str | None = None, progress: bool = True) -> dict[str, Any]:
+    """Run every unfinished run of ``study`` on Dask; write the results table. Returns counts
+    of runs by state and the paths written."""
+    from tqdm.auto import tqdm
+
+    from .outputs import prepare_output_dir, write_manifest
+
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers must be at least 1, got {workers}")
+    out = prepare_output_dir(out)
+    _check_folder(study, out)
+    _save_index(study, out)
+    folders = {r.run_id: out / RUNS / r.run_id for r in study.runs}
+    pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") != "finished"]
+    total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
+    write_manifest(out, command="study", seed=min(study.seeds),
+                   settings={"study": str(study.path), "study_text": study.text,
+                             "workers": workers, "scheduler": scheduler},
+                   models_json={}, files=_study_files(), results={"status": "running"})
+    n_done_before = len(study.runs) - len(pending)
+    if pending:
+        _dispatch(study, pending, folders, workers, scheduler, progress, total_sessions,
+                  n_done_before, tqdm)
+    states = {r.run_id: read_status(folders[r.run_id]).get("state", "not run")
+              for r in study.runs}
+    table = write_results(study, out)
+    failed = [r for r in study.runs if states[r.run_id] != "finished"]
+    _write_failures(out, failed, folders)
+    counts = {s: list(states.values()).count(s) for s in sorted(set(states.values()))}
+    write_manifest(out, command="study", seed=min(study.seeds),
+                   settings={"study": str(study.path), "study_text": study.text,
+                             "workers": workers, "scheduler": scheduler},
+                   models_json={}, files=_study_files(),
+                   results={"status": "finished" if not failed else "incomplete",
+                            "runs": counts, "rows": table})
+    return {"counts": counts, "failed": [r.run_id for r in failed], "rows": table}
+
+
+class _ImportBrian2:
+    """Worker plugin: Brian2 installs a SIGINT handler when imported, which only works in a
+    process's main thread; Dask runs tasks in other threads, so import it at worker start-up
+    (plugins are set up on the worker's event loop, in its main thread)."""
+
+    name = "astrocpg-import-brian2"
+
+    def setup(self, worker: Any) -> None:
+        import brian2  # noqa: F401
+
+        from . import train  # noqa: F401
+
+    def teardown(self, worker: Any) -> None:
+        pass
+
+
+def _dispatch(study, pending, folders, workers, scheduler, progress, total_sessions,
+              n_done_before, tqdm) -> None:
+    from distributed import Client, LocalCluster
+
+    from .outputs import prepare_output_dir
+
+    cluster = None
+    try:
+        if scheduler:
+            try:
+                client = Client(scheduler, timeout="20s")
+            except (OSError, TimeoutError) as e:
+                raise InputError(f"--scheduler {scheduler}: cannot connect ({e})") from None
+        else:
+            n = workers or os.cpu_count() or 1
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=logging.ERROR)
+            client = Client(cluster)
+    except InputError:
+        raise
+    try:
+        from distributed.diagnostics.plugin import WorkerPlugin
+
+        plugin = type("ImportBrian2", (_ImportBrian2, WorkerPlugin), {})()
+        client.register_plugin(plugin)
+        futures = {client.submit(execute_run, r, str(folders[r.run_id]), pure=False,
+                                 key=f"astrocpg-{r.run_id}-{os.getpid()}-{time.time_ns()}"): r
+                   for r in pending}
+        keys = {f.key: r for f, r in futures.items()}
+        done_sessions = sum(_sessions_done(f) for f in folders.values())
+        bar = tqdm(total=total_sessions, initial=done_sessions, unit="session",
+                   desc=f"study {study.name}", disable=not progress, dynamic_ncols=True,
+                   smoothing=0.05)
+        try:
+            while True:
+                states = [f.status for f in futures]
+                finished = sum(s in ("finished", "error", "cancelled") for s in states)
+                running = sum(any(k in keys for k in ks)
+                              for ks in client.processing().values())
+                failed = 0
+                for f, r in futures.items():
+                    if f.status == "error":
+                        failed += 1
+                    elif f.status == "finished" and f.result().get("state") != "finished":
+                        failed += 1
+                now = sum(_sessions_done(f) for f in folders.values())
+                bar.update(max(0, now - bar.n))
+                bar.set_postfix_str(f"runs done {n_done_before + finished - failed}/"
+                                    f"{len(study.runs)}, running {running}, failed {failed}")
+                if finished == len(futures):
+                    break
+                time.sleep(1.0)
+        finally:
+            bar.close()
+        for f, r in futures.items():
+            if f.status == "error":  # e.g. KilledWorker after repeated worker deaths
+                exc = f.exception()
+                prepare_output_dir(folders[r.run_id])
+                status = read_status(folders[r.run_id])
+                status.update({"run_id": r.run_id, "state": "failed",
+                               "error": f"{type(exc).__name__}: {exc}"})
+                _write_status(folders[r.run_id], status)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _write_failures(out: Path, failed: list[RunSpec], folders: dict[str, Path]) -> None:
+    from .outputs import _atomic
+    path = out / FAILURES
+    if not failed:
+        if path.exists():
+            path.unlink()
+        return
+    lines = ["run_id,state,attempts,error"]
+    for r in failed:
+        s = read_status(folders[r.run_id])
+        err = str(s.get("error", "")).replace('"', "'").replace("\n", " ")
+        lines.append(f'{r.run_id},{s.get("state", "not run")},{s.get("attempts", 0)},"{err}"')
+    data = ("\n".join(lines) + "\n").encode()
+    _atomic(path, lambda f: f.write(data))
+
+
+def _study_files() -> dict[str, str]:
+    return {
+        RESULTS: "one row per seed and session of every finished run: run_id, condition, the "
+                 "swept parameters, seed, then the columns of a training's sessions.csv",
+        FAILURES: "runs that did not finish, with their error (absent when none)",
+        STUDY_COPY: "the study file as run", STUDY_INDEX: "run ids, their settings' fingerprints",
+        RUNS + "/<run id>/": "one training folder per run (sessions.csv, weights.npz, "
+                             "checkpoint.pkl, manifest.json, status.json)",
+    }
+
+
+def write_results(study: Study, out: Path) -> int:
+    """Gather the finished runs' ``sessions.csv`` into ``OUT/results.csv``; returns its rows."""
+    from .outputs import _atomic
+    from ..coupling.training import SESSION_COLUMNS
+
+    head = ["run_id", "condition", *study.sweep, "seed", *SESSION_COLUMNS]
+    lines = [",".join(head)]
+    n = 0
+    for r in study.runs:
+        folder = out / RUNS / r.run_id
+        if read_status(folder).get("state") != "finished":
+            continue
+        with open(folder / "sessions.csv", newline="") as f:
+            for row in csv.DictReader(f):
+                seed = r.seed + int(row["trial"])
+                cells = [r.run_id, r.condition, *[r.point[k] for k in study.sweep], str(seed),
+                         *[row[c] for c in SESSION_COLUMNS]]
+                lines.append(",".join(_csv_cell(c) for c in cells))
+                n += 1
+    data = ("\n".join(lines) + "\n").encode()
+    _atomic(out / RESULTS, lambda f: f.write(data))
+    return n
+
+
+def _csv_cell(text: str) -> str:
+    return f'"{text}"' if ("," in text or '"' in text) else text
+
+
+def study_digest(study: Study) -> str:
+    return hashlib.sha256("".join(r.fingerprint() for r in study.runs).encode()).hexdigest()
