@@ -384,6 +384,11 @@ def _cmd_train(args: argparse.Namespace) -> int:
                    files=_train_files(), results={"status": "running"})
     wall = trainer.run()
     trainer.write_outputs()
+    if not trainer.training.done.all():  # Brian2 stops the run early on Ctrl-C
+        sys.stderr.write(f"astrocpg: training interrupted after "
+                         f"{int(trainer.training.sessions_done.sum())} sessions; continue with "
+                         f"astrocpg train --resume {out}\n")
+        return 130
     rows = trainer.training.memory.rows
     L_max = float(np.asarray(trainer.models.progress.parameters["L_max"].value))
     summary = _train_summary(rows, settings, L_max)

@@ -14,7 +14,7 @@ A study file::
     [sweep]                           # optional axes; every combination ("grid") or
     mode = "grid"                     # element by element ("zip")
     [sweep.axes]
-    A_plus = ["0.01", "0.02"]
+    eta_ADO = ["0.5", "1.0"]
 
     [conditions.astrocytes]           # at least one condition
     astrocytes = true
@@ -259,6 +259,10 @@ def _consecutive_groups(seeds: Sequence[int], batch: int) -> list[tuple[int, int
 
 
 # ---------------------------------------------------------------- one run (on a worker)
+class RunStopped(RuntimeError):
+    """The simulation of a run ended before its sessions were done (e.g. Ctrl-C)."""
+
+
 def read_status(folder: Path) -> dict[str, Any]:
     try:
         return json.loads((folder / STATUS).read_text())
@@ -315,11 +319,17 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
                        results={"status": "running"})
         wall = trainer.run()
         trainer.write_outputs()
+        if not trainer.training.done.all():
+            # Brian2 turns a SIGINT into a request to stop the run early: not finished
+            raise RunStopped(f"stopped after {int(trainer.training.sessions_done.sum())} of "
+                             f"{spec.n_trials * spec.n_sessions} sessions (interrupted)")
         write_manifest(out, command="study-run", seed=spec.seed, settings=asdict(spec),
                        models_json=trainer.models.to_json(), files=_run_files(),
                        results={"status": "finished", "wall_seconds_last_attempt": wall})
         status.update({"state": "finished", "finished": time.time(),
                        "wall_seconds": status.get("wall_seconds", 0.0) + time.perf_counter() - t0})
+    except RunStopped as e:
+        status.update({"state": "stopped", "error": str(e), "finished": time.time()})
     except Exception as e:  # recorded, not raised: the other runs go on
         status.update({"state": "failed", "error": f"{type(e).__name__}: {e}",
                        "traceback": traceback.format_exc(), "finished": time.time()})

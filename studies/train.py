@@ -12,6 +12,7 @@ import csv
 import hashlib
 import io
 import pickle
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -149,7 +150,7 @@ class Trainer:
 
     def restore(self, payload: dict[str, Any]) -> None:
         net = self.cpg.net
-        net._stored_state["checkpoint"] = payload["brian"]
+        net._stored_state["checkpoint"] = _rename_clocks(payload["brian"], net)
         net.restore("checkpoint", restore_random_state=True)
         del net._stored_state["checkpoint"]
         spec = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -179,6 +180,25 @@ class Trainer:
         finally:
             self.bar.close()
         return time.perf_counter() - t0
+
+
+_CLOCK = re.compile(r"^(.*_clock)(_\d+)?$")
+
+
+def _rename_clocks(state: dict[str, Any], net) -> dict[str, Any]:
+    """Brian2 names the clock of an object with its own ``dt`` ``<object>_clock``, plus a
+    suffix (``_1``...) if that name was taken earlier in the process, so a checkpoint written
+    by one process may name the clocks differently from the network rebuilt in another (a Dask
+    worker that trained other runs before). Object names are fixed; match clocks by stem."""
+    from brian2.core.network import _get_all_objects
+
+    current = {_CLOCK.sub(r"\1", obj.clock.name): obj.clock.name
+               for obj in _get_all_objects(net.objects)}
+    out = {}
+    for key, value in state.items():
+        m = _CLOCK.match(key)
+        out[current.get(m.group(1), key) if m else key] = value
+    return out
 
 
 def read_checkpoint(path: Path) -> dict[str, Any]:

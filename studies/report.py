@@ -1,0 +1,180 @@
+"""``astrocpg report DIR``: the paper's Fig. 3c for any study, and its final figures.
+
+For every group of runs that differ only by seed (a condition, at one sweep point), per session:
+mean +- std across seeds of the session's mean reward, final x and length (``fig3c.png``). The
+final figures per group (``final_figures.csv`` and ``report.md``): over the last ``last``
+sessions of each seed, mean forward speed, final x and session length, then mean +- std across
+seeds; the share of the last 50 sessions that reached L_max; and from the trained weights the
+limb pairs with two inhibitory and two excitatory synapses and the share of weights above
+0.9 w_max (the paper's contrast between the two conditions).
+
+Runs still in progress are included with the sessions they have and marked as such.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from .study import RUNS, STATUS, STUDY_INDEX, read_status
+
+CURVES = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
+          ("length_s", "session length (s)"))
+
+
+def _load(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    import pandas as pd
+
+    try:
+        index = json.loads((folder / STUDY_INDEX).read_text())
+    except (OSError, ValueError):
+        raise InputError(f"report {folder}: not a study folder (no readable {STUDY_INDEX})") \
+            from None
+    runs = []
+    for run_id, spec in index.get("specs", {}).items():
+        rdir = folder / RUNS / run_id
+        state = read_status(rdir).get("state", "not run")
+        try:
+            df = pd.read_csv(rdir / "sessions.csv")
+        except (OSError, ValueError):
+            df = None
+        runs.append({"spec": spec, "state": state, "sessions": df, "folder": rdir})
+    return index, runs
+
+
+def _group_label(spec: dict[str, Any]) -> str:
+    point = ", ".join(f"{k}={v}" for k, v in spec["point"].items())
+    return spec["condition"] + (f" ({point})" if point else "")
+
+
+def _model_values(spec: dict[str, Any]) -> tuple[float, float]:
+    """w_max (volt) and L_max (s) of a run, from its overrides."""
+    from .cli import models_from
+    models = models_from(list(spec["overrides"]), {})
+    return (float(np.asarray(models.interlimb_synapse.parameters["w_max"].value)),
+            float(np.asarray(models.progress.parameters["L_max"].value)))
+
+
+def report(folder: Path, *, last: int = 20) -> dict[str, Any]:
+    """Write ``fig3c.png``, ``final_figures.csv`` and ``report.md`` into ``folder``."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .gait import weight_structure
+    from .outputs import _atomic
+
+    index, runs = _load(folder)
+    groups: dict[str, list[dict[str, Any]]] = {}
+    for r in runs:
+        groups.setdefault(_group_label(r["spec"]), []).append(r)
+    if not any(r["sessions"] is not None and len(r["sessions"]) for r in runs):
+        raise InputError(f"report {folder}: no run has finished a session yet")
+
+    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    rows: list[dict[str, Any]] = []
+    for k, (label, members) in enumerate(groups.items()):
+        # one series per seed: table[seed, session-1]
+        series: dict[int, Any] = {}
+        weights, w_max = [], None
+        states = [m["state"] for m in members]
+        for m in members:
+            df = m["sessions"]
+            if df is None or not len(df):
+                continue
+            for trial, sdf in df.groupby("trial"):
+                series[m["spec"]["seed"] + int(trial)] = sdf.sort_values("session")
+            wfile = m["folder"] / "weights.npz"
+            if wfile.exists():
+                with np.load(wfile) as z:
+                    weights.extend(np.asarray(z["final_weights_mV"]) * 1e-3)
+                w_max = _model_values(m["spec"])[0]
+        if not series:
+            continue
+        n = max(int(s["session"].max()) for s in series.values())
+        color = f"C{k}"
+        for ax, (key, ylabel) in zip(axes, CURVES):
+            table = np.full((len(series), n), np.nan)
+            for row, s in enumerate(series.values()):
+                table[row, s["session"].to_numpy(int) - 1] = s[key].to_numpy(float)
+            mean, std = np.nanmean(table, axis=0), np.nanstd(table, axis=0)
+            x = np.arange(1, n + 1)
+            ax.plot(x, mean, color=color, lw=1.2, label=f"{label} (n={len(series)})")
+            ax.fill_between(x, mean - std, mean + std, color=color, alpha=0.25, lw=0)
+            ax.set_ylabel(ylabel)
+        L_max = _model_values(members[0]["spec"])[1]
+        per_seed = {
+            "speed": [s["mean_forward_speed_m_per_s"].tail(last).mean() for s in series.values()],
+            "final_x": [s["final_x_m"].tail(last).mean() for s in series.values()],
+            "length": [s["length_s"].tail(last).mean() for s in series.values()],
+            "reward": [s["mean_reward"].tail(last).mean() for s in series.values()],
+            "full": [(s["length_s"].tail(50) >= L_max - 1e-6).mean() for s in series.values()],
+        }
+        row: dict[str, Any] = {
+            "group": label, "seeds": len(series),
+            "runs_finished": f"{states.count('finished')}/{len(states)}",
+            "sessions_min": min(len(s) for s in series.values()),
+            "sessions_max": max(len(s) for s in series.values()),
+        }
+        for key, vals in per_seed.items():
+            row[f"{key}_mean"], row[f"{key}_std"] = float(np.mean(vals)), float(np.std(vals))
+        if weights and w_max is not None:
+            ws = [weight_structure(w, w_max) for w in weights]
+            row["mixed_limb_pairs_mean"] = float(np.mean([w["mixed_limb_pairs"] for w in ws]))
+            row["share_above_0.9_w_max_mean"] = float(
+                np.mean([w["share_above_0.9_w_max"] for w in ws]))
+        rows.append(row)
+    axes[0].legend(fontsize=8, loc="best")
+    axes[-1].set_xlabel("session")
+    axes[0].set_title(f"Study {index.get('name', folder.name)}: mean +- std across seeds "
+                      f"(paper Fig. 3c)")
+    fig.tight_layout()
+    fig_path = folder / "fig3c.png"
+    fig.savefig(fig_path, dpi=110)
+    plt.close(fig)
+
+    cols = list(dict.fromkeys(k for r in rows for k in r))
+    csv_text = ",".join(cols) + "\n" + "".join(
+        ",".join(_cell(r.get(c, "")) for c in cols) + "\n" for r in rows)
+    _atomic(folder / "final_figures.csv", lambda f: f.write(csv_text.encode()))
+    text = _markdown(index.get("name", folder.name), rows, last)
+    _atomic(folder / "report.md", lambda f: f.write(text.encode()))
+    return {"files": [fig_path, folder / "final_figures.csv", folder / "report.md"],
+            "rows": rows, "text": text}
+
+
+def _cell(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    s = str(v)
+    return f'"{s}"' if "," in s else s
+
+
+def _pm(row: dict[str, Any], key: str, fmt: str) -> str:
+    return f"{format(row[key + '_mean'], fmt)} ± {format(row[key + '_std'], fmt)}"
+
+
+def _markdown(name: str, rows: list[dict[str, Any]], last: int) -> str:
+    lines = [f"# Study {name}: final figures", "",
+             f"Per seed, the mean over its last {last} sessions; then mean ± std across seeds. "
+             "Full-length: share of the last 50 sessions that reached L_max.", "",
+             "| group | seeds | runs finished | sessions | forward speed (m/s) | final x (m) | "
+             "session length (s) | mean reward | full-length | mixed limb pairs (of 12) | "
+             "weights > 0.9 w_max |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        sessions = (str(r["sessions_min"]) if r["sessions_min"] == r["sessions_max"]
+                    else f"{r['sessions_min']}–{r['sessions_max']}")
+        mixed = r.get("mixed_limb_pairs_mean")
+        sat = r.get("share_above_0.9_w_max_mean")
+        lines.append(
+            f"| {r['group']} | {r['seeds']} | {r['runs_finished']} | {sessions} | "
+            f"{_pm(r, 'speed', '.3f')} | {_pm(r, 'final_x', '.2f')} | {_pm(r, 'length', '.2f')} | "
+            f"{_pm(r, 'reward', '.3f')} | {r['full_mean']:.0%} ± {r['full_std']:.0%} | "
+            f"{'n/a' if mixed is None else f'{mixed:.1f}'} | "
+            f"{'n/a' if sat is None else f'{sat:.0%}'} |")
+    return "\n".join(lines) + "\n"

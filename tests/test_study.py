@@ -1,0 +1,244 @@
+"""Studies on Dask: a real scheduler and two workers on 127.0.0.1 with one killed mid-study,
+an interrupted study continued by the same command, the results table and the report."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from astrocpg.errors import InputError
+from astrocpg.studies.study import load_study
+
+BIN = Path(sys.executable).parent
+ENV = {**os.environ, "PYTHONWARNINGS": "ignore", "DASK_DISTRIBUTED__LOGGING__DISTRIBUTED": "error"}
+
+# four runs of one seed each; sessions last at most 1 s, so each run takes seconds
+TINY = """
+[study]
+name = "tiny"
+sessions = {sessions}
+seeds = {{ first = 1, count = 2 }}
+batch = 1
+[base]
+L_max = "1*second"
+[conditions.astrocytes]
+astrocytes = true
+[conditions.no_astrocytes]
+astrocytes = false
+"""
+
+
+def _tiny(tmp_path: Path, sessions: int) -> Path:
+    p = tmp_path / "tiny.toml"
+    p.write_text(TINY.format(sessions=sessions))
+    return p
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait_for(predicate, timeout: float, what: str, poll: float = 0.2):
+    t0 = time.time()
+    while time.time() - t0 < timeout:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(poll)
+    raise AssertionError(f"timed out after {timeout:.0f} s waiting for {what}")
+
+
+def _status(run: Path) -> dict:
+    try:
+        return json.loads((run / "status.json").read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _rows(out: Path) -> list[dict]:
+    with open(out / "results.csv", newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _assert_complete(out: Path, study_file: Path) -> list[dict]:
+    study = load_study(study_file)
+    rows = _rows(out)
+    keys = [(r["run_id"], r["seed"], r["session"]) for r in rows]
+    assert len(keys) == len(set(keys)), "a run x session appears twice in results.csv"
+    expected = {(run.run_id, str(run.seed + b), str(s)) for run in study.runs
+                for b in range(run.n_trials) for s in range(1, study.n_sessions + 1)}
+    assert set(keys) == expected
+    for run in study.runs:
+        assert _status(out / "runs" / run.run_id)["state"] == "finished"
+    return rows
+
+
+def _kill_group(proc: subprocess.Popen, sig: int) -> None:
+    try:
+        os.killpg(proc.pid, sig)
+    except ProcessLookupError:
+        pass
+
+
+def test_study_file_errors_name_the_key(tmp_path: Path) -> None:
+    p = tmp_path / "bad.toml"
+    p.write_text('[study]\nsessions = 3\n[base]\nno_such_parameter = "1*ms"\n')
+    with pytest.raises(InputError, match=r"\[base\].*no_such_parameter"):
+        load_study(p)
+    p.write_text('[study]\nsessions = 3\n[base]\nL_max = "3*volt"\n')
+    with pytest.raises(InputError, match="L_max"):
+        load_study(p)
+    p.write_text('[study]\nsesions = 3\n')
+    with pytest.raises(InputError, match="unknown key 'sesions'"):
+        load_study(p)
+    p.write_text('[study]\nsessions = 3\n[sweep]\nmode = "zip"\n'
+                 '[sweep.axes]\nL_max = ["1*second", "2*second"]\ntau_STDP = ["10*ms"]\n')
+    with pytest.raises(InputError, match="equal length"):
+        load_study(p)
+
+
+def test_sweep_grid_and_seed_batches(tmp_path: Path) -> None:
+    p = tmp_path / "s.toml"
+    p.write_text('[study]\nsessions = 2\nseeds = [1, 2, 3, 7]\nbatch = 2\n'
+                 '[sweep.axes]\nL_max = ["1*second", "2*second"]\n'
+                 '[conditions.a]\nastrocytes = true\n[conditions.b]\nastrocytes = false\n'
+                 '[conditions.b.set]\nL_non_alive = "0.5*second"\n')
+    study = load_study(p)
+    # 2 conditions x 2 sweep points x seed runs [1-2], [3], [7]
+    assert len(study.runs) == 12
+    assert {(r.seed, r.n_trials) for r in study.runs} == {(1, 2), (3, 1), (7, 1)}
+    b = [r for r in study.runs if r.condition == "b"][0]
+    assert not b.astrocytes and "L_non_alive=0.5*second" in b.overrides
+    assert len({r.run_id for r in study.runs}) == 12
+    for name in ("quick", "ablation"):
+        built_in = load_study(Path(__file__).resolve().parents[1] / "studies" / f"{name}.toml")
+        assert {r.condition for r in built_in.runs} == {"astrocytes", "no_astrocytes"}
+    ablation = load_study(Path(__file__).resolve().parents[1] / "studies" / "ablation.toml")
+    assert ablation.n_sessions == 400 and len(ablation.seeds) == 20
+
+
+def test_scheduler_and_two_workers_one_killed(tmp_path: Path) -> None:
+    """A real `dask scheduler` and two `dask worker`s; one worker is killed while it trains a
+    run; the study completes and every run is present once, the killed one resumed from its
+    checkpoint on the other worker."""
+    study_file = _tiny(tmp_path, sessions=8)
+    out = tmp_path / "out"
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    procs: list[subprocess.Popen] = []
+
+    def start(args: list[str], log: str) -> subprocess.Popen:
+        p = subprocess.Popen(args, stdout=open(tmp_path / log, "w"), stderr=subprocess.STDOUT,
+                             env=ENV, start_new_session=True, cwd=tmp_path)
+        procs.append(p)
+        return p
+
+    try:
+        start([str(BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port),
+               "--no-dashboard"], "scheduler.log")
+        workers = [start([str(BIN / "dask"), "worker", address, "--nthreads", "1", "--no-nanny",
+                          "--no-dashboard", "--name", f"w{k}"], f"worker{k}.log")
+                   for k in range(2)]
+        study = start([str(BIN / "astrocpg"), "study", str(study_file), "--out", str(out),
+                       "--scheduler", address, "--no-progress"], "study.log")
+        pids = {w.pid: w for w in workers}
+
+        def in_flight():
+            # a run on one of our workers that has checkpointed at least one session
+            for run in (out / "runs").glob("*"):
+                s = _status(run)
+                if s.get("state") == "running" and s.get("pid") in pids \
+                        and (run / "checkpoint.pkl").exists():
+                    return run, s
+            return None
+
+        run, s = _wait_for(in_flight, 240, "a run in flight with a checkpoint")
+        victim = pids[s["pid"]]
+        _kill_group(victim, signal.SIGKILL)
+        victim.wait(10)
+        assert study.wait(400) == 0, (tmp_path / "study.log").read_text()[-3000:]
+    finally:
+        for p in procs:
+            _kill_group(p, signal.SIGKILL)
+            p.wait(10)
+    _assert_complete(out, study_file)
+    resumed = _status(run)
+    assert resumed["attempts"] == 2
+    assert resumed["sessions_at_start"] >= 1  # continued from its checkpoint, not from scratch
+    survivor = next(p for p in workers if p is not victim)
+    assert resumed["pid"] == survivor.pid
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["ctrl-c", "crash"])
+def test_interrupted_study_continues(tmp_path: Path, sig: int) -> None:
+    """Interrupt a study (Ctrl-C, or SIGKILL of the whole process group), run the same command
+    again: finished runs are not redone, the run in flight resumes, the table is complete."""
+    study_file = _tiny(tmp_path, sessions=5)
+    out = tmp_path / "out"
+    cmd = [str(BIN / "astrocpg"), "study", str(study_file), "--out", str(out), "--workers", "1",
+           "--no-progress"]
+    first = subprocess.Popen(cmd, stdout=open(tmp_path / "first.log", "w"),
+                             stderr=subprocess.STDOUT, env=ENV, start_new_session=True)
+    try:
+        def one_finished_one_running():
+            runs = list((out / "runs").glob("*"))
+            states = [_status(r).get("state") for r in runs]
+            running = [r for r in runs if _status(r).get("state") == "running"
+                       and (r / "checkpoint.pkl").exists()]
+            return states.count("finished") >= 1 and running
+
+        _wait_for(one_finished_one_running, 240, "one run finished and one in flight")
+        _kill_group(first, sig)
+        rc = first.wait(60)
+    finally:
+        _kill_group(first, signal.SIGKILL)
+        first.wait(10)
+    assert rc != 0
+    before = {r.name: ((r / "sessions.csv").stat().st_mtime_ns, _status(r))
+              for r in (out / "runs").glob("*") if _status(r).get("state") == "finished"}
+    assert before
+    second = subprocess.run(cmd, capture_output=True, text=True, env=ENV, timeout=400)
+    assert second.returncode == 0, second.stdout[-2000:] + second.stderr[-2000:]
+    _assert_complete(out, study_file)
+    for name, (mtime, status) in before.items():
+        run = out / "runs" / name
+        assert (run / "sessions.csv").stat().st_mtime_ns == mtime, f"{name} was redone"
+        assert _status(run)["attempts"] == status["attempts"] == 1
+    assert any(_status(r)["attempts"] == 2 and _status(r)["sessions_at_start"] >= 1
+               for r in (out / "runs").glob("*")), "no run resumed from its checkpoint"
+
+
+def test_report_and_refusals(tmp_path: Path) -> None:
+    study_file = _tiny(tmp_path, sessions=2)
+    out = tmp_path / "out"
+    from astrocpg.studies.cli import main
+
+    assert main(["study", str(study_file), "--out", str(out), "--workers", "1",
+                 "--no-progress"]) == 0
+    rows = _assert_complete(out, study_file)
+    assert {r["condition"] for r in rows} == {"astrocytes", "no_astrocytes"}
+    assert main(["report", str(out)]) == 0
+    for name in ("fig3c.png", "final_figures.csv", "report.md"):
+        assert (out / name).stat().st_size > 0
+    text = (out / "report.md").read_text()
+    assert "| astrocytes | 2 | 2/2 | 2 |" in text and "| no_astrocytes | 2 | 2/2 | 2 |" in text
+    # a rerun does nothing and keeps the table
+    mtime = (out / "runs" / "astrocytes__seed1" / "sessions.csv").stat().st_mtime_ns
+    assert main(["study", str(study_file), "--out", str(out), "--no-progress"]) == 0
+    assert (out / "runs" / "astrocytes__seed1" / "sessions.csv").stat().st_mtime_ns == mtime
+    assert len(_rows(out)) == len(rows)
+    # the same folder with other settings for an existing run is refused
+    study_file.write_text(TINY.format(sessions=3))
+    assert main(["study", str(study_file), "--out", str(out), "--no-progress"]) == 2
+    assert main(["report", str(tmp_path)]) == 2
