@@ -15,6 +15,7 @@ import brian2
 from ..errors import InputError
 from .alive import ALIVE
 from .astrocyte import ASTROCYTE
+from .energy import RL_POWER, SNN_POWER
 from .base import ExpressionModel, NeuronModel, Parameter, ParameterTable, SynapseModel
 from .hip_controller import HIP_CONTROLLER
 from .interlimb_synapse import INTERLIMB_SYNAPSE
@@ -51,6 +52,8 @@ class ModelSet:
     alive: ExpressionModel = ALIVE
     progress: ExpressionModel = PROGRESS
     learning_start: ExpressionModel = LEARNING_START
+    snn_power: ExpressionModel = SNN_POWER
+    rl_power: ExpressionModel = RL_POWER
 
     def __post_init__(self) -> None:
         owners: dict[str, str] = {}

@@ -104,6 +104,12 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument("--last", type=int, default=20,
                         help="sessions at the end over which final figures are averaged (20)")
 
+    power = sub.add_parser("power", help="SNN vs RL power estimate of a trained controller")
+    power.add_argument("dir", help="a training folder (astrocpg train, or a study's run)")
+    power.add_argument("--trial", type=int, default=0, help="which trial's weights (0)")
+    power.add_argument("--sessions", type=int, default=10, help="sessions to measure (10)")
+    power.add_argument("--no-progress", action="store_true")
+
     robot = sub.add_parser("robot", help="the project's A1 model")
     robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
     export = robot_sub.add_parser("export", help="write the A1 model as MJCF")
@@ -131,6 +137,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_study(args)
         if args.command == "report":
             return _cmd_report(args)
+        if args.command == "power":
+            return _cmd_power(args)
     except InputError as e:
         sys.stderr.write(f"astrocpg: error: {e}\n")
         return 2
@@ -532,6 +540,21 @@ def _cmd_report(args: argparse.Namespace) -> int:
     written = report(Path(args.dir), last=args.last)
     print(written["text"])
     print(f"wrote {', '.join(str(p) for p in written['files'])}")
+    return 0
+
+
+def _cmd_power(args: argparse.Namespace) -> int:
+    from .outputs import save_json
+    from .power import format_power, measure
+
+    folder = Path(args.dir)
+    res = measure(folder, trial=args.trial, sessions=args.sessions,
+                  progress=not args.no_progress)
+    print(format_power(res))
+    from .outputs import package_versions
+    save_json(folder / f"power_trial{args.trial}.json",
+              res | {"package_versions": package_versions(), "argv": sys.argv})
+    print(f"wrote {folder / f'power_trial{args.trial}.json'}")
     return 0
 
 

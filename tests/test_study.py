@@ -242,3 +242,36 @@ def test_report_and_refusals(tmp_path: Path) -> None:
     study_file.write_text(TINY.format(sessions=3))
     assert main(["study", str(study_file), "--out", str(out), "--no-progress"]) == 2
     assert main(["report", str(tmp_path)]) == 2
+
+
+def test_power_counts_come_from_the_network(tmp_path: Path) -> None:
+    """Events per spike are counted on the built network; the estimate follows the paper's
+    formula with the measured rates; the RL figure is the paper's."""
+    from astrocpg.network import INTERNEURONS, LEGS, build_cpg
+    from astrocpg.studies.cli import main
+    from astrocpg.studies.power import synaptic_events_per_spike
+
+    cpg = build_cpg(n_trials=2, seed=3)
+    ops = synaptic_events_per_spike(cpg)
+    n = cpg.layout.pool_size
+    drives = {}  # interneurons driven by each pool
+    for _, _, source, _ in INTERNEURONS:
+        drives[source] = drives.get(source, 0) + 1
+    other_thigh_pools = (len(LEGS) - 1) * 2
+    assert ops["thigh"] == (n - 1) + drives["thigh_flexor"] + other_thigh_pools * n == 141
+    assert ops["calf"] == (n - 1) + drives["calf_flexor"] == 20
+    assert ops["inhibitory"] == n and ops["limit"] == n
+
+    out = tmp_path / "train"
+    assert main(["train", "--sessions", "1", "--set", "L_max=0.5*second", "--out", str(out),
+                 "--no-progress"]) == 0
+    assert main(["power", str(out), "--sessions", "2", "--no-progress"]) == 0
+    res = json.loads((out / "power_trial0.json").read_text())
+    assert len(res["sessions"]) == 2
+    f, o = res["total_rate_Hz"], res["ops_per_spike"]
+    assert res["snn_W"] == pytest.approx(0.9e-12 * sum(o[k] * f[k] for k in o))
+    assert res["rl_W"] == pytest.approx(100 * (42 * 128 + 128 * 128 + 128 * 12) * 4.6e-12)
+    assert res["ratio"] == pytest.approx(res["rl_W"] / res["snn_W"])
+    # the rhythm makes every population fire
+    assert all(v > 0 for v in f.values())
+    assert main(["power", str(out), "--trial", "3", "--no-progress"]) == 2

@@ -1,0 +1,163 @@
+"""``astrocpg power DIR``: the paper's power comparison for a trained controller.
+
+The trained inter-limb table of one trial runs, with learning off, for 10 sessions of at most
+L_max (the training's own session rules: a session also ends when the robot has been down for
+L_non_alive, then the network and robot are reset, astrocytes and weights kept). Per session,
+the total firing frequency of each population is its spike count over the session length; the
+estimate uses their mean over sessions (paper: "Power Consumption Benefits").
+
+Synaptic events per spike are counted on the built network: a thigh or calf motor neuron's
+outgoing synapses (its pool, its interneurons, and for thigh pools the inter-limb synapses of its
+pool times the target pool's size); an interneuron's synapses onto motor neurons; a
+limit-position inhibition event reaches every neuron of one pool. The bookkeeping synapse that
+counts a pool's spikes for the torque is not a synaptic operation and is left out.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+
+# The paper's figures, shown next to ours (not used in any computation).
+PAPER = {
+    "ops_per_spike": {"inhibitory": 20, "calf": 20, "thigh": 81, "limit": 20},
+    "total_rate_Hz": {"inhibitory": 669.0, "calf": 4340.0, "thigh": 4520.0, "limit": 2220.0},
+    "snn_W": 4.60e-7, "rl_W": 1.07e-5, "ratio": 23.3,
+}
+
+
+def synaptic_events_per_spike(cpg) -> dict[str, float]:
+    """Mean number of synaptic events one spike causes, per population, from the built
+    network's synapses."""
+    L = cpg.layout
+    n_motor = L.n_trials * L.motor_per_trial
+    fanout = np.zeros(n_motor)
+    for name in ("intra_pool", "pool_to_interneuron"):
+        fanout += np.bincount(np.asarray(cpg.synapses[name].i[:]), minlength=n_motor)
+    if "interlimb" in cpg.synapses:
+        n_pools = L.n_trials * L.pools_per_trial
+        per_pool = np.bincount(np.asarray(cpg.synapses["interlimb"].i[:]),
+                               minlength=n_pools) * L.pool_size
+        fanout += per_pool[L.pool_of_motor_neuron]
+    kind = (np.arange(n_motor) % L.motor_per_trial) // L.pool_size % 4  # POOLS order
+    n_in = L.n_trials * L.interneurons_per_trial
+    in_fanout = np.bincount(np.asarray(cpg.synapses["interneuron_to_pool"].i[:]), minlength=n_in)
+    return {"inhibitory": float(in_fanout.mean()), "calf": float(fanout[kind >= 2].mean()),
+            "thigh": float(fanout[kind < 2].mean()), "limit": float(L.pool_size)}
+
+
+def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
+            progress: bool = True) -> dict[str, Any]:
+    """Run trial ``trial``'s trained table of the training in ``folder`` for ``sessions``
+    sessions with learning off; return rates, events per spike and the power estimates."""
+    from brian2 import second
+    from tqdm.auto import tqdm
+
+    from ..coupling.bridge import Bridge
+    from ..coupling.robot import A1Parameters, RobotLayout, build_model
+    from ..coupling.training import Training
+    from ..network import build_cpg, check_runs
+    from .cli import load_weights, models_from
+
+    weights = load_weights(str(folder), trial)  # (8, 8) volt; checks the folder and trial
+    try:
+        manifest = json.loads((folder / "manifest.json").read_text())
+        settings = manifest["settings"]
+    except (OSError, ValueError, KeyError):
+        raise InputError(f"power {folder}: no readable manifest.json (not a training run)") \
+            from None
+    if sessions < 1:
+        raise InputError(f"--sessions must be at least 1, got {sessions}")
+    models = models_from(settings.get("overrides", []), settings.get("equations", {}))
+    syn = models.interlimb_synapse.parameters
+    # weights fixed: a measurement, not training (zero in each rate's own unit)
+    values: dict[str, Any] = {"eta": 0 * syn["eta"].value, "eta_ADO": 0 * syn["eta_ADO"].value}
+    if not settings.get("astrocytes", True):
+        values["astrocyte_regulation"] = 0.0
+    models = models.with_values(values)
+    seed = int(manifest.get("seed", settings.get("seed", 1))) + trial
+    params = A1Parameters()
+    robot = build_model(params)
+    layout = RobotLayout.from_model(robot, params)
+    cpg = build_cpg(models, n_trials=1, seed=seed, dt=robot.opt.timestep * second,
+                    interlimb_weights=weights)
+    check_runs(cpg)
+    bridge = Bridge(cpg, robot, layout, models)
+    L_max = float(np.asarray(models.progress.parameters["L_max"].value))
+    bar = tqdm(total=sessions, unit="session", desc="power", disable=not progress)
+    limit = cpg.array("pool", "limit_inhibition")
+    counted = {"limit": 0.0}
+    per_session: list[dict[str, float]] = []
+
+    def on_session(training: Training, b: int) -> None:
+        row = training.memory.rows[-1]
+        length = row["length_s"]
+        per_session.append({
+            "length_s": length,
+            "inhibitory": row["spikes_interneuron"] / length,
+            "calf": row["spikes_calf_motor"] / length,
+            "thigh": row["spikes_thigh_motor"] / length,
+            "limit": counted["limit"] / length,
+            "forward_speed_m_per_s": row["mean_forward_speed_m_per_s"],
+        })
+        counted["limit"] = 0.0
+        bar.update(1)
+
+    training = Training(cpg, bridge, models, n_sessions=sessions, on_session=on_session)
+    session_step = bridge.after_physics
+
+    def count_then_step() -> None:
+        # limit-position inhibition events of this step (pools inhibited), before the session
+        # loop possibly closes the session
+        counted["limit"] += float(limit.sum())
+        session_step()
+
+    bridge.after_physics = count_then_step
+    cpg.net.add(bridge.operation())
+    try:
+        cpg.net.run((sessions * L_max + 1.0) * second, namespace={})
+    finally:
+        bar.close()
+    if len(per_session) < sessions:
+        raise InputError(f"power: the run stopped after {len(per_session)} of {sessions} "
+                         f"sessions (interrupted)")
+    rates = {k: float(np.mean([s[k] for s in per_session]))
+             for k in ("inhibitory", "calf", "thigh", "limit")}
+    ops = synaptic_events_per_spike(cpg)
+    snn = float(models.snn_power.compile()(
+        **{f"ops_{k}": v for k, v in ops.items()}, **{f"f_{k}": v for k, v in rates.items()}))
+    eps_add = float(np.asarray(models.snn_power.parameters["epsilon_ADD"].value))
+    rl = float(models.rl_power.compile()(epsilon_ADD=eps_add))
+    # for comparison only: our rates with the paper's count of events per spike
+    snn_paper_ops = float(models.snn_power.compile()(
+        **{f"ops_{k}": v for k, v in PAPER["ops_per_spike"].items()},
+        **{f"f_{k}": v for k, v in rates.items()}))
+    return {"trial": trial, "seed": seed, "sessions": per_session, "total_rate_Hz": rates,
+            "ops_per_spike": ops, "snn_W": snn, "rl_W": rl, "ratio": rl / snn,
+            "snn_W_with_paper_ops": snn_paper_ops, "paper": PAPER}
+
+
+def format_power(res: dict[str, Any]) -> str:
+    p = res["paper"]
+    names = {"inhibitory": "inhibitory interneurons", "calf": "calf motor neurons",
+             "thigh": "thigh motor neurons", "limit": "limit-position inhibition"}
+    lengths = [s["length_s"] for s in res["sessions"]]
+    lines = [f"{len(lengths)} sessions with the trained table of trial {res['trial']} "
+             f"(seed {res['seed']}), lengths {min(lengths):.2f}–{max(lengths):.2f} s",
+             f"{'population':28s} {'events/spike':>12s} {'(paper)':>8s} {'total rate (Hz)':>16s}"
+             f" {'(paper)':>9s}"]
+    for k, label in names.items():
+        lines.append(f"{label:28s} {res['ops_per_spike'][k]:12.1f} {p['ops_per_spike'][k]:8d} "
+                     f"{res['total_rate_Hz'][k]:16.4g} {p['total_rate_Hz'][k]:9.4g}")
+    lines += [f"SNN CPG power   {res['snn_W']:.3g} W   (paper {p['snn_W']:.3g} W)",
+              f"RL policy power {res['rl_W']:.3g} W   (paper {p['rl_W']:.3g} W)",
+              f"ratio RL / SNN  {res['ratio']:.1f}x    (paper {p['ratio']:.1f}x)",
+              f"with the paper's events per spike and these rates: SNN "
+              f"{res['snn_W_with_paper_ops']:.3g} W, ratio "
+              f"{res['rl_W'] / res['snn_W_with_paper_ops']:.1f}x"]
+    return "\n".join(lines)
