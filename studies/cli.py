@@ -31,6 +31,19 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
+def _csv_list(text: str) -> tuple[str, ...]:
+    return () if text.strip() in ("", "none") else tuple(x.strip() for x in text.split(","))
+
+
+def _add_record_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--spikes", type=_csv_list, default=None, metavar="POPS",
+                   help="populations whose spikes are recorded, comma-separated, or none "
+                        "(default: motor,interneuron,astrocyte)")
+    p.add_argument("--traces", type=_csv_list, default=None, metavar="NAMES",
+                   help="traces recorded, comma-separated, or none (default: motor_Ca,"
+                        "astrocyte_Ca,astrocyte_IP3,astrocyte_AG,astrocyte_ADO)")
+
+
 def _add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
                    help="override a model parameter, with units (e.g. --set tau_motor=9*ms)")
@@ -50,6 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
     unit.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
                       help="sampling interval of the Ca2+ traces in ms (default 1)")
     unit.add_argument("--out", required=True)
+    _add_record_options(unit)
     _add_model_options(unit)
 
     run = sub.add_parser("run", help="the closed loop: CPG drives the A1 (fixed weights)")
@@ -66,6 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--robot-stride", type=int, default=1, metavar="STEPS",
                      help="record the robot every STEPS physics steps (default 1)")
     run.add_argument("--out", default=DEFAULT_RUN_OUT)
+    _add_record_options(run)
     _add_model_options(run)
 
     train = sub.add_parser("train", help="gait learning over sessions (reward-modulated STDP)")
@@ -110,6 +125,11 @@ def build_parser() -> argparse.ArgumentParser:
     power.add_argument("--sessions", type=int, default=10, help="sessions to measure (10)")
     power.add_argument("--no-progress", action="store_true")
 
+    exp = sub.add_parser("export", help="a run or unit folder as NWB or npz")
+    exp.add_argument("dir", help="output of astrocpg run or unit")
+    exp.add_argument("--format", default="nwb", help="nwb (default) or npz")
+    exp.add_argument("--out", help="file to write (default DIR/export.<format>)")
+
     robot = sub.add_parser("robot", help="the project's A1 model")
     robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
     export = robot_sub.add_parser("export", help="write the A1 model as MJCF")
@@ -139,6 +159,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_report(args)
         if args.command == "power":
             return _cmd_power(args)
+        if args.command == "export":
+            return _cmd_export(args)
     except InputError as e:
         sys.stderr.write(f"astrocpg: error: {e}\n")
         return 2
@@ -249,11 +271,13 @@ def _cmd_unit(args: argparse.Namespace) -> int:
     _check_common(args)
     models = load_models(args.overrides, args.equations)
     result = simulate_unit(models, seconds=args.seconds, seed=args.seed, n_trials=args.trials,
-                           trace_dt=args.trace_dt * ms, progress=not args.no_progress)
+                           trace_dt=args.trace_dt * ms, spikes=args.spikes, traces=args.traces,
+                           progress=not args.no_progress)
     out = prepare_output_dir(args.out)
     L = result.cpg.layout
     summaries = []
-    for b in range(L.n_trials):
+    have = {"motor", "interneuron"} <= set(result.spikes)
+    for b in range(L.n_trials if have else 0):  # the rhythm needs both populations' spikes
         pools = {name: L.motor_neurons(b, 0, name) for name in ("thigh_flexor", "thigh_extensor",
                                                                  "calf_flexor", "calf_extensor")}
         t, i = result.spikes["motor"]
@@ -264,12 +288,14 @@ def _cmd_unit(args: argparse.Namespace) -> int:
         summaries.append(s)
         print(_format_unit_summary(b, args.seed + b, s))
     files = _save_common(out, result, save_npz)
-    plots.plot_unit(out / "unit.png", result.spikes, L)
-    files["unit.png"] = "raster of the motor neurons and interneurons, and pool activity (trial 0)"
+    if have:
+        plots.plot_unit(out / "unit.png", result.spikes, L)
+        files["unit.png"] = ("raster of the motor neurons and interneurons, and pool activity "
+                             "(trial 0)")
     write_manifest(out, command="unit", seed=args.seed, settings=_settings(args),
                    models_json=models.to_json(), files=files,
                    results={"rhythm": summaries, "wall_seconds": result.wall_seconds,
-                            "layout": _layout_json(L)})
+                            "dt_s": float(result.cpg.dt), "layout": _layout_json(L)})
     print(f"wrote {out}/ ({', '.join(files)})")
     return 0
 
@@ -300,6 +326,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     result = simulate_closed_loop(models, robot, layout, seconds=args.seconds, seed=args.seed,
                                   n_trials=args.trials, weights=weights,
                                   trace_dt=args.trace_dt * ms, robot_stride=args.robot_stride,
+                                  spikes=args.spikes, traces=args.traces,
                                   progress=not args.no_progress)
     out = prepare_output_dir(args.out)
     rec = result.robot
@@ -315,9 +342,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
                           "joint) N m; torso_position/velocity (trial, t, xyz) m, m/s world; "
                           "reward, alive (trial, t); foot_force (trial, t, leg) N; "
                           "interlimb_weights_mV (trial, 8, 8)")
-    plots.plot_thigh_extensor_activity(out / "thigh_extensor_activity.png", result.spikes,
-                                       result.cpg.layout)
-    files["thigh_extensor_activity.png"] = "thigh-extensor activity of the 4 limbs (trial 0)"
+    if "motor" in result.spikes:
+        plots.plot_thigh_extensor_activity(out / "thigh_extensor_activity.png", result.spikes,
+                                           result.cpg.layout)
+        files["thigh_extensor_activity.png"] = "thigh-extensor activity of the 4 limbs (trial 0)"
     x = rec.torso_position[:, :, 0]
     start_x = layout.reset_qpos[layout.free_qpos_adr]
     distance = x[:, -1] - start_x
@@ -326,7 +354,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     for b in range(args.trials):
         print(f"trial {b} (seed {args.seed}+{b}): distance {distance[b]:+.3f} m, mean forward "
               f"speed {mean_speed[b]:+.3f} m/s, upright {rec.alive[b].mean() * 100:.0f}% of steps")
-        print("  rate per neuron (Hz): " + ", ".join(f"{k} {v[b]:.1f}" for k, v in rates.items()))
+        if rates:
+            print("  rate per neuron (Hz): "
+                  + ", ".join(f"{k} {v[b]:.1f}" for k, v in rates.items()))
     print(f"wall time {result.wall_seconds:.1f} s for {args.seconds:g} simulated s "
           f"x {args.trials} trial(s)")
     robot_info = {"file": os.path.abspath(args.robot), "sha256": file_sha256(args.robot)} \
@@ -335,6 +365,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                    models_json=models.to_json(), files=files,
                    results={"distance_m": distance, "mean_forward_speed_m_per_s": mean_speed,
                             "rate_per_neuron_Hz": rates, "wall_seconds": result.wall_seconds,
+                            "dt_s": float(result.cpg.dt),
                             "robot": robot_info, "layout": _layout_json(result.cpg.layout)})
     print(f"wrote {out}/ ({', '.join(files)})")
     return 0
@@ -555,6 +586,14 @@ def _cmd_power(args: argparse.Namespace) -> int:
     save_json(folder / f"power_trial{args.trial}.json",
               res | {"package_versions": package_versions(), "argv": sys.argv})
     print(f"wrote {folder / f'power_trial{args.trial}.json'}")
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from .export import export
+
+    path = export(Path(args.dir), args.format, Path(args.out) if args.out else None)
+    print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return 0
 
 

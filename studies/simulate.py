@@ -36,32 +36,61 @@ class SimulationResult:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
-def _monitors(cpg: CPG, trace_dt: Any, record_traces: bool) -> dict[str, Any]:
+TRACES = ("motor_Ca", "astrocyte_Ca", "astrocyte_IP3", "astrocyte_AG", "astrocyte_ADO")
+# (group, variable, scale to the stored unit, unit) of each trace
+TRACE_SOURCES = {
+    "motor_Ca": ("motor", "Ca", 1.0, "a.u."),
+    # concentrations in uM (Brian2 keeps mol/m^3 = mM internally)
+    "astrocyte_Ca": ("astrocyte", "Ca", 1e3, "uM"),
+    "astrocyte_IP3": ("astrocyte", "IP3", 1e3, "uM"),
+    "astrocyte_AG": ("astrocyte", "AG", 1.0, "a.u."),
+    "astrocyte_ADO": ("astrocyte", "ADO", 1.0, "a.u."),
+}
+
+
+def check_selection(spikes: tuple[str, ...] | None,
+                    traces: tuple[str, ...] | None) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """Validate which populations' spikes and which traces to record (None: all)."""
+    spikes = POPULATIONS if spikes is None else tuple(spikes)
+    traces = TRACES if traces is None else tuple(traces)
+    for name in spikes:
+        if name not in POPULATIONS:
+            raise InputError(f"--spikes: unknown population '{name}' "
+                             f"(populations: {', '.join(POPULATIONS)})")
+    for name in traces:
+        if name not in TRACES:
+            raise InputError(f"--traces: unknown trace '{name}' (traces: {', '.join(TRACES)})")
+    return spikes, traces
+
+
+def _monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
+              spikes: tuple[str, ...] = POPULATIONS,
+              traces: tuple[str, ...] = TRACES) -> dict[str, Any]:
     mons: dict[str, Any] = {p: SpikeMonitor(getattr(cpg, p), name=f"spikes_{p}")
-                            for p in POPULATIONS}
+                            for p in spikes}
     if record_traces:
-        mons["motor_state"] = StateMonitor(cpg.motor, ["Ca"], record=True, dt=trace_dt,
-                                           name="trace_motor")
-        mons["astrocyte_state"] = StateMonitor(cpg.astrocyte, ["Ca", "IP3", "AG", "ADO"],
-                                               record=True, dt=trace_dt, name="trace_astrocyte")
+        per_group: dict[str, list[str]] = {}
+        for name in traces:
+            group, var, _, _ = TRACE_SOURCES[name]
+            per_group.setdefault(group, []).append(var)
+        for group, variables in per_group.items():
+            mons[f"{group}_state"] = StateMonitor(getattr(cpg, group), variables, record=True,
+                                                  dt=trace_dt, name=f"trace_{group}")
     cpg.net.add(*mons.values())
     return mons
 
 
 def _collect(mons: dict[str, Any]) -> tuple[dict, dict]:
     spikes = {p: (np.asarray(mons[p].t_[:]), np.asarray(mons[p].i_[:], dtype=np.int32))
-              for p in POPULATIONS}
+              for p in POPULATIONS if p in mons}
     traces = {}
-    if "motor_state" in mons:
-        m = mons["motor_state"]
-        traces["motor_Ca"] = (np.asarray(m.t_[:]), np.asarray(m.Ca_[:].T, dtype=np.float32))
-        a = mons["astrocyte_state"]
-        for var in ("Ca", "IP3", "AG", "ADO"):
-            # concentrations in uM (Brian2 keeps mol/m^3 = mM internally)
-            scale = 1e3 if var in ("Ca", "IP3") else 1.0
-            traces[f"astrocyte_{var}"] = (np.asarray(a.t_[:]),
-                                          np.asarray(getattr(a, f"{var}_")[:].T * scale,
-                                                     dtype=np.float32))
+    for name in TRACES:
+        group, var, scale, _ = TRACE_SOURCES[name]
+        m = mons.get(f"{group}_state")
+        if m is None or var not in m.record_variables:
+            continue
+        traces[name] = (np.asarray(m.t_[:]),
+                        np.asarray(getattr(m, f"{var}_")[:].T * scale, dtype=np.float32))
     return spikes, traces
 
 
@@ -84,13 +113,14 @@ class _Progress:
 
 def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int = 1,
                   trace_dt: Any = 1 * ms, record_traces: bool = True,
+                  spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
                   progress: bool = True) -> SimulationResult:
     """One locomotion unit (the FR limb's CPG) open loop: no robot, torso speed 0, no
     limit-position inhibition (the paper's Fig. 1c). ``n_trials`` units with seeds seed..."""
     _check_seconds(seconds)
     cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=("FR",))
     check_runs(cpg)
-    mons = _monitors(cpg, trace_dt, record_traces)
+    mons = _monitors(cpg, trace_dt, record_traces, *check_selection(spikes, traces))
     bar = _Progress(seconds, "unit", progress and seconds > 3)
     steps = [0]
 
@@ -109,7 +139,9 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: 
                          seconds: float, seed: int, n_trials: int = 1,
                          weights: np.ndarray | None = None, trace_dt: Any = 1 * ms,
                          robot_stride: int = 1, record_traces: bool = True,
-                         record_spikes: bool = True, progress: bool = True) -> SimulationResult:
+                         record_spikes: bool = True, spikes: tuple[str, ...] | None = None,
+                         traces: tuple[str, ...] | None = None,
+                         progress: bool = True) -> SimulationResult:
     """The whole CPG driving ``n_trials`` robots for ``seconds``, inter-limb weights fixed
     (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero)."""
     _check_seconds(seconds)
@@ -121,7 +153,8 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: 
     bridge = Bridge(cpg, robot, robot_layout, models, on_step=bar)
     n_steps = int(round(seconds / robot.opt.timestep))
     rec = bridge.start_recording(n_steps, robot_stride)
-    mons = _monitors(cpg, trace_dt, record_traces) if record_spikes else {}
+    selection = check_selection(spikes, traces)
+    mons = _monitors(cpg, trace_dt, record_traces, *selection) if record_spikes else {}
     cpg.net.add(bridge.operation())
     wall = _run(cpg, seconds, bar)
     spikes, traces = _collect(mons) if mons else ({}, {})
@@ -149,6 +182,8 @@ def firing_rates(result: SimulationResult) -> dict[str, Any]:
     cpg, T = result.cpg, result.seconds
     L = cpg.layout
     out: dict[str, Any] = {}
+    if "motor" not in result.spikes:
+        return {}
     t, i = result.spikes["motor"]
     per_trial = i // L.motor_per_trial
     pool_kind = (i % L.motor_per_trial) // L.pool_size % 4
@@ -158,6 +193,8 @@ def firing_rates(result: SimulationResult) -> dict[str, Any]:
         out[name] = counts / (L.n_legs * L.pool_size * T)
     for pop, n in (("interneuron", L.interneurons_per_trial),
                    ("astrocyte", L.thigh_pools_per_trial)):
+        if pop not in result.spikes:
+            continue
         _, idx = result.spikes[pop]
         out[pop] = np.bincount(idx // n, minlength=L.n_trials) / (n * T)
     return {k: np.asarray(v) for k, v in out.items()}

@@ -1,0 +1,298 @@
+"""``astrocpg export DIR --format nwb|npz``: a simulation folder as one file for analysis tools.
+
+DIR is the output of ``astrocpg run`` or ``astrocpg unit`` (``spikes.npz``, ``traces.npz``,
+``robot.npz``, ``manifest.json``). What it holds was chosen when it was recorded: ``--spikes``
+and ``--traces`` pick populations and traces, ``--trace-dt`` and ``--robot-stride`` the
+sampling, so a long run does not fill the disk.
+
+NWB (pynwb): every neuron of every recorded population is a row of the Units table with its
+spike times and the columns ``population``, ``trial``, ``limb``, ``pool`` and ``neuron_index``
+(its index in the population, the column of its trace); astrocyte "spikes" are adenosine
+releases. Traces (motor-neuron Ca2+, astrocyte Ca2+, IP3, 2-AG, adenosine) and, per trial, joint
+angles, torques and the torso's position and velocity are TimeSeries with their units. The
+model parameters (value, unit, the paper's symbol, meaning) and equations are tables in the
+``model`` processing module; the seed and settings are in the file's ``notes`` and
+``session_description``.
+
+npz: the same arrays in one compressed file, the unit metadata as string arrays and the
+metadata as a JSON string (``metadata_json``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+
+TRACE_UNITS = {"motor_Ca": "a.u.", "astrocyte_Ca": "uM", "astrocyte_IP3": "uM",
+               "astrocyte_AG": "a.u.", "astrocyte_ADO": "a.u."}
+TRACE_MEANING = {
+    "motor_Ca": "motor-neuron Ca2+ (dimensionless, drives the K+ adaptation current)",
+    "astrocyte_Ca": "astrocyte cytosolic Ca2+ (Li-Rinzel)",
+    "astrocyte_IP3": "astrocyte IP3",
+    "astrocyte_AG": "2-AG (endocannabinoid) at the astrocyte",
+    "astrocyte_ADO": "adenosine released by the astrocyte",
+}
+ROBOT_SERIES = (("joint_angles", "radian", "joint angles"),
+                ("torques", "N*m", "joint torques as applied (clipped to the motors' range)"),
+                ("torso_position", "meter", "torso position, world frame"),
+                ("torso_velocity", "m/s", "torso linear velocity, world frame"))
+
+
+def _load(folder: Path) -> dict[str, Any]:
+    try:
+        manifest = json.loads((folder / "manifest.json").read_text())
+    except (OSError, ValueError):
+        raise InputError(f"export {folder}: no readable manifest.json") from None
+    if manifest.get("astrocpg_command") not in ("run", "unit"):
+        raise InputError(f"export {folder}: holds a '{manifest.get('astrocpg_command')}' "
+                         f"folder; export reads the output of astrocpg run or unit (for a "
+                         f"training: astrocpg run --weights {folder} --out DIR, then export DIR)")
+    data: dict[str, Any] = {"manifest": manifest}
+    for name in ("spikes", "traces", "robot"):
+        path = folder / f"{name}.npz"
+        if path.exists():
+            with np.load(path) as z:
+                data[name] = {k: z[k] for k in z.files}
+    if "spikes" not in data:
+        raise InputError(f"export {folder}: no spikes.npz")
+    return data
+
+
+def unit_rows(manifest: dict[str, Any]) -> dict[str, list[dict[str, Any]]]:
+    """Per population, one dict per neuron: trial, limb, pool (or interneuron name), index."""
+    lay = manifest["results"]["layout"]
+    legs, pools, size = lay["legs"], lay["pools"], lay["pool_size"]
+    n_trials = lay["n_trials"]
+    rows: dict[str, list[dict[str, Any]]] = {"motor": [], "interneuron": [], "astrocyte": []}
+    k = 0
+    for b in range(n_trials):
+        for leg in legs:
+            for pool in pools:
+                for _ in range(size):
+                    rows["motor"].append({"trial": b, "limb": leg, "pool": pool,
+                                          "neuron_index": k})
+                    k += 1
+    k = 0
+    for b in range(n_trials):
+        for leg in legs:
+            for name in lay["interneurons"]:
+                rows["interneuron"].append({"trial": b, "limb": leg, "pool": name,
+                                            "neuron_index": k})
+                k += 1
+    k = 0
+    for b in range(n_trials):
+        for leg in legs:
+            for pool in lay["thigh_pools"]:
+                rows["astrocyte"].append({"trial": b, "limb": leg, "pool": pool,
+                                          "neuron_index": k})
+                k += 1
+    return rows
+
+
+def _spike_trains(times: np.ndarray, indices: np.ndarray, n: int) -> list[np.ndarray]:
+    order = np.lexsort((times, indices))
+    t, i = times[order], indices[order]
+    bounds = np.searchsorted(i, np.arange(n + 1))
+    return [t[bounds[k]:bounds[k + 1]].astype(np.float64) for k in range(n)]
+
+
+def _metadata(manifest: dict[str, Any]) -> dict[str, Any]:
+    return {k: manifest.get(k) for k in ("astrocpg_command", "seed", "settings", "argv",
+                                          "created", "package_versions", "git")}
+
+
+def export_nwb(folder: Path, path: Path) -> Path:
+    from hdmf.common import DynamicTable, VectorData
+    from pynwb import NWBHDF5IO, NWBFile, ProcessingModule, TimeSeries
+    from pynwb.file import Subject
+    from pynwb.misc import Units
+
+    data = _load(folder)
+    m = data["manifest"]
+    created = datetime.strptime(m["created"], "%Y-%m-%dT%H:%M:%S%z")
+    settings = m.get("settings", {})
+    lay = m["results"]["layout"]
+    digest = hashlib.sha256(json.dumps(_metadata(m), sort_keys=True, default=str)
+                            .encode()).hexdigest()
+    nwb = NWBFile(
+        session_description=(f"astrocpg {m['astrocpg_command']}: simulated astrocyte-regulated "
+                             f"spiking CPG, {lay['n_trials']} trial(s), seed {m['seed']} "
+                             f"(trial b uses seed {m['seed']}+b), "
+                             f"{settings.get('seconds', '?')} s"),
+        identifier=f"astrocpg-{digest[:32]}",
+        session_start_time=created,
+        experiment_description=("Simulation of the astrocyte-regulated spiking CPG of a "
+                                "quadruped (Brian2), coupled to a Unitree A1 in MuJoCo"),
+        notes=json.dumps(_metadata(m), default=str),
+        source_script=" ".join(m.get("argv") or []),
+        source_script_file_name="astrocpg",
+        keywords=["spiking neural network", "central pattern generator", "astrocyte",
+                  "simulation"],
+    )
+    # a simulated subject: no animal, no sex (U = unknown); it comes into being when the
+    # simulation starts, so its date of birth is the session start
+    nwb.subject = Subject(subject_id="astrocpg-simulation", sex="U", date_of_birth=created,
+                          description=("a simulated spiking CPG with astrocytes driving a "
+                                       "simulated Unitree A1 quadruped robot; no animal"))
+    nwb.units = Units(name="units", resolution=_resolution(m, data),
+                      description="spikes of the simulated neurons (astrocytes: adenosine "
+                                  "releases)")
+    populations = unit_rows(m)
+    for col, desc in (("population", "motor (motor neuron), interneuron (V1/V2b or IIN), "
+                                     "astrocyte (spike = adenosine release)"),
+                      ("trial", "independent trial of the batch (seed = file seed + trial)"),
+                      ("limb", "leg: FR, FL, RR, RL"),
+                      ("pool", "motor pool, interneuron (source_to_target) or astrocyte's pool"),
+                      ("neuron_index", "index within the population (column of its trace)")):
+        nwb.add_unit_column(name=col, description=desc)
+    spikes = data["spikes"]
+    for pop, rows in populations.items():
+        if f"{pop}_times" not in spikes:
+            continue
+        trains = _spike_trains(spikes[f"{pop}_times"], spikes[f"{pop}_indices"], len(rows))
+        for row, train in zip(rows, trains):
+            nwb.add_unit(spike_times=train, population=pop, **row)
+    dims = {"motor": (len(lay["legs"]), len(lay["pools"]) * lay["pool_size"]),
+            "astrocyte": (1, len(lay["legs"]) * len(lay["thigh_pools"]))}
+    for name, values in sorted(data.get("traces", {}).items()):
+        if name.endswith("_t"):
+            continue
+        t = data["traces"][f"{name}_t"]
+        dt = float(np.median(np.diff(t))) if len(t) > 1 else 1e-3
+        population = name.split("_")[0]
+        # one series per trial and limb (motor) or per trial (astrocytes): time stays the
+        # longest dimension, and a series is one limb's or one trial's cells
+        n_parts, width = dims[population]
+        for part in range(values.shape[1] // width):
+            b, limb = divmod(part, n_parts)
+            cols = slice(part * width, (part + 1) * width)
+            suffix = f"trial{b}_{lay['legs'][limb]}" if population == "motor" else f"trial{b}"
+            nwb.add_acquisition(TimeSeries(
+                name=f"{name}_{suffix}", data=values[:, cols], unit=TRACE_UNITS.get(name, "a.u."),
+                rate=1.0 / dt, starting_time=float(t[0]) if len(t) else 0.0,
+                description=(f"{TRACE_MEANING.get(name, name)}; column k = neuron_index "
+                             f"{cols.start}+k of the {population} population in the Units "
+                             f"table")))
+    robot = data.get("robot")
+    if robot is not None:
+        t = robot["t"]
+        dt = float(np.median(np.diff(t))) if len(t) > 1 else 1e-3
+        legs, joints = [str(x) for x in robot["legs"]], [str(x) for x in robot["joints"]]
+        for key, unit, meaning in ROBOT_SERIES:
+            arr = robot[key]
+            for b in range(arr.shape[0]):
+                values = arr[b].reshape(arr.shape[1], -1)
+                columns = ([f"{leg}_{j}" for leg in legs for j in joints]
+                           if values.shape[1] == len(legs) * len(joints) else ["x", "y", "z"])
+                nwb.add_acquisition(TimeSeries(
+                    name=f"{key}_trial{b}", data=values, unit=unit, rate=1.0 / dt,
+                    starting_time=float(t[0]), description=f"{meaning}; columns: "
+                                                           f"{', '.join(columns)}"))
+    module = ProcessingModule(name="misc", description="the model as simulated: parameters and "
+                                                        "equations of every model (astrocpg)")
+    names, params, values, symbols, meanings = [], [], [], [], []
+    eq_models, eq_kinds, eq_texts = [], [], []
+    for model, entry in m.get("models", {}).items():
+        for pname, p in entry.get("parameters", {}).items():
+            names.append(model)
+            params.append(pname)
+            values.append(str(p.get("value")))
+            symbols.append(str(p.get("symbol", "")))
+            meanings.append(str(p.get("meaning", "")))
+        for kind in ("equations", "model", "expression", "threshold", "reset", "on_pre",
+                     "on_step", "refractory"):
+            if entry.get(kind):
+                eq_models.append(model)
+                eq_kinds.append(kind)
+                eq_texts.append(str(entry[kind]))
+    module.add(DynamicTable(name="parameters", description="model parameters (value with unit)",
+                            columns=[VectorData(name="model", description="model", data=names),
+                                     VectorData(name="parameter", description="name in "
+                                                "the equations", data=params),
+                                     VectorData(name="value", description="value with unit",
+                                                data=values),
+                                     VectorData(name="symbol", description="the paper's symbol "
+                                                "(LaTeX)", data=symbols),
+                                     VectorData(name="meaning", description="meaning and "
+                                                "source", data=meanings)]))
+    module.add(DynamicTable(name="equations", description="Brian2 equation strings",
+                            columns=[VectorData(name="model", description="model",
+                                                data=eq_models),
+                                     VectorData(name="kind", description="equations, model, "
+                                                "threshold, reset, ...", data=eq_kinds),
+                                     VectorData(name="text", description="Brian2 code",
+                                                data=eq_texts)]))
+    nwb.add_processing_module(module)
+    _write(path, lambda p: _nwb_write(NWBHDF5IO, nwb, p))
+    return path
+
+
+def _resolution(manifest: dict[str, Any], data: dict[str, Any]) -> float:
+    """The simulation time step (spike times lie on its grid)."""
+    dt = manifest.get("results", {}).get("dt_s")
+    if dt:
+        return float(dt)
+    times = np.unique(np.concatenate([v for k, v in data["spikes"].items()
+                                      if k.endswith("_times")] + [np.zeros(1)]))
+    steps = np.diff(times)
+    return float(steps[steps > 0].min()) if (steps > 0).any() else 1e-3
+
+
+def _nwb_write(io_cls, nwb, path: Path) -> None:
+    with io_cls(str(path), "w") as io:
+        io.write(nwb)
+
+
+def _write(path: Path, writer) -> None:
+    """Write to a temporary name beside ``path``, then rename (no half-written file)."""
+    import os
+    import tempfile
+
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
+    os.close(fd)
+    try:
+        writer(Path(tmp))
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def export_npz(folder: Path, path: Path) -> Path:
+    data = _load(folder)
+    m = data["manifest"]
+    arrays: dict[str, np.ndarray] = {}
+    for pop, rows in unit_rows(m).items():
+        if f"{pop}_times" not in data["spikes"]:
+            continue
+        arrays[f"spikes_{pop}_times"] = data["spikes"][f"{pop}_times"]
+        arrays[f"spikes_{pop}_indices"] = data["spikes"][f"{pop}_indices"]
+        for col in ("trial", "limb", "pool"):
+            arrays[f"units_{pop}_{col}"] = np.array([r[col] for r in rows])
+    for name, v in data.get("traces", {}).items():
+        arrays[f"trace_{name}"] = v
+    for name, v in data.get("robot", {}).items():
+        arrays[f"robot_{name}"] = v
+    arrays["metadata_json"] = np.array(json.dumps(
+        _metadata(m) | {"models": m.get("models"), "units": TRACE_UNITS
+                        | {"robot_joint_angles": "rad", "robot_torques": "N m",
+                           "spike times": "s"}}, default=str))
+    _write(path, lambda p: np.savez_compressed(open(p, "wb"), **arrays))
+    return path
+
+
+def export(folder: Path, fmt: str, out: Path | None = None) -> Path:
+    if fmt not in ("nwb", "npz"):
+        raise InputError(f"--format must be nwb or npz, got '{fmt}'")
+    path = out or folder / f"export.{fmt}"
+    if not path.parent.is_dir():
+        raise InputError(f"--out {path}: folder '{path.parent}' does not exist")
+    return export_nwb(folder, path) if fmt == "nwb" else export_npz(folder, path)
