@@ -130,6 +130,14 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--format", default="nwb", help="nwb (default) or npz")
     exp.add_argument("--out", help="file to write (default DIR/export.<format>)")
 
+    desc = sub.add_parser("describe", help="a model's equations (sympy) and parameter table")
+    desc.add_argument("model", nargs="?", help="one model (default: all)")
+    desc.add_argument("--format", default="markdown", help="markdown (default) or latex")
+    desc.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
+                      help="describe MODEL with the equation string of FILE")
+    desc.add_argument("--set", dest="overrides", action="append", default=[],
+                      metavar="NAME=VALUE", help="describe with a parameter overridden")
+
     robot = sub.add_parser("robot", help="the project's A1 model")
     robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
     export = robot_sub.add_parser("export", help="write the A1 model as MJCF")
@@ -161,6 +169,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_power(args)
         if args.command == "export":
             return _cmd_export(args)
+        if args.command == "describe":
+            from .describe import describe
+            sys.stdout.write(describe(args.model, args.format,
+                                      load_models(args.overrides, args.equations)))
+            return 0
     except InputError as e:
         sys.stderr.write(f"astrocpg: error: {e}\n")
         return 2

@@ -132,6 +132,9 @@ def load_study(path: str | os.PathLike) -> Study:
     from ..models import DEFAULT_MODELS
 
     p = Path(path)
+    built_in = Path(__file__).with_name(f"{p.name}.toml")
+    if not p.exists() and p.suffix == "" and built_in.exists():
+        p = built_in  # `astrocpg study quick`: a built-in study by name
     try:
         text = p.read_text()
     except OSError as e:
