@@ -1,7 +1,13 @@
 """The ``astrocpg`` command line.
 
     astrocpg unit  --seconds S --seed K --out DIR [--trials N]
-    astrocpg run   --seconds S --seed K [--trials N] [--weights FILE] [--robot XML] --out DIR
+    astrocpg run   --seconds S --seed K [--trials N] [--weights FILE|DIR] [--robot XML] --out DIR
+    astrocpg train --sessions N --trials N --seed K [--no-astrocytes] --out DIR | --resume DIR
+    astrocpg gait DIR | plot DIR | power DIR [--trial K]
+    astrocpg study FILE [--out DIR] [--workers N] [--scheduler ADDRESS]
+    astrocpg report DIR
+    astrocpg export DIR [--format nwb|npz]
+    astrocpg describe [MODEL] [--format markdown|latex]
     astrocpg robot export PATH.xml
 
 Common options: ``--set NAME=VALUE`` overrides a model parameter (with units),

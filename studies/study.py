@@ -42,6 +42,7 @@ import logging
 import os
 import re
 import socket
+import sys
 import time
 import tomllib
 import traceback
@@ -457,7 +458,7 @@ def _dispatch(study, pending, folders, workers, scheduler, progress, total_sessi
         else:
             n = workers or os.cpu_count() or 1
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
+                                   dashboard_address=":0", silence_logs=logging.ERROR)
             client = Client(cluster)
     except InputError:
         raise
@@ -473,7 +474,9 @@ def _dispatch(study, pending, folders, workers, scheduler, progress, total_sessi
         done_sessions = sum(_sessions_done(f) for f in folders.values())
         bar = tqdm(total=total_sessions, initial=done_sessions, unit="session",
                    desc=f"study {study.name}", disable=not progress, dynamic_ncols=True,
-                   smoothing=0.05)
+                   smoothing=0.05,
+                   # a log file (not a terminal) gets a line every 30 s, not every second
+                   mininterval=0.5 if sys.stderr.isatty() else 30.0)
         try:
             while True:
                 states = [f.status for f in futures]
