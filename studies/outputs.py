@@ -21,7 +21,8 @@ import numpy as np
 
 from ..errors import InputError
 
-PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib")
+PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
+            "pandas", "pynwb")
 
 
 def package_versions() -> dict[str, str]:
