@@ -122,8 +122,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     report = sub.add_parser("report", help="Fig. 3c curves and final figures of a study")
     report.add_argument("dir", help="a study folder")
-    report.add_argument("--last", type=int, default=20,
-                        help="sessions at the end over which final figures are averaged (20)")
+    report.add_argument("--last", type=int, default=50,
+                        help="sessions at the end over which final figures are averaged (50)")
 
     power = sub.add_parser("power", help="SNN vs RL power estimate of a trained controller")
     power.add_argument("dir", help="a training folder (astrocpg train, or a study's run)")

@@ -2,9 +2,9 @@
 
 For every group of runs that differ only by seed (a condition, at one sweep point), per session:
 mean +- std across seeds of the session's mean reward, final x and length (``fig3c.png``). The
-final figures per group (``final_figures.csv`` and ``report.md``): over the last ``last``
-sessions of each seed, mean forward speed, final x and session length, then mean +- std across
-seeds; the share of the last 50 sessions that reached L_max; and from the trained weights the
+final figures per group (``final_figures.csv`` and ``report.md``): over the last ``last`` (50)
+sessions of each seed, mean reward, forward speed, final x, session length and the share of
+sessions that reached L_max, then mean +- std across seeds; and from the trained weights the
 limb pairs with two inhibitory and two excitatory synapses and the share of weights above
 0.9 w_max (the paper's contrast between the two conditions).
 
@@ -59,7 +59,7 @@ def _model_values(spec: dict[str, Any]) -> tuple[float, float]:
             float(np.asarray(models.progress.parameters["L_max"].value)))
 
 
-def report(folder: Path, *, last: int = 20) -> dict[str, Any]:
+def report(folder: Path, *, last: int = 50) -> dict[str, Any]:
     """Write ``fig3c.png``, ``final_figures.csv`` and ``report.md`` into ``folder``."""
     import matplotlib
     matplotlib.use("Agg")
@@ -112,7 +112,8 @@ def report(folder: Path, *, last: int = 20) -> dict[str, Any]:
             "final_x": [s["final_x_m"].tail(last).mean() for s in series.values()],
             "length": [s["length_s"].tail(last).mean() for s in series.values()],
             "reward": [s["mean_reward"].tail(last).mean() for s in series.values()],
-            "full": [(s["length_s"].tail(50) >= L_max - 1e-6).mean() for s in series.values()],
+            "full": [(s["length_s"].tail(last) >= L_max - 1e-6).mean()
+                     for s in series.values()],
         }
         row: dict[str, Any] = {
             "group": label, "seeds": len(series),
@@ -161,7 +162,7 @@ def _pm(row: dict[str, Any], key: str, fmt: str) -> str:
 def _markdown(name: str, rows: list[dict[str, Any]], last: int) -> str:
     lines = [f"# Study {name}: final figures", "",
              f"Per seed, the mean over its last {last} sessions; then mean ± std across seeds. "
-             "Full-length: share of the last 50 sessions that reached L_max.", "",
+             f"Full-length: share of those sessions that reached L_max.", "",
              "| group | seeds | runs finished | sessions | forward speed (m/s) | final x (m) | "
              "session length (s) | mean reward | full-length | mixed limb pairs (of 12) | "
              "weights > 0.9 w_max |",
@@ -177,4 +178,14 @@ def _markdown(name: str, rows: list[dict[str, Any]], last: int) -> str:
             f"{_pm(r, 'reward', '.3f')} | {r['full_mean']:.0%} ± {r['full_std']:.0%} | "
             f"{'n/a' if mixed is None else f'{mixed:.1f}'} | "
             f"{'n/a' if sat is None else f'{sat:.0%}'} |")
+    if len(rows) == 2:
+        a, b = rows
+        diff = ", ".join(
+            f"{label} {a[key + '_mean'] - b[key + '_mean']:+{fmt}}"
+            for key, label, fmt in (("reward", "mean reward", ".3f"),
+                                    ("final_x", "final x (m)", ".2f"),
+                                    ("length", "session length (s)", ".2f"),
+                                    ("speed", "forward speed (m/s)", ".3f"),
+                                    ("full", "full-length share", ".0%")))
+        lines += ["", f"Contrast, {a['group']} minus {b['group']}: {diff}."]
     return "\n".join(lines) + "\n"

@@ -357,8 +357,17 @@ def _check_folder(study: Study, out: Path) -> None:
             known = json.loads(index_path.read_text())["runs"]
         except (OSError, ValueError, KeyError):
             raise InputError(f"--out {out}: {STUDY_INDEX} is unreadable") from None
-    elif (out / RUNS).exists() or (out / RESULTS).exists():
-        raise InputError(f"--out {out}: holds runs of something else (no {STUDY_INDEX})")
+    elif any(out.iterdir()):
+        raise InputError(f"--out {out}: is not empty and holds no study (no {STUDY_INDEX}); "
+                         f"use a new folder")
+    if index_path.exists():
+        try:
+            name = json.loads(index_path.read_text())["name"]
+        except (OSError, ValueError, KeyError):
+            raise InputError(f"--out {out}: {STUDY_INDEX} is unreadable") from None
+        if name != study.name:
+            raise InputError(f"--out {out}: belongs to study '{name}', not '{study.name}' "
+                             f"(use a new --out)")
     for run in study.runs:
         fp = known.get(run.run_id)
         if fp is not None and fp != run.fingerprint():
@@ -390,27 +399,40 @@ def _sessions_done(folder: Path) -> int:
 def run_study(study: Study, out: Path, *, workers: int | None = None,
               scheduler: str | None = None, progress: bool = True) -> dict[str, Any]:
     """Run every unfinished run of ``study`` on Dask; write the results table. Returns counts
-    of runs by state and the paths written."""
+    of runs by state and the paths written. Nothing is written before the folder is known to
+    belong to this study and the cluster is reachable."""
     from tqdm.auto import tqdm
 
-    from .outputs import prepare_output_dir, write_manifest
+    from .outputs import write_manifest
 
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be at least 1, got {workers}")
-    out = prepare_output_dir(out)
-    _check_folder(study, out)
-    _save_index(study, out)
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: exists and is not a folder")
+    if out.exists():
+        _check_folder(study, out)
     folders = {r.run_id: out / RUNS / r.run_id for r in study.runs}
     pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") != "finished"]
     total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
-    write_manifest(out, command="study", seed=min(study.seeds),
-                   settings={"study": str(study.path), "study_text": study.text,
-                             "workers": workers, "scheduler": scheduler},
-                   models_json={}, files=_study_files(), results={"status": "running"})
     n_done_before = len(study.runs) - len(pending)
-    if pending:
-        _dispatch(study, pending, folders, workers, scheduler, progress, total_sessions,
-                  n_done_before, tqdm)
+    cluster = _connect(workers, scheduler) if pending else None
+    try:
+        from .outputs import prepare_output_dir
+        prepare_output_dir(out)
+        _save_index(study, out)
+        write_manifest(out, command="study", seed=min(study.seeds),
+                       settings={"study": str(study.path), "study_text": study.text,
+                                 "workers": workers, "scheduler": scheduler},
+                       models_json={}, files=_study_files(), results={"status": "running"})
+        if pending:
+            _dispatch(study, pending, folders, cluster[0], progress, total_sessions,
+                      n_done_before, tqdm)
+    finally:
+        if cluster is not None:
+            cluster[0].close()
+            if cluster[1] is not None:
+                cluster[1].close()
     states = {r.run_id: read_status(folders[r.run_id]).get("state", "not run")
               for r in study.runs}
     table = write_results(study, out)
@@ -424,6 +446,22 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
                    results={"status": "finished" if not failed else "incomplete",
                             "runs": counts, "rows": table})
     return {"counts": counts, "failed": [r.run_id for r in failed], "rows": table}
+
+
+def _connect(workers: int | None, scheduler: str | None):
+    """(client, local cluster or None): a running scheduler, or a local cluster."""
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="10s"), None
+        except Exception as e:  # OSError / TimeoutError / ValueError for a bad address
+            first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            raise InputError(f"--scheduler {scheduler}: cannot connect ({first})") from None
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                           dashboard_address=":0", silence_logs=logging.ERROR)
+    return Client(cluster), cluster
 
 
 class _ImportBrian2:
@@ -442,74 +480,53 @@ class _ImportBrian2:
         pass
 
 
-def _dispatch(study, pending, folders, workers, scheduler, progress, total_sessions,
-              n_done_before, tqdm) -> None:
-    from distributed import Client, LocalCluster
-
+def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_before,
+              tqdm) -> None:
     from .outputs import prepare_output_dir
 
-    cluster = None
-    try:
-        if scheduler:
-            try:
-                client = Client(scheduler, timeout="20s")
-            except (OSError, TimeoutError) as e:
-                raise InputError(f"--scheduler {scheduler}: cannot connect ({e})") from None
-        else:
-            n = workers or os.cpu_count() or 1
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=":0", silence_logs=logging.ERROR)
-            client = Client(cluster)
-    except InputError:
-        raise
-    try:
-        from distributed.diagnostics.plugin import WorkerPlugin
+    from distributed.diagnostics.plugin import WorkerPlugin
 
-        plugin = type("ImportBrian2", (_ImportBrian2, WorkerPlugin), {})()
-        client.register_plugin(plugin)
-        futures = {client.submit(execute_run, r, str(folders[r.run_id]), pure=False,
-                                 key=f"astrocpg-{r.run_id}-{os.getpid()}-{time.time_ns()}"): r
-                   for r in pending}
-        keys = {f.key: r for f, r in futures.items()}
-        done_sessions = sum(_sessions_done(f) for f in folders.values())
-        bar = tqdm(total=total_sessions, initial=done_sessions, unit="session",
-                   desc=f"study {study.name}", disable=not progress, dynamic_ncols=True,
-                   smoothing=0.05,
-                   # a log file (not a terminal) gets a line every 30 s, not every second
-                   mininterval=0.5 if sys.stderr.isatty() else 30.0)
-        try:
-            while True:
-                states = [f.status for f in futures]
-                finished = sum(s in ("finished", "error", "cancelled") for s in states)
-                running = sum(any(k in keys for k in ks)
-                              for ks in client.processing().values())
-                failed = 0
-                for f, r in futures.items():
-                    if f.status == "error":
-                        failed += 1
-                    elif f.status == "finished" and f.result().get("state") != "finished":
-                        failed += 1
-                now = sum(_sessions_done(f) for f in folders.values())
-                bar.update(max(0, now - bar.n))
-                bar.set_postfix_str(f"runs done {n_done_before + finished - failed}/"
-                                    f"{len(study.runs)}, running {running}, failed {failed}")
-                if finished == len(futures):
-                    break
-                time.sleep(1.0)
-        finally:
-            bar.close()
-        for f, r in futures.items():
-            if f.status == "error":  # e.g. KilledWorker after repeated worker deaths
-                exc = f.exception()
-                prepare_output_dir(folders[r.run_id])
-                status = read_status(folders[r.run_id])
-                status.update({"run_id": r.run_id, "state": "failed",
-                               "error": f"{type(exc).__name__}: {exc}"})
-                _write_status(folders[r.run_id], status)
+    plugin = type("ImportBrian2", (_ImportBrian2, WorkerPlugin), {})()
+    client.register_plugin(plugin)
+    futures = {client.submit(execute_run, r, str(folders[r.run_id]), pure=False,
+                             key=f"astrocpg-{r.run_id}-{os.getpid()}-{time.time_ns()}"): r
+               for r in pending}
+    keys = {f.key: r for f, r in futures.items()}
+    done_sessions = sum(_sessions_done(f) for f in folders.values())
+    bar = tqdm(total=total_sessions, initial=done_sessions, unit="session",
+               desc=f"study {study.name}", disable=not progress, dynamic_ncols=True,
+               smoothing=0.05,
+               # a log file (not a terminal) gets a line every 30 s, not every second
+               mininterval=0.5 if sys.stderr.isatty() else 30.0)
+    try:
+        while True:
+            states = [f.status for f in futures]
+            finished = sum(s in ("finished", "error", "cancelled") for s in states)
+            running = sum(any(k in keys for k in ks)
+                          for ks in client.processing().values())
+            failed = 0
+            for f, r in futures.items():
+                if f.status == "error":
+                    failed += 1
+                elif f.status == "finished" and f.result().get("state") != "finished":
+                    failed += 1
+            now = sum(_sessions_done(f) for f in folders.values())
+            bar.update(max(0, now - bar.n))
+            bar.set_postfix_str(f"runs done {n_done_before + finished - failed}/"
+                                f"{len(study.runs)}, running {running}, failed {failed}")
+            if finished == len(futures):
+                break
+            time.sleep(1.0)
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        bar.close()
+    for f, r in futures.items():
+        if f.status == "error":  # e.g. KilledWorker after repeated worker deaths
+            exc = f.exception()
+            prepare_output_dir(folders[r.run_id])
+            status = read_status(folders[r.run_id])
+            status.update({"run_id": r.run_id, "state": "failed",
+                           "error": f"{type(exc).__name__}: {exc}"})
+            _write_status(folders[r.run_id], status)
 
 
 def _write_failures(out: Path, failed: list[RunSpec], folders: dict[str, Path]) -> None:

@@ -88,6 +88,12 @@ def test_npz_export(run_dir: Path) -> None:
         meta = json.loads(str(z["metadata_json"]))
         assert meta["seed"] == 5 and "astrocyte" in meta["models"]
         assert "spikes_interneuron_times" not in z.files
+        with np.load(run_dir / "traces.npz") as t:
+            for k in t.files:
+                np.testing.assert_array_equal(z[f"trace_{k}"], t[k])
+        with np.load(run_dir / "robot.npz") as r:
+            for k in r.files:
+                np.testing.assert_array_equal(z[f"robot_{k}"], r[k])
 
 
 def test_export_refusals(run_dir: Path, tmp_path: Path) -> None:

@@ -275,3 +275,59 @@ def test_power_counts_come_from_the_network(tmp_path: Path) -> None:
     # the rhythm makes every population fire
     assert all(v > 0 for v in f.values())
     assert main(["power", str(out), "--trial", "3", "--no-progress"]) == 2
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file()} if folder.exists() else {}
+
+
+@pytest.mark.parametrize("case", ["malformed_toml", "unknown_parameter", "unknown_axis",
+                                  "unit_mismatch", "unreachable_scheduler", "other_study",
+                                  "training_folder"])
+def test_bad_input_one_line_exit_2_nothing_written(tmp_path: Path, case: str, capsys) -> None:
+    """Each mistake: one line on stderr naming it, exit code 2, the folder untouched."""
+    from astrocpg.studies.cli import main
+
+    study = tmp_path / "s.toml"
+    good = TINY.format(sessions=1)
+    out = tmp_path / "out"
+    extra: list[str] = ["--workers", "1"]
+    expect = ""
+    if case == "malformed_toml":
+        study.write_text(good.replace("[study]", "[study"))
+        expect = "not valid TOML"
+    elif case == "unknown_parameter":
+        study.write_text(good.replace('L_max = "1*second"', 'L_maximum = "1*second"'))
+        expect = "L_maximum"
+    elif case == "unknown_axis":
+        study.write_text(good + '[sweep.axes]\ntau_nothing = ["1*ms", "2*ms"]\n')
+        expect = "tau_nothing"
+    elif case == "unit_mismatch":
+        study.write_text(good + '[sweep.axes]\ntau_STDP = ["10*ms", "3*mV"]\n')
+        expect = "tau_STDP"
+    elif case == "unreachable_scheduler":
+        study.write_text(good)
+        extra = ["--scheduler", f"tcp://127.0.0.1:{_free_port()}"]
+        expect = "cannot connect"
+    elif case == "other_study":
+        study.write_text(good)
+        other = tmp_path / "other.toml"
+        other.write_text(good.replace('name = "tiny"', 'name = "other"'))
+        out.mkdir()
+        (out / "study.json").write_text(json.dumps({"name": "other", "runs": {}}))
+        (out / "results.csv").write_text("run_id\n")
+        expect = "belongs to study 'other'"
+    elif case == "training_folder":
+        study.write_text(good)
+        out.mkdir()
+        (out / "sessions.csv").write_text("trial,session\n0,1\n")
+        expect = "holds no study"
+    before = _snapshot(out)
+    capsys.readouterr()
+    rc = main(["study", str(study), "--out", str(out), "--no-progress", *extra])
+    err = capsys.readouterr().err
+    assert rc == 2
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("astrocpg: error:") and expect in lines[0], err
+    assert _snapshot(out) == before
