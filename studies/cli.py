@@ -122,6 +122,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     report = sub.add_parser("report", help="Fig. 3c curves and final figures of a study")
     report.add_argument("dir", help="a study folder")
+    report.add_argument("--smooth", type=int, default=1, metavar="N",
+                        help="plot each seed's trailing mean over N sessions (default 1: raw)")
     report.add_argument("--last", type=int, default=50,
                         help="sessions at the end over which final figures are averaged (50)")
 
@@ -587,7 +589,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
     if args.last < 1:
         raise InputError(f"--last must be at least 1, got {args.last}")
-    written = report(Path(args.dir), last=args.last)
+    if args.smooth < 1:
+        raise InputError(f"--smooth must be at least 1, got {args.smooth}")
+    written = report(Path(args.dir), last=args.last, smooth=args.smooth)
     print(written["text"])
     print(f"wrote {', '.join(str(p) for p in written['files'])}")
     return 0

@@ -59,7 +59,20 @@ def _model_values(spec: dict[str, Any]) -> tuple[float, float]:
             float(np.asarray(models.progress.parameters["L_max"].value)))
 
 
-def report(folder: Path, *, last: int = 50) -> dict[str, Any]:
+def _moving_mean(table: np.ndarray, width: int) -> np.ndarray:
+    """Trailing mean over the last ``width`` sessions (fewer at the start), NaN-aware."""
+    valid = np.isfinite(table)
+    filled = np.where(valid, table, 0.0)
+    csum = np.cumsum(filled, axis=1)
+    ccount = np.cumsum(valid, axis=1)
+    csum[:, width:] = csum[:, width:] - csum[:, :-width].copy()
+    ccount[:, width:] = ccount[:, width:] - ccount[:, :-width].copy()
+    out = np.full_like(table, np.nan)
+    np.divide(csum, ccount, out=out, where=(ccount > 0) & valid)
+    return out
+
+
+def report(folder: Path, *, last: int = 50, smooth: int = 1) -> dict[str, Any]:
     """Write ``fig3c.png``, ``final_figures.csv`` and ``report.md`` into ``folder``."""
     import matplotlib
     matplotlib.use("Agg")
@@ -101,6 +114,8 @@ def report(folder: Path, *, last: int = 50) -> dict[str, Any]:
             table = np.full((len(series), n), np.nan)
             for row, s in enumerate(series.values()):
                 table[row, s["session"].to_numpy(int) - 1] = s[key].to_numpy(float)
+            if smooth > 1:  # moving mean over sessions, per seed, before the across-seed stats
+                table = _moving_mean(table, smooth)
             mean, std = np.nanmean(table, axis=0), np.nanstd(table, axis=0)
             x = np.arange(1, n + 1)
             ax.plot(x, mean, color=color, lw=1.2, label=f"{label} (n={len(series)})")
@@ -132,7 +147,8 @@ def report(folder: Path, *, last: int = 50) -> dict[str, Any]:
     axes[0].legend(fontsize=8, loc="best")
     axes[-1].set_xlabel("session")
     axes[0].set_title(f"Study {index.get('name', folder.name)}: mean +- std across seeds "
-                      f"(paper Fig. 3c)")
+                      f"(paper Fig. 3c)"
+                      + (f", trailing mean over {smooth} sessions" if smooth > 1 else ""))
     fig.tight_layout()
     fig_path = folder / "fig3c.png"
     fig.savefig(fig_path, dpi=110)

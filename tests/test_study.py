@@ -331,3 +331,14 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path: Path, case: str, ca
     lines = [line for line in err.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith("astrocpg: error:") and expect in lines[0], err
     assert _snapshot(out) == before
+
+
+def test_trailing_mean_of_the_report() -> None:
+    import numpy as np
+
+    from astrocpg.studies.report import _moving_mean
+    t = np.array([[1.0, 2.0, 3.0, 4.0, np.nan], [2.0, 2.0, 2.0, 2.0, 2.0]])
+    out = _moving_mean(t, 2)
+    np.testing.assert_allclose(out[0, :4], [1.0, 1.5, 2.5, 3.5])
+    assert np.isnan(out[0, 4])  # a seed without that session stays missing
+    np.testing.assert_allclose(out[1], 2.0)
