@@ -97,6 +97,12 @@ def build_parser() -> argparse.ArgumentParser:
                        help="remove the adenosine term (the paper's ablation)")
     train.add_argument("--out", help="output folder (new, or empty)")
     train.add_argument("--resume", metavar="DIR", help="continue the run in DIR")
+    train.add_argument("--record-every", type=int, default=None, metavar="N",
+                       help="record sessions 1, 1+N, 1+2N... and the last of each trial "
+                            "(spikes, traces, robot) into DIR/recordings/")
+    train.add_argument("--record-stride", type=int, default=1, metavar="STEPS",
+                       help="with --record-every: steps between trace and robot samples (1)")
+    _add_record_options(train)
     _add_model_options(train)
 
     gait = sub.add_parser("gait", help="run trained weights and name the gait")
@@ -434,12 +440,16 @@ def _cmd_train(args: argparse.Namespace) -> int:
             raise InputError(f"--out {out}: already holds a training run "
                              f"(continue it with --resume {out})")
         payload = None
+    record = _record_plan(args, payload)
     models = models_from(settings.overrides, settings.equations)
-    trainer = Trainer(models, settings, out, progress=not args.no_progress)  # validates models
+    trainer = Trainer(models, settings, out, progress=not args.no_progress,
+                      record=record)  # validates models
     prepare_output_dir(out)
     if payload is not None:
         trainer.restore(payload)
-    write_manifest(out, command="train", seed=settings.seed, settings=settings.__dict__,
+    record_json = None if record is None else record.__dict__
+    write_manifest(out, command="train", seed=settings.seed,
+                   settings=settings.__dict__ | {"record": record_json},
                    models_json=trainer.models.to_json(),
                    files=_train_files(), results={"status": "running"})
     wall = trainer.run()
@@ -454,12 +464,38 @@ def _cmd_train(args: argparse.Namespace) -> int:
     summary = _train_summary(rows, settings, L_max)
     for b, line in summary["lines"].items():
         print(line)
-    write_manifest(out, command="train", seed=settings.seed, settings=settings.__dict__,
+    write_manifest(out, command="train", seed=settings.seed,
+                   settings=settings.__dict__ | {"record": record_json},
                    models_json=trainer.models.to_json(), files=_train_files(),
                    results={"status": "finished", "wall_seconds_last_invocation": wall,
                             "per_trial": summary["per_trial"]})
     print(f"wrote {out}/ (sessions.csv, weights.npz, checkpoint.pkl, manifest.json)")
     return 0
+
+
+def _record_plan(args: argparse.Namespace, payload: dict[str, Any] | None):
+    """The training's RecordPlan: from the options, or (resuming) from the checkpoint."""
+    from ..coupling.recorder import RecordPlan
+    from .simulate import check_selection
+
+    stored = (payload or {}).get("record_plan")
+    if stored is not None:
+        if args.record_every is not None and args.record_every != stored["every"]:
+            raise InputError(f"--resume: that run records every {stored['every']} sessions, "
+                             f"not {args.record_every}")
+        return RecordPlan(**{k: tuple(v) if isinstance(v, list) else v
+                             for k, v in stored.items()})
+    if args.record_every is None:
+        if args.spikes is not None or args.traces is not None:
+            raise InputError("--spikes/--traces of a training need --record-every N")
+        return None
+    if args.record_every < 1:
+        raise InputError(f"--record-every must be at least 1, got {args.record_every}")
+    if args.record_stride < 1:
+        raise InputError(f"--record-stride must be at least 1, got {args.record_stride}")
+    spikes, traces = check_selection(args.spikes, args.traces)
+    return RecordPlan(every=args.record_every, spikes=spikes, traces=traces,
+                      stride=args.record_stride)
 
 
 def _train_files() -> dict[str, str]:
@@ -469,6 +505,8 @@ def _train_files() -> dict[str, str]:
         "weights.npz": "weights_mV (trial, session, 8, 8): each trial's inter-limb table after "
                        "each session (NaN after a trial's last); final_weights_mV; labels",
         "checkpoint.pkl": "state to continue exactly (astrocpg train --resume DIR)",
+        "recordings/": "with --record-every: trialTT_sessionSSSS/ per recorded session (spikes, "
+                       "traces, robot, manifest; astrocpg export reads it)",
     }
 
 

@@ -1,9 +1,11 @@
 """``astrocpg export DIR --format nwb|npz``: a simulation folder as one file for analysis tools.
 
-DIR is the output of ``astrocpg run`` or ``astrocpg unit`` (``spikes.npz``, ``traces.npz``,
-``robot.npz``, ``manifest.json``). What it holds was chosen when it was recorded: ``--spikes``
-and ``--traces`` pick populations and traces, ``--trace-dt`` and ``--robot-stride`` the
-sampling, so a long run does not fill the disk.
+DIR is the output of ``astrocpg run`` or ``astrocpg unit``, or one recorded session of a
+training (``TRAINING/recordings/trialTT_sessionSSSS``, written by ``astrocpg train
+--record-every N``): ``spikes.npz``, ``traces.npz``, ``robot.npz``, ``manifest.json``. What it
+holds was chosen when it was recorded: ``--spikes`` and ``--traces`` pick populations and traces,
+``--trace-dt``/``--robot-stride`` (``--record-stride`` and ``--record-every`` in training) the
+sampling, so a long run or training does not fill the disk.
 
 NWB (pynwb): every neuron of every recorded population is a row of the Units table with its
 spike times and the columns ``population``, ``trial``, ``limb``, ``pool`` and ``neuron_index``
@@ -50,10 +52,11 @@ def _load(folder: Path) -> dict[str, Any]:
         manifest = json.loads((folder / "manifest.json").read_text())
     except (OSError, ValueError):
         raise InputError(f"export {folder}: no readable manifest.json") from None
-    if manifest.get("astrocpg_command") not in ("run", "unit"):
+    if manifest.get("astrocpg_command") not in ("run", "unit", "train-session"):
         raise InputError(f"export {folder}: holds a '{manifest.get('astrocpg_command')}' "
-                         f"folder; export reads the output of astrocpg run or unit (for a "
-                         f"training: astrocpg run --weights {folder} --out DIR, then export DIR)")
+                         f"folder; export reads the output of astrocpg run or unit, or a "
+                         f"recorded training session (DIR/recordings/trialTT_sessionSSSS, from "
+                         f"astrocpg train --record-every N)")
     data: dict[str, Any] = {"manifest": manifest}
     for name in ("spikes", "traces", "robot"):
         path = folder / f"{name}.npz"

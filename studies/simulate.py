@@ -19,8 +19,8 @@ from ..coupling.robot import RobotLayout
 from ..errors import InputError
 from ..models import ModelSet
 from ..network import CPG, LEGS, build_cpg, check_runs
+from ..network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
 
-POPULATIONS = ("motor", "interneuron", "astrocyte")
 
 
 @dataclass
@@ -34,18 +34,6 @@ class SimulationResult:
     robot: Recording | None = None
     wall_seconds: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
-
-
-TRACES = ("motor_Ca", "astrocyte_Ca", "astrocyte_IP3", "astrocyte_AG", "astrocyte_ADO")
-# (group, variable, scale to the stored unit, unit) of each trace
-TRACE_SOURCES = {
-    "motor_Ca": ("motor", "Ca", 1.0, "a.u."),
-    # concentrations in uM (Brian2 keeps mol/m^3 = mM internally)
-    "astrocyte_Ca": ("astrocyte", "Ca", 1e3, "uM"),
-    "astrocyte_IP3": ("astrocyte", "IP3", 1e3, "uM"),
-    "astrocyte_AG": ("astrocyte", "AG", 1.0, "a.u."),
-    "astrocyte_ADO": ("astrocyte", "ADO", 1.0, "a.u."),
-}
 
 
 def check_selection(spikes: tuple[str, ...] | None,

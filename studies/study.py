@@ -61,7 +61,7 @@ FAILURES = "failures.csv"
 STUDY_COPY = "study.toml"
 STUDY_INDEX = "study.json"
 
-_STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch"}
+_STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch", "record"}
 _CONDITION_KEYS = {"astrocytes", "set"}
 
 
@@ -72,7 +72,8 @@ class RunSpec:
     run_id: folder name under ``OUT/runs``; condition: the condition's name; point: the swept
     parameters' values (as written in the study file); seed: the first seed; n_trials: seeds
     seed..seed+n_trials-1; n_sessions: sessions per trial; astrocytes: False for the ablation;
-    overrides: every ``NAME=VALUE`` applied (base, sweep point, condition).
+    overrides: every ``NAME=VALUE`` applied (base, sweep point, condition); record: which
+    sessions, spikes and traces each run records (``[study] record``), or None.
     """
 
     run_id: str
@@ -83,6 +84,14 @@ class RunSpec:
     n_sessions: int
     astrocytes: bool
     overrides: tuple[str, ...]
+    record: dict[str, Any] | None = None  # RecordPlan fields (not part of the run's identity)
+
+    def record_plan(self):
+        from ..coupling.recorder import RecordPlan
+        if not self.record:
+            return None
+        return RecordPlan(**{k: tuple(v) if isinstance(v, list) else v
+                             for k, v in self.record.items()})
 
     def train_settings(self):
         from .train import TrainSettings
@@ -181,6 +190,7 @@ def load_study(path: str | os.PathLike) -> Study:
     if not isinstance(batch, int) or isinstance(batch, bool) or batch < 1:
         raise InputError(f"{where}: [study] batch must be a positive integer, got {batch!r}")
 
+    record = _record_table(head.get("record"), where)
     models = DEFAULT_MODELS
     base = [_check_override(models, k, _value_text(k, v, f"{where} [base]"), f"{where} [base]")
             for k, v in doc.get("base", {}).items()]
@@ -241,7 +251,7 @@ def load_study(path: str | os.PathLike) -> Study:
                 run_id = "__".join(x for x in (_slug(cname), tag, seeds_tag) if x)
                 runs.append(RunSpec(run_id=run_id, condition=cname, point=dict(point),
                                     seed=first, n_trials=n, n_sessions=n_sessions,
-                                    astrocytes=astro, overrides=overrides))
+                                    astrocytes=astro, overrides=overrides, record=record))
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):
         dup = next(i for i in ids if ids.count(i) > 1)
@@ -249,6 +259,27 @@ def load_study(path: str | os.PathLike) -> Study:
                          f"swept values that differ only in punctuation)")
     return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
                  n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs)
+
+
+def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
+    """``[study] record = { every = N, spikes = [...], traces = [...], stride = S }``."""
+    from ..coupling.recorder import RecordPlan
+
+    if doc is None:
+        return None
+    if not isinstance(doc, dict) or "every" not in doc:
+        raise InputError(f"{where}: [study] record must be a table with at least 'every' "
+                         f"(e.g. record = {{ every = 50, traces = [\"astrocyte_Ca\"] }})")
+    bad = set(doc) - {"every", "spikes", "traces", "stride"}
+    if bad:
+        raise InputError(f"{where}: [study] record has unknown key '{sorted(bad)[0]}' "
+                         f"(keys: every, spikes, traces, stride)")
+    try:
+        plan = RecordPlan(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()})
+    except (TypeError, ValueError) as e:
+        raise InputError(f"{where}: [study] record: {e}") from None
+    return {"every": plan.every, "spikes": list(plan.spikes), "traces": list(plan.traces),
+            "stride": plan.stride}
 
 
 def _consecutive_groups(seeds: Sequence[int], batch: int) -> list[tuple[int, int]]:
@@ -313,7 +344,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
             if payload["fingerprint"] != settings.fingerprint():
                 raise InputError(f"{out}: its checkpoint belongs to other settings")
         models = models_from(settings.overrides, {})
-        trainer = Trainer(models, settings, out, progress=False)
+        trainer = Trainer(models, settings, out, progress=False, record=spec.record_plan())
         if payload is not None:
             trainer.restore(payload)
         status["sessions_at_start"] = int(trainer.training.sessions_done.sum())

@@ -9,6 +9,7 @@ same files as a run never interrupted.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import hashlib
 import io
 import pickle
@@ -23,6 +24,7 @@ from brian2 import NetworkOperation, second
 from tqdm.auto import tqdm
 
 from ..coupling.bridge import Bridge
+from ..coupling.recorder import RecordPlan, SessionRecorder
 from ..coupling.robot import A1Parameters, RobotLayout, build_model
 from ..coupling.training import SESSION_COLUMNS, Training
 from ..errors import InputError
@@ -55,8 +57,9 @@ class Trainer:
     """Builds the network, robot, bridge and session loop; runs; checkpoints; resumes."""
 
     def __init__(self, models: ModelSet, settings: TrainSettings, out: Path,
-                 progress: bool = True) -> None:
+                 progress: bool = True, record: RecordPlan | None = None) -> None:
         self.settings, self.out = settings, out
+        self.record = record
         if not settings.astrocytes:
             models = models.with_values({"astrocyte_regulation": 0.0})
         self.models = models
@@ -69,6 +72,12 @@ class Trainer:
         self.bridge = Bridge(self.cpg, self.robot, self.layout, models)
         self.training = Training(self.cpg, self.bridge, models, n_sessions=settings.n_sessions,
                                  on_session=self._on_session)
+        self.recorder = None
+        if record is not None:
+            self.recorder = SessionRecorder(
+                self.cpg, self.bridge, record, n_sessions=settings.n_sessions,
+                max_steps=self.training.max_steps,
+                step_in_session=self.training.step_in_session, on_recorded=self._write_recording)
         self.cpg.net.add(self.bridge.operation())
         # after the weight update of the step (interlimb_learning, order 10)
         self.cpg.net.add(NetworkOperation(self._maybe_checkpoint, dt=self.cpg.dt, when="end",
@@ -81,6 +90,8 @@ class Trainer:
     # ---- during the run
     def _on_session(self, training: Training, trial: int) -> None:
         self._pending = True
+        if self.recorder is not None:
+            self.recorder.finish(trial, int(training.sessions_done[trial]))
         row = training.memory.rows[-1]
         self.bar.update(1)
         recent = training.memory.rows[-10 * self.settings.n_trials:]
@@ -95,6 +106,42 @@ class Trainer:
             self.write_checkpoint()
 
     # ---- files
+    def _write_recording(self, trial: int, session: int, arrays: dict[str, Any]) -> None:
+        """One recorded session as a folder that ``astrocpg export`` reads like a run."""
+        from ..network import Layout
+        from .outputs import save_npz, write_manifest
+
+        folder = self.out / "recordings" / f"trial{trial:02d}_session{session:04d}"
+        folder.mkdir(parents=True, exist_ok=True)
+        spikes = {}
+        for pop, (t, i) in arrays["spikes"].items():
+            spikes[f"{pop}_times"], spikes[f"{pop}_indices"] = t, i
+        save_npz(folder / "spikes.npz", spikes)
+        traces = {}
+        for name, (t, v) in arrays["traces"].items():
+            traces[name], traces[f"{name}_t"] = v, t
+        if traces:
+            save_npz(folder / "traces.npz", traces)
+        robot = {k: (v if k == "t" else v[None]) for k, v in arrays["robot"].items()}
+        save_npz(folder / "robot.npz", robot | {"legs": np.array(list(self.cpg.layout.legs)),
+                                                "joints": np.array(["hip", "thigh", "calf"])})
+        from .cli import _layout_json
+        layout = Layout(n_trials=1, pool_size=self.cpg.layout.pool_size,
+                        legs=self.cpg.layout.legs)
+        write_manifest(folder, command="train-session", seed=self.settings.seed + trial,
+                       settings={"training": str(self.out), "trial": trial, "session": session,
+                                 "record": dataclasses.asdict(self.record),
+                                 "overrides": list(self.settings.overrides),
+                                 "astrocytes": self.settings.astrocytes,
+                                 "seconds": self.training.memory.rows[-1]["length_s"]},
+                       models_json=self.models.to_json(),
+                       files={"spikes.npz": "<pop>_times (s from the session's start), "
+                                            "<pop>_indices (index within the trial)",
+                              "traces.npz": "<trace> (sample, neuron), <trace>_t (s)",
+                              "robot.npz": "t; joint_angles, torques (1, t, leg, joint); "
+                                           "torso_position, torso_velocity (1, t, xyz)"},
+                       results={"layout": _layout_json(layout), "dt_s": float(self.cpg.dt)})
+
     def write_outputs(self) -> None:
         rows = self.training.memory.rows
         buf = io.StringIO()
@@ -144,6 +191,9 @@ class Trainer:
                           "sessions_done", "done", "progress", "t_learning_start")},
             "memory": tr.memory,
         }
+        if self.recorder is not None:
+            payload["record_plan"] = dataclasses.asdict(self.record)
+            payload["recorder"] = self.recorder.state()
         body = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)
         digest = hashlib.sha256(body).hexdigest().encode() + b"\n"
         _atomic(self.out / CHECKPOINT, lambda f: (f.write(MAGIC), f.write(digest), f.write(body)))
@@ -164,6 +214,8 @@ class Trainer:
         for k, v in payload["training"].items():
             getattr(self.training, k)[...] = v
         self.training.memory = payload["memory"]
+        if self.recorder is not None and "recorder" in payload:
+            self.recorder.restore(payload["recorder"])
         self.bar.update(int(self.training.sessions_done.sum()))
 
     # ---- run

@@ -106,6 +106,13 @@ def test_study_file_errors_name_the_key(tmp_path: Path) -> None:
                  '[sweep.axes]\nL_max = ["1*second", "2*second"]\ntau_STDP = ["10*ms"]\n')
     with pytest.raises(InputError, match="equal length"):
         load_study(p)
+    p.write_text('[study]\nsessions = 3\nrecord = { every = 5, traces = ["astro_K"] }\n')
+    with pytest.raises(InputError, match="record.*astro_K"):
+        load_study(p)
+    p.write_text('[study]\nsessions = 3\nrecord = { every = 5, traces = ["astrocyte_Ca"], '
+                 'stride = 10 }\n')
+    (run,) = load_study(p).runs
+    assert run.record_plan().traces == ("astrocyte_Ca",) and run.record_plan().stride == 10
 
 
 def test_sweep_grid_and_seed_batches(tmp_path: Path) -> None:

@@ -66,7 +66,9 @@ def _cli(*args: str, **kw) -> subprocess.Popen:
 
 
 def test_resume_after_sigkill_is_exact(tmp_path):
-    args = ["train", "--sessions", "20", "--trials", "2", "--seed", "4", *SHORT]
+    # with recorded sessions: their state is part of the checkpoint too
+    args = ["train", "--sessions", "20", "--trials", "2", "--seed", "4", "--record-every", "3",
+            "--record-stride", "2", *SHORT]
     whole = tmp_path / "whole"
     p = _cli(*args, "--out", str(whole))
     assert p.wait(timeout=600) == 0, p.stderr.read()
@@ -89,6 +91,15 @@ def test_resume_after_sigkill_is_exact(tmp_path):
     with np.load(whole / "weights.npz") as a, np.load(killed / "weights.npz") as b:
         assert np.array_equal(a["weights_mV"], b["weights_mV"], equal_nan=True)
         assert np.array_equal(a["final_weights_mV"], b["final_weights_mV"])
+    recorded = sorted(p.relative_to(whole) for p in (whole / "recordings").rglob("*.npz"))
+    # sessions 1, 4, 7, ..., 19 and the last (20) of each trial; spikes, traces, robot each
+    assert len(recorded) == 2 * 8 * 3
+    assert recorded == sorted(p.relative_to(killed) for p in (killed / "recordings").rglob("*.npz"))
+    for rel in recorded:
+        with np.load(whole / rel) as a, np.load(killed / rel) as b:
+            assert a.files == b.files
+            for k in a.files:
+                assert np.array_equal(a[k], b[k]), (rel, k)
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,167 @@
+"""Recording chosen training sessions, so a long training keeps its spikes and traces for
+analysis without filling the disk.
+
+A :class:`RecordPlan` says which sessions of each trial are recorded (the first, then every
+``every``-th, and the last), which populations' spikes and which traces, and the stride (in
+steps) of trace and robot samples. While a trial is in a recorded session, every step (after the
+physics, before the session loop may end the session) its spikes are read off the populations'
+``lastspike`` and, every ``stride`` steps, the traces and the robot's joint angles, applied
+torques and torso position and velocity are copied into buffers allocated at the session's
+start. When the session ends, the buffers go to ``on_recorded`` (which writes them). The state
+of sessions in progress is part of training checkpoints, so a resumed training records the same.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from ..network import CPG
+from ..network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
+from .bridge import Bridge
+
+
+@dataclass(frozen=True, kw_only=True)
+class RecordPlan:
+    """What a training records.
+
+    every: sessions 1, 1+every, 1+2*every, ... and each trial's last session are recorded.
+    spikes: populations whose spikes are kept (motor, interneuron, astrocyte = adenosine
+        release).
+    traces: traces kept (motor_Ca, astrocyte_Ca, astrocyte_IP3, astrocyte_AG, astrocyte_ADO).
+    stride: physics steps between two samples of the traces and of the robot.
+    """
+
+    every: int
+    spikes: tuple[str, ...] = POPULATIONS
+    traces: tuple[str, ...] = TRACES
+    stride: int = 1
+
+    def __post_init__(self) -> None:
+        if self.every < 1:
+            raise ValueError(f"RecordPlan.every must be at least 1, got {self.every}")
+        if self.stride < 1:
+            raise ValueError(f"RecordPlan.stride must be at least 1, got {self.stride}")
+        for p in self.spikes:
+            if p not in POPULATIONS:
+                raise ValueError(f"RecordPlan.spikes: unknown population '{p}'")
+        for t in self.traces:
+            if t not in TRACES:
+                raise ValueError(f"RecordPlan.traces: unknown trace '{t}'")
+
+    def records(self, session: int, n_sessions: int) -> bool:
+        """Is session ``session`` (1-based) recorded?"""
+        return (session - 1) % self.every == 0 or session == n_sessions
+
+
+class SessionRecorder:
+    """Records the sessions of ``plan`` for every trial of a training."""
+
+    def __init__(self, cpg: CPG, bridge: Bridge, plan: RecordPlan, *, n_sessions: int,
+                 max_steps: int, step_in_session: np.ndarray,
+                 on_recorded: Callable[[int, int, dict[str, Any]], None]) -> None:
+        self.cpg, self.bridge, self.plan = cpg, bridge, plan
+        self.n_sessions, self.max_steps = int(n_sessions), int(max_steps)
+        self.on_recorded = on_recorded
+        self._step_in_session = step_in_session  # the session loop's live counters
+        B = self.n_trials = cpg.n_trials
+        self.dt = float(cpg.dt)
+        self._lastspike = {p: cpg.array(p, "lastspike").reshape(B, -1) for p in plan.spikes}
+        self._traces = {}
+        for name in plan.traces:
+            group, var, scale, _ = TRACE_SOURCES[name]
+            self._traces[name] = (cpg.array(group, var).reshape(B, -1), scale)
+        self._clock = cpg.motor.clock
+        self.session = np.zeros(B, dtype=np.int64)  # the session being recorded, 0 = none
+        self.buffers: list[dict[str, Any] | None] = [None] * B
+        self.n_samples = self.max_steps // plan.stride + 1
+        for b in range(B):
+            self.start(b, 1)
+        inner = bridge.after_physics
+
+        def record_then_step() -> None:
+            self.step()
+            if inner is not None:
+                inner()
+
+        bridge.after_physics = record_then_step
+
+    # ---- session boundaries
+    def start(self, b: int, session: int) -> None:
+        """Begin trial ``b``'s session ``session`` (recorded or not)."""
+        if session > self.n_sessions or not self.plan.records(session, self.n_sessions):
+            self.session[b], self.buffers[b] = 0, None
+            return
+        n = self.n_samples
+        br = self.bridge
+        self.session[b] = session
+        self.buffers[b] = {
+            "spikes": {p: [] for p in self.plan.spikes},  # (step, indices) per step with spikes
+            "traces": {name: np.zeros((n, arr.shape[1]), dtype=np.float32)
+                       for name, (arr, _) in self._traces.items()},
+            "joint_angles": np.zeros((n,) + br._qa.shape),
+            "torques": np.zeros((n,) + br._act.shape),
+            "torso_position": np.zeros((n, 3)),
+            "torso_velocity": np.zeros((n, 3)),
+            "samples": 0,
+        }
+
+    def finish(self, b: int, session_done: int) -> None:
+        """Trial ``b`` has just finished session ``session_done``: hand over its recording and
+        prepare the next session."""
+        buf = self.buffers[b]
+        if buf is not None and self.session[b] == session_done:
+            self.on_recorded(b, session_done, self._arrays(buf))
+        self.start(b, session_done + 1)
+
+    def _arrays(self, buf: dict[str, Any]) -> dict[str, Any]:
+        n = buf["samples"]
+        # sample j is the state at the end of session step j*stride, i.e. at time (j*stride+1)*dt
+        # from the session's start (the time a Brian2 StateMonitor would give it)
+        t = (np.arange(n) * self.plan.stride + 1) * self.dt
+        out: dict[str, Any] = {"spikes": {}, "traces": {}, "robot": {"t": t}}
+        for pop, chunks in buf["spikes"].items():
+            steps = np.concatenate([np.full(len(i), s) for s, i in chunks]) if chunks \
+                else np.zeros(0)
+            idx = np.concatenate([i for _, i in chunks]) if chunks else np.zeros(0, np.int32)
+            out["spikes"][pop] = (steps * self.dt, idx.astype(np.int32))
+        for name, arr in buf["traces"].items():
+            out["traces"][name] = (t, arr[:n].copy())
+        for key in ("joint_angles", "torques", "torso_position", "torso_velocity"):
+            out["robot"][key] = buf[key][:n].copy()
+        return out
+
+    # ---- per step
+    def step(self) -> None:
+        active = np.flatnonzero(self.session)
+        if active.size == 0:
+            return
+        t = self._clock.t_
+        br = self.bridge
+        stride = self.plan.stride
+        for b in active:
+            buf = self.buffers[b]
+            step = int(self._step_in_session[b])  # 0-based step of the session (this step)
+            for pop, arr in self._lastspike.items():
+                fired = np.flatnonzero(arr[b] == t)
+                if fired.size:
+                    buf["spikes"][pop].append((step, fired.astype(np.int32)))
+            if step % stride == 0 and buf["samples"] < self.n_samples:
+                k = buf["samples"]
+                for name, (arr, scale) in self._traces.items():
+                    buf["traces"][name][k] = arr[b] * scale
+                buf["joint_angles"][k] = br.qpos[b, br._qa]
+                buf["torques"][k] = np.clip(br.ctrl[b, br._act], br._ctrl_lo, br._ctrl_hi)
+                buf["torso_position"][k] = br.qpos[b, br._fq:br._fq + 3]
+                buf["torso_velocity"][k] = br.qvel[b, br._fv:br._fv + 3]
+                buf["samples"] = k + 1
+
+    # ---- checkpoints
+    def state(self) -> dict[str, Any]:
+        return {"session": self.session.copy(), "buffers": self.buffers}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        self.session[...] = state["session"]
+        self.buffers = list(state["buffers"])
