@@ -163,31 +163,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     warnings.filterwarnings("ignore", module="brian2")
     try:
-        if args.command == "unit":
-            return _cmd_unit(args)
-        if args.command == "run":
-            return _cmd_run(args)
-        if args.command == "train":
-            return _cmd_train(args)
-        if args.command == "gait":
-            return _cmd_gait(args)
-        if args.command == "plot":
-            return _cmd_plot(args)
-        if args.command == "robot":
-            return _cmd_robot(args)
-        if args.command == "study":
-            return _cmd_study(args)
-        if args.command == "report":
-            return _cmd_report(args)
-        if args.command == "power":
-            return _cmd_power(args)
-        if args.command == "export":
-            return _cmd_export(args)
-        if args.command == "describe":
-            from .describe import describe
-            sys.stdout.write(describe(args.model, args.format,
-                                      load_models(args.overrides, args.equations)))
-            return 0
+        return COMMANDS[args.command](args)
     except InputError as e:
         sys.stderr.write(f"astrocpg: error: {e}\n")
         return 2
@@ -197,6 +173,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
         sys.stderr.close()
         return 0
+    return 0
+
+
+def _cmd_describe(args: argparse.Namespace) -> int:
+    from .describe import describe
+
+    sys.stdout.write(describe(args.model, args.format,
+                              load_models(args.overrides, args.equations)))
     return 0
 
 
@@ -723,6 +707,11 @@ def _phases(s: dict[str, Any]) -> str:
 def _rates(s: dict[str, Any]) -> str:
     r = s.get("rates", {})
     return ", ".join(f"{k} {v:.1f} Hz" for k, v in r.items()) if r else "n/a"
+
+
+COMMANDS = {"unit": _cmd_unit, "run": _cmd_run, "train": _cmd_train, "gait": _cmd_gait,
+            "plot": _cmd_plot, "robot": _cmd_robot, "study": _cmd_study, "report": _cmd_report,
+            "power": _cmd_power, "export": _cmd_export, "describe": _cmd_describe}
 
 
 if __name__ == "__main__":  # pragma: no cover

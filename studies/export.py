@@ -69,33 +69,20 @@ def _load(folder: Path) -> dict[str, Any]:
 
 
 def unit_rows(manifest: dict[str, Any]) -> dict[str, list[dict[str, Any]]]:
-    """Per population, one dict per neuron: trial, limb, pool (or interneuron name), index."""
+    """Per population, one dict per neuron: trial, limb, pool (or interneuron name), index.
+
+    The order is the populations' index order (see the manifest's layout): trial, then leg,
+    then pool, interneuron or astrocyte, then (motor neurons) neuron within the pool."""
     lay = manifest["results"]["layout"]
-    legs, pools, size = lay["legs"], lay["pools"], lay["pool_size"]
-    n_trials = lay["n_trials"]
-    rows: dict[str, list[dict[str, Any]]] = {"motor": [], "interneuron": [], "astrocyte": []}
-    k = 0
-    for b in range(n_trials):
-        for leg in legs:
-            for pool in pools:
-                for _ in range(size):
-                    rows["motor"].append({"trial": b, "limb": leg, "pool": pool,
-                                          "neuron_index": k})
-                    k += 1
-    k = 0
-    for b in range(n_trials):
-        for leg in legs:
-            for name in lay["interneurons"]:
-                rows["interneuron"].append({"trial": b, "limb": leg, "pool": name,
-                                            "neuron_index": k})
-                k += 1
-    k = 0
-    for b in range(n_trials):
-        for leg in legs:
-            for pool in lay["thigh_pools"]:
-                rows["astrocyte"].append({"trial": b, "limb": leg, "pool": pool,
-                                          "neuron_index": k})
-                k += 1
+    per_leg = {"motor": [p for p in lay["pools"] for _ in range(lay["pool_size"])],
+               "interneuron": list(lay["interneurons"]),
+               "astrocyte": list(lay["thigh_pools"])}
+    rows: dict[str, list[dict[str, Any]]] = {}
+    for pop, cells in per_leg.items():
+        rows[pop] = [{"trial": b, "limb": leg, "pool": cell}
+                     for b in range(lay["n_trials"]) for leg in lay["legs"] for cell in cells]
+        for k, row in enumerate(rows[pop]):
+            row["neuron_index"] = k
     return rows
 
 

@@ -93,22 +93,18 @@ def _kill_group(proc: subprocess.Popen, sig: int) -> None:
 
 def test_study_file_errors_name_the_key(tmp_path: Path) -> None:
     p = tmp_path / "bad.toml"
-    p.write_text('[study]\nsessions = 3\n[base]\nno_such_parameter = "1*ms"\n')
-    with pytest.raises(InputError, match=r"\[base\].*no_such_parameter"):
-        load_study(p)
-    p.write_text('[study]\nsessions = 3\n[base]\nL_max = "3*volt"\n')
-    with pytest.raises(InputError, match="L_max"):
-        load_study(p)
-    p.write_text('[study]\nsesions = 3\n')
-    with pytest.raises(InputError, match="unknown key 'sesions'"):
-        load_study(p)
-    p.write_text('[study]\nsessions = 3\n[sweep]\nmode = "zip"\n'
-                 '[sweep.axes]\nL_max = ["1*second", "2*second"]\ntau_STDP = ["10*ms"]\n')
-    with pytest.raises(InputError, match="equal length"):
-        load_study(p)
-    p.write_text('[study]\nsessions = 3\nrecord = { every = 5, traces = ["astro_K"] }\n')
-    with pytest.raises(InputError, match="record.*astro_K"):
-        load_study(p)
+    for text, message in [
+        ('[base]\nno_such_parameter = "1*ms"\n', r"\[base\].*no_such_parameter"),
+        ('[base]\nL_max = "3*volt"\n', "L_max"),
+        ('sesions = 3\n', "unknown key 'sesions'"),
+        ('[sweep]\nmode = "zip"\n[sweep.axes]\nL_max = ["1*second", "2*second"]\n'
+         'tau_STDP = ["10*ms"]\n', "equal length"),
+        ('record = { every = 5, traces = ["astro_K"] }\n', "record.*astro_K"),
+    ]:
+        head = "[study]\n" + ("" if text.startswith("sesions") else "sessions = 3\n")
+        p.write_text(head + text)
+        with pytest.raises(InputError, match=message):
+            load_study(p)
     p.write_text('[study]\nsessions = 3\nrecord = { every = 5, traces = ["astrocyte_Ca"], '
                  'stride = 10 }\n')
     (run,) = load_study(p).runs
