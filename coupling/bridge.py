@@ -16,8 +16,8 @@ a Python loop over trials (MjData) only, never over neurons.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any, Callable
+from dataclasses import dataclass
+from typing import Callable
 
 import brian2
 import mujoco

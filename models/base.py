@@ -15,7 +15,7 @@ from typing import Any, Callable, Iterable, Mapping
 
 import brian2
 import numpy as np
-from brian2 import Equations, Quantity
+from brian2 import Equations
 from brian2.units.fundamentalunits import DimensionMismatchError, get_dimensions
 
 from ..errors import InputError

@@ -18,7 +18,7 @@ from brian2 import Network, NeuronGroup, Synapses, linked_var, ms, second
 from ..errors import InputError
 from ..models import DEFAULT_MODELS, ModelSet
 from ..models.base import NeuronModel, SynapseModel, brian_error_line
-from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
+from .layout import INTERNEURONS, LEGS, THIGH_POOLS, Layout
 
 brian2.prefs.codegen.target = "numpy"
 brian2.prefs.codegen.loop_invariant_optimisations = True

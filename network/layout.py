@@ -10,7 +10,7 @@ FR flexor, FR extensor, FL flexor, FL extensor, RR ..., RL ...; ``w[x, y]`` is f
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

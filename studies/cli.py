@@ -594,8 +594,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
         res = run_study(study, out, workers=args.workers, scheduler=args.scheduler,
                         progress=not args.no_progress)
     except KeyboardInterrupt:
-        sys.stderr.write(f"astrocpg: study interrupted; run the same command again to "
-                         f"continue (finished runs are kept)\n")
+        sys.stderr.write("astrocpg: study interrupted; run the same command again to "
+                         "continue (finished runs are kept)\n")
         return 130
     counts = ", ".join(f"{v} {k}" for k, v in res["counts"].items())
     print(f"runs: {counts}; {res['rows']} rows in {out / RESULTS}")

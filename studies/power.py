@@ -108,7 +108,8 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
         counted["limit"] = 0.0
         bar.update(1)
 
-    training = Training(cpg, bridge, models, n_sessions=sessions, on_session=on_session)
+    # the session loop hooks itself into the bridge (bridge.after_physics)
+    Training(cpg, bridge, models, n_sessions=sessions, on_session=on_session)
     session_step = bridge.after_physics
 
     def count_then_step() -> None:

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from .study import RUNS, STATUS, STUDY_INDEX, read_status
+from .study import RUNS, STUDY_INDEX, read_status
 
 CURVES = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
           ("length_s", "session length (s)"))

@@ -8,7 +8,6 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-import brian2
 import mujoco
 import numpy as np
 from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second

@@ -35,7 +35,6 @@ repeating the command after a crash, a killed worker or Ctrl-C continues where i
 from __future__ import annotations
 
 import csv
-import hashlib
 import itertools
 import json
 import logging
@@ -49,8 +48,6 @@ import traceback
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
-
-import numpy as np
 
 from ..errors import InputError
 
@@ -410,11 +407,14 @@ def _save_index(study: Study, out: Path) -> None:
     from .outputs import _atomic, save_json
     index_path = out / STUDY_INDEX
     known: dict[str, str] = {}
-    if index_path.exists():
-        known = json.loads(index_path.read_text())["runs"]
+    specs: dict[str, Any] = {}
+    if index_path.exists():  # a rerun may add runs (more seeds, points): keep the earlier ones
+        old = json.loads(index_path.read_text())
+        known, specs = old["runs"], old.get("specs", {})
     known.update({r.run_id: r.fingerprint() for r in study.runs})
+    specs.update({r.run_id: asdict(r) for r in study.runs})
     save_json(index_path, {"name": study.name, "sweep": study.sweep, "runs": known,
-                           "specs": {r.run_id: asdict(r) for r in study.runs}})
+                           "specs": specs})
     data = study.text.encode()
     _atomic(out / STUDY_COPY, lambda f: f.write(data))
 
@@ -613,7 +613,3 @@ def write_results(study: Study, out: Path) -> int:
 
 def _csv_cell(text: str) -> str:
     return f'"{text}"' if ("," in text or '"' in text) else text
-
-
-def study_digest(study: Study) -> str:
-    return hashlib.sha256("".join(r.fingerprint() for r in study.runs).encode()).hexdigest()
