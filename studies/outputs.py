@@ -5,6 +5,7 @@ temporary name, then renamed), so an interrupted run never leaves a half-written
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -35,8 +36,12 @@ def package_versions() -> dict[str, str]:
     return out
 
 
+@functools.lru_cache(maxsize=1)
 def git_commit() -> dict[str, Any]:
-    """The commit of the astrocpg source tree, and whether it had uncommitted changes."""
+    """The commit of the astrocpg source tree, and whether it had uncommitted changes.
+
+    Read once per process: a long run records the code it started with, even if the tree
+    changes while it runs."""
     root = Path(__file__).resolve().parents[1]
     try:
         commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
