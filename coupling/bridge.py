@@ -191,17 +191,22 @@ class Bridge:
         qx, qy = self.qpos[:, fq + 4], self.qpos[:, fq + 5]
         self.alive[:] = self._alive(torso_z_up=1.0 - 2.0 * (qx * qx + qy * qy))
 
+    def robot_sample(self, trials: int | slice = slice(None)) -> tuple[np.ndarray, ...]:
+        """Joint angles (leg, joint) rad, applied torques (leg, joint) N m, torso position and
+        linear velocity (xyz, world) of ``trials`` after this step's physics."""
+        fq, fv = self._fq, self._fv
+        return (self.qpos[trials, self._qa],
+                # as applied: MuJoCo clamps ctrl to the motors' ctrlrange
+                np.clip(self.ctrl[trials, self._act], self._ctrl_lo, self._ctrl_hi),
+                self.qpos[trials, fq:fq + 3], self.qvel[trials, fv:fv + 3])
+
     def _record(self) -> None:
         rec = self.recording
         k, r = divmod(self.step_count, rec.stride)
         if r or k >= len(rec.t):
             return
-        fq, fv = self._fq, self._fv
-        rec.joint_angles[:, k] = self.qpos[:, self._qa]
-        # as applied: MuJoCo clamps ctrl to the motors' ctrlrange
-        rec.torques[:, k] = np.clip(self.ctrl[:, self._act], self._ctrl_lo, self._ctrl_hi)
-        rec.torso_position[:, k] = self.qpos[:, fq:fq + 3]
-        rec.torso_velocity[:, k] = self.qvel[:, fv:fv + 3]
+        (rec.joint_angles[:, k], rec.torques[:, k], rec.torso_position[:, k],
+         rec.torso_velocity[:, k]) = self.robot_sample()
         rec.reward[:, k] = self.reward
         rec.alive[:, k] = self.alive
         if self.layout.touch_adr is not None:

@@ -51,6 +51,11 @@ class RecordPlan:
             if t not in TRACES:
                 raise ValueError(f"RecordPlan.traces: unknown trace '{t}'")
 
+    @classmethod
+    def from_dict(cls, fields: dict[str, Any]) -> "RecordPlan":
+        """From ``dataclasses.asdict`` output or a study file's table (lists become tuples)."""
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
+
     def records(self, session: int, n_sessions: int) -> bool:
         """Is session ``session`` (1-based) recorded?"""
         return (session - 1) % self.every == 0 or session == n_sessions
@@ -95,14 +100,14 @@ class SessionRecorder:
             self.session[b], self.buffers[b] = 0, None
             return
         n = self.n_samples
-        br = self.bridge
+        angles, torques, _, _ = self.bridge.robot_sample(b)
         self.session[b] = session
         self.buffers[b] = {
             "spikes": {p: [] for p in self.plan.spikes},  # (step, indices) per step with spikes
             "traces": {name: np.zeros((n, arr.shape[1]), dtype=np.float32)
                        for name, (arr, _) in self._traces.items()},
-            "joint_angles": np.zeros((n,) + br._qa.shape),
-            "torques": np.zeros((n,) + br._act.shape),
+            "joint_angles": np.zeros((n,) + angles.shape),
+            "torques": np.zeros((n,) + torques.shape),
             "torso_position": np.zeros((n, 3)),
             "torso_velocity": np.zeros((n, 3)),
             "samples": 0,
@@ -152,10 +157,8 @@ class SessionRecorder:
                 k = buf["samples"]
                 for name, (arr, scale) in self._traces.items():
                     buf["traces"][name][k] = arr[b] * scale
-                buf["joint_angles"][k] = br.qpos[b, br._qa]
-                buf["torques"][k] = np.clip(br.ctrl[b, br._act], br._ctrl_lo, br._ctrl_hi)
-                buf["torso_position"][k] = br.qpos[b, br._fq:br._fq + 3]
-                buf["torso_velocity"][k] = br.qvel[b, br._fv:br._fv + 3]
+                (buf["joint_angles"][k], buf["torques"][k], buf["torso_position"][k],
+                 buf["torso_velocity"][k]) = br.robot_sample(b)
                 buf["samples"] = k + 1
 
     # ---- checkpoints

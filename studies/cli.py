@@ -384,7 +384,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_train(args: argparse.Namespace) -> int:
     from .outputs import prepare_output_dir, write_manifest
-    from .train import CHECKPOINT, Trainer, TrainSettings, read_checkpoint
+    from .train import CHECKPOINT, Trainer, TrainingStopped, TrainSettings, read_checkpoint
 
     given = {"sessions": args.sessions, "seed": args.seed, "trials": args.trials,
              "astrocytes": None if args.no_astrocytes is None else not args.no_astrocytes}
@@ -436,12 +436,11 @@ def _cmd_train(args: argparse.Namespace) -> int:
                    settings=settings.__dict__ | {"record": record_json},
                    models_json=trainer.models.to_json(),
                    files=_train_files(), results={"status": "running"})
-    wall = trainer.run()
-    trainer.write_outputs()
-    if not trainer.training.done.all():  # Brian2 stops the run early on Ctrl-C
-        sys.stderr.write(f"astrocpg: training interrupted after "
-                         f"{int(trainer.training.sessions_done.sum())} sessions; continue with "
-                         f"astrocpg train --resume {out}\n")
+    try:
+        wall = trainer.run()
+    except TrainingStopped as e:
+        sys.stderr.write(f"astrocpg: training {e}; continue with astrocpg train --resume "
+                         f"{out}\n")
         return 130
     rows = trainer.training.memory.rows
     L_max = float(np.asarray(trainer.models.progress.parameters["L_max"].value))
@@ -467,8 +466,7 @@ def _record_plan(args: argparse.Namespace, payload: dict[str, Any] | None):
         if args.record_every is not None and args.record_every != stored["every"]:
             raise InputError(f"--resume: that run records every {stored['every']} sessions, "
                              f"not {args.record_every}")
-        return RecordPlan(**{k: tuple(v) if isinstance(v, list) else v
-                             for k, v in stored.items()})
+        return RecordPlan.from_dict(stored)
     if args.record_every is None:
         if args.spikes is not None or args.traces is not None:
             raise InputError("--spikes/--traces of a training need --record-every N")
@@ -656,23 +654,8 @@ def _cmd_robot(args: argparse.Namespace) -> int:
 
 
 def _save_common(out: Path, result, save_npz) -> dict[str, str]:
-    files: dict[str, str] = {}
-    arrays: dict[str, np.ndarray] = {}
-    for pop, (t, i) in result.spikes.items():
-        arrays[f"{pop}_times"] = t
-        arrays[f"{pop}_indices"] = i
-    save_npz(out / "spikes.npz", arrays)
-    files["spikes.npz"] = ("per population (motor, interneuron, astrocyte = adenosine release): "
-                           "<pop>_times (s) and <pop>_indices (see manifest results.layout)")
-    if result.traces:
-        tr: dict[str, np.ndarray] = {}
-        for name, (t, v) in result.traces.items():
-            tr[name] = v
-            tr[f"{name}_t"] = t
-        save_npz(out / "traces.npz", tr)
-        files["traces.npz"] = ("motor_Ca (t, neuron); astrocyte_Ca, astrocyte_IP3 (uM), "
-                               "astrocyte_AG, astrocyte_ADO (t, astrocyte); each with <name>_t (s)")
-    return files
+    from .outputs import save_spikes_and_traces
+    return save_spikes_and_traces(out, result.spikes, result.traces)
 
 
 def _layout_json(L) -> dict[str, Any]:

@@ -31,9 +31,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..network.recordable import TRACE_SOURCES
+from .outputs import atomic_path, save_npz
 
-TRACE_UNITS = {"motor_Ca": "a.u.", "astrocyte_Ca": "uM", "astrocyte_IP3": "uM",
-               "astrocyte_AG": "a.u.", "astrocyte_ADO": "a.u."}
 TRACE_MEANING = {
     "motor_Ca": "motor-neuron Ca2+ (dimensionless, drives the K+ adaptation current)",
     "astrocyte_Ca": "astrocyte cytosolic Ca2+ (Li-Rinzel)",
@@ -165,7 +165,7 @@ def export_nwb(folder: Path, path: Path) -> Path:
             cols = slice(part * width, (part + 1) * width)
             suffix = f"trial{b}_{lay['legs'][limb]}" if population == "motor" else f"trial{b}"
             nwb.add_acquisition(TimeSeries(
-                name=f"{name}_{suffix}", data=values[:, cols], unit=TRACE_UNITS.get(name, "a.u."),
+                name=f"{name}_{suffix}", data=values[:, cols], unit=TRACE_SOURCES[name][3],
                 rate=1.0 / dt, starting_time=float(t[0]) if len(t) else 0.0,
                 description=(f"{TRACE_MEANING.get(name, name)}; column k = neuron_index "
                              f"{cols.start}+k of the {population} population in the Units "
@@ -220,7 +220,7 @@ def export_nwb(folder: Path, path: Path) -> Path:
                                      VectorData(name="text", description="Brian2 code",
                                                 data=eq_texts)]))
     nwb.add_processing_module(module)
-    _write(path, lambda p: _nwb_write(NWBHDF5IO, nwb, p))
+    atomic_path(path, lambda p: _nwb_write(NWBHDF5IO, nwb, p))
     return path
 
 
@@ -240,22 +240,6 @@ def _nwb_write(io_cls, nwb, path: Path) -> None:
         io.write(nwb)
 
 
-def _write(path: Path, writer) -> None:
-    """Write to a temporary name beside ``path``, then rename (no half-written file)."""
-    import os
-    import tempfile
-
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
-    os.close(fd)
-    try:
-        writer(Path(tmp))
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def export_npz(folder: Path, path: Path) -> Path:
     data = _load(folder)
     m = data["manifest"]
@@ -272,10 +256,11 @@ def export_npz(folder: Path, path: Path) -> Path:
     for name, v in data.get("robot", {}).items():
         arrays[f"robot_{name}"] = v
     arrays["metadata_json"] = np.array(json.dumps(
-        _metadata(m) | {"models": m.get("models"), "units": TRACE_UNITS
+        _metadata(m) | {"models": m.get("models"),
+                        "units": {n: src[3] for n, src in TRACE_SOURCES.items()}
                         | {"robot_joint_angles": "rad", "robot_torques": "N m",
                            "spike times": "s"}}, default=str))
-    _write(path, lambda p: np.savez_compressed(open(p, "wb"), **arrays))
+    save_npz(path, arrays)
     return path
 
 

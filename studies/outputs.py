@@ -16,7 +16,7 @@ import tempfile
 import time
 from importlib import metadata
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -73,13 +73,13 @@ def prepare_output_dir(path: str | os.PathLike) -> Path:
     return p
 
 
-def _atomic(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
+    """``write_to(tmp)`` writes a temporary file beside ``path`` (same suffix, for libraries that
+    check it, e.g. pynwb), which then replaces ``path``: never a half-written result."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
+    os.close(fd)
     try:
-        with os.fdopen(fd, "wb") as f:
-            write(f)
-            f.flush()
-            os.fsync(f.fileno())
+        write_to(Path(tmp))
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are ordinary files
@@ -90,8 +90,38 @@ def _atomic(path: Path, write) -> None:
         raise
 
 
+def _atomic(path: Path, write: Callable[[Any], Any]) -> None:
+    """``write(f)`` into a binary file object, synced to disk, then renamed to ``path``."""
+    def to(tmp: Path) -> None:
+        with open(tmp, "wb") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+    atomic_path(path, to)
+
+
 def save_npz(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
     _atomic(path, lambda f: np.savez_compressed(f, **arrays))
+
+
+def save_spikes_and_traces(out: Path, spikes: Mapping[str, tuple[np.ndarray, np.ndarray]],
+                           traces: Mapping[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, str]:
+    """``spikes.npz`` (``<pop>_times``, ``<pop>_indices``) and, if any, ``traces.npz``
+    (``<name>``, ``<name>_t``); returns what each file holds, for the manifest."""
+    arrays: dict[str, np.ndarray] = {}
+    for pop, (t, i) in spikes.items():
+        arrays[f"{pop}_times"], arrays[f"{pop}_indices"] = t, i
+    save_npz(out / "spikes.npz", arrays)
+    files = {"spikes.npz": "per population (motor, interneuron, astrocyte = adenosine release): "
+                           "<pop>_times (s) and <pop>_indices (see manifest results.layout)"}
+    if traces:
+        tr: dict[str, np.ndarray] = {}
+        for name, (t, v) in traces.items():
+            tr[name], tr[f"{name}_t"] = v, t
+        save_npz(out / "traces.npz", tr)
+        files["traces.npz"] = ("<name> (sample, neuron) and its time axis <name>_t (s): motor_Ca; "
+                               "astrocyte_Ca, astrocyte_IP3 (uM); astrocyte_AG, astrocyte_ADO")
+    return files
 
 
 def save_json(path: Path, obj: Any) -> None:

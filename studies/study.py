@@ -87,8 +87,7 @@ class RunSpec:
         from ..coupling.recorder import RecordPlan
         if not self.record:
             return None
-        return RecordPlan(**{k: tuple(v) if isinstance(v, list) else v
-                             for k, v in self.record.items()})
+        return RecordPlan.from_dict(self.record)
 
     def train_settings(self):
         from .train import TrainSettings
@@ -272,7 +271,7 @@ def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
         raise InputError(f"{where}: [study] record has unknown key '{sorted(bad)[0]}' "
                          f"(keys: every, spikes, traces, stride)")
     try:
-        plan = RecordPlan(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()})
+        plan = RecordPlan.from_dict(doc)
     except (TypeError, ValueError) as e:
         raise InputError(f"{where}: [study] record: {e}") from None
     return {"every": plan.every, "spikes": list(plan.spikes), "traces": list(plan.traces),
@@ -291,9 +290,6 @@ def _consecutive_groups(seeds: Sequence[int], batch: int) -> list[tuple[int, int
 
 
 # ---------------------------------------------------------------- one run (on a worker)
-class RunStopped(RuntimeError):
-    """The simulation of a run ended before its sessions were done (e.g. Ctrl-C)."""
-
 
 def read_status(folder: Path) -> dict[str, Any]:
     try:
@@ -319,7 +315,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
     warnings.filterwarnings("ignore", module="brian2")
     from .cli import models_from
     from .outputs import prepare_output_dir, write_manifest
-    from .train import CHECKPOINT, Trainer, read_checkpoint
+    from .train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
 
     out = prepare_output_dir(folder)
     status = read_status(out)
@@ -350,17 +346,12 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
                        models_json=trainer.models.to_json(), files=_run_files(),
                        results={"status": "running"})
         wall = trainer.run()
-        trainer.write_outputs()
-        if not trainer.training.done.all():
-            # Brian2 turns a SIGINT into a request to stop the run early: not finished
-            raise RunStopped(f"stopped after {int(trainer.training.sessions_done.sum())} of "
-                             f"{spec.n_trials * spec.n_sessions} sessions (interrupted)")
         write_manifest(out, command="study-run", seed=spec.seed, settings=asdict(spec),
                        models_json=trainer.models.to_json(), files=_run_files(),
                        results={"status": "finished", "wall_seconds_last_attempt": wall})
         status.update({"state": "finished", "finished": time.time(),
                        "wall_seconds": status.get("wall_seconds", 0.0) + time.perf_counter() - t0})
-    except RunStopped as e:
+    except TrainingStopped as e:
         status.update({"state": "stopped", "error": str(e), "finished": time.time()})
     except Exception as e:  # recorded, not raised: the other runs go on
         status.update({"state": "failed", "error": f"{type(e).__name__}: {e}",

@@ -53,6 +53,14 @@ class TrainSettings:
         return hashlib.sha256(text.encode()).hexdigest()
 
 
+class TrainingStopped(RuntimeError):
+    """The simulation ended before every session was done (e.g. Ctrl-C)."""
+
+    def __init__(self, done: int, total: int) -> None:
+        super().__init__(f"stopped after {done} of {total} sessions (interrupted)")
+        self.done, self.total = done, total
+
+
 class Trainer:
     """Builds the network, robot, bridge and session loop; runs; checkpoints; resumes."""
 
@@ -109,19 +117,11 @@ class Trainer:
     def _write_recording(self, trial: int, session: int, arrays: dict[str, Any]) -> None:
         """One recorded session as a folder that ``astrocpg export`` reads like a run."""
         from ..network import Layout
-        from .outputs import save_npz, write_manifest
+        from .outputs import save_npz, save_spikes_and_traces, write_manifest
 
         folder = self.out / "recordings" / f"trial{trial:02d}_session{session:04d}"
         folder.mkdir(parents=True, exist_ok=True)
-        spikes = {}
-        for pop, (t, i) in arrays["spikes"].items():
-            spikes[f"{pop}_times"], spikes[f"{pop}_indices"] = t, i
-        save_npz(folder / "spikes.npz", spikes)
-        traces = {}
-        for name, (t, v) in arrays["traces"].items():
-            traces[name], traces[f"{name}_t"] = v, t
-        if traces:
-            save_npz(folder / "traces.npz", traces)
+        files = save_spikes_and_traces(folder, arrays["spikes"], arrays["traces"])
         robot = {k: (v if k == "t" else v[None]) for k, v in arrays["robot"].items()}
         save_npz(folder / "robot.npz", robot | {"legs": np.array(list(self.cpg.layout.legs)),
                                                 "joints": np.array(["hip", "thigh", "calf"])})
@@ -135,11 +135,9 @@ class Trainer:
                                  "astrocytes": self.settings.astrocytes,
                                  "seconds": self.training.memory.rows[-1]["length_s"]},
                        models_json=self.models.to_json(),
-                       files={"spikes.npz": "<pop>_times (s from the session's start), "
-                                            "<pop>_indices (index within the trial)",
-                              "traces.npz": "<trace> (sample, neuron), <trace>_t (s)",
-                              "robot.npz": "t; joint_angles, torques (1, t, leg, joint); "
-                                           "torso_position, torso_velocity (1, t, xyz)"},
+                       files=files | {"robot.npz": "t (s); joint_angles, torques (1, t, leg, "
+                                                   "joint); torso_position, torso_velocity "
+                                                   "(1, t, xyz)"},
                        results={"layout": _layout_json(layout), "dt_s": float(self.cpg.dt)})
 
     def write_outputs(self) -> None:
@@ -220,7 +218,9 @@ class Trainer:
 
     # ---- run
     def run(self) -> float:
-        """Run until every trial has done its sessions; returns wall seconds."""
+        """Run until every trial has done its sessions and write the outputs; returns wall
+        seconds. Raises :class:`TrainingStopped` (outputs and checkpoint written) when the
+        simulation ended first: Brian2 turns Ctrl-C into a request to stop the run."""
         import time
         L_max = float(np.asarray(self.models.progress.parameters["L_max"].value))
         left = (self.settings.n_sessions - self.training.sessions_done.min()) * L_max
@@ -231,6 +231,10 @@ class Trainer:
                 self.cpg.net.run((left + 1.0) * second, namespace={})
         finally:
             self.bar.close()
+        self.write_outputs()
+        if not self.training.done.all():
+            raise TrainingStopped(int(self.training.sessions_done.sum()),
+                                  self.settings.n_trials * self.settings.n_sessions)
         return time.perf_counter() - t0
 
 
