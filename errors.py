@@ -1,9 +1,95 @@
-"""The one exception type that user-facing commands turn into a one-line message and exit code 2."""
+"""The exceptions that user-facing commands turn into one line on stderr and an exit code.
+
+Every layer raises these; only the command line turns them into exit codes:
+
+========  =================  ==============================================================
+exit      exception          meaning
+========  =================  ==============================================================
+0         (none)             done
+1         EnvironmentFault   the environment failed us: disk full, unwritable folder, I/O
+2         InputError         bad input: a value, an option, an equation, a file's content
+3         Diverged           the simulation produced NaN/inf or MuJoCo reported instability
+130       KeyboardInterrupt  interrupted (Ctrl-C, SIGTERM)
+========  =================  ==============================================================
+
+Like Nengo's ``ValidationError(msg, attr, obj)``, each error carries the *culprit* (what the
+user typed or the object at fault: ``--set tau_motor``, ``motor_neuron.tau_motor``, a path)
+apart from the message, and formats the one line in one place: ``<culprit>: <message>``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+EXIT_CODES = {"done": 0, "environment": 1, "input": 2, "diverged": 3, "interrupted": 130}
 
 
-class InputError(ValueError):
-    """Bad user input (a parameter, an equation, a file, a command-line value).
+def one_line(text: str, limit: int = 600) -> str:
+    """Collapse whitespace and newlines: a message is always one line."""
+    line = " ".join(str(text).split())
+    return line if len(line) <= limit else line[:limit - 3] + "..."
 
-    The message is a single line that names the offending object and attribute, e.g.
-    ``motor_neuron: parameter 'tau_motor' must be positive, got -9. ms``.
+
+class AstrocpgError(Exception):
+    """Base of the errors a command reports in one line. ``culprit`` names what is at fault."""
+
+    exit_code = 1
+
+    def __init__(self, message: str, culprit: Any = None) -> None:
+        self.message = one_line(message)
+        self.culprit = None if culprit is None else one_line(str(culprit), 200)
+        super().__init__(self.line)
+
+    @property
+    def line(self) -> str:
+        """``<culprit>: <message>``, or the message alone when there is no culprit."""
+        return f"{self.culprit}: {self.message}" if self.culprit else self.message
+
+    def __reduce__(self):  # picklable across Dask workers with its culprit
+        return (self.__class__, (self.message, self.culprit))
+
+
+class InputError(AstrocpgError, ValueError):
+    """Bad user input (a parameter, an equation, a file, a command-line value): exit 2.
+
+    e.g. ``InputError("must be positive, got -9. ms", culprit="motor_neuron.tau_motor")``.
     """
+
+    exit_code = 2
+
+
+class EnvironmentFault(AstrocpgError):
+    """The environment failed: a file or folder could not be read or written (disk full,
+    permission, read-only file system): exit 1. The culprit is the path."""
+
+    exit_code = 1
+
+    @classmethod
+    def from_os_error(cls, err: OSError, path: Any = None, doing: str = "") -> "EnvironmentFault":
+        where = path if path is not None else (err.filename or "")
+        reason = err.strerror or type(err).__name__
+        return cls(f"{doing + ': ' if doing else ''}{reason}", culprit=where or None)
+
+
+class Diverged(AstrocpgError):
+    """The simulation left the numbers: NaN/inf in a state variable, or a MuJoCo instability
+    warning. ``what`` names the population and variable (or the warning), ``t`` the time in s,
+    ``trial`` the trial (None when unknown)."""
+
+    exit_code = 3
+
+    def __init__(self, message: str, culprit: Any = None, *, t: float | None = None,
+                 trial: int | None = None) -> None:
+        self.t, self.trial = t, trial
+        super().__init__(message, culprit)
+
+    def __reduce__(self):
+        return (_rebuild_diverged, (self.message, self.culprit, self.t, self.trial))
+
+
+def _rebuild_diverged(message: str, culprit: Any, t: float | None, trial: int | None) -> Diverged:
+    return Diverged(message, culprit, t=t, trial=trial)
+
+
+__all__ = ["AstrocpgError", "InputError", "EnvironmentFault", "Diverged", "EXIT_CODES",
+           "one_line"]
