@@ -24,7 +24,7 @@ from astrocpg.coupling.bridge import Bridge  # noqa: E402
 from astrocpg.coupling.robot import A1Parameters, RobotLayout, build_model  # noqa: E402
 from astrocpg.models import DEFAULT_MODELS  # noqa: E402
 from astrocpg.network import build_cpg, check_runs  # noqa: E402
-from astrocpg.studies.simulate import _monitors  # noqa: E402
+from astrocpg.studies.experiments.simulate import add_monitors  # noqa: E402
 
 
 def measure(n_trials: int, seconds: float, record: bool) -> dict[str, float]:
@@ -37,7 +37,7 @@ def measure(n_trials: int, seconds: float, record: bool) -> dict[str, float]:
     bridge = Bridge(cpg, robot, layout, DEFAULT_MODELS)
     if record:
         bridge.start_recording(int(seconds * 1000) + 200, 1)
-        _monitors(cpg, 1 * ms, True)
+        add_monitors(cpg, 1 * ms, True)
     cpg.net.add(bridge.operation())
     cpg.net.run(100 * ms, namespace={})  # code generation and first steps
     startup = time.perf_counter() - t_start

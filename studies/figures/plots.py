@@ -10,7 +10,7 @@ matplotlib.use("Agg")  # headless: files only
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..network import INTERNEURONS, LEGS, POOLS, Layout  # noqa: E402
+from ...network import INTERNEURONS, LEGS, POOLS, Layout  # noqa: E402
 
 POOL_COLOURS = {"thigh_flexor": "tab:blue", "thigh_extensor": "tab:red",
                 "calf_flexor": "tab:cyan", "calf_extensor": "tab:orange"}
@@ -85,7 +85,7 @@ def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, tr
 
 def plot_weights(path: Path, table_mV: np.ndarray, *, trial: int = 0) -> None:
     """The 8x8 inter-limb table as a diverging heatmap (the paper's Fig. 3a)."""
-    from ..network import interlimb_labels
+    from ...network import interlimb_labels
 
     labels = [lab.replace("thigh_", "").replace("flexor", "F").replace("extensor", "E")
               for lab in interlimb_labels()]

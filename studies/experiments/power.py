@@ -21,7 +21,16 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from brian2 import second
+from tqdm.auto import tqdm
+
+from ...coupling.bridge import Bridge
+from ...coupling.robot import A1Parameters, RobotLayout, build_model
+from ...coupling.training import Training
+from ...errors import InputError
+from ...network import build_cpg, check_runs
+from ..files.weights import load_weights
+from .settings import model_set
 
 # The paper's figures, shown next to ours (not used in any computation).
 PAPER = {
@@ -55,16 +64,7 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
             progress: bool = True) -> dict[str, Any]:
     """Run trial ``trial``'s trained table of the training in ``folder`` for ``sessions``
     sessions with learning off; return rates, events per spike and the power estimates."""
-    from brian2 import second
-    from tqdm.auto import tqdm
-
-    from ..coupling.bridge import Bridge
-    from ..coupling.robot import A1Parameters, RobotLayout, build_model
-    from ..coupling.training import Training
-    from ..network import build_cpg, check_runs
-    from .cli import load_weights, models_from
-
-    weights = load_weights(str(folder), trial)  # (8, 8) volt; checks the folder and trial
+    weights = load_weights(str(folder), trial, culprit="power")  # (8, 8) volt; checks the folder and trial
     try:
         manifest = json.loads((folder / "manifest.json").read_text())
         settings = manifest["settings"]
@@ -73,7 +73,7 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
             from None
     if sessions < 1:
         raise InputError(f"--sessions must be at least 1, got {sessions}")
-    models = models_from(settings.get("overrides", []), settings.get("equations", {}))
+    models = model_set(settings.get("overrides", []), settings.get("equations", {}))
     syn = models.interlimb_synapse.parameters
     # weights fixed: a measurement, not training (zero in each rate's own unit)
     values: dict[str, Any] = {"eta": 0 * syn["eta"].value, "eta_ADO": 0 * syn["eta_ADO"].value}
@@ -162,3 +162,15 @@ def format_power(res: dict[str, Any]) -> str:
               f"{res['snn_W_with_paper_ops']:.3g} W, ratio "
               f"{res['rl_W'] / res['snn_W_with_paper_ops']:.1f}x"]
     return "\n".join(lines)
+
+
+def power(folder: Path, *, trial: int = 0, sessions: int = 10, progress: bool = True,
+          argv: list[str] | None = None) -> tuple[Path, dict[str, Any]]:
+    """:func:`measure`, then ``power_trial<K>.json`` in ``folder`` (with package versions);
+    returns its path and the figures."""
+    from ..files.outputs import package_versions, save_json
+
+    res = measure(Path(folder), trial=trial, sessions=sessions, progress=progress)
+    path = Path(folder) / f"power_trial{trial}.json"
+    save_json(path, res | {"package_versions": package_versions(), "argv": argv or []})
+    return path, res

@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
-from ..network.recordable import TRACE_SOURCES
+from ...errors import InputError
+from ...network.recordable import TRACE_SOURCES
 from .outputs import atomic_path, save_npz
 
 TRACE_MEANING = {

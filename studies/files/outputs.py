@@ -20,7 +20,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..errors import InputError
+from ...errors import InputError
 
 PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
             "pandas", "pynwb")
@@ -90,7 +90,7 @@ def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
         raise
 
 
-def _atomic(path: Path, write: Callable[[Any], Any]) -> None:
+def atomic_write(path: Path, write: Callable[[Any], Any]) -> None:
     """``write(f)`` into a binary file object, synced to disk, then renamed to ``path``."""
     def to(tmp: Path) -> None:
         with open(tmp, "wb") as f:
@@ -101,7 +101,7 @@ def _atomic(path: Path, write: Callable[[Any], Any]) -> None:
 
 
 def save_npz(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
-    _atomic(path, lambda f: np.savez_compressed(f, **arrays))
+    atomic_write(path, lambda f: np.savez_compressed(f, **arrays))
 
 
 def save_spikes_and_traces(out: Path, spikes: Mapping[str, tuple[np.ndarray, np.ndarray]],
@@ -126,7 +126,7 @@ def save_spikes_and_traces(out: Path, spikes: Mapping[str, tuple[np.ndarray, np.
 
 def save_json(path: Path, obj: Any) -> None:
     text = json.dumps(obj, indent=2, default=_json_default).encode()
-    _atomic(path, lambda f: f.write(text))
+    atomic_write(path, lambda f: f.write(text))
 
 
 def _json_default(o: Any) -> Any:

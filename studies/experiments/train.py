@@ -23,14 +23,16 @@ import numpy as np
 from brian2 import NetworkOperation, second
 from tqdm.auto import tqdm
 
-from ..coupling.bridge import Bridge
-from ..coupling.recorder import RecordPlan, SessionRecorder
-from ..coupling.robot import A1Parameters, RobotLayout, build_model
-from ..coupling.training import SESSION_COLUMNS, Training
-from ..errors import InputError
-from ..models import ModelSet
-from ..network import build_cpg, check_runs, interlimb_labels
-from .outputs import _atomic, save_npz
+from ...coupling.bridge import Bridge
+from ...coupling.recorder import RecordPlan, SessionRecorder
+from ...coupling.robot import A1Parameters, RobotLayout, build_model
+from ...coupling.training import SESSION_COLUMNS, Training
+from ...errors import InputError
+from ...models import ModelSet
+from ...network import build_cpg, check_runs, interlimb_labels
+from ..files.outputs import atomic_write, save_npz, save_spikes_and_traces, write_manifest
+from .settings import model_set, number, override_items
+from .simulate import check_selection
 
 CHECKPOINT = "checkpoint.pkl"
 MAGIC = b"ASTROCPG-CHECKPOINT-1\n"
@@ -116,8 +118,7 @@ class Trainer:
     # ---- files
     def _write_recording(self, trial: int, session: int, arrays: dict[str, Any]) -> None:
         """One recorded session as a folder that ``astrocpg export`` reads like a run."""
-        from ..network import Layout
-        from .outputs import save_npz, save_spikes_and_traces, write_manifest
+        from ...network import Layout
 
         folder = self.out / "recordings" / f"trial{trial:02d}_session{session:04d}"
         folder.mkdir(parents=True, exist_ok=True)
@@ -125,7 +126,6 @@ class Trainer:
         robot = {k: (v if k == "t" else v[None]) for k, v in arrays["robot"].items()}
         save_npz(folder / "robot.npz", robot | {"legs": np.array(list(self.cpg.layout.legs)),
                                                 "joints": np.array(["hip", "thigh", "calf"])})
-        from .cli import _layout_json
         layout = Layout(n_trials=1, pool_size=self.cpg.layout.pool_size,
                         legs=self.cpg.layout.legs)
         write_manifest(folder, command="train-session", seed=self.settings.seed + trial,
@@ -138,7 +138,7 @@ class Trainer:
                        files=files | {"robot.npz": "t (s); joint_angles, torques (1, t, leg, "
                                                    "joint); torso_position, torso_velocity "
                                                    "(1, t, xyz)"},
-                       results={"layout": _layout_json(layout), "dt_s": float(self.cpg.dt)})
+                       results={"layout": layout.to_json(), "dt_s": float(self.cpg.dt)})
 
     def write_outputs(self) -> None:
         rows = self.training.memory.rows
@@ -148,7 +148,7 @@ class Trainer:
         for r in rows:
             writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v) for k, v in r.items()})
         data = buf.getvalue().encode()
-        _atomic(self.out / "sessions.csv", lambda f: f.write(data))
+        atomic_write(self.out / "sessions.csv", lambda f: f.write(data))
         mem = self.training.memory
         n_max = max(len(w) for w in mem.weights)
         table = np.full((self.settings.n_trials, n_max, 8, 8), np.nan)
@@ -194,7 +194,7 @@ class Trainer:
             payload["recorder"] = self.recorder.state()
         body = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)
         digest = hashlib.sha256(body).hexdigest().encode() + b"\n"
-        _atomic(self.out / CHECKPOINT, lambda f: (f.write(MAGIC), f.write(digest), f.write(body)))
+        atomic_write(self.out / CHECKPOINT, lambda f: (f.write(MAGIC), f.write(digest), f.write(body)))
 
     def restore(self, payload: dict[str, Any]) -> None:
         net = self.cpg.net
@@ -273,3 +273,125 @@ def read_checkpoint(path: Path) -> dict[str, Any]:
         return pickle.loads(body)
     except Exception:
         raise InputError(f"--resume: {path} is corrupt (cannot be read)") from None
+
+
+TRAIN_FILES = {
+    "sessions.csv": "one row per trial and session: " + ", ".join(SESSION_COLUMNS),
+    "weights.npz": "weights_mV (trial, session, 8, 8): each trial's inter-limb table after "
+                   "each session (NaN after a trial's last); final_weights_mV; labels",
+    "checkpoint.pkl": "state to continue exactly (astrocpg train --resume DIR)",
+    "recordings/": "with --record-every: trialTT_sessionSSSS/ per recorded session (spikes, "
+                   "traces, robot, manifest; astrocpg export reads it)",
+}
+
+
+def record_plan(every: int | None, stride: int = 1, spikes: tuple[str, ...] | None = None,
+                traces: tuple[str, ...] | None = None,
+                stored: dict[str, Any] | None = None) -> RecordPlan | None:
+    """The training's RecordPlan: from the options, or (resuming) the checkpoint's ``stored``."""
+    if stored is not None:
+        if every is not None and every != stored["every"]:
+            raise InputError(f"that run records every {stored['every']} sessions, not {every}",
+                             culprit="--record-every")
+        return RecordPlan.from_dict(stored)
+    if every is None:
+        if spikes is not None or traces is not None:
+            raise InputError("a training records spikes and traces only with --record-every N",
+                             culprit="--spikes/--traces")
+        return None
+    if every < 1:
+        raise InputError(f"must be at least 1, got {every}", culprit="--record-every")
+    if stride < 1:
+        raise InputError(f"must be at least 1, got {stride}", culprit="--record-stride")
+    spikes, traces = check_selection(spikes, traces)
+    return RecordPlan(every=every, spikes=spikes, traces=traces, stride=stride)
+
+
+def train_summary(rows: list[dict], n_trials: int, L_max: float) -> dict[str, Any]:
+    """Per trial: sessions done, mean forward speed over the last 20, share of the last 50
+    sessions that reached L_max; and a printable line per trial."""
+    per_trial: dict[int, dict[str, float]] = {}
+    lines: dict[int, str] = {}
+    for b in range(n_trials):
+        mine = [r for r in rows if r["trial"] == b]
+        if not mine:
+            continue
+        last20, last50 = mine[-20:], mine[-50:]
+        speed = float(np.mean([r["mean_forward_speed_m_per_s"] for r in last20]))
+        full = float(np.mean([r["length_s"] >= L_max - 1e-6 for r in last50]))
+        per_trial[b] = {"sessions": len(mine), "mean_speed_last20_m_per_s": speed,
+                        "full_length_share_last50": full}
+        lines[b] = (f"trial {b}: {len(mine)} sessions; mean forward speed over the last 20: "
+                    f"{speed:.3f} m/s; sessions reaching L_max in the last 50: {full:.0%}")
+    return {"per_trial": per_trial, "lines": lines}
+
+
+def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 1,
+          astrocytes: bool = True, overrides: Any = None,
+          equations: dict[str, str] | None = None, record_every: int | None = None,
+          record_stride: int = 1, spikes: tuple[str, ...] | None = None,
+          traces: tuple[str, ...] | None = None, progress: bool = True) -> "Trainer":
+    """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
+    each, writing ``out`` (sessions.csv, weights.npz, checkpoint.pkl, manifest.json) after every
+    session; ``astrocytes=False`` is the paper's ablation. Returns the finished Trainer
+    (``trainer.training.memory.rows``, ``trainer.cpg``). Raises TrainingStopped if interrupted
+    (continue with :func:`resume`)."""
+    settings = TrainSettings(
+        n_sessions=number(sessions, "--sessions", integer=True, minimum=1),
+        seed=number(seed, "--seed", integer=True, minimum=0),
+        n_trials=number(trials, "--trials", integer=True, minimum=1),
+        astrocytes=bool(astrocytes), overrides=override_items(overrides),
+        equations=dict(equations or {}))
+    out = Path(out)
+    if (out / CHECKPOINT).exists() or (out / "sessions.csv").exists():
+        raise InputError(f"already holds a training run (continue it with --resume {out})",
+                         culprit=f"--out {out}")
+    plan = record_plan(record_every, record_stride, spikes, traces)
+    return _train(settings, out, plan, None, progress)
+
+
+def resume(folder: str | Path, *, progress: bool = True, record_every: int | None = None,
+           expect: dict[str, Any] | None = None) -> "Trainer":
+    """Continue the training in ``folder`` from its checkpoint; ``expect`` (e.g. the options
+    given again on the command line) must agree with the stored settings."""
+    out = Path(folder)
+    payload = read_checkpoint(out / CHECKPOINT)
+    settings = TrainSettings(**payload["settings"])
+    if payload["fingerprint"] != settings.fingerprint():
+        raise InputError(f"{out / CHECKPOINT} is not consistent with its settings",
+                         culprit="--resume")
+    stored = {"sessions": settings.n_sessions, "seed": settings.seed,
+              "trials": settings.n_trials, "astrocytes": settings.astrocytes,
+              "overrides": sorted(settings.overrides), "equations": settings.equations}
+    for key, value in (expect or {}).items():
+        if value is not None and value != stored[key]:
+            shown = stored[key] if key not in ("overrides", "equations") else \
+                (", ".join(settings.overrides) or "defaults")
+            raise InputError(f"that run has {key}={shown}, not {value}", culprit=f"--resume {out}")
+    plan = record_plan(record_every, stored=payload.get("record_plan"))
+    if plan is None and record_every is not None:
+        raise InputError("that run records no sessions", culprit="--record-every")
+    return _train(settings, out, plan, payload, progress)
+
+
+def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
+           payload: dict[str, Any] | None, progress: bool) -> "Trainer":
+    models = model_set(settings.overrides, settings.equations)
+    trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
+    out.mkdir(parents=True, exist_ok=True)
+    if payload is not None:
+        trainer.restore(payload)
+    record_json = None if plan is None else dataclasses.asdict(plan)
+    manifest = dict(command="train", seed=settings.seed,
+                    settings=settings.__dict__ | {"record": record_json},
+                    models_json=trainer.models.to_json(), files=TRAIN_FILES)
+    write_manifest(out, **manifest, results={"status": "running"})
+    wall = trainer.run()  # raises TrainingStopped (files written) when interrupted
+    rows = trainer.training.memory.rows
+    L_max = float(np.asarray(trainer.models.progress.parameters["L_max"].value))
+    summary = train_summary(rows, settings.n_trials, L_max)
+    trainer.summary = summary
+    write_manifest(out, **manifest,
+                   results={"status": "finished", "wall_seconds_last_invocation": wall,
+                            "per_trial": summary["per_trial"]})
+    return trainer

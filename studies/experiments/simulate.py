@@ -13,12 +13,12 @@ import numpy as np
 from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second
 from tqdm.auto import tqdm
 
-from ..coupling.bridge import Bridge, Recording
-from ..coupling.robot import RobotLayout
-from ..errors import InputError
-from ..models import ModelSet
-from ..network import CPG, LEGS, build_cpg, check_runs
-from ..network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
+from ...coupling.bridge import Bridge, Recording
+from ...coupling.robot import RobotLayout
+from ...errors import InputError
+from ...models import ModelSet
+from ...network import CPG, LEGS, POOLS, build_cpg, check_runs
+from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
 
 
 
@@ -50,9 +50,11 @@ def check_selection(spikes: tuple[str, ...] | None,
     return spikes, traces
 
 
-def _monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
+def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
               spikes: tuple[str, ...] = POPULATIONS,
               traces: tuple[str, ...] = TRACES) -> dict[str, Any]:
+    """Spike monitors of ``spikes`` and state monitors (every ``trace_dt``) of ``traces``,
+    added to the network; returns them by population / ``<group>_state``."""
     mons: dict[str, Any] = {p: SpikeMonitor(getattr(cpg, p), name=f"spikes_{p}")
                             for p in spikes}
     if record_traces:
@@ -107,7 +109,7 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
     _check_seconds(seconds)
     cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=("FR",))
     check_runs(cpg)
-    mons = _monitors(cpg, trace_dt, record_traces, *check_selection(spikes, traces))
+    mons = add_monitors(cpg, trace_dt, record_traces, *check_selection(spikes, traces))
     bar = _Progress(seconds, "unit", progress and seconds > 3)
     steps = [0]
 
@@ -141,7 +143,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: 
     n_steps = int(round(seconds / robot.opt.timestep))
     rec = bridge.start_recording(n_steps, robot_stride)
     selection = check_selection(spikes, traces)
-    mons = _monitors(cpg, trace_dt, record_traces, *selection) if record_spikes else {}
+    mons = add_monitors(cpg, trace_dt, record_traces, *selection) if record_spikes else {}
     cpg.net.add(bridge.operation())
     wall = _run(cpg, seconds, bar)
     spikes, traces = _collect(mons) if mons else ({}, {})
@@ -174,7 +176,6 @@ def firing_rates(result: SimulationResult) -> dict[str, Any]:
     t, i = result.spikes["motor"]
     per_trial = i // L.motor_per_trial
     pool_kind = (i % L.motor_per_trial) // L.pool_size % 4
-    from ..network import POOLS
     for k, name in enumerate(POOLS):
         counts = np.bincount(per_trial[pool_kind == k], minlength=L.n_trials)
         out[name] = counts / (L.n_legs * L.pool_size * T)

@@ -49,7 +49,14 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
-from ..errors import InputError
+from ...coupling.recorder import RecordPlan
+from ...coupling.training import SESSION_COLUMNS
+from ...errors import InputError
+from ...models import DEFAULT_MODELS
+from ..experiments.settings import model_set
+from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
+                                 read_checkpoint)
+from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
 
 RUNS = "runs"
 STATUS = "status.json"
@@ -84,13 +91,11 @@ class RunSpec:
     record: dict[str, Any] | None = None  # RecordPlan fields (not part of the run's identity)
 
     def record_plan(self):
-        from ..coupling.recorder import RecordPlan
         if not self.record:
             return None
         return RecordPlan.from_dict(self.record)
 
     def train_settings(self):
-        from .train import TrainSettings
         return TrainSettings(n_sessions=self.n_sessions, seed=self.seed, n_trials=self.n_trials,
                              astrocytes=self.astrocytes, overrides=list(self.overrides))
 
@@ -135,7 +140,6 @@ def _slug(text: str) -> str:
 
 def load_study(path: str | os.PathLike) -> Study:
     """Read and validate a study file; every error names the file and the offending key."""
-    from ..models import DEFAULT_MODELS
 
     p = Path(path)
     built_in = Path(__file__).with_name(f"{p.name}.toml")
@@ -259,7 +263,6 @@ def load_study(path: str | os.PathLike) -> Study:
 
 def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
     """``[study] record = { every = N, spikes = [...], traces = [...], stride = S }``."""
-    from ..coupling.recorder import RecordPlan
 
     if doc is None:
         return None
@@ -299,7 +302,6 @@ def read_status(folder: Path) -> dict[str, Any]:
 
 
 def _write_status(folder: Path, status: dict[str, Any]) -> None:
-    from .outputs import save_json
     save_json(folder / STATUS, status)
 
 
@@ -313,9 +315,6 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
     import warnings
 
     warnings.filterwarnings("ignore", module="brian2")
-    from .cli import models_from
-    from .outputs import prepare_output_dir, write_manifest
-    from .train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
 
     out = prepare_output_dir(folder)
     status = read_status(out)
@@ -336,7 +335,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
             payload = read_checkpoint(out / CHECKPOINT)
             if payload["fingerprint"] != settings.fingerprint():
                 raise InputError(f"{out}: its checkpoint belongs to other settings")
-        models = models_from(settings.overrides, {})
+        models = model_set(settings.overrides, {})
         trainer = Trainer(models, settings, out, progress=False, record=spec.record_plan())
         if payload is not None:
             trainer.restore(payload)
@@ -361,8 +360,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
 
 
 def _run_files() -> dict[str, str]:
-    from .cli import _train_files
-    return _train_files() | {STATUS: "state of the run in its study (running, finished, failed), "
+    return TRAIN_FILES | {STATUS: "state of the run in its study (running, finished, failed), "
                                      "attempts, error"}
 
 
@@ -395,7 +393,6 @@ def _check_folder(study: Study, out: Path) -> None:
 
 
 def _save_index(study: Study, out: Path) -> None:
-    from .outputs import _atomic, save_json
     index_path = out / STUDY_INDEX
     known: dict[str, str] = {}
     specs: dict[str, Any] = {}
@@ -407,7 +404,7 @@ def _save_index(study: Study, out: Path) -> None:
     save_json(index_path, {"name": study.name, "sweep": study.sweep, "runs": known,
                            "specs": specs})
     data = study.text.encode()
-    _atomic(out / STUDY_COPY, lambda f: f.write(data))
+    atomic_write(out / STUDY_COPY, lambda f: f.write(data))
 
 
 def _sessions_done(folder: Path) -> int:
@@ -425,7 +422,6 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
     belong to this study and the cluster is reachable."""
     from tqdm.auto import tqdm
 
-    from .outputs import write_manifest
 
     if workers is not None and workers < 1:
         raise InputError(f"--workers must be at least 1, got {workers}")
@@ -440,7 +436,6 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
     n_done_before = len(study.runs) - len(pending)
     cluster = _connect(workers, scheduler) if pending else None
     try:
-        from .outputs import prepare_output_dir
         prepare_output_dir(out)
         _save_index(study, out)
         write_manifest(out, command="study", seed=min(study.seeds),
@@ -496,7 +491,7 @@ class _ImportBrian2:
     def setup(self, worker: Any) -> None:
         import brian2  # noqa: F401
 
-        from . import train  # noqa: F401
+        from ..experiments import train  # noqa: F401
 
     def teardown(self, worker: Any) -> None:
         pass
@@ -504,8 +499,6 @@ class _ImportBrian2:
 
 def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_before,
               tqdm) -> None:
-    from .outputs import prepare_output_dir
-
     from distributed.diagnostics.plugin import WorkerPlugin
 
     plugin = type("ImportBrian2", (_ImportBrian2, WorkerPlugin), {})()
@@ -552,7 +545,6 @@ def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_
 
 
 def _write_failures(out: Path, failed: list[RunSpec], folders: dict[str, Path]) -> None:
-    from .outputs import _atomic
     path = out / FAILURES
     if not failed:
         if path.exists():
@@ -564,7 +556,7 @@ def _write_failures(out: Path, failed: list[RunSpec], folders: dict[str, Path]) 
         err = str(s.get("error", "")).replace('"', "'").replace("\n", " ")
         lines.append(f'{r.run_id},{s.get("state", "not run")},{s.get("attempts", 0)},"{err}"')
     data = ("\n".join(lines) + "\n").encode()
-    _atomic(path, lambda f: f.write(data))
+    atomic_write(path, lambda f: f.write(data))
 
 
 def _study_files() -> dict[str, str]:
@@ -580,8 +572,6 @@ def _study_files() -> dict[str, str]:
 
 def write_results(study: Study, out: Path) -> int:
     """Gather the finished runs' ``sessions.csv`` into ``OUT/results.csv``; returns its rows."""
-    from .outputs import _atomic
-    from ..coupling.training import SESSION_COLUMNS
 
     head = ["run_id", "condition", *study.sweep, "seed", *SESSION_COLUMNS]
     lines = [",".join(head)]
@@ -598,7 +588,7 @@ def write_results(study: Study, out: Path) -> int:
                 lines.append(",".join(_csv_cell(c) for c in cells))
                 n += 1
     data = ("\n".join(lines) + "\n").encode()
-    _atomic(out / RESULTS, lambda f: f.write(data))
+    atomic_write(out / RESULTS, lambda f: f.write(data))
     return n
 
 

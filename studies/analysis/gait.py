@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from ..network import LEGS, Layout
-from .analysis import detect_bursts
+from ...network import LEGS, Layout
+from .rhythm import detect_bursts
 
 LEG_INDEX = {leg: k for k, leg in enumerate(LEGS)}
 
