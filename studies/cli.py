@@ -170,7 +170,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _sigterm(signum: int, frame: Any) -> None:  # SIGTERM ends a command like Ctrl-C does
+def _sigterm(signum: int, frame: Any) -> None:
+    """SIGTERM ends a command like Ctrl-C does: a Brian2 run in progress stops cleanly at the end
+    of its step (the caller then sees it stopped early), anything else is interrupted."""
+    brian2 = sys.modules.get("brian2")
+    network = getattr(brian2, "Network", None)
+    if network is not None and network._globally_running and not network._globally_stopped:
+        network._globally_stopped = True
+        return
     raise KeyboardInterrupt
 
 

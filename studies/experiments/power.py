@@ -124,9 +124,8 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
         cpg.net.run((sessions * L_max + 1.0) * second, namespace={})
     finally:
         bar.close()
-    if len(per_session) < sessions:
-        raise InputError(f"power: the run stopped after {len(per_session)} of {sessions} "
-                         f"sessions (interrupted)")
+    if len(per_session) < sessions:  # Brian2 stopped the run cleanly on Ctrl-C / SIGTERM
+        raise KeyboardInterrupt
     rates = {k: float(np.mean([s[k] for s in per_session]))
              for k in ("inhibitory", "calf", "thigh", "limit")}
     ops = synaptic_events_per_spike(cpg)

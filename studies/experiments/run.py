@@ -14,10 +14,12 @@ from typing import Any, Mapping
 import numpy as np
 
 from ...errors import InputError
-from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
+from ..files.outputs import prepare_output_dir, file_sha256, save_npz, save_spikes_and_traces, write_manifest
 from ..files.weights import load_weights
 from .settings import Overrides, model_set, number, override_items
-from .simulate import SimulationResult, firing_rates, simulate_closed_loop
+from .resources import check_memory, estimate_bytes
+from .simulate import (STEP, SimulationResult, check_duration, check_selection, firing_rates,
+                       simulate_closed_loop)
 
 ROBOT_FILE = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t, leg, joint) "
               "N m; torso_position/velocity (trial, t, xyz) m, m/s world; reward, alive "
@@ -47,6 +49,11 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     seed = number(seed, "--seed", integer=True, minimum=0)
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
     robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
+    check_duration(seconds, STEP)
+    pops, names = check_selection(spikes, traces)
+    check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
+                                traces=names, spikes=bool(pops), robot_stride=robot_stride),
+                 culprit=f"--seconds {seconds:g} x --trials {trials}")
     models = model_set(overrides, equations)
     if weights is None:
         table = None
@@ -89,7 +96,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
             "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
             "weights": None if weights is None or isinstance(weights, np.ndarray)
             else str(weights), "trial": trial, "robot": None if robot is None else str(robot)}
-        write_run_folder(Path(out), result, settings)
+        write_run_folder(prepare_output_dir(out), result, settings)
     return result
 
 

@@ -14,7 +14,7 @@ from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second
 from tqdm.auto import tqdm
 
 from ...coupling.bridge import Bridge, Recording
-from ...coupling.robot import RobotLayout
+from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import InputError
 from ...models import ModelSet
 from ...network import CPG, LEGS, POOLS, build_cpg, check_runs
@@ -106,7 +106,7 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
                   progress: bool = True) -> SimulationResult:
     """One locomotion unit (the FR limb's CPG) open loop: no robot, torso speed 0, no
     limit-position inhibition (the paper's Fig. 1c). ``n_trials`` units with seeds seed..."""
-    _check_seconds(seconds)
+    check_duration(seconds)
     cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=("FR",))
     check_runs(cpg)
     mons = add_monitors(cpg, trace_dt, record_traces, *check_selection(spikes, traces))
@@ -133,7 +133,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: 
                          progress: bool = True) -> SimulationResult:
     """The whole CPG driving ``n_trials`` robots for ``seconds``, inter-limb weights fixed
     (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero)."""
-    _check_seconds(seconds)
+    check_duration(seconds)
     cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=LEGS, dt=robot.opt.timestep * second,
                     interlimb_weights=weights)
     check_runs(cpg)
@@ -154,16 +154,29 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: 
 def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
     """One long ``Network.run`` (each call costs ~0.3 s of set-up); returns wall seconds."""
     t0 = time.perf_counter()
+    t_end = float(cpg.net.t_) + seconds
     try:
         cpg.net.run(seconds * second, namespace={})
     finally:
         bar.close()
+    # Brian2 turns Ctrl-C (and our SIGTERM) into a clean stop at the end of a step: a run that
+    # stopped early was interrupted, and its partial data must not pass for a finished run
+    if float(cpg.net.t_) < t_end - 0.5 * float(cpg.dt):
+        raise KeyboardInterrupt
     return time.perf_counter() - t0
 
 
-def _check_seconds(seconds: float) -> None:
+# The CPG steps with the physics (the A1 model's timestep, 1 ms)
+STEP = A1Parameters().timestep
+
+
+def check_duration(seconds: float, dt: float = STEP) -> None:
+    """A run lasts at least one step."""
     if not np.isfinite(seconds) or seconds <= 0:
-        raise InputError(f"--seconds must be positive, got {seconds:g}")
+        raise InputError(f"must be positive, got {seconds:g}", culprit="--seconds")
+    if seconds < dt - 1e-12:
+        raise InputError(f"{seconds:g} s is shorter than one {dt * 1e3:g} ms step",
+                         culprit="--seconds")
 
 
 def firing_rates(result: SimulationResult) -> dict[str, Any]:

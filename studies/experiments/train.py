@@ -27,10 +27,12 @@ from ...coupling.bridge import Bridge
 from ...coupling.recorder import RecordPlan, SessionRecorder
 from ...coupling.robot import A1Parameters, RobotLayout, build_model
 from ...coupling.training import SESSION_COLUMNS, Training
-from ...errors import InputError
+from ...errors import Diverged, InputError
 from ...models import ModelSet
 from ...network import build_cpg, check_runs, interlimb_labels
-from ..files.outputs import atomic_write, save_npz, save_spikes_and_traces, write_manifest
+from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
+                             write_manifest)
+from .resources import check_memory, estimate_bytes
 from .settings import model_set, number, override_items
 from .simulate import check_selection
 
@@ -347,6 +349,8 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
         raise InputError(f"already holds a training run (continue it with --resume {out})",
                          culprit=f"--out {out}")
     plan = record_plan(record_every, record_stride, spikes, traces)
+    check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False),
+                 culprit=f"--trials {settings.n_trials}")
     return _train(settings, out, plan, None, progress)
 
 
@@ -355,11 +359,28 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     """Continue the training in ``folder`` from its checkpoint; ``expect`` (e.g. the options
     given again on the command line) must agree with the stored settings."""
     out = Path(folder)
-    payload = read_checkpoint(out / CHECKPOINT)
-    settings = TrainSettings(**payload["settings"])
+    if not (out / CHECKPOINT).exists():
+        # stopped before its first checkpoint: nothing was trained, so start again from the
+        # settings its manifest recorded
+        manifest = read_manifest(out)
+        if manifest is None or manifest.get("astrocpg_command") != "train":
+            raise InputError("holds no training (no checkpoint.pkl, no training manifest)",
+                             culprit=f"--resume {out}")
+        stored_settings = {k: v for k, v in manifest["settings"].items() if k != "record"}
+        payload = {"settings": stored_settings, "record_plan": manifest["settings"].get("record")}
+        settings = TrainSettings(**stored_settings)
+        payload["fingerprint"] = settings.fingerprint()
+        fresh = True
+    else:
+        payload = read_checkpoint(out / CHECKPOINT)
+        settings = TrainSettings(**payload["settings"])
+        fresh = False
     if payload["fingerprint"] != settings.fingerprint():
         raise InputError(f"{out / CHECKPOINT} is not consistent with its settings",
                          culprit="--resume")
+    if not fresh and bool(np.all(payload["training"]["done"])):
+        raise InputError(f"the training is already finished ({settings.n_sessions} sessions per "
+                         f"trial); nothing was changed", culprit=f"--resume {out}")
     stored = {"sessions": settings.n_sessions, "seed": settings.seed,
               "trials": settings.n_trials, "astrocytes": settings.astrocytes,
               "overrides": sorted(settings.overrides), "equations": settings.equations}
@@ -371,7 +392,7 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     plan = record_plan(record_every, stored=payload.get("record_plan"))
     if plan is None and record_every is not None:
         raise InputError("that run records no sessions", culprit="--record-every")
-    return _train(settings, out, plan, payload, progress)
+    return _train(settings, out, plan, None if fresh else payload, progress)
 
 
 def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
@@ -385,13 +406,22 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
     manifest = dict(command="train", seed=settings.seed,
                     settings=settings.__dict__ | {"record": record_json},
                     models_json=trainer.models.to_json(), files=TRAIN_FILES)
-    write_manifest(out, **manifest, results={"status": "running"})
-    wall = trainer.run()  # raises TrainingStopped (files written) when interrupted
+    write_manifest(out, **manifest, results={"status": "running"}, history=True)
+    try:
+        wall = trainer.run()  # raises TrainingStopped (files written) when interrupted
+    except TrainingStopped as e:
+        write_manifest(out, **manifest, results={"status": "interrupted", "error": str(e)},
+                       history=True)
+        raise
+    except Diverged as e:
+        write_manifest(out, **manifest, results={"status": "diverged", "error": e.line},
+                       history=True)
+        raise
     rows = trainer.training.memory.rows
     L_max = float(np.asarray(trainer.models.progress.parameters["L_max"].value))
     summary = train_summary(rows, settings.n_trials, L_max)
     trainer.summary = summary
     write_manifest(out, **manifest,
                    results={"status": "finished", "wall_seconds_last_invocation": wall,
-                            "per_trial": summary["per_trial"]})
+                            "per_trial": summary["per_trial"]}, history=True)
     return trainer

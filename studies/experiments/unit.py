@@ -12,9 +12,10 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..analysis.rhythm import rhythm_summary
-from ..files.outputs import save_spikes_and_traces, write_manifest
+from ..files.outputs import prepare_output_dir, save_spikes_and_traces, write_manifest
 from .settings import Overrides, model_set, number, override_items
-from .simulate import SimulationResult, simulate_unit
+from .resources import check_memory, estimate_bytes
+from .simulate import STEP, SimulationResult, check_duration, check_selection, simulate_unit
 
 
 def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
@@ -33,6 +34,11 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     trials = number(trials, "--trials", integer=True, minimum=1)
     seed = number(seed, "--seed", integer=True, minimum=0)
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
+    check_duration(seconds, STEP)
+    pops, names = check_selection(spikes, traces)
+    check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
+                                traces=names, spikes=bool(pops)),
+                 culprit=f"--seconds {seconds:g} x --trials {trials}")
     models = model_set(overrides, equations)
     result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
                            trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
@@ -44,7 +50,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
             "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
             "overrides": override_items(overrides), "equations": dict(equations or {}),
             "spikes": spikes, "traces": traces}
-        write_unit_folder(Path(out), result, settings)
+        write_unit_folder(prepare_output_dir(out), result, settings)
     return result
 
 

@@ -22,6 +22,8 @@ import numpy as np
 
 from ...errors import InputError
 
+MANIFEST = "manifest.json"
+_STARTED = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # when this process started (history entries)
 PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
             "pandas", "pynwb")
 
@@ -137,14 +139,35 @@ def _json_default(o: Any) -> Any:
     return str(o)
 
 
+def read_manifest(folder: Path) -> dict[str, Any] | None:
+    """The folder's manifest, or None when it has none or it is unreadable."""
+    try:
+        return json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
 def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str, Any],
                    models_json: Mapping[str, Any], files: Mapping[str, str],
-                   results: Mapping[str, Any] | None = None) -> None:
-    """``manifest.json``: what was run, with what, and what each file holds."""
-    save_json(out / "manifest.json", {
-        "astrocpg_command": command,
-        "argv": sys.argv,
-        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                   results: Mapping[str, Any] | None = None, history: bool = False) -> None:
+    """``manifest.json``: what was run, with what, and what each file holds.
+
+    With ``history`` (a folder that several invocations continue, e.g. ``train --resume``), the
+    first invocation's ``argv`` and ``created`` are kept and each invocation has an entry in
+    ``history`` (argv, start, commit, status), the latest updated in place."""
+    now = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+    entry = {"argv": sys.argv, "started": _STARTED, "updated": now, "git": git_commit(),
+             "status": dict(results or {}).get("status")}
+    manifest: dict[str, Any] = {"astrocpg_command": command, "argv": sys.argv, "created": now}
+    old = read_manifest(out) if history else None
+    if old is not None:
+        manifest["argv"], manifest["created"] = old.get("argv", sys.argv), old.get("created", now)
+        past = [h for h in old.get("history", []) if h.get("started") != _STARTED
+                or h.get("argv") != sys.argv]
+        manifest["history"] = past + [entry]
+    elif history:
+        manifest["history"] = [entry]
+    manifest.update({
         "seed": seed,
         "settings": dict(settings),
         "models": dict(models_json),
@@ -155,3 +178,4 @@ def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str,
         "machine": {"platform": platform.platform(), "processor": platform.processor(),
                     "cpu_count": os.cpu_count()},
     })
+    save_json(out / MANIFEST, manifest)

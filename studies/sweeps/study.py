@@ -53,6 +53,7 @@ from ...coupling.recorder import RecordPlan
 from ...coupling.training import SESSION_COLUMNS
 from ...errors import InputError
 from ...models import DEFAULT_MODELS
+from ..experiments.resources import check_memory, estimate_bytes
 from ..experiments.settings import model_set
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
@@ -65,6 +66,8 @@ FAILURES = "failures.csv"
 STUDY_COPY = "study.toml"
 STUDY_INDEX = "study.json"
 
+MAX_SEEDS = 100_000
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
 _STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch", "record"}
 _CONDITION_KEYS = {"astrocytes", "set"}
 
@@ -146,13 +149,16 @@ def load_study(path: str | os.PathLike) -> Study:
     if not p.exists() and p.suffix == "" and built_in.exists():
         p = built_in  # `astrocpg study quick`: a built-in study by name
     try:
-        text = p.read_text()
+        text = p.read_bytes().decode("utf-8")
     except OSError as e:
-        raise InputError(f"study {p}: cannot read ({e.strerror})") from None
+        raise InputError(f"cannot read ({e.strerror})", culprit=f"study {p}") from None
+    except UnicodeDecodeError:
+        raise InputError("not a UTF-8 text file (a study file is TOML)",
+                         culprit=f"study {p}") from None
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
-        raise InputError(f"study {p}: not valid TOML ({e})") from None
+        raise InputError(f"not valid TOML ({e})", culprit=f"study {p}") from None
     where = f"study {p.name}"
     unknown = set(doc) - {"study", "base", "sweep", "conditions"}
     if unknown:
@@ -163,7 +169,11 @@ def load_study(path: str | os.PathLike) -> Study:
     if bad:
         raise InputError(f"{where}: [study] has unknown key '{sorted(bad)[0]}' "
                          f"(keys: {', '.join(sorted(_STUDY_KEYS))})")
-    name = str(head.get("name", p.stem))
+    name = head.get("name", p.stem)
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        # the name becomes a folder (out/<name>): it may never leave the output root
+        raise InputError(f"[study] name must be letters, digits, '.', '_' or '-' (a folder "
+                         f"name, not a path), got {name!r}", culprit=where)
     n_sessions = head.get("sessions", 400)
     if not isinstance(n_sessions, int) or isinstance(n_sessions, bool) or n_sessions < 1:
         raise InputError(f"{where}: [study] sessions must be a positive integer, "
@@ -175,6 +185,10 @@ def load_study(path: str | os.PathLike) -> Study:
                 or count < 1 or set(seeds_doc) - {"first", "count"}:
             raise InputError(f"{where}: [study] seeds must be {{ first = K, count = N }} with "
                              f"integers, N >= 1, or a list of integers")
+        if count > MAX_SEEDS:
+            raise InputError(f"[study] seeds: {count} seeds is more than {MAX_SEEDS} (each seed "
+                             f"is a training of {head.get('sessions', 400)} sessions)",
+                             culprit=where)
         seeds = list(range(first, first + count))
     elif isinstance(seeds_doc, list) and seeds_doc and all(
             isinstance(s, int) and not isinstance(s, bool) for s in seeds_doc):
@@ -189,6 +203,9 @@ def load_study(path: str | os.PathLike) -> Study:
     batch = head.get("batch", len(seeds))
     if not isinstance(batch, int) or isinstance(batch, bool) or batch < 1:
         raise InputError(f"{where}: [study] batch must be a positive integer, got {batch!r}")
+    # one run trains min(batch, seeds) trials in one network: refuse what cannot fit
+    check_memory(estimate_bytes(trials=min(batch, len(seeds)), seconds=0.0, spikes=False),
+                 culprit=f"{where} [study] batch = {min(batch, len(seeds))} seeds per run")
 
     record = _record_table(head.get("record"), where)
     models = DEFAULT_MODELS
@@ -430,6 +447,10 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
         raise InputError(f"--out {out}: exists and is not a folder")
     if out.exists():
         _check_folder(study, out)
+    largest = max(r.n_trials for r in study.runs)
+    check_memory(estimate_bytes(trials=largest, seconds=0.0, spikes=False)
+                 * min(len(study.runs), workers or os.cpu_count() or 1),
+                 culprit=f"study {study.name} (runs of {largest} trials)")
     folders = {r.run_id: out / RUNS / r.run_id for r in study.runs}
     pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") != "finished"]
     total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
