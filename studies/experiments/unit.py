@@ -12,7 +12,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..analysis.rhythm import rhythm_summary
-from ..files.outputs import prepare_output_dir, save_spikes_and_traces, write_manifest
+from ..files.folder import OutputFolder
+from ..files.outputs import save_spikes_and_traces, write_manifest
 from .settings import Overrides, model_set, number, override_items
 from .resources import check_memory, estimate_bytes
 from .simulate import STEP, SimulationResult, check_duration, check_selection, simulate_unit
@@ -22,7 +23,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
          trace_dt: float = 1.0, spikes: tuple[str, ...] | None = None,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
-         progress: bool = True, settings: Mapping[str, Any] | None = None) -> SimulationResult:
+         overwrite: bool = False, progress: bool = True, settings: Mapping[str, Any] | None = None) -> SimulationResult:
     """Simulate ``trials`` independent locomotion units (seeds seed, seed+1, ...) for
     ``seconds``; ``trace_dt`` in ms; ``overrides`` as ``{"tau_motor": "9*ms"}`` or
     ``["tau_motor=9*ms"]``; ``equations`` as ``{model: equation text}``. The result's
@@ -35,6 +36,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     seed = number(seed, "--seed", integer=True, minimum=0)
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
     check_duration(seconds, STEP)
+    if out is not None:
+        OutputFolder(out, overwrite=overwrite).check()  # before the simulation, not after
     pops, names = check_selection(spikes, traces)
     check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
                                 traces=names, spikes=bool(pops)),
@@ -50,7 +53,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
             "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
             "overrides": override_items(overrides), "equations": dict(equations or {}),
             "spikes": spikes, "traces": traces}
-        write_unit_folder(prepare_output_dir(out), result, settings)
+        with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
+            write_unit_folder(folder, result, settings)
     return result
 
 
