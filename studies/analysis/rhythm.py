@@ -18,9 +18,19 @@ def pool_activity(times: np.ndarray, indices: np.ndarray, neuron_ids: np.ndarray
     """Spike count of the given neurons in each ``dt`` bin of [t_start, t_stop)."""
     ids = np.asarray(neuron_ids)
     sel = np.isin(indices, ids) & (times >= t_start) & (times < t_stop)
-    n = int(round((t_stop - t_start) / dt))
+    n = max(0, int(round((t_stop - t_start) / dt)))
     k = np.floor((times[sel] - t_start) / dt + 1e-9).astype(int)
     return np.bincount(k[(k >= 0) & (k < n)], minlength=n)
+
+
+def convolve_same(x: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """``np.convolve(x, kernel, "same")`` that keeps ``len(x)`` samples also when the kernel is
+    longer than ``x`` (a recording shorter than the smoothing window)."""
+    x, kernel = np.asarray(x), np.asarray(kernel)
+    if len(x) == 0:
+        return np.zeros(0)
+    start = (len(kernel) - 1) // 2
+    return np.convolve(x, kernel, "full")[start:start + len(x)]
 
 
 def detect_bursts(times: np.ndarray, indices: np.ndarray, neuron_ids: np.ndarray,
@@ -38,7 +48,7 @@ def detect_bursts(times: np.ndarray, indices: np.ndarray, neuron_ids: np.ndarray
     if act.sum() == 0:
         return np.zeros((0, 2))
     w = max(1, int(round(window / dt)))
-    smooth = np.convolve(act, np.ones(w) / w, "same")
+    smooth = convolve_same(act, np.ones(w) / w)
     level = threshold * np.percentile(smooth, 99)
     on = smooth > level
     edges = np.diff(np.concatenate([[0], on.astype(int), [0]]))

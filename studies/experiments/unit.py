@@ -58,21 +58,26 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     return result
 
 
+TRANSIENT = 1.0  # s: the rhythm is measured after it
+
+
 def rhythm_per_trial(result: SimulationResult, seconds: float) -> list[dict[str, Any]]:
     """Period, phases vs the thigh flexor, rates per neuron and the interneurons' total rate of
     every trial (empty when motor or interneuron spikes were not recorded)."""
     L = result.cpg.layout
     if not {"motor", "interneuron"} <= set(result.spikes):
         return []
+    # after a 1 s transient; a shorter run is measured over its second half
+    transient = min(TRANSIENT, seconds / 2)
     summaries = []
     for b in range(L.n_trials):
         pools = {name: L.motor_neurons(b, 0, name) for name in ("thigh_flexor", "thigh_extensor",
                                                                  "calf_flexor", "calf_extensor")}
         t, i = result.spikes["motor"]
-        s = rhythm_summary(t, i, pools, t_stop=seconds)
+        s = rhythm_summary(t, i, pools, t_stop=seconds, t_start=transient)
         ti, ii = result.spikes["interneuron"]
-        mine = (ii // L.interneurons_per_trial == b) & (ti >= 1.0)
-        s["interneurons_total_Hz"] = float(mine.sum() / max(seconds - 1.0, 1e-9))
+        mine = (ii // L.interneurons_per_trial == b) & (ti >= transient)
+        s["interneurons_total_Hz"] = float(mine.sum() / max(seconds - transient, 1e-9))
         summaries.append(s)
     return summaries
 
