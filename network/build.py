@@ -24,6 +24,36 @@ brian2.prefs.codegen.target = "numpy"
 brian2.prefs.codegen.loop_invariant_optimisations = True
 # Brian2 logs a debug file for every exception it sees; our errors are user-facing.
 brian2.prefs.logging.delete_log_on_exit = True
+
+
+def _no_debug_files() -> None:
+    """Brian2 opens a debug log and a copy of the main script in the temp folder when it is
+    imported (before any preference of ours applies), and keeps both when an exception
+    reaches its excepthook or the process is killed. Our errors are one line naming the
+    culprit: close and delete them now, so that no process leaves them behind."""
+    import logging
+    import os
+
+    from brian2.utils.logger import BrianLogger
+
+    handler = BrianLogger.file_handler
+    if handler is not None:
+        logging.getLogger("brian2").removeHandler(handler)
+        handler.close()
+        BrianLogger.file_handler = None
+    for attr in ("tmp_log", "tmp_script"):
+        path = getattr(BrianLogger, attr)
+        setattr(BrianLogger, attr, None)
+        for p in (path, f"{path}.1") if path else ():
+            try:
+                os.remove(p)
+            except OSError:
+                pass
+    brian2.prefs.logging.file_log = False
+    brian2.prefs.logging.save_script = False
+
+
+_no_debug_files()
 # A network that failed validation is dropped on purpose; don't warn about its objects.
 brian2.BrianLogger.suppress_name("unused_brian_object")
 
