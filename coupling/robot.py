@@ -10,6 +10,7 @@ thigh, calf, and a free joint on the trunk.
 
 from __future__ import annotations
 
+import logging
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +19,20 @@ import mujoco
 import numpy as np
 
 from ..errors import InputError
+
+def quiet_mujoco_log() -> None:
+    """MuJoCo's default warning handler appends every warning to ``MUJOCO_LOG.TXT`` in the
+    working folder and prints it on stdout. Route its warnings to the ``astrocpg.mujoco``
+    logger instead (debug level; instability is read from ``MjData.warning``, see the bridge).
+    Idempotent; called wherever a robot is built or loaded."""
+    global _QUIET
+    if not _QUIET:
+        log = logging.getLogger("astrocpg.mujoco")
+        mujoco.set_mju_user_warning(lambda msg: log.debug("MuJoCo warning: %s", msg))
+        _QUIET = True
+
+
+_QUIET = False
 
 LEGS = ("FR", "FL", "RR", "RL")
 JOINTS = ("hip", "thigh", "calf")
@@ -114,6 +129,7 @@ def _end(leg: str) -> int:
 
 def build_spec(params: A1Parameters = A1Parameters()) -> mujoco.MjSpec:
     """The A1 as an ``MjSpec``: floor, trunk with free joint, 4 legs, 12 torque motors, sensors."""
+    quiet_mujoco_log()
     spec = mujoco.MjSpec()
     spec.modelname = "astrocpg_a1"
     spec.compiler.degree = False
@@ -232,6 +248,7 @@ def export_xml(path: str | os.PathLike, params: A1Parameters = A1Parameters()) -
 
 def load_robot(path: str | os.PathLike) -> mujoco.MjModel:
     """Load a user MJCF that has the A1's joints, motors and a free trunk; one-line errors."""
+    quiet_mujoco_log()
     p = Path(path)
     if not p.is_file():
         raise InputError(f"--robot {p}: no such file")
