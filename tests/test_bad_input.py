@@ -1,0 +1,767 @@
+"""Bad input and faults, as a new user meets them: every command, every option.
+
+One table, :data:`CASES`: each case builds its argv from small factories (paths under the test's
+``tmp_path``, copies of shared fixture folders), and says what must happen:
+
+* the exit code (0 done, 1 environment, 2 bad input, 3 diverged, 130 interrupted);
+* a substring of the one line on stderr (the culprit: the option or the path the user typed);
+* the state of the folder the command would write or reads: ``absent`` (nothing there, no hidden
+  temporaries beside it), ``unchanged`` (byte-identical: relative path -> sha256 of every file,
+  hidden ones included) or ``complete`` (``verify(folder)`` passes: every file listed in the
+  manifest's inventory, none missing, none extra).
+
+Every failing case must print exactly one non-empty line on stderr, starting with
+``astrocpg:``, and no traceback anywhere. Cases run in-process (``main(argv)``, Brian2 imported
+once); those that need a fresh process (rlimits, mount namespaces, the temp folder of a
+process) run ``python -m astrocpg.studies.cli`` in a subprocess.
+
+The expensive folders (a finished run, one recorded without spikes, a unit, a short training,
+a tiny study) are made once per module.
+"""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import json
+import os
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+import pytest
+
+from astrocpg.studies.cli import main
+from astrocpg.studies.files.folder import parse_temp_name, verify
+
+SHORT = ["--set", "L_max=0.2*second", "--set", "L_non_alive=0.1*second"]
+ROOT = Path(__file__).resolve().parents[1]
+
+
+# ---------------------------------------------------------------- fixtures (module scope)
+def _ok(argv: list[str]) -> None:
+    code = main(argv)
+    assert code == 0, (argv, code)
+
+
+@pytest.fixture(scope="module")
+def fx(tmp_path_factory) -> dict[str, Path]:
+    """Finished folders the cases read (never written: a case that could change one works on
+    a copy)."""
+    base = tmp_path_factory.mktemp("fixtures")
+    out = {"run": base / "run", "run_nospikes": base / "run_nospikes", "unit": base / "unit",
+           "train": base / "train", "study": base / "study"}
+    _ok(["run", "--seconds", "0.05", "--out", str(out["run"]), "--no-progress"])
+    _ok(["run", "--seconds", "0.05", "--spikes", "none", "--traces", "none",
+         "--out", str(out["run_nospikes"]), "--no-progress"])
+    _ok(["unit", "--seconds", "0.3", "--out", str(out["unit"]), "--no-progress"])
+    _ok(["train", "--sessions", "2", "--seed", "3", *SHORT, "--out", str(out["train"]),
+         "--no-progress"])
+    study = base / "tiny.toml"
+    study.write_text(TINY_STUDY)
+    _ok(["study", str(study), "--out", str(out["study"]), "--workers", "1", "--no-progress"])
+    return out
+
+
+TINY_STUDY = """
+[study]
+name = "tiny"
+sessions = 2
+seeds = { first = 1, count = 1 }
+batch = 1
+[base]
+L_max = "0.2*second"
+L_non_alive = "0.1*second"
+[conditions.astro]
+astrocytes = true
+"""
+
+
+# ---------------------------------------------------------------- the environment of a case
+class Env:
+    """Paths for one case: ``tmp`` (the case's own folder), copies of fixture folders, files.
+    Each factory makes its path once; calling it again returns the same path."""
+
+    def __init__(self, tmp: Path, fx: dict[str, Path]) -> None:
+        self.tmp, self.fx = tmp, fx
+        self._made: dict[str, Path] = {}
+
+    def _once(self, key: str, make: Callable[[], Path]) -> Path:
+        if key not in self._made:
+            self._made[key] = make()
+        return self._made[key]
+
+    def new(self, name: str = "out") -> Path:
+        """A path that does not exist yet."""
+        return self.tmp / name
+
+    def nonempty(self, name: str = "full") -> Path:
+        def make() -> Path:
+            d = self.tmp / name
+            d.mkdir()
+            (d / "mine.txt").write_text("the user's own file\n")
+            return d
+        return self._once("nonempty:" + name, make)
+
+    def empty(self, name: str = "empty") -> Path:
+        def make() -> Path:
+            d = self.tmp / name
+            d.mkdir()
+            return d
+        return self._once("empty:" + name, make)
+
+    def file(self, name: str, data: bytes | str = b"") -> Path:
+        def make() -> Path:
+            p = self.tmp / name
+            p.parent.mkdir(parents=True, exist_ok=True)
+            p.write_bytes(data.encode() if isinstance(data, str) else data)
+            return p
+        return self._once("file:" + name, make)
+
+    def copy(self, which: str, name: str | None = None) -> Path:
+        def make() -> Path:
+            dst = self.tmp / (name or which)
+            shutil.copytree(self.fx[which], dst, symlinks=True)
+            return dst
+        return self._once(f"copy:{which}:{name}", make)
+
+    def tampered(self, which: str, file: str, how: str = "flip") -> Path:
+        """A copy whose ``file`` no longer matches the manifest (``flip``: one byte changed;
+        ``truncate``: cut in half; ``extra``: a stray file added; ``missing``: deleted)."""
+        def make() -> Path:
+            d = self.copy(which, f"{which}_{how}")
+            p = d / file
+            if how == "flip":
+                raw = bytearray(p.read_bytes())
+                raw[len(raw) // 2] ^= 0xFF
+                p.write_bytes(bytes(raw))
+            elif how == "truncate":
+                p.write_bytes(p.read_bytes()[: p.stat().st_size // 2])
+            elif how == "extra":
+                p.write_text("not listed")
+            elif how == "missing":
+                p.unlink()
+            return d
+        return self._once(f"tampered:{which}:{file}:{how}", make)
+
+    def corrupt_listed(self, which: str, file: str) -> Path:
+        """A copy whose ``file`` is truncated and whose manifest lists it as it now is: the
+        folder verifies, but the file cannot be read."""
+        def make() -> Path:
+            d = self.copy(which, f"{which}_corrupt")
+            p = d / file
+            p.write_bytes(p.read_bytes()[: p.stat().st_size // 2])
+            m = json.loads((d / "manifest.json").read_text())
+            m["inventory"][file] = {"bytes": p.stat().st_size,
+                                    "sha256": hashlib.sha256(p.read_bytes()).hexdigest(),
+                                    "mtime_ns": p.stat().st_mtime_ns}
+            (d / "manifest.json").write_text(json.dumps(m))
+            return d
+        return self._once(f"corrupt:{which}:{file}", make)
+
+    def equations(self, model: str, edit: Callable[[str], str] | None = None,
+                  name: str = "eqs.txt") -> Path:
+        from importlib import import_module
+        text = import_module(f"astrocpg.models.{model}").EQUATIONS
+        return self.file(name, edit(text) if edit else text)
+
+    def study(self, text: str | bytes, name: str = "s.toml") -> Path:
+        return self.file(name, text)
+
+    def weights(self, table: Any, name: str = "w.csv") -> Path:
+        rows = np.asarray(table, dtype=float)
+        return self.file(name, "\n".join(",".join(repr(float(x)) for x in r) for r in rows))
+
+
+# ---------------------------------------------------------------- the table
+@dataclass
+class Case:
+    id: str
+    argv: Callable[[Env], list[str]]
+    code: int
+    culprit: str | Callable[[Env], str] | None
+    state: str  # "absent" | "unchanged" | "complete" | "none"
+    target: Callable[[Env], Path] | None = None
+    check: Callable[[Env], None] | None = None  # more assertions after the command
+    marks: tuple = ()
+    subprocess: dict[str, Any] | None = None  # run in a child: {"env": {...}, "rlimit_fsize": n}
+
+    def param(self):
+        return pytest.param(self, id=self.id, marks=self.marks)
+
+
+def out(e: Env) -> Path:
+    return e.new("out")
+
+
+def S(*args: Any) -> list[str]:
+    return [str(a) for a in args]
+
+
+def study_text(**head: Any) -> str:
+    """A tiny study file with ``head`` keys replaced (values written as TOML)."""
+    lines = ["[study]", 'name = "t"', "sessions = 1", "seeds = { first = 1, count = 1 }"]
+    for k, v in head.items():
+        lines = [x for x in lines if not x.startswith(f"{k} ")]
+        lines.append(f"{k} = {v}")
+    return "\n".join(lines) + '\n[base]\nL_max = "0.2*second"\n'
+
+
+EVIL_FLAG = Path(tempfile.gettempdir()) / "astrocpg_evaluated_a_value"
+EVIL = f"__import__('os').system('touch {EVIL_FLAG}')"
+# the classic escape from eval with empty builtins
+EVIL_ESCAPE = ("[c for c in ().__class__.__base__.__subclasses__() if c.__name__ == "
+               "'catch_warnings'][0]()._module.__builtins__['__import__']('os')"
+               f".system('touch {EVIL_FLAG}')")
+
+
+NUL_TEXT = "dv/dt = 0 : volt\0"
+LATIN1_TEXT = "dv/dt = -v/(9*ms) : volt # caf\xe9".encode("latin-1")
+
+
+def not_evaluated(e: Env) -> None:
+    assert not EVIL_FLAG.exists(), "a value was evaluated as Python"
+
+
+def _drop_line(text: str, start: str) -> str:
+    lines = text.splitlines(keepends=True)
+    kept = [x for x in lines if not x.strip().startswith(start)]
+    assert len(kept) < len(lines), start
+    return "".join(kept)
+
+
+def export_written(suffix: str) -> Callable[[Env], None]:
+    def check(e: Env) -> None:
+        written = [p for p in e.tmp.iterdir() if p.name.endswith(suffix)]
+        assert written, f"no {suffix} written"
+    return check
+
+
+def no_temporaries_beside(path_of: Callable[[Env], Path]) -> Callable[[Env], None]:
+    def check(e: Env) -> None:
+        parent = path_of(e).parent
+        left = [n for n in os.listdir(parent) if parse_temp_name(n)]
+        assert not left, left
+    return check
+
+
+UNIT, RUN = "unit", "run"
+CASES: list[Case] = []
+
+
+def case(*args: Any, **kw: Any) -> None:
+    CASES.append(Case(*args, **kw))
+
+
+# ---- the command line itself
+case("no-command", lambda e: [], 2, "astrocpg: error", "none")
+case("unknown-command", lambda e: ["fly"], 2, "fly", "none")
+case("seconds-not-a-number", lambda e: S("run", "--seconds", "abc", "--out", out(e)), 2,
+     "--seconds", "absent", out)
+case("seed-not-an-integer", lambda e: S("unit", "--seed", "1.5", "--out", out(e)), 2,
+     "--seed", "absent", out)
+
+# ---- unit: durations, counts, sampling, sizes
+for cmd in (UNIT, RUN):
+    for value, words in (("0", "--seconds"), ("-3", "--seconds"), ("nan", "--seconds"),
+                         ("inf", "--seconds"), ("-inf", "--seconds"), ("1e-5", "--seconds"),
+                         ("1e309", "--seconds")):
+        case(f"{cmd}-seconds-{value}", lambda e, c=cmd, v=value: S(c, "--seconds", v, "--out",
+                                                                    out(e)),
+             2, words, "absent", out)
+    case(f"{cmd}-seconds-1e7", lambda e, c=cmd: S(c, "--seconds", "1e7", "--out", out(e)), 2,
+         "memory", "absent", out)
+    case(f"{cmd}-trials-100000", lambda e, c=cmd: S(c, "--seconds", "1", "--trials", "100000",
+                                                    "--out", out(e)), 2, "memory", "absent", out)
+    case(f"{cmd}-trials-0", lambda e, c=cmd: S(c, "--trials", "0", "--out", out(e)), 2,
+         "--trials", "absent", out)
+    case(f"{cmd}-seed-negative", lambda e, c=cmd: S(c, "--seed", "-1", "--out", out(e)), 2,
+         "--seed", "absent", out)
+    for value in ("nan", "inf", "0", "-1"):
+        case(f"{cmd}-trace-dt-{value}", lambda e, c=cmd, v=value: S(c, "--trace-dt", v,
+                                                                    "--out", out(e)),
+             2, "--trace-dt", "absent", out)
+    case(f"{cmd}-spikes-unknown", lambda e, c=cmd: S(c, "--spikes", "motor,glia", "--out",
+                                                     out(e)), 2, "glia", "absent", out)
+    case(f"{cmd}-traces-unknown", lambda e, c=cmd: S(c, "--traces", "motor_K", "--out", out(e)),
+         2, "motor_K", "absent", out)
+    case(f"{cmd}-out-not-empty", lambda e, c=cmd: S(c, "--seconds", "0.01", "--out",
+                                                    e.nonempty()), 2,
+         lambda e: str(e.nonempty()), "unchanged", lambda e: e.nonempty())
+    case(f"{cmd}-out-is-a-file", lambda e, c=cmd: S(c, "--seconds", "0.01", "--out",
+                                                    e.file("f.txt", "x")), 2,
+         "f.txt", "unchanged", lambda e: e.file("f.txt", "x"))
+    case(f"{cmd}-out-parent-is-a-file",
+         lambda e, c=cmd: S(c, "--seconds", "0.01", "--out", e.file("f.txt", "x") / "o"),
+         1, "f.txt", "unchanged", lambda e: e.file("f.txt", "x"))
+    case(f"{cmd}-out-uncreatable", lambda e, c=cmd: S(c, "--seconds", "0.01", "--no-progress",
+                                                      "--out", "/sys/astrocpg_out"),
+         1, "/sys/astrocpg_out", "absent", lambda e: Path("/sys/astrocpg_out"))
+
+# ---- --set: values are parsed, never evaluated; nan/inf refused; units suggested
+for cmd in (UNIT, RUN, "train", "describe"):
+    outs = [] if cmd == "describe" else ["--out"]
+
+    def argv(e: Env, *sets: str, c: str = cmd, o: list = outs) -> list[str]:
+        return S(c, *(x for s in sets for x in ("--set", s)), *(o and [o[0], out(e)]))
+
+    case(f"{cmd}-set-evaluated", lambda e, a=argv: a(e, f"tau_motor={EVIL}"), 2, "tau_motor",
+         "absent" if outs else "none", out, check=not_evaluated)
+    case(f"{cmd}-set-1e309", lambda e, a=argv: a(e, "tau_motor=1e309*ms"), 2, "tau_motor",
+         "absent" if outs else "none", out)
+    case(f"{cmd}-set-nan", lambda e, a=argv: a(e, "tau_motor=nan*ms"), 2, "tau_motor",
+         "absent" if outs else "none", out)
+case("unit-set-escape-from-eval", lambda e: S("unit", "--set", f"tau_motor={EVIL_ESCAPE}",
+                                              "--out", out(e)),
+     2, "tau_motor", "absent", out, check=not_evaluated)
+case("unit-set-unknown-name", lambda e: S("unit", "--set", "tau_motr=9*ms", "--out", out(e)), 2,
+     "tau_motr", "absent", out)
+case("unit-set-wrong-unit", lambda e: S("unit", "--set", "tau_motor=9*mV", "--out", out(e)), 2,
+     "tau_motor", "absent", out)
+case("unit-set-no-equals", lambda e: S("unit", "--set", "tau_motor", "--out", out(e)), 2,
+     "tau_motor", "absent", out)
+case("unit-set-inf-dimensionless", lambda e: S("unit", "--set", "A_random=inf", "--out",
+                                               out(e)), 2, "A_random", "absent", out)
+case("run-set-negative-time-constant", lambda e: S("run", "--set", "tau_Ca=-5*ms", "--out",
+                                                   out(e)), 2, "tau_Ca", "absent", out)
+
+# ---- --equations: unreadable, binary, not UTF-8, unknown model, a variable missing
+for cmd in (UNIT, RUN):
+    case(f"{cmd}-equations-missing-file",
+         lambda e, c=cmd: S(c, "--equations", f"motor_neuron={e.tmp / 'none.txt'}", "--out",
+                            out(e)), 2, "none.txt", "absent", out)
+case("unit-equations-binary", lambda e: S("unit", "--equations",
+                                          f"motor_neuron={e.file('eq.bin', bytes(range(256)))}",
+                                          "--out", out(e)), 2, "eq.bin", "absent", out)
+case("unit-equations-nul", lambda e: S("unit", "--equations",
+                                       f"motor_neuron={e.file('eq.txt', NUL_TEXT)}",
+                                       "--out", out(e)), 2, "eq.txt", "absent", out)
+case("unit-equations-latin1", lambda e: S("unit", "--equations",
+                                          f"motor_neuron={e.file('eq.txt', LATIN1_TEXT)}",
+                                          "--out", out(e)), 2, "eq.txt", "absent", out)
+case("unit-equations-unknown-model", lambda e: S("unit", "--equations",
+                                                 f"glia={e.equations('motor_neuron')}", "--out",
+                                                 out(e)), 2, "glia", "absent", out)
+case("unit-equations-no-equals", lambda e: S("unit", "--equations", "motor_neuron", "--out",
+                                             out(e)), 2, "--equations", "absent", out)
+case("unit-equations-folder", lambda e: S("unit", "--equations", f"motor_neuron={e.tmp}",
+                                          "--out", out(e)), 2, "motor_neuron", "absent", out)
+# the network sets x_position (anatomy): a file without it names that variable
+case("unit-equations-lacks-a-set-variable",
+     lambda e: S("unit", "--seconds", "0.01", "--equations",
+                 f"motor_neuron={e.equations('motor_neuron', lambda t: _drop_line(t, 'x_position'))}",
+                 "--out", out(e)), 2, "x_position", "absent", out)
+# the network links torso_speed from the pool model: a file without it names it
+case("run-equations-lacks-a-linked-variable",
+     lambda e: S("run", "--seconds", "0.01", "--equations",
+                 f"motor_neuron={e.equations('motor_neuron', lambda t: _drop_line(t, 'torso_speed :').replace('k_background_v*torso_speed', '0*volt/second'))}",
+                 "--out", out(e)), 2, "torso_speed", "absent", out)
+case("unit-equations-astrocyte-lacks-variable",
+     lambda e: S("unit", "--seconds", "0.01", "--equations",
+                 f"astrocyte={e.equations('astrocyte', lambda t: _drop_line(t, 'n_pool'))}",
+                 "--out", out(e)), 2, "n_pool", "absent", out)
+
+# ---- run: weights and robot files
+case("run-weights-missing", lambda e: S("run", "--weights", e.tmp / "w.csv", "--out", out(e)),
+     2, "w.csv", "absent", out)
+case("run-weights-wrong-shape", lambda e: S("run", "--weights", e.weights([[1, 2], [3, 4]]),
+                                            "--out", out(e)), 2, "w.csv", "absent", out)
+case("run-weights-nan", lambda e: S("run", "--weights",
+                                    e.weights(np.full((8, 8), np.nan)), "--out", out(e)),
+     2, "w.csv", "absent", out)
+case("run-weights-binary", lambda e: S("run", "--weights", e.file("w.npy", b"\x93NUMPY\x01\x00garbage"),
+                                       "--out", out(e)), 2, "w.npy", "absent", out)
+case("run-weights-truncated-npz",
+     lambda e: S("run", "--weights", e.tampered("train", "weights.npz", "truncate"), "--out",
+                 out(e)), 2, "train_truncate", "absent", out)
+case("run-weights-folder-without-weights", lambda e: S("run", "--weights", e.copy("unit"),
+                                                       "--out", out(e)),
+     2, "unit", "absent", out)
+case("run-weights-trial-out-of-range", lambda e: S("run", "--weights", e.fx["train"],
+                                                   "--trial", "5", "--out", out(e)),
+     2, "--trial", "absent", out)
+case("run-weights-tables-vs-trials", lambda e: S("run", "--weights", e.fx["train"], "--trials",
+                                                 "2", "--seconds", "0.01", "--out", out(e)),
+     2, "--weights", "absent", out)
+case("run-robot-missing", lambda e: S("run", "--robot", e.tmp / "a1.xml", "--out", out(e)), 2,
+     "a1.xml", "absent", out)
+case("run-robot-binary", lambda e: S("run", "--robot", e.file("a1.xml", bytes(range(256)) * 4),
+                                     "--out", out(e)), 2, "a1.xml", "absent", out)
+case("run-robot-truncated", lambda e: S("run", "--robot", e.file("a1.xml", "<mujoco><worldbody>"),
+                                        "--out", out(e)), 2, "a1.xml", "absent", out)
+case("run-robot-stride-0", lambda e: S("run", "--robot-stride", "0", "--out", out(e)), 2,
+     "--robot-stride", "absent", out)
+
+# ---- train
+case("train-without-out", lambda e: ["train", "--sessions", "1"], 2, "--out", "none")
+case("train-sessions-0", lambda e: S("train", "--sessions", "0", "--out", out(e)), 2,
+     "--sessions", "absent", out)
+case("train-trials-100000", lambda e: S("train", "--trials", "100000", "--out", out(e)), 2,
+     "memory", "absent", out)
+case("train-seed-negative", lambda e: S("train", "--seed", "-2", "--out", out(e)), 2, "--seed",
+     "absent", out)
+case("train-record-every-0", lambda e: S("train", "--record-every", "0", "--out", out(e)), 2,
+     "--record-every", "absent", out)
+case("train-record-stride-0", lambda e: S("train", "--record-every", "2", "--record-stride",
+                                          "0", "--out", out(e)), 2, "--record-stride",
+     "absent", out)
+case("train-spikes-without-record", lambda e: S("train", "--spikes", "motor", "--out", out(e)),
+     2, "--spikes", "absent", out)
+case("train-set-L_max-inf", lambda e: S("train", "--set", "L_max=inf*second", "--out", out(e)),
+     2, "L_max", "absent", out)
+case("train-out-holds-a-training", lambda e: S("train", "--sessions", "2", "--out",
+                                               e.copy("train")), 2, "--resume",
+     "unchanged", lambda e: e.copy("train"))
+case("train-out-not-empty", lambda e: S("train", "--sessions", "2", "--out", e.nonempty()), 2,
+     lambda e: str(e.nonempty()), "unchanged", lambda e: e.nonempty())
+case("train-resume-missing", lambda e: S("train", "--resume", e.tmp / "none"), 2, "none",
+     "absent", lambda e: e.tmp / "none")
+case("train-resume-finished", lambda e: S("train", "--resume", e.copy("train")), 2,
+     "already finished", "unchanged", lambda e: e.copy("train"))
+case("train-resume-with-other-out", lambda e: S("train", "--resume", e.copy("train"), "--out",
+                                                out(e)), 2, "--out", "unchanged",
+     lambda e: e.copy("train"))
+case("train-resume-other-seed", lambda e: S("train", "--resume", e.copy("train"), "--seed", "9"),
+     2, "seed", "unchanged", lambda e: e.copy("train"))
+case("train-resume-unit-folder", lambda e: S("train", "--resume", e.copy("unit")), 2, "unit",
+     "unchanged", lambda e: e.copy("unit"))
+case("train-resume-corrupt-checkpoint",
+     lambda e: S("train", "--resume", e.tampered("train", "checkpoint.pkl", "flip")), 2,
+     "checkpoint", "unchanged", lambda e: e.tampered("train", "checkpoint.pkl", "flip"))
+case("train-resume-truncated-checkpoint",
+     lambda e: S("train", "--resume", e.tampered("train", "checkpoint.pkl", "truncate")), 2,
+     "checkpoint", "unchanged", lambda e: e.tampered("train", "checkpoint.pkl", "truncate"))
+case("train-resume-empty-folder", lambda e: S("train", "--resume", e.empty()), 2,
+     lambda e: str(e.empty()), "unchanged", lambda e: e.empty())
+
+# ---- gait, plot, power: a training folder
+for cmd in ("gait", "plot", "power"):
+    case(f"{cmd}-missing-folder", lambda e, c=cmd: S(c, e.tmp / "nosuch"), 2, "nosuch",
+         "absent", lambda e: e.tmp / "nosuch")
+    case(f"{cmd}-folder-without-weights", lambda e, c=cmd: S(c, e.copy("unit")), 2,
+         lambda e: str(e.copy("unit")), "unchanged", lambda e: e.copy("unit"))
+    case(f"{cmd}-a-file", lambda e, c=cmd: S(c, e.file("w.csv", "1")), 2, "w.csv", "unchanged",
+         lambda e: e.file("w.csv", "1"))
+    case(f"{cmd}-tampered-weights", lambda e, c=cmd: S(c, e.tampered("train", "weights.npz")), 2,
+         "weights.npz", "unchanged", lambda e: e.tampered("train", "weights.npz"))
+    case(f"{cmd}-truncated-sessions",
+         lambda e, c=cmd: S(c, e.tampered("train", "sessions.csv", "truncate")), 2,
+         "sessions.csv", "unchanged", lambda e: e.tampered("train", "sessions.csv", "truncate"))
+case("gait-seconds-nan", lambda e: S("gait", e.copy("train"), "--seconds", "nan"), 2,
+     "--seconds", "unchanged", lambda e: e.copy("train"))
+case("gait-seconds-shorter-than-a-step", lambda e: S("gait", e.copy("train"), "--seconds",
+                                                     "1e-5"), 2,
+     "--seconds", "unchanged", lambda e: e.copy("train"))
+case("gait-seed-negative", lambda e: S("gait", e.copy("train"), "--seed", "-1"), 2, "--seed",
+     "unchanged", lambda e: e.copy("train"))
+case("gait-corrupt-but-listed-weights", lambda e: S("gait", e.corrupt_listed("train",
+                                                                             "weights.npz")),
+     2, "weights.npz", "unchanged", lambda e: e.corrupt_listed("train", "weights.npz"))
+case("plot-trial-out-of-range", lambda e: S("plot", e.copy("train"), "--trial", "5", "--out",
+                                            out(e)), 2, "--trial", "absent", out)
+case("plot-seconds-inf", lambda e: S("plot", e.copy("train"), "--seconds", "inf", "--out",
+                                     out(e)), 2, "--seconds", "absent", out)
+case("plot-out-not-empty", lambda e: S("plot", e.copy("train"), "--out", e.nonempty()), 2,
+     lambda e: str(e.nonempty()), "unchanged", lambda e: e.nonempty())
+case("plot-seconds-shorter-than-a-figure-needs",
+     lambda e: S("plot", e.copy("train"), "--seconds", "0.05", "--out", out(e)), 0, None,
+     "complete", out, marks=(pytest.mark.slow,))
+case("power-trial-out-of-range", lambda e: S("power", e.copy("train"), "--trial", "3"), 2,
+     "--trial", "unchanged", lambda e: e.copy("train"))
+case("power-trial-negative", lambda e: S("power", e.copy("train"), "--trial", "-1"), 2,
+     "--trial", "unchanged", lambda e: e.copy("train"))
+case("power-sessions-0", lambda e: S("power", e.copy("train"), "--sessions", "0"), 2,
+     "--sessions", "unchanged", lambda e: e.copy("train"))
+case("power-sessions-100000", lambda e: S("power", e.copy("train"), "--sessions", "1000000000"),
+     2, "--sessions", "unchanged", lambda e: e.copy("train"))
+
+# ---- study files
+case("study-missing-file", lambda e: S("study", e.tmp / "none.toml", "--out", out(e)), 2,
+     "none.toml", "absent", out)
+case("study-binary-file", lambda e: S("study", e.study(bytes(range(256))), "--out", out(e)), 2,
+     "s.toml", "absent", out)
+case("study-latin1-file", lambda e: S("study", e.study('[study]\nname = "caf\xe9"\n'
+                                                       .encode("latin-1")), "--out", out(e)),
+     2, "s.toml", "absent", out)
+case("study-not-toml", lambda e: S("study", e.study("[study\nname = 1"), "--out", out(e)), 2,
+     "s.toml", "absent", out)
+case("study-a-folder", lambda e: S("study", e.empty(), "--out", out(e)), 2, "empty", "absent",
+     out)
+case("study-name-leaves-the-root", lambda e: S("study", e.study(study_text(name='"../evil"'))),
+     2, "name", "absent", lambda e: Path("evil"))
+case("study-name-absolute", lambda e: S("study", e.study(study_text(name=f'"{e.tmp}/abs"'))), 2,
+     "name", "absent", lambda e: e.tmp / "abs")
+case("study-million-seeds", lambda e: S("study", e.study(study_text(
+    seeds="{ first = 1, count = 1000000 }")), "--out", out(e)), 2, "seeds", "absent", out)
+case("study-million-seeds-in-one-batch", lambda e: S("study", e.study(study_text(
+    seeds="{ first = 1, count = 90000 }", batch="90000")), "--out", out(e)), 2, "memory",
+     "absent", out)
+case("study-unknown-key", lambda e: S("study", e.study(study_text(sesions="3")), "--out",
+                                      out(e)), 2, "sesions", "absent", out)
+case("study-value-evaluated", lambda e: S("study", e.study(
+    study_text() + f'[conditions.a]\nset = {{ tau_motor = "{EVIL}" }}\n'), "--out", out(e)), 2,
+     "tau_motor", "absent", out, check=not_evaluated)
+case("study-value-1e309", lambda e: S("study", e.study(study_text().replace(
+    '"0.2*second"', '"1e309*second"')), "--out", out(e)), 2, "L_max", "absent", out)
+case("study-value-nan", lambda e: S("study", e.study(study_text().replace(
+    '"0.2*second"', '"nan*second"')), "--out", out(e)), 2, "L_max", "absent", out)
+case("study-workers-0", lambda e: S("study", e.study(study_text()), "--workers", "0", "--out",
+                                    out(e)), 2, "--workers", "absent", out)
+case("study-out-is-a-file", lambda e: S("study", e.study(study_text()), "--out",
+                                        e.file("f.txt", "x")), 2, "f.txt", "unchanged",
+     lambda e: e.file("f.txt", "x"))
+case("study-out-not-a-study", lambda e: S("study", e.study(study_text()), "--out",
+                                          e.nonempty()), 2, lambda e: str(e.nonempty()),
+     "unchanged", lambda e: e.nonempty())
+case("study-out-of-another-study", lambda e: S("study", e.study(study_text()), "--out",
+                                               e.copy("study")), 2, "tiny", "unchanged",
+     lambda e: e.copy("study"))
+
+# ---- report
+case("report-missing-folder", lambda e: S("report", e.tmp / "nosuch"), 2, "nosuch", "absent",
+     lambda e: e.tmp / "nosuch")
+case("report-not-a-study", lambda e: S("report", e.copy("unit")), 2,
+     lambda e: str(e.copy("unit")), "unchanged", lambda e: e.copy("unit"))
+case("report-last-0", lambda e: S("report", e.copy("study"), "--last", "0", "--out", out(e)), 2,
+     "--last", "absent", out)
+case("report-smooth-0", lambda e: S("report", e.copy("study"), "--smooth", "0", "--out",
+                                    out(e)), 2, "--smooth", "absent", out)
+case("report-out-not-empty", lambda e: S("report", e.copy("study"), "--out", e.nonempty()), 2,
+     lambda e: str(e.nonempty()), "unchanged", lambda e: e.nonempty())
+case("report-corrupt-index", lambda e: S("report", e.tampered("study", "study.json",
+                                                              "truncate"), "--out", out(e)),
+     2, "study.json", "absent", out)
+case("report-binary-sessions",
+     lambda e: S("report", e.corrupt_listed("study", "runs/astro__seed1/sessions.csv"),
+                 "--out", out(e)), 2, "sessions.csv", "absent", out)
+
+# ---- export
+case("export-missing-folder", lambda e: S("export", e.tmp / "nosuch"), 2, "nosuch", "absent",
+     lambda e: e.tmp / "nosuch")
+case("export-missing-folder-with-out", lambda e: S("export", e.tmp / "nosuch", "--out",
+                                                   e.tmp / "x.nwb"), 2, "nosuch", "absent",
+     lambda e: e.tmp / "x.nwb")
+case("export-a-training", lambda e: S("export", e.copy("train")), 2, "train", "unchanged",
+     lambda e: e.copy("train"))
+case("export-format-unknown", lambda e: S("export", e.copy("run"), "--format", "hdf5"), 2,
+     "--format", "unchanged", lambda e: e.copy("run"))
+case("export-out-exists", lambda e: S("export", e.copy("run"), "--out", e.file("x.nwb", "old")),
+     2, "x.nwb", "unchanged", lambda e: e.file("x.nwb", "old"))
+case("export-out-is-a-folder", lambda e: S("export", e.copy("run"), "--out", e.empty()), 2,
+     lambda e: str(e.empty()), "unchanged", lambda e: e.empty())
+case("export-out-parent-missing", lambda e: S("export", e.copy("run"), "--out",
+                                              e.tmp / "no" / "x.nwb"), 2, "x.nwb", "absent",
+     lambda e: e.tmp / "no")
+case("export-tampered-spikes", lambda e: S("export", e.tampered("run", "spikes.npz"), "--format",
+                                           "npz"), 2, "spikes.npz", "unchanged",
+     lambda e: e.tampered("run", "spikes.npz"))
+case("export-missing-file", lambda e: S("export", e.tampered("run", "traces.npz", "missing")), 2,
+     "traces.npz", "unchanged", lambda e: e.tampered("run", "traces.npz", "missing"))
+case("export-extra-file", lambda e: S("export", e.tampered("run", "notes.txt", "extra")), 2,
+     "notes.txt", "unchanged", lambda e: e.tampered("run", "notes.txt", "extra"))
+case("export-corrupt-but-listed-npz", lambda e: S("export", e.corrupt_listed("run", "traces.npz"),
+                                                  "--format", "npz"), 2, "traces.npz",
+     "unchanged", lambda e: e.corrupt_listed("run", "traces.npz"),
+     check=no_temporaries_beside(lambda e: e.corrupt_listed("run", "traces.npz")))
+case("export-corrupt-manifest", lambda e: S("export", e.tampered("run", "manifest.json",
+                                                                 "truncate")), 2,
+     "manifest.json", "unchanged", lambda e: e.tampered("run", "manifest.json", "truncate"))
+case("export-run-without-spikes-npz", lambda e: S("export", e.copy("run_nospikes"), "--format",
+                                                  "npz"), 0, None, "unchanged",
+     lambda e: e.copy("run_nospikes"), check=export_written(".npz"))
+case("export-run-without-spikes-nwb", lambda e: S("export", e.copy("run_nospikes")), 0, None,
+     "unchanged", lambda e: e.copy("run_nospikes"), check=export_written(".nwb"))
+
+# ---- describe
+case("describe-unknown-model", lambda e: ["describe", "glia"], 2, "glia", "none")
+case("describe-unknown-format", lambda e: ["describe", "--format", "html"], 2, "--format",
+     "none")
+case("describe-equations-binary",
+     lambda e: S("describe", "motor_neuron", "--equations",
+                 f"motor_neuron={e.file('eq.bin', bytes(range(256)))}"), 2, "eq.bin", "none")
+
+# ---- robot export
+case("robot-export-not-xml", lambda e: S("robot", "export", e.tmp / "a1.txt"), 2, "a1.txt",
+     "absent", lambda e: e.tmp / "a1.txt")
+case("robot-export-folder-missing", lambda e: S("robot", "export", e.tmp / "no" / "a1.xml"), 2,
+     "a1.xml", "absent", lambda e: e.tmp / "no")
+case("robot-export-exists", lambda e: S("robot", "export", e.file("a1.xml", "mine")), 2,
+     "a1.xml", "unchanged", lambda e: e.file("a1.xml", "mine"))
+case("robot-export-is-a-folder", lambda e: S("robot", "export", e.empty("a1.xml"), "--overwrite"),
+     2, "a1.xml", "unchanged", lambda e: e.empty("a1.xml"))
+case("robot-export-uncreatable", lambda e: ["robot", "export", "/sys/astrocpg_a1.xml"], 1,
+     "/sys/astrocpg_a1.xml", "absent", lambda e: Path("/sys/astrocpg_a1.xml"))
+
+# ---- edge values that must work
+case("unit-seconds-shorter-than-the-rhythm-analysis",
+     lambda e: S("unit", "--seconds", "0.05", "--no-progress", "--out", out(e)), 0, None,
+     "complete", out)
+case("run-seconds-one-step", lambda e: S("run", "--seconds", "0.001", "--no-progress", "--out",
+                                         out(e)), 0, None, "complete", out)
+case("gait-seconds-short", lambda e: S("gait", e.copy("train"), "--seconds", "0.05",
+                                       "--no-progress"), 0, None, "unchanged",
+     lambda e: e.copy("train"))
+case("run-overwrite-replaces-whole", lambda e: S("run", "--seconds", "0.01", "--no-progress",
+                                                 "--overwrite", "--out", e.nonempty()),
+     0, None, "complete", lambda e: e.nonempty(),
+     check=lambda e: not (e.nonempty() / "mine.txt").exists() or pytest.fail("merged"))
+case("unit-spikes-none", lambda e: S("unit", "--seconds", "0.05", "--spikes", "none", "--traces",
+                                     "none", "--no-progress", "--out", out(e)), 0, None,
+     "complete", out)
+
+# ---- write failures (a fresh process: rlimits and mount namespaces)
+FSIZE = 20_000
+case("run-file-too-large", lambda e: S("run", "--seconds", "0.05", "--no-progress", "--out",
+                                       out(e)), 1, "File too large", "absent", out,
+     subprocess={"rlimit_fsize": FSIZE}, marks=(pytest.mark.slow,))
+case("unit-file-too-large", lambda e: S("unit", "--seconds", "0.05", "--no-progress", "--out",
+                                        out(e)), 1, "File too large", "absent", out,
+     subprocess={"rlimit_fsize": FSIZE})
+case("robot-export-file-too-large", lambda e: S("robot", "export", e.tmp / "a1.xml"), 1,
+     "File too large", "absent", lambda e: e.tmp / "a1.xml",
+     subprocess={"rlimit_fsize": 1000})
+case("unit-disk-full", lambda e: S("unit", "--seconds", "0.05", "--no-progress", "--out",
+                                   e.tmp / "small" / "out"), 1, "No space left", "absent",
+     lambda e: e.tmp / "small" / "out", subprocess={"tmpfs": "small", "size": "64k"})
+case("unit-read-only", lambda e: S("unit", "--seconds", "0.05", "--no-progress", "--out",
+                                   e.tmp / "ro" / "out"), 1, "Read-only", "absent",
+     lambda e: e.tmp / "ro" / "out", subprocess={"tmpfs": "ro", "size": "64k", "ro": True})
+case("export-disk-full", lambda e: S("export", e.copy("run"), "--out",
+                                     e.tmp / "small" / "x.nwb"), 1, "No space left", "absent",
+     lambda e: e.tmp / "small" / "x.nwb", subprocess={"tmpfs": "small", "size": "16k"},
+     check=no_temporaries_beside(lambda e: e.tmp / "small" / "x.nwb"))
+# Brian2 keeps debug files in the temp folder for errors it sees; a handled error leaves none
+case("unit-bad-equation-leaves-no-debug-files",
+     lambda e: S("unit", "--seconds", "0.01", "--equations",
+                 f"motor_neuron={e.equations('motor_neuron', lambda t: t.replace('/tau_motor', '/tau_motr'))}",
+                 "--out", out(e)), 2, "motor_neuron", "absent", out,
+     subprocess={"tmpdir": True})
+case("unit-short-leaves-no-debug-files",
+     lambda e: S("unit", "--seconds", "0.01", "--no-progress", "--out", out(e)), 0, None,
+     "complete", out, subprocess={"tmpdir": True})
+
+
+# ---------------------------------------------------------------- running a case
+def sha_tree(root: Path) -> dict[str, str]:
+    """relative path -> sha256 of every file below ``root`` (hidden ones too), or of ``root``
+    itself if it is a file."""
+    if root.is_file():
+        return {".": hashlib.sha256(root.read_bytes()).hexdigest()}
+    return {p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def run_in_process(argv: list[str], capsys) -> tuple[int, str, str]:
+    try:
+        code = main(argv)
+    except SystemExit as e:  # argparse
+        code = e.code if isinstance(e.code, int) else 1
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def _mount_prefix(e: Env, spec: dict[str, Any]) -> list[str]:
+    unshare = shutil.which("unshare")
+    where = e.tmp / spec["tmpfs"]
+    where.mkdir(exist_ok=True)
+    opts = ("ro," if spec.get("ro") else "") + f"size={spec['size']}"
+    probe = subprocess.run([unshare or "unshare", "-m", "--propagation", "private", "mount",
+                            "-t", "tmpfs", "-o", opts, "tmpfs", str(where)],
+                           capture_output=True)
+    if unshare is None or probe.returncode != 0:
+        pytest.skip("cannot mount a tmpfs here (needs a mount namespace)")
+    return [unshare, "-m", "--propagation", "private", "sh", "-c",
+            f'mount -t tmpfs -o {opts} tmpfs "{where}" && exec "$@"', "sh"]
+
+
+def run_in_child(argv: list[str], e: Env, spec: dict[str, Any]) -> tuple[int, str, str]:
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    prefix: list[str] = []
+    if spec.get("tmpdir"):
+        tmpdir = e.tmp / "tmpdir"
+        tmpdir.mkdir()
+        env["TMPDIR"] = str(tmpdir)
+    if "tmpfs" in spec:
+        prefix = _mount_prefix(e, spec)
+
+    def limits() -> None:
+        if "rlimit_fsize" in spec:
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+            resource.setrlimit(resource.RLIMIT_FSIZE, (spec["rlimit_fsize"],
+                                                       resource.RLIM_INFINITY))
+
+    proc = subprocess.run([*prefix, sys.executable, "-m", "astrocpg.studies.cli", *argv],
+                          capture_output=True, text=True, env=env, preexec_fn=limits,
+                          cwd=e.tmp, timeout=600)
+    if spec.get("tmpdir"):
+        left = [n for n in os.listdir(e.tmp / "tmpdir") if n.startswith("brian")]
+        assert not left, f"Brian2 left {left} in the temp folder"
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+@pytest.mark.parametrize("c", [c.param() for c in CASES])
+def test_case(c: Case, fx, tmp_path, capsys, monkeypatch) -> None:
+    e = Env(tmp_path, fx)
+    monkeypatch.chdir(tmp_path)  # stray files (MUJOCO_LOG.TXT, out/...) would land here
+    EVIL_FLAG.unlink(missing_ok=True)
+    argv = c.argv(e)
+    target = c.target(e) if c.target else None
+    before = sha_tree(target) if c.state == "unchanged" else None
+    if c.state == "absent":
+        assert not os.path.lexists(target), f"{target} exists before the case"
+    if c.subprocess is not None:
+        code, stdout, stderr = run_in_child(argv, e, c.subprocess)
+    else:
+        code, stdout, stderr = run_in_process(argv, capsys)
+    lines = [x for x in stderr.splitlines() if x.strip()]
+    assert "Traceback" not in stdout + stderr, stderr
+    if c.code != 0:
+        assert len(lines) == 1, f"expected one line on stderr, got:\n{stderr}"
+        assert lines[0].startswith("astrocpg:"), lines[0]
+        culprit = c.culprit(e) if callable(c.culprit) else c.culprit
+        if culprit:
+            assert culprit in lines[0], (culprit, lines[0])
+    else:
+        assert not any(x.startswith("astrocpg:") for x in lines), stderr
+    assert code == c.code, (code, stderr)
+    if c.state == "absent":
+        assert not os.path.lexists(target), f"{target} was left behind"
+        if target.parent.is_dir():
+            left = [n for n in os.listdir(target.parent) if parse_temp_name(n)]
+            assert not left, f"temporaries left beside {target}: {left}"
+    elif c.state == "unchanged":
+        assert sha_tree(target) == before, f"{target} changed"
+    elif c.state == "complete":
+        verify(target)
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists(), "MuJoCo wrote its log in the cwd"
+    if c.check is not None:
+        c.check(e)
+
+
+def test_corpus_size() -> None:
+    commands = {c.id.split("-")[0] for c in CASES}
+    assert len(CASES) >= 60
+    assert {"unit", "run", "train", "gait", "plot", "power", "study", "report", "export",
+            "describe", "robot"} <= commands
+
+
+def test_help_lists_exit_codes(capsys) -> None:
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    text = capsys.readouterr().out
+    for code, word in (("0", "done"), ("1", "environment"), ("2", "bad input"),
+                       ("3", "diverged"), ("130", "interrupted")):
+        assert any(line.split()[:1] == [code] and word in line for line in text.splitlines()), \
+            (code, text)
+    readme = (ROOT / "README.md").read_text()
+    for code in ("130", "diverged", "environment"):
+        assert code in readme
+    assert "exit code" in readme.lower()
