@@ -326,7 +326,7 @@ def _plain_if_dimensionless(value: Any) -> Any:
     return value
 
 
-def parse_value(text: str, *, culprit: str) -> Any:
+def parse_value(text: str, *, culprit: str) -> brian2.Quantity | float:
     """The value written in ``text``: a Brian2 quantity, or a plain number when dimensionless.
 
     Accepts numbers (``9``, ``-70``, ``0.3``, ``1e-3``), Brian2 unit names (``ms``, ``mV``,
