@@ -11,8 +11,10 @@ from dataclasses import dataclass
 from typing import Any, Iterator, Mapping
 
 import brian2
+import numpy as np
 
 from ..errors import InputError
+from .values import example_value, parse_value, unit_spelling
 from .alive import ALIVE
 from .astrocyte import ASTROCYTE
 from .energy import RL_POWER, SNN_POWER
@@ -95,20 +97,21 @@ class ModelSet:
         )
 
     def parse_assignment(self, text: str) -> tuple[str, Any]:
-        """Parse ``NAME=VALUE`` (e.g. ``tau_motor=9*ms``, ``A_random=0.3``, ``C_K_chan=8 V/s``)."""
-        if "=" not in text:
-            raise InputError(f"--set '{text}': expected NAME=VALUE")
-        name, _, expr = (s.strip() for s in text.partition("="))
+        """Parse ``NAME=VALUE`` (e.g. ``tau_motor=9*ms``, ``A_random=0.3``,
+        ``C_K_chan=8 volt/second``). The value is parsed (numbers, Brian2 unit names and
+        arithmetic on them: :func:`astrocpg.models.values.parse_value`), never evaluated."""
+        name, sep, expr = (s.strip() for s in text.partition("="))
+        if not sep or not name:
+            raise InputError("expected NAME=VALUE", culprit=f"--set '{text}'")
         param = self.parameter(name)
-        expr = expr.replace(" ", "*") if " " in expr.strip() else expr
-        try:
-            value = eval(expr, {"__builtins__": {}}, _UNIT_NAMESPACE)  # noqa: S307
-        except Exception:
-            raise InputError(f"--set {name}: cannot read the value '{expr}'") from None
+        value = parse_value(expr, culprit=f"--set {name}")
         if brian2.get_dimensions(value) != param.dimensions:
-            raise InputError(
-                f"--set {name}: needs units of {_unit_of(param.value)}, got '{expr}'"
-            )
+            raise InputError(f"needs units of {unit_spelling(param.value)}, e.g. "
+                             f"{example_value(param.value)}; got '{expr}'",
+                             culprit=f"--set {name}")
+        if param.positive and not float(np.asarray(value)) > 0:
+            raise InputError(f"must be positive ({param.meaning}), got '{expr}'",
+                             culprit=f"--set {name}")
         return name, value
 
     def to_json(self) -> dict[str, Any]:
@@ -123,16 +126,6 @@ class ModelSet:
             out[name] = entry
         return out
 
-
-def _unit_of(value: Any) -> str:
-    dims = brian2.get_dimensions(value)
-    return "1 (dimensionless)" if dims.is_dimensionless else str(brian2.get_unit(dims))
-
-
-_UNIT_NAMESPACE = {
-    k: v for k, v in vars(brian2.units).items() if isinstance(v, (brian2.Unit, brian2.Quantity))
-}
-_UNIT_NAMESPACE.update({"pi": 3.141592653589793})
 
 DEFAULT_MODELS = ModelSet()
 

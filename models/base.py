@@ -19,6 +19,7 @@ from brian2 import Equations
 from brian2.units.fundamentalunits import DimensionMismatchError, get_dimensions
 
 from ..errors import InputError
+from .values import compile_expression
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -58,6 +59,8 @@ class ParameterTable(Mapping[str, Parameter]):
             self._check(p)
 
     def _check(self, p: Parameter) -> None:
+        if not np.all(np.isfinite(np.asarray(p.value, dtype=float))):
+            raise InputError(f"{self.owner}: parameter '{p.name}' must be finite, got {p.value}")
         if p.positive and not float(np.asarray(p.value)) > 0:
             raise InputError(
                 f"{self.owner}: parameter '{p.name}' ({p.meaning}) must be positive, got {p.value}"
@@ -204,23 +207,13 @@ class ExpressionModel:
         return self.replace(parameters=self.parameters.with_values(**values))
 
     def compile(self) -> Callable[..., Any]:
-        """A numpy function of the inputs, with parameters bound as plain SI floats."""
-        try:
-            code = compile(self.expression, f"<{self.name}>", "eval")
-        except SyntaxError as e:
-            raise InputError(f"{self.name}: expression has a syntax error: {e.msg}") from None
-        allowed = set(self.inputs) | set(self.parameters) | {"abs", "exp", "sqrt", "clip"}
-        unknown = [n for n in code.co_names if n not in allowed]
-        if unknown:
-            raise InputError(f"{self.name}: expression uses unknown name '{unknown[0]}'")
+        """A numpy function of the inputs (keywords), with parameters bound as plain SI
+        floats: the expression is parsed against a whitelist and compiled, never evaluated as
+        text (:func:`astrocpg.models.values.compile_expression`)."""
         # plain SI floats: the inputs arrive in SI (m/s, rad, rad/s)
         consts = {n: float(np.asarray(p.value)) for n, p in self.parameters.items()}
-        env = {"abs": np.abs, "exp": np.exp, "sqrt": np.sqrt, "clip": np.clip, **consts}
-
-        def evaluate(**inputs: Any) -> Any:
-            return eval(code, env, inputs)  # noqa: S307 - the model's own expression
-
-        return evaluate
+        return compile_expression(self.expression, owner=self.name, inputs=self.inputs,
+                                  constants=consts)
 
 
 _IDENT = re.compile(r"^\s*d?([A-Za-z_]\w*)")

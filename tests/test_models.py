@@ -46,9 +46,10 @@ def test_unknown_parameter_and_wrong_unit_and_non_positive_time_constant():
         DEFAULT_MODELS.parse_assignment("tau_motor=9")
     with pytest.raises(InputError, match="motor_neuron: parameter 'tau_motor'.*must be positive"):
         DEFAULT_MODELS.with_values({"tau_motor": -9 * ms})
+    with pytest.raises(InputError, match="--set tau_ADO: must be positive"):
+        DEFAULT_MODELS.parse_assignment("tau_ADO=0*second")
     with pytest.raises(InputError, match="astrocyte: parameter 'tau_ADO'.*must be positive"):
-        DEFAULT_MODELS.parse_assignment("tau_ADO=0*second") and DEFAULT_MODELS.with_values(
-            dict([DEFAULT_MODELS.parse_assignment("tau_ADO=0*second")]))
+        DEFAULT_MODELS.with_values({"tau_ADO": 0 * ms})
 
 
 def test_overrides_reach_the_namespace():
