@@ -16,7 +16,6 @@ adenosine of the target pool's astrocyte. The paper's learning rates are per 1 m
 from brian2 import mV, second
 
 from .base import Parameter, ParameterTable, SynapseModel
-from .integration import input_then_decay
 
 MODEL = """
 w : volt
@@ -55,5 +54,5 @@ PARAMETERS = ParameterTable("interlimb_synapse", [
 
 INTERLIMB_SYNAPSE = SynapseModel(
     name="interlimb_synapse", model=MODEL, on_step=ON_STEP, parameters=PARAMETERS,
-    method=input_then_decay, description=__doc__,
+    method="input_then_decay", description=__doc__,
 )

@@ -9,7 +9,6 @@ not refractory; the K+ current acts on every neuron (SPEC section 1, authors' di
 from brian2 import Hz, meter, ms, mV, second
 
 from .base import NeuronModel, Parameter, ParameterTable
-from .integration import input_then_decay
 
 EQUATIONS = """
 dv/dt = (v_motor_rest - v)/tau_motor + int(not_refractory)*I_input - C_K_chan*K_open : volt
@@ -75,7 +74,7 @@ MOTOR_NEURON = NeuronModel(
     threshold=THRESHOLD,
     reset=RESET,
     refractory=REFRACTORY,
-    method=input_then_decay,
+    method="input_then_decay",
     description=__doc__,
 )
 

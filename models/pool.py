@@ -15,7 +15,6 @@ from brian2 import second
 from brian2.units.allunits import radian
 
 from .base import NeuronModel, Parameter, ParameterTable, SynapseModel
-from .integration import input_then_decay
 
 EQUATIONS = """
 n : 1
@@ -39,7 +38,7 @@ PARAMETERS = ParameterTable("pool", [
 ])
 
 POOL = NeuronModel(name="pool", equations=EQUATIONS, parameters=PARAMETERS,
-                   method=input_then_decay, description=__doc__)
+                   method="input_then_decay", description=__doc__)
 
 # Every motor neuron reports its spike of this step to its pool.
 POOL_ACTIVITY = SynapseModel(

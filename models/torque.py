@@ -7,7 +7,6 @@ from brian2 import meter, second
 from brian2.units.allunits import newton
 
 from .base import NeuronModel, Parameter, ParameterTable
-from .integration import input_then_decay
 
 EQUATIONS = """
 dh/dt = -h/tau_h + I_joint*(n_extensor - n_flexor)/dt : newton*meter
@@ -29,6 +28,6 @@ TORQUE = NeuronModel(
     name="torque",
     equations=EQUATIONS,
     parameters=PARAMETERS,
-    method=input_then_decay,
+    method="input_then_decay",
     description=__doc__,
 )
