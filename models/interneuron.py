@@ -9,7 +9,7 @@ from brian2 import ms, mV
 from .base import NeuronModel, Parameter, ParameterTable
 
 EQUATIONS = """
-dv/dt = (v_interneuron_rest - v)/tau_interneuron : volt
+dv/dt = (v_interneuron_rest - v)/tau_interneuron : volt  # membrane potential
 """
 
 # p_spike = Sigmoid((v - v_th)/(S_spike/2)) of the paper, written as the identical

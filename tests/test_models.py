@@ -261,6 +261,20 @@ def test_contract_validation_names_model_and_attribute():
     assert err.value.culprit == "glia"
 
 
+def test_every_equation_string_comments_each_variable():
+    for name, model in DEFAULT_MODELS.items():
+        if not isinstance(model, (NeuronModel, SynapseModel)):
+            continue
+        eqs = Equations(model.code)  # Brian2 accepts the comments
+        lines = [line for line in model.code.splitlines() if line.strip()]
+        assert len(lines) == len(eqs.names), name
+        for line in lines:
+            code, sep, comment = line.partition("#")
+            assert sep and comment.strip(), (name, line)
+    assert all(isinstance(m, ExpressionModel) or isinstance(m, (NeuronModel, SynapseModel))
+               for _, m in DEFAULT_MODELS.items())
+
+
 def test_input_then_decay_by_name_in_a_group():
     g = NeuronGroup(1, "dx/dt = -x/tau + I : volt\nI : volt/second\ntau : second",
                     method="input_then_decay", dt=1 * ms)
