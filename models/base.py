@@ -209,7 +209,8 @@ def _value_from_json(data: Any, culprit: str) -> Any:
     if "dimensions" not in data:
         return si if not isinstance(si, list) else np.asarray(si)
     dims = data["dimensions"]
-    if not isinstance(dims, Mapping) or set(dims) - set(_BASE_DIMENSIONS):
+    if not isinstance(dims, Mapping) or set(dims) - set(_BASE_DIMENSIONS) or any(
+            isinstance(v, bool) or not isinstance(v, (int, float)) for v in dims.values()):
         raise InputError(f"dimensions must map {', '.join(_BASE_DIMENSIONS)} to exponents, "
                          f"got {dims!r}", culprit=culprit)
     return Quantity(si, dim=get_or_create_dimension(**{k: float(v) for k, v in dims.items()}))
