@@ -64,6 +64,17 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
+def _add_simulation_options(p: argparse.ArgumentParser, seconds: float) -> None:
+    p.add_argument("--seconds", type=float, default=seconds,
+                   help=f"simulated time in s (default {seconds:g})")
+    p.add_argument("--seed", type=int, default=1, help="seed of trial 0 (default 1)")
+    p.add_argument("--trials", type=int, default=1,
+                   help="independent trials, seeds K, K+1, ... (default 1)")
+    p.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
+                   help="sampling interval of the Ca2+/IP3/2-AG/adenosine traces in ms "
+                        "(default 1)")
+
+
 def _add_overwrite(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overwrite", action="store_true",
                    help="replace an existing output whole (never merged with the new one)")
@@ -76,11 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     unit = sub.add_parser("unit", help="one locomotion unit, open loop (paper Fig. 1c)",
                           epilog=EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    unit.add_argument("--seconds", type=float, default=30.0)
-    unit.add_argument("--seed", type=int, default=1)
-    unit.add_argument("--trials", type=int, default=1, help="independent units, seeds K, K+1...")
-    unit.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
-                      help="sampling interval of the Ca2+ traces in ms (default 1)")
+    _add_simulation_options(unit, seconds=30.0)
     unit.add_argument("--out", required=True)
     _add_overwrite(unit)
     _add_record_options(unit)
@@ -88,16 +95,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="the closed loop: CPG drives the A1 (fixed weights)",
                          epilog=EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    run.add_argument("--seconds", type=float, default=10.0)
-    run.add_argument("--seed", type=int, default=1)
-    run.add_argument("--trials", type=int, default=1)
+    _add_simulation_options(run, seconds=10.0)
     run.add_argument("--weights", help="8x8 inter-limb table in mV (.npy, .csv/.txt, .json), or "
                      "a training folder (its final weights)")
     run.add_argument("--trial", type=int, default=None,
                      help="with --weights DIR: use that trial's table for every trial")
     run.add_argument("--robot", help="an MJCF file with the A1's joint and actuator names")
-    run.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
-                     help="sampling interval of the Ca2+/2-AG/adenosine traces in ms")
     run.add_argument("--robot-stride", type=int, default=1, metavar="STEPS",
                      help="record the robot every STEPS physics steps (default 1)")
     run.add_argument("--out", default=DEFAULT_RUN_OUT)
