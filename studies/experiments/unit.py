@@ -13,6 +13,7 @@ import numpy as np
 
 from ..analysis.rhythm import rhythm_summary
 from ..files.outputs import prepare_output_dir, save_spikes_and_traces, write_manifest
+from ..files.result import Result
 from .settings import Overrides, model_set, number, override_items
 from .resources import check_memory, estimate_bytes
 from .simulate import STEP, SimulationResult, check_duration, check_selection, simulate_unit
@@ -22,12 +23,19 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
          trace_dt: float = 1.0, spikes: tuple[str, ...] | None = None,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
-         progress: bool = True, settings: Mapping[str, Any] | None = None) -> SimulationResult:
-    """Simulate ``trials`` independent locomotion units (seeds seed, seed+1, ...) for
-    ``seconds``; ``trace_dt`` in ms; ``overrides`` as ``{"tau_motor": "9*ms"}`` or
-    ``["tau_motor=9*ms"]``; ``equations`` as ``{model: equation text}``. The result's
-    ``extra["rhythm"]`` holds each trial's period, phases and rates. With ``out``, writes the
-    folder ``astrocpg unit`` writes (``settings`` goes into its manifest)."""
+         progress: bool = True, settings: Mapping[str, Any] | None = None) -> Result:
+    """Simulate ``trials`` independent locomotion units (the FR limb's CPG, open loop; seeds
+    seed, seed+1, ...) for ``seconds``; what ``astrocpg unit`` runs.
+
+    overrides: parameter values with units, ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
+    equations: ``{model: equation text}`` (e.g. ``{"astrocyte": text}``) replacing a model's
+    Brian2 equation string. trace_dt: sampling of the traces in ms. spikes / traces: which
+    populations and traces to record (None: all). out: writes the folder ``astrocpg unit``
+    writes (``settings`` goes into its manifest). progress: a progress bar for long runs.
+
+    Returns a :class:`~astrocpg.studies.files.result.Result` of kind "unit"; its
+    ``summary["rhythm"]`` holds each trial's period, phases and rates. Bad input: InputError
+    naming the culprit, before anything is simulated or written."""
     from brian2 import ms
 
     seconds = number(seconds, "--seconds", positive=True)
@@ -45,13 +53,14 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
                            progress=progress)
     result.extra["rhythm"] = rhythm_per_trial(result, seconds)
     result.extra["models"] = models
+    settings = dict(settings or {}) or {
+        "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
+        "overrides": override_items(overrides), "equations": dict(equations or {}),
+        "spikes": spikes, "traces": traces}
     if out is not None:
-        settings = dict(settings or {}) or {
-            "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-            "overrides": override_items(overrides), "equations": dict(equations or {}),
-            "spikes": spikes, "traces": traces}
         write_unit_folder(prepare_output_dir(out), result, settings)
-    return result
+    return Result.from_simulation(result, kind="unit", seed=seed, settings=settings,
+                                  summary=unit_results(result), models=models, folder=out)
 
 
 def rhythm_per_trial(result: SimulationResult, seconds: float) -> list[dict[str, Any]]:
@@ -85,9 +94,14 @@ def write_unit_folder(out: Path, result: SimulationResult, settings: Mapping[str
                              "(trial 0)")
     write_manifest(out, command="unit", seed=int(settings.get("seed", 1)), settings=settings,
                    models_json=result.extra["models"].to_json(), files=files,
-                   results={"rhythm": result.extra.get("rhythm", []),
-                            "wall_seconds": result.wall_seconds, "dt_s": float(result.cpg.dt),
-                            "seconds": result.seconds, "layout": L.to_json()})
+                   results=unit_results(result))
+
+
+def unit_results(result: SimulationResult) -> dict[str, Any]:
+    """What the manifest's ``results`` (and the Result's ``summary``) hold for a unit."""
+    return {"rhythm": result.extra.get("rhythm", []), "wall_seconds": result.wall_seconds,
+            "dt_s": float(result.cpg.dt), "seconds": result.seconds,
+            "layout": result.cpg.layout.to_json()}
 
 
 def format_rhythm(b: int, seed: int, s: Mapping[str, Any]) -> str:
