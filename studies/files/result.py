@@ -109,8 +109,9 @@ class Trace:
 
     def __repr__(self) -> str:
         n, m = (self.values.shape + (1,))[:2]
+        t = np.asarray(self.t)  # in second
         return (f"Trace({self.name!r}: {n} samples x {m} columns in {self.unit}, "
-                f"t {float(self.t[0]) if n else 0:g}..{float(self.t[-1]) if n else 0:g} s)")
+                f"t {t[0] if n else 0:g}..{t[-1] if n else 0:g} s)")
 
 
 class Result:
