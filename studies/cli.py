@@ -64,6 +64,11 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
+def _add_overwrite(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing output whole (never merged with the new one)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="astrocpg", description=__doc__.split("\n\n")[0], epilog=EXIT_HELP,
                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -77,6 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
     unit.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
                       help="sampling interval of the Ca2+ traces in ms (default 1)")
     unit.add_argument("--out", required=True)
+    _add_overwrite(unit)
     _add_record_options(unit)
     _add_model_options(unit)
 
@@ -95,6 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--robot-stride", type=int, default=1, metavar="STEPS",
                      help="record the robot every STEPS physics steps (default 1)")
     run.add_argument("--out", default=DEFAULT_RUN_OUT)
+    _add_overwrite(run)
     _add_record_options(run)
     _add_model_options(run)
 
@@ -107,6 +114,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="remove the adenosine term (the paper's ablation)")
     train.add_argument("--out", help="output folder (new, or empty)")
     train.add_argument("--resume", metavar="DIR", help="continue the run in DIR")
+    _add_overwrite(train)
     train.add_argument("--record-every", type=int, default=None, metavar="N",
                        help="record sessions 1, 1+N, 1+2N... and the last of each trial "
                             "(spikes, traces, robot) into DIR/recordings/")
@@ -126,6 +134,8 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("--trial", type=int, default=0)
     plot.add_argument("--seconds", type=float, default=10.0,
                       help="length of the run with the trained weights (for activity and gait)")
+    plot.add_argument("--out", help="figure folder (default DIR/figures, replaced on each plot)")
+    _add_overwrite(plot)
 
     study = sub.add_parser("study", help="a parameter study (TOML) on Dask; resumable")
     study.add_argument("file", help="study file, e.g. studies/sweeps/quick.toml, or a built-in "
@@ -136,6 +146,7 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
     study.add_argument("--no-progress", action="store_true")
+    _add_overwrite(study)
 
     report = sub.add_parser("report", help="Fig. 3c curves and final figures of a study")
     report.add_argument("dir", help="a study folder")
@@ -143,6 +154,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="plot each seed's trailing mean over N sessions (default 1: raw)")
     report.add_argument("--last", type=int, default=50,
                         help="sessions at the end over which final figures are averaged (50)")
+    report.add_argument("--out", help="report folder (default DIR/report, replaced each time)")
+    _add_overwrite(report)
 
     power = sub.add_parser("power", help="SNN vs RL power estimate of a trained controller")
     power.add_argument("dir", help="a training folder (astrocpg train, or a study's run)")
@@ -153,7 +166,8 @@ def build_parser() -> argparse.ArgumentParser:
     exp = sub.add_parser("export", help="a run or unit folder as NWB or npz")
     exp.add_argument("dir", help="output of astrocpg run or unit")
     exp.add_argument("--format", default="nwb", help="nwb (default) or npz")
-    exp.add_argument("--out", help="file to write (default DIR/export.<format>)")
+    exp.add_argument("--out", help="file to write (default DIR.<format>, beside DIR)")
+    _add_overwrite(exp)
 
     desc = sub.add_parser("describe", help="a model's equations (sympy) and parameter table")
     desc.add_argument("model", nargs="?", help="one model (default: all)")
@@ -167,6 +181,7 @@ def build_parser() -> argparse.ArgumentParser:
     robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
     export = robot_sub.add_parser("export", help="write the A1 model as MJCF")
     export.add_argument("path")
+    _add_overwrite(export)
     return parser
 
 
@@ -225,7 +240,8 @@ def _cmd_unit(args: argparse.Namespace) -> int:
 
     result = unit(seconds=args.seconds, seed=args.seed, trials=args.trials,
                   trace_dt=args.trace_dt, spikes=args.spikes, traces=args.traces, out=args.out,
-                  progress=not args.no_progress, settings=_settings(args), **_models(args))
+                  overwrite=args.overwrite, progress=not args.no_progress,
+                  settings=_settings(args), **_models(args))
     for b, s in enumerate(result.summary["rhythm"]):
         print(format_rhythm(b, args.seed + b, s))
     print(f"wrote {args.out}/")
@@ -238,8 +254,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     result = run(seconds=args.seconds, seed=args.seed, trials=args.trials, weights=args.weights,
                  trial=args.trial, robot=args.robot, trace_dt=args.trace_dt,
                  robot_stride=args.robot_stride, spikes=args.spikes, traces=args.traces,
-                 out=args.out, progress=not args.no_progress, settings=_settings(args),
-                 **_models(args))
+                 out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
+                 settings=_settings(args), **_models(args))
     print("\n".join(format_run(result, args.seed)))
     print(f"wrote {args.out}/")
     return 0
@@ -270,7 +286,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
                            trials=1 if args.trials is None else args.trials,
                            astrocytes=not args.no_astrocytes, record_every=args.record_every,
                            record_stride=args.record_stride, spikes=args.spikes,
-                           traces=args.traces, progress=not args.no_progress, **_models(args))
+                           traces=args.traces, overwrite=args.overwrite,
+                           progress=not args.no_progress, **_models(args))
             out = args.out
     except TrainingStopped as e:
         where = args.resume or args.out
@@ -295,7 +312,8 @@ def _cmd_gait(args: argparse.Namespace) -> int:
 def _cmd_plot(args: argparse.Namespace) -> int:
     from .experiments.trained import plot_training
 
-    written = plot_training(args.dir, trial=args.trial, seconds=args.seconds)
+    written = plot_training(args.dir, trial=args.trial, seconds=args.seconds, out=args.out,
+                            overwrite=args.overwrite)
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
 
@@ -310,7 +328,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
           f"{study.n_sessions} sessions) -> {out}/")
     try:
         res = run_study(study, out, workers=args.workers, scheduler=args.scheduler,
-                        progress=not args.no_progress)
+                        progress=not args.no_progress, overwrite=args.overwrite)
     except KeyboardInterrupt:
         sys.stderr.write("astrocpg: study interrupted; run the same command again to "
                          "continue (finished runs are kept)\n")
@@ -330,7 +348,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
     last = number(args.last, "--last", integer=True, minimum=1)
     smooth = number(args.smooth, "--smooth", integer=True, minimum=1)
-    written = report(Path(args.dir), last=last, smooth=smooth)
+    written = report(Path(args.dir), last=last, smooth=smooth, out=args.out,
+                     overwrite=args.overwrite)
     print(written["text"])
     print(f"wrote {', '.join(str(p) for p in written['files'])}")
     return 0
@@ -349,7 +368,7 @@ def _cmd_power(args: argparse.Namespace) -> int:
 def _cmd_export(args: argparse.Namespace) -> int:
     from .experiments.api import export
 
-    path = export(args.dir, args.format, args.out or None)
+    path = export(args.dir, args.format, args.out or None, overwrite=args.overwrite)
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return 0
 
@@ -363,6 +382,7 @@ def _cmd_describe(args: argparse.Namespace) -> int:
 
 def _cmd_robot(args: argparse.Namespace) -> int:
     from ..coupling.robot import A1Parameters, export_xml
+    from .files.outputs import atomic_path
 
     path = Path(args.path)
     if path.suffix.lower() != ".xml":
@@ -370,7 +390,9 @@ def _cmd_robot(args: argparse.Namespace) -> int:
     if not path.parent.exists():
         raise InputError(f"folder '{path.parent}' does not exist",
                          culprit=f"robot export {path}")
-    export_xml(path, A1Parameters())
+    if path.exists() and not args.overwrite:
+        raise InputError("exists; --overwrite replaces it", culprit=f"robot export {path}")
+    atomic_path(path, lambda tmp: export_xml(tmp, A1Parameters()))
     print(f"wrote {path}")
     return 0
 

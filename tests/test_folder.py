@@ -20,7 +20,7 @@ import pytest
 
 from astrocpg.errors import EnvironmentFault, InputError
 from astrocpg.studies.files import folder as F
-from astrocpg.studies.files.folder import (FolderLock, OutputFolder, append_history,
+from astrocpg.studies.files.folder import (FolderLock, OutputFolder,
                                            clean_stale_temporaries, inventory, parse_temp_name,
                                            temp_prefix, verify)
 
@@ -239,7 +239,14 @@ def test_inventory_lists_every_file_but_the_manifest(listed):
     inv = inventory(listed)
     assert list(inv) == ["spikes.npz", "sub/notes.txt", "traces.npz"]
     data = (listed / "spikes.npz").read_bytes()
-    assert inv["spikes.npz"] == {"bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+    assert {k: inv["spikes.npz"][k] for k in ("bytes", "sha256")} == \
+        {"bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+    # unchanged files keep their hash without being read again
+    (listed / "traces.npz").write_bytes(b"TRACES")
+    again = inventory(listed, previous={k: dict(v, sha256="kept") for k, v in inv.items()})
+    assert again["spikes.npz"]["sha256"] == "kept"
+    assert again["traces.npz"]["sha256"] == hashlib.sha256(b"TRACES").hexdigest()
+    (listed / "traces.npz").write_bytes(b"traces")
     assert verify(listed, culprit="--from")["astrocpg_command"] == "run"
     (listed / F.LOCK_NAME).write_text("")  # a killed holder's lock is not a result file
     assert verify(listed)
@@ -411,19 +418,20 @@ def test_parent_that_is_a_file_is_one_line(tmp_path, below):
 
 
 # ---------------------------------------------------------------- history
-def test_append_history_keeps_the_original_command(monkeypatch):
+def test_manifest_history_keeps_the_original_command(tmp_path, monkeypatch):
+    from astrocpg.studies.files import outputs
+
+    common = dict(command="train", seed=1, settings={}, models_json={}, files={})
+    monkeypatch.setattr(sys, "argv", ["astrocpg", "train", "--out", "out/t"])
+    outputs.write_manifest(tmp_path, **common, results={"status": "running"}, history=True)
+    first = json.loads((tmp_path / "manifest.json").read_text())
+    (tmp_path / "sessions.csv").write_text("a\n")
     monkeypatch.setattr(sys, "argv", ["astrocpg", "train", "--resume", "out/t"])
-    original = {"argv": ["astrocpg", "train", "--out", "out/t"], "created": "2024-01-01T00:00:00",
-                "git": {"commit": "abc", "dirty": False}}
-    once = append_history(original, {"what": "resumed at step 40; finished at step 80"})
-    assert "history" not in original  # not changed in place
-    assert once["argv"] == original["argv"] and once["created"] == original["created"]
-    first, second = once["history"]
-    assert first == {"argv": original["argv"], "time": "2024-01-01T00:00:00",
-                     "git": original["git"], "what": "created"}
-    assert second["argv"] == sys.argv and second["what"].startswith("resumed") and second["time"]
-    assert "commit" in second["git"]
-    twice = append_history(once, {"what": "interrupted at step 90", "argv": ["x"]})
-    assert len(twice["history"]) == 3 and twice["history"][2]["argv"] == ["x"]
-    with pytest.raises(ValueError):
-        append_history(once, {"argv": []})
+    monkeypatch.setattr(outputs, "_STARTED", "later")  # another process
+    outputs.write_manifest(tmp_path, **common, results={"status": "finished"}, history=True)
+    m = json.loads((tmp_path / "manifest.json").read_text())
+    assert m["argv"] == first["argv"] and m["created"] == first["created"]
+    assert [h["argv"][2] for h in m["history"]] == ["--out", "--resume"]
+    assert [h["status"] for h in m["history"]] == ["running", "finished"]
+    assert set(m["inventory"]) == {"sessions.csv"}
+    verify(tmp_path)

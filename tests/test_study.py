@@ -233,8 +233,8 @@ def test_report_and_refusals(tmp_path: Path) -> None:
     assert {r["condition"] for r in rows} == {"astrocytes", "no_astrocytes"}
     assert main(["report", str(out)]) == 0
     for name in ("fig3c.png", "final_figures.csv", "report.md"):
-        assert (out / name).stat().st_size > 0
-    text = (out / "report.md").read_text()
+        assert (out / "report" / name).stat().st_size > 0
+    text = (out / "report" / "report.md").read_text()
     assert "| astrocytes | 2 | 2/2 | 2 |" in text and "| no_astrocytes | 2 | 2/2 | 2 |" in text
     # a rerun does nothing and keeps the table
     mtime = (out / "runs" / "astrocytes__seed1" / "sessions.csv").stat().st_mtime_ns

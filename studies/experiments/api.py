@@ -6,7 +6,7 @@
     ac.resume("out/astro")                       # continue a stopped training -> Result
     ac.load("out/run")                           # any output folder -> Result
     ac.describe("astrocyte")                     # equations and parameter table (markdown)
-    ac.export("out/run", "nwb", "run.nwb")       # NWB or npz file of a folder
+    ac.export("out/run", "nwb")                  # out/run.nwb: NWB (or npz) file of a folder
 
 Every function takes the settings of its command (seconds, seed, trials, ``overrides`` with
 units, ``equations``, weights, robot, what to record) as keyword arguments; bad input raises
@@ -39,11 +39,13 @@ def describe(model: str | None = None, format: str = "markdown", *,
 
 
 def export(folder: str | os.PathLike, format: str = "nwb",
-           out: str | os.PathLike | None = None) -> Path:
+           out: str | os.PathLike | None = None, *, overwrite: bool = False) -> Path:
     """Write the unit, run or recorded session in ``folder`` as one NWB (``format="nwb"``) or
-    npz file, at ``out`` (default ``folder/export.<format>``); returns its path. What
-    ``astrocpg export`` does. Read the NWB file with ``pynwb.NWBHDF5IO(path).read()``."""
-    return export_folder(Path(folder), format, None if out is None else Path(out))
+    npz file, at ``out`` (default ``<folder>.<format>`` beside the folder; an existing file
+    only with ``overwrite``); returns its path. What ``astrocpg export`` does. Read the NWB
+    file with ``pynwb.NWBHDF5IO(path, "r").read()``."""
+    return export_folder(Path(folder), format, None if out is None else Path(out),
+                         overwrite=overwrite)
 
 
 __all__ = ["unit", "run", "train", "resume", "load", "describe", "export", "Result", "Trace"]

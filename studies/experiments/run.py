@@ -14,7 +14,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from ...errors import InputError
-from ..files.outputs import prepare_output_dir, file_sha256, save_npz, save_spikes_and_traces, write_manifest
+from ..files.folder import OutputFolder, verify
+from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
 from ..files.result import Result
 from ..files.weights import load_weights
 from .settings import Overrides, model_set, number, override_items
@@ -32,7 +33,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         weights: str | Path | np.ndarray | None = None, trial: int | None = None,
         robot: str | Path | None = None, trace_dt: float = 1.0, robot_stride: int = 1,
         spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
-        out: str | Path | None = None, progress: bool = True,
+        out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
         settings: Mapping[str, Any] | None = None) -> Result:
     """Run the CPG driving ``trials`` A1 robots in MuJoCo for ``seconds`` (seeds seed,
     seed+1, ...): the closed loop, what ``astrocpg run`` runs.
@@ -58,6 +59,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
     robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
     check_duration(seconds, STEP)
+    if out is not None:
+        OutputFolder(out, overwrite=overwrite).check()  # before the simulation, not after
     pops, names = check_selection(spikes, traces)
     check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
                                 traces=names, spikes=bool(pops), robot_stride=robot_stride),
@@ -104,7 +107,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         "weights": None if weights is None or isinstance(weights, np.ndarray)
         else str(weights), "trial": trial, "robot": None if robot is None else str(robot)}
     if out is not None:
-        write_run_folder(prepare_output_dir(out), result, settings)
+        with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
+            write_run_folder(folder, result, settings)
     return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                   summary=run_results(result), robot=robot_arrays(result),
                                   models=models, folder=out)
@@ -180,6 +184,7 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
     """The trained tables of every trial of the training in ``folder``, run for ``seconds``
     with the training's models (one batch); returns the result and the tables (volt)."""
     seconds = number(seconds, "--seconds", positive=True)
+    verify(folder, strict=False)  # its files are what its manifest lists
     weights = load_weights(folder, culprit="")
     settings = training_settings(folder)
     values = {} if settings.get("astrocytes", True) else {"astrocyte_regulation": 0.0}

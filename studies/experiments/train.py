@@ -16,7 +16,7 @@ import pickle
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import mujoco
 import numpy as np
@@ -27,9 +27,11 @@ from ...coupling.bridge import Bridge
 from ...coupling.recorder import RecordPlan, SessionRecorder
 from ...coupling.robot import A1Parameters, RobotLayout, build_model
 from ...coupling.training import SESSION_COLUMNS, Training
-from ...errors import Diverged, InputError
+from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
 from ...network import build_cpg, check_runs, interlimb_labels
+from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
+                            holds_results)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..files.result import Result
@@ -96,6 +98,7 @@ class Trainer:
         self.cpg.net.add(NetworkOperation(self._maybe_checkpoint, dt=self.cpg.dt, when="end",
                                           order=20, name="checkpoint"))
         self._pending = False
+        self.on_checkpoint: Callable[[], None] | None = None
         total = settings.n_sessions * settings.n_trials
         self.bar = tqdm(total=total, unit="session", desc="train", disable=not progress,
                         dynamic_ncols=True)
@@ -117,6 +120,8 @@ class Trainer:
             self._pending = False
             self.write_outputs()
             self.write_checkpoint()
+            if self.on_checkpoint is not None:  # e.g. the manifest's inventory
+                self.on_checkpoint()
 
     # ---- files
     def _write_recording(self, trial: int, session: int, arrays: dict[str, Any]) -> None:
@@ -343,7 +348,8 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
           astrocytes: bool = True, overrides: Any = None,
           equations: dict[str, str] | None = None, record_every: int | None = None,
           record_stride: int = 1, spikes: tuple[str, ...] | None = None,
-          traces: tuple[str, ...] | None = None, progress: bool = True) -> Result:
+          traces: tuple[str, ...] | None = None, overwrite: bool = False,
+          progress: bool = True) -> Result:
     """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
     each, writing ``out`` (sessions.csv, weights.npz, checkpoint.pkl, manifest.json) after every
     session: what ``astrocpg train`` runs. ``astrocytes=False`` is the paper's ablation;
@@ -364,13 +370,15 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
         astrocytes=bool(astrocytes), overrides=override_items(overrides),
         equations=dict(equations or {}))
     out = Path(out)
-    if (out / CHECKPOINT).exists() or (out / "sessions.csv").exists():
-        raise InputError(f"already holds a training run (continue it with --resume {out})",
-                         culprit=f"--out {out}")
+    if (out / CHECKPOINT).exists() and not overwrite:
+        raise InputError(f"already holds a training run (continue it with --resume {out}, or "
+                         f"replace it with --overwrite)", culprit=f"--out {out}")
+    OutputFolder(out, overwrite=overwrite).check()
     plan = record_plan(record_every, record_stride, spikes, traces)
     check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False),
                  culprit=f"--trials {settings.n_trials}")
-    return Result.from_training(_train(settings, out, plan, None, progress), out)
+    return Result.from_training(_train(settings, out, plan, None, progress, replace=overwrite,
+                                       new=True), out)
 
 
 def resume(folder: str | Path, *, progress: bool = True, record_every: int | None = None,
@@ -399,17 +407,21 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     if payload["fingerprint"] != settings.fingerprint():
         raise InputError(f"{out / CHECKPOINT} is not consistent with its settings",
                          culprit="--resume")
-    if not fresh and bool(np.all(payload["training"]["done"])):
-        raise InputError(f"the training is already finished ({settings.n_sessions} sessions per "
-                         f"trial); nothing was changed", culprit=f"--resume {out}")
     stored = {"sessions": settings.n_sessions, "seed": settings.seed,
               "trials": settings.n_trials, "astrocytes": settings.astrocytes,
               "overrides": sorted(settings.overrides), "equations": settings.equations}
     for key, value in (expect or {}).items():
         if value is not None and value != stored[key]:
-            shown = stored[key] if key not in ("overrides", "equations") else \
-                (", ".join(settings.overrides) or "defaults")
-            raise InputError(f"that run has {key}={shown}, not {value}", culprit=f"--resume {out}")
+            if key in ("overrides", "equations"):
+                raise InputError(f"that run has other model settings "
+                                 f"({', '.join(settings.overrides) or 'defaults'})",
+                                 culprit=f"--resume {out}")
+            raise InputError(f"that run has {key}={stored[key]}, not {value}",
+                             culprit=f"--resume {out}")
+    if not fresh and bool(np.all(np.asarray(payload["training"]["sessions_done"])
+                                 >= settings.n_sessions)):
+        raise InputError(f"the training is already finished ({settings.n_sessions} sessions per "
+                         f"trial); nothing was changed", culprit=f"--resume {out}")
     plan = record_plan(record_every, stored=payload.get("record_plan"))
     if plan is None and record_every is not None:
         raise InputError("that run records no sessions", culprit="--record-every")
@@ -418,10 +430,27 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
 
 
 def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
-           payload: dict[str, Any] | None, progress: bool) -> "Trainer":
+           payload: dict[str, Any] | None, progress: bool, replace: bool = False,
+           new: bool = False) -> "Trainer":
+    """Build, own ``out`` (a lock: one process per training folder), train, write."""
     models = model_set(settings.overrides, settings.equations)
     trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, out, "cannot create the folder") from None
+    with FolderLock(out, culprit="--out" if payload is None else "--resume"):
+        if replace:  # --overwrite: the old run goes whole, never mixed with the new one
+            clear_folder(out)
+        elif new and holds_results(out):  # another process filled it since the first check
+            raise InputError("is not empty; --overwrite replaces it whole",
+                             culprit=f"--out {out}")
+        clean_stale_temporaries(out)
+        return _train_locked(trainer, settings, out, plan, payload)
+
+
+def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
+                  plan: RecordPlan | None, payload: dict[str, Any] | None) -> "Trainer":
     if payload is not None:
         trainer.restore(payload)
     record_json = None if plan is None else dataclasses.asdict(plan)
@@ -429,6 +458,13 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
                     settings=settings.__dict__ | {"record": record_json},
                     models_json=trainer.models.to_json(), files=TRAIN_FILES)
     write_manifest(out, **manifest, results={"status": "running"}, history=True)
+
+    def progress_manifest() -> None:  # the inventory follows every checkpoint
+        done = trainer.training.sessions_done.tolist()
+        write_manifest(out, **manifest, results={"status": "running", "sessions_done": done},
+                       history=True)
+
+    trainer.on_checkpoint = progress_manifest
     try:
         wall = trainer.run()  # raises TrainingStopped (files written) when interrupted
     except TrainingStopped as e:

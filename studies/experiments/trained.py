@@ -9,6 +9,7 @@ import numpy as np
 
 from ...errors import InputError
 from ..analysis.gait import gait_label, leg_phases, phase_matrix, weight_structure
+from ..files.folder import OutputFolder
 from .run import replay
 
 
@@ -37,24 +38,33 @@ def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
     return lines
 
 
-def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0) -> list[Path]:
+FIGURES = "figures"
+
+
+def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
+                  out: str | Path | None = None, overwrite: bool = False) -> list[Path]:
     """weights.png, training.png, thigh_extensor_activity.png and gait.png of one trial of the
-    training in ``folder``; returns the paths written."""
+    training in ``folder``, into ``out`` (default ``folder/figures``, which each plot replaces
+    whole); returns the paths written."""
     from ..figures import plots
 
     folder = Path(folder)
+    # the default folder belongs to this command: replaced whole on every plot
+    target = Path(out) if out is not None else folder / FIGURES
+    OutputFolder(target, overwrite=overwrite or out is None).check()
     result, weights = replay(folder, seconds=seconds, seed=1, progress=False)
     if not 0 <= trial < len(weights):
         raise InputError(f"{folder} has {len(weights)} trial(s)", culprit=f"--trial {trial}")
     b = trial
-    written = [folder / "weights.png", folder / "training.png",
-               folder / "thigh_extensor_activity.png", folder / "gait.png"]
-    plots.plot_weights(written[0], weights[b] * 1e3, trial=b)
-    plots.plot_training_curves(written[1], folder / "sessions.csv")
+    names = ["weights.png", "training.png", "thigh_extensor_activity.png", "gait.png"]
     window = (max(0.0, seconds - 2.0), seconds)
-    plots.plot_thigh_extensor_activity(written[2], result.spikes, result.cpg.layout, trial=b,
-                                       window=window)
-    t, i = result.spikes["motor"]
-    g = leg_phases(t, i, result.cpg.layout, b, min(1.0, seconds / 5), seconds)
-    plots.plot_gait(written[3], result.robot, b, phase_matrix(g["phases"]), g, window=window)
-    return written
+    with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+        plots.plot_weights(tmp / names[0], weights[b] * 1e3, trial=b)
+        plots.plot_training_curves(tmp / names[1], folder / "sessions.csv")
+        plots.plot_thigh_extensor_activity(tmp / names[2], result.spikes, result.cpg.layout,
+                                           trial=b, window=window)
+        t, i = result.spikes["motor"]
+        g = leg_phases(t, i, result.cpg.layout, b, min(1.0, seconds / 5), seconds)
+        plots.plot_gait(tmp / names[3], result.robot, b, phase_matrix(g["phases"]), g,
+                        window=window)
+    return [target / n for n in names]

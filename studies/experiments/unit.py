@@ -12,7 +12,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..analysis.rhythm import rhythm_summary
-from ..files.outputs import prepare_output_dir, save_spikes_and_traces, write_manifest
+from ..files.folder import OutputFolder
+from ..files.outputs import save_spikes_and_traces, write_manifest
 from ..files.result import Result
 from .settings import Overrides, model_set, number, override_items
 from .resources import check_memory, estimate_bytes
@@ -23,7 +24,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
          trace_dt: float = 1.0, spikes: tuple[str, ...] | None = None,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
-         progress: bool = True, settings: Mapping[str, Any] | None = None) -> Result:
+         overwrite: bool = False, progress: bool = True,
+         settings: Mapping[str, Any] | None = None) -> Result:
     """Simulate ``trials`` independent locomotion units (the FR limb's CPG, open loop; seeds
     seed, seed+1, ...) for ``seconds``; what ``astrocpg unit`` runs.
 
@@ -31,7 +33,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     equations: ``{model: equation text}`` (e.g. ``{"astrocyte": text}``) replacing a model's
     Brian2 equation string. trace_dt: sampling of the traces in ms. spikes / traces: which
     populations and traces to record (None: all). out: writes the folder ``astrocpg unit``
-    writes (``settings`` goes into its manifest). progress: a progress bar for long runs.
+    writes, whole or nothing (``settings`` goes into its manifest; a folder that holds files is
+    refused unless ``overwrite``). progress: a progress bar for long runs.
 
     Returns a :class:`~astrocpg.studies.files.result.Result` of kind "unit"; its
     ``summary["rhythm"]`` holds each trial's period, phases and rates. Bad input: InputError
@@ -43,6 +46,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     seed = number(seed, "--seed", integer=True, minimum=0)
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
     check_duration(seconds, STEP)
+    if out is not None:
+        OutputFolder(out, overwrite=overwrite).check()  # before the simulation, not after
     pops, names = check_selection(spikes, traces)
     check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
                                 traces=names, spikes=bool(pops)),
@@ -58,7 +63,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
         "overrides": override_items(overrides), "equations": dict(equations or {}),
         "spikes": spikes, "traces": traces}
     if out is not None:
-        write_unit_folder(prepare_output_dir(out), result, settings)
+        with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
+            write_unit_folder(folder, result, settings)
     return Result.from_simulation(result, kind="unit", seed=seed, settings=settings,
                                   summary=unit_results(result), models=models, folder=out)
 
@@ -69,15 +75,17 @@ def rhythm_per_trial(result: SimulationResult, seconds: float) -> list[dict[str,
     L = result.cpg.layout
     if not {"motor", "interneuron"} <= set(result.spikes):
         return []
+    # the first second is a transient; a unit shorter than 2 s skips its first half instead
+    t_start = min(1.0, seconds / 2)
     summaries = []
     for b in range(L.n_trials):
         pools = {name: L.motor_neurons(b, 0, name) for name in ("thigh_flexor", "thigh_extensor",
                                                                  "calf_flexor", "calf_extensor")}
         t, i = result.spikes["motor"]
-        s = rhythm_summary(t, i, pools, t_stop=seconds)
+        s = rhythm_summary(t, i, pools, t_stop=seconds, t_start=t_start)
         ti, ii = result.spikes["interneuron"]
-        mine = (ii // L.interneurons_per_trial == b) & (ti >= 1.0)
-        s["interneurons_total_Hz"] = float(mine.sum() / max(seconds - 1.0, 1e-9))
+        mine = (ii // L.interneurons_per_trial == b) & (ti >= t_start)
+        s["interneurons_total_Hz"] = float(mine.sum() / max(seconds - t_start, 1e-9))
         summaries.append(s)
     return summaries
 

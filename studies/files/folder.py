@@ -25,6 +25,7 @@ Temporary names (one scheme for folders and files, made by :func:`temp_prefix`):
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import errno
 import json
 import os
@@ -41,7 +42,6 @@ from typing import Any, Iterator, Mapping
 import filelock
 
 from ...errors import EnvironmentFault, InputError
-from .outputs import file_sha256, git_commit
 
 MANIFEST = "manifest.json"
 LOCK_NAME = ".astrocpg.lock"
@@ -232,6 +232,18 @@ class OutputFolder:
     def _who(self) -> str:
         return f"{self.culprit} {self.shown}" if self.culprit else str(self.shown)
 
+    def check(self) -> "OutputFolder":
+        """Refuse a bad target now, before a long computation whose result it would receive
+        (the same refusals as on enter; nothing is created)."""
+        if not self.target.name:
+            raise InputError("cannot be the root folder", culprit=self._who)
+        try:
+            self._check_target()
+        finally:
+            self._release()
+            self._replacing = False
+        return self
+
     # ------------------------------------------------------------ enter
     def __enter__(self) -> Path:
         t = self.target
@@ -414,15 +426,34 @@ def _files(root: Path) -> Iterator[tuple[str, Path]]:
                 yield rel, path
 
 
-def inventory(folder: str | os.PathLike) -> dict[str, dict[str, Any]]:
-    """``{relative POSIX path: {"bytes": int, "sha256": str}}`` of every file in ``folder``
-    (sub-folders included) except ``manifest.json`` and the lock files. Hashing is streamed."""
+def file_sha256(path: str | os.PathLike) -> str:
+    """sha256 of a file, streamed."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def inventory(folder: str | os.PathLike,
+              previous: Mapping[str, Mapping[str, Any]] | None = None) -> dict[str, dict[str, Any]]:
+    """``{relative POSIX path: {"bytes": int, "sha256": str, "mtime_ns": int}}`` of every file
+    in ``folder`` (sub-folders included) except ``manifest.json`` and the lock files. Hashing is
+    streamed; a file whose size and mtime match its entry in ``previous`` keeps that hash (a
+    training rewrites its inventory after every session without rehashing its recordings)."""
     root = Path(folder)
     out: dict[str, dict[str, Any]] = {}
+    previous = previous or {}
     path = root
     try:
         for rel, path in _files(root):
-            out[rel] = {"bytes": os.stat(path).st_size, "sha256": file_sha256(path)}
+            st = os.stat(path)
+            old = previous.get(rel)
+            if old and old.get("bytes") == st.st_size and old.get("mtime_ns") == st.st_mtime_ns:
+                sha = old["sha256"]
+            else:
+                sha = file_sha256(path)
+            out[rel] = {"bytes": st.st_size, "sha256": sha, "mtime_ns": st.st_mtime_ns}
     except OSError as e:
         raise EnvironmentFault.from_os_error(e, e.filename or path, "cannot read") from None
     return dict(sorted(out.items()))
@@ -435,11 +466,12 @@ def _safe_rel(name: Any) -> bool:
     return all(p not in ("", ".", "..") for p in parts) and name not in UNLISTED
 
 
-def verify(folder: str | os.PathLike, *, culprit: str | None = None) -> dict[str, Any]:
+def verify(folder: str | os.PathLike, *, culprit: str | None = None,
+           strict: bool = True) -> dict[str, Any]:
     """Read ``folder/manifest.json`` and check its ``"inventory"`` against the files on disk;
     returns the manifest. InputError naming the folder and the first file that is missing, has
-    another size or sha256, or is not listed; and for a folder without a readable manifest
-    ("not an astrocpg output folder")."""
+    another size or sha256, or (``strict``) is not listed; and for a folder without a readable
+    manifest ("not an astrocpg output folder")."""
     root = Path(folder)
     who = f"{culprit} {folder}" if culprit else str(folder)
     if not root.is_dir():
@@ -475,6 +507,8 @@ def verify(folder: str | os.PathLike, *, culprit: str | None = None) -> dict[str
                 raise InputError(f"{name} is missing ({MANIFEST} lists it): the folder does not "
                                  "match its manifest", culprit=who)
             if name not in listed:
+                if not strict:  # a training folder may gain figures and exports later
+                    continue
                 raise InputError(f"{name} is not listed in {MANIFEST}: the folder does not "
                                  "match its manifest", culprit=who)
             path = on_disk[name]
@@ -492,23 +526,27 @@ def verify(folder: str | os.PathLike, *, culprit: str | None = None) -> dict[str
     return manifest
 
 
-# ---------------------------------------------------------------- history
-def append_history(manifest: Mapping[str, Any], entry: Mapping[str, Any]) -> dict[str, Any]:
-    """A copy of ``manifest`` whose ``"history"`` list ends with ``entry``; the original
-    ``argv`` and ``created`` stay as they were. ``entry`` needs ``"what"`` (what happened, e.g.
-    ``"resumed at step 40; finished at step 80"``); ``"argv"``, ``"time"`` and ``"git"``
-    default to this process's. A manifest without a history first gets the entry of the
-    invocation that created it (its ``argv``, ``created`` and ``git``, ``"what": "created"``)."""
-    if "what" not in entry:
-        raise ValueError("a history entry needs 'what' (what happened)")
-    out = dict(manifest)
-    history = list(manifest.get("history") or [])
-    if not history:
-        history.append({"argv": manifest.get("argv"), "time": manifest.get("created"),
-                        "git": manifest.get("git"), "what": "created"})
-    history.append({"argv": list(sys.argv), "time": _now(), "git": git_commit(), **entry})
-    out["history"] = history
-    return out
+def clear_folder(folder: str | os.PathLike) -> None:
+    """Delete everything in ``folder`` but its lock files (its owner replaces it whole)."""
+    root = Path(folder)
+    try:
+        for entry in list(root.iterdir()):
+            if entry.name in (LOCK_NAME, OWNER_NAME):
+                continue
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry)
+            else:
+                entry.unlink()
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, e.filename or root, "cannot clear") from None
+
+
+def holds_results(folder: str | os.PathLike) -> bool:
+    """Does ``folder`` hold anything but lock files?"""
+    try:
+        return any(e.name not in (LOCK_NAME, OWNER_NAME) for e in Path(folder).iterdir())
+    except FileNotFoundError:
+        return False
 
 
 # ---------------------------------------------------------------- the lock

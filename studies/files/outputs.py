@@ -6,7 +6,6 @@ temporary name, then renamed), so an interrupted run never leaves a half-written
 from __future__ import annotations
 
 import functools
-import hashlib
 import json
 import os
 import platform
@@ -21,8 +20,8 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ...errors import InputError
+from .folder import MANIFEST, file_sha256, inventory, temp_prefix
 
-MANIFEST = "manifest.json"
 _STARTED = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # when this process started (history entries)
 PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
             "pandas", "pynwb")
@@ -55,14 +54,6 @@ def git_commit() -> dict[str, Any]:
         return {"commit": None, "dirty": None}
 
 
-def file_sha256(path: str | os.PathLike) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
 def prepare_output_dir(path: str | os.PathLike) -> Path:
     """Create the output folder (parents too). Refuses a path that is a file."""
     p = Path(path)
@@ -78,7 +69,8 @@ def prepare_output_dir(path: str | os.PathLike) -> Path:
 def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
     """``write_to(tmp)`` writes a temporary file beside ``path`` (same suffix, for libraries that
     check it, e.g. pynwb), which then replaces ``path``: never a half-written result."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
+    # pid-tagged, so that the next start removes what a killed process left
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem), suffix=path.suffix)
     os.close(fd)
     try:
         write_to(Path(tmp))
@@ -177,5 +169,8 @@ def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str,
         "git": git_commit(),
         "machine": {"platform": platform.platform(), "processor": platform.processor(),
                     "cpu_count": os.cpu_count()},
+        # every file the folder owns, with size and sha256: readers refuse a folder that does
+        # not match (the manifest is written last)
+        "inventory": inventory(out, (old or read_manifest(out) or {}).get("inventory")),
     })
     save_json(out / MANIFEST, manifest)

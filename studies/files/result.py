@@ -378,8 +378,8 @@ def _read_manifest(folder: Path) -> dict[str, Any] | None:
 
 def _check_folder(folder: Path) -> dict[str, Any]:
     """The folder's manifest, once its files are checked: against the manifest's inventory
-    (sizes and sha256, :func:`~astrocpg.studies.files.folder.verify`) where it has one, else
-    that every file its ``files`` names is there."""
+    (sizes and sha256, :func:`~astrocpg.studies.files.folder.verify`); a folder written before
+    manifests had an inventory: every file its ``files`` names is there."""
     if not folder.is_dir():
         raise InputError("no such folder" if not folder.exists() else "is not a folder",
                          culprit=str(folder))
@@ -388,8 +388,8 @@ def _check_folder(folder: Path) -> dict[str, Any]:
         state = "no" if not (folder / MANIFEST).exists() else "no readable"
         raise InputError(f"not an astrocpg output folder ({state} {MANIFEST})",
                          culprit=str(folder))
-    if "inventory" in manifest:
-        return verify(folder)
+    if "inventory" in manifest:  # every listed file as written (extra files are let be)
+        return verify(folder, strict=False)
     files = manifest.get("files")
     if not isinstance(files, dict):
         raise InputError(f"not an astrocpg output folder ({MANIFEST} lists no files)",

@@ -22,6 +22,7 @@ import numpy as np
 from ...errors import InputError
 from ..analysis.gait import weight_structure
 from ..experiments.settings import model_set
+from ..files.folder import OutputFolder
 from ..files.outputs import atomic_write
 from .study import RUNS, STUDY_INDEX, read_status
 
@@ -74,8 +75,24 @@ def moving_mean(table: np.ndarray, width: int) -> np.ndarray:
     return out
 
 
-def report(folder: Path, *, last: int = 50, smooth: int = 1) -> dict[str, Any]:
-    """Write ``fig3c.png``, ``final_figures.csv`` and ``report.md`` into ``folder``."""
+REPORT = "report"
+
+
+def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = None,
+           overwrite: bool = False) -> dict[str, Any]:
+    """Write ``fig3c.png``, ``final_figures.csv`` and ``report.md`` of the study in ``folder``
+    into ``out`` (default ``folder/report``, which each report replaces whole)."""
+    if not (Path(folder) / STUDY_INDEX).is_file():
+        raise InputError(f"not a study folder (no {STUDY_INDEX})", culprit=f"report {folder}")
+    target = Path(out) if out is not None else Path(folder) / REPORT
+    OutputFolder(target, overwrite=overwrite or out is None).check()
+    with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+        written = _report(Path(folder), tmp, last=last, smooth=smooth)
+    written["files"] = [target / p.name for p in written["files"]]
+    return written
+
+
+def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, Any]:
     import matplotlib  # heavy: only when a report is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -150,17 +167,17 @@ def report(folder: Path, *, last: int = 50, smooth: int = 1) -> dict[str, Any]:
                       f"(paper Fig. 3c)"
                       + (f", trailing mean over {smooth} sessions" if smooth > 1 else ""))
     fig.tight_layout()
-    fig_path = folder / "fig3c.png"
+    fig_path = dest / "fig3c.png"
     fig.savefig(fig_path, dpi=110)
     plt.close(fig)
 
     cols = list(dict.fromkeys(k for r in rows for k in r))
     csv_text = ",".join(cols) + "\n" + "".join(
         ",".join(_cell(r.get(c, "")) for c in cols) + "\n" for r in rows)
-    atomic_write(folder / "final_figures.csv", lambda f: f.write(csv_text.encode()))
+    atomic_write(dest / "final_figures.csv", lambda f: f.write(csv_text.encode()))
     text = _markdown(index.get("name", folder.name), rows, last)
-    atomic_write(folder / "report.md", lambda f: f.write(text.encode()))
-    return {"files": [fig_path, folder / "final_figures.csv", folder / "report.md"],
+    atomic_write(dest / "report.md", lambda f: f.write(text.encode()))
+    return {"files": [fig_path, dest / "final_figures.csv", dest / "report.md"],
             "rows": rows, "text": text}
 
 

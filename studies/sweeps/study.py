@@ -40,6 +40,7 @@ import json
 import logging
 import os
 import re
+import shutil
 import socket
 import sys
 import time
@@ -51,12 +52,13 @@ from typing import Any, Sequence
 
 from ...coupling.recorder import RecordPlan
 from ...coupling.training import SESSION_COLUMNS
-from ...errors import InputError
+from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS
 from ..experiments.resources import check_memory, estimate_bytes
 from ..experiments.settings import model_set
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
+from ..files.folder import FolderLock, clean_stale_temporaries, clear_folder, holds_results
 from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
 
 RUNS = "runs"
@@ -433,20 +435,41 @@ def _sessions_done(folder: Path) -> int:
 
 
 def run_study(study: Study, out: Path, *, workers: int | None = None,
-              scheduler: str | None = None, progress: bool = True) -> dict[str, Any]:
+              scheduler: str | None = None, progress: bool = True,
+              overwrite: bool = False) -> dict[str, Any]:
     """Run every unfinished run of ``study`` on Dask; write the results table. Returns counts
     of runs by state and the paths written. Nothing is written before the folder is known to
-    belong to this study and the cluster is reachable."""
-    from tqdm.auto import tqdm
-
-
+    belong to this study and the cluster is reachable; while it runs, the study owns its folder
+    (a second process on it is refused). ``overwrite`` replaces the folder whole."""
     if workers is not None and workers < 1:
-        raise InputError(f"--workers must be at least 1, got {workers}")
+        raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a folder")
-    if out.exists():
+        raise InputError("exists and is not a folder", culprit=f"--out {out}")
+    if out.exists() and not overwrite:
         _check_folder(study, out)
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, out, "cannot create the folder") from None
+    try:
+        with FolderLock(out, culprit="--out"):
+            if overwrite:
+                clear_folder(out)
+            clean_stale_temporaries(out)
+            return _run_study_locked(study, out, workers=workers, scheduler=scheduler,
+                                     progress=progress)
+    except BaseException:
+        if created and not holds_results(out):  # refused before writing: leave no folder
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+
+
+def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler: str | None,
+                      progress: bool) -> dict[str, Any]:
+    from tqdm.auto import tqdm  # the progress bar of a study (tqdm.auto picks notebook or tty)
+
     largest = max(r.n_trials for r in study.runs)
     check_memory(estimate_bytes(trials=largest, seconds=0.0, spikes=False)
                  * min(len(study.runs), workers or os.cpu_count() or 1),
