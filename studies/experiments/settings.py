@@ -68,17 +68,9 @@ def model_set(overrides: Overrides | None = None,
         if model is None:
             raise InputError(f"unknown model '{name}' (models: {', '.join(known)})",
                              culprit="--equations")
-        models = models.replace(**{name: _with_code(model, text)})
+        models = models.replace(**{name: model.with_code(text)})
     values = dict(models.parse_assignment(item) for item in override_items(overrides))
     return models.with_values(values) if values else models
-
-
-def _with_code(model: Any, text: str) -> Any:
-    if hasattr(model, "with_code"):
-        return model.with_code(text)
-    field = {"NeuronModel": "equations", "SynapseModel": "model",  # until the model contract
-             "ExpressionModel": "expression"}[type(model).__name__]
-    return model.replace(**{field: text})
 
 
 def number(value: Any, culprit: str, *, integer: bool = False, minimum: float | None = None,
