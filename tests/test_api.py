@@ -92,6 +92,7 @@ def test_load_gives_the_same_result(in_process, run_folder):
     assert isinstance(in_process.monitors["astrocyte_state"], StateMonitor)
     assert len(in_process.monitors["motor"].t) == len(in_process.spikes["motor"][0])
     assert loaded.network is None and loaded.monitors is None
+    assert loaded.models == in_process.models  # rebuilt from the manifest
     text = repr(loaded)
     assert "run" in text and "motor" in text and "astrocyte_Ca" in text and "robot" in text
 

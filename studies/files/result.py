@@ -136,7 +136,8 @@ class Result:
     sessions    (training) sessions.csv as a pandas DataFrame
     weights     (training) each trial's inter-limb table after each session,
                 (trial, session, 8, 8) in mV (NaN after a trial's last session)
-    network, monitors, models, simulation, trainer: live objects (this process only)
+    models      the ModelSet (made in this process, or rebuilt from the manifest)
+    network, monitors, simulation, trainer: live objects (this process only)
     """
 
     def __init__(self, *, kind: str, layout: Layout, manifest: Mapping[str, Any],
@@ -162,9 +163,26 @@ class Result:
         self.weights = weights
         self.network = network
         self.monitors = None if monitors is None else dict(monitors)
-        self.models = models
+        self._models = models
         self.simulation = simulation
         self.trainer = trainer
+
+    @property
+    def models(self) -> Any:
+        """The :class:`~astrocpg.models.ModelSet` it was simulated with: the live one, or
+        rebuilt from the manifest's ``models`` (None where that is not possible)."""
+        if self._models is None and isinstance(self.manifest.get("models"), dict):
+            from ...models import ModelSet
+
+            try:
+                self._models = ModelSet.from_json(self.manifest["models"])
+            except (InputError, KeyError, TypeError, ValueError, AttributeError):
+                return None
+        return self._models
+
+    @models.setter
+    def models(self, value: Any) -> None:
+        self._models = value
 
     # ------------------------------------------------------------ construction
     @classmethod
@@ -352,7 +370,7 @@ class Result:
         if self.summary:
             lines.append("  summary: " + ", ".join(self.summary))
         if self.network is not None:
-            lines.append("  live: network, monitors" + (", models" if self.models else ""))
+            lines.append("  live: network, monitors" + (", trainer" if self.trainer else ""))
         return "\n".join(lines) + ">"
 
 
