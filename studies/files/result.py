@@ -214,6 +214,7 @@ class Result:
     # ------------------------------------------------------------ spikes
     @property
     def n_trials(self) -> int:
+        """How many independent trials (copies of the network) it holds."""
         return self.layout.n_trials
 
     def _population(self, population: str) -> str:
