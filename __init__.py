@@ -24,7 +24,6 @@ Sub-packages:
 from __future__ import annotations
 
 import importlib
-from typing import Any
 
 __version__ = "0.1.0"
 
@@ -37,7 +36,7 @@ _API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFaul
 __all__ = sorted(_API)
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     """Import the API's functions lazily (PEP 562): Brian2 loads on first use."""
     module = _API.get(name)
     if module is None:
