@@ -245,7 +245,7 @@ def _cmd_unit(args: argparse.Namespace) -> int:
                   trace_dt=args.trace_dt, spikes=args.spikes, traces=args.traces, out=args.out,
                   overwrite=args.overwrite, progress=not args.no_progress,
                   settings=_settings(args), **_models(args))
-    for b, s in enumerate(result.extra["rhythm"]):
+    for b, s in enumerate(result.summary["rhythm"]):
         print(format_rhythm(b, args.seed + b, s))
     print(f"wrote {args.out}/")
     return 0
@@ -266,7 +266,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_train(args: argparse.Namespace) -> int:
     from .experiments.settings import read_equation_files
-    from .experiments.train import TrainingStopped, resume, train
+    from .experiments.train import TrainingStopped, format_train, resume, train
 
     try:
         if args.resume:
@@ -278,26 +278,26 @@ def _cmd_train(args: argparse.Namespace) -> int:
                       else not args.no_astrocytes,
                       "overrides": sorted(args.overrides) or None,
                       "equations": read_equation_files(args.equations) or None}
-            trainer = resume(args.resume, progress=not args.no_progress,
-                             record_every=args.record_every, expect=expect)
+            result = resume(args.resume, progress=not args.no_progress,
+                            record_every=args.record_every, expect=expect)
             out = args.resume
         else:
             if not args.out:
                 raise InputError("is required (or --resume DIR)", culprit="--out")
-            trainer = train(out=args.out, sessions=400 if args.sessions is None else args.sessions,
-                            seed=1 if args.seed is None else args.seed,
-                            trials=1 if args.trials is None else args.trials,
-                            astrocytes=not args.no_astrocytes, record_every=args.record_every,
-                            record_stride=args.record_stride, spikes=args.spikes,
-                            traces=args.traces, overwrite=args.overwrite,
-                            progress=not args.no_progress, **_models(args))
+            result = train(out=args.out, sessions=400 if args.sessions is None else args.sessions,
+                           seed=1 if args.seed is None else args.seed,
+                           trials=1 if args.trials is None else args.trials,
+                           astrocytes=not args.no_astrocytes, record_every=args.record_every,
+                           record_stride=args.record_stride, spikes=args.spikes,
+                           traces=args.traces, overwrite=args.overwrite,
+                           progress=not args.no_progress, **_models(args))
             out = args.out
     except TrainingStopped as e:
         where = args.resume or args.out
         sys.stderr.write(f"astrocpg: training {e}; continue with astrocpg train --resume "
                          f"{where}\n")
         return 130
-    for line in trainer.summary["lines"].values():
+    for line in format_train(result):
         print(line)
     print(f"wrote {out}/ (sessions.csv, weights.npz, checkpoint.pkl, manifest.json)")
     return 0
@@ -369,20 +369,17 @@ def _cmd_power(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .files.export import export
+    from .experiments.api import export
 
-    path = export(Path(args.dir), args.format, Path(args.out) if args.out else None,
-                  overwrite=args.overwrite)
+    path = export(args.dir, args.format, args.out or None, overwrite=args.overwrite)
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return 0
 
 
 def _cmd_describe(args: argparse.Namespace) -> int:
-    from .experiments.settings import model_set
-    from .figures.describe import describe
+    from .experiments.api import describe
 
-    models = model_set(**_models(args))
-    sys.stdout.write(describe(args.model, args.format, models))
+    sys.stdout.write(describe(args.model, args.format, **_models(args)))
     return 0
 
 
