@@ -47,7 +47,7 @@ def test_gait_plot_and_replay(trained, capsys, tmp_path):
     assert out.count("gait:") == 2 and "relative to FR" in out
     assert main(["plot", str(trained), "--seconds", "3"]) == 0
     for name in ("weights.png", "training.png", "thigh_extensor_activity.png", "gait.png"):
-        assert (trained / name).stat().st_size > 5000, name
+        assert (trained / "figures" / name).stat().st_size > 5000, name
     assert main(["run", "--weights", str(trained), "--trial", "1", "--seconds", "1",
                  "--no-progress", "--out", str(tmp_path / "replay")]) == 0
     with np.load(tmp_path / "replay" / "robot.npz") as z, np.load(trained / "weights.npz") as w:

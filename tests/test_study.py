@@ -125,8 +125,10 @@ def test_sweep_grid_and_seed_batches(tmp_path: Path) -> None:
     assert not b.astrocytes and "L_non_alive=0.5*second" in b.overrides
     assert len({r.run_id for r in study.runs}) == 12
     for name in ("quick", "ablation"):
-        built_in = load_study(Path(__file__).resolve().parents[1] / "studies" / f"{name}.toml")
+        built_in = load_study(Path(__file__).resolve().parents[1] / "studies" / "sweeps"
+                              / f"{name}.toml")
         assert {r.condition for r in built_in.runs} == {"astrocytes", "no_astrocytes"}
+        assert load_study(name).path == built_in.path  # a built-in study by its name
     ablation = load_study(Path(__file__).resolve().parents[1] / "studies" / "sweeps" / "ablation.toml")
     assert ablation.n_sessions == 400 and len(ablation.seeds) == 20
 

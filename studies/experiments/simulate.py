@@ -33,6 +33,7 @@ class SimulationResult:
     robot: Recording | None = None
     wall_seconds: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
+    monitors: dict[str, Any] = field(default_factory=dict)  # the Brian2 monitors, by name
 
 
 def check_selection(spikes: tuple[str, ...] | None,
@@ -121,7 +122,7 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
     wall = _run(cpg, seconds, bar)
     spikes, traces = _collect(mons)
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces,
-                            wall_seconds=wall)
+                            wall_seconds=wall, monitors=mons)
 
 
 def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: RobotLayout, *,
@@ -148,7 +149,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: 
     wall = _run(cpg, seconds, bar)
     spikes, traces = _collect(mons) if mons else ({}, {})
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces, robot=rec,
-                            wall_seconds=wall, extra={"bridge": bridge})
+                            wall_seconds=wall, extra={"bridge": bridge}, monitors=mons)
 
 
 def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
