@@ -86,6 +86,7 @@ class CPG:
         key = (group, variable)
         if key not in self._arrays:
             obj = self.synapses[group] if group in self.synapses else getattr(self, group)
+            _require(obj, variable)
             arr = obj.variables[variable].get_value()
             if not isinstance(arr, np.ndarray):  # pragma: no cover - other devices
                 raise RuntimeError("astrocpg needs Brian2's runtime (numpy) target")
@@ -173,6 +174,24 @@ class CPG:
             raise InputError("a session reset needs a number, not an expression",
                              culprit=f"{model.name}.initial_values.{var}")
         return float(np.asarray(value))
+
+
+#: The model each Brian2 object of the network is built from (object name -> model name).
+MODEL_OF = {"motor": "motor_neuron", "interneuron": "interneuron", "astrocyte": "astrocyte",
+            "pool": "pool", "torque": "torque", "pool_activity": "pool_activity",
+            "intra_pool": "intra_pool_synapse", "pool_to_interneuron": "pool_to_interneuron",
+            "interneuron_to_pool": "interneuron_to_pool", "interlimb": "interlimb_synapse"}
+
+
+def _require(obj: Any, *variables: str) -> None:
+    """The network (or the coupling) sets or reads ``variables`` of ``obj``: an equation
+    string that lacks one is an InputError naming its model and the variable."""
+    defined = set(obj.variables) | set(getattr(obj, "equations", {}) or {})  # linked ones too
+    for var in variables:
+        if var not in defined:
+            model = MODEL_OF.get(obj.name, obj.name)
+            raise InputError(f"the equations do not define '{var}', which astrocpg sets or "
+                             f"reads (keep its line in the {model} equations)", culprit=model)
 
 
 def same_limb_mask(layout: Layout) -> np.ndarray:
@@ -263,6 +282,7 @@ def build_cpg(
         np.random.default_rng(s).uniform(0.0, 1.0, size=(L.motor_per_trial, 3))
         for s in trial_seeds(seed, B)
     ])
+    _require(motor, "x_position", "y_position", "z_position")
     motor.x_position = positions[:, 0]
     motor.y_position = positions[:, 1]
     motor.z_position = positions[:, 2]
@@ -277,6 +297,9 @@ def build_cpg(
                     raise InputError(f"motor_neuron: linked variable '{var}' is not a variable "
                                      f"of the pool model")
                 setattr(motor, var, linked_var(pool, var, index=pool_index))
+        _require(pool, "n")
+        _require(astrocyte, "n_pool")
+        _require(torque, "n_extensor", "n_flexor", "I_joint")
         astrocyte.n_pool = linked_var(pool, "n", index=L.pool_of_astrocyte)
         joints = [(b, leg, jt) for b in range(B) for leg in range(L.n_legs)
                   for jt in ("thigh", "calf")]
@@ -373,10 +396,7 @@ def build_cpg(
 def check_runs(cpg: CPG) -> None:
     """Prepare every object once (units, names, code generation), turning Brian2's errors into
     one line that names the model at fault. Costs about as much as the start of a run."""
-    names = {"motor": "motor_neuron", "interneuron": "interneuron", "astrocyte": "astrocyte",
-             "pool": "pool", "torque": "torque", "pool_activity": "pool_activity",
-             "intra_pool": "intra_pool_synapse", "pool_to_interneuron": "pool_to_interneuron",
-             "interneuron_to_pool": "interneuron_to_pool", "interlimb": "interlimb_synapse"}
+    names = MODEL_OF
     try:
         cpg.net.run(0 * second, namespace={})
     except Exception as e:
