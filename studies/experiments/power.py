@@ -30,7 +30,9 @@ from ...coupling.training import Training
 from ...errors import InputError
 from ...network import build_cpg, check_runs
 from ..files.weights import load_weights
-from .settings import model_set
+from ..files.folder import verify
+from .resources import check_memory, estimate_bytes
+from .settings import model_set, number
 
 # The paper's figures, shown next to ours (not used in any computation).
 PAPER = {
@@ -64,6 +66,11 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
             progress: bool = True) -> dict[str, Any]:
     """Run trial ``trial``'s trained table of the training in ``folder`` for ``sessions``
     sessions with learning off; return rates, events per spike and the power estimates."""
+    trial = number(trial, "--trial", integer=True, minimum=0)
+    sessions = number(sessions, "--sessions", integer=True, minimum=1)
+    check_memory(estimate_bytes(trials=1, seconds=0.0, spikes=False, sessions=sessions),
+                 culprit=f"--sessions {sessions}")
+    verify(folder, culprit="power", strict=False)  # its files are what its manifest lists
     weights = load_weights(str(folder), trial, culprit="power")  # (8, 8) volt; checks the folder and trial
     try:
         manifest = json.loads((folder / "manifest.json").read_text())
@@ -71,8 +78,6 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
     except (OSError, ValueError, KeyError):
         raise InputError(f"power {folder}: no readable manifest.json (not a training run)") \
             from None
-    if sessions < 1:
-        raise InputError(f"--sessions must be at least 1, got {sessions}")
     models = model_set(settings.get("overrides", []), settings.get("equations", {}))
     syn = models.interlimb_synapse.parameters
     # weights fixed: a measurement, not training (zero in each rate's own unit)

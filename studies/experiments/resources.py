@@ -18,6 +18,9 @@ SPIKE_BYTES_PER_TRIAL_S = 9_000 * 12
 TRACE_COLUMNS_PER_TRIAL = {"motor_Ca": 320, "astrocyte_Ca": 8, "astrocyte_IP3": 8,
                            "astrocyte_AG": 8, "astrocyte_ADO": 8}
 ROBOT_FLOATS_PER_STEP = 40
+# What a training (or a power measurement) keeps per trial and session: the row of
+# sessions.csv as a dict (~25 values) and the inter-limb table after the session (8x8 floats).
+SESSION_BYTES_PER_TRIAL = 2_000
 
 
 def available_memory() -> int:
@@ -37,10 +40,11 @@ def available_memory() -> int:
 
 def estimate_bytes(*, trials: int, seconds: float, dt: float = 1e-3, trace_dt: float = 1e-3,
                    robot_stride: int | None = None, traces: tuple[str, ...] = (),
-                   spikes: bool = True) -> int:
-    """Bytes a simulation of ``trials`` for ``seconds`` holds at its end (state + records)."""
+                   spikes: bool = True, sessions: int = 0) -> int:
+    """Bytes a simulation of ``trials`` for ``seconds`` holds at its end (state + records),
+    or a training of ``sessions`` sessions per trial (its rows and tables)."""
     steps = seconds / dt
-    per_trial = float(BYTES_PER_TRIAL)
+    per_trial = float(BYTES_PER_TRIAL) + float(SESSION_BYTES_PER_TRIAL) * sessions
     if spikes:
         per_trial += SPIKE_BYTES_PER_TRIAL_S * seconds
     per_trial += sum(TRACE_COLUMNS_PER_TRIAL.get(t, 8) for t in traces) * 8 * seconds / trace_dt

@@ -375,8 +375,9 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
                          f"replace it with --overwrite)", culprit=f"--out {out}")
     OutputFolder(out, overwrite=overwrite).check()
     plan = record_plan(record_every, record_stride, spikes, traces)
-    check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False),
-                 culprit=f"--trials {settings.n_trials}")
+    check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
+                                sessions=settings.n_sessions),
+                 culprit=f"--sessions {settings.n_sessions} x --trials {settings.n_trials}")
     return Result.from_training(_train(settings, out, plan, None, progress, replace=overwrite,
                                        new=True), out)
 

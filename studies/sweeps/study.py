@@ -206,8 +206,10 @@ def load_study(path: str | os.PathLike) -> Study:
     if not isinstance(batch, int) or isinstance(batch, bool) or batch < 1:
         raise InputError(f"{where}: [study] batch must be a positive integer, got {batch!r}")
     # one run trains min(batch, seeds) trials in one network: refuse what cannot fit
-    check_memory(estimate_bytes(trials=min(batch, len(seeds)), seconds=0.0, spikes=False),
-                 culprit=f"{where} [study] batch = {min(batch, len(seeds))} seeds per run")
+    check_memory(estimate_bytes(trials=min(batch, len(seeds)), seconds=0.0, spikes=False,
+                                sessions=n_sessions),
+                 culprit=f"{where} [study] batch = {min(batch, len(seeds))} seeds per run of "
+                         f"{n_sessions} sessions")
 
     record = _record_table(head.get("record"), where)
     models = DEFAULT_MODELS
@@ -471,7 +473,8 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     from tqdm.auto import tqdm  # the progress bar of a study (tqdm.auto picks notebook or tty)
 
     largest = max(r.n_trials for r in study.runs)
-    check_memory(estimate_bytes(trials=largest, seconds=0.0, spikes=False)
+    check_memory(estimate_bytes(trials=largest, seconds=0.0, spikes=False,
+                                sessions=study.n_sessions)
                  * min(len(study.runs), workers or os.cpu_count() or 1),
                  culprit=f"study {study.name} (runs of {largest} trials)")
     folders = {r.run_id: out / RUNS / r.run_id for r in study.runs}
