@@ -184,8 +184,11 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
     """The trained tables of every trial of the training in ``folder``, run for ``seconds``
     with the training's models (one batch); returns the result and the tables (volt)."""
     seconds = number(seconds, "--seconds", positive=True)
+    seed = number(seed, "--seed", integer=True, minimum=0)
     verify(folder, strict=False)  # its files are what its manifest lists
     weights = load_weights(folder, culprit="")
+    check_memory(estimate_bytes(trials=len(weights), seconds=seconds, dt=STEP, robot_stride=1),
+                 culprit=f"--seconds {seconds:g} x {len(weights)} trained trial(s)")
     settings = training_settings(folder)
     values = {} if settings.get("astrocytes", True) else {"astrocyte_regulation": 0.0}
     models = model_set(settings.get("overrides", []), settings.get("equations", {}))
