@@ -23,8 +23,11 @@ metadata as a JSON string (``metadata_json``).
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
+import zipfile
+import zlib
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -61,8 +64,12 @@ def _load(folder: Path) -> dict[str, Any]:
     for name in ("spikes", "traces", "robot"):
         path = folder / f"{name}.npz"
         if path.exists():
-            with np.load(path) as z:
-                data[name] = {k: z[k] for k in z.files}
+            try:
+                with np.load(path, allow_pickle=False) as z:
+                    data[name] = {k: z[k] for k in z.files}
+            except (ValueError, EOFError, zipfile.BadZipFile, zlib.error) as e:
+                raise InputError(f"{name}.npz is corrupt or truncated ({type(e).__name__}); "
+                                 f"record the run again", culprit=f"export {folder}") from None
     data.setdefault("spikes", {})  # recorded with --spikes none: export what exists
     return data
 
@@ -130,20 +137,23 @@ def export_nwb(folder: Path, path: Path) -> Path:
     nwb.subject = Subject(subject_id="astrocpg-simulation", sex="U", date_of_birth=created,
                           description=("a simulated spiking CPG with astrocytes driving a "
                                        "simulated Unitree A1 quadruped robot; no animal"))
-    nwb.units = Units(name="units", resolution=_resolution(m, data),
-                      description="spikes of the simulated neurons (astrocytes: adenosine "
-                                  "releases)")
     populations = unit_rows(m)
+    spikes = data["spikes"]
+    recorded = [pop for pop in populations if f"{pop}_times" in spikes]
+    if recorded:  # recorded with --spikes none: no Units table
+        nwb.units = Units(name="units", resolution=_resolution(m, data),
+                          description="spikes of the simulated neurons (astrocytes: adenosine "
+                                      "releases)")
     for col, desc in (("population", "motor (motor neuron), interneuron (V1/V2b or IIN), "
                                      "astrocyte (spike = adenosine release)"),
                       ("trial", "independent trial of the batch (seed = file seed + trial)"),
                       ("limb", "leg: FR, FL, RR, RL"),
                       ("pool", "motor pool, interneuron (source_to_target) or astrocyte's pool"),
                       ("neuron_index", "index within the population (column of its trace)")):
-        nwb.add_unit_column(name=col, description=desc)
-    spikes = data["spikes"]
+        if recorded:
+            nwb.add_unit_column(name=col, description=desc)
     for pop, rows in populations.items():
-        if f"{pop}_times" not in spikes:
+        if pop not in recorded:
             continue
         trains = _spike_trains(spikes[f"{pop}_times"], spikes[f"{pop}_indices"], len(rows))
         for row, train in zip(rows, trains):
@@ -235,8 +245,20 @@ def _resolution(manifest: dict[str, Any], data: dict[str, Any]) -> float:
 
 
 def _nwb_write(io_cls, nwb, path: Path) -> None:
-    with io_cls(str(path), "w") as io:
-        io.write(nwb)
+    """Build the HDF5 file in memory, then write its bytes: HDF5 meets a full disk or a file
+    size limit with errors from its destructors (and can crash), Python's own writes with one
+    OSError naming the file."""
+    import h5py
+
+    buf = io.BytesIO()
+    with h5py.File(buf, "w") as f:
+        with io_cls(mode="w", file=f) as nwb_io:
+            nwb_io.write(nwb)
+    data = buf.getbuffer()
+    with open(path, "wb") as out:
+        out.write(data)
+        out.flush()
+        os.fsync(out.fileno())
 
 
 def export_npz(folder: Path, path: Path) -> Path:
