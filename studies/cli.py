@@ -393,6 +393,8 @@ def _cmd_robot(args: argparse.Namespace) -> int:
     if not path.parent.exists():
         raise InputError(f"folder '{path.parent}' does not exist",
                          culprit=f"robot export {path}")
+    if path.is_dir():
+        raise InputError("is a folder; name the file to write", culprit=f"robot export {path}")
     if path.exists() and not args.overwrite:
         raise InputError("exists; --overwrite replaces it", culprit=f"robot export {path}")
     atomic_path(path, lambda tmp: export_xml(tmp, A1Parameters()))

@@ -70,7 +70,11 @@ def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
     """``write_to(tmp)`` writes a temporary file beside ``path`` (same suffix, for libraries that
     check it, e.g. pynwb), which then replaces ``path``: never a half-written result."""
     # pid-tagged, so that the next start removes what a killed process left
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem), suffix=path.suffix)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem),
+                                   suffix=path.suffix)
+    except OSError as e:
+        raise _naming(e, path) from None
     os.close(fd)
     try:
         write_to(Path(tmp))
@@ -78,10 +82,18 @@ def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are ordinary files
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as e:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(e, OSError) and not isinstance(e, BrokenPipeError):
+            raise _naming(e, path) from None
         raise
+
+
+def _naming(err: OSError, path: Path) -> OSError:
+    """The same error, naming ``path`` (what the user asked for), not the hidden temporary."""
+    return type(err)(err.errno, err.strerror or str(err), os.fspath(path)) if err.errno \
+        else err
 
 
 def atomic_write(path: Path, write: Callable[[Any], Any]) -> None:
