@@ -3,14 +3,18 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 
 from ...errors import InputError
 from ..analysis.gait import gait_label, leg_phases, phase_matrix, weight_structure
-from ..files.folder import OutputFolder
+from ..files.folder import OutputFolder, verify
+from ..files.outputs import write_manifest
+from ..files.weights import load_weights
 from .run import replay
+from .settings import number
 
 
 def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
@@ -52,9 +56,10 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     # the default folder belongs to this command: replaced whole on every plot
     target = Path(out) if out is not None else folder / FIGURES
     OutputFolder(target, overwrite=overwrite or out is None).check()
+    trial = number(trial, "--trial", integer=True, minimum=0)
+    verify(folder, strict=False)
+    load_weights(folder, trial, culprit="plot")  # the trial exists, before simulating
     result, weights = replay(folder, seconds=seconds, seed=1, progress=False)
-    if not 0 <= trial < len(weights):
-        raise InputError(f"{folder} has {len(weights)} trial(s)", culprit=f"--trial {trial}")
     b = trial
     names = ["weights.png", "training.png", "thigh_extensor_activity.png", "gait.png"]
     window = (max(0.0, seconds - 2.0), seconds)
@@ -67,4 +72,14 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
         g = leg_phases(t, i, result.cpg.layout, b, min(1.0, seconds / 5), seconds)
         plots.plot_gait(tmp / names[3], result.robot, b, phase_matrix(g["phases"]), g,
                         window=window)
+        write_manifest(tmp, command="plot", seed=1, models_json={},
+                       settings={"training": os.path.abspath(folder), "trial": b,
+                                 "seconds": seconds},
+                       files=dict(zip(names, FIGURE_FILES)))
     return [target / n for n in names]
+
+
+FIGURE_FILES = ("the trial's trained 8x8 inter-limb table (mV)",
+                "mean reward, final x and session length per session (mean +- std over trials)",
+                "thigh-extensor activity of the 4 limbs, last 2 s of the run",
+                "gait diagram and inter-limb phase matrix")

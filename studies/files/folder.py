@@ -37,7 +37,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, Iterator, Mapping
+from typing import Any, Iterable, Iterator, Mapping
 
 import filelock
 
@@ -467,11 +467,12 @@ def _safe_rel(name: Any) -> bool:
 
 
 def verify(folder: str | os.PathLike, *, culprit: str | None = None,
-           strict: bool = True) -> dict[str, Any]:
+           strict: bool = True, only: Iterable[str] | None = None) -> dict[str, Any]:
     """Read ``folder/manifest.json`` and check its ``"inventory"`` against the files on disk;
     returns the manifest. InputError naming the folder and the first file that is missing, has
     another size or sha256, or (``strict``) is not listed; and for a folder without a readable
-    manifest ("not an astrocpg output folder")."""
+    manifest ("not an astrocpg output folder"). ``only``: check just these files (those of
+    them the inventory lists), e.g. what a reader is about to read."""
     root = Path(folder)
     who = f"{culprit} {folder}" if culprit else str(folder)
     if not root.is_dir():
@@ -498,9 +499,14 @@ def verify(folder: str | os.PathLike, *, culprit: str | None = None,
         if not (_safe_rel(name) and isinstance(entry, dict)
                 and isinstance(entry.get("bytes"), int) and isinstance(entry.get("sha256"), str)):
             raise InputError(f"{MANIFEST}: bad inventory entry {name!r}", culprit=who)
+    if only is not None:
+        keep = set(only)
+        listed = {k: v for k, v in listed.items() if k in keep}
     path = root
     try:
         on_disk = dict(_files(root))
+        if only is not None:
+            on_disk = {k: v for k, v in on_disk.items() if k in listed}
         # cheap checks first (missing, unlisted, size), then the hashes
         for name in sorted(set(listed) | set(on_disk)):
             if name not in on_disk:

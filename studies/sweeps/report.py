@@ -14,6 +14,9 @@ Runs still in progress are included with the sessions they have and marked as su
 from __future__ import annotations
 
 import json
+import os
+import zipfile
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -22,8 +25,8 @@ import numpy as np
 from ...errors import InputError
 from ..analysis.gait import weight_structure
 from ..experiments.settings import model_set
-from ..files.folder import OutputFolder
-from ..files.outputs import atomic_write
+from ..files.folder import OutputFolder, verify
+from ..files.outputs import atomic_write, write_manifest
 from .study import RUNS, STUDY_INDEX, read_status
 
 CURVES = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
@@ -42,12 +45,25 @@ def _load(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     for run_id, spec in index.get("specs", {}).items():
         rdir = folder / RUNS / run_id
         state = read_status(rdir).get("state", "not run")
-        try:
-            df = pd.read_csv(rdir / "sessions.csv")
-        except (OSError, ValueError):
-            df = None
-        runs.append({"spec": spec, "state": state, "sessions": df, "folder": rdir})
+        if state == "finished":  # what it read is what its manifest lists
+            verify(rdir, culprit=f"report {rdir}", strict=False, only=READ)
+        df = weights = None
+        if (rdir / "sessions.csv").exists():
+            try:
+                df = pd.read_csv(rdir / "sessions.csv")
+                if (rdir / "weights.npz").exists():
+                    with np.load(rdir / "weights.npz", allow_pickle=False) as z:
+                        weights = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3
+            except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile,
+                    zlib.error) as e:
+                raise InputError(f"cannot read sessions.csv or weights.npz ({type(e).__name__}"
+                                 f"): corrupt or truncated", culprit=f"report {rdir}") from None
+        runs.append({"spec": spec, "state": state, "sessions": df, "folder": rdir,
+                     "weights": weights})
     return index, runs
+
+
+READ = ("sessions.csv", "weights.npz")  # what a report reads of each run
 
 
 def _group_label(spec: dict[str, Any]) -> str:
@@ -88,6 +104,13 @@ def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = 
     OutputFolder(target, overwrite=overwrite or out is None).check()
     with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
         written = _report(Path(folder), tmp, last=last, smooth=smooth)
+        write_manifest(tmp, command="report", seed=0, models_json={},
+                       settings={"study": os.path.abspath(folder), "last": last,
+                                 "smooth": smooth},
+                       files={"fig3c.png": "mean +- std across seeds per session and group "
+                                           "(paper Fig. 3c)",
+                              "final_figures.csv": f"per group, over the last {last} sessions",
+                              "report.md": "the final figures as a table"})
     written["files"] = [target / p.name for p in written["files"]]
     return written
 
@@ -117,10 +140,8 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
                 continue
             for trial, sdf in df.groupby("trial"):
                 series[m["spec"]["seed"] + int(trial)] = sdf.sort_values("session")
-            wfile = m["folder"] / "weights.npz"
-            if wfile.exists():
-                with np.load(wfile) as z:
-                    weights.extend(np.asarray(z["final_weights_mV"]) * 1e-3)
+            if m["weights"] is not None:
+                weights.extend(m["weights"])
                 w_max = _model_values(m["spec"])[0]
         if not series:
             continue

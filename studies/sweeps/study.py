@@ -366,11 +366,14 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
                        models_json=trainer.models.to_json(), files=_run_files(),
                        results={"status": "running"})
         wall = trainer.run()
+        status.update({"state": "finished", "finished": time.time(),
+                       "wall_seconds": status.get("wall_seconds", 0.0) + time.perf_counter() - t0})
+        _write_status(out, status)
+        # last: the manifest's inventory lists the run's files as they stay (status included)
         write_manifest(out, command="study-run", seed=spec.seed, settings=asdict(spec),
                        models_json=trainer.models.to_json(), files=_run_files(),
                        results={"status": "finished", "wall_seconds_last_attempt": wall})
-        status.update({"state": "finished", "finished": time.time(),
-                       "wall_seconds": status.get("wall_seconds", 0.0) + time.perf_counter() - t0})
+        return status
     except TrainingStopped as e:
         status.update({"state": "stopped", "error": str(e), "finished": time.time()})
     except Exception as e:  # recorded, not raised: the other runs go on
