@@ -151,18 +151,23 @@ class Env:
             return d
         return self._once(f"tampered:{which}:{file}:{how}", make)
 
-    def corrupt_listed(self, which: str, file: str) -> Path:
-        """A copy whose ``file`` is truncated and whose manifest lists it as it now is: the
-        folder verifies, but the file cannot be read."""
+    def corrupt_listed(self, which: str, file: str, manifest: str = "manifest.json") -> Path:
+        """A copy whose ``file`` is truncated (binary: garbage) and whose ``manifest`` lists it
+        as it now is: the folder verifies, but the file cannot be read."""
         def make() -> Path:
             d = self.copy(which, f"{which}_corrupt")
             p = d / file
-            p.write_bytes(p.read_bytes()[: p.stat().st_size // 2])
-            m = json.loads((d / "manifest.json").read_text())
-            m["inventory"][file] = {"bytes": p.stat().st_size,
-                                    "sha256": hashlib.sha256(p.read_bytes()).hexdigest(),
-                                    "mtime_ns": p.stat().st_mtime_ns}
-            (d / "manifest.json").write_text(json.dumps(m))
+            if p.suffix in (".npz", ".pkl"):
+                p.write_bytes(p.read_bytes()[: p.stat().st_size // 2])
+            else:
+                p.write_bytes(bytes(range(256)) * 4)
+            mpath = d / manifest
+            key = p.relative_to(mpath.parent).as_posix()
+            m = json.loads(mpath.read_text())
+            m["inventory"][key] = {"bytes": p.stat().st_size,
+                                   "sha256": hashlib.sha256(p.read_bytes()).hexdigest(),
+                                   "mtime_ns": p.stat().st_mtime_ns}
+            mpath.write_text(json.dumps(m))
             return d
         return self._once(f"corrupt:{which}:{file}", make)
 
@@ -201,8 +206,23 @@ def out(e: Env) -> Path:
     return e.new("out")
 
 
+CHEAP = {"unit": ["--seconds", "0.01", "--no-progress"],
+         "run": ["--seconds", "0.01", "--no-progress"],
+         "train": ["--sessions", "1", *SHORT, "--no-progress"],
+         "gait": ["--seconds", "0.05", "--no-progress"],
+         "plot": ["--seconds", "0.05"],
+         "power": ["--sessions", "1", "--no-progress"]}
+
+
 def S(*args: Any) -> list[str]:
-    return [str(a) for a in args]
+    """argv of a command; a command that simulates gets cheap settings first (the case's own
+    options come later and win), so that a wrongly accepted case finishes quickly."""
+    argv = [str(a) for a in args]
+    if argv and argv[0] in CHEAP and "--resume" not in argv:
+        # after the positional folder of gait/plot/power
+        at = 2 if argv[0] in ("gait", "plot", "power") and len(argv) > 1 else 1
+        argv[at:at] = CHEAP[argv[0]]
+    return argv
 
 
 def study_text(**head: Any) -> str:
@@ -359,10 +379,16 @@ case("unit-equations-lacks-a-set-variable",
                  f"motor_neuron={e.equations('motor_neuron', lambda t: _drop_line(t, 'x_position'))}",
                  "--out", out(e)), 2, "x_position", "absent", out)
 # the network links torso_speed from the pool model: a file without it names it
-case("run-equations-lacks-a-linked-variable",
+case("run-equations-pool-lacks-a-variable-the-robot-sets",
      lambda e: S("run", "--seconds", "0.01", "--equations",
-                 f"motor_neuron={e.equations('motor_neuron', lambda t: _drop_line(t, 'torso_speed :').replace('k_background_v*torso_speed', '0*volt/second'))}",
-                 "--out", out(e)), 2, "torso_speed", "absent", out)
+                 f"pool={e.equations('pool', lambda t: _drop_line(t, 'limit_inhibition :'))}",
+                 "--equations",
+                 f"motor_neuron={e.equations('motor_neuron', lambda t: _drop_line(t, 'limit_inhibition :').replace('C_limit_position*limit_inhibition', '0*volt/second'), name='m.txt')}",
+                 "--out", out(e)), 2, "limit_inhibition", "absent", out)
+case("train-equations-pool-lacks-a-variable-the-sessions-set",
+     lambda e: S("train", "--equations",
+                 f"pool={e.equations('pool', lambda t: _drop_line(t, 'reward_mean :'))}",
+                 "--out", out(e)), 2, "reward_mean", "absent", out)
 case("unit-equations-astrocyte-lacks-variable",
      lambda e: S("unit", "--seconds", "0.01", "--equations",
                  f"astrocyte={e.equations('astrocyte', lambda t: _drop_line(t, 'n_pool'))}",
@@ -461,6 +487,14 @@ case("gait-seconds-shorter-than-a-step", lambda e: S("gait", e.copy("train"), "-
      "--seconds", "unchanged", lambda e: e.copy("train"))
 case("gait-seed-negative", lambda e: S("gait", e.copy("train"), "--seed", "-1"), 2, "--seed",
      "unchanged", lambda e: e.copy("train"))
+case("gait-seconds-1e7", lambda e: S("gait", e.copy("train"), "--seconds", "1e7"), 2, "memory",
+     "unchanged", lambda e: e.copy("train"))
+case("plot-seconds-1e7", lambda e: S("plot", e.copy("train"), "--seconds", "1e7", "--out",
+                                     out(e)), 2, "memory", "absent", out)
+case("train-sessions-1e9", lambda e: S("train", "--sessions", "1000000000", "--out", out(e)), 2,
+     "memory", "absent", out)
+case("study-billion-sessions", lambda e: S("study", e.study(study_text(sessions="1000000000")),
+                                           "--out", out(e)), 2, "memory", "absent", out)
 case("gait-corrupt-but-listed-weights", lambda e: S("gait", e.corrupt_listed("train",
                                                                              "weights.npz")),
      2, "weights.npz", "unchanged", lambda e: e.corrupt_listed("train", "weights.npz"))
@@ -479,8 +513,8 @@ case("power-trial-negative", lambda e: S("power", e.copy("train"), "--trial", "-
      "--trial", "unchanged", lambda e: e.copy("train"))
 case("power-sessions-0", lambda e: S("power", e.copy("train"), "--sessions", "0"), 2,
      "--sessions", "unchanged", lambda e: e.copy("train"))
-case("power-sessions-100000", lambda e: S("power", e.copy("train"), "--sessions", "1000000000"),
-     2, "--sessions", "unchanged", lambda e: e.copy("train"))
+case("power-sessions-1e9", lambda e: S("power", e.copy("train"), "--sessions", "1000000000"),
+     2, "memory", "unchanged", lambda e: e.copy("train"))
 
 # ---- study files
 case("study-missing-file", lambda e: S("study", e.tmp / "none.toml", "--out", out(e)), 2,
@@ -539,8 +573,12 @@ case("report-corrupt-index", lambda e: S("report", e.tampered("study", "study.js
                                                               "truncate"), "--out", out(e)),
      2, "study.json", "absent", out)
 case("report-binary-sessions",
-     lambda e: S("report", e.corrupt_listed("study", "runs/astro__seed1/sessions.csv"),
+     lambda e: S("report", e.corrupt_listed("study", "runs/astro__seed1/sessions.csv",
+                                            "runs/astro__seed1/manifest.json"),
                  "--out", out(e)), 2, "sessions.csv", "absent", out)
+case("report-tampered-weights",
+     lambda e: S("report", e.tampered("study", "runs/astro__seed1/weights.npz"), "--out",
+                 out(e)), 2, "weights.npz", "absent", out)
 
 # ---- export
 case("export-missing-folder", lambda e: S("export", e.tmp / "nosuch"), 2, "nosuch", "absent",
