@@ -155,16 +155,22 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: 
 def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
     """One long ``Network.run`` (each call costs ~0.3 s of set-up); returns wall seconds."""
     t0 = time.perf_counter()
-    t_end = float(cpg.net.t_) + seconds
+    t_end = _network_time(cpg) + seconds
     try:
         cpg.net.run(seconds * second, namespace={})
     finally:
         bar.close()
     # Brian2 turns Ctrl-C (and our SIGTERM) into a clean stop at the end of a step: a run that
     # stopped early was interrupted, and its partial data must not pass for a finished run
-    if float(cpg.net.t_) < t_end - 0.5 * float(cpg.dt):
+    if _network_time(cpg) < t_end - 0.5 * float(cpg.dt):
         raise KeyboardInterrupt
     return time.perf_counter() - t0
+
+
+def _network_time(cpg: CPG) -> float:
+    """The network's time in s (after a stopped run Brian2 holds it as a VariableView, which
+    float() refuses)."""
+    return float(np.asarray(cpg.net.t_))
 
 
 # The CPG steps with the physics (the A1 model's timestep, 1 ms)
