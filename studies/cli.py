@@ -18,6 +18,7 @@ Every failure ends with one line on stderr naming the culprit and an exit code (
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import signal
 import sys
@@ -199,9 +200,17 @@ def _sigterm(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
+def _not_stop_request(record: logging.LogRecord) -> bool:
+    """Brian2 logs a warning when Ctrl-C stops a run; the command says "interrupted" itself."""
+    return not record.getMessage().startswith("Simulation stop requested")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     warnings.filterwarnings("ignore", module="brian2")
+    brian_log = logging.getLogger("brian2")
+    if _not_stop_request not in brian_log.filters:
+        brian_log.addFilter(_not_stop_request)
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
         return COMMANDS[args.command](args)
