@@ -99,9 +99,8 @@ class Trainer:
                                           order=20, name="checkpoint"))
         self._pending = False
         self.on_checkpoint: Callable[[], None] | None = None
-        total = settings.n_sessions * settings.n_trials
-        self.bar = tqdm(total=total, unit="session", desc="train", disable=not progress,
-                        dynamic_ncols=True)
+        self.progress = progress
+        self.bar: Any = None  # shown from the start of the run (not while a refusal may come)
 
     # ---- during the run
     def _on_session(self, training: Training, trial: int) -> None:
@@ -222,7 +221,6 @@ class Trainer:
         self.training.memory = payload["memory"]
         if self.recorder is not None and "recorder" in payload:
             self.recorder.restore(payload["recorder"])
-        self.bar.update(int(self.training.sessions_done.sum()))
 
     # ---- run
     def run(self) -> float:
@@ -233,6 +231,9 @@ class Trainer:
         L_max = float(np.asarray(self.models.progress.parameters["L_max"].value))
         left = (self.settings.n_sessions - self.training.sessions_done.min()) * L_max
         t0 = time.perf_counter()
+        self.bar = tqdm(total=self.settings.n_sessions * self.settings.n_trials,
+                        initial=int(self.training.sessions_done.sum()), unit="session",
+                        desc="train", disable=not self.progress, dynamic_ncols=True)
         try:
             if not self.training.done.all():
                 # an upper bound: the session loop stops the network when all trials are done
