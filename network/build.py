@@ -8,6 +8,7 @@ decides which element connects to which, and schedules the few objects whose ord
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Iterable
 
@@ -18,6 +19,7 @@ from brian2 import Network, NeuronGroup, Synapses, linked_var, ms, second
 from ..errors import InputError
 from ..models import DEFAULT_MODELS, ModelSet
 from ..models.base import NeuronModel, SynapseModel, brian_error_line
+from .divergence import NonFinite
 from .layout import INTERNEURONS, LEGS, THIGH_POOLS, Layout
 
 brian2.prefs.codegen.target = "numpy"
@@ -45,6 +47,7 @@ class CPG:
     synapses: dict[str, Synapses]
     interlimb_pairs: np.ndarray  # (n_synapses, 2): (row, col) in the per-trial table
     _arrays: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
+    _state: list[tuple[str, str, np.ndarray, int | None, Any, np.ndarray]] | None = None
 
     @property
     def n_trials(self) -> int:
@@ -90,6 +93,54 @@ class CPG:
         self.array("interlimb", "w")[:] = w[:, self.interlimb_pairs[:, 0],
                                             self.interlimb_pairs[:, 1]].ravel()
 
+    # ---- divergence
+    def state_arrays(self) -> list[tuple[str, str, np.ndarray, int | None]]:
+        """(population, variable, live array, elements per trial) of every float state variable
+        that can change during a run: differential equations and plain parameters of the
+        neurons, interneurons, astrocytes, pools and torque traces, and the per-synapse state of
+        every synapse group (the inter-limb weights and STDP signals). Not constants, linked
+        variables, subexpressions, ``lastspike``, integers or booleans. Groups are trial-major,
+        so element ``k`` belongs to trial ``k // per_trial``. Built once."""
+        return [(p, v, a, n) for p, v, a, n, _, _ in self._state_table()]
+
+    def _state_table(self) -> list[tuple[str, str, np.ndarray, int | None, Any, np.ndarray]]:
+        if self._state is None:
+            groups = [(name, getattr(self, name)) for name in
+                      ("motor", "interneuron", "astrocyte", "pool", "torque")]
+            groups += list(self.synapses.items())
+            table = []
+            for name, obj in groups:
+                for var, eq in obj.equations.items():
+                    if eq.type == "subexpression":
+                        continue
+                    if {"constant", "linked", "shared"} & set(eq.flags) or var == "lastspike":
+                        continue
+                    arr = self.array(name, var)
+                    if arr.dtype.kind != "f" or arr.ndim != 1 or not arr.size:
+                        continue
+                    per_trial = arr.size // self.n_trials if arr.size % self.n_trials == 0 \
+                        else None
+                    # arr @ zeros is NaN iff arr holds a NaN or an inf, and never overflows
+                    table.append((name, var, arr, per_trial, arr.dot, np.zeros(arr.size)))
+            self._state = table
+        return self._state
+
+    def first_nonfinite(self) -> NonFinite | None:
+        """The first NaN or inf in the state (in :meth:`state_arrays` order), or None. One
+        reduction per array (about 1 us each); the element is located only when one fails."""
+        isfinite = math.isfinite
+        with np.errstate(invalid="ignore"):  # inf * 0 in the reduction
+            for name, var, arr, per_trial, dot, zeros in self._state_table():
+                if isfinite(dot(zeros)):
+                    continue
+                bad = np.flatnonzero(~np.isfinite(arr))
+                if not bad.size:  # pragma: no cover - the array changed under us
+                    continue
+                k = int(bad[0])
+                return NonFinite(population=name, variable=var,
+                                 trial=None if per_trial is None else k // per_trial, index=k,
+                                 value=float(arr[k]))
+        return None
 
     def reset_trial(self, trial: int, keep: tuple[str, ...] = ("astrocyte",)) -> None:
         """Reset one trial's state to the start of a session: every state variable of the
