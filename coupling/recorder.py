@@ -20,7 +20,7 @@ import numpy as np
 
 from ..network import CPG
 from ..network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
-from .bridge import Bridge
+from .bridge import ORDER_MEASURE, Bridge
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -84,14 +84,8 @@ class SessionRecorder:
         self.n_samples = self.max_steps // plan.stride + 1
         for b in range(B):
             self.start(b, 1)
-        inner = bridge.after_physics
-
-        def record_then_step() -> None:
-            self.step()
-            if inner is not None:
-                inner()
-
-        bridge.after_physics = record_then_step
+        # before the session loop (order ORDER_TRAINING) may end the session and reset the trial
+        bridge.add_hook("after_physics", "session_recorder", self.step, order=ORDER_MEASURE)
 
     # ---- session boundaries
     def start(self, b: int, session: int) -> None:

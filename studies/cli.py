@@ -513,7 +513,6 @@ def _trained_run(folder: str, seconds: float, seed: int, progress: bool):
     """The trained tables of every trial of ``folder``, run for ``seconds`` (one batch)."""
     import json
 
-    from ..coupling.robot import A1Parameters, RobotLayout, build_model
     from .simulate import simulate_closed_loop
 
     if not np.isfinite(seconds) or seconds <= 0:
@@ -526,10 +525,7 @@ def _trained_run(folder: str, seconds: float, seed: int, progress: bool):
     models = models_from(settings.get("overrides", []), settings.get("equations", {}))
     if not settings.get("astrocytes", True):
         models = models.with_values({"astrocyte_regulation": 0.0})
-    params = A1Parameters()
-    robot = build_model(params)
-    layout = RobotLayout.from_model(robot, params)
-    result = simulate_closed_loop(models, robot, layout, seconds=seconds, seed=seed,
+    result = simulate_closed_loop(models, seconds=seconds, seed=seed,
                                   n_trials=len(weights), weights=weights, record_traces=False,
                                   progress=progress)
     return result, weights

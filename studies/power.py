@@ -55,13 +55,11 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
             progress: bool = True) -> dict[str, Any]:
     """Run trial ``trial``'s trained table of the training in ``folder`` for ``sessions``
     sessions with learning off; return rates, events per spike and the power estimates."""
-    from brian2 import second
     from tqdm.auto import tqdm
 
-    from ..coupling.bridge import Bridge
-    from ..coupling.robot import A1Parameters, RobotLayout, build_model
+    from ..coupling.assembly import build_closed_loop
+    from ..coupling.bridge import ORDER_MEASURE
     from ..coupling.training import Training
-    from ..network import build_cpg, check_runs
     from .cli import load_weights, models_from
 
     weights = load_weights(str(folder), trial)  # (8, 8) volt; checks the folder and trial
@@ -81,13 +79,8 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
         values["astrocyte_regulation"] = 0.0
     models = models.with_values(values)
     seed = int(manifest.get("seed", settings.get("seed", 1))) + trial
-    params = A1Parameters()
-    robot = build_model(params)
-    layout = RobotLayout.from_model(robot, params)
-    cpg = build_cpg(models, n_trials=1, seed=seed, dt=robot.opt.timestep * second,
-                    interlimb_weights=weights)
-    check_runs(cpg)
-    bridge = Bridge(cpg, robot, layout, models)
+    loop = build_closed_loop(models, n_trials=1, seed=seed, weights=weights)
+    cpg, bridge = loop.cpg, loop.bridge
     L_max = float(np.asarray(models.progress.parameters["L_max"].value))
     bar = tqdm(total=sessions, unit="session", desc="power", disable=not progress)
     limit = cpg.array("pool", "limit_inhibition")
@@ -108,20 +101,17 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
         counted["limit"] = 0.0
         bar.update(1)
 
-    # the session loop hooks itself into the bridge (bridge.after_physics)
+    # the session loop hooks itself into the bridge ("training", ORDER_TRAINING)
     Training(cpg, bridge, models, n_sessions=sessions, on_session=on_session)
-    session_step = bridge.after_physics
 
-    def count_then_step() -> None:
+    def count_limit() -> None:
         # limit-position inhibition events of this step (pools inhibited), before the session
         # loop possibly closes the session
         counted["limit"] += float(limit.sum())
-        session_step()
 
-    bridge.after_physics = count_then_step
-    cpg.net.add(bridge.operation())
+    bridge.add_hook("after_physics", "limit_count", count_limit, order=ORDER_MEASURE)
     try:
-        cpg.net.run((sessions * L_max + 1.0) * second, namespace={})
+        loop.run(sessions * L_max + 1.0)
     finally:
         bar.close()
     if len(per_session) < sessions:

@@ -13,11 +13,12 @@ import numpy as np
 from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second
 from tqdm.auto import tqdm
 
-from ..coupling.bridge import Bridge, Recording
+from ..coupling.assembly import build_closed_loop
+from ..coupling.bridge import Recording
 from ..coupling.robot import RobotLayout
 from ..errors import InputError
 from ..models import ModelSet
-from ..network import CPG, LEGS, build_cpg, check_runs
+from ..network import CPG, DivergenceCheck, build_cpg, check_runs, run_network
 from ..network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
 
 
@@ -116,34 +117,37 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
         bar(steps[0])
 
     cpg.net.add(NetworkOperation(tick, dt=100 * ms, when="end", name="progress"))
+    divergence = DivergenceCheck(cpg)  # every 10 steps, and once after the run
+    cpg.net.add(divergence.operation())
     wall = _run(cpg, seconds, bar)
+    divergence.check()
     spikes, traces = _collect(mons)
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces,
                             wall_seconds=wall)
 
 
-def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: RobotLayout, *,
+def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
+                         robot_layout: RobotLayout | None = None, *,
                          seconds: float, seed: int, n_trials: int = 1,
                          weights: np.ndarray | None = None, trace_dt: Any = 1 * ms,
                          robot_stride: int = 1, record_traces: bool = True,
                          record_spikes: bool = True, spikes: tuple[str, ...] | None = None,
                          traces: tuple[str, ...] | None = None,
                          progress: bool = True) -> SimulationResult:
-    """The whole CPG driving ``n_trials`` robots for ``seconds``, inter-limb weights fixed
-    (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero)."""
+    """The whole CPG driving ``n_trials`` robots (default: the project's A1) for ``seconds``,
+    inter-limb weights fixed (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero)."""
     _check_seconds(seconds)
-    cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=LEGS, dt=robot.opt.timestep * second,
-                    interlimb_weights=weights)
-    check_runs(cpg)
     bar = _Progress(seconds, f"run ({n_trials} trial{'s' if n_trials > 1 else ''})",
                     progress and seconds * n_trials > 3)
-    bridge = Bridge(cpg, robot, robot_layout, models, on_step=bar)
-    n_steps = int(round(seconds / robot.opt.timestep))
+    loop = build_closed_loop(models, n_trials=n_trials, seed=seed, weights=weights, robot=robot,
+                             robot_layout=robot_layout, on_step=bar)
+    cpg, bridge = loop.cpg, loop.bridge
+    n_steps = int(round(seconds / loop.robot.opt.timestep))
     rec = bridge.start_recording(n_steps, robot_stride)
     selection = check_selection(spikes, traces)
     mons = _monitors(cpg, trace_dt, record_traces, *selection) if record_spikes else {}
-    cpg.net.add(bridge.operation())
     wall = _run(cpg, seconds, bar)
+    bridge.check_cpg(float(cpg.net.t_))  # the last steps since the bridge's last check
     spikes, traces = _collect(mons) if mons else ({}, {})
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces, robot=rec,
                             wall_seconds=wall, extra={"bridge": bridge})
@@ -153,7 +157,7 @@ def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
     """One long ``Network.run`` (each call costs ~0.3 s of set-up); returns wall seconds."""
     t0 = time.perf_counter()
     try:
-        cpg.net.run(seconds * second, namespace={})
+        run_network(cpg.net, seconds * second, namespace={})  # Diverged comes out as itself
     finally:
         bar.close()
     return time.perf_counter() - t0

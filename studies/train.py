@@ -23,13 +23,12 @@ import numpy as np
 from brian2 import NetworkOperation, second
 from tqdm.auto import tqdm
 
-from ..coupling.bridge import Bridge
+from ..coupling.assembly import build_closed_loop
 from ..coupling.recorder import RecordPlan, SessionRecorder
-from ..coupling.robot import A1Parameters, RobotLayout, build_model
 from ..coupling.training import SESSION_COLUMNS, Training
 from ..errors import InputError
 from ..models import ModelSet
-from ..network import build_cpg, check_runs, interlimb_labels
+from ..network import interlimb_labels, run_network
 from .outputs import _atomic, save_npz
 
 CHECKPOINT = "checkpoint.pkl"
@@ -71,13 +70,9 @@ class Trainer:
         if not settings.astrocytes:
             models = models.with_values({"astrocyte_regulation": 0.0})
         self.models = models
-        params = A1Parameters()
-        self.robot = build_model(params)
-        self.layout = RobotLayout.from_model(self.robot, params)
-        self.cpg = build_cpg(models, n_trials=settings.n_trials, seed=settings.seed,
-                             dt=self.robot.opt.timestep * second)
-        check_runs(self.cpg)
-        self.bridge = Bridge(self.cpg, self.robot, self.layout, models)
+        loop = build_closed_loop(models, n_trials=settings.n_trials, seed=settings.seed)
+        self.robot, self.layout, self.cpg, self.bridge = (loop.robot, loop.robot_layout,
+                                                          loop.cpg, loop.bridge)
         self.training = Training(self.cpg, self.bridge, models, n_sessions=settings.n_sessions,
                                  on_session=self._on_session)
         self.recorder = None
@@ -86,7 +81,6 @@ class Trainer:
                 self.cpg, self.bridge, record, n_sessions=settings.n_sessions,
                 max_steps=self.training.max_steps,
                 step_in_session=self.training.step_in_session, on_recorded=self._write_recording)
-        self.cpg.net.add(self.bridge.operation())
         # after the weight update of the step (interlimb_learning, order 10)
         self.cpg.net.add(NetworkOperation(self._maybe_checkpoint, dt=self.cpg.dt, when="end",
                                           order=20, name="checkpoint"))
@@ -143,7 +137,7 @@ class Trainer:
     def write_outputs(self) -> None:
         rows = self.training.memory.rows
         buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=SESSION_COLUMNS, lineterminator="\n")
+        writer = csv.DictWriter(buf, fieldnames=SESSION_COLUMNS, lineterminator="\n", restval=0)
         writer.writeheader()
         for r in rows:
             writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v) for k, v in r.items()})
@@ -220,7 +214,9 @@ class Trainer:
     def run(self) -> float:
         """Run until every trial has done its sessions and write the outputs; returns wall
         seconds. Raises :class:`TrainingStopped` (outputs and checkpoint written) when the
-        simulation ended first: Brian2 turns Ctrl-C into a request to stop the run."""
+        simulation ended first: Brian2 turns Ctrl-C into a request to stop the run. A
+        divergence raises :class:`~astrocpg.errors.Diverged` itself, the diverged session's
+        row in ``training.memory`` (outputs not written: :meth:`write_outputs`)."""
         import time
         L_max = float(np.asarray(self.models.progress.parameters["L_max"].value))
         left = (self.settings.n_sessions - self.training.sessions_done.min()) * L_max
@@ -228,7 +224,7 @@ class Trainer:
         try:
             if not self.training.done.all():
                 # an upper bound: the session loop stops the network when all trials are done
-                self.cpg.net.run((left + 1.0) * second, namespace={})
+                run_network(self.cpg.net, (left + 1.0) * second, namespace={})
         finally:
             self.bar.close()
         self.write_outputs()
