@@ -153,7 +153,6 @@ class Bridge:
         self._until_check = self.check_every
         self._hooks: dict[str, Hook] = {}
         self._run: dict[str, tuple[Callable[..., None], ...]] = {s: () for s in STAGES}
-        self._t = cpg.motor.clock.variables["t"].get_value()  # live (1,) array, s
 
         # cached raw views into the Brian2 state (numpy target: live arrays)
         self._torso_speed = cpg.array("pool", "torso_speed").reshape(B, 4, len(POOLS))
@@ -333,8 +332,9 @@ class Bridge:
     # ---- divergence
     @property
     def t(self) -> float:
-        """Simulated time (s) at the end of the step in progress (after its physics)."""
-        return float(self._t[0]) + self.dt
+        """Simulated time (s) at the end of the last physics step: ``step_count * dt`` (the
+        network's time after that step, the bridge being in the network from its start)."""
+        return self.step_count * self.dt
 
     def check_cpg(self, t: float | None = None) -> None:
         """Raise :class:`Diverged` (through :meth:`diverge`) if any CPG state is NaN/inf.

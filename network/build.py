@@ -96,18 +96,20 @@ class CPG:
     # ---- divergence
     def state_arrays(self) -> list[tuple[str, str, np.ndarray, int | None]]:
         """(population, variable, live array, elements per trial) of every float state variable
-        that can change during a run: differential equations and plain parameters of the
-        neurons, interneurons, astrocytes, pools and torque traces, and the per-synapse state of
-        every synapse group (the inter-limb weights and STDP signals). Not constants, linked
-        variables, subexpressions, ``lastspike``, integers or booleans. Groups are trial-major,
-        so element ``k`` belongs to trial ``k // per_trial``. Built once."""
+        that can change during a run: the per-synapse state of every synapse group (the
+        inter-limb weights and STDP signals), and the differential equations and plain
+        parameters of the pools, astrocytes, torque traces, interneurons and motor neurons. Not
+        constants, linked variables, subexpressions, ``lastspike``, integers or booleans.
+        Upstream first (a NaN weight spreads to the pools' input, then to the motor neurons),
+        so the first found is the likeliest origin. Groups are trial-major, so element ``k``
+        belongs to trial ``k // per_trial``. Built once."""
         return [(p, v, a, n) for p, v, a, n, _, _ in self._state_table()]
 
     def _state_table(self) -> list[tuple[str, str, np.ndarray, int | None, Any, np.ndarray]]:
         if self._state is None:
-            groups = [(name, getattr(self, name)) for name in
-                      ("motor", "interneuron", "astrocyte", "pool", "torque")]
-            groups += list(self.synapses.items())
+            groups = list(self.synapses.items())
+            groups += [(name, getattr(self, name)) for name in
+                       ("pool", "astrocyte", "torque", "interneuron", "motor")]
             table = []
             for name, obj in groups:
                 for var, eq in obj.equations.items():
@@ -137,9 +139,11 @@ class CPG:
                 if not bad.size:  # pragma: no cover - the array changed under us
                     continue
                 k = int(bad[0])
+                others = tuple(f"{n}.{v}" for n, v, a, _, d, z in self._state_table()
+                               if (n, v) != (name, var) and not isfinite(d(z)))
                 return NonFinite(population=name, variable=var,
                                  trial=None if per_trial is None else k // per_trial, index=k,
-                                 value=float(arr[k]))
+                                 value=float(arr[k]), others=others)
         return None
 
     def reset_trial(self, trial: int, keep: tuple[str, ...] = ("astrocyte",)) -> None:

@@ -48,6 +48,7 @@ class NonFinite:
     trial: int | None
     index: int
     value: float
+    others: tuple[str, ...] = ()  # the other ``population.variable`` holding NaN/inf then
 
     @property
     def culprit(self) -> str:
@@ -58,8 +59,9 @@ class NonFinite:
         model = MODEL_OF.get(self.population, self.population)
         where = f"trial {self.trial}" if self.trial is not None else "unknown trial"
         at = f" at t = {t:.3f} s" if t is not None else ""
+        also = f" (also non-finite: {', '.join(self.others)})" if self.others else ""
         return Diverged(f"{self.value} in {self.population} (model {model}) element "
-                        f"{self.index}, {where}{at}", culprit=self.culprit, t=t,
+                        f"{self.index}, {where}{at}{also}", culprit=self.culprit, t=t,
                         trial=self.trial)
 
 
