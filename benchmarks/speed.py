@@ -7,7 +7,10 @@ Targets (issue 2): <= 1.2 s per simulated second for one trial, <= 0.2 s per tri
 Start-up (import, build, code generation, first step) is reported apart: it is paid once per run.
 Pin to one core with ``taskset -c 0`` for a one-core figure; the script also reports CPU time.
 ``--check-every 0`` turns the bridge's CPG divergence check off (the robot's is always on), to
-measure what the check costs: ``--check-every 10 0`` measures both, interleaved.
+measure what the check costs: ``--check-every 10 0`` measures both, interleaved. On a loaded
+machine the difference drowns in noise; ``--check-cost`` also times the divergence checks
+themselves in the same process (the robot's every step, the CPG's every N steps) and gives them
+as a share of the loop's CPU time per step.
 """
 
 from __future__ import annotations
@@ -27,8 +30,8 @@ from astrocpg.models import DEFAULT_MODELS  # noqa: E402
 from astrocpg.studies.simulate import _monitors  # noqa: E402
 
 
-def measure(n_trials: int, seconds: float, record: bool,
-            check_every: int = 10) -> dict[str, float]:
+def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
+            check_cost: bool = False) -> dict[str, float]:
     t_start = time.perf_counter()
     loop = build_closed_loop(DEFAULT_MODELS, n_trials=n_trials, seed=1, check_every=check_every)
     cpg = loop.cpg
@@ -40,9 +43,32 @@ def measure(n_trials: int, seconds: float, record: bool,
     w0, c0 = time.perf_counter(), time.process_time()
     loop.run(seconds)
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-    return {"trials": n_trials, "wall_per_sim_s": wall / seconds,
-            "cpu_per_sim_s": cpu / seconds, "wall_per_trial": wall / seconds / n_trials,
-            "startup_s": startup, "check_every": check_every}
+    out = {"trials": n_trials, "wall_per_sim_s": wall / seconds,
+           "cpu_per_sim_s": cpu / seconds, "wall_per_trial": wall / seconds / n_trials,
+           "startup_s": startup, "check_every": check_every}
+    if check_cost:
+        out.update(_check_cost(loop, cpu / (seconds / float(cpg.dt))))
+    return out
+
+
+def _check_cost(loop, cpu_per_step: float, calls: int = 3000) -> dict[str, float]:
+    """CPU seconds of the divergence checks per step, timed in this process, interleaved."""
+    bridge, cpg = loop.bridge, loop.cpg
+    robot = cpg_check = 0.0
+    for _ in range(5):
+        c0 = time.process_time()
+        for _ in range(calls):
+            bridge._robot_unstable()
+        c1 = time.process_time()
+        for _ in range(calls // 10):
+            cpg.first_nonfinite()
+        c2 = time.process_time()
+        robot += (c1 - c0) / (5 * calls)
+        cpg_check += (c2 - c1) / (5 * (calls // 10))
+    every = bridge.check_every or 10
+    share = (robot + cpg_check / every) / cpu_per_step
+    return {"loop_us": cpu_per_step * 1e6, "robot_check_us": robot * 1e6,
+            "cpg_check_us": cpg_check * 1e6, "check_share": share, "every": every}
 
 
 def main() -> None:
@@ -54,6 +80,8 @@ def main() -> None:
     ap.add_argument("--check-every", type=int, nargs="+", default=[10], metavar="N",
                     help="steps between CPG divergence checks (0: off); several values are "
                          "measured one after the other for each trial count")
+    ap.add_argument("--check-cost", action="store_true",
+                    help="also time the divergence checks alone, as a share of the loop")
     args = ap.parse_args()
     print(f"closed loop, numpy target, {args.seconds:g} simulated s per point, "
           f"recording {'on' if args.record else 'off'}")
@@ -61,11 +89,16 @@ def main() -> None:
           f"{'CPU s/sim s':>12} {'start-up s':>11}")
     for n in args.trials:
         for every in args.check_every:
-            r = measure(n, args.seconds, args.record, every)
+            r = measure(n, args.seconds, args.record, every, args.check_cost)
             check = str(every) if every else "off"
             print(f"{r['trials']:>6} {check:>6} {r['wall_per_sim_s']:>13.3f} "
                   f"{r['wall_per_trial']:>10.3f} {r['cpu_per_sim_s']:>12.3f} "
                   f"{r['startup_s']:>11.1f}", flush=True)
+            if args.check_cost:
+                print(f"{'':>6} divergence checks: robot {r['robot_check_us']:.2f} us every "
+                      f"step, CPG {r['cpg_check_us']:.1f} us every {r['every']} steps, loop "
+                      f"{r['loop_us']:.0f} us CPU per step: {100 * r['check_share']:.2f}% "
+                      f"of the loop", flush=True)
 
 
 if __name__ == "__main__":
