@@ -27,7 +27,7 @@ from brian2 import ms  # noqa: E402
 
 from astrocpg.coupling.assembly import build_closed_loop  # noqa: E402
 from astrocpg.models import DEFAULT_MODELS  # noqa: E402
-from astrocpg.studies.simulate import _monitors  # noqa: E402
+from astrocpg.studies.experiments.simulate import add_monitors  # noqa: E402
 
 
 def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
@@ -37,7 +37,7 @@ def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
     cpg = loop.cpg
     if record:
         loop.bridge.start_recording(int(seconds * 1000) + 200, 1)
-        _monitors(cpg, 1 * ms, True)
+        add_monitors(cpg, 1 * ms, True)
     loop.run(0.1)  # code generation and first steps
     startup = time.perf_counter() - t_start
     w0, c0 = time.perf_counter(), time.process_time()

@@ -1,7 +1,10 @@
 """The biophysics of astrocpg: one model per module, each an equation string and a parameter
 table (name, value with unit, the paper's symbol, meaning). :class:`ModelSet` gathers the models
 a network is built from; change a model with ``ModelSet.replace(...)`` or override parameter
-values by name with ``ModelSet.with_values(...)``.
+values by name with ``ModelSet.with_values(...)``. Every model honours one contract,
+:class:`~astrocpg.models.base.Model` (``kind``, ``code_field``, ``replace``, ``with_values``,
+``with_code``, ``statements``, ``to_json``/``from_json``). Importing this package registers the
+integration schemes of :mod:`~astrocpg.models.integration` with Brian2 by name.
 """
 
 from __future__ import annotations
@@ -11,12 +14,23 @@ from dataclasses import dataclass
 from typing import Any, Iterator, Mapping
 
 import brian2
+import numpy as np
 
 from ..errors import InputError
+from .values import example_value, parse_value, unit_spelling
 from .alive import ALIVE
 from .astrocyte import ASTROCYTE
 from .energy import RL_POWER, SNN_POWER
-from .base import ExpressionModel, NeuronModel, Parameter, ParameterTable, SynapseModel
+from .base import (
+    BrianModel,
+    ExpressionModel,
+    Model,
+    NeuronModel,
+    Parameter,
+    ParameterTable,
+    SynapseModel,
+)
+from .integration import INPUT_THEN_DECAY, register_method, registered_methods
 from .hip_controller import HIP_CONTROLLER
 from .interlimb_synapse import INTERLIMB_SYNAPSE
 from .interneuron import INTERNEURON
@@ -27,8 +41,6 @@ from .pool import POOL, POOL_ACTIVITY
 from .reward import REWARD
 from .session import LEARNING_START, PROGRESS
 from .torque import TORQUE
-
-Model = NeuronModel | SynapseModel | ExpressionModel
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -57,12 +69,16 @@ class ModelSet:
 
     def __post_init__(self) -> None:
         owners: dict[str, str] = {}
+        for f in dataclasses.fields(self):
+            model, kind = getattr(self, f.name), f.default.kind  # the default's kind
+            if not isinstance(model, Model) or model.kind != kind:
+                got = model.kind if isinstance(model, Model) else type(model).__name__
+                raise InputError(f"must be a {kind} model, got {got}", culprit=f.name)
         for model_name, model in self.items():
             for pname in model.parameters:
                 if pname in owners:
-                    raise InputError(
-                        f"{model_name}: parameter '{pname}' is also declared by {owners[pname]}"
-                    )
+                    raise InputError(f"is also declared by {owners[pname]}",
+                                     culprit=f"{model_name}.{pname}")
                 owners[pname] = model_name
 
     def items(self) -> Iterator[tuple[str, Model]]:
@@ -71,16 +87,17 @@ class ModelSet:
 
     def replace(self, **models: Model) -> "ModelSet":
         """A copy with whole models replaced (e.g. an edited equation string)."""
+        names = [f.name for f in dataclasses.fields(self)]
         for name in models:
-            if name not in {f.name for f in dataclasses.fields(self)}:
-                raise InputError(f"ModelSet: unknown model '{name}'")
+            if name not in names:
+                raise InputError(f"unknown model (models: {', '.join(names)})", culprit=name)
         return dataclasses.replace(self, **models)
 
     def owner_of(self, parameter: str) -> str:
         for model_name, model in self.items():
             if parameter in model.parameters:
                 return model_name
-        raise InputError(f"unknown model parameter '{parameter}'")
+        raise InputError("unknown model parameter", culprit=parameter)
 
     def parameter(self, name: str) -> Parameter:
         return getattr(self, self.owner_of(name)).parameters[name]
@@ -95,48 +112,48 @@ class ModelSet:
         )
 
     def parse_assignment(self, text: str) -> tuple[str, Any]:
-        """Parse ``NAME=VALUE`` (e.g. ``tau_motor=9*ms``, ``A_random=0.3``, ``C_K_chan=8 V/s``)."""
-        if "=" not in text:
-            raise InputError(f"--set '{text}': expected NAME=VALUE")
-        name, _, expr = (s.strip() for s in text.partition("="))
+        """Parse ``NAME=VALUE`` (e.g. ``tau_motor=9*ms``, ``A_random=0.3``,
+        ``C_K_chan=8 volt/second``). The value is parsed (numbers, Brian2 unit names and
+        arithmetic on them: :func:`astrocpg.models.values.parse_value`), never evaluated."""
+        name, sep, expr = (s.strip() for s in text.partition("="))
+        if not sep or not name:
+            raise InputError("expected NAME=VALUE", culprit=f"--set '{text}'")
         param = self.parameter(name)
-        expr = expr.replace(" ", "*") if " " in expr.strip() else expr
-        try:
-            value = eval(expr, {"__builtins__": {}}, _UNIT_NAMESPACE)  # noqa: S307
-        except Exception:
-            raise InputError(f"--set {name}: cannot read the value '{expr}'") from None
+        value = parse_value(expr, culprit=f"--set {name}")
         if brian2.get_dimensions(value) != param.dimensions:
-            raise InputError(
-                f"--set {name}: needs units of {_unit_of(param.value)}, got '{expr}'"
-            )
+            raise InputError(f"needs units of {unit_spelling(param.value)}, e.g. "
+                             f"{example_value(param.value)}; got '{expr}'",
+                             culprit=f"--set {name}")
+        if param.positive and not float(np.asarray(value)) > 0:
+            raise InputError(f"must be positive ({param.meaning}), got '{expr}'",
+                             culprit=f"--set {name}")
         return name, value
 
     def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for name, model in self.items():
-            entry: dict[str, Any] = {"parameters": model.parameters.to_json()}
-            for attr in ("equations", "model", "expression", "threshold", "reset", "on_pre",
-                         "weight", "on_step", "refractory"):
-                val = getattr(model, attr, None)
-                if val:
-                    entry[attr] = val
-            out[name] = entry
-        return out
+        """Each model's :meth:`~astrocpg.models.base.Model.to_json` by name: enough to rebuild
+        the set with :meth:`from_json` (statements, method, initial values, parameters)."""
+        return {name: model.to_json() for name, model in self.items()}
 
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> "ModelSet":
+        """The set :meth:`to_json` wrote (e.g. a manifest's ``"models"``). Models the data does
+        not name keep their defaults."""
+        if not isinstance(data, Mapping):
+            raise InputError(f"expected a table of models, got {type(data).__name__}",
+                             culprit="models")
+        names = [f.name for f in dataclasses.fields(cls)]
+        models = {}
+        for name, entry in data.items():
+            if name not in names:
+                raise InputError(f"unknown model (models: {', '.join(names)})", culprit=name)
+            models[name] = Model.from_json(entry, name=name)
+        return cls(**models)
 
-def _unit_of(value: Any) -> str:
-    dims = brian2.get_dimensions(value)
-    return "1 (dimensionless)" if dims.is_dimensionless else str(brian2.get_unit(dims))
-
-
-_UNIT_NAMESPACE = {
-    k: v for k, v in vars(brian2.units).items() if isinstance(v, (brian2.Unit, brian2.Quantity))
-}
-_UNIT_NAMESPACE.update({"pi": 3.141592653589793})
 
 DEFAULT_MODELS = ModelSet()
 
 __all__ = [
-    "ModelSet", "DEFAULT_MODELS", "NeuronModel", "SynapseModel", "ExpressionModel", "Parameter",
-    "ParameterTable",
+    "ModelSet", "DEFAULT_MODELS", "Model", "BrianModel", "NeuronModel", "SynapseModel",
+    "ExpressionModel", "Parameter", "ParameterTable", "INPUT_THEN_DECAY", "register_method",
+    "registered_methods",
 ]

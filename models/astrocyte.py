@@ -11,20 +11,20 @@ from brian2 import second, umolar
 from .base import NeuronModel, Parameter, ParameterTable
 
 EQUATIONS = """
-dCa/dt = J_chan + J_leak - J_pump : mmolar
-J_chan = r_C*(m_inf*n_inf*h)**3*(C0 - (1 + c1)*Ca) : mmolar/second
-J_leak = r_L*(C0 - (1 + c1)*Ca) : mmolar/second
-J_pump = v_ER*Ca**2/(k_ER**2 + Ca**2) : mmolar/second
-m_inf = IP3/(IP3 + d1) : 1
-n_inf = Ca/(Ca + d5) : 1
-dh/dt = (h_inf - h)/tau_h : 1
-h_inf = Q2/(Q2 + Ca) : 1
-tau_h = 1/(a2*(Q2 + Ca)) : second
-Q2 = d2*(IP3 + d1)/(IP3 + d3) : mmolar
-dIP3/dt = (IP3_star - IP3)/tau_IP3 + r_IP3*AG : mmolar
-dAG/dt = -AG/tau_AG + r_AG*n_pool/dt : 1
-dADO/dt = -ADO/tau_ADO : 1
-n_pool : 1 (linked)
+dCa/dt = J_chan + J_leak - J_pump : mmolar  # cytosolic [Ca2+]
+J_chan = r_C*(m_inf*n_inf*h)**3*(C0 - (1 + c1)*Ca) : mmolar/second  # Ca2+ release from the ER through IP3 receptors
+J_leak = r_L*(C0 - (1 + c1)*Ca) : mmolar/second  # Ca2+ leak from the ER
+J_pump = v_ER*Ca**2/(k_ER**2 + Ca**2) : mmolar/second  # Ca2+ uptake into the ER by SERCA pumps
+m_inf = IP3/(IP3 + d1) : 1  # IP3 activation of the IP3 receptor (steady state)
+n_inf = Ca/(Ca + d5) : 1  # Ca2+ activation of the IP3 receptor (steady state)
+dh/dt = (h_inf - h)/tau_h : 1  # fraction of IP3 receptors not inactivated by Ca2+
+h_inf = Q2/(Q2 + Ca) : 1  # steady state of h
+tau_h = 1/(a2*(Q2 + Ca)) : second  # time constant of h
+Q2 = d2*(IP3 + d1)/(IP3 + d3) : mmolar  # apparent dissociation constant of Ca2+ inactivation
+dIP3/dt = (IP3_star - IP3)/tau_IP3 + r_IP3*AG : mmolar  # [IP3], produced by 2-AG
+dAG/dt = -AG/tau_AG + r_AG*n_pool/dt : 1  # [2-AG], released by the pool's spikes
+dADO/dt = -ADO/tau_ADO : 1  # [ADO], +r_ADO per release (reset)
+n_pool : 1 (linked)  # spikes of the astrocyte's pool in this step, from the pool
 """
 
 # Adenosine release: the "spike" of an astrocyte.

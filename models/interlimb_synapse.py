@@ -16,16 +16,15 @@ adenosine of the target pool's astrocyte. The paper's learning rates are per 1 m
 from brian2 import mV, second
 
 from .base import Parameter, ParameterTable, SynapseModel
-from .integration import input_then_decay
 
 MODEL = """
-w : volt
-dSTDP/dt = -STDP/tau_STDP + (n_post*u_pre - eta_negative_relative*n_pre*u_post)/dt : 1 (clock-driven)
-I_interlimb_post = w*n_pre/dt : volt/second (summed)
-zeta = (w_max - w)*(w - w_min)/(w_max - w_min)**2 : 1
-r_eff = reward_post - c_average*reward_mean_post : 1
-ADO : 1 (linked)
-astrocyte_index : integer (constant)
+w : volt  # inter-limb weight w[x, y], learnt (ON_STEP)
+dSTDP/dt = -STDP/tau_STDP + (n_post*u_pre - eta_negative_relative*n_pre*u_post)/dt : 1 (clock-driven)  # STDP signal of the pool pair
+I_interlimb_post = w*n_pre/dt : volt/second (summed)  # input to the target pool, summed over source pools
+zeta = (w_max - w)*(w - w_min)/(w_max - w_min)**2 : 1  # weight bound, 0 at w_min and w_max
+r_eff = reward_post - c_average*reward_mean_post : 1  # reward minus c_average times its recent mean
+ADO : 1 (linked)  # [ADO] of the target pool's astrocyte
+astrocyte_index : integer (constant)  # index of the target pool's astrocyte
 """
 
 ON_STEP = (
@@ -55,5 +54,5 @@ PARAMETERS = ParameterTable("interlimb_synapse", [
 
 INTERLIMB_SYNAPSE = SynapseModel(
     name="interlimb_synapse", model=MODEL, on_step=ON_STEP, parameters=PARAMETERS,
-    method=input_then_decay, description=__doc__,
+    method="input_then_decay", description=__doc__,
 )

@@ -7,10 +7,9 @@ with the V1/V2b interneurons". No background drive: they fire only when their po
 from brian2 import ms, mV
 
 from .base import NeuronModel, Parameter, ParameterTable
-from .integration import input_then_decay
 
 EQUATIONS = """
-dv/dt = (v_interneuron_rest - v)/tau_interneuron : volt
+dv/dt = (v_interneuron_rest - v)/tau_interneuron : volt  # membrane potential
 """
 
 # p_spike = Sigmoid((v - v_th)/(S_spike/2)) of the paper, written as the identical
@@ -45,6 +44,6 @@ INTERNEURON = NeuronModel(
     threshold=THRESHOLD,
     reset=RESET,
     refractory=REFRACTORY,
-    method=input_then_decay,
+    method="input_then_decay",
     description=__doc__,
 )

@@ -7,7 +7,7 @@ from brian2 import mV
 
 from .base import Parameter, ParameterTable, SynapseModel
 
-MODEL = "w : volt (constant)"
+MODEL = "w : volt (constant)  # synapse strength, from the neurons' distance (WEIGHT)"
 ON_PRE = "v_post += w*int(not_refractory_post)"
 WEIGHT = (
     "w_0dist*exp(-c_dist*sqrt((x_position_pre - x_position_post)**2"

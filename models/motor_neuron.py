@@ -9,21 +9,20 @@ not refractory; the K+ current acts on every neuron (SPEC section 1, authors' di
 from brian2 import Hz, meter, ms, mV, second
 
 from .base import NeuronModel, Parameter, ParameterTable
-from .integration import input_then_decay
 
 EQUATIONS = """
-dv/dt = (v_motor_rest - v)/tau_motor + int(not_refractory)*I_input - C_K_chan*K_open : volt
-I_input = I_background*(1 + A_random*noise) + I_interlimb - C_limit_position*limit_inhibition : volt/second
-I_background = I_background_0 + k_background_v*torso_speed : volt/second
-K_open = 1/(1 + exp(-S_K_chan*(Ca - Thres_Ca))) : 1
-dCa/dt = -Ca/tau_Ca : 1
-noise = 2*rand() - 1 : 1 (constant over dt)
-torso_speed : meter/second (linked)
-limit_inhibition : 1 (linked)
-I_interlimb : volt/second (linked)
-x_position : 1 (constant)
-y_position : 1 (constant)
-z_position : 1 (constant)
+dv/dt = (v_motor_rest - v)/tau_motor + int(not_refractory)*I_input - C_K_chan*K_open : volt  # membrane potential
+I_input = I_background*(1 + A_random*noise) + I_interlimb - C_limit_position*limit_inhibition : volt/second  # input, reaches only non-refractory neurons
+I_background = I_background_0 + k_background_v*torso_speed : volt/second  # background stimulation, grows with torso speed
+K_open = 1/(1 + exp(-S_K_chan*(Ca - Thres_Ca))) : 1  # open fraction of the Ca2+-activated K+ channel
+dCa/dt = -Ca/tau_Ca : 1  # intracellular [Ca2+], +r_Ca per spike (reset)
+noise = 2*rand() - 1 : 1 (constant over dt)  # uniform noise in [-1, 1], drawn per neuron per step
+torso_speed : meter/second (linked)  # torso speed, from the neuron's pool
+limit_inhibition : 1 (linked)  # 1 while the pool drives its joint into a limit, from the pool
+I_interlimb : volt/second (linked)  # summed inter-limb input of the pool, from the pool
+x_position : 1 (constant)  # position in the unit cube (intra-pool synapse strength)
+y_position : 1 (constant)  # position in the unit cube
+z_position : 1 (constant)  # position in the unit cube
 """
 
 # p_spike = Sigmoid((v - v_th)/(S_spike/2)) of the paper, written as the identical
@@ -75,7 +74,7 @@ MOTOR_NEURON = NeuronModel(
     threshold=THRESHOLD,
     reset=RESET,
     refractory=REFRACTORY,
-    method=input_then_decay,
+    method="input_then_decay",
     description=__doc__,
 )
 

@@ -15,18 +15,17 @@ from brian2 import second
 from brian2.units.allunits import radian
 
 from .base import NeuronModel, Parameter, ParameterTable, SynapseModel
-from .integration import input_then_decay
 
 EQUATIONS = """
-n : 1
-du/dt = -u/tau_trace + n/dt : 1
-torso_speed : meter/second
-limit_inhibition : 1
-I_interlimb : volt/second
-reward : 1
-reward_mean : 1
-progress : 1
-learning : 1
+n : 1  # spike count of the pool in this step (pool_activity)
+du/dt = -u/tau_trace + n/dt : 1  # spike trace of the pool (STDP)
+torso_speed : meter/second  # torso speed (set by the session loop)
+limit_inhibition : 1  # 1 while the pool drives its joint into a limit (set by the session loop)
+I_interlimb : volt/second  # summed inter-limb input (interlimb_synapse)
+reward : 1  # reward r of the trial (set by the session loop)
+reward_mean : 1  # mean of r over the last reward_window of the session
+progress : 1  # training Progress of the trial
+learning : 1  # 1 once the session has passed t_learning_start, else 0
 """
 
 PARAMETERS = ParameterTable("pool", [
@@ -39,12 +38,12 @@ PARAMETERS = ParameterTable("pool", [
 ])
 
 POOL = NeuronModel(name="pool", equations=EQUATIONS, parameters=PARAMETERS,
-                   method=input_then_decay, description=__doc__)
+                   method="input_then_decay", description=__doc__)
 
 # Every motor neuron reports its spike of this step to its pool.
 POOL_ACTIVITY = SynapseModel(
     name="pool_activity",
-    model="n_post = int(lastspike_pre == t) : 1 (summed)",
+    model="n_post = int(lastspike_pre == t) : 1 (summed)  # 1 if the neuron spiked in this step",
     parameters=ParameterTable("pool_activity", []),
     description="Spike count of a pool in the current step (sum over its motor neurons).",
 )

@@ -7,13 +7,12 @@ from brian2 import meter, second
 from brian2.units.allunits import newton
 
 from .base import NeuronModel, Parameter, ParameterTable
-from .integration import input_then_decay
 
 EQUATIONS = """
-dh/dt = -h/tau_h + I_joint*(n_extensor - n_flexor)/dt : newton*meter
-I_joint : newton*meter (constant)
-n_extensor : 1 (linked)
-n_flexor : 1 (linked)
+dh/dt = -h/tau_h + I_joint*(n_extensor - n_flexor)/dt : newton*meter  # motor torque of the joint
+I_joint : newton*meter (constant)  # torque per spike: I_thigh or I_calf
+n_extensor : 1 (linked)  # spikes of the extensor pool in this step
+n_flexor : 1 (linked)  # spikes of the flexor pool in this step
 """
 
 PARAMETERS = ParameterTable("torque", [
@@ -29,6 +28,6 @@ TORQUE = NeuronModel(
     name="torque",
     equations=EQUATIONS,
     parameters=PARAMETERS,
-    method=input_then_decay,
+    method="input_then_decay",
     description=__doc__,
 )

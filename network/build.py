@@ -163,7 +163,7 @@ class CPG:
         if "interlimb" in self.synapses:
             n = len(self.interlimb_pairs)
             for var, arr in self._reset_arrays("interlimb"):
-                arr[trial * n:(trial + 1) * n] = 0.0
+                arr[trial * n:(trial + 1) * n] = self._initial("interlimb", var)
 
     def _reset_arrays(self, name: str) -> list[tuple[str, np.ndarray]]:
         """(variable, live array) of what a session reset sets back: the model's differential
@@ -191,8 +191,12 @@ class CPG:
             return True
         model = {"motor": self.models.motor_neuron, "interneuron": self.models.interneuron,
                  "astrocyte": self.models.astrocyte, "pool": self.models.pool,
-                 "torque": self.models.torque}[group]
+                 "torque": self.models.torque,
+                 "interlimb": self.models.interlimb_synapse}[group]
         value = model.initial_values.get(var, 0.0)
+        if isinstance(value, str):
+            raise InputError("a session reset needs a number, not an expression",
+                             culprit=f"{model.name}.initial_values.{var}")
         return float(np.asarray(value))
 
 
@@ -240,6 +244,7 @@ def build_cpg(
 
     def group(model: NeuronModel, n: int, name: str) -> NeuronGroup:
         try:
+            # model.method is a scheme's registered name (e.g. "input_then_decay")
             g = NeuronGroup(
                 n, model.equations, threshold=model.threshold, reset=model.reset,
                 refractory=model.refractory if model.refractory else False,
@@ -260,6 +265,8 @@ def build_cpg(
                          method=model.method, namespace=model.parameters.namespace(), name=name,
                          dt=dt)
             s.connect(i=np.asarray(i, dtype=np.int32), j=np.asarray(j, dtype=np.int32))
+            for var, value in model.initial_values.items():
+                setattr(s, var, value)
             if model.weight:
                 s.w = model.weight
         except InputError:

@@ -47,6 +47,20 @@ class Layout:
     def n_legs(self) -> int:
         return len(self.legs)
 
+    def to_json(self) -> dict:
+        """The index layout, for manifests: how a population's index maps to trial, leg, pool."""
+        return {
+            "n_trials": self.n_trials, "legs": list(self.legs), "pools": list(POOLS),
+            "pool_size": self.pool_size,
+            "motor_index": "trial*motor_per_trial + (leg*4 + pool)*pool_size + k",
+            "motor_per_trial": self.motor_per_trial,
+            "interneurons": [n for n, *_ in INTERNEURONS],
+            "interneuron_index": "trial*interneurons_per_trial + leg*6 + interneuron",
+            "interneurons_per_trial": self.interneurons_per_trial,
+            "astrocyte_index": "trial*thigh_pools_per_trial + leg*2 + (0 flexor, 1 extensor)",
+            "thigh_pools": list(THIGH_POOLS),
+        }
+
     # ---- sizes per trial
     @property
     def pools_per_trial(self) -> int:

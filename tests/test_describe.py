@@ -6,7 +6,7 @@ from pathlib import Path
 
 from astrocpg.models import DEFAULT_MODELS
 from astrocpg.studies.cli import main
-from astrocpg.studies.describe import describe
+from astrocpg.studies.figures.describe import describe
 
 
 def test_every_model_is_described_with_its_parameters() -> None:

@@ -57,9 +57,10 @@ def test_enormous_interlimb_weights():
     assert "pool.I_interlimb" in e.message
 
 
-def test_unstable_robot(tmp_path):
+def test_unstable_robot(tmp_path, monkeypatch):
     """The project's A1 exported to MJCF with a huge motor gear: MuJoCo's bad qacc at the first
     step (MuJoCo resets such a robot itself; the counter is read the same step)."""
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warnings to MUJOCO_LOG.TXT here
     path = tmp_path / "a1_geared.xml"
     export_xml(path)
     text = path.read_text()
@@ -141,16 +142,15 @@ def test_training_keeps_the_diverged_session(check_every, found_at, last_length)
 def test_trainer_writes_the_diverged_row(tmp_path):
     import csv
 
-    from astrocpg.studies.cli import models_from
-    from astrocpg.studies.train import Trainer, TrainSettings
+    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.studies.experiments.train import Trainer, TrainSettings
 
     settings = TrainSettings(n_sessions=5, seed=1, n_trials=1, astrocytes=True,
                              overrides=["L_max=0.01*second"])
-    trainer = Trainer(models_from(settings.overrides, {}), settings, tmp_path, progress=False)
+    trainer = Trainer(model_set(settings.overrides), settings, tmp_path, progress=False)
     _poison_at(trainer, 25, trial=0)
     with pytest.raises(Diverged):
-        trainer.run()
-    trainer.write_outputs()  # what the command line does before exit 3
+        trainer.run()  # writes the outputs, then raises
     with open(tmp_path / "sessions.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     assert list(rows[0]) == list(SESSION_COLUMNS)

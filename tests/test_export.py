@@ -27,7 +27,7 @@ def test_nwb_round_trip_and_inspector(run_dir: Path) -> None:
     from pynwb import NWBHDF5IO
 
     assert main(["export", str(run_dir), "--format", "nwb"]) == 0
-    path = run_dir / "export.nwb"
+    path = run_dir.with_name(run_dir.name + ".nwb")  # beside the folder it reads
     messages = list(inspect_nwbfile(nwbfile_path=str(path)))
     assert not [m for m in messages if m.importance == Importance.CRITICAL], messages
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from astrocpg.studies.cli import main
-from astrocpg.studies.gait import gait_label, phase_matrix
+from astrocpg.studies.analysis.gait import gait_label, phase_matrix
 
 LOCKED = {leg: 0.95 for leg in ("FR", "FL", "RR", "RL")}
 
@@ -47,7 +47,7 @@ def test_gait_plot_and_replay(trained, capsys, tmp_path):
     assert out.count("gait:") == 2 and "relative to FR" in out
     assert main(["plot", str(trained), "--seconds", "3"]) == 0
     for name in ("weights.png", "training.png", "thigh_extensor_activity.png", "gait.png"):
-        assert (trained / name).stat().st_size > 5000, name
+        assert (trained / "figures" / name).stat().st_size > 5000, name
     assert main(["run", "--weights", str(trained), "--trial", "1", "--seconds", "1",
                  "--no-progress", "--out", str(tmp_path / "replay")]) == 0
     with np.load(tmp_path / "replay" / "robot.npz") as z, np.load(trained / "weights.npz") as w:
@@ -55,7 +55,7 @@ def test_gait_plot_and_replay(trained, capsys, tmp_path):
 
 
 def test_weight_structure():
-    from astrocpg.studies.gait import weight_structure
+    from astrocpg.studies.analysis.gait import weight_structure
     t = np.zeros((8, 8))
     t[0:2, 2:4] = [[-1, 1], [1, -1]]  # FR -> FL: the paper's pattern
     t[4:6, 0:2] = 1.0  # RR -> FR: all excitatory

@@ -9,8 +9,8 @@ import numpy as np
 from brian2 import SpikeMonitor, StateMonitor
 
 from astrocpg.coupling.recorder import RecordPlan
-from astrocpg.studies.cli import models_from
-from astrocpg.studies.train import Trainer, TrainSettings
+from astrocpg.studies.experiments.settings import model_set as models_from
+from astrocpg.studies.experiments.train import Trainer, TrainSettings
 
 
 def test_recorded_sessions_match_brian2_monitors(tmp_path: Path) -> None:

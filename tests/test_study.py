@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from astrocpg.errors import InputError
-from astrocpg.studies.study import load_study
+from astrocpg.studies.sweeps.study import load_study
 
 BIN = Path(sys.executable).parent
 ENV = {**os.environ, "PYTHONWARNINGS": "ignore", "DASK_DISTRIBUTED__LOGGING__DISTRIBUTED": "error"}
@@ -125,9 +125,11 @@ def test_sweep_grid_and_seed_batches(tmp_path: Path) -> None:
     assert not b.astrocytes and "L_non_alive=0.5*second" in b.overrides
     assert len({r.run_id for r in study.runs}) == 12
     for name in ("quick", "ablation"):
-        built_in = load_study(Path(__file__).resolve().parents[1] / "studies" / f"{name}.toml")
+        built_in = load_study(Path(__file__).resolve().parents[1] / "studies" / "sweeps"
+                              / f"{name}.toml")
         assert {r.condition for r in built_in.runs} == {"astrocytes", "no_astrocytes"}
-    ablation = load_study(Path(__file__).resolve().parents[1] / "studies" / "ablation.toml")
+        assert load_study(name).path == built_in.path  # a built-in study by its name
+    ablation = load_study(Path(__file__).resolve().parents[1] / "studies" / "sweeps" / "ablation.toml")
     assert ablation.n_sessions == 400 and len(ablation.seeds) == 20
 
 
@@ -233,8 +235,8 @@ def test_report_and_refusals(tmp_path: Path) -> None:
     assert {r["condition"] for r in rows} == {"astrocytes", "no_astrocytes"}
     assert main(["report", str(out)]) == 0
     for name in ("fig3c.png", "final_figures.csv", "report.md"):
-        assert (out / name).stat().st_size > 0
-    text = (out / "report.md").read_text()
+        assert (out / "report" / name).stat().st_size > 0
+    text = (out / "report" / "report.md").read_text()
     assert "| astrocytes | 2 | 2/2 | 2 |" in text and "| no_astrocytes | 2 | 2/2 | 2 |" in text
     # a rerun does nothing and keeps the table
     mtime = (out / "runs" / "astrocytes__seed1" / "sessions.csv").stat().st_mtime_ns
@@ -252,7 +254,7 @@ def test_power_counts_come_from_the_network(tmp_path: Path) -> None:
     formula with the measured rates; the RL figure is the paper's."""
     from astrocpg.network import INTERNEURONS, LEGS, build_cpg
     from astrocpg.studies.cli import main
-    from astrocpg.studies.power import synaptic_events_per_spike
+    from astrocpg.studies.experiments.power import synaptic_events_per_spike
 
     cpg = build_cpg(n_trials=2, seed=3)
     ops = synaptic_events_per_spike(cpg)
@@ -339,9 +341,9 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path: Path, case: str, ca
 def test_trailing_mean_of_the_report() -> None:
     import numpy as np
 
-    from astrocpg.studies.report import _moving_mean
+    from astrocpg.studies.sweeps.report import moving_mean
     t = np.array([[1.0, 2.0, 3.0, 4.0, np.nan], [2.0, 2.0, 2.0, 2.0, 2.0]])
-    out = _moving_mean(t, 2)
+    out = moving_mean(t, 2)
     np.testing.assert_allclose(out[0, :4], [1.0, 1.5, 2.5, 3.5])
     assert np.isnan(out[0, 4])  # a seed without that session stays missing
     np.testing.assert_allclose(out[1], 2.0)

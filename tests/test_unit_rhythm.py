@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from astrocpg.studies.analysis import burst_phase, cycle_period, detect_bursts, rate_per_neuron
+from astrocpg.studies.analysis.rhythm import burst_phase, cycle_period, detect_bursts, rate_per_neuron
 from astrocpg.studies.cli import main
 
 SECONDS = 30.0

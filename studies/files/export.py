@@ -24,14 +24,16 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from datetime import datetime
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
-from ..network.recordable import TRACE_SOURCES
+from ...errors import InputError
+from ...network.recordable import TRACE_SOURCES
+from .folder import clean_stale_temporaries, verify
 from .outputs import atomic_path, save_npz
 
 TRACE_MEANING = {
@@ -48,10 +50,8 @@ ROBOT_SERIES = (("joint_angles", "radian", "joint angles"),
 
 
 def _load(folder: Path) -> dict[str, Any]:
-    try:
-        manifest = json.loads((folder / "manifest.json").read_text())
-    except (OSError, ValueError):
-        raise InputError(f"export {folder}: no readable manifest.json") from None
+    # the folder's files are exactly what its manifest lists (or it is refused, naming why)
+    manifest = verify(folder, culprit="export")
     if manifest.get("astrocpg_command") not in ("run", "unit", "train-session"):
         raise InputError(f"export {folder}: holds a '{manifest.get('astrocpg_command')}' "
                          f"folder; export reads the output of astrocpg run or unit, or a "
@@ -63,8 +63,7 @@ def _load(folder: Path) -> dict[str, Any]:
         if path.exists():
             with np.load(path) as z:
                 data[name] = {k: z[k] for k in z.files}
-    if "spikes" not in data:
-        raise InputError(f"export {folder}: no spikes.npz")
+    data.setdefault("spikes", {})  # recorded with --spikes none: export what exists
     return data
 
 
@@ -264,10 +263,25 @@ def export_npz(folder: Path, path: Path) -> Path:
     return path
 
 
-def export(folder: Path, fmt: str, out: Path | None = None) -> Path:
+def default_path(folder: Path, fmt: str) -> Path:
+    """``<folder>.<fmt>`` beside the folder: an export never changes the folder it reads."""
+    folder = Path(os.path.abspath(folder))
+    return folder.with_name(f"{folder.name}.{fmt}")
+
+
+def export(folder: Path, fmt: str, out: Path | None = None, *, overwrite: bool = False) -> Path:
+    """Export the run, unit or recorded-session ``folder`` to ``out`` (default
+    :func:`default_path`) as NWB or npz, atomically; returns the path written."""
     if fmt not in ("nwb", "npz"):
-        raise InputError(f"--format must be nwb or npz, got '{fmt}'")
-    path = out or folder / f"export.{fmt}"
+        raise InputError(f"must be nwb or npz, got '{fmt}'", culprit="--format")
+    folder = Path(folder)
+    path = Path(out) if out is not None else default_path(folder, fmt)
+    shown = f"--out {out}" if out is not None else f"export {path}"
+    if path.is_dir():
+        raise InputError("is a folder; name the file to write", culprit=shown)
+    if path.exists() and not overwrite:
+        raise InputError("exists; --overwrite replaces it", culprit=shown)
     if not path.parent.is_dir():
-        raise InputError(f"--out {path}: folder '{path.parent}' does not exist")
+        raise InputError(f"folder '{path.parent}' does not exist", culprit=shown)
+    clean_stale_temporaries(path.parent)  # what a killed export left
     return export_nwb(folder, path) if fmt == "nwb" else export_npz(folder, path)

@@ -40,6 +40,7 @@ import json
 import logging
 import os
 import re
+import shutil
 import socket
 import sys
 import time
@@ -49,7 +50,16 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
-from ..errors import InputError
+from ...coupling.recorder import RecordPlan
+from ...coupling.training import SESSION_COLUMNS
+from ...errors import EnvironmentFault, InputError
+from ...models import DEFAULT_MODELS
+from ..experiments.resources import check_memory, estimate_bytes
+from ..experiments.settings import model_set
+from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
+                                 read_checkpoint)
+from ..files.folder import FolderLock, clean_stale_temporaries, clear_folder, holds_results
+from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
 
 RUNS = "runs"
 STATUS = "status.json"
@@ -58,6 +68,8 @@ FAILURES = "failures.csv"
 STUDY_COPY = "study.toml"
 STUDY_INDEX = "study.json"
 
+MAX_SEEDS = 100_000
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
 _STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch", "record"}
 _CONDITION_KEYS = {"astrocytes", "set"}
 
@@ -84,13 +96,11 @@ class RunSpec:
     record: dict[str, Any] | None = None  # RecordPlan fields (not part of the run's identity)
 
     def record_plan(self):
-        from ..coupling.recorder import RecordPlan
         if not self.record:
             return None
         return RecordPlan.from_dict(self.record)
 
     def train_settings(self):
-        from .train import TrainSettings
         return TrainSettings(n_sessions=self.n_sessions, seed=self.seed, n_trials=self.n_trials,
                              astrocytes=self.astrocytes, overrides=list(self.overrides))
 
@@ -135,20 +145,22 @@ def _slug(text: str) -> str:
 
 def load_study(path: str | os.PathLike) -> Study:
     """Read and validate a study file; every error names the file and the offending key."""
-    from ..models import DEFAULT_MODELS
 
     p = Path(path)
     built_in = Path(__file__).with_name(f"{p.name}.toml")
     if not p.exists() and p.suffix == "" and built_in.exists():
         p = built_in  # `astrocpg study quick`: a built-in study by name
     try:
-        text = p.read_text()
+        text = p.read_bytes().decode("utf-8")
     except OSError as e:
-        raise InputError(f"study {p}: cannot read ({e.strerror})") from None
+        raise InputError(f"cannot read ({e.strerror})", culprit=f"study {p}") from None
+    except UnicodeDecodeError:
+        raise InputError("not a UTF-8 text file (a study file is TOML)",
+                         culprit=f"study {p}") from None
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
-        raise InputError(f"study {p}: not valid TOML ({e})") from None
+        raise InputError(f"not valid TOML ({e})", culprit=f"study {p}") from None
     where = f"study {p.name}"
     unknown = set(doc) - {"study", "base", "sweep", "conditions"}
     if unknown:
@@ -159,7 +171,11 @@ def load_study(path: str | os.PathLike) -> Study:
     if bad:
         raise InputError(f"{where}: [study] has unknown key '{sorted(bad)[0]}' "
                          f"(keys: {', '.join(sorted(_STUDY_KEYS))})")
-    name = str(head.get("name", p.stem))
+    name = head.get("name", p.stem)
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        # the name becomes a folder (out/<name>): it may never leave the output root
+        raise InputError(f"[study] name must be letters, digits, '.', '_' or '-' (a folder "
+                         f"name, not a path), got {name!r}", culprit=where)
     n_sessions = head.get("sessions", 400)
     if not isinstance(n_sessions, int) or isinstance(n_sessions, bool) or n_sessions < 1:
         raise InputError(f"{where}: [study] sessions must be a positive integer, "
@@ -171,6 +187,10 @@ def load_study(path: str | os.PathLike) -> Study:
                 or count < 1 or set(seeds_doc) - {"first", "count"}:
             raise InputError(f"{where}: [study] seeds must be {{ first = K, count = N }} with "
                              f"integers, N >= 1, or a list of integers")
+        if count > MAX_SEEDS:
+            raise InputError(f"[study] seeds: {count} seeds is more than {MAX_SEEDS} (each seed "
+                             f"is a training of {head.get('sessions', 400)} sessions)",
+                             culprit=where)
         seeds = list(range(first, first + count))
     elif isinstance(seeds_doc, list) and seeds_doc and all(
             isinstance(s, int) and not isinstance(s, bool) for s in seeds_doc):
@@ -185,6 +205,9 @@ def load_study(path: str | os.PathLike) -> Study:
     batch = head.get("batch", len(seeds))
     if not isinstance(batch, int) or isinstance(batch, bool) or batch < 1:
         raise InputError(f"{where}: [study] batch must be a positive integer, got {batch!r}")
+    # one run trains min(batch, seeds) trials in one network: refuse what cannot fit
+    check_memory(estimate_bytes(trials=min(batch, len(seeds)), seconds=0.0, spikes=False),
+                 culprit=f"{where} [study] batch = {min(batch, len(seeds))} seeds per run")
 
     record = _record_table(head.get("record"), where)
     models = DEFAULT_MODELS
@@ -259,7 +282,6 @@ def load_study(path: str | os.PathLike) -> Study:
 
 def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
     """``[study] record = { every = N, spikes = [...], traces = [...], stride = S }``."""
-    from ..coupling.recorder import RecordPlan
 
     if doc is None:
         return None
@@ -299,7 +321,6 @@ def read_status(folder: Path) -> dict[str, Any]:
 
 
 def _write_status(folder: Path, status: dict[str, Any]) -> None:
-    from .outputs import save_json
     save_json(folder / STATUS, status)
 
 
@@ -313,9 +334,6 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
     import warnings
 
     warnings.filterwarnings("ignore", module="brian2")
-    from .cli import models_from
-    from .outputs import prepare_output_dir, write_manifest
-    from .train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
 
     out = prepare_output_dir(folder)
     status = read_status(out)
@@ -336,7 +354,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
             payload = read_checkpoint(out / CHECKPOINT)
             if payload["fingerprint"] != settings.fingerprint():
                 raise InputError(f"{out}: its checkpoint belongs to other settings")
-        models = models_from(settings.overrides, {})
+        models = model_set(settings.overrides, {})
         trainer = Trainer(models, settings, out, progress=False, record=spec.record_plan())
         if payload is not None:
             trainer.restore(payload)
@@ -361,8 +379,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
 
 
 def _run_files() -> dict[str, str]:
-    from .cli import _train_files
-    return _train_files() | {STATUS: "state of the run in its study (running, finished, failed), "
+    return TRAIN_FILES | {STATUS: "state of the run in its study (running, finished, failed), "
                                      "attempts, error"}
 
 
@@ -395,7 +412,6 @@ def _check_folder(study: Study, out: Path) -> None:
 
 
 def _save_index(study: Study, out: Path) -> None:
-    from .outputs import _atomic, save_json
     index_path = out / STUDY_INDEX
     known: dict[str, str] = {}
     specs: dict[str, Any] = {}
@@ -407,7 +423,7 @@ def _save_index(study: Study, out: Path) -> None:
     save_json(index_path, {"name": study.name, "sweep": study.sweep, "runs": known,
                            "specs": specs})
     data = study.text.encode()
-    _atomic(out / STUDY_COPY, lambda f: f.write(data))
+    atomic_write(out / STUDY_COPY, lambda f: f.write(data))
 
 
 def _sessions_done(folder: Path) -> int:
@@ -419,28 +435,51 @@ def _sessions_done(folder: Path) -> int:
 
 
 def run_study(study: Study, out: Path, *, workers: int | None = None,
-              scheduler: str | None = None, progress: bool = True) -> dict[str, Any]:
+              scheduler: str | None = None, progress: bool = True,
+              overwrite: bool = False) -> dict[str, Any]:
     """Run every unfinished run of ``study`` on Dask; write the results table. Returns counts
     of runs by state and the paths written. Nothing is written before the folder is known to
-    belong to this study and the cluster is reachable."""
-    from tqdm.auto import tqdm
-
-    from .outputs import write_manifest
-
+    belong to this study and the cluster is reachable; while it runs, the study owns its folder
+    (a second process on it is refused). ``overwrite`` replaces the folder whole."""
     if workers is not None and workers < 1:
-        raise InputError(f"--workers must be at least 1, got {workers}")
+        raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a folder")
-    if out.exists():
+        raise InputError("exists and is not a folder", culprit=f"--out {out}")
+    if out.exists() and not overwrite:
         _check_folder(study, out)
+    created = not out.exists()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, out, "cannot create the folder") from None
+    try:
+        with FolderLock(out, culprit="--out"):
+            if overwrite:
+                clear_folder(out)
+            clean_stale_temporaries(out)
+            return _run_study_locked(study, out, workers=workers, scheduler=scheduler,
+                                     progress=progress)
+    except BaseException:
+        if created and not holds_results(out):  # refused before writing: leave no folder
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+
+
+def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler: str | None,
+                      progress: bool) -> dict[str, Any]:
+    from tqdm.auto import tqdm  # the progress bar of a study (tqdm.auto picks notebook or tty)
+
+    largest = max(r.n_trials for r in study.runs)
+    check_memory(estimate_bytes(trials=largest, seconds=0.0, spikes=False)
+                 * min(len(study.runs), workers or os.cpu_count() or 1),
+                 culprit=f"study {study.name} (runs of {largest} trials)")
     folders = {r.run_id: out / RUNS / r.run_id for r in study.runs}
     pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") != "finished"]
     total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
     n_done_before = len(study.runs) - len(pending)
     cluster = _connect(workers, scheduler) if pending else None
     try:
-        from .outputs import prepare_output_dir
         prepare_output_dir(out)
         _save_index(study, out)
         write_manifest(out, command="study", seed=min(study.seeds),
@@ -496,7 +535,7 @@ class _ImportBrian2:
     def setup(self, worker: Any) -> None:
         import brian2  # noqa: F401
 
-        from . import train  # noqa: F401
+        from ..experiments import train  # noqa: F401
 
     def teardown(self, worker: Any) -> None:
         pass
@@ -504,8 +543,6 @@ class _ImportBrian2:
 
 def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_before,
               tqdm) -> None:
-    from .outputs import prepare_output_dir
-
     from distributed.diagnostics.plugin import WorkerPlugin
 
     plugin = type("ImportBrian2", (_ImportBrian2, WorkerPlugin), {})()
@@ -552,7 +589,6 @@ def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_
 
 
 def _write_failures(out: Path, failed: list[RunSpec], folders: dict[str, Path]) -> None:
-    from .outputs import _atomic
     path = out / FAILURES
     if not failed:
         if path.exists():
@@ -564,7 +600,7 @@ def _write_failures(out: Path, failed: list[RunSpec], folders: dict[str, Path]) 
         err = str(s.get("error", "")).replace('"', "'").replace("\n", " ")
         lines.append(f'{r.run_id},{s.get("state", "not run")},{s.get("attempts", 0)},"{err}"')
     data = ("\n".join(lines) + "\n").encode()
-    _atomic(path, lambda f: f.write(data))
+    atomic_write(path, lambda f: f.write(data))
 
 
 def _study_files() -> dict[str, str]:
@@ -580,8 +616,6 @@ def _study_files() -> dict[str, str]:
 
 def write_results(study: Study, out: Path) -> int:
     """Gather the finished runs' ``sessions.csv`` into ``OUT/results.csv``; returns its rows."""
-    from .outputs import _atomic
-    from ..coupling.training import SESSION_COLUMNS
 
     head = ["run_id", "condition", *study.sweep, "seed", *SESSION_COLUMNS]
     lines = [",".join(head)]
@@ -598,7 +632,7 @@ def write_results(study: Study, out: Path) -> int:
                 lines.append(",".join(_csv_cell(c) for c in cells))
                 n += 1
     data = ("\n".join(lines) + "\n").encode()
-    _atomic(out / RESULTS, lambda f: f.write(data))
+    atomic_write(out / RESULTS, lambda f: f.write(data))
     return n
 
 

@@ -16,20 +16,26 @@ import pickle
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import mujoco
 import numpy as np
 from brian2 import NetworkOperation, second
 from tqdm.auto import tqdm
 
-from ..coupling.assembly import build_closed_loop
-from ..coupling.recorder import RecordPlan, SessionRecorder
-from ..coupling.training import SESSION_COLUMNS, Training
-from ..errors import InputError
-from ..models import ModelSet
-from ..network import interlimb_labels, run_network
-from .outputs import _atomic, save_npz
+from ...coupling.assembly import build_closed_loop
+from ...coupling.recorder import RecordPlan, SessionRecorder
+from ...coupling.training import SESSION_COLUMNS, Training
+from ...errors import Diverged, EnvironmentFault, InputError
+from ...models import ModelSet
+from ...network import interlimb_labels, run_network
+from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
+                            holds_results)
+from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
+                             write_manifest)
+from .resources import check_memory, estimate_bytes
+from .settings import model_set, number, override_items
+from .simulate import check_selection
 
 CHECKPOINT = "checkpoint.pkl"
 MAGIC = b"ASTROCPG-CHECKPOINT-1\n"
@@ -85,6 +91,7 @@ class Trainer:
         self.cpg.net.add(NetworkOperation(self._maybe_checkpoint, dt=self.cpg.dt, when="end",
                                           order=20, name="checkpoint"))
         self._pending = False
+        self.on_checkpoint: Callable[[], None] | None = None
         total = settings.n_sessions * settings.n_trials
         self.bar = tqdm(total=total, unit="session", desc="train", disable=not progress,
                         dynamic_ncols=True)
@@ -106,12 +113,13 @@ class Trainer:
             self._pending = False
             self.write_outputs()
             self.write_checkpoint()
+            if self.on_checkpoint is not None:  # e.g. the manifest's inventory
+                self.on_checkpoint()
 
     # ---- files
     def _write_recording(self, trial: int, session: int, arrays: dict[str, Any]) -> None:
         """One recorded session as a folder that ``astrocpg export`` reads like a run."""
-        from ..network import Layout
-        from .outputs import save_npz, save_spikes_and_traces, write_manifest
+        from ...network import Layout
 
         folder = self.out / "recordings" / f"trial{trial:02d}_session{session:04d}"
         folder.mkdir(parents=True, exist_ok=True)
@@ -119,7 +127,6 @@ class Trainer:
         robot = {k: (v if k == "t" else v[None]) for k, v in arrays["robot"].items()}
         save_npz(folder / "robot.npz", robot | {"legs": np.array(list(self.cpg.layout.legs)),
                                                 "joints": np.array(["hip", "thigh", "calf"])})
-        from .cli import _layout_json
         layout = Layout(n_trials=1, pool_size=self.cpg.layout.pool_size,
                         legs=self.cpg.layout.legs)
         write_manifest(folder, command="train-session", seed=self.settings.seed + trial,
@@ -132,7 +139,7 @@ class Trainer:
                        files=files | {"robot.npz": "t (s); joint_angles, torques (1, t, leg, "
                                                    "joint); torso_position, torso_velocity "
                                                    "(1, t, xyz)"},
-                       results={"layout": _layout_json(layout), "dt_s": float(self.cpg.dt)})
+                       results={"layout": layout.to_json(), "dt_s": float(self.cpg.dt)})
 
     def write_outputs(self) -> None:
         rows = self.training.memory.rows
@@ -142,7 +149,7 @@ class Trainer:
         for r in rows:
             writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v) for k, v in r.items()})
         data = buf.getvalue().encode()
-        _atomic(self.out / "sessions.csv", lambda f: f.write(data))
+        atomic_write(self.out / "sessions.csv", lambda f: f.write(data))
         mem = self.training.memory
         n_max = max(len(w) for w in mem.weights)
         table = np.full((self.settings.n_trials, n_max, 8, 8), np.nan)
@@ -188,7 +195,7 @@ class Trainer:
             payload["recorder"] = self.recorder.state()
         body = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)
         digest = hashlib.sha256(body).hexdigest().encode() + b"\n"
-        _atomic(self.out / CHECKPOINT, lambda f: (f.write(MAGIC), f.write(digest), f.write(body)))
+        atomic_write(self.out / CHECKPOINT, lambda f: (f.write(MAGIC), f.write(digest), f.write(body)))
 
     def restore(self, payload: dict[str, Any]) -> None:
         net = self.cpg.net
@@ -215,8 +222,8 @@ class Trainer:
         """Run until every trial has done its sessions and write the outputs; returns wall
         seconds. Raises :class:`TrainingStopped` (outputs and checkpoint written) when the
         simulation ended first: Brian2 turns Ctrl-C into a request to stop the run. A
-        divergence raises :class:`~astrocpg.errors.Diverged` itself, the diverged session's
-        row in ``training.memory`` (outputs not written: :meth:`write_outputs`)."""
+        divergence raises :class:`~astrocpg.errors.Diverged` itself (outputs written, the
+        diverged session's row last; the checkpoint stays at the last session end)."""
         import time
         L_max = float(np.asarray(self.models.progress.parameters["L_max"].value))
         left = (self.settings.n_sessions - self.training.sessions_done.min()) * L_max
@@ -225,6 +232,9 @@ class Trainer:
             if not self.training.done.all():
                 # an upper bound: the session loop stops the network when all trials are done
                 run_network(self.cpg.net, (left + 1.0) * second, namespace={})
+        except Diverged:
+            self.write_outputs()  # the sessions so far and the diverged one
+            raise
         finally:
             self.bar.close()
         self.write_outputs()
@@ -269,3 +279,183 @@ def read_checkpoint(path: Path) -> dict[str, Any]:
         return pickle.loads(body)
     except Exception:
         raise InputError(f"--resume: {path} is corrupt (cannot be read)") from None
+
+
+TRAIN_FILES = {
+    "sessions.csv": "one row per trial and session: " + ", ".join(SESSION_COLUMNS),
+    "weights.npz": "weights_mV (trial, session, 8, 8): each trial's inter-limb table after "
+                   "each session (NaN after a trial's last); final_weights_mV; labels",
+    "checkpoint.pkl": "state to continue exactly (astrocpg train --resume DIR)",
+    "recordings/": "with --record-every: trialTT_sessionSSSS/ per recorded session (spikes, "
+                   "traces, robot, manifest; astrocpg export reads it)",
+}
+
+
+def record_plan(every: int | None, stride: int = 1, spikes: tuple[str, ...] | None = None,
+                traces: tuple[str, ...] | None = None,
+                stored: dict[str, Any] | None = None) -> RecordPlan | None:
+    """The training's RecordPlan: from the options, or (resuming) the checkpoint's ``stored``."""
+    if stored is not None:
+        if every is not None and every != stored["every"]:
+            raise InputError(f"that run records every {stored['every']} sessions, not {every}",
+                             culprit="--record-every")
+        return RecordPlan.from_dict(stored)
+    if every is None:
+        if spikes is not None or traces is not None:
+            raise InputError("a training records spikes and traces only with --record-every N",
+                             culprit="--spikes/--traces")
+        return None
+    if every < 1:
+        raise InputError(f"must be at least 1, got {every}", culprit="--record-every")
+    if stride < 1:
+        raise InputError(f"must be at least 1, got {stride}", culprit="--record-stride")
+    spikes, traces = check_selection(spikes, traces)
+    return RecordPlan(every=every, spikes=spikes, traces=traces, stride=stride)
+
+
+def train_summary(rows: list[dict], n_trials: int, L_max: float) -> dict[str, Any]:
+    """Per trial: sessions done, mean forward speed over the last 20, share of the last 50
+    sessions that reached L_max; and a printable line per trial."""
+    per_trial: dict[int, dict[str, float]] = {}
+    lines: dict[int, str] = {}
+    for b in range(n_trials):
+        mine = [r for r in rows if r["trial"] == b]
+        if not mine:
+            continue
+        last20, last50 = mine[-20:], mine[-50:]
+        speed = float(np.mean([r["mean_forward_speed_m_per_s"] for r in last20]))
+        full = float(np.mean([r["length_s"] >= L_max - 1e-6 for r in last50]))
+        per_trial[b] = {"sessions": len(mine), "mean_speed_last20_m_per_s": speed,
+                        "full_length_share_last50": full}
+        lines[b] = (f"trial {b}: {len(mine)} sessions; mean forward speed over the last 20: "
+                    f"{speed:.3f} m/s; sessions reaching L_max in the last 50: {full:.0%}")
+    return {"per_trial": per_trial, "lines": lines}
+
+
+def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 1,
+          astrocytes: bool = True, overrides: Any = None,
+          equations: dict[str, str] | None = None, record_every: int | None = None,
+          record_stride: int = 1, spikes: tuple[str, ...] | None = None,
+          traces: tuple[str, ...] | None = None, overwrite: bool = False,
+          progress: bool = True) -> "Trainer":
+    """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
+    each, writing ``out`` (sessions.csv, weights.npz, checkpoint.pkl, manifest.json) after every
+    session; ``astrocytes=False`` is the paper's ablation. Returns the finished Trainer
+    (``trainer.training.memory.rows``, ``trainer.cpg``). Raises TrainingStopped if interrupted
+    (continue with :func:`resume`)."""
+    settings = TrainSettings(
+        n_sessions=number(sessions, "--sessions", integer=True, minimum=1),
+        seed=number(seed, "--seed", integer=True, minimum=0),
+        n_trials=number(trials, "--trials", integer=True, minimum=1),
+        astrocytes=bool(astrocytes), overrides=override_items(overrides),
+        equations=dict(equations or {}))
+    out = Path(out)
+    if (out / CHECKPOINT).exists() and not overwrite:
+        raise InputError(f"already holds a training run (continue it with --resume {out}, or "
+                         f"replace it with --overwrite)", culprit=f"--out {out}")
+    OutputFolder(out, overwrite=overwrite).check()
+    plan = record_plan(record_every, record_stride, spikes, traces)
+    check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False),
+                 culprit=f"--trials {settings.n_trials}")
+    return _train(settings, out, plan, None, progress, replace=overwrite, new=True)
+
+
+def resume(folder: str | Path, *, progress: bool = True, record_every: int | None = None,
+           expect: dict[str, Any] | None = None) -> "Trainer":
+    """Continue the training in ``folder`` from its checkpoint; ``expect`` (e.g. the options
+    given again on the command line) must agree with the stored settings."""
+    out = Path(folder)
+    if not (out / CHECKPOINT).exists():
+        # stopped before its first checkpoint: nothing was trained, so start again from the
+        # settings its manifest recorded
+        manifest = read_manifest(out)
+        if manifest is None or manifest.get("astrocpg_command") != "train":
+            raise InputError("holds no training (no checkpoint.pkl, no training manifest)",
+                             culprit=f"--resume {out}")
+        stored_settings = {k: v for k, v in manifest["settings"].items() if k != "record"}
+        payload = {"settings": stored_settings, "record_plan": manifest["settings"].get("record")}
+        settings = TrainSettings(**stored_settings)
+        payload["fingerprint"] = settings.fingerprint()
+        fresh = True
+    else:
+        payload = read_checkpoint(out / CHECKPOINT)
+        settings = TrainSettings(**payload["settings"])
+        fresh = False
+    if payload["fingerprint"] != settings.fingerprint():
+        raise InputError(f"{out / CHECKPOINT} is not consistent with its settings",
+                         culprit="--resume")
+    stored = {"sessions": settings.n_sessions, "seed": settings.seed,
+              "trials": settings.n_trials, "astrocytes": settings.astrocytes,
+              "overrides": sorted(settings.overrides), "equations": settings.equations}
+    for key, value in (expect or {}).items():
+        if value is not None and value != stored[key]:
+            if key in ("overrides", "equations"):
+                raise InputError(f"that run has other model settings "
+                                 f"({', '.join(settings.overrides) or 'defaults'})",
+                                 culprit=f"--resume {out}")
+            raise InputError(f"that run has {key}={stored[key]}, not {value}",
+                             culprit=f"--resume {out}")
+    if not fresh and bool(np.all(np.asarray(payload["training"]["sessions_done"])
+                                 >= settings.n_sessions)):
+        raise InputError(f"the training is already finished ({settings.n_sessions} sessions per "
+                         f"trial); nothing was changed", culprit=f"--resume {out}")
+    plan = record_plan(record_every, stored=payload.get("record_plan"))
+    if plan is None and record_every is not None:
+        raise InputError("that run records no sessions", culprit="--record-every")
+    return _train(settings, out, plan, None if fresh else payload, progress)
+
+
+def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
+           payload: dict[str, Any] | None, progress: bool, replace: bool = False,
+           new: bool = False) -> "Trainer":
+    """Build, own ``out`` (a lock: one process per training folder), train, write."""
+    models = model_set(settings.overrides, settings.equations)
+    trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, out, "cannot create the folder") from None
+    with FolderLock(out, culprit="--out" if payload is None else "--resume"):
+        if replace:  # --overwrite: the old run goes whole, never mixed with the new one
+            clear_folder(out)
+        elif new and holds_results(out):  # another process filled it since the first check
+            raise InputError("is not empty; --overwrite replaces it whole",
+                             culprit=f"--out {out}")
+        clean_stale_temporaries(out)
+        return _train_locked(trainer, settings, out, plan, payload)
+
+
+def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
+                  plan: RecordPlan | None, payload: dict[str, Any] | None) -> "Trainer":
+    if payload is not None:
+        trainer.restore(payload)
+    record_json = None if plan is None else dataclasses.asdict(plan)
+    manifest = dict(command="train", seed=settings.seed,
+                    settings=settings.__dict__ | {"record": record_json},
+                    models_json=trainer.models.to_json(), files=TRAIN_FILES)
+    write_manifest(out, **manifest, results={"status": "running"}, history=True)
+
+    def progress_manifest() -> None:  # the inventory follows every checkpoint
+        done = trainer.training.sessions_done.tolist()
+        write_manifest(out, **manifest, results={"status": "running", "sessions_done": done},
+                       history=True)
+
+    trainer.on_checkpoint = progress_manifest
+    try:
+        wall = trainer.run()  # raises TrainingStopped (files written) when interrupted
+    except TrainingStopped as e:
+        write_manifest(out, **manifest, results={"status": "interrupted", "error": str(e)},
+                       history=True)
+        raise
+    except Diverged as e:
+        write_manifest(out, **manifest, results={"status": "diverged", "error": e.line},
+                       history=True)
+        raise
+    rows = trainer.training.memory.rows
+    L_max = float(np.asarray(trainer.models.progress.parameters["L_max"].value))
+    summary = train_summary(rows, settings.n_trials, L_max)
+    trainer.summary = summary
+    write_manifest(out, **manifest,
+                   results={"status": "finished", "wall_seconds_last_invocation": wall,
+                            "per_trial": summary["per_trial"]}, history=True)
+    return trainer

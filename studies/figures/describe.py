@@ -15,8 +15,8 @@ from brian2 import Equations
 from brian2.equations.equations import DIFFERENTIAL_EQUATION, SUBEXPRESSION
 from brian2.parsing.sympytools import str_to_sympy
 
-from ..errors import InputError
-from ..models import DEFAULT_MODELS, ModelSet
+from ...errors import InputError
+from ...models import DEFAULT_MODELS, ModelSet
 
 def _symbol_names(model: Any) -> dict[sympy.Symbol, str]:
     """Parameter names -> the paper's symbols (LaTeX) for sympy.latex."""

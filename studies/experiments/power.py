@@ -20,8 +20,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from tqdm.auto import tqdm
 
-from ..errors import InputError
+from ...coupling.assembly import build_closed_loop
+from ...coupling.bridge import ORDER_MEASURE
+from ...coupling.training import Training
+from ...errors import InputError
+from ..files.weights import load_weights
+from .settings import model_set
 
 # The paper's figures, shown next to ours (not used in any computation).
 PAPER = {
@@ -55,14 +61,7 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
             progress: bool = True) -> dict[str, Any]:
     """Run trial ``trial``'s trained table of the training in ``folder`` for ``sessions``
     sessions with learning off; return rates, events per spike and the power estimates."""
-    from tqdm.auto import tqdm
-
-    from ..coupling.assembly import build_closed_loop
-    from ..coupling.bridge import ORDER_MEASURE
-    from ..coupling.training import Training
-    from .cli import load_weights, models_from
-
-    weights = load_weights(str(folder), trial)  # (8, 8) volt; checks the folder and trial
+    weights = load_weights(str(folder), trial, culprit="power")  # (8, 8) volt; checks the folder and trial
     try:
         manifest = json.loads((folder / "manifest.json").read_text())
         settings = manifest["settings"]
@@ -71,7 +70,7 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
             from None
     if sessions < 1:
         raise InputError(f"--sessions must be at least 1, got {sessions}")
-    models = models_from(settings.get("overrides", []), settings.get("equations", {}))
+    models = model_set(settings.get("overrides", []), settings.get("equations", {}))
     syn = models.interlimb_synapse.parameters
     # weights fixed: a measurement, not training (zero in each rate's own unit)
     values: dict[str, Any] = {"eta": 0 * syn["eta"].value, "eta_ADO": 0 * syn["eta_ADO"].value}
@@ -114,9 +113,8 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
         loop.run(sessions * L_max + 1.0)
     finally:
         bar.close()
-    if len(per_session) < sessions:
-        raise InputError(f"power: the run stopped after {len(per_session)} of {sessions} "
-                         f"sessions (interrupted)")
+    if len(per_session) < sessions:  # Brian2 stopped the run cleanly on Ctrl-C / SIGTERM
+        raise KeyboardInterrupt
     rates = {k: float(np.mean([s[k] for s in per_session]))
              for k in ("inhibitory", "calf", "thigh", "limit")}
     ops = synaptic_events_per_spike(cpg)
@@ -152,3 +150,15 @@ def format_power(res: dict[str, Any]) -> str:
               f"{res['snn_W_with_paper_ops']:.3g} W, ratio "
               f"{res['rl_W'] / res['snn_W_with_paper_ops']:.1f}x"]
     return "\n".join(lines)
+
+
+def power(folder: Path, *, trial: int = 0, sessions: int = 10, progress: bool = True,
+          argv: list[str] | None = None) -> tuple[Path, dict[str, Any]]:
+    """:func:`measure`, then ``power_trial<K>.json`` in ``folder`` (with package versions);
+    returns its path and the figures."""
+    from ..files.outputs import package_versions, save_json
+
+    res = measure(Path(folder), trial=trial, sessions=sessions, progress=progress)
+    path = Path(folder) / f"power_trial{trial}.json"
+    save_json(path, res | {"package_versions": package_versions(), "argv": argv or []})
+    return path, res

@@ -10,18 +10,11 @@ matplotlib.use("Agg")  # headless: files only
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from ..network import INTERNEURONS, LEGS, POOLS, Layout  # noqa: E402
+from ...network import INTERNEURONS, LEGS, POOLS, Layout  # noqa: E402
+from ..analysis.rhythm import pool_activity  # noqa: E402
 
 POOL_COLOURS = {"thigh_flexor": "tab:blue", "thigh_extensor": "tab:red",
                 "calf_flexor": "tab:cyan", "calf_extensor": "tab:orange"}
-
-
-def _activity(times: np.ndarray, sel: np.ndarray, t0: float, t1: float, dt: float) -> np.ndarray:
-    """Number of the selected spikes in each dt bin of [t0, t1)."""
-    n = int(round((t1 - t0) / dt))
-    k = np.floor((times[sel] - t0) / dt + 1e-9).astype(int)
-    k = k[(k >= 0) & (k < n)]
-    return np.bincount(k, minlength=n)
 
 
 def plot_unit(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
@@ -39,7 +32,7 @@ def plot_unit(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
         ids = layout.motor_neurons(trial, 0, name)
         sel = (i >= ids[0]) & (i <= ids[-1]) & (t >= t0) & (t < t1)
         ax_r.plot(t[sel], i[sel] - base, "|", ms=3, color=POOL_COLOURS[name], label=name)
-        act = _activity(t, (i >= ids[0]) & (i <= ids[-1]), t0, t1, dt)
+        act = pool_activity(t, i, ids, t1, dt, t0)
         ax_a.plot(t0 + np.arange(len(act)) * dt, act, lw=0.7, color=POOL_COLOURS[name])
     ibase = trial * layout.interneurons_per_trial
     sel = (ii >= ibase) & (ii < ibase + len(INTERNEURONS)) & (ti >= t0) & (ti < t1)
@@ -70,7 +63,7 @@ def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, tr
     kernel /= kernel.sum()
     for ax, (leg_i, leg) in zip(np.atleast_1d(axes), enumerate(layout.legs)):
         ids = layout.motor_neurons(trial, leg_i, "thigh_extensor")
-        act = _activity(t, (i >= ids[0]) & (i <= ids[-1]), t0, t1, dt)
+        act = pool_activity(t, i, ids, t1, dt, t0)
         rate = np.convolve(act, kernel, "same") / (dt * layout.pool_size)  # Hz per neuron
         x = t0 + np.arange(len(act)) * dt
         ax.fill_between(x, rate, color="tab:red", alpha=0.6, lw=0)
@@ -85,7 +78,7 @@ def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, tr
 
 def plot_weights(path: Path, table_mV: np.ndarray, *, trial: int = 0) -> None:
     """The 8x8 inter-limb table as a diverging heatmap (the paper's Fig. 3a)."""
-    from ..network import interlimb_labels
+    from ...network import interlimb_labels
 
     labels = [lab.replace("thigh_", "").replace("flexor", "F").replace("extensor", "E")
               for lab in interlimb_labels()]

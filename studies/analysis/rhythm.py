@@ -73,19 +73,26 @@ def cycle_period(bursts: np.ndarray) -> float:
     return float(np.median(np.diff(bursts[:, 0])))
 
 
-def burst_phase(reference_bursts: np.ndarray, other_bursts: np.ndarray) -> float:
+def phase_locking(reference_bursts: np.ndarray, other_bursts: np.ndarray) -> tuple[float, float]:
     """Circular mean phase (0..1) of ``other``'s onsets within ``reference``'s cycles
-    (reference onset = 0, its next onset = 1); nan if no onset falls inside a full cycle."""
+    (reference onset = 0, its next onset = 1) and how locked it is (resultant length, 1 = the
+    same phase in every cycle); (nan, 0) if no onset falls inside a full cycle."""
     ref = reference_bursts[:, 0]
-    phases = []
-    for onset in other_bursts[:, 0]:
-        k = np.searchsorted(ref, onset, side="right") - 1
-        if 0 <= k < len(ref) - 1:
-            phases.append((onset - ref[k]) / (ref[k + 1] - ref[k]))
-    if not phases:
-        return float("nan")
-    angle = np.angle(np.mean(np.exp(2j * np.pi * np.array(phases))))
-    return float((angle / (2 * np.pi)) % 1.0)
+    onsets = other_bursts[:, 0]
+    k = np.searchsorted(ref, onsets, side="right") - 1
+    inside = (k >= 0) & (k < len(ref) - 1)
+    if not inside.any():
+        return float("nan"), 0.0
+    k = k[inside]
+    phases = (onsets[inside] - ref[k]) / (ref[k + 1] - ref[k])
+    z = np.mean(np.exp(2j * np.pi * phases))
+    return float((np.angle(z) / (2 * np.pi)) % 1.0), float(abs(z))
+
+
+def burst_phase(reference_bursts: np.ndarray, other_bursts: np.ndarray) -> float:
+    """Circular mean phase (0..1) of ``other``'s onsets within ``reference``'s cycles; nan if
+    no onset falls inside a full cycle."""
+    return phase_locking(reference_bursts, other_bursts)[0]
 
 
 def rate_per_neuron(times: np.ndarray, indices: np.ndarray, neuron_ids: np.ndarray,

@@ -19,7 +19,11 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ...errors import InputError
+from ..analysis.gait import weight_structure
+from ..experiments.settings import model_set
+from ..files.folder import OutputFolder
+from ..files.outputs import atomic_write
 from .study import RUNS, STUDY_INDEX, read_status
 
 CURVES = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
@@ -53,13 +57,12 @@ def _group_label(spec: dict[str, Any]) -> str:
 
 def _model_values(spec: dict[str, Any]) -> tuple[float, float]:
     """w_max (volt) and L_max (s) of a run, from its overrides."""
-    from .cli import models_from
-    models = models_from(list(spec["overrides"]), {})
+    models = model_set(list(spec["overrides"]), {})
     return (float(np.asarray(models.interlimb_synapse.parameters["w_max"].value)),
             float(np.asarray(models.progress.parameters["L_max"].value)))
 
 
-def _moving_mean(table: np.ndarray, width: int) -> np.ndarray:
+def moving_mean(table: np.ndarray, width: int) -> np.ndarray:
     """Trailing mean over the last ``width`` sessions (fewer at the start), NaN-aware."""
     valid = np.isfinite(table)
     filled = np.where(valid, table, 0.0)
@@ -72,14 +75,28 @@ def _moving_mean(table: np.ndarray, width: int) -> np.ndarray:
     return out
 
 
-def report(folder: Path, *, last: int = 50, smooth: int = 1) -> dict[str, Any]:
-    """Write ``fig3c.png``, ``final_figures.csv`` and ``report.md`` into ``folder``."""
-    import matplotlib
+REPORT = "report"
+
+
+def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = None,
+           overwrite: bool = False) -> dict[str, Any]:
+    """Write ``fig3c.png``, ``final_figures.csv`` and ``report.md`` of the study in ``folder``
+    into ``out`` (default ``folder/report``, which each report replaces whole)."""
+    if not (Path(folder) / STUDY_INDEX).is_file():
+        raise InputError(f"not a study folder (no {STUDY_INDEX})", culprit=f"report {folder}")
+    target = Path(out) if out is not None else Path(folder) / REPORT
+    OutputFolder(target, overwrite=overwrite or out is None).check()
+    with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+        written = _report(Path(folder), tmp, last=last, smooth=smooth)
+    written["files"] = [target / p.name for p in written["files"]]
+    return written
+
+
+def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, Any]:
+    import matplotlib  # heavy: only when a report is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .gait import weight_structure
-    from .outputs import _atomic
 
     index, runs = _load(folder)
     groups: dict[str, list[dict[str, Any]]] = {}
@@ -115,7 +132,7 @@ def report(folder: Path, *, last: int = 50, smooth: int = 1) -> dict[str, Any]:
             for row, s in enumerate(series.values()):
                 table[row, s["session"].to_numpy(int) - 1] = s[key].to_numpy(float)
             if smooth > 1:  # moving mean over sessions, per seed, before the across-seed stats
-                table = _moving_mean(table, smooth)
+                table = moving_mean(table, smooth)
             mean, std = np.nanmean(table, axis=0), np.nanstd(table, axis=0)
             x = np.arange(1, n + 1)
             ax.plot(x, mean, color=color, lw=1.2, label=f"{label} (n={len(series)})")
@@ -150,17 +167,17 @@ def report(folder: Path, *, last: int = 50, smooth: int = 1) -> dict[str, Any]:
                       f"(paper Fig. 3c)"
                       + (f", trailing mean over {smooth} sessions" if smooth > 1 else ""))
     fig.tight_layout()
-    fig_path = folder / "fig3c.png"
+    fig_path = dest / "fig3c.png"
     fig.savefig(fig_path, dpi=110)
     plt.close(fig)
 
     cols = list(dict.fromkeys(k for r in rows for k in r))
     csv_text = ",".join(cols) + "\n" + "".join(
         ",".join(_cell(r.get(c, "")) for c in cols) + "\n" for r in rows)
-    _atomic(folder / "final_figures.csv", lambda f: f.write(csv_text.encode()))
+    atomic_write(dest / "final_figures.csv", lambda f: f.write(csv_text.encode()))
     text = _markdown(index.get("name", folder.name), rows, last)
-    _atomic(folder / "report.md", lambda f: f.write(text.encode()))
-    return {"files": [fig_path, folder / "final_figures.csv", folder / "report.md"],
+    atomic_write(dest / "report.md", lambda f: f.write(text.encode()))
+    return {"files": [fig_path, dest / "final_figures.csv", dest / "report.md"],
             "rows": rows, "text": text}
 
 

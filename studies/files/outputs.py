@@ -6,7 +6,6 @@ temporary name, then renamed), so an interrupted run never leaves a half-written
 from __future__ import annotations
 
 import functools
-import hashlib
 import json
 import os
 import platform
@@ -20,8 +19,10 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..errors import InputError
+from ...errors import InputError
+from .folder import MANIFEST, file_sha256, inventory, temp_prefix
 
+_STARTED = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # when this process started (history entries)
 PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
             "pandas", "pynwb")
 
@@ -53,14 +54,6 @@ def git_commit() -> dict[str, Any]:
         return {"commit": None, "dirty": None}
 
 
-def file_sha256(path: str | os.PathLike) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
 def prepare_output_dir(path: str | os.PathLike) -> Path:
     """Create the output folder (parents too). Refuses a path that is a file."""
     p = Path(path)
@@ -76,7 +69,8 @@ def prepare_output_dir(path: str | os.PathLike) -> Path:
 def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
     """``write_to(tmp)`` writes a temporary file beside ``path`` (same suffix, for libraries that
     check it, e.g. pynwb), which then replaces ``path``: never a half-written result."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
+    # pid-tagged, so that the next start removes what a killed process left
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem), suffix=path.suffix)
     os.close(fd)
     try:
         write_to(Path(tmp))
@@ -90,7 +84,7 @@ def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
         raise
 
 
-def _atomic(path: Path, write: Callable[[Any], Any]) -> None:
+def atomic_write(path: Path, write: Callable[[Any], Any]) -> None:
     """``write(f)`` into a binary file object, synced to disk, then renamed to ``path``."""
     def to(tmp: Path) -> None:
         with open(tmp, "wb") as f:
@@ -101,7 +95,7 @@ def _atomic(path: Path, write: Callable[[Any], Any]) -> None:
 
 
 def save_npz(path: Path, arrays: Mapping[str, np.ndarray]) -> None:
-    _atomic(path, lambda f: np.savez_compressed(f, **arrays))
+    atomic_write(path, lambda f: np.savez_compressed(f, **arrays))
 
 
 def save_spikes_and_traces(out: Path, spikes: Mapping[str, tuple[np.ndarray, np.ndarray]],
@@ -126,7 +120,7 @@ def save_spikes_and_traces(out: Path, spikes: Mapping[str, tuple[np.ndarray, np.
 
 def save_json(path: Path, obj: Any) -> None:
     text = json.dumps(obj, indent=2, default=_json_default).encode()
-    _atomic(path, lambda f: f.write(text))
+    atomic_write(path, lambda f: f.write(text))
 
 
 def _json_default(o: Any) -> Any:
@@ -137,14 +131,35 @@ def _json_default(o: Any) -> Any:
     return str(o)
 
 
+def read_manifest(folder: Path) -> dict[str, Any] | None:
+    """The folder's manifest, or None when it has none or it is unreadable."""
+    try:
+        return json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
 def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str, Any],
                    models_json: Mapping[str, Any], files: Mapping[str, str],
-                   results: Mapping[str, Any] | None = None) -> None:
-    """``manifest.json``: what was run, with what, and what each file holds."""
-    save_json(out / "manifest.json", {
-        "astrocpg_command": command,
-        "argv": sys.argv,
-        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                   results: Mapping[str, Any] | None = None, history: bool = False) -> None:
+    """``manifest.json``: what was run, with what, and what each file holds.
+
+    With ``history`` (a folder that several invocations continue, e.g. ``train --resume``), the
+    first invocation's ``argv`` and ``created`` are kept and each invocation has an entry in
+    ``history`` (argv, start, commit, status), the latest updated in place."""
+    now = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+    entry = {"argv": sys.argv, "started": _STARTED, "updated": now, "git": git_commit(),
+             "status": dict(results or {}).get("status")}
+    manifest: dict[str, Any] = {"astrocpg_command": command, "argv": sys.argv, "created": now}
+    old = read_manifest(out) if history else None
+    if old is not None:
+        manifest["argv"], manifest["created"] = old.get("argv", sys.argv), old.get("created", now)
+        past = [h for h in old.get("history", []) if h.get("started") != _STARTED
+                or h.get("argv") != sys.argv]
+        manifest["history"] = past + [entry]
+    elif history:
+        manifest["history"] = [entry]
+    manifest.update({
         "seed": seed,
         "settings": dict(settings),
         "models": dict(models_json),
@@ -154,4 +169,8 @@ def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str,
         "git": git_commit(),
         "machine": {"platform": platform.platform(), "processor": platform.processor(),
                     "cpu_count": os.cpu_count()},
+        # every file the folder owns, with size and sha256: readers refuse a folder that does
+        # not match (the manifest is written last)
+        "inventory": inventory(out, (old or read_manifest(out) or {}).get("inventory")),
     })
+    save_json(out / MANIFEST, manifest)

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from ..network import LEGS, Layout
-from .analysis import detect_bursts
+from ...network import LEGS, Layout
+from .rhythm import cycle_period, detect_bursts, phase_locking
 
 LEG_INDEX = {leg: k for k, leg in enumerate(LEGS)}
 
@@ -36,21 +36,10 @@ def leg_phases(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: in
     bursts = {leg: detect_bursts(t, i, layout.motor_neurons(trial, k, "thigh_extensor"), t_stop,
                                  t_start=t_start)
               for k, leg in enumerate(layout.legs)}
-    ref = bursts["FR"][:, 0]
     phases, locking = {}, {}
     for leg, b in bursts.items():
-        ph = []
-        for onset in b[:, 0]:
-            k = np.searchsorted(ref, onset, side="right") - 1
-            if 0 <= k < len(ref) - 1:
-                ph.append((onset - ref[k]) / (ref[k + 1] - ref[k]))
-        if ph:
-            z = np.mean(np.exp(2j * np.pi * np.array(ph)))
-            phases[leg] = float((np.angle(z) / (2 * np.pi)) % 1.0)
-            locking[leg] = float(abs(z))
-        else:
-            phases[leg], locking[leg] = float("nan"), 0.0
-    period = float(np.median(np.diff(ref))) if len(ref) > 1 else float("nan")
+        phases[leg], locking[leg] = phase_locking(bursts["FR"], b)
+    period = cycle_period(bursts["FR"])
     return {"phases": phases, "locking": locking, "period": period,
             "bursts": {leg: b for leg, b in bursts.items()}}
 

@@ -13,13 +13,13 @@ import numpy as np
 from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second
 from tqdm.auto import tqdm
 
-from ..coupling.assembly import build_closed_loop
-from ..coupling.bridge import Recording
-from ..coupling.robot import RobotLayout
-from ..errors import InputError
-from ..models import ModelSet
-from ..network import CPG, DivergenceCheck, build_cpg, check_runs, run_network
-from ..network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
+from ...coupling.assembly import build_closed_loop
+from ...coupling.bridge import Recording
+from ...coupling.robot import A1Parameters, RobotLayout
+from ...errors import InputError
+from ...models import ModelSet
+from ...network import CPG, POOLS, DivergenceCheck, build_cpg, check_runs, run_network
+from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
 
 
 
@@ -51,9 +51,11 @@ def check_selection(spikes: tuple[str, ...] | None,
     return spikes, traces
 
 
-def _monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
+def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
               spikes: tuple[str, ...] = POPULATIONS,
               traces: tuple[str, ...] = TRACES) -> dict[str, Any]:
+    """Spike monitors of ``spikes`` and state monitors (every ``trace_dt``) of ``traces``,
+    added to the network; returns them by population / ``<group>_state``."""
     mons: dict[str, Any] = {p: SpikeMonitor(getattr(cpg, p), name=f"spikes_{p}")
                             for p in spikes}
     if record_traces:
@@ -105,10 +107,10 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
                   progress: bool = True) -> SimulationResult:
     """One locomotion unit (the FR limb's CPG) open loop: no robot, torso speed 0, no
     limit-position inhibition (the paper's Fig. 1c). ``n_trials`` units with seeds seed..."""
-    _check_seconds(seconds)
+    check_duration(seconds)
     cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=("FR",))
     check_runs(cpg)
-    mons = _monitors(cpg, trace_dt, record_traces, *check_selection(spikes, traces))
+    mons = add_monitors(cpg, trace_dt, record_traces, *check_selection(spikes, traces))
     bar = _Progress(seconds, "unit", progress and seconds > 3)
     steps = [0]
 
@@ -136,7 +138,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
                          progress: bool = True) -> SimulationResult:
     """The whole CPG driving ``n_trials`` robots (default: the project's A1) for ``seconds``,
     inter-limb weights fixed (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero)."""
-    _check_seconds(seconds)
+    check_duration(seconds)
     bar = _Progress(seconds, f"run ({n_trials} trial{'s' if n_trials > 1 else ''})",
                     progress and seconds * n_trials > 3)
     loop = build_closed_loop(models, n_trials=n_trials, seed=seed, weights=weights, robot=robot,
@@ -145,7 +147,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
     n_steps = int(round(seconds / loop.robot.opt.timestep))
     rec = bridge.start_recording(n_steps, robot_stride)
     selection = check_selection(spikes, traces)
-    mons = _monitors(cpg, trace_dt, record_traces, *selection) if record_spikes else {}
+    mons = add_monitors(cpg, trace_dt, record_traces, *selection) if record_spikes else {}
     wall = _run(cpg, seconds, bar)
     bridge.check_cpg(float(cpg.net.t_))  # the last steps since the bridge's last check
     spikes, traces = _collect(mons) if mons else ({}, {})
@@ -156,16 +158,29 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
 def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
     """One long ``Network.run`` (each call costs ~0.3 s of set-up); returns wall seconds."""
     t0 = time.perf_counter()
+    t_end = float(cpg.net.t_) + seconds
     try:
         run_network(cpg.net, seconds * second, namespace={})  # Diverged comes out as itself
     finally:
         bar.close()
+    # Brian2 turns Ctrl-C (and our SIGTERM) into a clean stop at the end of a step: a run that
+    # stopped early was interrupted, and its partial data must not pass for a finished run
+    if float(cpg.net.t_) < t_end - 0.5 * float(cpg.dt):
+        raise KeyboardInterrupt
     return time.perf_counter() - t0
 
 
-def _check_seconds(seconds: float) -> None:
+# The CPG steps with the physics (the A1 model's timestep, 1 ms)
+STEP = A1Parameters().timestep
+
+
+def check_duration(seconds: float, dt: float = STEP) -> None:
+    """A run lasts at least one step."""
     if not np.isfinite(seconds) or seconds <= 0:
-        raise InputError(f"--seconds must be positive, got {seconds:g}")
+        raise InputError(f"must be positive, got {seconds:g}", culprit="--seconds")
+    if seconds < dt - 1e-12:
+        raise InputError(f"{seconds:g} s is shorter than one {dt * 1e3:g} ms step",
+                         culprit="--seconds")
 
 
 def firing_rates(result: SimulationResult) -> dict[str, Any]:
@@ -178,7 +193,6 @@ def firing_rates(result: SimulationResult) -> dict[str, Any]:
     t, i = result.spikes["motor"]
     per_trial = i // L.motor_per_trial
     pool_kind = (i % L.motor_per_trial) // L.pool_size % 4
-    from ..network import POOLS
     for k, name in enumerate(POOLS):
         counts = np.bincount(per_trial[pool_kind == k], minlength=L.n_trials)
         out[name] = counts / (L.n_legs * L.pool_size * T)

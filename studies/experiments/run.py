@@ -1,0 +1,182 @@
+"""The closed loop: the CPG drives ``trials`` robots with fixed inter-limb weights.
+
+``run(...)`` is what ``astrocpg run`` runs; ``replay(folder)`` runs a training's trained tables
+(``astrocpg gait`` and ``astrocpg plot``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from ...errors import InputError
+from ..files.folder import OutputFolder, verify
+from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
+from ..files.weights import load_weights
+from .settings import Overrides, model_set, number, override_items
+from .resources import check_memory, estimate_bytes
+from .simulate import (STEP, SimulationResult, check_duration, check_selection, firing_rates,
+                       simulate_closed_loop)
+
+ROBOT_FILE = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t, leg, joint) "
+              "N m; torso_position/velocity (trial, t, xyz) m, m/s world; reward, alive "
+              "(trial, t); foot_force (trial, t, leg) N; interlimb_weights_mV (trial, 8, 8)")
+
+
+def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
+        overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
+        weights: str | Path | np.ndarray | None = None, trial: int | None = None,
+        robot: str | Path | None = None, trace_dt: float = 1.0, robot_stride: int = 1,
+        spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
+        out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
+        settings: Mapping[str, Any] | None = None) -> SimulationResult:
+    """Run the CPG driving ``trials`` A1 robots for ``seconds`` (seeds seed, seed+1, ...).
+
+    weights: an 8x8 table in mV as a file (.npy/.npz/.json/.csv) or a training folder (its final
+    tables; ``trial`` picks one), or an array in volt of shape (8, 8) or (trials, 8, 8); default
+    zero. robot: an MJCF file with the A1's joint and actuator names (default: the project's
+    A1). trace_dt in ms; robot_stride in physics steps. With ``out``, writes the folder
+    ``astrocpg run`` writes."""
+    from brian2 import ms
+
+    from ...coupling.robot import A1Parameters, RobotLayout, build_model, load_robot
+
+    seconds = number(seconds, "--seconds", positive=True)
+    trials = number(trials, "--trials", integer=True, minimum=1)
+    seed = number(seed, "--seed", integer=True, minimum=0)
+    trace_dt = number(trace_dt, "--trace-dt", positive=True)
+    robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
+    check_duration(seconds, STEP)
+    if out is not None:
+        OutputFolder(out, overwrite=overwrite).check()  # before the simulation, not after
+    pops, names = check_selection(spikes, traces)
+    check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
+                                traces=names, spikes=bool(pops), robot_stride=robot_stride),
+                 culprit=f"--seconds {seconds:g} x --trials {trials}")
+    models = model_set(overrides, equations)
+    if weights is None:
+        table = None
+    elif isinstance(weights, np.ndarray):
+        table = np.asarray(weights, dtype=float)
+        if table.shape[-2:] != (8, 8) or not np.all(np.isfinite(table)):
+            raise InputError(f"expected finite 8x8 tables in volt, got shape {table.shape}",
+                             culprit="weights")
+    else:
+        table = load_weights(weights, trial)
+    if table is not None and table.ndim == 3 and table.shape[0] != trials:
+        raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
+                         culprit=f"--weights {weights if not isinstance(weights, np.ndarray) else ''}")
+    params = A1Parameters()
+    model = load_robot(robot) if robot else build_model(params)
+    if abs(model.opt.timestep - params.timestep) > 1e-12:
+        raise InputError(f"timestep is {model.opt.timestep:g} s; the CPG steps with the physics "
+                         f"at {params.timestep:g} s (set <option timestep=\"{params.timestep:g}\"/>)",
+                         culprit=f"--robot {Path(robot).name}")
+    layout = RobotLayout.from_model(model, params)
+    result = simulate_closed_loop(models, model, layout, seconds=seconds, seed=seed,
+                                  n_trials=trials, weights=table, trace_dt=trace_dt * ms,
+                                  robot_stride=robot_stride, spikes=spikes, traces=traces,
+                                  progress=progress)
+    rec = result.robot
+    start_x = layout.reset_qpos[layout.free_qpos_adr]
+    result.extra.update({
+        "models": models,
+        "distance_m": rec.torso_position[:, -1, 0] - start_x,
+        "mean_forward_speed_m_per_s": rec.torso_velocity[:, :, 0].mean(axis=1),
+        "upright_share": rec.alive.mean(axis=1),
+        "rate_per_neuron_Hz": firing_rates(result),
+        "robot_info": ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
+                       else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)}),
+    })
+    if out is not None:
+        settings = dict(settings or {}) or {
+            "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
+            "robot_stride": robot_stride, "overrides": override_items(overrides),
+            "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
+            "weights": None if weights is None or isinstance(weights, np.ndarray)
+            else str(weights), "trial": trial, "robot": None if robot is None else str(robot)}
+        with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
+            write_run_folder(folder, result, settings)
+    return result
+
+
+def robot_arrays(result: SimulationResult) -> dict[str, np.ndarray]:
+    """The robot's recording as the arrays of ``robot.npz``."""
+    rec = result.robot
+    return {
+        "t": rec.t, "joint_angles": rec.joint_angles, "torques": rec.torques,
+        "torso_position": rec.torso_position, "torso_velocity": rec.torso_velocity,
+        "reward": rec.reward, "alive": rec.alive, "foot_force": rec.foot_force,
+        "legs": np.array(list(result.cpg.layout.legs)),
+        "joints": np.array(["hip", "thigh", "calf"]),
+        "interlimb_weights_mV": result.cpg.interlimb_weights() * 1e3,
+    }
+
+
+def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str, Any]) -> None:
+    """spikes.npz, traces.npz, robot.npz, the thigh-extensor figure and manifest.json."""
+    from ..figures import plots
+
+    files = save_spikes_and_traces(out, result.spikes, result.traces)
+    save_npz(out / "robot.npz", robot_arrays(result))
+    files["robot.npz"] = ROBOT_FILE
+    if "motor" in result.spikes:
+        plots.plot_thigh_extensor_activity(out / "thigh_extensor_activity.png", result.spikes,
+                                           result.cpg.layout)
+        files["thigh_extensor_activity.png"] = "thigh-extensor activity of the 4 limbs (trial 0)"
+    x = result.extra
+    write_manifest(out, command="run", seed=int(settings.get("seed", 1)), settings=settings,
+                   models_json=x["models"].to_json(), files=files,
+                   results={"distance_m": x["distance_m"],
+                            "mean_forward_speed_m_per_s": x["mean_forward_speed_m_per_s"],
+                            "rate_per_neuron_Hz": x["rate_per_neuron_Hz"],
+                            "wall_seconds": result.wall_seconds, "seconds": result.seconds,
+                            "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
+                            "layout": result.cpg.layout.to_json()})
+
+
+def format_run(result: SimulationResult, seed: int) -> list[str]:
+    """Distance, speed, upright share and rates per trial, and the wall time."""
+    x = result.extra
+    lines = []
+    for b in range(result.cpg.n_trials):
+        lines.append(f"trial {b} (seed {seed}+{b}): distance {x['distance_m'][b]:+.3f} m, mean "
+                     f"forward speed {x['mean_forward_speed_m_per_s'][b]:+.3f} m/s, upright "
+                     f"{x['upright_share'][b] * 100:.0f}% of steps")
+        if x["rate_per_neuron_Hz"]:
+            lines.append("  rate per neuron (Hz): " + ", ".join(
+                f"{k} {v[b]:.1f}" for k, v in x["rate_per_neuron_Hz"].items()))
+    lines.append(f"wall time {result.wall_seconds:.1f} s for {result.seconds:g} simulated s "
+                 f"x {result.cpg.n_trials} trial(s)")
+    return lines
+
+
+def training_settings(folder: str | Path) -> dict[str, Any]:
+    """The settings of the training in ``folder`` (from its manifest)."""
+    try:
+        return json.loads((Path(folder) / "manifest.json").read_text())["settings"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise InputError("no readable manifest.json (not a training run)",
+                         culprit=str(folder)) from None
+
+
+def replay(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
+           progress: bool = True) -> tuple[SimulationResult, np.ndarray]:
+    """The trained tables of every trial of the training in ``folder``, run for ``seconds``
+    with the training's models (one batch); returns the result and the tables (volt)."""
+    seconds = number(seconds, "--seconds", positive=True)
+    verify(folder, strict=False)  # its files are what its manifest lists
+    weights = load_weights(folder, culprit="")
+    settings = training_settings(folder)
+    values = {} if settings.get("astrocytes", True) else {"astrocyte_regulation": 0.0}
+    models = model_set(settings.get("overrides", []), settings.get("equations", {}))
+    if values:
+        models = models.with_values(values)
+    result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
+                                  n_trials=len(weights), weights=weights, record_traces=False,
+                                  progress=progress)
+    return result, weights

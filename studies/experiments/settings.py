@@ -1,0 +1,94 @@
+"""Settings shared by the experiments: the model set from overrides and equation texts, and the
+checks of the numbers every experiment takes (durations, counts, sampling)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+from ...errors import InputError
+from ...models import DEFAULT_MODELS, ModelSet
+
+Overrides = Mapping[str, Any] | Sequence[str]
+
+
+def override_items(overrides: Overrides | None) -> list[str]:
+    """``NAME=VALUE`` strings from a list of them or a mapping ``{name: value}`` (a value may
+    be a quantity, ``9*ms``, or its text, ``"9*ms"``)."""
+    if not overrides:
+        return []
+    if isinstance(overrides, Mapping):
+        return [f"{k}={_value_text(v)}" for k, v in overrides.items()]
+    if isinstance(overrides, str):
+        return [overrides]
+    return [str(o) for o in overrides]
+
+
+def _value_text(value: Any) -> str:
+    if isinstance(value, str):
+        return value
+    # a Brian2 quantity prints as "9. ms": a spelling the value parser reads back
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def read_equation_files(items: Sequence[str], option: str = "--equations") -> dict[str, str]:
+    """``MODEL=FILE`` items -> {model: text}; a file that cannot be read, is binary or not
+    UTF-8 is an InputError naming the option and the file."""
+    out: dict[str, str] = {}
+    for item in items:
+        name, sep, file = item.partition("=")
+        if not sep or not name or not file:
+            raise InputError("expected MODEL=FILE", culprit=f"{option} '{item}'")
+        try:
+            raw = Path(file).read_bytes()
+        except OSError as e:
+            raise InputError(f"cannot read '{file}' ({e.strerror})",
+                             culprit=f"{option} {name}") from None
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            raise InputError(f"'{file}' is not UTF-8 text", culprit=f"{option} {name}") from None
+        if "\x00" in text:
+            raise InputError(f"'{file}' is a binary file, not an equation string",
+                             culprit=f"{option} {name}")
+        out[name] = text
+    return out
+
+
+def model_set(overrides: Overrides | None = None,
+              equations: Mapping[str, str] | None = None,
+              base: ModelSet = DEFAULT_MODELS) -> ModelSet:
+    """The model set with equation texts swapped in (``{model: text}``) and parameter values
+    overridden (``NAME=VALUE`` items or ``{name: value}``), validated."""
+    models = base
+    known = dict(models.items())
+    for name, text in (equations or {}).items():
+        model = known.get(name)
+        if model is None:
+            raise InputError(f"unknown model '{name}' (models: {', '.join(known)})",
+                             culprit="--equations")
+        models = models.replace(**{name: model.with_code(text)})
+    values = dict(models.parse_assignment(item) for item in override_items(overrides))
+    return models.with_values(values) if values else models
+
+
+def number(value: Any, culprit: str, *, integer: bool = False, minimum: float | None = None,
+           positive: bool = False) -> Any:
+    """A finite number (int if ``integer``) within bounds, or an InputError naming the culprit."""
+    try:
+        if isinstance(value, bool):
+            raise TypeError
+        x = int(value) if integer else float(value)
+        if integer and x != value:
+            raise TypeError
+    except (TypeError, ValueError, OverflowError):
+        kind = "an integer" if integer else "a number"
+        raise InputError(f"must be {kind}, got {value!r}", culprit=culprit) from None
+    if not integer and not math.isfinite(x):
+        raise InputError(f"must be finite, got {value!r}", culprit=culprit)
+    if positive and not x > 0:
+        raise InputError(f"must be positive, got {value!r}", culprit=culprit)
+    if minimum is not None and x < minimum:
+        raise InputError(f"must be at least {minimum:g}, got {value!r}", culprit=culprit)
+    return x

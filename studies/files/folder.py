@@ -1,0 +1,662 @@
+"""One invocation's result folder: whole or nothing, listed in its manifest, owned while in use.
+
+* :class:`OutputFolder` -- a command writes into a hidden temporary sibling
+  (``.<name>.partial-<pid>-<random>``) that is renamed into place only when the command
+  finishes; on an exception, Ctrl-C or ``SystemExit`` the temporary is deleted. A folder that
+  holds files is refused unless ``--overwrite``, which replaces it whole (never merges).
+* :func:`inventory` / :func:`verify` -- the manifest's ``"inventory"`` lists every file with its
+  size and sha256; readers refuse a folder whose files do not match it.
+* :class:`FolderLock` -- a running ``train`` or ``study`` owns its folder; a second process on
+  the same folder stops with one line naming the holder.
+* :func:`clean_stale_temporaries` -- hidden temporaries (folders and files) whose name carries
+  the pid of a process that no longer exists are removed on the next start.
+* :func:`append_history` -- ``train --resume`` appends to the manifest's history instead of
+  replacing the original command line and creation time.
+
+Temporary names (one scheme for folders and files, made by :func:`temp_prefix`)::
+
+    .<name>.partial-<pid>-<token>            a folder being written by OutputFolder
+    .<name>.replaced-<pid>-<token>           an old folder set aside by an --overwrite
+    .<stem>.tmp-<pid>-<token><suffix>        a file being written by an atomic writer
+
+``<token>`` is 6 to 32 characters of ``[A-Za-z0-9_]`` (what ``tempfile.mkstemp`` appends).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import errno
+import json
+import os
+import re
+import secrets
+import shutil
+import socket
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, Iterator, Mapping
+
+import filelock
+
+from ...errors import EnvironmentFault, InputError
+
+MANIFEST = "manifest.json"
+LOCK_NAME = ".astrocpg.lock"
+OWNER_NAME = ".astrocpg.lock.owner"
+#: Top-level names that :func:`inventory` does not list and :func:`verify` does not count as
+#: extra files: the manifest itself and a lock (left behind by a killed holder).
+UNLISTED = frozenset({MANIFEST, LOCK_NAME, OWNER_NAME})
+
+TEMP_KINDS = ("partial", "replaced", "tmp")
+_TEMP_RE = re.compile(r"^\.(?P<name>.+)\.(?P<kind>partial|replaced|tmp)-(?P<pid>[0-9]{1,10})-"
+                      r"(?P<token>[A-Za-z0-9_]{6,32})(?P<suffix>\.[^.]*)?$")
+
+
+def _now() -> str:
+    return time.strftime("%Y-%m-%dT%H:%M:%S%z")
+
+
+# ---------------------------------------------------------------- temporaries
+def temp_prefix(stem: str, kind: str = "tmp") -> str:
+    """``.<stem>.<kind>-<pid>-``: the start of a hidden temporary's name, for ``tempfile``.
+
+    An atomic file writer uses
+    ``tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem), suffix=path.suffix)``,
+    which makes ``.<stem>.tmp-<pid>-<8 random><suffix>`` (the suffix kept for libraries that
+    check it, e.g. pynwb); :func:`clean_stale_temporaries` recognises it."""
+    if kind not in TEMP_KINDS:
+        raise ValueError(f"kind must be one of {TEMP_KINDS}, got {kind!r}")
+    return f".{stem}.{kind}-{os.getpid()}-"
+
+
+def parse_temp_name(name: str) -> dict[str, Any] | None:
+    """``{"name", "kind", "pid", "suffix"}`` of a hidden temporary's name, else None."""
+    m = _TEMP_RE.match(name)
+    if m is None:
+        return None
+    return {"name": m["name"], "kind": m["kind"], "pid": int(m["pid"]), "suffix": m["suffix"] or ""}
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (on this machine). Only a definite "no such process"
+    counts as dead: a process of another user, or an unusable pid, counts as alive."""
+    if pid <= 0:
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (OSError, OverflowError):
+        return True
+    return True
+
+
+def _remove(path: Path) -> None:
+    """Delete a file, a link or a folder tree; a path already gone is fine."""
+    try:
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        else:
+            path.unlink()
+    except FileNotFoundError:
+        pass
+
+
+def clean_stale_temporaries(parent: str | os.PathLike) -> list[Path]:
+    """Remove the hidden temporaries in ``parent`` (not below it) left by processes that no
+    longer exist; returns what was removed. Temporaries of live processes are kept.
+
+    An old folder that a killed ``--overwrite`` had set aside (``.<name>.replaced-<pid>-...``)
+    while ``<name>`` is absent is renamed back to ``<name>``: the interrupted overwrite did not
+    happen. Best effort: what cannot be removed (a read-only folder, another process cleaning at
+    the same moment) is left for the next start."""
+    parent = Path(parent)
+    try:
+        with os.scandir(parent) as it:
+            names = [e.name for e in it]
+    except OSError:
+        return []
+    removed: list[Path] = []
+    for name in sorted(names):
+        tmp = parse_temp_name(name)
+        if tmp is None or tmp["pid"] == os.getpid() or pid_alive(tmp["pid"]):
+            continue
+        path = parent / name
+        try:
+            if tmp["kind"] == "replaced" and path.is_dir() and not path.is_symlink():
+                original = parent / tmp["name"]
+                if not os.path.lexists(original):
+                    os.rename(path, original)
+                    continue
+            _remove(path)
+            removed.append(path)
+        except OSError:
+            continue
+    return removed
+
+
+# ---------------------------------------------------------------- the output folder
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+_RENAME_EXCHANGE = 2
+_AT_FDCWD = -100
+_renameat2_fn: Any = None
+
+
+def _renameat2() -> Any:
+    """glibc's ``renameat2`` (Linux >= 3.15, glibc >= 2.28), or False where there is none."""
+    global _renameat2_fn
+    if _renameat2_fn is None:
+        _renameat2_fn = False
+        if sys.platform.startswith("linux"):
+            try:
+                fn = ctypes.CDLL(None, use_errno=True).renameat2
+            except (OSError, AttributeError):
+                pass
+            else:
+                fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
+                               ctypes.c_uint]
+                fn.restype = ctypes.c_int
+                _renameat2_fn = fn
+    return _renameat2_fn
+
+
+def exchange(a: Path, b: Path) -> bool:
+    """Swap two paths in one atomic step (``renameat2(RENAME_EXCHANGE)``). False where the
+    system or the file system cannot; an OSError for any other failure."""
+    fn = _renameat2()
+    if not fn:
+        return False
+    if fn(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EPERM):
+        return False
+    raise OSError(err, os.strerror(err), os.fspath(b))
+
+
+class OutputFolder:
+    """One invocation's result folder, whole or nothing::
+
+        with OutputFolder(args.out, overwrite=args.overwrite, culprit="--out") as tmp:
+            save_npz(tmp / "spikes.npz", ...)
+            write_manifest(tmp, ...)        # last, with inventory(tmp)
+
+    On enter: a target that is a file is refused, and so is a folder that holds anything
+    unless ``overwrite`` (InputError naming the culprit and the path); an overwritten folder
+    that a running train/study holds (:class:`FolderLock`) is refused too. The parent folders
+    are created, stale temporaries in the parent removed, and the hidden temporary sibling
+    ``.<name>.partial-<pid>-<random>`` created and returned.
+
+    On normal exit the temporary is renamed into place in one step. With ``overwrite`` the old
+    and the new folder are swapped atomically (``renameat2(RENAME_EXCHANGE)``; where that is
+    missing: the old one is renamed aside to ``.<name>.replaced-<pid>-<random>``, the new one
+    into place, and a killed process's aside folder is restored by the next start), then the
+    old folder is deleted. The target never holds a mix of old and new files.
+
+    On any exception, KeyboardInterrupt or SystemExit the temporary (and any parent folder this
+    created) is deleted and the exception re-raised: an existing target is left untouched. An
+    OSError (disk full, file too large, read-only file system, ...) becomes an EnvironmentFault
+    naming the path (inside the target, not the temporary) and the OS's reason.
+    """
+
+    def __init__(self, target: str | os.PathLike, *, overwrite: bool = False,
+                 culprit: str | None = "--out") -> None:
+        self.shown = Path(target)
+        path = os.path.abspath(os.fspath(target))
+        if os.path.islink(path):  # write where the link points, and keep the link
+            path = os.path.realpath(path)
+        self.target = Path(path)
+        self.overwrite = overwrite
+        self.culprit = culprit
+        self.tmp: Path | None = None
+        self._replacing = False
+        self._lock: FolderLock | None = None
+        self._created: list[Path] = []
+
+    @property
+    def _who(self) -> str:
+        return f"{self.culprit} {self.shown}" if self.culprit else str(self.shown)
+
+    def check(self) -> "OutputFolder":
+        """Refuse a bad target now, before a long computation whose result it would receive
+        (the same refusals as on enter; nothing is created)."""
+        if not self.target.name:
+            raise InputError("cannot be the root folder", culprit=self._who)
+        try:
+            self._check_target()
+        finally:
+            self._release()
+            self._replacing = False
+        return self
+
+    # ------------------------------------------------------------ enter
+    def __enter__(self) -> Path:
+        t = self.target
+        if not t.name:
+            raise InputError("cannot be the root folder", culprit=self._who)
+        try:
+            self._check_target()
+            self._make_parents()
+            clean_stale_temporaries(t.parent)
+            try:
+                tmp = Path(tempfile.mkdtemp(prefix=temp_prefix(t.name, "partial"), dir=t.parent))
+            except OSError as e:
+                raise EnvironmentFault.from_os_error(e, self.shown, "cannot create the folder") \
+                    from None
+            self.tmp = tmp
+            umask = os.umask(0)
+            os.umask(umask)
+            try:
+                os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes 0700; results are ordinary folders
+            except OSError:
+                pass
+        except BaseException:
+            self._discard()
+            raise
+        return tmp
+
+    def _check_target(self) -> None:
+        t = self.target
+        if not os.path.lexists(t):
+            return
+        if not t.is_dir():
+            raise InputError("exists and is not a folder", culprit=self._who)
+        try:
+            with os.scandir(t) as it:
+                holds_files = next(it, None) is not None
+        except OSError as e:
+            raise EnvironmentFault.from_os_error(e, self.shown, "cannot read the folder") from None
+        if not holds_files:
+            return
+        if not self.overwrite:
+            raise InputError("is not empty; --overwrite replaces it whole (its files are deleted, "
+                             "never mixed with the new ones)", culprit=self._who)
+        self._replacing = True
+        self._lock = FolderLock(t, culprit=self.culprit).acquire()
+
+    def _make_parents(self) -> None:
+        missing: list[Path] = []
+        p = self.target.parent
+        while not os.path.lexists(p):
+            missing.append(p)
+            p = p.parent
+        if not p.is_dir():
+            raise EnvironmentFault(f"cannot create {self.shown} in it: "
+                                   f"{os.strerror(errno.ENOTDIR)}", culprit=p)
+        for d in reversed(missing):
+            try:
+                os.mkdir(d)
+            except FileExistsError:
+                continue
+            except OSError as e:
+                raise EnvironmentFault.from_os_error(e, d, "cannot create the folder") from None
+            self._created.append(d)
+
+    # ------------------------------------------------------------ exit
+    def __exit__(self, exc_type: Any, exc: BaseException | None, tb: Any) -> bool:
+        if exc_type is None:
+            old: Path | None = None
+            try:
+                old = self._commit()
+            except BaseException as e:
+                fault = self._fault(e, "cannot move the results into place")
+                self._discard()
+                if fault is not None:
+                    raise fault from e
+                raise
+            finally:
+                self._release()
+            if old is not None:  # the replaced folder; if this is interrupted, the next start
+                try:             # removes it (its name carries this pid)
+                    _remove(old)
+                except OSError:
+                    pass
+            return False
+        assert exc is not None
+        fault = self._fault(exc, "cannot write")
+        self._discard()
+        if fault is not None:
+            raise fault from exc
+        return False
+
+    def _commit(self) -> Path | None:
+        """Put the temporary in place; returns the old folder to delete, if any."""
+        tmp, t = self.tmp, self.target
+        assert tmp is not None
+        _fsync_dir(tmp)
+        old: Path | None = None
+        if self._replacing and os.path.lexists(t):
+            if exchange(tmp, t):
+                old = tmp
+            else:
+                aside = t.parent / (temp_prefix(t.name, "replaced") + secrets.token_hex(4))
+                os.rename(t, aside)
+                try:
+                    os.rename(tmp, t)
+                except BaseException:
+                    try:
+                        os.rename(aside, t)
+                    except OSError:
+                        pass  # the next start restores it (clean_stale_temporaries)
+                    raise
+                old = aside
+        else:
+            try:
+                os.rename(tmp, t)  # t absent, or an empty folder, which rename replaces
+            except OSError as e:
+                if e.errno in (errno.ENOTEMPTY, errno.EEXIST):
+                    raise InputError("is not empty: another process wrote into it meanwhile; "
+                                     "--overwrite replaces it whole", culprit=self._who) from None
+                if e.errno == errno.ENOTDIR:
+                    raise InputError("exists and is not a folder", culprit=self._who) from None
+                raise
+        self.tmp = None
+        _fsync_dir(t.parent)
+        return old
+
+    def _release(self) -> None:
+        if self._lock is not None:
+            self._lock.release()
+            self._lock = None
+
+    def _discard(self) -> None:
+        """Delete the temporary and the parent folders this created (if still empty)."""
+        try:
+            if self.tmp is not None:
+                try:
+                    _remove(self.tmp)
+                except OSError:
+                    pass  # its name carries this pid: the next start removes it
+                self.tmp = None
+            for d in reversed(self._created):
+                try:
+                    os.rmdir(d)
+                except OSError:
+                    break
+            self._created = []
+        finally:
+            self._release()
+
+    def _fault(self, err: BaseException, doing: str) -> EnvironmentFault | None:
+        """An OSError as one line naming the user's path (inside the target, not the
+        temporary) and the OS's reason; None for any other exception (and a broken pipe)."""
+        if not isinstance(err, OSError) or isinstance(err, BrokenPipeError):
+            return None
+        where: Any = self.shown
+        name = err.filename
+        if name is not None and not isinstance(name, int):
+            where = p = Path(os.fsdecode(name))
+            if self.tmp is not None:
+                try:
+                    where = self.shown / p.relative_to(self.tmp)
+                except ValueError:
+                    pass
+        return EnvironmentFault.from_os_error(err, where, doing)
+
+
+# ---------------------------------------------------------------- inventory
+def _files(root: Path) -> Iterator[tuple[str, Path]]:
+    """(relative POSIX path, path) of every file below ``root``, sorted, without the
+    top-level :data:`UNLISTED` names. Links to files count as files; links to folders are not
+    followed."""
+    def fail(err: OSError) -> None:
+        raise err
+
+    for dirpath, dirnames, filenames in os.walk(root, onerror=fail):
+        dirnames.sort()
+        for f in sorted(filenames):
+            path = Path(dirpath, f)
+            rel = path.relative_to(root).as_posix()
+            if rel not in UNLISTED:
+                yield rel, path
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """sha256 of a file, streamed."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def inventory(folder: str | os.PathLike,
+              previous: Mapping[str, Mapping[str, Any]] | None = None) -> dict[str, dict[str, Any]]:
+    """``{relative POSIX path: {"bytes": int, "sha256": str, "mtime_ns": int}}`` of every file
+    in ``folder`` (sub-folders included) except ``manifest.json`` and the lock files. Hashing is
+    streamed; a file whose size and mtime match its entry in ``previous`` keeps that hash (a
+    training rewrites its inventory after every session without rehashing its recordings)."""
+    root = Path(folder)
+    out: dict[str, dict[str, Any]] = {}
+    previous = previous or {}
+    path = root
+    try:
+        for rel, path in _files(root):
+            st = os.stat(path)
+            old = previous.get(rel)
+            if old and old.get("bytes") == st.st_size and old.get("mtime_ns") == st.st_mtime_ns:
+                sha = old["sha256"]
+            else:
+                sha = file_sha256(path)
+            out[rel] = {"bytes": st.st_size, "sha256": sha, "mtime_ns": st.st_mtime_ns}
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, e.filename or path, "cannot read") from None
+    return dict(sorted(out.items()))
+
+
+def _safe_rel(name: Any) -> bool:
+    if not isinstance(name, str) or not name or name.startswith("/") or "\\" in name:
+        return False
+    parts = name.split("/")
+    return all(p not in ("", ".", "..") for p in parts) and name not in UNLISTED
+
+
+def verify(folder: str | os.PathLike, *, culprit: str | None = None,
+           strict: bool = True) -> dict[str, Any]:
+    """Read ``folder/manifest.json`` and check its ``"inventory"`` against the files on disk;
+    returns the manifest. InputError naming the folder and the first file that is missing, has
+    another size or sha256, or (``strict``) is not listed; and for a folder without a readable
+    manifest ("not an astrocpg output folder")."""
+    root = Path(folder)
+    who = f"{culprit} {folder}" if culprit else str(folder)
+    if not root.is_dir():
+        raise InputError("no such folder" if not os.path.lexists(root) else "is not a folder",
+                         culprit=who)
+    try:
+        manifest = json.loads((root / MANIFEST).read_bytes())
+    except FileNotFoundError:
+        raise InputError(f"not an astrocpg output folder (no {MANIFEST})", culprit=who) from None
+    except OSError as e:
+        raise InputError(f"not an astrocpg output folder (cannot read {MANIFEST}: "
+                         f"{e.strerror or type(e).__name__})", culprit=who) from None
+    except ValueError:
+        raise InputError(f"not an astrocpg output folder ({MANIFEST} is not valid JSON)",
+                         culprit=who) from None
+    if not isinstance(manifest, dict):
+        raise InputError(f"not an astrocpg output folder ({MANIFEST} is not an object)",
+                         culprit=who)
+    listed = manifest.get("inventory")
+    if not isinstance(listed, dict):
+        raise InputError(f"{MANIFEST} lists no files (no \"inventory\"; written by an older "
+                         "astrocpg?)", culprit=who)
+    for name, entry in listed.items():
+        if not (_safe_rel(name) and isinstance(entry, dict)
+                and isinstance(entry.get("bytes"), int) and isinstance(entry.get("sha256"), str)):
+            raise InputError(f"{MANIFEST}: bad inventory entry {name!r}", culprit=who)
+    path = root
+    try:
+        on_disk = dict(_files(root))
+        # cheap checks first (missing, unlisted, size), then the hashes
+        for name in sorted(set(listed) | set(on_disk)):
+            if name not in on_disk:
+                raise InputError(f"{name} is missing ({MANIFEST} lists it): the folder does not "
+                                 "match its manifest", culprit=who)
+            if name not in listed:
+                if not strict:  # a training folder may gain figures and exports later
+                    continue
+                raise InputError(f"{name} is not listed in {MANIFEST}: the folder does not "
+                                 "match its manifest", culprit=who)
+            path = on_disk[name]
+            size = os.stat(path).st_size
+            if size != listed[name]["bytes"]:
+                raise InputError(f"{name} has {size} bytes, {MANIFEST} says "
+                                 f"{listed[name]['bytes']}: changed or truncated", culprit=who)
+        for name in sorted(listed):
+            path = on_disk[name]
+            if file_sha256(path) != listed[name]["sha256"]:
+                raise InputError(f"{name} has changed since {MANIFEST} was written (sha256 "
+                                 "differs)", culprit=who)
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, e.filename or path, "cannot read") from None
+    return manifest
+
+
+def clear_folder(folder: str | os.PathLike) -> None:
+    """Delete everything in ``folder`` but its lock files (its owner replaces it whole)."""
+    root = Path(folder)
+    try:
+        for entry in list(root.iterdir()):
+            if entry.name in (LOCK_NAME, OWNER_NAME):
+                continue
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry)
+            else:
+                entry.unlink()
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, e.filename or root, "cannot clear") from None
+
+
+def holds_results(folder: str | os.PathLike) -> bool:
+    """Does ``folder`` hold anything but lock files?"""
+    try:
+        return any(e.name not in (LOCK_NAME, OWNER_NAME) for e in Path(folder).iterdir())
+    except FileNotFoundError:
+        return False
+
+
+# ---------------------------------------------------------------- the lock
+class FolderLock:
+    """``with FolderLock(folder, culprit="--out"):`` -- this process owns ``folder`` while the
+    block runs (train, study). A non-blocking exclusive lock (filelock; ``flock`` on Unix) on
+    ``folder/.astrocpg.lock``; ``.astrocpg.lock.owner`` says who holds it. When another process
+    holds it: InputError "is in use by another astrocpg process (pid N since <time>)". The lock
+    of a killed process does not block (the kernel drops it). Released, and both files removed,
+    on exit. The folder must exist."""
+
+    def __init__(self, folder: str | os.PathLike, *, culprit: str | None = None) -> None:
+        self.folder = Path(folder)
+        self.culprit = culprit
+        self._lock: filelock.BaseFileLock | None = None
+        self._mine: dict[Path, os.stat_result] = {}
+
+    @property
+    def _who(self) -> str:
+        return f"{self.culprit} {self.folder}" if self.culprit else str(self.folder)
+
+    @property
+    def path(self) -> Path:
+        return self.folder / LOCK_NAME
+
+    @property
+    def held(self) -> bool:
+        return self._lock is not None
+
+    def owner(self) -> dict[str, Any] | None:
+        """What the owner file says (pid, since, host, argv), or None."""
+        try:
+            data = json.loads((self.folder / OWNER_NAME).read_bytes())
+        except (OSError, ValueError):
+            return None
+        return data if isinstance(data, dict) else None
+
+    def acquire(self) -> "FolderLock":
+        if self._lock is not None:
+            return self
+        if not self.folder.is_dir():
+            raise InputError("no such folder" if not os.path.lexists(self.folder)
+                             else "is not a folder", culprit=self._who)
+        lock = filelock.FileLock(os.fspath(self.path), timeout=0)
+        try:
+            lock.acquire()
+        except filelock.Timeout:
+            raise InputError(self._in_use(), culprit=self._who) from None
+        except OSError as e:
+            raise EnvironmentFault.from_os_error(e, self.path, "cannot lock the folder") from None
+        self._lock = lock
+        try:
+            self._mine[self.path] = os.stat(self.path)
+            self._write_owner()
+        except BaseException as e:
+            self.release()
+            if isinstance(e, OSError):
+                raise EnvironmentFault.from_os_error(e, self.folder / OWNER_NAME,
+                                                     "cannot lock the folder") from None
+            raise
+        return self
+
+    def _write_owner(self) -> None:
+        info = {"pid": os.getpid(), "since": _now(), "host": socket.gethostname(),
+                "argv": list(sys.argv)}
+        fd, tmp = tempfile.mkstemp(dir=self.folder, prefix=temp_prefix(OWNER_NAME[1:]))
+        try:
+            with os.fdopen(fd, "w") as f:
+                json.dump(info, f)
+            os.replace(tmp, self.folder / OWNER_NAME)
+        except BaseException:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+            raise
+        self._mine[self.folder / OWNER_NAME] = os.stat(self.folder / OWNER_NAME)
+
+    def _in_use(self) -> str:
+        info = self.owner() or {}
+        pid, since = info.get("pid"), info.get("since")
+        if isinstance(pid, int):
+            return (f"is in use by another astrocpg process (pid {pid}"
+                    f"{f' since {since}' if since else ''}); wait for it to finish or stop it")
+        return "is in use by another astrocpg process; wait for it to finish or stop it"
+
+    def release(self) -> None:
+        """Remove the owner and lock files (only if they are still this lock's), then unlock."""
+        if self._lock is None:
+            return
+        try:
+            for path in (self.folder / OWNER_NAME, self.path):
+                st = self._mine.get(path)
+                try:
+                    if st is not None and os.path.samestat(os.lstat(path), st):
+                        os.unlink(path)
+                except OSError:
+                    pass
+        finally:
+            self._mine.clear()
+            lock, self._lock = self._lock, None
+            lock.release()
+
+    def __enter__(self) -> "FolderLock":
+        return self.acquire()
+
+    def __exit__(self, *exc: Any) -> None:
+        self.release()
+
+
+__all__ = ["OutputFolder", "FolderLock", "inventory", "verify", "append_history",
+           "clean_stale_temporaries", "temp_prefix", "parse_temp_name", "pid_alive", "exchange",
+           "MANIFEST", "LOCK_NAME", "OWNER_NAME", "UNLISTED"]
