@@ -1,11 +1,50 @@
 """astrocpg: an astrocyte-regulated spiking central pattern generator, declared as Brian2
 equation strings, driving a simulated Unitree A1 quadruped in MuJoCo.
 
+The Python API (what the ``astrocpg`` commands call)::
+
+    import astrocpg as ac
+    r = ac.run(seconds=1, seed=3)                 # closed loop -> Result
+    r.spike_times("motor", leg="FR", pool="thigh_flexor")
+    r.trace("astrocyte_Ca").column(leg="FR", pool="thigh_extensor")
+    u = ac.unit(seconds=3, seed=1, out="out/unit")
+    same = ac.load("out/unit")                    # any output folder -> Result
+
+``unit``, ``run``, ``train``, ``resume``, ``load``, ``describe``, ``export``, ``Result`` and
+``Trace`` are imported on first use, so ``import astrocpg`` (and ``astrocpg --help``) does not
+load Brian2. See docs/tutorial.ipynb.
+
 Sub-packages:
   models    the biophysics: one model per module, its equation string and parameter table
   network   builds populations and synapses (for ``n_trials`` independent copies)
   coupling  the A1 robot model and the 1 ms Brian2 <-> MuJoCo bridge
-  studies   runs, outputs, figures and the ``astrocpg`` command line
+  studies   runs, outputs, figures, the Python API and the ``astrocpg`` command line
 """
 
+from __future__ import annotations
+
+import importlib
+
 __version__ = "0.1.0"
+
+# public name -> module that defines it (imported on first access)
+_API = {name: "astrocpg.studies.experiments.api"
+        for name in ("unit", "run", "train", "resume", "load", "describe", "export", "Result",
+                     "Trace")}
+_API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFault", "Diverged")})
+
+__all__ = sorted(_API)
+
+
+def __getattr__(name: str) -> object:
+    """Import the API's functions lazily (PEP 562): Brian2 loads on first use."""
+    module = _API.get(name)
+    if module is None:
+        raise AttributeError(f"module 'astrocpg' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_API))

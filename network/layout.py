@@ -61,6 +61,12 @@ class Layout:
             "thigh_pools": list(THIGH_POOLS),
         }
 
+    @classmethod
+    def from_json(cls, data: dict) -> "Layout":
+        """The layout a manifest's ``results.layout`` (:meth:`to_json`) describes."""
+        return cls(n_trials=int(data["n_trials"]), pool_size=int(data["pool_size"]),
+                   legs=tuple(data.get("legs", LEGS)))
+
     # ---- sizes per trial
     @property
     def pools_per_trial(self) -> int:

@@ -64,6 +64,17 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
+def _add_simulation_options(p: argparse.ArgumentParser, seconds: float) -> None:
+    p.add_argument("--seconds", type=float, default=seconds,
+                   help=f"simulated time in s (default {seconds:g})")
+    p.add_argument("--seed", type=int, default=1, help="seed of trial 0 (default 1)")
+    p.add_argument("--trials", type=int, default=1,
+                   help="independent trials, seeds K, K+1, ... (default 1)")
+    p.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
+                   help="sampling interval of the Ca2+/IP3/2-AG/adenosine traces in ms "
+                        "(default 1)")
+
+
 def _add_overwrite(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overwrite", action="store_true",
                    help="replace an existing output whole (never merged with the new one)")
@@ -76,11 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     unit = sub.add_parser("unit", help="one locomotion unit, open loop (paper Fig. 1c)",
                           epilog=EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    unit.add_argument("--seconds", type=float, default=30.0)
-    unit.add_argument("--seed", type=int, default=1)
-    unit.add_argument("--trials", type=int, default=1, help="independent units, seeds K, K+1...")
-    unit.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
-                      help="sampling interval of the Ca2+ traces in ms (default 1)")
+    _add_simulation_options(unit, seconds=30.0)
     unit.add_argument("--out", required=True)
     _add_overwrite(unit)
     _add_record_options(unit)
@@ -88,16 +95,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="the closed loop: CPG drives the A1 (fixed weights)",
                          epilog=EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    run.add_argument("--seconds", type=float, default=10.0)
-    run.add_argument("--seed", type=int, default=1)
-    run.add_argument("--trials", type=int, default=1)
+    _add_simulation_options(run, seconds=10.0)
     run.add_argument("--weights", help="8x8 inter-limb table in mV (.npy, .csv/.txt, .json), or "
                      "a training folder (its final weights)")
     run.add_argument("--trial", type=int, default=None,
                      help="with --weights DIR: use that trial's table for every trial")
     run.add_argument("--robot", help="an MJCF file with the A1's joint and actuator names")
-    run.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
-                     help="sampling interval of the Ca2+/2-AG/adenosine traces in ms")
     run.add_argument("--robot-stride", type=int, default=1, metavar="STEPS",
                      help="record the robot every STEPS physics steps (default 1)")
     run.add_argument("--out", default=DEFAULT_RUN_OUT)
@@ -242,7 +245,7 @@ def _cmd_unit(args: argparse.Namespace) -> int:
                   trace_dt=args.trace_dt, spikes=args.spikes, traces=args.traces, out=args.out,
                   overwrite=args.overwrite, progress=not args.no_progress,
                   settings=_settings(args), **_models(args))
-    for b, s in enumerate(result.extra["rhythm"]):
+    for b, s in enumerate(result.summary["rhythm"]):
         print(format_rhythm(b, args.seed + b, s))
     print(f"wrote {args.out}/")
     return 0
@@ -263,7 +266,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_train(args: argparse.Namespace) -> int:
     from .experiments.settings import read_equation_files
-    from .experiments.train import TrainingStopped, resume, train
+    from .experiments.train import TrainingStopped, format_train, resume, train
 
     try:
         if args.resume:
@@ -275,26 +278,26 @@ def _cmd_train(args: argparse.Namespace) -> int:
                       else not args.no_astrocytes,
                       "overrides": sorted(args.overrides) or None,
                       "equations": read_equation_files(args.equations) or None}
-            trainer = resume(args.resume, progress=not args.no_progress,
-                             record_every=args.record_every, expect=expect)
+            result = resume(args.resume, progress=not args.no_progress,
+                            record_every=args.record_every, expect=expect)
             out = args.resume
         else:
             if not args.out:
                 raise InputError("is required (or --resume DIR)", culprit="--out")
-            trainer = train(out=args.out, sessions=400 if args.sessions is None else args.sessions,
-                            seed=1 if args.seed is None else args.seed,
-                            trials=1 if args.trials is None else args.trials,
-                            astrocytes=not args.no_astrocytes, record_every=args.record_every,
-                            record_stride=args.record_stride, spikes=args.spikes,
-                            traces=args.traces, overwrite=args.overwrite,
-                            progress=not args.no_progress, **_models(args))
+            result = train(out=args.out, sessions=400 if args.sessions is None else args.sessions,
+                           seed=1 if args.seed is None else args.seed,
+                           trials=1 if args.trials is None else args.trials,
+                           astrocytes=not args.no_astrocytes, record_every=args.record_every,
+                           record_stride=args.record_stride, spikes=args.spikes,
+                           traces=args.traces, overwrite=args.overwrite,
+                           progress=not args.no_progress, **_models(args))
             out = args.out
     except TrainingStopped as e:
         where = args.resume or args.out
         sys.stderr.write(f"astrocpg: training {e}; continue with astrocpg train --resume "
                          f"{where}\n")
         return 130
-    for line in trainer.summary["lines"].values():
+    for line in format_train(result):
         print(line)
     print(f"wrote {out}/ (sessions.csv, weights.npz, checkpoint.pkl, manifest.json)")
     return 0
@@ -366,20 +369,17 @@ def _cmd_power(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .files.export import export
+    from .experiments.api import export
 
-    path = export(Path(args.dir), args.format, Path(args.out) if args.out else None,
-                  overwrite=args.overwrite)
+    path = export(args.dir, args.format, args.out or None, overwrite=args.overwrite)
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return 0
 
 
 def _cmd_describe(args: argparse.Namespace) -> int:
-    from .experiments.settings import model_set
-    from .figures.describe import describe
+    from .experiments.api import describe
 
-    models = model_set(**_models(args))
-    sys.stdout.write(describe(args.model, args.format, models))
+    sys.stdout.write(describe(args.model, args.format, **_models(args)))
     return 0
 
 

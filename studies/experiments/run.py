@@ -16,6 +16,7 @@ import numpy as np
 from ...errors import InputError
 from ..files.folder import OutputFolder, verify
 from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
+from ..files.result import Result
 from ..files.weights import load_weights
 from .settings import Overrides, model_set, number, override_items
 from .resources import check_memory, estimate_bytes
@@ -33,14 +34,21 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         robot: str | Path | None = None, trace_dt: float = 1.0, robot_stride: int = 1,
         spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
         out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
-        settings: Mapping[str, Any] | None = None) -> SimulationResult:
-    """Run the CPG driving ``trials`` A1 robots for ``seconds`` (seeds seed, seed+1, ...).
+        settings: Mapping[str, Any] | None = None) -> Result:
+    """Run the CPG driving ``trials`` A1 robots in MuJoCo for ``seconds`` (seeds seed,
+    seed+1, ...): the closed loop, what ``astrocpg run`` runs.
 
+    overrides: parameter values with units, ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
+    equations: ``{model: equation text}`` replacing a model's Brian2 equation string.
     weights: an 8x8 table in mV as a file (.npy/.npz/.json/.csv) or a training folder (its final
     tables; ``trial`` picks one), or an array in volt of shape (8, 8) or (trials, 8, 8); default
     zero. robot: an MJCF file with the A1's joint and actuator names (default: the project's
-    A1). trace_dt in ms; robot_stride in physics steps. With ``out``, writes the folder
-    ``astrocpg run`` writes."""
+    A1). trace_dt in ms; robot_stride in physics steps. spikes / traces: which populations and
+    traces to record (None: all). out: writes the folder ``astrocpg run`` writes.
+
+    Returns a :class:`~astrocpg.studies.files.result.Result` of kind "run": spikes, traces, the
+    robot's arrays (``result.robot``) and ``summary`` (distance_m, mean_forward_speed_m_per_s,
+    upright_share, rate_per_neuron_Hz per trial)."""
     from brian2 import ms
 
     from ...coupling.robot import A1Parameters, RobotLayout, build_model, load_robot
@@ -92,16 +100,18 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         "robot_info": ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
                        else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)}),
     })
+    settings = dict(settings or {}) or {
+        "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
+        "robot_stride": robot_stride, "overrides": override_items(overrides),
+        "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
+        "weights": None if weights is None or isinstance(weights, np.ndarray)
+        else str(weights), "trial": trial, "robot": None if robot is None else str(robot)}
     if out is not None:
-        settings = dict(settings or {}) or {
-            "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-            "robot_stride": robot_stride, "overrides": override_items(overrides),
-            "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
-            "weights": None if weights is None or isinstance(weights, np.ndarray)
-            else str(weights), "trial": trial, "robot": None if robot is None else str(robot)}
         with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
             write_run_folder(folder, result, settings)
-    return result
+    return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
+                                  summary=run_results(result), robot=robot_arrays(result),
+                                  models=models, folder=out)
 
 
 def robot_arrays(result: SimulationResult) -> dict[str, np.ndarray]:
@@ -128,30 +138,35 @@ def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str,
         plots.plot_thigh_extensor_activity(out / "thigh_extensor_activity.png", result.spikes,
                                            result.cpg.layout)
         files["thigh_extensor_activity.png"] = "thigh-extensor activity of the 4 limbs (trial 0)"
-    x = result.extra
     write_manifest(out, command="run", seed=int(settings.get("seed", 1)), settings=settings,
-                   models_json=x["models"].to_json(), files=files,
-                   results={"distance_m": x["distance_m"],
-                            "mean_forward_speed_m_per_s": x["mean_forward_speed_m_per_s"],
-                            "rate_per_neuron_Hz": x["rate_per_neuron_Hz"],
-                            "wall_seconds": result.wall_seconds, "seconds": result.seconds,
-                            "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
-                            "layout": result.cpg.layout.to_json()})
+                   models_json=result.extra["models"].to_json(), files=files,
+                   results=run_results(result))
 
 
-def format_run(result: SimulationResult, seed: int) -> list[str]:
-    """Distance, speed, upright share and rates per trial, and the wall time."""
+def run_results(result: SimulationResult) -> dict[str, Any]:
+    """What the manifest's ``results`` (and the Result's ``summary``) hold for a run."""
     x = result.extra
+    return {"distance_m": x["distance_m"],
+            "mean_forward_speed_m_per_s": x["mean_forward_speed_m_per_s"],
+            "upright_share": x["upright_share"], "rate_per_neuron_Hz": x["rate_per_neuron_Hz"],
+            "wall_seconds": result.wall_seconds, "seconds": result.seconds,
+            "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
+            "layout": result.cpg.layout.to_json()}
+
+
+def format_run(result: Result, seed: int) -> list[str]:
+    """Distance, speed, upright share and rates per trial, and the wall time."""
+    x = result.summary
     lines = []
-    for b in range(result.cpg.n_trials):
+    for b in range(result.layout.n_trials):
         lines.append(f"trial {b} (seed {seed}+{b}): distance {x['distance_m'][b]:+.3f} m, mean "
                      f"forward speed {x['mean_forward_speed_m_per_s'][b]:+.3f} m/s, upright "
                      f"{x['upright_share'][b] * 100:.0f}% of steps")
         if x["rate_per_neuron_Hz"]:
             lines.append("  rate per neuron (Hz): " + ", ".join(
                 f"{k} {v[b]:.1f}" for k, v in x["rate_per_neuron_Hz"].items()))
-    lines.append(f"wall time {result.wall_seconds:.1f} s for {result.seconds:g} simulated s "
-                 f"x {result.cpg.n_trials} trial(s)")
+    lines.append(f"wall time {x['wall_seconds']:.1f} s for {result.seconds:g} simulated s "
+                 f"x {result.layout.n_trials} trial(s)")
     return lines
 
 

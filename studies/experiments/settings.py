@@ -3,12 +3,12 @@ checks of the numbers every experiment takes (durations, counts, sampling)."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from ...errors import InputError
 from ...models import DEFAULT_MODELS, ModelSet
+from ...models.values import finite_number
 
 Overrides = Mapping[str, Any] | Sequence[str]
 
@@ -75,20 +75,7 @@ def model_set(overrides: Overrides | None = None,
 
 def number(value: Any, culprit: str, *, integer: bool = False, minimum: float | None = None,
            positive: bool = False) -> Any:
-    """A finite number (int if ``integer``) within bounds, or an InputError naming the culprit."""
-    try:
-        if isinstance(value, bool):
-            raise TypeError
-        x = int(value) if integer else float(value)
-        if integer and x != value:
-            raise TypeError
-    except (TypeError, ValueError, OverflowError):
-        kind = "an integer" if integer else "a number"
-        raise InputError(f"must be {kind}, got {value!r}", culprit=culprit) from None
-    if not integer and not math.isfinite(x):
-        raise InputError(f"must be finite, got {value!r}", culprit=culprit)
-    if positive and not x > 0:
-        raise InputError(f"must be positive, got {value!r}", culprit=culprit)
-    if minimum is not None and x < minimum:
-        raise InputError(f"must be at least {minimum:g}, got {value!r}", culprit=culprit)
-    return x
+    """A finite number (int if ``integer``) within bounds, or an InputError naming the culprit
+    (:func:`astrocpg.models.values.finite_number`)."""
+    return finite_number(value, culprit=culprit, kind=int if integer else float,
+                         minimum=minimum, strictly_positive=positive)

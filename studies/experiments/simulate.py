@@ -34,6 +34,7 @@ class SimulationResult:
     robot: Recording | None = None
     wall_seconds: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
+    monitors: dict[str, Any] = field(default_factory=dict)  # the Brian2 monitors, by name
 
 
 def check_selection(spikes: tuple[str, ...] | None,
@@ -125,7 +126,7 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
     divergence.check()
     spikes, traces = _collect(mons)
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces,
-                            wall_seconds=wall)
+                            wall_seconds=wall, monitors=mons)
 
 
 def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
@@ -152,7 +153,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
     bridge.check_cpg(float(cpg.net.t_))  # the last steps since the bridge's last check
     spikes, traces = _collect(mons) if mons else ({}, {})
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces, robot=rec,
-                            wall_seconds=wall, extra={"bridge": bridge})
+                            wall_seconds=wall, extra={"bridge": bridge}, monitors=mons)
 
 
 def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:

@@ -33,6 +33,7 @@ from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, c
                             holds_results)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
+from ..files.result import Result
 from .resources import check_memory, estimate_bytes
 from .settings import model_set, number, override_items
 from .simulate import check_selection
@@ -313,6 +314,16 @@ def record_plan(every: int | None, stride: int = 1, spikes: tuple[str, ...] | No
     return RecordPlan(every=every, spikes=spikes, traces=traces, stride=stride)
 
 
+def format_train(result: Result) -> list[str]:
+    """One line per trial of a training's summary: sessions, speed, share of full sessions."""
+    lines = []
+    for b, x in sorted((result.summary.get("per_trial") or {}).items(), key=lambda kv: int(kv[0])):
+        lines.append(f"trial {b}: {x['sessions']} sessions; mean forward speed over the last "
+                     f"20: {x['mean_speed_last20_m_per_s']:.3f} m/s; sessions reaching L_max in "
+                     f"the last 50: {x['full_length_share_last50']:.0%}")
+    return lines
+
+
 def train_summary(rows: list[dict], n_trials: int, L_max: float) -> dict[str, Any]:
     """Per trial: sessions done, mean forward speed over the last 20, share of the last 50
     sessions that reached L_max; and a printable line per trial."""
@@ -337,11 +348,19 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
           equations: dict[str, str] | None = None, record_every: int | None = None,
           record_stride: int = 1, spikes: tuple[str, ...] | None = None,
           traces: tuple[str, ...] | None = None, overwrite: bool = False,
-          progress: bool = True) -> "Trainer":
+          progress: bool = True) -> Result:
     """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
     each, writing ``out`` (sessions.csv, weights.npz, checkpoint.pkl, manifest.json) after every
-    session; ``astrocytes=False`` is the paper's ablation. Returns the finished Trainer
-    (``trainer.training.memory.rows``, ``trainer.cpg``). Raises TrainingStopped if interrupted
+    session: what ``astrocpg train`` runs. ``astrocytes=False`` is the paper's ablation;
+    overrides/equations as for :func:`~astrocpg.studies.experiments.run.run` (e.g.
+    ``["L_max=0.5*second"]`` for short sessions). ``record_every=N`` records sessions 1, 1+N,
+    ... and each trial's last into ``out/recordings/`` (``record_stride`` steps between trace
+    and robot samples; ``spikes``/``traces`` pick what).
+
+    Returns a :class:`~astrocpg.studies.files.result.Result` of kind "train", read back from
+    ``out`` (``sessions`` DataFrame, ``weights`` (trial, session, 8, 8) mV, ``recording(trial,
+    session)``), with the live ``network`` and ``trainer`` (the :class:`Trainer`:
+    ``trainer.training.memory.rows``, ``trainer.cpg``). Raises TrainingStopped if interrupted
     (continue with :func:`resume`)."""
     settings = TrainSettings(
         n_sessions=number(sessions, "--sessions", integer=True, minimum=1),
@@ -357,13 +376,16 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
     plan = record_plan(record_every, record_stride, spikes, traces)
     check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False),
                  culprit=f"--trials {settings.n_trials}")
-    return _train(settings, out, plan, None, progress, replace=overwrite, new=True)
+    return Result.from_training(_train(settings, out, plan, None, progress, replace=overwrite,
+                                       new=True), out)
 
 
 def resume(folder: str | Path, *, progress: bool = True, record_every: int | None = None,
-           expect: dict[str, Any] | None = None) -> "Trainer":
-    """Continue the training in ``folder`` from its checkpoint; ``expect`` (e.g. the options
-    given again on the command line) must agree with the stored settings."""
+           expect: dict[str, Any] | None = None) -> Result:
+    """Continue the training in ``folder`` from its checkpoint (``astrocpg train --resume``)
+    and end with the same files as a training never interrupted; ``expect`` (e.g. the options
+    given again on the command line) must agree with the stored settings. Returns the
+    training's Result, like :func:`train`."""
     out = Path(folder)
     if not (out / CHECKPOINT).exists():
         # stopped before its first checkpoint: nothing was trained, so start again from the
@@ -402,7 +424,8 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     plan = record_plan(record_every, stored=payload.get("record_plan"))
     if plan is None and record_every is not None:
         raise InputError("that run records no sessions", culprit="--record-every")
-    return _train(settings, out, plan, None if fresh else payload, progress)
+    return Result.from_training(_train(settings, out, plan, None if fresh else payload,
+                                       progress), out)
 
 
 def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,

@@ -14,6 +14,7 @@ import numpy as np
 from ..analysis.rhythm import rhythm_summary
 from ..files.folder import OutputFolder
 from ..files.outputs import save_spikes_and_traces, write_manifest
+from ..files.result import Result
 from .settings import Overrides, model_set, number, override_items
 from .resources import check_memory, estimate_bytes
 from .simulate import STEP, SimulationResult, check_duration, check_selection, simulate_unit
@@ -23,12 +24,21 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
          trace_dt: float = 1.0, spikes: tuple[str, ...] | None = None,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
-         overwrite: bool = False, progress: bool = True, settings: Mapping[str, Any] | None = None) -> SimulationResult:
-    """Simulate ``trials`` independent locomotion units (seeds seed, seed+1, ...) for
-    ``seconds``; ``trace_dt`` in ms; ``overrides`` as ``{"tau_motor": "9*ms"}`` or
-    ``["tau_motor=9*ms"]``; ``equations`` as ``{model: equation text}``. The result's
-    ``extra["rhythm"]`` holds each trial's period, phases and rates. With ``out``, writes the
-    folder ``astrocpg unit`` writes (``settings`` goes into its manifest)."""
+         overwrite: bool = False, progress: bool = True,
+         settings: Mapping[str, Any] | None = None) -> Result:
+    """Simulate ``trials`` independent locomotion units (the FR limb's CPG, open loop; seeds
+    seed, seed+1, ...) for ``seconds``; what ``astrocpg unit`` runs.
+
+    overrides: parameter values with units, ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
+    equations: ``{model: equation text}`` (e.g. ``{"astrocyte": text}``) replacing a model's
+    Brian2 equation string. trace_dt: sampling of the traces in ms. spikes / traces: which
+    populations and traces to record (None: all). out: writes the folder ``astrocpg unit``
+    writes, whole or nothing (``settings`` goes into its manifest; a folder that holds files is
+    refused unless ``overwrite``). progress: a progress bar for long runs.
+
+    Returns a :class:`~astrocpg.studies.files.result.Result` of kind "unit"; its
+    ``summary["rhythm"]`` holds each trial's period, phases and rates. Bad input: InputError
+    naming the culprit, before anything is simulated or written."""
     from brian2 import ms
 
     seconds = number(seconds, "--seconds", positive=True)
@@ -48,14 +58,15 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
                            progress=progress)
     result.extra["rhythm"] = rhythm_per_trial(result, seconds)
     result.extra["models"] = models
+    settings = dict(settings or {}) or {
+        "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
+        "overrides": override_items(overrides), "equations": dict(equations or {}),
+        "spikes": spikes, "traces": traces}
     if out is not None:
-        settings = dict(settings or {}) or {
-            "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-            "overrides": override_items(overrides), "equations": dict(equations or {}),
-            "spikes": spikes, "traces": traces}
         with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
             write_unit_folder(folder, result, settings)
-    return result
+    return Result.from_simulation(result, kind="unit", seed=seed, settings=settings,
+                                  summary=unit_results(result), models=models, folder=out)
 
 
 def rhythm_per_trial(result: SimulationResult, seconds: float) -> list[dict[str, Any]]:
@@ -64,15 +75,17 @@ def rhythm_per_trial(result: SimulationResult, seconds: float) -> list[dict[str,
     L = result.cpg.layout
     if not {"motor", "interneuron"} <= set(result.spikes):
         return []
+    # the first second is a transient; a unit shorter than 2 s skips its first half instead
+    t_start = min(1.0, seconds / 2)
     summaries = []
     for b in range(L.n_trials):
         pools = {name: L.motor_neurons(b, 0, name) for name in ("thigh_flexor", "thigh_extensor",
                                                                  "calf_flexor", "calf_extensor")}
         t, i = result.spikes["motor"]
-        s = rhythm_summary(t, i, pools, t_stop=seconds)
+        s = rhythm_summary(t, i, pools, t_stop=seconds, t_start=t_start)
         ti, ii = result.spikes["interneuron"]
-        mine = (ii // L.interneurons_per_trial == b) & (ti >= 1.0)
-        s["interneurons_total_Hz"] = float(mine.sum() / max(seconds - 1.0, 1e-9))
+        mine = (ii // L.interneurons_per_trial == b) & (ti >= t_start)
+        s["interneurons_total_Hz"] = float(mine.sum() / max(seconds - t_start, 1e-9))
         summaries.append(s)
     return summaries
 
@@ -89,9 +102,14 @@ def write_unit_folder(out: Path, result: SimulationResult, settings: Mapping[str
                              "(trial 0)")
     write_manifest(out, command="unit", seed=int(settings.get("seed", 1)), settings=settings,
                    models_json=result.extra["models"].to_json(), files=files,
-                   results={"rhythm": result.extra.get("rhythm", []),
-                            "wall_seconds": result.wall_seconds, "dt_s": float(result.cpg.dt),
-                            "seconds": result.seconds, "layout": L.to_json()})
+                   results=unit_results(result))
+
+
+def unit_results(result: SimulationResult) -> dict[str, Any]:
+    """What the manifest's ``results`` (and the Result's ``summary``) hold for a unit."""
+    return {"rhythm": result.extra.get("rhythm", []), "wall_seconds": result.wall_seconds,
+            "dt_s": float(result.cpg.dt), "seconds": result.seconds,
+            "layout": result.cpg.layout.to_json()}
 
 
 def format_rhythm(b: int, seed: int, s: Mapping[str, Any]) -> str:

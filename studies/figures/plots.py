@@ -3,18 +3,23 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")  # headless: files only
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ...network import INTERNEURONS, LEGS, POOLS, Layout  # noqa: E402
-from ..analysis.rhythm import pool_activity  # noqa: E402
+from ...network import INTERNEURONS, LEGS, POOLS, Layout
+from ..analysis.rhythm import pool_activity
 
 POOL_COLOURS = {"thigh_flexor": "tab:blue", "thigh_extensor": "tab:red",
                 "calf_flexor": "tab:cyan", "calf_extensor": "tab:orange"}
+
+
+def _subplots(*args: Any, figsize: Any = None, **kwargs: Any) -> tuple[Figure, Any]:
+    """A figure outside pyplot (written to a file, never shown): drawing one leaves the
+    caller's backend and open figures alone, e.g. a notebook's inline plots."""
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(*args, **kwargs)
 
 
 def plot_unit(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
@@ -25,7 +30,7 @@ def plot_unit(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
     ti, ii = spikes["interneuron"]
     t_end = max(float(t.max()) if len(t) else 1.0, 1.0)
     t0, t1 = window or (max(0.0, t_end - 3.0), t_end)
-    fig, (ax_r, ax_i, ax_a) = plt.subplots(3, 1, figsize=(11, 7), sharex=True,
+    fig, (ax_r, ax_i, ax_a) = _subplots(3, 1, figsize=(11, 7), sharex=True,
                                            gridspec_kw={"height_ratios": [4, 1, 2]})
     base = trial * layout.motor_per_trial
     for k, name in enumerate(POOLS):
@@ -46,7 +51,6 @@ def plot_unit(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
     ax_r.set_title("Locomotion unit, open loop")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
@@ -56,7 +60,7 @@ def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, tr
     t, i = spikes["motor"]
     t_end = float(t.max()) if len(t) else 1.0
     t0, t1 = window or (max(0.0, t_end - 2.0), t_end)
-    fig, axes = plt.subplots(len(layout.legs), 1, figsize=(10, 6), sharex=True)
+    fig, axes = _subplots(len(layout.legs), 1, figsize=(10, 6), sharex=True)
     # Gaussian smoothing (sigma = smooth) hides the ~18 ms volleys inside a burst
     half = int(round(4 * smooth / dt))
     kernel = np.exp(-0.5 * (np.arange(-half, half + 1) * dt / smooth) ** 2)
@@ -73,7 +77,6 @@ def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, tr
                                      f"Gaussian smoothing sigma {smooth * 1e3:.0f} ms)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def plot_weights(path: Path, table_mV: np.ndarray, *, trial: int = 0) -> None:
@@ -83,7 +86,7 @@ def plot_weights(path: Path, table_mV: np.ndarray, *, trial: int = 0) -> None:
     labels = [lab.replace("thigh_", "").replace("flexor", "F").replace("extensor", "E")
               for lab in interlimb_labels()]
     lim = max(float(np.nanmax(np.abs(table_mV))), 1e-9)
-    fig, ax = plt.subplots(figsize=(5.6, 4.8))
+    fig, ax = _subplots(figsize=(5.6, 4.8))
     im = ax.imshow(table_mV, cmap="RdBu_r", vmin=-lim, vmax=lim)
     ax.set_xticks(range(8), labels, rotation=45)
     ax.set_yticks(range(8), labels)
@@ -96,7 +99,6 @@ def plot_weights(path: Path, table_mV: np.ndarray, *, trial: int = 0) -> None:
     ax.set_title(f"Inter-limb weights (trial {trial})")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def plot_training_curves(path: Path, sessions_csv: Path) -> None:
@@ -107,7 +109,7 @@ def plot_training_curves(path: Path, sessions_csv: Path) -> None:
         rows = list(csv.DictReader(f))
     trials = sorted({int(r["trial"]) for r in rows})
     n = max(int(r["session"]) for r in rows)
-    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+    fig, axes = _subplots(3, 1, figsize=(8, 7), sharex=True)
     for ax, key, label in zip(axes, ("mean_reward", "final_x_m", "length_s"),
                               ("mean reward", "final x (m)", "session length (s)")):
         table = np.full((len(trials), n), np.nan)
@@ -122,14 +124,13 @@ def plot_training_curves(path: Path, sessions_csv: Path) -> None:
     axes[0].set_title(f"Training ({len(trials)} trial(s), mean +- std)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def plot_gait(path: Path, recording, trial: int, phases: np.ndarray, gait: dict,
               window: tuple[float, float]) -> None:
     """Gait diagram (stance = foot contact, or thigh-extensor bursts without touch sensors)
     and the inter-limb phase matrix."""
-    fig, (ax, axm) = plt.subplots(1, 2, figsize=(11, 3.6), gridspec_kw={"width_ratios": [3, 1]})
+    fig, (ax, axm) = _subplots(1, 2, figsize=(11, 3.6), gridspec_kw={"width_ratios": [3, 1]})
     t = recording.t
     sel = (t >= window[0]) & (t < window[1])
     force = recording.foot_force[trial]
@@ -160,4 +161,3 @@ def plot_gait(path: Path, recording, trial: int, phases: np.ndarray, gait: dict,
     fig.colorbar(im, ax=axm, fraction=0.046)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)

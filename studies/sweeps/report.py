@@ -93,10 +93,8 @@ def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = 
 
 
 def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, Any]:
-    import matplotlib  # heavy: only when a report is drawn
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    # heavy: only when a report is drawn; outside pyplot, so the caller's backend is left alone
+    from matplotlib.figure import Figure
 
     index, runs = _load(folder)
     groups: dict[str, list[dict[str, Any]]] = {}
@@ -105,7 +103,8 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     if not any(r["sessions"] is not None and len(r["sessions"]) for r in runs):
         raise InputError(f"report {folder}: no run has finished a session yet")
 
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    fig = Figure(figsize=(8, 8))
+    axes = fig.subplots(3, 1, sharex=True)
     rows: list[dict[str, Any]] = []
     for k, (label, members) in enumerate(groups.items()):
         # one series per seed: table[seed, session-1]
@@ -169,7 +168,6 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     fig.tight_layout()
     fig_path = dest / "fig3c.png"
     fig.savefig(fig_path, dpi=110)
-    plt.close(fig)
 
     cols = list(dict.fromkeys(k for r in rows for k in r))
     csv_text = ",".join(cols) + "\n" + "".join(

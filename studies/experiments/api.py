@@ -1,0 +1,51 @@
+"""The Python API, ``import astrocpg as ac``: the functions the ``astrocpg`` commands call.
+
+    ac.unit(seconds=2, seed=1)                   # one locomotion unit, open loop -> Result
+    ac.run(seconds=1, seed=1, out="out/run")     # the closed loop, written like `astrocpg run`
+    ac.train(out="out/astro", sessions=10)       # gait learning -> Result of kind "train"
+    ac.resume("out/astro")                       # continue a stopped training -> Result
+    ac.load("out/run")                           # any output folder -> Result
+    ac.describe("astrocyte")                     # equations and parameter table (markdown)
+    ac.export("out/run", "nwb")                  # out/run.nwb: NWB (or npz) file of a folder
+
+Every function takes the settings of its command (seconds, seed, trials, ``overrides`` with
+units, ``equations``, weights, robot, what to record) as keyword arguments; bad input raises
+:class:`astrocpg.errors.InputError` naming the culprit, before anything is written.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Mapping
+
+from ..files.export import export as export_folder
+from ..files.result import Result, Trace, load
+from .run import run
+from .settings import Overrides, model_set
+from .train import resume, train
+from .unit import unit
+
+
+def describe(model: str | None = None, format: str = "markdown", *,
+             overrides: Overrides | None = None,
+             equations: Mapping[str, str] | None = None) -> str:
+    """The equations (rendered with sympy) and the parameter table of ``model`` (e.g.
+    "astrocyte"; None: every model) as markdown or LaTeX text (``format``), with parameter
+    ``overrides`` and replaced ``equations`` applied: what ``astrocpg describe`` prints."""
+    from ..figures.describe import describe as render
+
+    return render(model, format, model_set(overrides, equations))
+
+
+def export(folder: str | os.PathLike, format: str = "nwb",
+           out: str | os.PathLike | None = None, *, overwrite: bool = False) -> Path:
+    """Write the unit, run or recorded session in ``folder`` as one NWB (``format="nwb"``) or
+    npz file, at ``out`` (default ``<folder>.<format>`` beside the folder; an existing file
+    only with ``overwrite``); returns its path. What ``astrocpg export`` does. Read the NWB
+    file with ``pynwb.NWBHDF5IO(path, "r").read()``."""
+    return export_folder(Path(folder), format, None if out is None else Path(out),
+                         overwrite=overwrite)
+
+
+__all__ = ["unit", "run", "train", "resume", "load", "describe", "export", "Result", "Trace"]
