@@ -122,8 +122,9 @@ def test_torso_accessors_agree_with_mjdata(loop):
         br.torso_position[0, 0] = 1.0
 
 
-def test_divergence_is_charged_to_its_trial(loop):
-    br, cpg = loop.bridge, loop.cpg
+def test_divergence_is_charged_to_its_trial(loop, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warnings to MUJOCO_LOG.TXT here
+    br = loop.bridge
     seen: list[Diverged] = []
     br.add_hook("diverged", "seen", seen.append)
     br.step()
