@@ -9,6 +9,7 @@ decides which element connects to which, and schedules the few objects whose ord
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Iterable
 
@@ -28,6 +29,10 @@ brian2.prefs.codegen.loop_invariant_optimisations = True
 brian2.prefs.logging.delete_log_on_exit = True
 # A network that failed validation is dropped on purpose; don't warn about its objects.
 brian2.BrianLogger.suppress_name("unused_brian_object")
+# NaN/inf in the state is reported once, in one line, by the divergence check (CPG.first_nonfinite,
+# errors.Diverged); numpy's floating-point warnings from Brian2's generated code (exec'd source,
+# module "<string>") would only repeat it on stderr, several lines per step.
+warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"<string>$")
 
 
 @dataclass
