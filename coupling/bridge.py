@@ -40,6 +40,7 @@ NaN/inf in any state variable of the CPG (:meth:`CPG.first_nonfinite`). Run the 
 from __future__ import annotations
 
 import math
+import dataclasses
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -97,6 +98,14 @@ class Recording:
     reward: np.ndarray  # (trials, samples)
     alive: np.ndarray  # (trials, samples) bool
     foot_force: np.ndarray  # (trials, samples, 4) N, foot touch sensors (NaN if the model has none)
+
+    def truncated(self, n_steps: int) -> "Recording":
+        """The samples of the first ``n_steps`` steps only (a run that ended early)."""
+        n = min(len(self.t), (n_steps + self.stride - 1) // self.stride)
+        return dataclasses.replace(self, **{f.name: getattr(self, f.name)[..., :n]
+                                            if f.name == "t" else getattr(self, f.name)[:, :n]
+                                            for f in dataclasses.fields(self)
+                                            if f.name != "stride"})
 
     @classmethod
     def allocate(cls, n_trials: int, n_steps: int, stride: int, dt: float) -> "Recording":

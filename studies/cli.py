@@ -220,6 +220,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except MemoryError:
         sys.stderr.write("astrocpg: environment: out of memory\n")
         return 1
+    except Exception as e:  # a bug of ours: still one line, the traceback on request
+        if os.environ.get("ASTROCPG_DEBUG"):
+            raise
+        sys.stderr.write(f"astrocpg: internal error: {type(e).__name__}: {one_line(str(e), 300)} "
+                         f"(a bug in astrocpg; ASTROCPG_DEBUG=1 shows the traceback)\n")
+        return 1
     finally:
         signal.signal(signal.SIGTERM, previous)
 

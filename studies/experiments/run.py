@@ -13,7 +13,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import Diverged, InputError
 from ..files.folder import OutputFolder, verify
 from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
 from ..files.result import Result
@@ -85,33 +85,53 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
                          f"at {params.timestep:g} s (set <option timestep=\"{params.timestep:g}\"/>)",
                          culprit=f"--robot {Path(robot).name}")
     layout = RobotLayout.from_model(model, params)
-    result = simulate_closed_loop(models, model, layout, seconds=seconds, seed=seed,
-                                  n_trials=trials, weights=table, trace_dt=trace_dt * ms,
-                                  robot_stride=robot_stride, spikes=spikes, traces=traces,
-                                  progress=progress)
-    rec = result.robot
-    start_x = layout.reset_qpos[layout.free_qpos_adr]
-    result.extra.update({
-        "models": models,
-        "distance_m": rec.torso_position[:, -1, 0] - start_x,
-        "mean_forward_speed_m_per_s": rec.torso_velocity[:, :, 0].mean(axis=1),
-        "upright_share": rec.alive.mean(axis=1),
-        "rate_per_neuron_Hz": firing_rates(result),
-        "robot_info": ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
-                       else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)}),
-    })
     settings = dict(settings or {}) or {
         "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
         "robot_stride": robot_stride, "overrides": override_items(overrides),
         "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
         "weights": None if weights is None or isinstance(weights, np.ndarray)
         else str(weights), "trial": trial, "robot": None if robot is None else str(robot)}
+    robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
+                  else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
+    start_x = layout.reset_qpos[layout.free_qpos_adr]
+    try:
+        result = simulate_closed_loop(models, model, layout, seconds=seconds, seed=seed,
+                                      n_trials=trials, weights=table, trace_dt=trace_dt * ms,
+                                      robot_stride=robot_stride, spikes=spikes, traces=traces,
+                                      progress=progress)
+    except Diverged as e:  # the folder keeps what ran, and says it diverged
+        if out is not None and getattr(e, "result", None) is not None:
+            _summarise(e.result, models, start_x, robot_info, e)
+            with OutputFolder(out, overwrite=overwrite) as folder:
+                write_run_folder(folder, e.result, settings)
+        raise
+    _summarise(result, models, start_x, robot_info)
     if out is not None:
         with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
             write_run_folder(folder, result, settings)
     return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                   summary=run_results(result), robot=robot_arrays(result),
                                   models=models, folder=out)
+
+
+def _summarise(result: SimulationResult, models: Any, start_x: float, robot_info: dict,
+               diverged: Diverged | None = None) -> None:
+    rec = result.robot
+    has = rec is not None and len(rec.t) > 0
+    n = result.cpg.n_trials
+    result.extra.update({
+        "models": models,
+        "distance_m": rec.torso_position[:, -1, 0] - start_x if has else np.zeros(n),
+        "mean_forward_speed_m_per_s": rec.torso_velocity[:, :, 0].mean(axis=1) if has
+        else np.zeros(n),
+        "upright_share": rec.alive.mean(axis=1) if has else np.zeros(n),
+        "rate_per_neuron_Hz": firing_rates(result) if result.seconds > 0 else {},
+        "robot_info": robot_info,
+        "status": "finished" if diverged is None else "diverged",
+    })
+    if diverged is not None:
+        result.extra["error"] = {"line": diverged.line, "t_s": diverged.t,
+                                 "trial": diverged.trial}
 
 
 def robot_arrays(result: SimulationResult) -> dict[str, np.ndarray]:
@@ -146,7 +166,8 @@ def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str,
 def run_results(result: SimulationResult) -> dict[str, Any]:
     """What the manifest's ``results`` (and the Result's ``summary``) hold for a run."""
     x = result.extra
-    return {"distance_m": x["distance_m"],
+    return {"status": x.get("status", "finished"), "error": x.get("error"),
+            "distance_m": x["distance_m"],
             "mean_forward_speed_m_per_s": x["mean_forward_speed_m_per_s"],
             "upright_share": x["upright_share"], "rate_per_neuron_Hz": x["rate_per_neuron_Hz"],
             "wall_seconds": result.wall_seconds, "seconds": result.seconds,

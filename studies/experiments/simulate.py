@@ -16,7 +16,7 @@ from tqdm.auto import tqdm
 from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import Recording
 from ...coupling.robot import A1Parameters, RobotLayout
-from ...errors import InputError
+from ...errors import Diverged, InputError
 from ...models import ModelSet
 from ...network import CPG, POOLS, DivergenceCheck, build_cpg, check_runs, run_network
 from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
@@ -122,8 +122,13 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
     cpg.net.add(NetworkOperation(tick, dt=100 * ms, when="end", name="progress"))
     divergence = DivergenceCheck(cpg)  # every 10 steps, and once after the run
     cpg.net.add(divergence.operation())
-    wall = _run(cpg, seconds, bar)
-    divergence.check()
+    t0 = time.perf_counter()
+    try:
+        wall = _run(cpg, seconds, bar)
+        divergence.check()
+    except Diverged as e:  # keep what was recorded up to the divergence, for its folder
+        e.result = _partial(cpg, mons, None, t0)
+        raise
     spikes, traces = _collect(mons)
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces,
                             wall_seconds=wall, monitors=mons)
@@ -149,11 +154,26 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
     rec = bridge.start_recording(n_steps, robot_stride)
     selection = check_selection(spikes, traces)
     mons = add_monitors(cpg, trace_dt, record_traces, *selection) if record_spikes else {}
-    wall = _run(cpg, seconds, bar)
-    bridge.check_cpg(float(cpg.net.t_))  # the last steps since the bridge's last check
+    t0 = time.perf_counter()
+    try:
+        wall = _run(cpg, seconds, bar)
+        bridge.check_cpg(float(cpg.net.t_))  # the last steps since the bridge's last check
+    except Diverged as e:  # keep what was recorded up to the divergence, for its folder
+        e.result = _partial(cpg, mons, rec.truncated(bridge.step_count), t0,
+                            extra={"bridge": bridge})
+        raise
     spikes, traces = _collect(mons) if mons else ({}, {})
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces, robot=rec,
                             wall_seconds=wall, extra={"bridge": bridge}, monitors=mons)
+
+
+def _partial(cpg: CPG, mons: dict[str, Any], rec: Recording | None, t0: float,
+             extra: dict[str, Any] | None = None) -> SimulationResult:
+    """What a run that diverged recorded, up to the step it stopped at."""
+    spikes, traces = _collect(mons) if mons else ({}, {})
+    return SimulationResult(cpg=cpg, seconds=float(cpg.net.t_), spikes=spikes, traces=traces,
+                            robot=rec, wall_seconds=time.perf_counter() - t0,
+                            extra=dict(extra or {}), monitors=mons)
 
 
 def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:

@@ -11,6 +11,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ...errors import Diverged
 from ..analysis.rhythm import rhythm_summary
 from ..files.folder import OutputFolder
 from ..files.outputs import save_spikes_and_traces, write_manifest
@@ -53,15 +54,24 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
                                 traces=names, spikes=bool(pops)),
                  culprit=f"--seconds {seconds:g} x --trials {trials}")
     models = model_set(overrides, equations)
-    result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
-                           trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
-                           progress=progress)
-    result.extra["rhythm"] = rhythm_per_trial(result, seconds)
-    result.extra["models"] = models
     settings = dict(settings or {}) or {
         "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
         "overrides": override_items(overrides), "equations": dict(equations or {}),
         "spikes": spikes, "traces": traces}
+    try:
+        result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
+                               trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
+                               progress=progress)
+    except Diverged as e:  # the folder keeps what ran, and says it diverged
+        partial = getattr(e, "result", None)
+        if out is not None and partial is not None:
+            partial.extra.update({"models": models, "rhythm": [], "status": "diverged",
+                                  "error": {"line": e.line, "t_s": e.t, "trial": e.trial}})
+            with OutputFolder(out, overwrite=overwrite) as folder:
+                write_unit_folder(folder, partial, settings)
+        raise
+    result.extra["rhythm"] = rhythm_per_trial(result, seconds)
+    result.extra["models"] = models
     if out is not None:
         with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
             write_unit_folder(folder, result, settings)
@@ -107,7 +117,8 @@ def write_unit_folder(out: Path, result: SimulationResult, settings: Mapping[str
 
 def unit_results(result: SimulationResult) -> dict[str, Any]:
     """What the manifest's ``results`` (and the Result's ``summary``) hold for a unit."""
-    return {"rhythm": result.extra.get("rhythm", []), "wall_seconds": result.wall_seconds,
+    return {"status": result.extra.get("status", "finished"), "error": result.extra.get("error"),
+            "rhythm": result.extra.get("rhythm", []), "wall_seconds": result.wall_seconds,
             "dt_s": float(result.cpg.dt), "seconds": result.seconds,
             "layout": result.cpg.layout.to_json()}
 

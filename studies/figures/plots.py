@@ -68,7 +68,8 @@ def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, tr
     for ax, (leg_i, leg) in zip(np.atleast_1d(axes), enumerate(layout.legs)):
         ids = layout.motor_neurons(trial, leg_i, "thigh_extensor")
         act = pool_activity(t, i, ids, t1, dt, t0)
-        rate = np.convolve(act, kernel, "same") / (dt * layout.pool_size)  # Hz per neuron
+        # "full" then centred: also right for a window shorter than the kernel
+        rate = np.convolve(act, kernel, "full")[half:half + len(act)] / (dt * layout.pool_size)
         x = t0 + np.arange(len(act)) * dt
         ax.fill_between(x, rate, color="tab:red", alpha=0.6, lw=0)
         ax.set_ylabel(f"{leg}\n(Hz/neuron)", rotation=0, labelpad=25, fontsize=8)
