@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import brian2
+import numpy as np
 
 from ..errors import Diverged
 
@@ -75,6 +76,12 @@ def find_diverged(exc: BaseException | None) -> Diverged | None:
         seen.add(id(exc))
         exc = exc.__cause__ if exc.__cause__ is not None else exc.__context__
     return None
+
+
+def network_time(net: brian2.Network) -> float:
+    """The network's time in s as a float (after a stopped run Brian2 leaves ``Network.t_`` as
+    a view of the clock's variable, not a float)."""
+    return float(np.asarray(net.t_))
 
 
 def run_network(net: brian2.Network, duration: Any, **kwargs: Any) -> None:

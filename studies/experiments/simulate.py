@@ -18,7 +18,8 @@ from ...coupling.bridge import Recording
 from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError
 from ...models import ModelSet
-from ...network import CPG, POOLS, DivergenceCheck, build_cpg, check_runs, run_network
+from ...network import CPG, POOLS, DivergenceCheck, build_cpg, check_runs, network_time,
+                       run_network
 from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
 
 
@@ -157,7 +158,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
     t0 = time.perf_counter()
     try:
         wall = _run(cpg, seconds, bar)
-        bridge.check_cpg(float(cpg.net.t_))  # the last steps since the bridge's last check
+        bridge.check_cpg(network_time(cpg.net))  # the last steps since the bridge's last check
     except Diverged as e:  # keep what was recorded up to the divergence, for its folder
         e.result = _partial(cpg, mons, rec.truncated(bridge.step_count), t0,
                             extra={"bridge": bridge})
@@ -171,7 +172,7 @@ def _partial(cpg: CPG, mons: dict[str, Any], rec: Recording | None, t0: float,
              extra: dict[str, Any] | None = None) -> SimulationResult:
     """What a run that diverged recorded, up to the step it stopped at."""
     spikes, traces = _collect(mons) if mons else ({}, {})
-    return SimulationResult(cpg=cpg, seconds=float(cpg.net.t_), spikes=spikes, traces=traces,
+    return SimulationResult(cpg=cpg, seconds=network_time(cpg.net), spikes=spikes, traces=traces,
                             robot=rec, wall_seconds=time.perf_counter() - t0,
                             extra=dict(extra or {}), monitors=mons)
 
@@ -179,14 +180,14 @@ def _partial(cpg: CPG, mons: dict[str, Any], rec: Recording | None, t0: float,
 def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
     """One long ``Network.run`` (each call costs ~0.3 s of set-up); returns wall seconds."""
     t0 = time.perf_counter()
-    t_end = float(cpg.net.t_) + seconds
+    t_end = network_time(cpg.net) + seconds
     try:
         run_network(cpg.net, seconds * second, namespace={})  # Diverged comes out as itself
     finally:
         bar.close()
     # Brian2 turns Ctrl-C (and our SIGTERM) into a clean stop at the end of a step: a run that
     # stopped early was interrupted, and its partial data must not pass for a finished run
-    if float(cpg.net.t_) < t_end - 0.5 * float(cpg.dt):
+    if network_time(cpg.net) < t_end - 0.5 * float(cpg.dt):
         raise KeyboardInterrupt
     return time.perf_counter() - t0
 
