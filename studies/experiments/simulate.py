@@ -18,8 +18,8 @@ from ...coupling.bridge import Recording
 from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError
 from ...models import ModelSet
-from ...network import CPG, POOLS, DivergenceCheck, build_cpg, check_runs, network_time,
-                       run_network
+from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, network_time,
+                        run_network)
 from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
 
 
