@@ -18,6 +18,7 @@ Every failure ends with one line on stderr naming the culprit and an exit code (
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import signal
 import sys
@@ -202,6 +203,9 @@ def _sigterm(signum: int, frame: Any) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     warnings.filterwarnings("ignore", module="brian2")
+    # Brian2 logs a second line on Ctrl-C ("Simulation stop requested"): we say "interrupted"
+    logging.getLogger("brian2").addFilter(
+        lambda record: "stop requested" not in record.getMessage())
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
         return COMMANDS[args.command](args)
