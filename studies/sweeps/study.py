@@ -514,15 +514,29 @@ def _connect(workers: int | None, scheduler: str | None):
     from distributed import Client, LocalCluster
 
     if scheduler:
+        _reachable(scheduler)
         try:
             return Client(scheduler, timeout="10s"), None
         except Exception as e:  # OSError / TimeoutError / ValueError for a bad address
             first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-            raise InputError(f"--scheduler {scheduler}: cannot connect ({first})") from None
+            raise InputError(f"cannot connect ({first})", culprit=f"--scheduler {scheduler}") \
+                from None
     n = workers or os.cpu_count() or 1
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                            dashboard_address=":0", silence_logs=logging.ERROR)
     return Client(cluster), cluster
+
+
+def _reachable(scheduler: str) -> None:
+    """A closed port is refused at once (Dask's client would wait out its whole timeout)."""
+    m = re.fullmatch(r"(?:tcp://)?\[?([^\]/]+?)\]?:(\d+)/?", scheduler.strip())
+    if not m:
+        return  # other protocols and forms: Dask's client says what is wrong
+    try:
+        socket.create_connection((m.group(1), int(m.group(2))), timeout=3).close()
+    except OSError as e:
+        raise InputError(f"cannot connect ({e.strerror or type(e).__name__})",
+                         culprit=f"--scheduler {scheduler}") from None
 
 
 class _ImportBrian2:
