@@ -15,7 +15,6 @@ counts a pool's spikes for the torque is not a synaptic operation and is left ou
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -26,8 +25,9 @@ from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import ORDER_MEASURE
 from ...coupling.training import Training
 from ...errors import InputError
+from ..files.folder import verify
 from ..files.weights import load_weights
-from .settings import model_set
+from .settings import model_set, number
 
 # The paper's figures, shown next to ours (not used in any computation).
 PAPER = {
@@ -61,15 +61,14 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
             progress: bool = True) -> dict[str, Any]:
     """Run trial ``trial``'s trained table of the training in ``folder`` for ``sessions``
     sessions with learning off; return rates, events per spike and the power estimates."""
-    weights = load_weights(str(folder), trial, culprit="power")  # (8, 8) volt; checks the folder and trial
-    try:
-        manifest = json.loads((folder / "manifest.json").read_text())
-        settings = manifest["settings"]
-    except (OSError, ValueError, KeyError):
-        raise InputError(f"power {folder}: no readable manifest.json (not a training run)") \
-            from None
-    if sessions < 1:
-        raise InputError(f"--sessions must be at least 1, got {sessions}")
+    manifest = verify(folder, culprit="power", strict=False)  # files as its manifest lists
+    weights = load_weights(str(folder), trial, culprit="power")  # (8, 8) volt
+    settings = manifest.get("settings")
+    if manifest.get("astrocpg_command") not in ("train", "study-run") or not isinstance(settings,
+                                                                                      dict):
+        raise InputError("not a training run (astrocpg train, or a study's run)",
+                         culprit=f"power {folder}")
+    sessions = number(sessions, "--sessions", integer=True, minimum=1)
     models = model_set(settings.get("overrides", []), settings.get("equations", {}))
     syn = models.interlimb_synapse.parameters
     # weights fixed: a measurement, not training (zero in each rate's own unit)
