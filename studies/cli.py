@@ -9,9 +9,12 @@
     astrocpg export DIR [--format nwb|npz]
     astrocpg describe [MODEL] [--format markdown|latex]
     astrocpg robot export PATH.xml
+    astrocpg models list | models dump MODEL [--set NAME=VALUE] [--model MODEL=FILE]
 
 Common options: ``--set NAME=VALUE`` overrides a model parameter (with units),
-``--equations MODEL=FILE`` replaces a model's equation string by the text of FILE.
+``--model MODEL=FILE`` replaces a whole model by a model file (TOML: its equations, new
+parameters and state variables; ``astrocpg models dump MODEL`` writes one),
+``--equations MODEL=FILE`` (a shorthand) replaces a model's equation string by the text of FILE.
 Every failure ends with one line on stderr naming the culprit and an exit code (see EXIT_HELP).
 """
 
@@ -57,11 +60,19 @@ def _add_record_options(p: argparse.ArgumentParser) -> None:
                         "astrocyte_Ca,astrocyte_IP3,astrocyte_AG,astrocyte_ADO)")
 
 
+def _add_model_file_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--model", dest="model_files", action="append", default=[],
+                   metavar="MODEL=FILE",
+                   help="replace MODEL (e.g. astrocyte) by a model file (TOML, as `astrocpg models "
+                        "dump MODEL` writes it); it may declare new parameters and variables")
+
+
 def _add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
                    help="override a model parameter, with units (e.g. --set tau_motor=9*ms)")
     p.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
                    help="replace the equation string of MODEL (e.g. motor_neuron) by FILE's text")
+    _add_model_file_option(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -180,6 +191,18 @@ def build_parser() -> argparse.ArgumentParser:
                       help="describe MODEL with the equation string of FILE")
     desc.add_argument("--set", dest="overrides", action="append", default=[],
                       metavar="NAME=VALUE", help="describe with a parameter overridden")
+    _add_model_file_option(desc)
+
+    mods = sub.add_parser("models", help="list the models, or dump one as a model file (TOML)")
+    mods_sub = mods.add_subparsers(dest="models_command", required=True, parser_class=_Parser)
+    mods_sub.add_parser("list", help="the models, their kinds and interfaces")
+    dump = mods_sub.add_parser("dump", help="print MODEL as a model file (TOML)")
+    dump.add_argument("name", metavar="MODEL")
+    dump.add_argument("--set", dest="overrides", action="append", default=[],
+                      metavar="NAME=VALUE", help="dump with a parameter overridden")
+    dump.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
+                      help="dump with the equation string of FILE")
+    _add_model_file_option(dump)
 
     robot = sub.add_parser("robot", help="the project's A1 model")
     robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
@@ -240,8 +263,9 @@ def _kind(e: AstrocpgError) -> str:
 
 # ---------------------------------------------------------------- commands
 def _models(args: argparse.Namespace) -> dict[str, Any]:
-    from .experiments.settings import read_equation_files
-    return {"overrides": list(args.overrides), "equations": read_equation_files(args.equations)}
+    from .experiments.settings import read_equation_files, read_model_files
+    return {"overrides": list(args.overrides), "equations": read_equation_files(args.equations),
+            "models": read_model_files(getattr(args, "model_files", []))}
 
 
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
@@ -275,7 +299,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
-    from .experiments.settings import read_equation_files
+    from .experiments.settings import model_files_record, read_equation_files, read_model_files
     from .experiments.train import TrainingStopped, format_train, resume, train
 
     try:
@@ -287,7 +311,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
                       "astrocytes": None if args.no_astrocytes is None
                       else not args.no_astrocytes,
                       "overrides": sorted(args.overrides) or None,
-                      "equations": read_equation_files(args.equations) or None}
+                      "equations": read_equation_files(args.equations) or None,
+                      "models": model_files_record(read_model_files(args.model_files)) or None}
             result = resume(args.resume, progress=not args.no_progress,
                             record_every=args.record_every, expect=expect)
             out = args.resume
@@ -393,6 +418,26 @@ def _cmd_describe(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_models(args: argparse.Namespace) -> int:
+    from ..models import INTERFACES
+    from ..models.files import model_to_toml
+    from .experiments.settings import model_set
+
+    models = model_set(**_models(args)) if args.models_command == "dump" else model_set()
+    known = dict(models.items())
+    if args.models_command == "list":
+        for name, model in known.items():
+            interface = INTERFACES.get(name, ())
+            label = "inputs" if model.kind == "expression" else "interface"
+            print(f"{name:20s} {model.kind:10s} {len(model.parameters):3d} parameters  "
+                  f"{label}: {', '.join(interface) or '-'}")
+        return 0
+    if args.name not in known:
+        raise InputError(f"unknown model (models: {', '.join(known)})", culprit=args.name)
+    sys.stdout.write(model_to_toml(known[args.name]))
+    return 0
+
+
 def _cmd_robot(args: argparse.Namespace) -> int:
     from ..coupling.robot import A1Parameters, export_xml
     from .files.outputs import atomic_path
@@ -413,7 +458,8 @@ def _cmd_robot(args: argparse.Namespace) -> int:
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "unit": _cmd_unit, "run": _cmd_run, "train": _cmd_train, "gait": _cmd_gait,
     "plot": _cmd_plot, "robot": _cmd_robot, "study": _cmd_study, "report": _cmd_report,
-    "power": _cmd_power, "export": _cmd_export, "describe": _cmd_describe}
+    "power": _cmd_power, "export": _cmd_export, "describe": _cmd_describe,
+    "models": _cmd_models}
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -69,7 +69,8 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
         raise InputError("not a training run (astrocpg train, or a study's run)",
                          culprit=f"power {folder}")
     sessions = number(sessions, "--sessions", integer=True, minimum=1)
-    models = model_set(settings.get("overrides", []), settings.get("equations", {}))
+    models = model_set(settings.get("overrides", []), settings.get("equations", {}),
+                       models=settings.get("models"))
     syn = models.interlimb_synapse.parameters
     # weights fixed: a measurement, not training (zero in each rate's own unit)
     values: dict[str, Any] = {"eta": 0 * syn["eta"].value, "eta_ADO": 0 * syn["eta_ADO"].value}

@@ -18,7 +18,7 @@ from ..files.folder import OutputFolder, verify
 from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
 from ..files.result import Result
 from ..files.weights import load_weights
-from .settings import Overrides, model_set, number, override_items
+from .settings import Overrides, model_files_record, model_set, number, override_items
 from .resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, firing_rates,
                        simulate_closed_loop)
@@ -30,6 +30,7 @@ ROBOT_FILE = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t
 
 def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
+        models: Mapping[str, Any] | None = None,
         weights: str | Path | np.ndarray | None = None, trial: int | None = None,
         robot: str | Path | None = None, trace_dt: float = 1.0, robot_stride: int = 1,
         spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
@@ -40,6 +41,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
 
     overrides: parameter values with units, ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
     equations: ``{model: equation text}`` replacing a model's Brian2 equation string.
+    models: ``{model: model file text}`` (TOML, ``astrocpg models dump``) replacing whole models.
     weights: an 8x8 table in mV as a file (.npy/.npz/.json/.csv) or a training folder (its final
     tables; ``trial`` picks one), or an array in volt of shape (8, 8) or (trials, 8, 8); default
     zero. robot: an MJCF file with the A1's joint and actuator names (default: the project's
@@ -65,7 +67,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
                                 traces=names, spikes=bool(pops), robot_stride=robot_stride),
                  culprit=f"--seconds {seconds:g} x --trials {trials}")
-    models = model_set(overrides, equations)
+    files = model_files_record(models)
+    models = model_set(overrides, equations, models=models)
     if weights is None:
         table = None
     elif isinstance(weights, np.ndarray):
@@ -91,6 +94,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
         "weights": None if weights is None or isinstance(weights, np.ndarray)
         else str(weights), "trial": trial, "robot": None if robot is None else str(robot)}
+    if files:
+        settings["models"] = files  # each model file's content and sha256
     robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
                   else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
     start_x = layout.reset_qpos[layout.free_qpos_adr]
@@ -209,7 +214,8 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
     weights = load_weights(folder, culprit="")
     settings = training_settings(folder)
     values = {} if settings.get("astrocytes", True) else {"astrocyte_regulation": 0.0}
-    models = model_set(settings.get("overrides", []), settings.get("equations", {}))
+    models = model_set(settings.get("overrides", []), settings.get("equations", {}),
+                       models=settings.get("models"))
     if values:
         models = models.with_values(values)
     result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1

@@ -35,7 +35,7 @@ from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_
                              write_manifest)
 from ..files.result import Result
 from .resources import check_memory, estimate_bytes
-from .settings import model_set, number, override_items
+from .settings import model_files_record, model_set, number, override_items
 from .simulate import check_selection
 
 CHECKPOINT = "checkpoint.pkl"
@@ -52,10 +52,14 @@ class TrainSettings:
     astrocytes: bool
     overrides: list[str] = field(default_factory=list)
     equations: dict[str, str] = field(default_factory=dict)  # model -> equation text
+    # model -> {"sha256", "content"} of a model file (TOML)
+    models: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def fingerprint(self) -> str:
         text = repr((self.n_sessions, self.seed, self.n_trials, self.astrocytes,
-                     sorted(self.overrides), sorted(self.equations.items())))
+                     sorted(self.overrides), sorted(self.equations.items()))
+                    + ((sorted((k, v["sha256"]) for k, v in self.models.items()),)
+                       if self.models else ()))
         return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -345,7 +349,8 @@ def train_summary(rows: list[dict], n_trials: int, L_max: float) -> dict[str, An
 
 def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 1,
           astrocytes: bool = True, overrides: Any = None,
-          equations: dict[str, str] | None = None, record_every: int | None = None,
+          equations: dict[str, str] | None = None, models: dict[str, str] | None = None,
+          record_every: int | None = None,
           record_stride: int = 1, spikes: tuple[str, ...] | None = None,
           traces: tuple[str, ...] | None = None, overwrite: bool = False,
           progress: bool = True) -> Result:
@@ -367,7 +372,8 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
         seed=number(seed, "--seed", integer=True, minimum=0),
         n_trials=number(trials, "--trials", integer=True, minimum=1),
         astrocytes=bool(astrocytes), overrides=override_items(overrides),
-        equations=dict(equations or {}))
+        equations=dict(equations or {}), models=model_files_record(models))
+    model_set(settings.overrides, settings.equations, models=settings.models)  # before any file
     out = Path(out)
     if (out / CHECKPOINT).exists() and not overwrite:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
@@ -408,10 +414,11 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
                          culprit="--resume")
     stored = {"sessions": settings.n_sessions, "seed": settings.seed,
               "trials": settings.n_trials, "astrocytes": settings.astrocytes,
-              "overrides": sorted(settings.overrides), "equations": settings.equations}
+              "overrides": sorted(settings.overrides), "equations": settings.equations,
+              "models": settings.models}
     for key, value in (expect or {}).items():
         if value is not None and value != stored[key]:
-            if key in ("overrides", "equations"):
+            if key in ("overrides", "equations", "models"):
                 raise InputError(f"that run has other model settings "
                                  f"({', '.join(settings.overrides) or 'defaults'})",
                                  culprit=f"--resume {out}")
@@ -432,7 +439,7 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            payload: dict[str, Any] | None, progress: bool, replace: bool = False,
            new: bool = False) -> "Trainer":
     """Build, own ``out`` (a lock: one process per training folder), train, write."""
-    models = model_set(settings.overrides, settings.equations)
+    models = model_set(settings.overrides, settings.equations, models=settings.models)
     trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
     try:
         out.mkdir(parents=True, exist_ok=True)
