@@ -143,3 +143,62 @@ def test_not_utf8(capsys, tmp_path):
 
 def test_not_toml(capsys, tmp_path):
     _bad(capsys, tmp_path, "equations = '''\n", "TOML")
+
+
+# ---- studies: [models] and a sweep axis of model files
+
+STUDY = """
+[study]
+name = "variants"
+sessions = 1
+seeds = [1]
+[base]
+L_max = "1*second"
+tau_extra = "4*second"
+[models]
+astrocyte = "extra.toml"
+[conditions.astrocytes]
+astrocytes = true
+"""
+
+
+def test_study_models_table_and_axis(capsys, tmp_path):
+    from astrocpg.studies.sweeps.study import execute_run, load_study
+
+    dumped = _dump(capsys, "astrocyte")
+    extra = _astrocyte_with_extra_term(dumped)
+    (tmp_path / "extra.toml").write_text(extra)
+    (tmp_path / "li_rinzel.toml").write_text(dumped)
+    study = tmp_path / "s.toml"
+    study.write_text(STUDY)
+    spec, = load_study(study).runs
+    assert spec.models["astrocyte"]["content"] == extra
+    assert "tau_extra=4*second" in spec.overrides  # a parameter the file declares
+    # a sweep axis named by a model lists model files: two astrocytes in one study
+    study.write_text(STUDY.replace('tau_extra = "4*second"\n', "") +
+                     '[sweep.axes]\nastrocyte = ["li_rinzel.toml", "extra.toml"]\n')
+    runs = load_study(study).runs
+    assert [r.point for r in runs] == [{"astrocyte": "li_rinzel.toml"},
+                                       {"astrocyte": "extra.toml"}]
+    assert [r.models["astrocyte"]["content"] for r in runs] == [dumped, extra]
+    assert len({r.fingerprint() for r in runs}) == 2
+    # one tiny run builds the file's model
+    status = execute_run(runs[1], str(tmp_path / "run"))
+    assert status["state"] == "finished", status.get("error")
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    assert "tau_extra" in manifest["models"]["astrocyte"]["parameters"]
+    assert manifest["settings"]["models"]["astrocyte"]["content"] == extra
+
+
+def test_study_bad_model_file(capsys, tmp_path):
+    from astrocpg.errors import InputError
+    from astrocpg.studies.sweeps.study import load_study
+
+    text = _dump(capsys, "astrocyte").replace("dAG/dt", "dAX/dt").replace(
+        'AG = { value = "0.0" }', "")
+    (tmp_path / "extra.toml").write_text(text)
+    study = tmp_path / "s.toml"
+    study.write_text(STUDY.replace('tau_extra = "4*second"\n', ""))
+    with pytest.raises(InputError) as e:
+        load_study(study)
+    assert "[models] astrocyte" in e.value.line and "lacks AG" in e.value.line

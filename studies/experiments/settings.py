@@ -77,11 +77,12 @@ def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, 
 def model_set(overrides: Overrides | None = None,
               equations: Mapping[str, str] | None = None,
               base: ModelSet = DEFAULT_MODELS,
-              models: Mapping[str, Any] | None = None) -> ModelSet:
+              models: Mapping[str, Any] | None = None, option: str = "--model") -> ModelSet:
     """The model set with whole models swapped in (``models``: ``{slot: model file text}`` or
     ``{slot: Model}``; a file may declare new parameters and variables but must keep the slot's
     interface), equation texts swapped in (``{model: text}``) and parameter values overridden
-    (``NAME=VALUE`` items or ``{name: value}``), validated."""
+    (``NAME=VALUE`` items or ``{name: value}``), validated. Errors about a model file name
+    ``<option> <model>``."""
     from ...models import INTERFACES, Model
     from ...models.files import check_interface, file_sha256, model_from_toml
 
@@ -89,7 +90,7 @@ def model_set(overrides: Overrides | None = None,
     models = base
     known = dict(models.items())
     for name, item in (files or {}).items():
-        culprit = f"--model {name}"
+        culprit = f"{option} {name}"
         if name not in known:
             raise InputError(f"unknown model (models: {', '.join(known)})", culprit=culprit)
         if isinstance(item, Mapping):  # a manifest's record: {"sha256", "content"}

@@ -11,10 +11,14 @@ A study file::
     [base]                            # parameter overrides for every run, with units
     L_max = "10*second"
 
+    [models]                          # optional: model files (TOML, `astrocpg models dump`)
+    astrocyte = "my_astrocyte.toml"   # replacing a model in every run (path beside the study)
+
     [sweep]                           # optional axes; every combination ("grid") or
     mode = "grid"                     # element by element ("zip")
     [sweep.axes]
     eta_ADO = ["0.5", "1.0"]
+    astrocyte = ["li_rinzel.toml", "variant.toml"]  # an axis named by a model: model files
 
     [conditions.astrocytes]           # at least one condition
     astrocytes = true
@@ -55,7 +59,7 @@ from ...coupling.training import SESSION_COLUMNS
 from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS
 from ..experiments.resources import check_memory, estimate_bytes
-from ..experiments.settings import model_set
+from ..experiments.settings import model_files_record, model_set, read_model_files
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
 from ..files.folder import FolderLock, clean_stale_temporaries, clear_folder, holds_results
@@ -94,6 +98,8 @@ class RunSpec:
     astrocytes: bool
     overrides: tuple[str, ...]
     record: dict[str, Any] | None = None  # RecordPlan fields (not part of the run's identity)
+    # model files of the run: {model: {"sha256": ..., "content": ...}} (the file's whole text)
+    models: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def record_plan(self):
         if not self.record:
@@ -102,7 +108,8 @@ class RunSpec:
 
     def train_settings(self):
         return TrainSettings(n_sessions=self.n_sessions, seed=self.seed, n_trials=self.n_trials,
-                             astrocytes=self.astrocytes, overrides=list(self.overrides))
+                             astrocytes=self.astrocytes, overrides=list(self.overrides),
+                             models=dict(self.models))
 
     def fingerprint(self) -> str:
         return self.train_settings().fingerprint()
@@ -162,10 +169,10 @@ def load_study(path: str | os.PathLike) -> Study:
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"not valid TOML ({e})", culprit=f"study {p}") from None
     where = f"study {p.name}"
-    unknown = set(doc) - {"study", "base", "sweep", "conditions"}
+    unknown = set(doc) - {"study", "base", "models", "sweep", "conditions"}
     if unknown:
         raise InputError(f"unknown section [{sorted(unknown)[0]}] "
-                         f"(sections: study, base, sweep, conditions)", culprit=where)
+                         f"(sections: study, base, models, sweep, conditions)", culprit=where)
     head = doc.get("study", {})
     bad = set(head) - _STUDY_KEYS
     if bad:
@@ -210,7 +217,17 @@ def load_study(path: str | os.PathLike) -> Study:
                  culprit=f"{where} [study] batch = {min(batch, len(seeds))} seeds per run")
 
     record = _record_table(head.get("record"), where)
-    models = DEFAULT_MODELS
+    slots = {name for name, _ in DEFAULT_MODELS.items()}
+    models_doc = doc.get("models", {})
+    if not isinstance(models_doc, dict):
+        raise InputError("[models] must map model names to model files", culprit=where)
+    base_files = {}
+    for slot, file in models_doc.items():
+        if slot not in slots:
+            raise InputError(f"[models] unknown model '{slot}' (models: "
+                             f"{', '.join(sorted(slots))})", culprit=where)
+        base_files[slot] = _model_file(p, slot, file, f"{where} [models]")
+    models = model_set(models=base_files, option=f"{where} [models]")
     base = [_check_override(models, k, _value_text(k, v, f"{where} [base]"), f"{where} [base]")
             for k, v in doc.get("base", {}).items()]
 
@@ -223,9 +240,21 @@ def load_study(path: str | os.PathLike) -> Study:
     if mode not in ("grid", "zip"):
         raise InputError(f"[sweep] mode must be \"grid\" or \"zip\", got {mode!r}", culprit=where)
     axes: dict[str, list[str]] = {}
+    axis_files: dict[tuple[str, str], dict[str, str]] = {}  # (model, file) -> record
     for k, values in sweep_doc.get("axes", {}).items():
         if not isinstance(values, list) or not values:
             raise InputError(f"[sweep.axes] '{k}' must be a non-empty list", culprit=where)
+        if k in slots:  # an axis of model files
+            axes[k] = []
+            for v in values:
+                aw = f"{where} [sweep.axes] {k}"
+                if not isinstance(v, str):
+                    raise InputError(f"lists model files, got {v!r}", culprit=aw)
+                axis_files[(k, v)] = _model_file(p, k, v, f"{where} [sweep.axes]")
+                model_set(models={**base_files, k: axis_files[(k, v)]},
+                          option=f"{where} [sweep.axes]")
+                axes[k].append(v)
+            continue
         axes[k] = [_value_text(k, v, f"{where} [sweep.axes]") for v in values]
         for v in axes[k]:
             _check_override(models, k, v, f"{where} [sweep.axes]")
@@ -258,10 +287,16 @@ def load_study(path: str | os.PathLike) -> Study:
         cset = [_check_override(models, k, _value_text(k, v, cw), cw)
                 for k, v in cond.get("set", {}).items()]
         for point in points:
-            overrides = tuple(base + [f"{k}={v}" for k, v in point.items()] + cset)
+            files = {**base_files, **{k: axis_files[(k, v)] for k, v in point.items()
+                                      if k in slots}}
+            overrides = tuple(base + [f"{k}={v}" for k, v in point.items() if k not in slots]
+                              + cset)
             # one model set per point: catches e.g. a value out of a parameter's range
+            point_models = model_set(models=files, option=cw) if files != base_files \
+                else models
             try:
-                models.with_values(dict(models.parse_assignment(o) for o in overrides))
+                point_models.with_values(dict(point_models.parse_assignment(o)
+                                              for o in overrides))
             except InputError as e:
                 raise InputError(f"{e}", culprit=cw) from None
             tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
@@ -270,7 +305,8 @@ def load_study(path: str | os.PathLike) -> Study:
                 run_id = "__".join(x for x in (_slug(cname), tag, seeds_tag) if x)
                 runs.append(RunSpec(run_id=run_id, condition=cname, point=dict(point),
                                     seed=first, n_trials=n, n_sessions=n_sessions,
-                                    astrocytes=astro, overrides=overrides, record=record))
+                                    astrocytes=astro, overrides=overrides, record=record,
+                                    models=files))
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):
         dup = next(i for i in ids if ids.count(i) > 1)
@@ -278,6 +314,17 @@ def load_study(path: str | os.PathLike) -> Study:
                          f"swept values that differ only in punctuation)", culprit=where)
     return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
                  n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs)
+
+
+def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]:
+    """The record ``{"sha256", "content"}`` of the model file for ``slot`` named in a study (a
+    path relative to the study file's folder)."""
+    if not isinstance(file, str) or not file:
+        raise InputError(f"expected the path of a model file, got {file!r}",
+                         culprit=f"{where} {slot}")
+    path = Path(file) if Path(file).is_absolute() else study.parent / file
+    text = read_model_files([f"{slot}={path}"], option=where)[slot]
+    return model_files_record({slot: text})[slot]
 
 
 def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
@@ -355,7 +402,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
             payload = read_checkpoint(out / CHECKPOINT)
             if payload["fingerprint"] != settings.fingerprint():
                 raise InputError("its checkpoint belongs to other settings", culprit=out)
-        models = model_set(settings.overrides, {})
+        models = model_set(settings.overrides, {}, models=settings.models)
         trainer = Trainer(models, settings, out, progress=False, record=spec.record_plan())
         if payload is not None:
             trainer.restore(payload)
