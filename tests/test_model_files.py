@@ -202,3 +202,22 @@ def test_study_bad_model_file(capsys, tmp_path):
     with pytest.raises(InputError) as e:
         load_study(study)
     assert "[models] astrocyte" in e.value.line and "lacks AG" in e.value.line
+
+
+def test_train_records_the_file_and_power_and_resume_use_it(capsys, tmp_path):
+    text = _astrocyte_with_extra_term(_dump(capsys, "astrocyte"))
+    f = tmp_path / "astro.toml"
+    f.write_text(text)
+    out = tmp_path / "t"
+    assert main(["train", "--sessions", "1", "--set", "L_max=1*second", "--model",
+                 f"astrocyte={f}", "--no-progress", "--out", str(out)]) == 0
+    settings = json.loads((out / "manifest.json").read_text())["settings"]
+    assert settings["models"]["astrocyte"]["content"] == text
+    capsys.readouterr()
+    # resuming with another astrocyte is refused; power rebuilds the recorded model
+    other = tmp_path / "other.toml"
+    other.write_text(_dump(capsys, "astrocyte"))
+    assert main(["train", "--resume", str(out), "--model",
+                 f"astrocyte={other}"]) == 2
+    assert "model files: astrocyte" in capsys.readouterr().err
+    assert main(["power", str(out), "--sessions", "1", "--no-progress"]) == 0

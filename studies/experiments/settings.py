@@ -117,7 +117,9 @@ def model_set(overrides: Overrides | None = None,
         if model is None:
             raise InputError(f"unknown model '{name}' (models: {', '.join(known)})",
                              culprit="--equations")
-        models = models.replace(**{name: model.with_code(text)})
+        model = model.with_code(text)
+        check_interface(model, INTERFACES.get(name, ()), culprit=f"--equations {name}")
+        models = models.replace(**{name: model})
     values = dict(models.parse_assignment(item) for item in override_items(overrides))
     return models.with_values(values) if values else models
 

@@ -419,8 +419,10 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     for key, value in (expect or {}).items():
         if value is not None and value != stored[key]:
             if key in ("overrides", "equations", "models"):
+                files = (f"; model files: {', '.join(sorted(settings.models))}"
+                         if settings.models else "")
                 raise InputError(f"that run has other model settings "
-                                 f"({', '.join(settings.overrides) or 'defaults'})",
+                                 f"({', '.join(settings.overrides) or 'defaults'}{files})",
                                  culprit=f"--resume {out}")
             raise InputError(f"that run has {key}={stored[key]}, not {value}",
                              culprit=f"--resume {out}")
