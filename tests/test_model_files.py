@@ -221,3 +221,22 @@ def test_train_records_the_file_and_power_and_resume_use_it(capsys, tmp_path):
                  f"astrocyte={other}"]) == 2
     assert "model files: astrocyte" in capsys.readouterr().err
     assert main(["power", str(out), "--sessions", "1", "--no-progress"]) == 0
+
+
+VARIANTS = Path(__file__).resolve().parents[1] / "models" / "variants"
+
+
+def test_shipped_variants(capsys):
+    """models/variants: the Li-Rinzel file is the built-in astrocyte; the G-ChI astrocyte has
+    the same interface; the study compares them."""
+    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.studies.sweeps.study import load_study
+
+    li_rinzel = (VARIANTS / "li_rinzel_astrocyte.toml").read_text()
+    assert li_rinzel == _dump(capsys, "astrocyte")
+    gchi = model_set(models={"astrocyte": (VARIANTS / "gchi_astrocyte.toml").read_text()})
+    assert "Gamma_A" in gchi.astrocyte.brian_equations().names
+    assert "tau_IP3" not in gchi.astrocyte.parameters
+    runs = load_study(VARIANTS / "compare_astrocytes.toml").runs
+    assert {r.point["astrocyte"] for r in runs} == {"li_rinzel_astrocyte.toml",
+                                                    "gchi_astrocyte.toml"}
