@@ -94,8 +94,11 @@ def test_plot_refuses_bad_options(run_dir, tmp_path, capsys, argv, culprit):
 def test_plot_a_unit(tmp_path):
     unit = tmp_path / "unit"
     assert main(["unit", "--seconds", "0.5", "--out", str(unit), "--no-progress"]) == 0
-    assert main(["plot", str(unit), "--format", "svg"]) == 0
+    import astrocpg as ac
+
+    written = ac.plot(unit, fmt="svg")
     names = {p.name for p in (unit / "figures").iterdir()}
+    assert names == {p.name for p in written}
     assert {"rasters.svg", "pool_activity.svg", "motor_calcium.svg",
             "astrocyte_FR_thigh_flexor.svg", "gait_diagram.svg"} <= names
     assert "joints.svg" not in names  # a unit has no robot
