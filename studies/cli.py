@@ -5,7 +5,7 @@
     astrocpg train --sessions N --trials N --seed K [--no-astrocytes] --out DIR | --resume DIR
     astrocpg gait DIR | power DIR [--trial K]
     astrocpg plot DIR [--trial K] [--window T0 T1] [--format png|pdf|svg] [--out DIR]
-    astrocpg video DIR [--trial K] [--fps F] [--speed X] [--size W H] [--out FILE.mp4]
+    astrocpg video DIR [--trial K] [--fps F] [--speed X] [--size W H] [--panel] [--out FILE]
     astrocpg study FILE [--out DIR] [--workers N] [--scheduler ADDRESS]
     astrocpg report DIR
     astrocpg export DIR [--format nwb|npz]
@@ -161,6 +161,8 @@ def build_parser() -> argparse.ArgumentParser:
     vid.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), default=(640, 480),
                      help="frame size in pixels (640 480)")
     vid.add_argument("--out", help="MP4 file (default DIR/video_trialTT.mp4, replaced each time)")
+    vid.add_argument("--panel", action="store_true",
+                     help="a strip under the frames: time, forward speed, scrolling gait diagram")
     vid.add_argument("--no-progress", action="store_true")
     _add_overwrite(vid)
 
@@ -358,7 +360,8 @@ def _cmd_video(args: argparse.Namespace) -> int:
     from .experiments.see import video
 
     res = video(args.dir, trial=args.trial, fps=args.fps, speed=args.speed, size=args.size,
-                out=args.out, overwrite=args.overwrite, progress=not args.no_progress)
+                out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
+                panel=args.panel)
     print(f"wrote {res['path']} ({res['frames']} frames at {res['fps']:g} fps, "
           f"{res['seconds']:.1f} s)")
     return 0

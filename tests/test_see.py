@@ -58,6 +58,10 @@ def test_trace_figures_of_a_run(run_dir):
     joints = figs["joints"]
     assert "angle (deg)" in joints.axes[0].get_ylabel()
     assert "torque (N m)" in joints.axes[1].get_ylabel()
+    # what was not recorded is left out (run --spikes none --traces none: the robot's figures)
+    result.spikes, result.traces = {}, {}
+    assert set(trace_figures(result, 0)) == {"joints", "torso_path", "gait_diagram"}
+    result = load(run_dir)
     # a window limits every time axis
     for fig in trace_figures(result, 0, (0.5, 1.0)).values():
         for ax in fig.axes:
@@ -143,11 +147,14 @@ def test_video_of_a_run(run_dir, tmp_path):
             assert 1 / 3 < xs.mean() / 320 < 2 / 3 and 1 / 3 < ys.mean() / 240 < 2 / 3
 
 
-def test_video_speed_and_default_path(run_dir):
-    assert main(["video", str(run_dir), "--speed", "2", "--fps", "10", "--size", "160", "120",
-                 "--no-progress"]) == 0
+def test_video_speed_panel_and_default_path(run_dir):
+    assert main(["video", str(run_dir), "--speed", "2", "--fps", "10", "--size", "320", "240",
+                 "--panel", "--no-progress"]) == 0
     frames = _frames(run_dir / "video_trial00.mp4")
     assert abs(len(frames) - 10) <= 1  # 2 s at twice real time, 10 fps
+    assert frames.shape[1:] == (240 + 80, 320, 3)  # the panel: a third of the height below
+    strip = frames[:, 240:].astype(int)
+    assert np.abs(strip[-1] - strip[1]).mean() > 1  # the gait diagram scrolls
     assert load(run_dir).kind == "run"  # an extra file leaves the folder verifiable
 
 

@@ -116,12 +116,14 @@ def _size(size: Any) -> tuple[int, int]:
 
 def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float = 1.0,
           size: Any = (640, 480), out: str | Path | None = None, overwrite: bool = False,
-          progress: bool = True) -> dict[str, Any]:
+          progress: bool = True, panel: bool = False) -> dict[str, Any]:
     """Replay the robot recorded in ``folder`` (a run, a recorded training session, or a
     training: its trial's last recorded session) as an MP4: the robot posed from the recorded
     joint angles and torso pose, a camera tracking the trunk, ``fps`` frames per second of
     video, ``speed`` simulated seconds per second of video (1: real time). ``out``: the file
-    (default ``folder/video_trialTT.mp4``, replaced on each video). Returns {"path", "frames",
+    (default ``folder/video_trialTT.mp4``, replaced on each video). ``panel``: a strip under
+    each frame (a third of its height) with the time, forward speed and a scrolling gait
+    diagram. Returns {"path", "frames",
     "fps", "seconds"}."""
     import imageio.v2 as imageio
     from tqdm.auto import tqdm
@@ -150,6 +152,12 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     samples = frame_samples(rob["t"], fps, speed)
     model, layout = _robot_model(result)
 
+    strip = None
+    if panel:
+        from ..figures.panel import GaitPanel
+
+        strip = GaitPanel(rob, b, width, (height // 3) // 2 * 2, speed=speed)
+
     def write(tmp: Path) -> None:
         bar = tqdm(total=len(samples), unit="frame", desc="rendering", disable=not progress)
         with Replay(model, layout, rob["joint_angles"][b], rob["torso_position"][b],
@@ -158,7 +166,10 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
                                         pixelformat="yuv420p", macro_block_size=2, quality=7,
                                         ffmpeg_log_level="error")
             try:
-                for frame in replay.frames(samples, on_frame=lambda n: bar.update(1)):
+                for k, frame in zip(samples, replay.frames(samples,
+                                                           on_frame=lambda n: bar.update(1))):
+                    if strip is not None:
+                        frame = np.concatenate([frame, strip.draw(int(k))], axis=0)
                     writer.append_data(frame)
             finally:
                 writer.close()
