@@ -87,12 +87,11 @@ class CPG:
             w = np.broadcast_to(w, (self.n_trials, n, n))
         if w.shape != (self.n_trials, n, n):
             raise InputError(
-                f"inter-limb weights: expected shape ({n}, {n}) or ({self.n_trials}, {n}, {n}), "
-                f"got {w.shape}"
-            )
+                f"expected shape ({n}, {n}) or ({self.n_trials}, {n}, {n}), "
+                f"got {w.shape}", culprit="inter-limb weights")
         mask = same_limb_mask(self.layout)
         if np.any(w[:, mask] != 0):
-            raise InputError("inter-limb weights: the same-limb 2x2 blocks must be zero")
+            raise InputError("the same-limb 2x2 blocks must be zero", culprit="inter-limb weights")
         if not len(self.interlimb_pairs):
             return
         self.array("interlimb", "w")[:] = w[:, self.interlimb_pairs[:, 0],
@@ -238,9 +237,10 @@ def build_cpg(
     legs = tuple(legs)
     for leg in legs:
         if leg not in LEGS:
-            raise InputError(f"build_cpg: unknown leg '{leg}' (legs are {', '.join(LEGS)})")
+            raise InputError(f"unknown leg '{leg}' (legs are {', '.join(LEGS)})",
+                             culprit="build_cpg")
     if int(n_trials) < 1:
-        raise InputError(f"build_cpg: n_trials must be at least 1, got {n_trials}")
+        raise InputError(f"n_trials must be at least 1, got {n_trials}", culprit="build_cpg")
     pool_size = int(np.asarray(models.pool.parameters["pool_size"].value))
     layout = Layout(n_trials=int(n_trials), pool_size=pool_size, legs=legs)
     brian2.seed(int(seed))
@@ -260,7 +260,7 @@ def build_cpg(
         except InputError:
             raise
         except Exception as e:
-            raise InputError(f"{model.name}: {brian_error_line(e)}") from None
+            raise InputError(f"{brian_error_line(e)}", culprit=model.name) from None
         objects.append(g)
         return g
 
@@ -277,7 +277,7 @@ def build_cpg(
         except InputError:
             raise
         except Exception as e:
-            raise InputError(f"{model.name}: {brian_error_line(e)}") from None
+            raise InputError(f"{brian_error_line(e)}", culprit=model.name) from None
         objects.append(s)
         return s
 
@@ -304,8 +304,8 @@ def build_cpg(
         for var, eq in motor.equations.items():
             if "linked" in eq.flags:
                 if var not in pool.variables:
-                    raise InputError(f"motor_neuron: linked variable '{var}' is not a variable "
-                                     f"of the pool model")
+                    raise InputError(f"linked variable '{var}' is not a variable "
+                                     f"of the pool model", culprit=f"motor_neuron")
                 setattr(motor, var, linked_var(pool, var, index=pool_index))
         astrocyte.n_pool = linked_var(pool, "n", index=L.pool_of_astrocyte)
         joints = [(b, leg, jt) for b in range(B) for leg in range(L.n_legs)
@@ -322,7 +322,7 @@ def build_cpg(
     except InputError:
         raise
     except Exception as e:
-        raise InputError(f"network wiring: {brian_error_line(e)}") from None
+        raise InputError(f"{brian_error_line(e)}", culprit=f"network wiring") from None
 
     syn: dict[str, Synapses] = {}
     syn["pool_activity"] = synapses(models.pool_activity, motor, pool, "pool_activity",
@@ -389,7 +389,7 @@ def build_cpg(
         except InputError:
             raise
         except Exception as e:
-            raise InputError(f"interlimb_synapse: {brian_error_line(e)}") from None
+            raise InputError(f"{brian_error_line(e)}", culprit=f"interlimb_synapse") from None
 
     net = Network(*objects)
     cpg = CPG(layout=layout, models=models, seed=int(seed), dt=dt, net=net, motor=motor,
@@ -421,7 +421,7 @@ def check_runs(cpg: CPG) -> None:
             if culprit != "network":
                 break
             err = err.__cause__
-        raise InputError(f"{culprit}: {_root_message(e)}") from None
+        raise InputError(f"{_root_message(e)}", culprit=culprit) from None
 
 
 def _root_message(e: BaseException) -> str:

@@ -45,11 +45,12 @@ def check_selection(spikes: tuple[str, ...] | None,
     traces = TRACES if traces is None else tuple(traces)
     for name in spikes:
         if name not in POPULATIONS:
-            raise InputError(f"--spikes: unknown population '{name}' "
-                             f"(populations: {', '.join(POPULATIONS)})")
+            raise InputError(f"unknown population '{name}' "
+                             f"(populations: {', '.join(POPULATIONS)})", culprit=f"--spikes")
     for name in traces:
         if name not in TRACES:
-            raise InputError(f"--traces: unknown trace '{name}' (traces: {', '.join(TRACES)})")
+            raise InputError(f"unknown trace '{name}' (traces: {', '.join(TRACES)})",
+                             culprit=f"--traces")
     return spikes, traces
 
 

@@ -270,17 +270,17 @@ def read_checkpoint(path: Path) -> dict[str, Any]:
     try:
         raw = path.read_bytes()
     except OSError as e:
-        raise InputError(f"--resume: cannot read {path} ({e.strerror})") from None
+        raise InputError(f"cannot read {path} ({e.strerror})", culprit=f"--resume") from None
     if not raw.startswith(MAGIC):
-        raise InputError(f"--resume: {path} is not an astrocpg checkpoint")
+        raise InputError(f"{path} is not an astrocpg checkpoint", culprit=f"--resume")
     rest = raw[len(MAGIC):]
     digest, _, body = rest.partition(b"\n")
     if hashlib.sha256(body).hexdigest().encode() != digest:
-        raise InputError(f"--resume: {path} is corrupt (checksum mismatch)")
+        raise InputError(f"{path} is corrupt (checksum mismatch)", culprit=f"--resume")
     try:
         return pickle.loads(body)
     except Exception:
-        raise InputError(f"--resume: {path} is corrupt (cannot be read)") from None
+        raise InputError(f"{path} is corrupt (cannot be read)", culprit=f"--resume") from None
 
 
 TRAIN_FILES = {

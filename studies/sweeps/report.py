@@ -36,7 +36,8 @@ def _load(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     try:
         index = json.loads((folder / STUDY_INDEX).read_text())
     except (OSError, ValueError):
-        raise InputError(f"report {folder}: not a study folder (no readable {STUDY_INDEX})") \
+        raise InputError(f"not a study folder (no readable {STUDY_INDEX})",
+                         culprit=f"report {folder}") \
             from None
     runs = []
     for run_id, spec in index.get("specs", {}).items():
@@ -101,7 +102,7 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     for r in runs:
         groups.setdefault(_group_label(r["spec"]), []).append(r)
     if not any(r["sessions"] is not None and len(r["sessions"]) for r in runs):
-        raise InputError(f"report {folder}: no run has finished a session yet")
+        raise InputError("no run has finished a session yet", culprit=f"report {folder}")
 
     fig = Figure(figsize=(8, 8))
     axes = fig.subplots(3, 1, sharex=True)

@@ -125,8 +125,8 @@ class Study:
 
 def _value_text(key: str, value: Any, where: str) -> str:
     if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-        raise InputError(f"{where}: '{key}' must be a number or a quantity string like "
-                         f"\"9*ms\", got {value!r}")
+        raise InputError(f"'{key}' must be a number or a quantity string like "
+                         f"\"9*ms\", got {value!r}", culprit=where)
     return str(value)
 
 
@@ -135,7 +135,7 @@ def _check_override(models, key: str, value: str, where: str) -> str:
     try:
         models.parse_assignment(item)
     except InputError as e:
-        raise InputError(f"{where}: {e}") from None
+        raise InputError(f"{e}", culprit=where) from None
     return item
 
 
@@ -164,13 +164,13 @@ def load_study(path: str | os.PathLike) -> Study:
     where = f"study {p.name}"
     unknown = set(doc) - {"study", "base", "sweep", "conditions"}
     if unknown:
-        raise InputError(f"{where}: unknown section [{sorted(unknown)[0]}] "
-                         f"(sections: study, base, sweep, conditions)")
+        raise InputError(f"unknown section [{sorted(unknown)[0]}] "
+                         f"(sections: study, base, sweep, conditions)", culprit=where)
     head = doc.get("study", {})
     bad = set(head) - _STUDY_KEYS
     if bad:
-        raise InputError(f"{where}: [study] has unknown key '{sorted(bad)[0]}' "
-                         f"(keys: {', '.join(sorted(_STUDY_KEYS))})")
+        raise InputError(f"[study] has unknown key '{sorted(bad)[0]}' "
+                         f"(keys: {', '.join(sorted(_STUDY_KEYS))})", culprit=where)
     name = head.get("name", p.stem)
     if not isinstance(name, str) or not _NAME.fullmatch(name):
         # the name becomes a folder (out/<name>): it may never leave the output root
@@ -178,15 +178,15 @@ def load_study(path: str | os.PathLike) -> Study:
                          f"name, not a path), got {name!r}", culprit=where)
     n_sessions = head.get("sessions", 400)
     if not isinstance(n_sessions, int) or isinstance(n_sessions, bool) or n_sessions < 1:
-        raise InputError(f"{where}: [study] sessions must be a positive integer, "
-                         f"got {n_sessions!r}")
+        raise InputError(f"[study] sessions must be a positive integer, "
+                         f"got {n_sessions!r}", culprit=where)
     seeds_doc = head.get("seeds", {"first": 1, "count": 1})
     if isinstance(seeds_doc, dict):
         first, count = seeds_doc.get("first", 1), seeds_doc.get("count", 1)
         if not all(isinstance(v, int) and not isinstance(v, bool) for v in (first, count)) \
                 or count < 1 or set(seeds_doc) - {"first", "count"}:
-            raise InputError(f"{where}: [study] seeds must be {{ first = K, count = N }} with "
-                             f"integers, N >= 1, or a list of integers")
+            raise InputError(f"[study] seeds must be {{ first = K, count = N }} with "
+                             f"integers, N >= 1, or a list of integers", culprit=where)
         if count > MAX_SEEDS:
             raise InputError(f"[study] seeds: {count} seeds is more than {MAX_SEEDS} (each seed "
                              f"is a training of {head.get('sessions', 400)} sessions)",
@@ -196,15 +196,15 @@ def load_study(path: str | os.PathLike) -> Study:
             isinstance(s, int) and not isinstance(s, bool) for s in seeds_doc):
         seeds = sorted(set(seeds_doc))
         if len(seeds) != len(seeds_doc):
-            raise InputError(f"{where}: [study] seeds lists a seed twice")
+            raise InputError("[study] seeds lists a seed twice", culprit=where)
     else:
-        raise InputError(f"{where}: [study] seeds must be {{ first = K, count = N }} or a "
-                         f"non-empty list of integers")
+        raise InputError(f"[study] seeds must be {{ first = K, count = N }} or a "
+                         f"non-empty list of integers", culprit=where)
     if min(seeds) < 0:
-        raise InputError(f"{where}: [study] seeds must be non-negative")
+        raise InputError("[study] seeds must be non-negative", culprit=where)
     batch = head.get("batch", len(seeds))
     if not isinstance(batch, int) or isinstance(batch, bool) or batch < 1:
-        raise InputError(f"{where}: [study] batch must be a positive integer, got {batch!r}")
+        raise InputError(f"[study] batch must be a positive integer, got {batch!r}", culprit=where)
     # one run trains min(batch, seeds) trials in one network: refuse what cannot fit
     check_memory(estimate_bytes(trials=min(batch, len(seeds)), seconds=0.0, spikes=False),
                  culprit=f"{where} [study] batch = {min(batch, len(seeds))} seeds per run")
@@ -217,21 +217,21 @@ def load_study(path: str | os.PathLike) -> Study:
     sweep_doc = doc.get("sweep", {})
     bad = set(sweep_doc) - {"mode", "axes"}
     if bad:
-        raise InputError(f"{where}: [sweep] has unknown key '{sorted(bad)[0]}' "
-                         f"(keys: mode, axes)")
+        raise InputError(f"[sweep] has unknown key '{sorted(bad)[0]}' "
+                         f"(keys: mode, axes)", culprit=where)
     mode = sweep_doc.get("mode", "grid")
     if mode not in ("grid", "zip"):
-        raise InputError(f"{where}: [sweep] mode must be \"grid\" or \"zip\", got {mode!r}")
+        raise InputError(f"[sweep] mode must be \"grid\" or \"zip\", got {mode!r}", culprit=where)
     axes: dict[str, list[str]] = {}
     for k, values in sweep_doc.get("axes", {}).items():
         if not isinstance(values, list) or not values:
-            raise InputError(f"{where}: [sweep.axes] '{k}' must be a non-empty list")
+            raise InputError(f"[sweep.axes] '{k}' must be a non-empty list", culprit=where)
         axes[k] = [_value_text(k, v, f"{where} [sweep.axes]") for v in values]
         for v in axes[k]:
             _check_override(models, k, v, f"{where} [sweep.axes]")
     if mode == "zip" and len({len(v) for v in axes.values()}) > 1:
-        raise InputError(f"{where}: [sweep] mode \"zip\" needs axes of equal length "
-                         f"({', '.join(f'{k}: {len(v)}' for k, v in axes.items())})")
+        raise InputError(f"[sweep] mode \"zip\" needs axes of equal length "
+                         f"({', '.join(f'{k}: {len(v)}' for k, v in axes.items())})", culprit=where)
     names = list(axes)
     if not names:
         points: list[dict[str, str]] = [{}]
@@ -242,19 +242,19 @@ def load_study(path: str | os.PathLike) -> Study:
 
     conditions = doc.get("conditions", {"default": {"astrocytes": True}})
     if not isinstance(conditions, dict) or not conditions:
-        raise InputError(f"{where}: [conditions] must name at least one condition")
+        raise InputError("[conditions] must name at least one condition", culprit=where)
     runs: list[RunSpec] = []
     groups = _consecutive_groups(seeds, batch)
     for cname, cond in conditions.items():
         cw = f"{where} [conditions.{cname}]"
         if not isinstance(cond, dict):
-            raise InputError(f"{cw}: must be a table")
+            raise InputError("must be a table", culprit=cw)
         bad = set(cond) - _CONDITION_KEYS
         if bad:
-            raise InputError(f"{cw}: unknown key '{sorted(bad)[0]}' (keys: astrocytes, set)")
+            raise InputError(f"unknown key '{sorted(bad)[0]}' (keys: astrocytes, set)", culprit=cw)
         astro = cond.get("astrocytes", True)
         if not isinstance(astro, bool):
-            raise InputError(f"{cw}: astrocytes must be true or false")
+            raise InputError("astrocytes must be true or false", culprit=cw)
         cset = [_check_override(models, k, _value_text(k, v, cw), cw)
                 for k, v in cond.get("set", {}).items()]
         for point in points:
@@ -263,7 +263,7 @@ def load_study(path: str | os.PathLike) -> Study:
             try:
                 models.with_values(dict(models.parse_assignment(o) for o in overrides))
             except InputError as e:
-                raise InputError(f"{cw}: {e}") from None
+                raise InputError(f"{e}", culprit=cw) from None
             tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
             for first, n in groups:
                 seeds_tag = f"seed{first}" if n == 1 else f"seeds{first}-{first + n - 1}"
@@ -274,8 +274,8 @@ def load_study(path: str | os.PathLike) -> Study:
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):
         dup = next(i for i in ids if ids.count(i) > 1)
-        raise InputError(f"{where}: two runs would share the folder '{dup}' (condition names or "
-                         f"swept values that differ only in punctuation)")
+        raise InputError(f"two runs would share the folder '{dup}' (condition names or "
+                         f"swept values that differ only in punctuation)", culprit=where)
     return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
                  n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs)
 
@@ -286,16 +286,17 @@ def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
     if doc is None:
         return None
     if not isinstance(doc, dict) or "every" not in doc:
-        raise InputError(f"{where}: [study] record must be a table with at least 'every' "
-                         f"(e.g. record = {{ every = 50, traces = [\"astrocyte_Ca\"] }})")
+        raise InputError(f"[study] record must be a table with at least 'every' "
+                         f"(e.g. record = {{ every = 50, traces = [\"astrocyte_Ca\"] }})",
+                         culprit=where)
     bad = set(doc) - {"every", "spikes", "traces", "stride"}
     if bad:
-        raise InputError(f"{where}: [study] record has unknown key '{sorted(bad)[0]}' "
-                         f"(keys: every, spikes, traces, stride)")
+        raise InputError(f"[study] record has unknown key '{sorted(bad)[0]}' "
+                         f"(keys: every, spikes, traces, stride)", culprit=where)
     try:
         plan = RecordPlan.from_dict(doc)
     except (TypeError, ValueError) as e:
-        raise InputError(f"{where}: [study] record: {e}") from None
+        raise InputError(f"[study] record: {e}", culprit=where) from None
     return {"every": plan.every, "spikes": list(plan.spikes), "traces": list(plan.traces),
             "stride": plan.stride}
 
@@ -353,7 +354,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
         if (out / CHECKPOINT).exists():
             payload = read_checkpoint(out / CHECKPOINT)
             if payload["fingerprint"] != settings.fingerprint():
-                raise InputError(f"{out}: its checkpoint belongs to other settings")
+                raise InputError("its checkpoint belongs to other settings", culprit=out)
         models = model_set(settings.overrides, {})
         trainer = Trainer(models, settings, out, progress=False, record=spec.record_plan())
         if payload is not None:
@@ -392,23 +393,23 @@ def _check_folder(study: Study, out: Path) -> None:
         try:
             known = json.loads(index_path.read_text())["runs"]
         except (OSError, ValueError, KeyError):
-            raise InputError(f"--out {out}: {STUDY_INDEX} is unreadable") from None
+            raise InputError(f"{STUDY_INDEX} is unreadable", culprit=f"--out {out}") from None
     elif any(out.iterdir()):
-        raise InputError(f"--out {out}: is not empty and holds no study (no {STUDY_INDEX}); "
-                         f"use a new folder")
+        raise InputError(f"is not empty and holds no study (no {STUDY_INDEX}); "
+                         f"use a new folder", culprit=f"--out {out}")
     if index_path.exists():
         try:
             name = json.loads(index_path.read_text())["name"]
         except (OSError, ValueError, KeyError):
-            raise InputError(f"--out {out}: {STUDY_INDEX} is unreadable") from None
+            raise InputError(f"{STUDY_INDEX} is unreadable", culprit=f"--out {out}") from None
         if name != study.name:
-            raise InputError(f"--out {out}: belongs to study '{name}', not '{study.name}' "
-                             f"(use a new --out)")
+            raise InputError(f"belongs to study '{name}', not '{study.name}' "
+                             f"(use a new --out)", culprit=f"--out {out}")
     for run in study.runs:
         fp = known.get(run.run_id)
         if fp is not None and fp != run.fingerprint():
-            raise InputError(f"--out {out}: run '{run.run_id}' there has other settings than "
-                             f"in {study.path.name} (use a new --out)")
+            raise InputError(f"run '{run.run_id}' there has other settings than "
+                             f"in {study.path.name} (use a new --out)", culprit=f"--out {out}")
 
 
 def _save_index(study: Study, out: Path) -> None:
