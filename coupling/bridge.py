@@ -98,6 +98,7 @@ class Recording:
     reward: np.ndarray  # (trials, samples)
     alive: np.ndarray  # (trials, samples) bool
     foot_force: np.ndarray  # (trials, samples, 4) N, foot touch sensors (NaN if the model has none)
+    torso_quaternion: np.ndarray  # (trials, samples, 4) torso orientation (w, x, y, z), world
 
     def truncated(self, n_steps: int) -> "Recording":
         """The samples of the first ``n_steps`` steps only (a run that ended early)."""
@@ -120,6 +121,7 @@ class Recording:
             reward=np.zeros((n_trials, n)),
             alive=np.zeros((n_trials, n), dtype=bool),
             foot_force=np.full((n_trials, n, 4), np.nan),
+            torso_quaternion=np.tile([1.0, 0.0, 0.0, 0.0], (n_trials, n, 1)),
         )
 
 
@@ -416,6 +418,7 @@ class Bridge:
             return
         (rec.joint_angles[:, k], rec.torques[:, k], rec.torso_position[:, k],
          rec.torso_velocity[:, k]) = self.robot_sample()
+        rec.torso_quaternion[:, k] = self.torso_quaternion
         rec.reward[:, k] = self.reward
         rec.alive[:, k] = self.alive
         if self.layout.touch_adr is not None:

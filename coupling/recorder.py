@@ -104,6 +104,7 @@ class SessionRecorder:
             "torques": np.zeros((n,) + torques.shape),
             "torso_position": np.zeros((n, 3)),
             "torso_velocity": np.zeros((n, 3)),
+            "torso_quaternion": np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)),
             "samples": 0,
         }
 
@@ -128,8 +129,10 @@ class SessionRecorder:
             out["spikes"][pop] = (steps * self.dt, idx.astype(np.int32))
         for name, arr in buf["traces"].items():
             out["traces"][name] = (t, arr[:n].copy())
-        for key in ("joint_angles", "torques", "torso_position", "torso_velocity"):
-            out["robot"][key] = buf[key][:n].copy()
+        for key in ("joint_angles", "torques", "torso_position", "torso_velocity",
+                    "torso_quaternion"):
+            if key in buf:  # a checkpoint written before quaternions were recorded has none
+                out["robot"][key] = buf[key][:n].copy()
         return out
 
     # ---- per step
@@ -153,6 +156,8 @@ class SessionRecorder:
                     buf["traces"][name][k] = arr[b] * scale
                 (buf["joint_angles"][k], buf["torques"][k], buf["torso_position"][k],
                  buf["torso_velocity"][k]) = br.robot_sample(b)
+                if "torso_quaternion" in buf:
+                    buf["torso_quaternion"][k] = br.torso_quaternion[b]
                 buf["samples"] = k + 1
 
     # ---- checkpoints

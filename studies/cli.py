@@ -3,7 +3,9 @@
     astrocpg unit  --seconds S --seed K --out DIR [--trials N]
     astrocpg run   --seconds S --seed K [--trials N] [--weights FILE|DIR] [--robot XML] --out DIR
     astrocpg train --sessions N --trials N --seed K [--no-astrocytes] --out DIR | --resume DIR
-    astrocpg gait DIR | plot DIR | power DIR [--trial K]
+    astrocpg gait DIR | power DIR [--trial K]
+    astrocpg plot DIR [--trial K] [--window T0 T1] [--format png|pdf|svg] [--out DIR]
+    astrocpg video DIR [--trial K] [--fps F] [--speed X] [--size W H] [--panel] [--out FILE]
     astrocpg study FILE [--out DIR] [--workers N] [--scheduler ADDRESS]
     astrocpg report DIR
     astrocpg export DIR [--format nwb|npz]
@@ -144,13 +146,36 @@ def build_parser() -> argparse.ArgumentParser:
     gait.add_argument("--seed", type=int, default=1)
     gait.add_argument("--no-progress", action="store_true")
 
-    plot = sub.add_parser("plot", help="figures of a training folder (Fig. 3 style)")
-    plot.add_argument("dir", help="a training folder")
-    plot.add_argument("--trial", type=int, default=0)
+    plot = sub.add_parser("plot", help="figures of any output folder (unit, run, training, "
+                                       "recorded session, study run)")
+    plot.add_argument("dir", help="an output folder of unit, run, train or a study's run, or a "
+                                  "recorded session (TRAINING/recordings/...)")
+    plot.add_argument("--trial", type=int, default=0, help="which trial (0)")
+    plot.add_argument("--window", type=float, nargs=2, metavar=("T0", "T1"), default=None,
+                      help="time window in s (default: the whole recording; a training: the "
+                           "last 2 s of its run)")
+    plot.add_argument("--format", default="png", help="png (default), pdf or svg")
     plot.add_argument("--seconds", type=float, default=10.0,
-                      help="length of the run with the trained weights (for activity and gait)")
+                      help="a training: length of the run with the trained weights (for "
+                           "activity and gait)")
     plot.add_argument("--out", help="figure folder (default DIR/figures, replaced on each plot)")
     _add_overwrite(plot)
+
+    vid = sub.add_parser("video", help="the recorded robot replayed as MP4 (MuJoCo offscreen; "
+                                       "MUJOCO_GL honoured, else EGL then OSMesa)")
+    vid.add_argument("dir", help="a run, a recorded training session, or a training (its "
+                                 "trial's last recorded session)")
+    vid.add_argument("--trial", type=int, default=0, help="which trial (0)")
+    vid.add_argument("--fps", type=float, default=30.0, help="frames per second of video (30)")
+    vid.add_argument("--speed", type=float, default=1.0,
+                     help="simulated seconds per second of video (1: real time)")
+    vid.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), default=(640, 480),
+                     help="frame size in pixels (640 480)")
+    vid.add_argument("--out", help="MP4 file (default DIR/video_trialTT.mp4, replaced each time)")
+    vid.add_argument("--panel", action="store_true",
+                     help="a strip under the frames: time, forward speed, scrolling gait diagram")
+    vid.add_argument("--no-progress", action="store_true")
+    _add_overwrite(vid)
 
     study = sub.add_parser("study", help="a parameter study (TOML) on Dask; resumable")
     study.add_argument("file", help="study file, e.g. studies/sweeps/quick.toml, or a built-in "
@@ -348,11 +373,22 @@ def _cmd_gait(args: argparse.Namespace) -> int:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
-    from .experiments.trained import plot_training
+    from .experiments.see import plot
 
-    written = plot_training(args.dir, trial=args.trial, seconds=args.seconds, out=args.out,
-                            overwrite=args.overwrite)
-    print(f"wrote {', '.join(str(p) for p in written)}")
+    written = plot(args.dir, trial=args.trial, window=args.window, fmt=args.format,
+                   seconds=args.seconds, out=args.out, overwrite=args.overwrite)
+    print(f"wrote {len(written)} figure(s): {', '.join(str(p) for p in written)}")
+    return 0
+
+
+def _cmd_video(args: argparse.Namespace) -> int:
+    from .experiments.see import video
+
+    res = video(args.dir, trial=args.trial, fps=args.fps, speed=args.speed, size=args.size,
+                out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
+                panel=args.panel)
+    print(f"wrote {res['path']} ({res['frames']} frames at {res['fps']:g} fps, "
+          f"{res['seconds']:.1f} s)")
     return 0
 
 
@@ -457,9 +493,9 @@ def _cmd_robot(args: argparse.Namespace) -> int:
 
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "unit": _cmd_unit, "run": _cmd_run, "train": _cmd_train, "gait": _cmd_gait,
-    "plot": _cmd_plot, "robot": _cmd_robot, "study": _cmd_study, "report": _cmd_report,
-    "power": _cmd_power, "export": _cmd_export, "describe": _cmd_describe,
-    "models": _cmd_models}
+    "plot": _cmd_plot, "video": _cmd_video, "robot": _cmd_robot, "study": _cmd_study,
+    "report": _cmd_report, "power": _cmd_power, "export": _cmd_export,
+    "describe": _cmd_describe, "models": _cmd_models}
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -24,7 +24,8 @@ from .simulate import (STEP, SimulationResult, check_duration, check_selection, 
                        simulate_closed_loop)
 
 ROBOT_FILE = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t, leg, joint) "
-              "N m; torso_position/velocity (trial, t, xyz) m, m/s world; reward, alive "
+              "N m; torso_position/velocity (trial, t, xyz) m, m/s world; torso_quaternion "
+              "(trial, t, wxyz); reward, alive "
               "(trial, t); foot_force (trial, t, leg) N; interlimb_weights_mV (trial, 8, 8)")
 
 
@@ -145,6 +146,7 @@ def robot_arrays(result: SimulationResult) -> dict[str, np.ndarray]:
     return {
         "t": rec.t, "joint_angles": rec.joint_angles, "torques": rec.torques,
         "torso_position": rec.torso_position, "torso_velocity": rec.torso_velocity,
+        "torso_quaternion": rec.torso_quaternion,
         "reward": rec.reward, "alive": rec.alive, "foot_force": rec.foot_force,
         "legs": np.array(list(result.cpg.layout.legs)),
         "joints": np.array(["hip", "thigh", "calf"]),

@@ -143,7 +143,8 @@ class Trainer:
                        models_json=self.models.to_json(),
                        files=files | {"robot.npz": "t (s); joint_angles, torques (1, t, leg, "
                                                    "joint); torso_position, torso_velocity "
-                                                   "(1, t, xyz)"},
+                                                   "(1, t, xyz); torso_quaternion (1, t, "
+                                                   "wxyz)"},
                        results={"layout": layout.to_json(), "dt_s": float(self.cpg.dt)})
 
     def write_outputs(self) -> None:

@@ -42,22 +42,34 @@ FIGURES = "figures"
 
 
 def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
-                  out: str | Path | None = None, overwrite: bool = False) -> list[Path]:
-    """weights.png, training.png, thigh_extensor_activity.png and gait.png of one trial of the
-    training in ``folder``, into ``out`` (default ``folder/figures``, which each plot replaces
-    whole); returns the paths written."""
+                  out: str | Path | None = None, overwrite: bool = False, fmt: str = "png",
+                  window: tuple[float, float] | None = None) -> list[Path]:
+    """weights, training, thigh_extensor_activity and gait figures of one trial of the
+    training in ``folder`` (from a run of ``seconds`` with its trained weights; ``window``
+    within it, default its last 2 s), and the trace figures of the trial's last recorded
+    session (``train --record-every``) if any, in ``recording_trialTT_sessionSSSS/``; into
+    ``out`` (default ``folder/figures``, which each plot replaces whole); returns the paths."""
     from ..figures import plots
+    from ..figures.traces import save_figures, trace_figures
+    from ..files.result import load
 
     folder = Path(folder)
     # the default folder belongs to this command: replaced whole on every plot
     target = Path(out) if out is not None else folder / FIGURES
     OutputFolder(target, overwrite=overwrite or out is None).check()
+    training = load(folder)
+    if not 0 <= trial < training.n_trials:
+        raise InputError(f"{folder} has {training.n_trials} trial(s)", culprit=f"--trial {trial}")
+    if window is not None and window[0] >= seconds:
+        raise InputError(f"starts after the {seconds:g} s run with the trained weights "
+                         f"(--seconds)", culprit=f"--window {window[0]:g} {window[1]:g}")
+    recorded = sorted(s for b, s in training.recordings if b == trial)
     result, weights = replay(folder, seconds=seconds, seed=1, progress=False)
-    if not 0 <= trial < len(weights):
-        raise InputError(f"{folder} has {len(weights)} trial(s)", culprit=f"--trial {trial}")
     b = trial
-    names = ["weights.png", "training.png", "thigh_extensor_activity.png", "gait.png"]
-    window = (max(0.0, seconds - 2.0), seconds)
+    names = [f"{n}.{fmt}" for n in ("weights", "training", "thigh_extensor_activity", "gait")]
+    window = (window[0], min(window[1], seconds)) if window is not None \
+        else (max(0.0, seconds - 2.0), seconds)
+    written = [target / n for n in names]
     with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
         plots.plot_weights(tmp / names[0], weights[b] * 1e3, trial=b)
         plots.plot_training_curves(tmp / names[1], folder / "sessions.csv")
@@ -67,4 +79,11 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
         g = leg_phases(t, i, result.cpg.layout, b, min(1.0, seconds / 5), seconds)
         plots.plot_gait(tmp / names[3], result.robot, b, phase_matrix(g["phases"]), g,
                         window=window)
-    return [target / n for n in names]
+        if recorded:
+            session = recorded[-1]
+            rec = training.recording(trial, session)
+            sub = f"recording_trial{trial:02d}_session{session:04d}"
+            # a recorded session is one trial (0); the window: within it, else all of it
+            paths = save_figures(trace_figures(rec, 0), tmp / sub, fmt)
+            written += [target / sub / p.name for p in paths]
+    return written
