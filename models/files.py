@@ -16,6 +16,8 @@ the network reads or sets (:data:`astrocpg.models.INTERFACES`).
 
 from __future__ import annotations
 
+import dataclasses
+
 import hashlib
 import json
 import tomllib
@@ -25,7 +27,7 @@ import numpy as np
 from brian2 import Quantity
 
 from ..errors import InputError
-from .base import BrianModel, Model, Parameter, ParameterTable, _KINDS
+from .base import BrianModel, Model, Parameter, ParameterTable, model_kinds
 from .values import parse_value, unit_spelling
 
 
@@ -175,11 +177,11 @@ def model_from_toml(text: str, *, culprit: str, default: Model | None = None) ->
     if not isinstance(name, str) or not name.isidentifier():
         raise InputError(f"'name' must be an identifier, got {name!r}", culprit=culprit)
     kind = data.get("kind", default.kind if default else None)
-    target = _KINDS.get(kind) if isinstance(kind, str) else None
+    kinds = model_kinds()
+    target = kinds.get(kind) if isinstance(kind, str) else None
     if target is None:
-        raise InputError(f"unknown kind {kind!r} (kinds: {', '.join(_KINDS)})",
+        raise InputError(f"unknown kind {kind!r} (kinds: {', '.join(kinds)})",
                          culprit=f"{culprit}: kind")
-    import dataclasses
     fields = {f.name for f in dataclasses.fields(target) if f.init}
     kwargs: dict[str, Any] = {}
     for key, value in data.items():
