@@ -9,9 +9,10 @@ The Python API (what the ``astrocpg`` commands call)::
     r.trace("astrocyte_Ca").column(leg="FR", pool="thigh_extensor")
     u = ac.unit(seconds=3, seed=1, out="out/unit")
     same = ac.load("out/unit")                    # any output folder -> Result
+    ac.plot("out/unit"); ac.video("out/run")      # its figures; the robot replayed as MP4
 
-``unit``, ``run``, ``train``, ``resume``, ``load``, ``describe``, ``export``, ``Result`` and
-``Trace`` are imported on first use, so ``import astrocpg`` (and ``astrocpg --help``) does not
+``unit``, ``run``, ``train``, ``resume``, ``load``, ``describe``, ``export``, ``plot``,
+``video``, ``Result`` and ``Trace`` are imported on first use, so ``import astrocpg`` (and ``astrocpg --help``) does not
 load Brian2. See docs/tutorial.ipynb.
 
 Sub-packages:
@@ -31,6 +32,7 @@ __version__ = "0.1.0"
 _API = {name: "astrocpg.studies.experiments.api"
         for name in ("unit", "run", "train", "resume", "load", "describe", "export", "Result",
                      "Trace")}
+_API.update({name: "astrocpg.studies.experiments.see" for name in ("plot", "video")})
 _API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFault", "Diverged")})
 
 __all__ = sorted(_API)

@@ -1,11 +1,16 @@
 """Wall seconds per simulated second of the closed loop (CPG + A1, fixed weights), numpy target,
 one core, for 1, 4 and 16 trials batched in one network.
 
-    python benchmarks/speed.py [--seconds 5] [--trials 1 4 16] [--record]
+    python benchmarks/speed.py [--seconds 5] [--trials 1 4 16] [--record] [--check-every N]
 
 Targets (issue 2): <= 1.2 s per simulated second for one trial, <= 0.2 s per trial at 16.
 Start-up (import, build, code generation, first step) is reported apart: it is paid once per run.
 Pin to one core with ``taskset -c 0`` for a one-core figure; the script also reports CPU time.
+``--check-every 0`` turns the bridge's CPG divergence check off (the robot's is always on), to
+measure what the check costs: ``--check-every 10 0`` measures both, interleaved. On a loaded
+machine the difference drowns in noise; ``--check-cost`` also times the divergence checks
+themselves in the same process (the robot's every step, the CPG's every N steps) and gives them
+as a share of the loop's CPU time per step.
 """
 
 from __future__ import annotations
@@ -18,35 +23,52 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
-from brian2 import ms, second  # noqa: E402
+from brian2 import ms  # noqa: E402
 
-from astrocpg.coupling.bridge import Bridge  # noqa: E402
-from astrocpg.coupling.robot import A1Parameters, RobotLayout, build_model  # noqa: E402
+from astrocpg.coupling.assembly import build_closed_loop  # noqa: E402
 from astrocpg.models import DEFAULT_MODELS  # noqa: E402
-from astrocpg.network import build_cpg, check_runs  # noqa: E402
 from astrocpg.studies.experiments.simulate import add_monitors  # noqa: E402
 
 
-def measure(n_trials: int, seconds: float, record: bool) -> dict[str, float]:
+def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
+            check_cost: bool = False) -> dict[str, float]:
     t_start = time.perf_counter()
-    params = A1Parameters()
-    robot = build_model(params)
-    layout = RobotLayout.from_model(robot, params)
-    cpg = build_cpg(DEFAULT_MODELS, n_trials=n_trials, seed=1)
-    check_runs(cpg)
-    bridge = Bridge(cpg, robot, layout, DEFAULT_MODELS)
+    loop = build_closed_loop(DEFAULT_MODELS, n_trials=n_trials, seed=1, check_every=check_every)
+    cpg = loop.cpg
     if record:
-        bridge.start_recording(int(seconds * 1000) + 200, 1)
+        loop.bridge.start_recording(int(seconds * 1000) + 200, 1)
         add_monitors(cpg, 1 * ms, True)
-    cpg.net.add(bridge.operation())
-    cpg.net.run(100 * ms, namespace={})  # code generation and first steps
+    loop.run(0.1)  # code generation and first steps
     startup = time.perf_counter() - t_start
     w0, c0 = time.perf_counter(), time.process_time()
-    cpg.net.run(seconds * second, namespace={})
+    loop.run(seconds)
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-    return {"trials": n_trials, "wall_per_sim_s": wall / seconds,
-            "cpu_per_sim_s": cpu / seconds, "wall_per_trial": wall / seconds / n_trials,
-            "startup_s": startup}
+    out = {"trials": n_trials, "wall_per_sim_s": wall / seconds,
+           "cpu_per_sim_s": cpu / seconds, "wall_per_trial": wall / seconds / n_trials,
+           "startup_s": startup, "check_every": check_every}
+    if check_cost:
+        out.update(_check_cost(loop, cpu / (seconds / float(cpg.dt))))
+    return out
+
+
+def _check_cost(loop, cpu_per_step: float, calls: int = 3000) -> dict[str, float]:
+    """CPU seconds of the divergence checks per step, timed in this process, interleaved."""
+    bridge, cpg = loop.bridge, loop.cpg
+    robot = cpg_check = 0.0
+    for _ in range(5):
+        c0 = time.process_time()
+        for _ in range(calls):
+            bridge._robot_unstable()
+        c1 = time.process_time()
+        for _ in range(calls // 10):
+            cpg.first_nonfinite()
+        c2 = time.process_time()
+        robot += (c1 - c0) / (5 * calls)
+        cpg_check += (c2 - c1) / (5 * (calls // 10))
+    every = bridge.check_every or 10
+    share = (robot + cpg_check / every) / cpu_per_step
+    return {"loop_us": cpu_per_step * 1e6, "robot_check_us": robot * 1e6,
+            "cpg_check_us": cpg_check * 1e6, "check_share": share, "every": every}
 
 
 def main() -> None:
@@ -55,15 +77,28 @@ def main() -> None:
     ap.add_argument("--trials", type=int, nargs="+", default=[1, 4, 16])
     ap.add_argument("--record", action="store_true",
                     help="also record spikes, Ca2+/astrocyte traces and the robot every step")
+    ap.add_argument("--check-every", type=int, nargs="+", default=[10], metavar="N",
+                    help="steps between CPG divergence checks (0: off); several values are "
+                         "measured one after the other for each trial count")
+    ap.add_argument("--check-cost", action="store_true",
+                    help="also time the divergence checks alone, as a share of the loop")
     args = ap.parse_args()
     print(f"closed loop, numpy target, {args.seconds:g} simulated s per point, "
           f"recording {'on' if args.record else 'off'}")
-    print(f"{'trials':>6} {'wall s/sim s':>13} {'per trial':>10} {'CPU s/sim s':>12} "
-          f"{'start-up s':>11}")
+    print(f"{'trials':>6} {'check':>6} {'wall s/sim s':>13} {'per trial':>10} "
+          f"{'CPU s/sim s':>12} {'start-up s':>11}")
     for n in args.trials:
-        r = measure(n, args.seconds, args.record)
-        print(f"{r['trials']:>6} {r['wall_per_sim_s']:>13.3f} {r['wall_per_trial']:>10.3f} "
-              f"{r['cpu_per_sim_s']:>12.3f} {r['startup_s']:>11.1f}", flush=True)
+        for every in args.check_every:
+            r = measure(n, args.seconds, args.record, every, args.check_cost)
+            check = str(every) if every else "off"
+            print(f"{r['trials']:>6} {check:>6} {r['wall_per_sim_s']:>13.3f} "
+                  f"{r['wall_per_trial']:>10.3f} {r['cpu_per_sim_s']:>12.3f} "
+                  f"{r['startup_s']:>11.1f}", flush=True)
+            if args.check_cost:
+                print(f"{'':>6} divergence checks: robot {r['robot_check_us']:.2f} us every "
+                      f"step, CPG {r['cpg_check_us']:.1f} us every {r['every']} steps, loop "
+                      f"{r['loop_us']:.0f} us CPU per step: {100 * r['check_share']:.2f}% "
+                      f"of the loop", flush=True)
 
 
 if __name__ == "__main__":

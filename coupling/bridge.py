@@ -12,23 +12,77 @@ traces have taken this step's spikes in:
 The bridge holds no model constant: gains, margins and the reward come from ``models``; the
 robot's figures from the MJCF model. Hot-loop rules: raw arrays cached once, in-place writes,
 a Python loop over trials (MjData) only, never over neurons.
+
+Hooks (like FlyGym's ``Simulation.step``: pre-step, physics, post-step). Code that acts every
+step registers a named hook with :meth:`Bridge.add_hook` instead of wrapping the bridge; hooks
+of a stage run in ``(order, name)`` order, whatever order they were added in:
+
+``before_physics``  after this step's torques are in :attr:`Bridge.ctrl`, before they go to
+                    MuJoCo (a hook may read or change ``ctrl``)
+``after_physics``   after the physics step, the divergence check and the senses (reward, alive,
+                    torso speed): the state of the step just done
+``diverged``        called with the :class:`~astrocpg.errors.Diverged` just before the bridge
+                    raises it (e.g. training closes the trial's session as diverged)
+
+Orders used by astrocpg (lower first): :data:`ORDER_MEASURE` 10 (read the step before the session
+loop may end a session and reset the trial: ``session_recorder``, power's ``limit_count``),
+:data:`ORDER_TRAINING` 20 (``training``, the session loop; ``training_diverged``),
+:data:`ORDER_RECORDING` 30 (``recording``, :meth:`Bridge.start_recording`),
+:data:`ORDER_PROGRESS` 100 (``progress``, the ``on_step`` callback).
+
+Divergence (errors.Diverged, exit 3): after every physics step, each trial's MuJoCo instability
+warnings (bad qpos, qvel, qacc, ctrl: MuJoCo resets such a robot itself, so the counters are read
+the step it happens) and NaN/inf in the robot state and torques; every ``check_every`` steps,
+NaN/inf in any state variable of the CPG (:meth:`CPG.first_nonfinite`). Run the network with
+:func:`astrocpg.network.run_network` to get the ``Diverged`` out of ``Network.run``.
 """
 
 from __future__ import annotations
 
+import math
+import dataclasses
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 import brian2
 import mujoco
 import numpy as np
 
+from ..errors import Diverged
 from ..models import ModelSet
-from ..network import CPG, LEGS, POOLS
+from ..network import CPG, LEGS, POOLS, NonFinite
 from .robot import RobotLayout, reset
 
 _THIGH, _CALF = 1, 2  # joint order within a leg: hip, thigh, calf
 _FLEXOR, _EXTENSOR = POOLS.index("thigh_flexor"), POOLS.index("thigh_extensor")
+
+STAGES = ("before_physics", "after_physics", "diverged")
+ORDER_MEASURE = 10  # reads the step's state before the session loop may reset a trial
+ORDER_TRAINING = 20  # the session loop (training.Training)
+ORDER_RECORDING = 30  # Bridge.start_recording
+ORDER_PROGRESS = 100  # the on_step callback
+
+# MuJoCo's instability warnings: the robot's numbers left the finite range (MuJoCo resets the
+# data on bad qpos, qvel and qacc; a bad ctrl is set to zero)
+INSTABILITY_WARNINGS = {
+    int(mujoco.mjtWarning.mjWARN_BADQACC): ("mjWARN_BADQACC", "bad qacc (acceleration)", "dof"),
+    int(mujoco.mjtWarning.mjWARN_BADQPOS): ("mjWARN_BADQPOS", "bad qpos (position)", "qpos"),
+    int(mujoco.mjtWarning.mjWARN_BADQVEL): ("mjWARN_BADQVEL", "bad qvel (velocity)", "dof"),
+    int(mujoco.mjtWarning.mjWARN_BADCTRL): ("mjWARN_BADCTRL", "bad ctrl (NaN/inf or huge "
+                                            "torque)", "actuator"),
+}
+_QACC, _QPOS, _QVEL, _CTRL = INSTABILITY_WARNINGS
+
+
+@dataclass(frozen=True)
+class Hook:
+    """A named function the bridge calls at ``stage`` every step (``diverged``: on divergence,
+    with the error)."""
+
+    stage: str
+    name: str
+    fn: Callable[..., None]
+    order: float = 0
 
 
 @dataclass
@@ -44,6 +98,15 @@ class Recording:
     reward: np.ndarray  # (trials, samples)
     alive: np.ndarray  # (trials, samples) bool
     foot_force: np.ndarray  # (trials, samples, 4) N, foot touch sensors (NaN if the model has none)
+    torso_quaternion: np.ndarray  # (trials, samples, 4) torso orientation (w, x, y, z), world
+
+    def truncated(self, n_steps: int) -> "Recording":
+        """The samples of the first ``n_steps`` steps only (a run that ended early)."""
+        n = min(len(self.t), (n_steps + self.stride - 1) // self.stride)
+        return dataclasses.replace(self, **{f.name: getattr(self, f.name)[..., :n]
+                                            if f.name == "t" else getattr(self, f.name)[:, :n]
+                                            for f in dataclasses.fields(self)
+                                            if f.name != "stride"})
 
     @classmethod
     def allocate(cls, n_trials: int, n_steps: int, stride: int, dt: float) -> "Recording":
@@ -58,13 +121,20 @@ class Recording:
             reward=np.zeros((n_trials, n)),
             alive=np.zeros((n_trials, n), dtype=bool),
             foot_force=np.full((n_trials, n, 4), np.nan),
+            torso_quaternion=np.tile([1.0, 0.0, 0.0, 0.0], (n_trials, n, 1)),
         )
 
 
 class Bridge:
     """Couples ``cpg`` (n_trials copies) to ``n_trials`` MjData of one robot model.
 
-    Use :meth:`operation` to get the Brian2 ``NetworkOperation`` to add to the network.
+    Use :meth:`operation` to get the Brian2 ``NetworkOperation`` to add to the network (or
+    :func:`astrocpg.coupling.assembly.build_closed_loop`, which does it all).
+
+    on_step: called with the number of steps done after every step (a hook named ``progress``,
+        order :data:`ORDER_PROGRESS`).
+    check_every: steps between two checks of the CPG's state for NaN/inf (0: never; the robot is
+        checked every step).
     """
 
     def __init__(
@@ -75,7 +145,7 @@ class Bridge:
         models: ModelSet,
         *,
         on_step: Callable[[int], None] | None = None,
-        after_physics: Callable[[], None] | None = None,
+        check_every: int = 10,
     ) -> None:
         if abs(model.opt.timestep - float(cpg.dt)) > 1e-12:
             raise ValueError(
@@ -86,10 +156,14 @@ class Bridge:
         self.cpg, self.model, self.layout, self.models = cpg, model, layout, models
         B = self.n_trials = cpg.n_trials
         self.data = [mujoco.MjData(model) for _ in range(B)]
-        self.step_count = 0
-        self.on_step = on_step
-        self.after_physics = after_physics  # e.g. the session loop of training
+        self.step_count = 0  # physics steps done (hooks of a step see it counted)
         self.recording: Recording | None = None
+        if int(check_every) < 0:
+            raise ValueError(f"check_every must be 0 (off) or positive, got {check_every}")
+        self.check_every = int(check_every)
+        self._until_check = self.check_every
+        self._hooks: dict[str, Hook] = {}
+        self._run: dict[str, tuple[Callable[..., None], ...]] = {s: () for s in STAGES}
 
         # cached raw views into the Brian2 state (numpy target: live arrays)
         self._torso_speed = cpg.array("pool", "torso_speed").reshape(B, 4, len(POOLS))
@@ -110,20 +184,98 @@ class Bridge:
         self._alive = models.alive.compile()
         self.dt = float(cpg.dt)
 
-        # batched robot state, refreshed after every physics step
-        self.qpos = np.zeros((B, model.nq))
-        self.qvel = np.zeros((B, model.nv))
+        # batched robot state, refreshed after every physics step; qpos, qvel and ctrl are views
+        # of one buffer, so one reduction checks them all for NaN/inf
+        nq, nv, nu = model.nq, model.nv, model.nu
+        self._robot_state = np.zeros((B, nq + nv + nu))
+        self.qpos = self._robot_state[:, :nq]
+        self.qvel = self._robot_state[:, nq:nq + nv]
+        self.ctrl = self._robot_state[:, nq + nv:]
+        self._robot_sum = self._robot_state.reshape(-1).sum
         self.hip_integral = np.zeros((B, 4))
-        self.ctrl = np.zeros((B, model.nu))
         self.reward = np.zeros(B)
         self.alive = np.ones(B, dtype=bool)
         self._qa = layout.qpos_adr  # (4, 3)
         self._ctrl_lo = model.actuator_ctrlrange[layout.actuator, 0]
         self._ctrl_hi = model.actuator_ctrlrange[layout.actuator, 1]
         self._act = layout.actuator  # (4, 3)
-        self._fq = int(layout.free_qpos_adr)
-        self._fv = int(layout.free_dof_adr)
+        fq, fv = self._fq, self._fv = int(layout.free_qpos_adr), int(layout.free_dof_adr)
+        # torso state: read-only views, live after every step
+        self._torso = {
+            "position": self.qpos[:, fq:fq + 3], "quaternion": self.qpos[:, fq + 3:fq + 7],
+            "velocity": self.qvel[:, fv:fv + 3], "forward": self.qvel[:, fv],
+            "angular": self.qvel[:, fv + 3:fv + 6],
+        }
+        for view in self._torso.values():
+            view.flags.writeable = False
+        # per trial, cached once: MjData, its ctrl, qpos, qvel views and warning counters
+        self._mj = [(d, d.ctrl, d.qpos, d.qvel, memoryview(d.warning.number))
+                    for d in self.data]
         self.reset_all()
+        if on_step is not None:
+            self.add_hook("after_physics", "progress", lambda: on_step(self.step_count),
+                          order=ORDER_PROGRESS)
+
+    # ---- hooks
+    def add_hook(self, stage: str, name: str, fn: Callable[..., None],
+                 order: float = 0) -> Hook:
+        """Call ``fn()`` at ``stage`` ("before_physics", "after_physics") of every step, or
+        ``fn(error)`` when the run diverges ("diverged"). Hooks of a stage run in ``(order,
+        name)`` order. Names are unique across stages: a name in use is a ``ValueError``."""
+        if stage not in STAGES:
+            raise ValueError(f"unknown hook stage '{stage}' (stages: {', '.join(STAGES)})")
+        if name in self._hooks:
+            raise ValueError(f"the bridge already has a hook named '{name}' "
+                             f"({self._hooks[name].stage}); remove it first")
+        if not callable(fn):
+            raise ValueError(f"hook '{name}': {fn!r} is not callable")
+        hook = self._hooks[name] = Hook(stage=stage, name=name, fn=fn, order=order)
+        self._rebuild_hooks()
+        return hook
+
+    def remove_hook(self, name: str) -> Hook:
+        """Remove the hook ``name`` (a ``KeyError`` if there is none) and return it."""
+        try:
+            hook = self._hooks.pop(name)
+        except KeyError:
+            raise KeyError(f"the bridge has no hook named '{name}'") from None
+        self._rebuild_hooks()
+        return hook
+
+    def hooks(self, stage: str | None = None) -> tuple[Hook, ...]:
+        """The hooks of ``stage`` (all stages: None), in the order they run."""
+        return tuple(sorted((h for h in self._hooks.values() if stage in (None, h.stage)),
+                            key=lambda h: (STAGES.index(h.stage), h.order, h.name)))
+
+    def _rebuild_hooks(self) -> None:
+        # the step loops over these precomputed tuples only
+        self._run = {s: tuple(h.fn for h in self.hooks(s)) for s in STAGES}
+
+    # ---- torso state (world frame unless noted), after the last physics step
+    @property
+    def torso_position(self) -> np.ndarray:
+        """(trials, 3) m: the torso's (free joint's) position."""
+        return self._torso["position"]
+
+    @property
+    def torso_velocity(self) -> np.ndarray:
+        """(trials, 3) m/s: the torso's linear velocity."""
+        return self._torso["velocity"]
+
+    @property
+    def torso_quaternion(self) -> np.ndarray:
+        """(trials, 4): the torso's orientation, (w, x, y, z)."""
+        return self._torso["quaternion"]
+
+    @property
+    def forward_velocity(self) -> np.ndarray:
+        """(trials,) m/s: the torso's velocity along the world x axis (forward at reset)."""
+        return self._torso["forward"]
+
+    @property
+    def torso_angular_velocity(self) -> np.ndarray:
+        """(trials, 3) rad/s: the torso's angular velocity in the torso frame (= gyro)."""
+        return self._torso["angular"]
 
     # ---- state
     def reset_trial(self, b: int) -> None:
@@ -151,6 +303,8 @@ class Bridge:
                                        name="bridge")
 
     def step(self) -> None:
+        """One 1 ms step: torques, ``before_physics`` hooks, physics of every trial, divergence
+        checks, senses and reward, ``after_physics`` hooks."""
         qa, act = self._qa, self._act
         q = self.qpos[:, qa]  # (B, 4, 3) angles after the previous physics step
         # 1. torques: traces to thigh and calf, PI to hips
@@ -160,26 +314,84 @@ class Bridge:
         ctrl[:, act[:, 0]] = self._hip_torque(error=hip_error, error_integral=self.hip_integral)
         ctrl[:, act[:, _THIGH]] = self._h[:, :, 0]
         ctrl[:, act[:, _CALF]] = self._h[:, :, 1]
-        # 2. physics
-        for b, d in enumerate(self.data):
-            d.ctrl[:] = ctrl[b]
-            mujoco.mj_step(self.model, d)
-            self.qpos[b] = d.qpos
-            self.qvel[b] = d.qvel
+        for fn in self._run["before_physics"]:
+            fn()
+        # 2. physics; MuJoCo's instability warnings are read the step they happen
+        model, qpos, qvel = self.model, self.qpos, self.qvel
+        for b, (d, d_ctrl, d_qpos, d_qvel, _) in enumerate(self._mj):
+            d_ctrl[:] = ctrl[b]
+            mujoco.mj_step(model, d)
+            qpos[b] = d_qpos
+            qvel[b] = d_qvel
+        self.step_count += 1
+        if self._robot_unstable():
+            self._robot_diverged()
+        if self.check_every:
+            self._until_check -= 1
+            if not self._until_check:
+                self._until_check = self.check_every
+                self.check_cpg()
         # 3. senses for the next step, and the reward
         self._sense()
-        if self.after_physics is not None:
-            self.after_physics()
-        if self.recording is not None:
-            self._record()
-        self.step_count += 1
-        if self.on_step is not None:
-            self.on_step(self.step_count)
+        for fn in self._run["after_physics"]:
+            fn()
+
+    # ---- divergence
+    @property
+    def t(self) -> float:
+        """Simulated time (s) at the end of the last physics step: ``step_count * dt`` (the
+        network's time after that step, the bridge being in the network from its start)."""
+        return self.step_count * self.dt
+
+    def check_cpg(self, t: float | None = None) -> None:
+        """Raise :class:`Diverged` (through :meth:`diverge`) if any CPG state is NaN/inf.
+        ``t``: the time to report (default: the end of the step in progress)."""
+        found = self.cpg.first_nonfinite()
+        if found is not None:
+            self.diverge(found.error(self.t if t is None else t))
+
+    def diverge(self, error: Diverged) -> None:
+        """Run the ``diverged`` hooks with ``error``, then raise it."""
+        for fn in self._run["diverged"]:
+            fn(error)
+        raise error
+
+    def _robot_unstable(self) -> bool:
+        """Every step: did MuJoCo warn of instability in any trial, or is there NaN/inf in qpos,
+        qvel or ctrl (the sum of their one buffer is not finite)? A few us at 16 trials."""
+        for _, _, _, _, warn in self._mj:
+            if warn[_QACC] or warn[_QPOS] or warn[_QVEL] or warn[_CTRL]:
+                return True
+        return not math.isfinite(self._robot_sum())
+
+    def _robot_diverged(self) -> None:
+        """A MuJoCo instability warning or NaN/inf in qpos, qvel or ctrl this step: report the
+        CPG's non-finite state if there is one (NaN torques come from there), else MuJoCo's
+        warning, else the robot's non-finite value."""
+        t = self.t
+        self.check_cpg(t)
+        for b, (d, _, _, _, warn) in enumerate(self._mj):
+            for k, (name, what, index) in INSTABILITY_WARNINGS.items():
+                if warn[k]:
+                    info = int(d.warning.lastinfo[k])
+                    self.diverge(Diverged(
+                        f"MuJoCo reported {what} at {index} {info} in trial {b} at "
+                        f"t = {t:.3f} s (MuJoCo resets such a robot; the run stops)",
+                        culprit=f"MuJoCo {name}", t=t, trial=b))
+        bad = np.argwhere(~np.isfinite(self._robot_state))
+        if not len(bad):  # a sum of huge finite values overflowed: nothing to report
+            return
+        b, k = (int(x) for x in bad[0])
+        nq, nv = self.model.nq, self.model.nv
+        which, i = (("qpos", k) if k < nq else ("qvel", k - nq) if k < nq + nv
+                    else ("ctrl", k - nq - nv))
+        self.diverge(Diverged(f"{self._robot_state[b, k]} in {which}[{i}] of trial {b} at "
+                              f"t = {t:.3f} s", culprit=f"robot {which}", t=t, trial=b))
 
     def _sense(self) -> None:
-        fv, fq = self._fv, self._fq
-        v = self.qvel[:, fv:fv + 3]  # free joint: linear velocity in the world frame
-        omega = self.qvel[:, fv + 3:fv + 6]  # angular velocity in the torso frame (= gyro)
+        fq = self._fq
+        v = self._torso["velocity"]  # free joint: linear velocity in the world frame
+        omega = self._torso["angular"]  # angular velocity in the torso frame (= gyro)
         speed = np.sqrt(np.einsum("ij,ij->i", v, v))
         self._torso_speed[:] = speed[:, None, None]
         thigh = self.qpos[:, self._qa[:, _THIGH]]  # (B, 4)
@@ -194,19 +406,19 @@ class Bridge:
     def robot_sample(self, trials: int | slice = slice(None)) -> tuple[np.ndarray, ...]:
         """Joint angles (leg, joint) rad, applied torques (leg, joint) N m, torso position and
         linear velocity (xyz, world) of ``trials`` after this step's physics."""
-        fq, fv = self._fq, self._fv
         return (self.qpos[trials, self._qa],
                 # as applied: MuJoCo clamps ctrl to the motors' ctrlrange
                 np.clip(self.ctrl[trials, self._act], self._ctrl_lo, self._ctrl_hi),
-                self.qpos[trials, fq:fq + 3], self.qvel[trials, fv:fv + 3])
+                self.torso_position[trials], self.torso_velocity[trials])
 
     def _record(self) -> None:
         rec = self.recording
-        k, r = divmod(self.step_count, rec.stride)
+        k, r = divmod(self.step_count - 1, rec.stride)  # sample of the step just done
         if r or k >= len(rec.t):
             return
         (rec.joint_angles[:, k], rec.torques[:, k], rec.torso_position[:, k],
          rec.torso_velocity[:, k]) = self.robot_sample()
+        rec.torso_quaternion[:, k] = self.torso_quaternion
         rec.reward[:, k] = self.reward
         rec.alive[:, k] = self.alive
         if self.layout.touch_adr is not None:
@@ -214,5 +426,9 @@ class Bridge:
                 rec.foot_force[b, k] = d.sensordata[self.layout.touch_adr]
 
     def start_recording(self, n_steps: int, stride: int = 1) -> Recording:
+        """Record the robot every ``stride`` steps for the next ``n_steps`` steps of the bridge
+        (from its start: ``step_count`` 0); a hook named ``recording``."""
         self.recording = Recording.allocate(self.n_trials, n_steps, stride, self.dt)
+        if "recording" not in self._hooks:
+            self.add_hook("after_physics", "recording", self._record, order=ORDER_RECORDING)
         return self.recording

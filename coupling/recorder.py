@@ -20,7 +20,7 @@ import numpy as np
 
 from ..network import CPG
 from ..network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
-from .bridge import Bridge
+from .bridge import ORDER_MEASURE, Bridge
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -84,14 +84,8 @@ class SessionRecorder:
         self.n_samples = self.max_steps // plan.stride + 1
         for b in range(B):
             self.start(b, 1)
-        inner = bridge.after_physics
-
-        def record_then_step() -> None:
-            self.step()
-            if inner is not None:
-                inner()
-
-        bridge.after_physics = record_then_step
+        # before the session loop (order ORDER_TRAINING) may end the session and reset the trial
+        bridge.add_hook("after_physics", "session_recorder", self.step, order=ORDER_MEASURE)
 
     # ---- session boundaries
     def start(self, b: int, session: int) -> None:
@@ -110,6 +104,7 @@ class SessionRecorder:
             "torques": np.zeros((n,) + torques.shape),
             "torso_position": np.zeros((n, 3)),
             "torso_velocity": np.zeros((n, 3)),
+            "torso_quaternion": np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)),
             "samples": 0,
         }
 
@@ -134,8 +129,10 @@ class SessionRecorder:
             out["spikes"][pop] = (steps * self.dt, idx.astype(np.int32))
         for name, arr in buf["traces"].items():
             out["traces"][name] = (t, arr[:n].copy())
-        for key in ("joint_angles", "torques", "torso_position", "torso_velocity"):
-            out["robot"][key] = buf[key][:n].copy()
+        for key in ("joint_angles", "torques", "torso_position", "torso_velocity",
+                    "torso_quaternion"):
+            if key in buf:  # a checkpoint written before quaternions were recorded has none
+                out["robot"][key] = buf[key][:n].copy()
         return out
 
     # ---- per step
@@ -159,6 +156,8 @@ class SessionRecorder:
                     buf["traces"][name][k] = arr[b] * scale
                 (buf["joint_angles"][k], buf["torques"][k], buf["torso_position"][k],
                  buf["torso_velocity"][k]) = br.robot_sample(b)
+                if "torso_quaternion" in buf:
+                    buf["torso_quaternion"][k] = br.torso_quaternion[b]
                 buf["samples"] = k + 1
 
     # ---- checkpoints

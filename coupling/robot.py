@@ -251,24 +251,24 @@ def load_robot(path: str | os.PathLike) -> mujoco.MjModel:
     quiet_mujoco_log()
     p = Path(path)
     if not p.is_file():
-        raise InputError(f"--robot {p}: no such file")
+        raise InputError("no such file", culprit=f"--robot {p}")
     try:
         model = mujoco.MjModel.from_xml_path(str(p))
     except Exception as e:  # MuJoCo raises ValueError with a multi-line message
         first = " ".join(str(e).strip().splitlines()[:2]) or type(e).__name__
-        raise InputError(f"--robot {p.name}: not a valid MJCF model ({first})") from None
+        raise InputError(f"not a valid MJCF model ({first})", culprit=f"--robot {p.name}") from None
     names = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, k) for k in range(model.njnt)}
     missing = [n for n in JOINT_NAMES if n not in names]
     if missing:
-        raise InputError(f"--robot {p.name}: lacks the A1 joint(s) {', '.join(missing[:3])}"
-                         f"{' ...' if len(missing) > 3 else ''}")
+        raise InputError(f"lacks the A1 joint(s) {', '.join(missing[:3])}"
+                         f"{' ...' if len(missing) > 3 else ''}", culprit=f"--robot {p.name}")
     acts = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, k) for k in range(model.nu)}
     missing = [n for n in ACTUATOR_NAMES if n not in acts]
     if missing:
-        raise InputError(f"--robot {p.name}: lacks the A1 motor(s) {', '.join(missing[:3])}"
-                         f"{' ...' if len(missing) > 3 else ''}")
+        raise InputError(f"lacks the A1 motor(s) {', '.join(missing[:3])}"
+                         f"{' ...' if len(missing) > 3 else ''}", culprit=f"--robot {p.name}")
     if _free_joint(model) is None:
-        raise InputError(f"--robot {p.name}: has no free joint on the trunk")
+        raise InputError("has no free joint on the trunk", culprit=f"--robot {p.name}")
     return model
 
 

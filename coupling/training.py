@@ -8,6 +8,12 @@ and its Progress and t_learning_start are set from the mean length of its last s
 Per step, this writes the trial's reward, its sliding mean and the learning flag where the
 inter-limb synapses read them. Constants come from ``models`` (reward, progress, learning_start,
 alive).
+
+Divergence: the session loop is the bridge's ``training`` hook (order ``ORDER_TRAINING``, after
+the step's divergence checks) and checks the CPG at every session end. When a trial diverges
+(:class:`~astrocpg.errors.Diverged` from the bridge), its session in progress ends as a row with
+``diverged`` = 1 (normal rows: 0) and the error goes on up: the run stops, the rows so far stay
+in :attr:`Training.memory`.
 """
 
 from __future__ import annotations
@@ -18,14 +24,15 @@ from typing import Any, Callable
 import numpy as np
 from brian2 import SpikeMonitor
 
+from ..errors import Diverged
 from ..models import ModelSet
 from ..network import CPG, POOLS
-from .bridge import Bridge
+from .bridge import ORDER_TRAINING, Bridge
 
 SESSION_COLUMNS = (
     "trial", "session", "length_s", "final_x_m", "mean_reward", "mean_forward_speed_m_per_s",
     "spikes_thigh_motor", "spikes_calf_motor", "spikes_interneuron", "adenosine_releases",
-    "progress", "t_learning_start_s",
+    "progress", "t_learning_start_s", "diverged",
 )
 
 
@@ -94,14 +101,18 @@ class Training:
                                     weights=[[] for _ in range(B)])
         self._arange = np.arange(B)
         self._start_x = bridge.layout.reset_qpos[bridge.layout.free_qpos_adr]
+        self._forward = bridge.forward_velocity
+        self._counted_step = -1  # the bridge's step_count when step() last ran
         for b in range(B):
             self._plan_session(b)
-        bridge.after_physics = self.step
+        bridge.add_hook("after_physics", "training", self.step, order=ORDER_TRAINING)
+        bridge.add_hook("diverged", "training_diverged", self._diverged, order=ORDER_TRAINING)
 
     # ---- per step (after the physics step and the reward)
     def step(self) -> None:
         br = self.bridge
         r = br.reward
+        self._counted_step = br.step_count
         self.step_in_session += 1
         self.non_alive += ~br.alive
         idx = self.step_in_session % self.window
@@ -113,7 +124,7 @@ class Training:
         learning = (self.step_in_session * self.dt >= self.t_learning_start) & ~self.done
         self._learning[:] = learning[:, None]
         self.reward_sum += r
-        self.speed_sum += br.qvel[:, br._fv]
+        self.speed_sum += self._forward
         self.pool_counts += self._pool_n.astype(np.int64)
         ended = (self.step_in_session >= self.max_steps) | (self.non_alive >= self.non_alive_limit)
         if ended.any():
@@ -132,36 +143,15 @@ class Training:
         self._progress_arr[b, :] = self.progress[b]
 
     def _finish(self, b: int) -> None:
-        steps = int(self.step_in_session[b])
-        length = steps * self.dt
-        br = self.bridge
-        in_counts = self.interneuron_count.variables["count"].get_value()
-        ado_counts = self.astrocyte_count.variables["count"].get_value()
-        L = self.cpg.layout
-        n_in = int(in_counts[b * L.interneurons_per_trial:(b + 1) * L.interneurons_per_trial].sum())
-        n_ado = int(ado_counts[b * L.thigh_pools_per_trial:(b + 1) * L.thigh_pools_per_trial].sum())
-        row = {
-            "trial": b, "session": int(self.sessions_done[b]) + 1, "length_s": length,
-            "final_x_m": float(br.qpos[b, br._fq] - self._start_x),
-            "mean_reward": self.reward_sum[b] / steps,
-            "mean_forward_speed_m_per_s": self.speed_sum[b] / steps,
-            "spikes_thigh_motor": int(self.pool_counts[b, self._thigh_pools].sum()),
-            "spikes_calf_motor": int(self.pool_counts[b, self._calf_pools].sum()),
-            "spikes_interneuron": n_in - int(self.count_base_in[b]),
-            "adenosine_releases": n_ado - int(self.count_base_ado[b]),
-            "progress": float(self.progress[b]),
-            "t_learning_start_s": float(self.t_learning_start[b]),
-        }
-        self.count_base_in[b], self.count_base_ado[b] = n_in, n_ado
-        self.memory.rows.append(row)
-        self.memory.lengths[b].append(length)
-        self.memory.weights[b].append(self.cpg.interlimb_weights()[b].copy())
-        self.sessions_done[b] += 1
+        # a session's end is a cheap moment to look at the whole CPG state
+        self.bridge.check_cpg()
+        row = self._row(b)
+        self._close(b, row)
         if self.sessions_done[b] >= self.n_sessions:
             self.done[b] = True
         # next session: reset everything but astrocytes and weights
         self.cpg.reset_trial(b)
-        br.reset_trial(b)
+        self.bridge.reset_trial(b)
         self.step_in_session[b] = 0
         self.non_alive[b] = 0
         self.ring[b] = 0.0
@@ -172,6 +162,52 @@ class Training:
         self._plan_session(b)
         if self.on_session is not None:
             self.on_session(self, b)
+
+    def _diverged(self, error: Diverged) -> None:
+        """The bridge's ``diverged`` hook: trial ``error.trial``'s session in progress ends as a
+        row marked diverged, its length up to the end of the step that diverged, its means over
+        the steps before it (nothing is reset: the run stops). A trial that has done all its
+        sessions gets no row."""
+        b = error.trial
+        if b is None or self.done[b]:
+            return
+        # found by the bridge before this step reached the session loop, or at a session end
+        uncounted = int(self._counted_step != self.bridge.step_count)
+        self._close(b, self._row(b, diverged=True, extra_steps=uncounted))
+
+    def _close(self, b: int, row: dict[str, Any]) -> None:
+        self.memory.rows.append(row)
+        self.memory.lengths[b].append(row["length_s"])
+        self.memory.weights[b].append(self.cpg.interlimb_weights()[b].copy())
+        self.sessions_done[b] += 1
+
+    def _row(self, b: int, diverged: bool = False, extra_steps: int = 0) -> dict[str, Any]:
+        """Trial b's session in progress as a row of SESSION_COLUMNS (and the spike-count bases
+        moved on to its end). ``extra_steps``: steps counted in the length only."""
+        counted = int(self.step_in_session[b])
+        length = (counted + extra_steps) * self.dt
+        steps = max(counted, 1)
+        br = self.bridge
+        in_counts = self.interneuron_count.variables["count"].get_value()
+        ado_counts = self.astrocyte_count.variables["count"].get_value()
+        L = self.cpg.layout
+        n_in = int(in_counts[b * L.interneurons_per_trial:(b + 1) * L.interneurons_per_trial].sum())
+        n_ado = int(ado_counts[b * L.thigh_pools_per_trial:(b + 1) * L.thigh_pools_per_trial].sum())
+        row = {
+            "trial": b, "session": int(self.sessions_done[b]) + 1, "length_s": length,
+            "final_x_m": float(br.torso_position[b, 0] - self._start_x),
+            "mean_reward": self.reward_sum[b] / steps,
+            "mean_forward_speed_m_per_s": self.speed_sum[b] / steps,
+            "spikes_thigh_motor": int(self.pool_counts[b, self._thigh_pools].sum()),
+            "spikes_calf_motor": int(self.pool_counts[b, self._calf_pools].sum()),
+            "spikes_interneuron": n_in - int(self.count_base_in[b]),
+            "adenosine_releases": n_ado - int(self.count_base_ado[b]),
+            "progress": float(self.progress[b]),
+            "t_learning_start_s": float(self.t_learning_start[b]),
+            "diverged": int(diverged),
+        }
+        self.count_base_in[b], self.count_base_ado[b] = n_in, n_ado
+        return row
 
     @property
     def total_done(self) -> int:

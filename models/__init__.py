@@ -152,8 +152,21 @@ class ModelSet:
 
 DEFAULT_MODELS = ModelSet()
 
+from . import astrocyte as _astrocyte, interlimb_synapse as _interlimb  # noqa: E402
+from . import motor_neuron as _motor, pool as _pool, torque as _torque  # noqa: E402
+
+INTERFACES: dict[str, tuple[str, ...]] = {
+    "motor_neuron": _motor.INTERFACE, "astrocyte": _astrocyte.INTERFACE, "pool": _pool.INTERFACE,
+    "torque": _torque.INTERFACE, "interlimb_synapse": _interlimb.INTERFACE,
+    **{name: tuple(model.inputs) for name, model in DEFAULT_MODELS.items()
+       if isinstance(model, ExpressionModel)},
+}
+"""Each model's interface: the names the network reads or sets on its group (a model file must
+declare them), or, for an expression model, the inputs the network gives (a file may use no
+others). Declared in each model's module as ``INTERFACE``."""
+
 __all__ = [
-    "ModelSet", "DEFAULT_MODELS", "Model", "BrianModel", "NeuronModel", "SynapseModel",
+    "ModelSet", "DEFAULT_MODELS", "INTERFACES", "Model", "BrianModel", "NeuronModel", "SynapseModel",
     "ExpressionModel", "Parameter", "ParameterTable", "INPUT_THEN_DECAY", "register_method",
     "registered_methods",
 ]

@@ -76,6 +76,10 @@ PARAMETERS = ParameterTable("astrocyte", [
               meaning="adenosine release refractory period", positive=True),
 ])
 
+INTERFACE = ("n_pool", "ADO", "Ca", "IP3", "AG")
+"""What the network reads or sets: ``n_pool`` (linked to the pool's spike count), ``ADO``
+(linked into the inter-limb synapse), ``Ca``, ``IP3``, ``AG`` (recorded traces)."""
+
 ASTROCYTE = NeuronModel(
     name="astrocyte",
     equations=EQUATIONS,

@@ -221,6 +221,11 @@ def _value_from_json(data: Any, culprit: str) -> Any:
 _KINDS: dict[str, type["Model"]] = {}
 
 
+def model_kinds() -> dict[str, type["Model"]]:
+    """The model classes by kind ("neuron", "synapse", "expression")."""
+    return dict(_KINDS)
+
+
 @dataclass(frozen=True, kw_only=True)
 class Model:
     """What every model is and does (subclasses declare their fields only).

@@ -52,6 +52,9 @@ PARAMETERS = ParameterTable("interlimb_synapse", [
               meaning="1: adenosine depresses the weights into its pool; 0: the paper's ablation"),
 ])
 
+INTERFACE = ("w",)
+"""What the network reads or sets: the weight ``w`` (tables in and out)."""
+
 INTERLIMB_SYNAPSE = SynapseModel(
     name="interlimb_synapse", model=MODEL, on_step=ON_STEP, parameters=PARAMETERS,
     method="input_then_decay", description=__doc__,

@@ -67,6 +67,10 @@ PARAMETERS = ParameterTable("motor_neuron", [
               meaning="amplitude of the uniform noise on the background stimulation"),
 ])
 
+INTERFACE = ("x_position", "y_position", "z_position", "Ca")
+"""What the network sets (positions) or records (``Ca``); its linked variables must be pool
+variables of the same name (checked when the network is built)."""
+
 MOTOR_NEURON = NeuronModel(
     name="motor_neuron",
     equations=EQUATIONS,

@@ -37,6 +37,10 @@ PARAMETERS = ParameterTable("pool", [
               meaning="inhibition region next to a thigh joint limit (paper 0.05 rad; SPEC)"),
 ])
 
+INTERFACE = ("n", "torso_speed", "limit_inhibition", "I_interlimb", "reward", "reward_mean",
+             "progress", "learning")
+"""What the network, the robot bridge and the learning rule read or set on a pool."""
+
 POOL = NeuronModel(name="pool", equations=EQUATIONS, parameters=PARAMETERS,
                    method="input_then_decay", description=__doc__)
 

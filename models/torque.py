@@ -24,6 +24,9 @@ PARAMETERS = ParameterTable("torque", [
               meaning="torque increment per spike, calf joint"),
 ])
 
+INTERFACE = ("h", "I_joint", "n_extensor", "n_flexor")
+"""What the network sets (``I_joint``, the linked spike counts) or reads (``h``, the torque)."""
+
 TORQUE = NeuronModel(
     name="torque",
     equations=EQUATIONS,

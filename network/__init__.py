@@ -1,7 +1,9 @@
 """Wiring: builds the populations and synapses of the CPG from ``astrocpg.models``."""
 
 from .build import CPG, build_cpg, check_runs, same_limb_mask, trial_seeds
+from .divergence import DivergenceCheck, NonFinite, find_diverged, network_time, run_network
 from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout, interlimb_labels
 
 __all__ = ["CPG", "build_cpg", "check_runs", "same_limb_mask", "trial_seeds", "Layout", "LEGS",
-           "POOLS", "THIGH_POOLS", "INTERNEURONS", "interlimb_labels"]
+           "POOLS", "THIGH_POOLS", "INTERNEURONS", "interlimb_labels", "DivergenceCheck",
+           "NonFinite", "find_diverged", "network_time", "run_network"]

@@ -8,6 +8,8 @@ decides which element connects to which, and schedules the few objects whose ord
 
 from __future__ import annotations
 
+import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Iterable
 
@@ -18,6 +20,7 @@ from brian2 import Network, NeuronGroup, Synapses, linked_var, ms, second
 from ..errors import InputError
 from ..models import DEFAULT_MODELS, ModelSet
 from ..models.base import NeuronModel, SynapseModel, brian_error_line
+from .divergence import NonFinite
 from .layout import INTERNEURONS, LEGS, THIGH_POOLS, Layout
 
 brian2.prefs.codegen.target = "numpy"
@@ -56,6 +59,10 @@ def _no_debug_files() -> None:
 _no_debug_files()
 # A network that failed validation is dropped on purpose; don't warn about its objects.
 brian2.BrianLogger.suppress_name("unused_brian_object")
+# NaN/inf in the state is reported once, in one line, by the divergence check (CPG.first_nonfinite,
+# errors.Diverged); numpy's floating-point warnings from Brian2's generated code (exec'd source,
+# module "<string>") would only repeat it on stderr, several lines per step.
+warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"<string>$")
 
 
 @dataclass
@@ -75,6 +82,7 @@ class CPG:
     synapses: dict[str, Synapses]
     interlimb_pairs: np.ndarray  # (n_synapses, 2): (row, col) in the per-trial table
     _arrays: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
+    _state: list[tuple[str, str, np.ndarray, int | None, Any, np.ndarray]] | None = None
 
     @property
     def n_trials(self) -> int:
@@ -110,17 +118,68 @@ class CPG:
             w = np.broadcast_to(w, (self.n_trials, n, n))
         if w.shape != (self.n_trials, n, n):
             raise InputError(
-                f"inter-limb weights: expected shape ({n}, {n}) or ({self.n_trials}, {n}, {n}), "
-                f"got {w.shape}"
-            )
+                f"expected shape ({n}, {n}) or ({self.n_trials}, {n}, {n}), "
+                f"got {w.shape}", culprit="inter-limb weights")
         mask = same_limb_mask(self.layout)
         if np.any(w[:, mask] != 0):
-            raise InputError("inter-limb weights: the same-limb 2x2 blocks must be zero")
+            raise InputError("the same-limb 2x2 blocks must be zero", culprit="inter-limb weights")
         if not len(self.interlimb_pairs):
             return
         self.array("interlimb", "w")[:] = w[:, self.interlimb_pairs[:, 0],
                                             self.interlimb_pairs[:, 1]].ravel()
 
+    # ---- divergence
+    def state_arrays(self) -> list[tuple[str, str, np.ndarray, int | None]]:
+        """(population, variable, live array, elements per trial) of every float state variable
+        that can change during a run: the per-synapse state of every synapse group (the
+        inter-limb weights and STDP signals), and the differential equations and plain
+        parameters of the pools, astrocytes, torque traces, interneurons and motor neurons. Not
+        constants, linked variables, subexpressions, ``lastspike``, integers or booleans.
+        Upstream first (a NaN weight spreads to the pools' input, then to the motor neurons),
+        so the first found is the likeliest origin. Groups are trial-major, so element ``k``
+        belongs to trial ``k // per_trial``. Built once."""
+        return [(p, v, a, n) for p, v, a, n, _, _ in self._state_table()]
+
+    def _state_table(self) -> list[tuple[str, str, np.ndarray, int | None, Any, np.ndarray]]:
+        if self._state is None:
+            groups = list(self.synapses.items())
+            groups += [(name, getattr(self, name)) for name in
+                       ("pool", "astrocyte", "torque", "interneuron", "motor")]
+            table = []
+            for name, obj in groups:
+                for var, eq in obj.equations.items():
+                    if eq.type == "subexpression":
+                        continue
+                    if {"constant", "linked", "shared"} & set(eq.flags) or var == "lastspike":
+                        continue
+                    arr = self.array(name, var)
+                    if arr.dtype.kind != "f" or arr.ndim != 1 or not arr.size:
+                        continue
+                    per_trial = arr.size // self.n_trials if arr.size % self.n_trials == 0 \
+                        else None
+                    # arr @ zeros is NaN iff arr holds a NaN or an inf, and never overflows
+                    table.append((name, var, arr, per_trial, arr.dot, np.zeros(arr.size)))
+            self._state = table
+        return self._state
+
+    def first_nonfinite(self) -> NonFinite | None:
+        """The first NaN or inf in the state (in :meth:`state_arrays` order), or None. One
+        reduction per array (about 1 us each); the element is located only when one fails."""
+        isfinite = math.isfinite
+        with np.errstate(invalid="ignore"):  # inf * 0 in the reduction
+            for name, var, arr, per_trial, dot, zeros in self._state_table():
+                if isfinite(dot(zeros)):
+                    continue
+                bad = np.flatnonzero(~np.isfinite(arr))
+                if not bad.size:  # pragma: no cover - the array changed under us
+                    continue
+                k = int(bad[0])
+                others = tuple(f"{n}.{v}" for n, v, a, _, d, z in self._state_table()
+                               if (n, v) != (name, var) and not isfinite(d(z)))
+                return NonFinite(population=name, variable=var,
+                                 trial=None if per_trial is None else k // per_trial, index=k,
+                                 value=float(arr[k]), others=others)
+        return None
 
     def reset_trial(self, trial: int, keep: tuple[str, ...] = ("astrocyte",)) -> None:
         """Reset one trial's state to the start of a session: every state variable of the
@@ -227,9 +286,10 @@ def build_cpg(
     legs = tuple(legs)
     for leg in legs:
         if leg not in LEGS:
-            raise InputError(f"build_cpg: unknown leg '{leg}' (legs are {', '.join(LEGS)})")
+            raise InputError(f"unknown leg '{leg}' (legs are {', '.join(LEGS)})",
+                             culprit="build_cpg")
     if int(n_trials) < 1:
-        raise InputError(f"build_cpg: n_trials must be at least 1, got {n_trials}")
+        raise InputError(f"n_trials must be at least 1, got {n_trials}", culprit="build_cpg")
     pool_size = int(np.asarray(models.pool.parameters["pool_size"].value))
     layout = Layout(n_trials=int(n_trials), pool_size=pool_size, legs=legs)
     brian2.seed(int(seed))
@@ -249,7 +309,7 @@ def build_cpg(
         except InputError:
             raise
         except Exception as e:
-            raise InputError(f"{model.name}: {brian_error_line(e)}") from None
+            raise InputError(f"{brian_error_line(e)}", culprit=model.name) from None
         objects.append(g)
         return g
 
@@ -266,7 +326,7 @@ def build_cpg(
         except InputError:
             raise
         except Exception as e:
-            raise InputError(f"{model.name}: {brian_error_line(e)}") from None
+            raise InputError(f"{brian_error_line(e)}", culprit=model.name) from None
         objects.append(s)
         return s
 
@@ -294,8 +354,8 @@ def build_cpg(
         for var, eq in motor.equations.items():
             if "linked" in eq.flags:
                 if var not in pool.variables:
-                    raise InputError(f"motor_neuron: linked variable '{var}' is not a variable "
-                                     f"of the pool model")
+                    raise InputError(f"linked variable '{var}' is not a variable "
+                                     f"of the pool model", culprit=f"motor_neuron")
                 setattr(motor, var, linked_var(pool, var, index=pool_index))
         _require(pool, "n")
         _require(astrocyte, "n_pool")
@@ -315,7 +375,7 @@ def build_cpg(
     except InputError:
         raise
     except Exception as e:
-        raise InputError(f"network wiring: {brian_error_line(e)}") from None
+        raise InputError(f"{brian_error_line(e)}", culprit=f"network wiring") from None
 
     syn: dict[str, Synapses] = {}
     syn["pool_activity"] = synapses(models.pool_activity, motor, pool, "pool_activity",
@@ -382,7 +442,7 @@ def build_cpg(
         except InputError:
             raise
         except Exception as e:
-            raise InputError(f"interlimb_synapse: {brian_error_line(e)}") from None
+            raise InputError(f"{brian_error_line(e)}", culprit=f"interlimb_synapse") from None
 
     net = Network(*objects)
     cpg = CPG(layout=layout, models=models, seed=int(seed), dt=dt, net=net, motor=motor,
@@ -411,7 +471,7 @@ def check_runs(cpg: CPG) -> None:
             if culprit != "network":
                 break
             err = err.__cause__
-        raise InputError(f"{culprit}: {_root_message(e)}") from None
+        raise InputError(f"{_root_message(e)}", culprit=culprit) from None
 
 
 def _root_message(e: BaseException) -> str:

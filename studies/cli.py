@@ -3,15 +3,20 @@
     astrocpg unit  --seconds S --seed K --out DIR [--trials N]
     astrocpg run   --seconds S --seed K [--trials N] [--weights FILE|DIR] [--robot XML] --out DIR
     astrocpg train --sessions N --trials N --seed K [--no-astrocytes] --out DIR | --resume DIR
-    astrocpg gait DIR | plot DIR | power DIR [--trial K]
+    astrocpg gait DIR | power DIR [--trial K]
+    astrocpg plot DIR [--trial K] [--window T0 T1] [--format png|pdf|svg] [--out DIR]
+    astrocpg video DIR [--trial K] [--fps F] [--speed X] [--size W H] [--panel] [--out FILE]
     astrocpg study FILE [--out DIR] [--workers N] [--scheduler ADDRESS]
     astrocpg report DIR
     astrocpg export DIR [--format nwb|npz]
     astrocpg describe [MODEL] [--format markdown|latex]
     astrocpg robot export PATH.xml
+    astrocpg models list | models dump MODEL [--set NAME=VALUE] [--model MODEL=FILE]
 
 Common options: ``--set NAME=VALUE`` overrides a model parameter (with units),
-``--equations MODEL=FILE`` replaces a model's equation string by the text of FILE.
+``--model MODEL=FILE`` replaces a whole model by a model file (TOML: its equations, new
+parameters and state variables; ``astrocpg models dump MODEL`` writes one),
+``--equations MODEL=FILE`` (a shorthand) replaces a model's equation string by the text of FILE.
 Every failure ends with one line on stderr naming the culprit and an exit code (see EXIT_HELP).
 """
 
@@ -57,11 +62,19 @@ def _add_record_options(p: argparse.ArgumentParser) -> None:
                         "astrocyte_Ca,astrocyte_IP3,astrocyte_AG,astrocyte_ADO)")
 
 
+def _add_model_file_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--model", dest="model_files", action="append", default=[],
+                   metavar="MODEL=FILE",
+                   help="replace MODEL (e.g. astrocyte) by a model file (TOML, as `astrocpg models "
+                        "dump MODEL` writes it); it may declare new parameters and variables")
+
+
 def _add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
                    help="override a model parameter, with units (e.g. --set tau_motor=9*ms)")
     p.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
                    help="replace the equation string of MODEL (e.g. motor_neuron) by FILE's text")
+    _add_model_file_option(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
@@ -133,13 +146,36 @@ def build_parser() -> argparse.ArgumentParser:
     gait.add_argument("--seed", type=int, default=1)
     gait.add_argument("--no-progress", action="store_true")
 
-    plot = sub.add_parser("plot", help="figures of a training folder (Fig. 3 style)")
-    plot.add_argument("dir", help="a training folder")
-    plot.add_argument("--trial", type=int, default=0)
+    plot = sub.add_parser("plot", help="figures of any output folder (unit, run, training, "
+                                       "recorded session, study run)")
+    plot.add_argument("dir", help="an output folder of unit, run, train or a study's run, or a "
+                                  "recorded session (TRAINING/recordings/...)")
+    plot.add_argument("--trial", type=int, default=0, help="which trial (0)")
+    plot.add_argument("--window", type=float, nargs=2, metavar=("T0", "T1"), default=None,
+                      help="time window in s (default: the whole recording; a training: the "
+                           "last 2 s of its run)")
+    plot.add_argument("--format", default="png", help="png (default), pdf or svg")
     plot.add_argument("--seconds", type=float, default=10.0,
-                      help="length of the run with the trained weights (for activity and gait)")
+                      help="a training: length of the run with the trained weights (for "
+                           "activity and gait)")
     plot.add_argument("--out", help="figure folder (default DIR/figures, replaced on each plot)")
     _add_overwrite(plot)
+
+    vid = sub.add_parser("video", help="the recorded robot replayed as MP4 (MuJoCo offscreen; "
+                                       "MUJOCO_GL honoured, else EGL then OSMesa)")
+    vid.add_argument("dir", help="a run, a recorded training session, or a training (its "
+                                 "trial's last recorded session)")
+    vid.add_argument("--trial", type=int, default=0, help="which trial (0)")
+    vid.add_argument("--fps", type=float, default=30.0, help="frames per second of video (30)")
+    vid.add_argument("--speed", type=float, default=1.0,
+                     help="simulated seconds per second of video (1: real time)")
+    vid.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), default=(640, 480),
+                     help="frame size in pixels (640 480)")
+    vid.add_argument("--out", help="MP4 file (default DIR/video_trialTT.mp4, replaced each time)")
+    vid.add_argument("--panel", action="store_true",
+                     help="a strip under the frames: time, forward speed, scrolling gait diagram")
+    vid.add_argument("--no-progress", action="store_true")
+    _add_overwrite(vid)
 
     study = sub.add_parser("study", help="a parameter study (TOML) on Dask; resumable")
     study.add_argument("file", help="study file, e.g. studies/sweeps/quick.toml, or a built-in "
@@ -180,6 +216,18 @@ def build_parser() -> argparse.ArgumentParser:
                       help="describe MODEL with the equation string of FILE")
     desc.add_argument("--set", dest="overrides", action="append", default=[],
                       metavar="NAME=VALUE", help="describe with a parameter overridden")
+    _add_model_file_option(desc)
+
+    mods = sub.add_parser("models", help="list the models, or dump one as a model file (TOML)")
+    mods_sub = mods.add_subparsers(dest="models_command", required=True, parser_class=_Parser)
+    mods_sub.add_parser("list", help="the models, their kinds and interfaces")
+    dump = mods_sub.add_parser("dump", help="print MODEL as a model file (TOML)")
+    dump.add_argument("name", metavar="MODEL")
+    dump.add_argument("--set", dest="overrides", action="append", default=[],
+                      metavar="NAME=VALUE", help="dump with a parameter overridden")
+    dump.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
+                      help="dump with the equation string of FILE")
+    _add_model_file_option(dump)
 
     robot = sub.add_parser("robot", help="the project's A1 model")
     robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
@@ -200,17 +248,12 @@ def _sigterm(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
-def _not_stop_request(record: logging.LogRecord) -> bool:
-    """Brian2 logs a warning when Ctrl-C stops a run; the command says "interrupted" itself."""
-    return not record.getMessage().startswith("Simulation stop requested")
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     warnings.filterwarnings("ignore", module="brian2")
-    brian_log = logging.getLogger("brian2")
-    if _not_stop_request not in brian_log.filters:
-        brian_log.addFilter(_not_stop_request)
+    # Brian2 logs a second line on Ctrl-C ("Simulation stop requested"): we say "interrupted"
+    logging.getLogger("brian2").addFilter(
+        lambda record: "stop requested" not in record.getMessage())
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
         return COMMANDS[args.command](args)
@@ -229,6 +272,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except MemoryError:
         sys.stderr.write("astrocpg: environment: out of memory\n")
         return 1
+    except Exception as e:  # a bug of ours: still one line, the traceback on request
+        if os.environ.get("ASTROCPG_DEBUG"):
+            raise
+        sys.stderr.write(f"astrocpg: internal error: {type(e).__name__}: {one_line(str(e), 300)} "
+                         f"(a bug in astrocpg; ASTROCPG_DEBUG=1 shows the traceback)\n")
+        return 1
     finally:
         signal.signal(signal.SIGTERM, previous)
 
@@ -239,8 +288,9 @@ def _kind(e: AstrocpgError) -> str:
 
 # ---------------------------------------------------------------- commands
 def _models(args: argparse.Namespace) -> dict[str, Any]:
-    from .experiments.settings import read_equation_files
-    return {"overrides": list(args.overrides), "equations": read_equation_files(args.equations)}
+    from .experiments.settings import read_equation_files, read_model_files
+    return {"overrides": list(args.overrides), "equations": read_equation_files(args.equations),
+            "models": read_model_files(getattr(args, "model_files", []))}
 
 
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
@@ -274,7 +324,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
-    from .experiments.settings import read_equation_files
+    from .experiments.settings import model_files_record, read_equation_files, read_model_files
     from .experiments.train import TrainingStopped, format_train, resume, train
 
     try:
@@ -286,7 +336,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
                       "astrocytes": None if args.no_astrocytes is None
                       else not args.no_astrocytes,
                       "overrides": sorted(args.overrides) or None,
-                      "equations": read_equation_files(args.equations) or None}
+                      "equations": read_equation_files(args.equations) or None,
+                      "models": model_files_record(read_model_files(args.model_files)) or None}
             result = resume(args.resume, progress=not args.no_progress,
                             record_every=args.record_every, expect=expect)
             out = args.resume
@@ -322,11 +373,22 @@ def _cmd_gait(args: argparse.Namespace) -> int:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
-    from .experiments.trained import plot_training
+    from .experiments.see import plot
 
-    written = plot_training(args.dir, trial=args.trial, seconds=args.seconds, out=args.out,
-                            overwrite=args.overwrite)
-    print(f"wrote {', '.join(str(p) for p in written)}")
+    written = plot(args.dir, trial=args.trial, window=args.window, fmt=args.format,
+                   seconds=args.seconds, out=args.out, overwrite=args.overwrite)
+    print(f"wrote {len(written)} figure(s): {', '.join(str(p) for p in written)}")
+    return 0
+
+
+def _cmd_video(args: argparse.Namespace) -> int:
+    from .experiments.see import video
+
+    res = video(args.dir, trial=args.trial, fps=args.fps, speed=args.speed, size=args.size,
+                out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
+                panel=args.panel)
+    print(f"wrote {res['path']} ({res['frames']} frames at {res['fps']:g} fps, "
+          f"{res['seconds']:.1f} s)")
     return 0
 
 
@@ -392,6 +454,26 @@ def _cmd_describe(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_models(args: argparse.Namespace) -> int:
+    from ..models import INTERFACES
+    from ..models.files import model_to_toml
+    from .experiments.settings import model_set
+
+    models = model_set(**_models(args)) if args.models_command == "dump" else model_set()
+    known = dict(models.items())
+    if args.models_command == "list":
+        for name, model in known.items():
+            interface = INTERFACES.get(name, ())
+            label = "inputs" if model.kind == "expression" else "interface"
+            print(f"{name:20s} {model.kind:10s} {len(model.parameters):3d} parameters  "
+                  f"{label}: {', '.join(interface) or '-'}")
+        return 0
+    if args.name not in known:
+        raise InputError(f"unknown model (models: {', '.join(known)})", culprit=args.name)
+    sys.stdout.write(model_to_toml(known[args.name]))
+    return 0
+
+
 def _cmd_robot(args: argparse.Namespace) -> int:
     from ..coupling.robot import A1Parameters, export_xml
     from .files.outputs import atomic_path
@@ -413,8 +495,9 @@ def _cmd_robot(args: argparse.Namespace) -> int:
 
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "unit": _cmd_unit, "run": _cmd_run, "train": _cmd_train, "gait": _cmd_gait,
-    "plot": _cmd_plot, "robot": _cmd_robot, "study": _cmd_study, "report": _cmd_report,
-    "power": _cmd_power, "export": _cmd_export, "describe": _cmd_describe}
+    "plot": _cmd_plot, "video": _cmd_video, "robot": _cmd_robot, "study": _cmd_study,
+    "report": _cmd_report, "power": _cmd_power, "export": _cmd_export,
+    "describe": _cmd_describe, "models": _cmd_models}
 
 
 if __name__ == "__main__":  # pragma: no cover

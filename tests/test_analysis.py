@@ -58,6 +58,7 @@ def test_silent_pool_has_no_bursts():
     assert np.isnan(cycle_period(np.zeros((0, 2))))
 
 
+@pytest.mark.slow
 def test_authors_discretisation_matches_spec_and_brian2_unit():
     """The oracle reproduces SPEC section 3, and the Brian2 unit agrees with it within 5%."""
     from authors_discretisation import simulate_unit as oracle

@@ -51,6 +51,7 @@ def test_reversal_counter():
     assert _reversals(0.01 * np.sin(2 * np.pi * 2 * t)) == 0  # below min_swing
 
 
+@pytest.mark.slow
 def test_outputs_and_manifest(ten_seconds):
     m = ten_seconds["manifest"]
     assert m["seed"] == 1 and m["settings"]["seconds"] == 10
@@ -62,6 +63,7 @@ def test_outputs_and_manifest(ten_seconds):
     assert len(spikes["motor_times"]) > 10_000
 
 
+@pytest.mark.slow
 def test_robot_moves_and_every_thigh_reverses(ten_seconds):
     rob = ten_seconds["robot"]
     pos = rob["torso_position"][0]
@@ -72,6 +74,7 @@ def test_robot_moves_and_every_thigh_reverses(ten_seconds):
         assert n >= 10, f"{name} thigh reversed {n} times"
 
 
+@pytest.mark.slow
 def test_thigh_torque_follows_extensor_minus_flexor(ten_seconds):
     rob, spikes = ten_seconds["robot"], ten_seconds["spikes"]
     t, i = spikes["motor_times"], spikes["motor_indices"]
@@ -97,6 +100,7 @@ def test_thigh_torque_follows_extensor_minus_flexor(ten_seconds):
         assert np.corrcoef(torque[:, leg], filtered)[0, 1] > 0.95
 
 
+@pytest.mark.slow
 def test_batched_trials_differ(tmp_path):
     r = _run(tmp_path / "b4", "--seconds", "2", "--seed", "3", "--trials", "4")
     pos = r["robot"]["torso_position"]
@@ -110,6 +114,7 @@ def test_batched_trials_differ(tmp_path):
     assert np.all(per_trial > 0) and len(set(per_trial)) == 4
 
 
+@pytest.mark.slow
 def test_edited_equation_takes_effect_in_run(tmp_path):
     """Add a term to the motor neuron's equation string; no edit to network/ or coupling/."""
     from astrocpg.models.motor_neuron import EQUATIONS

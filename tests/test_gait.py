@@ -40,6 +40,7 @@ def trained(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_gait_plot_and_replay(trained, capsys, tmp_path):
     capsys.readouterr()
     assert main(["gait", str(trained), "--seconds", "3", "--no-progress"]) == 0

@@ -133,6 +133,7 @@ def test_sweep_grid_and_seed_batches(tmp_path: Path) -> None:
     assert ablation.n_sessions == 400 and len(ablation.seeds) == 20
 
 
+@pytest.mark.slow
 def test_scheduler_and_two_workers_one_killed(tmp_path: Path) -> None:
     """A real `dask scheduler` and two `dask worker`s; one worker is killed while it trains a
     run; the study completes and every run is present once, the killed one resumed from its
@@ -185,6 +186,7 @@ def test_scheduler_and_two_workers_one_killed(tmp_path: Path) -> None:
     assert resumed["pid"] == survivor.pid
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["ctrl-c", "crash"])
 def test_interrupted_study_continues(tmp_path: Path, sig: int) -> None:
     """Interrupt a study (Ctrl-C, or SIGKILL of the whole process group), run the same command
@@ -224,6 +226,7 @@ def test_interrupted_study_continues(tmp_path: Path, sig: int) -> None:
                for r in (out / "runs").glob("*")), "no run resumed from its checkpoint"
 
 
+@pytest.mark.slow
 def test_report_and_refusals(tmp_path: Path) -> None:
     study_file = _tiny(tmp_path, sessions=2)
     out = tmp_path / "out"

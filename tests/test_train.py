@@ -65,6 +65,7 @@ def _cli(*args: str, **kw) -> subprocess.Popen:
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, **kw)
 
 
+@pytest.mark.slow
 def test_resume_after_sigkill_is_exact(tmp_path):
     # with recorded sessions: their state is part of the checkpoint too
     args = ["train", "--sessions", "20", "--trials", "2", "--seed", "4", "--record-every", "3",

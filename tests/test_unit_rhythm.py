@@ -31,6 +31,7 @@ def unit_run(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("trial", range(len(SEEDS)))
 def test_unit_reproduces_spec_rhythm(unit_run, trial):
     spikes = np.load(unit_run / "spikes.npz")
@@ -58,6 +59,7 @@ def test_unit_reproduces_spec_rhythm(unit_run, trial):
         assert abs(rates[name] - 25.0) <= 0.15 * 25.0, name
 
 
+@pytest.mark.slow
 def test_unit_outputs(unit_run):
     manifest = json.loads((unit_run / "manifest.json").read_text())
     assert manifest["seed"] == 1 and manifest["settings"]["trials"] == 3

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Mapping
+from typing import Any, Mapping
 
 from ..files.export import export as export_folder
 from ..files.result import Result, Trace, load
@@ -29,13 +29,14 @@ from .unit import unit
 
 def describe(model: str | None = None, format: str = "markdown", *,
              overrides: Overrides | None = None,
-             equations: Mapping[str, str] | None = None) -> str:
+             equations: Mapping[str, str] | None = None,
+             models: Mapping[str, Any] | None = None) -> str:
     """The equations (rendered with sympy) and the parameter table of ``model`` (e.g.
     "astrocyte"; None: every model) as markdown or LaTeX text (``format``), with parameter
     ``overrides`` and replaced ``equations`` applied: what ``astrocpg describe`` prints."""
     from ..figures.describe import describe as render
 
-    return render(model, format, model_set(overrides, equations))
+    return render(model, format, model_set(overrides, equations, models=models))
 
 
 def export(folder: str | os.PathLike, format: str = "nwb",

@@ -15,22 +15,18 @@ counts a pool's spikes for the torque is not a synaptic operation and is left ou
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-from brian2 import second
 from tqdm.auto import tqdm
 
-from ...coupling.bridge import Bridge
-from ...coupling.robot import A1Parameters, RobotLayout, build_model
+from ...coupling.assembly import build_closed_loop
+from ...coupling.bridge import ORDER_MEASURE
 from ...coupling.training import Training
 from ...errors import InputError
-from ...network import build_cpg, check_runs
-from ..files.weights import load_weights
 from ..files.folder import verify
+from ..files.weights import load_weights
 from .resources import check_memory, estimate_bytes
 from .settings import model_set, number
 
@@ -70,15 +66,15 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
     sessions = number(sessions, "--sessions", integer=True, minimum=1)
     check_memory(estimate_bytes(trials=1, seconds=0.0, spikes=False, sessions=sessions),
                  culprit=f"--sessions {sessions}")
-    verify(folder, culprit="power", strict=False)  # its files are what its manifest lists
-    weights = load_weights(str(folder), trial, culprit="power")  # (8, 8) volt; checks the folder and trial
-    try:
-        manifest = json.loads((folder / "manifest.json").read_text())
-        settings = manifest["settings"]
-    except (OSError, ValueError, KeyError):
-        raise InputError(f"power {folder}: no readable manifest.json (not a training run)") \
-            from None
-    models = model_set(settings.get("overrides", []), settings.get("equations", {}))
+    manifest = verify(folder, culprit="power", strict=False)  # files as its manifest lists
+    weights = load_weights(str(folder), trial, culprit="power")  # (8, 8) volt
+    settings = manifest.get("settings")
+    if manifest.get("astrocpg_command") not in ("train", "study-run") or not isinstance(settings,
+                                                                                      dict):
+        raise InputError("not a training run (astrocpg train, or a study's run)",
+                         culprit=f"power {folder}")
+    models = model_set(settings.get("overrides", []), settings.get("equations", {}),
+                       models=settings.get("models"))
     syn = models.interlimb_synapse.parameters
     # weights fixed: a measurement, not training (zero in each rate's own unit)
     values: dict[str, Any] = {"eta": 0 * syn["eta"].value, "eta_ADO": 0 * syn["eta_ADO"].value}
@@ -86,13 +82,8 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
         values["astrocyte_regulation"] = 0.0
     models = models.with_values(values)
     seed = int(manifest.get("seed", settings.get("seed", 1))) + trial
-    params = A1Parameters()
-    robot = build_model(params)
-    layout = RobotLayout.from_model(robot, params)
-    cpg = build_cpg(models, n_trials=1, seed=seed, dt=robot.opt.timestep * second,
-                    interlimb_weights=weights)
-    check_runs(cpg)
-    bridge = Bridge(cpg, robot, layout, models)
+    loop = build_closed_loop(models, n_trials=1, seed=seed, weights=weights)
+    cpg, bridge = loop.cpg, loop.bridge
     L_max = float(np.asarray(models.progress.parameters["L_max"].value))
     bar = tqdm(total=sessions, unit="session", desc="power", disable=not progress)
     limit = cpg.array("pool", "limit_inhibition")
@@ -113,20 +104,17 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
         counted["limit"] = 0.0
         bar.update(1)
 
-    # the session loop hooks itself into the bridge (bridge.after_physics)
+    # the session loop hooks itself into the bridge ("training", ORDER_TRAINING)
     Training(cpg, bridge, models, n_sessions=sessions, on_session=on_session)
-    session_step = bridge.after_physics
 
-    def count_then_step() -> None:
+    def count_limit() -> None:
         # limit-position inhibition events of this step (pools inhibited), before the session
         # loop possibly closes the session
         counted["limit"] += float(limit.sum())
-        session_step()
 
-    bridge.after_physics = count_then_step
-    cpg.net.add(bridge.operation())
+    bridge.add_hook("after_physics", "limit_count", count_limit, order=ORDER_MEASURE)
     try:
-        cpg.net.run((sessions * L_max + 1.0) * second, namespace={})
+        loop.run(sessions * L_max + 1.0)
     finally:
         bar.close()
     if len(per_session) < sessions:  # Brian2 stopped the run cleanly on Ctrl-C / SIGTERM

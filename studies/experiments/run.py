@@ -13,23 +13,25 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import Diverged, InputError
 from ..files.folder import OutputFolder, verify
 from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
 from ..files.result import Result
 from ..files.weights import load_weights
-from .settings import Overrides, model_set, number, override_items
+from .settings import Overrides, model_files_record, model_set, number, override_items
 from .resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, firing_rates,
                        simulate_closed_loop)
 
 ROBOT_FILE = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t, leg, joint) "
-              "N m; torso_position/velocity (trial, t, xyz) m, m/s world; reward, alive "
+              "N m; torso_position/velocity (trial, t, xyz) m, m/s world; torso_quaternion "
+              "(trial, t, wxyz); reward, alive "
               "(trial, t); foot_force (trial, t, leg) N; interlimb_weights_mV (trial, 8, 8)")
 
 
 def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
+        models: Mapping[str, Any] | None = None,
         weights: str | Path | np.ndarray | None = None, trial: int | None = None,
         robot: str | Path | None = None, trace_dt: float = 1.0, robot_stride: int = 1,
         spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
@@ -40,6 +42,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
 
     overrides: parameter values with units, ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
     equations: ``{model: equation text}`` replacing a model's Brian2 equation string.
+    models: ``{model: model file text}`` (TOML, ``astrocpg models dump``) replacing whole models.
     weights: an 8x8 table in mV as a file (.npy/.npz/.json/.csv) or a training folder (its final
     tables; ``trial`` picks one), or an array in volt of shape (8, 8) or (trials, 8, 8); default
     zero. robot: an MJCF file with the A1's joint and actuator names (default: the project's
@@ -65,7 +68,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
                                 traces=names, spikes=bool(pops), robot_stride=robot_stride),
                  culprit=f"--seconds {seconds:g} x --trials {trials}")
-    models = model_set(overrides, equations)
+    files = model_files_record(models)
+    models = model_set(overrides, equations, models=models)
     if weights is None:
         table = None
     elif isinstance(weights, np.ndarray):
@@ -85,27 +89,29 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
                          f"at {params.timestep:g} s (set <option timestep=\"{params.timestep:g}\"/>)",
                          culprit=f"--robot {Path(robot).name}")
     layout = RobotLayout.from_model(model, params)
-    result = simulate_closed_loop(models, model, layout, seconds=seconds, seed=seed,
-                                  n_trials=trials, weights=table, trace_dt=trace_dt * ms,
-                                  robot_stride=robot_stride, spikes=spikes, traces=traces,
-                                  progress=progress)
-    rec = result.robot
-    start_x = layout.reset_qpos[layout.free_qpos_adr]
-    result.extra.update({
-        "models": models,
-        "distance_m": rec.torso_position[:, -1, 0] - start_x,
-        "mean_forward_speed_m_per_s": rec.torso_velocity[:, :, 0].mean(axis=1),
-        "upright_share": rec.alive.mean(axis=1),
-        "rate_per_neuron_Hz": firing_rates(result),
-        "robot_info": ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
-                       else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)}),
-    })
     settings = dict(settings or {}) or {
         "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
         "robot_stride": robot_stride, "overrides": override_items(overrides),
         "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
         "weights": None if weights is None or isinstance(weights, np.ndarray)
         else str(weights), "trial": trial, "robot": None if robot is None else str(robot)}
+    if files:
+        settings["models"] = files  # each model file's content and sha256
+    robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
+                  else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
+    start_x = layout.reset_qpos[layout.free_qpos_adr]
+    try:
+        result = simulate_closed_loop(models, model, layout, seconds=seconds, seed=seed,
+                                      n_trials=trials, weights=table, trace_dt=trace_dt * ms,
+                                      robot_stride=robot_stride, spikes=spikes, traces=traces,
+                                      progress=progress)
+    except Diverged as e:  # the folder keeps what ran, and says it diverged
+        if out is not None and getattr(e, "result", None) is not None:
+            _summarise(e.result, models, start_x, robot_info, e)
+            with OutputFolder(out, overwrite=overwrite) as folder:
+                write_run_folder(folder, e.result, settings)
+        raise
+    _summarise(result, models, start_x, robot_info)
     if out is not None:
         with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
             write_run_folder(folder, result, settings)
@@ -114,12 +120,33 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
                                   models=models, folder=out)
 
 
+def _summarise(result: SimulationResult, models: Any, start_x: float, robot_info: dict,
+               diverged: Diverged | None = None) -> None:
+    rec = result.robot
+    has = rec is not None and len(rec.t) > 0
+    n = result.cpg.n_trials
+    result.extra.update({
+        "models": models,
+        "distance_m": rec.torso_position[:, -1, 0] - start_x if has else np.zeros(n),
+        "mean_forward_speed_m_per_s": rec.torso_velocity[:, :, 0].mean(axis=1) if has
+        else np.zeros(n),
+        "upright_share": rec.alive.mean(axis=1) if has else np.zeros(n),
+        "rate_per_neuron_Hz": firing_rates(result) if result.seconds > 0 else {},
+        "robot_info": robot_info,
+        "status": "finished" if diverged is None else "diverged",
+    })
+    if diverged is not None:
+        result.extra["error"] = {"line": diverged.line, "t_s": diverged.t,
+                                 "trial": diverged.trial}
+
+
 def robot_arrays(result: SimulationResult) -> dict[str, np.ndarray]:
     """The robot's recording as the arrays of ``robot.npz``."""
     rec = result.robot
     return {
         "t": rec.t, "joint_angles": rec.joint_angles, "torques": rec.torques,
         "torso_position": rec.torso_position, "torso_velocity": rec.torso_velocity,
+        "torso_quaternion": rec.torso_quaternion,
         "reward": rec.reward, "alive": rec.alive, "foot_force": rec.foot_force,
         "legs": np.array(list(result.cpg.layout.legs)),
         "joints": np.array(["hip", "thigh", "calf"]),
@@ -146,7 +173,8 @@ def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str,
 def run_results(result: SimulationResult) -> dict[str, Any]:
     """What the manifest's ``results`` (and the Result's ``summary``) hold for a run."""
     x = result.extra
-    return {"distance_m": x["distance_m"],
+    return {"status": x.get("status", "finished"), "error": x.get("error"),
+            "distance_m": x["distance_m"],
             "mean_forward_speed_m_per_s": x["mean_forward_speed_m_per_s"],
             "upright_share": x["upright_share"], "rate_per_neuron_Hz": x["rate_per_neuron_Hz"],
             "wall_seconds": result.wall_seconds, "seconds": result.seconds,
@@ -191,15 +219,11 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
                  culprit=f"--seconds {seconds:g} x {len(weights)} trained trial(s)")
     settings = training_settings(folder)
     values = {} if settings.get("astrocytes", True) else {"astrocyte_regulation": 0.0}
-    models = model_set(settings.get("overrides", []), settings.get("equations", {}))
+    models = model_set(settings.get("overrides", []), settings.get("equations", {}),
+                       models=settings.get("models"))
     if values:
         models = models.with_values(values)
-    from ...coupling.robot import A1Parameters, RobotLayout, build_model
-
-    params = A1Parameters()
-    model = build_model(params)
-    layout = RobotLayout.from_model(model, params)
-    result = simulate_closed_loop(models, model, layout, seconds=seconds, seed=seed,
+    result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
                                   n_trials=len(weights), weights=weights, record_traces=False,
                                   progress=progress)
     return result, weights

@@ -56,19 +56,70 @@ def read_equation_files(items: Sequence[str], option: str = "--equations") -> di
     return out
 
 
+def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str, str]:
+    """``MODEL=FILE`` items of model files (TOML) -> {model: text}, checked as
+    :func:`read_equation_files` checks files; the content is parsed by :func:`model_set`."""
+    return read_equation_files(items, option=option)
+
+
+def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, str]]:
+    """``{model: {"sha256": ..., "content": ...}}`` of model files' texts, for manifests."""
+    from ...models.files import file_sha256
+    out = {}
+    for name, item in (models or {}).items():
+        if isinstance(item, Mapping) and isinstance(item.get("content"), str):
+            item = item["content"]
+        if isinstance(item, str):
+            out[name] = {"sha256": file_sha256(item), "content": item}
+    return out
+
+
 def model_set(overrides: Overrides | None = None,
               equations: Mapping[str, str] | None = None,
-              base: ModelSet = DEFAULT_MODELS) -> ModelSet:
-    """The model set with equation texts swapped in (``{model: text}``) and parameter values
-    overridden (``NAME=VALUE`` items or ``{name: value}``), validated."""
+              base: ModelSet = DEFAULT_MODELS,
+              models: Mapping[str, Any] | None = None, option: str = "--model") -> ModelSet:
+    """The model set with whole models swapped in (``models``: ``{slot: model file text}`` or
+    ``{slot: Model}``; a file may declare new parameters and variables but must keep the slot's
+    interface), equation texts swapped in (``{model: text}``) and parameter values overridden
+    (``NAME=VALUE`` items or ``{name: value}``), validated. Errors about a model file name
+    ``<option> <model>``."""
+    from ...models import INTERFACES, Model
+    from ...models.files import check_interface, file_sha256, model_from_toml
+
+    files = models
     models = base
+    known = dict(models.items())
+    for name, item in (files or {}).items():
+        culprit = f"{option} {name}"
+        if name not in known:
+            raise InputError(f"unknown model (models: {', '.join(known)})", culprit=culprit)
+        if isinstance(item, Mapping):  # a manifest's record: {"sha256", "content"}
+            text = item.get("content")
+            if not isinstance(text, str):
+                raise InputError("a model file record needs its content", culprit=culprit)
+            if "sha256" in item and item["sha256"] != file_sha256(text):
+                raise InputError("the recorded content does not match its sha256",
+                                 culprit=culprit)
+            item = text
+        model = item if isinstance(item, Model) else model_from_toml(
+            str(item), culprit=culprit, default=known[name])
+        if model.kind != known[name].kind:
+            raise InputError(f"is a {model.kind} model; {name} is a {known[name].kind} model",
+                             culprit=culprit)
+        check_interface(model, INTERFACES.get(name, ()), culprit=culprit)
+        try:
+            models = models.replace(**{name: model})
+        except InputError as e:
+            raise InputError(e.line, culprit=culprit) from None
     known = dict(models.items())
     for name, text in (equations or {}).items():
         model = known.get(name)
         if model is None:
             raise InputError(f"unknown model '{name}' (models: {', '.join(known)})",
                              culprit="--equations")
-        models = models.replace(**{name: model.with_code(text)})
+        model = model.with_code(text)
+        check_interface(model, INTERFACES.get(name, ()), culprit=f"--equations {name}")
+        models = models.replace(**{name: model})
     values = dict(models.parse_assignment(item) for item in override_items(overrides))
     return models.with_values(values) if values else models
 

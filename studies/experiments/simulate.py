@@ -13,11 +13,13 @@ import numpy as np
 from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second
 from tqdm.auto import tqdm
 
-from ...coupling.bridge import Bridge, Recording
+from ...coupling.assembly import build_closed_loop
+from ...coupling.bridge import Recording
 from ...coupling.robot import A1Parameters, RobotLayout
-from ...errors import InputError
+from ...errors import Diverged, InputError
 from ...models import ModelSet
-from ...network import CPG, LEGS, POOLS, build_cpg, check_runs
+from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, network_time,
+                        run_network)
 from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
 
 
@@ -43,11 +45,12 @@ def check_selection(spikes: tuple[str, ...] | None,
     traces = TRACES if traces is None else tuple(traces)
     for name in spikes:
         if name not in POPULATIONS:
-            raise InputError(f"--spikes: unknown population '{name}' "
-                             f"(populations: {', '.join(POPULATIONS)})")
+            raise InputError(f"unknown population '{name}' "
+                             f"(populations: {', '.join(POPULATIONS)})", culprit=f"--spikes")
     for name in traces:
         if name not in TRACES:
-            raise InputError(f"--traces: unknown trace '{name}' (traces: {', '.join(TRACES)})")
+            raise InputError(f"unknown trace '{name}' (traces: {', '.join(TRACES)})",
+                             culprit=f"--traces")
     return spikes, traces
 
 
@@ -119,58 +122,76 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
         bar(steps[0])
 
     cpg.net.add(NetworkOperation(tick, dt=100 * ms, when="end", name="progress"))
-    wall = _run(cpg, seconds, bar)
+    divergence = DivergenceCheck(cpg)  # every 10 steps, and once after the run
+    cpg.net.add(divergence.operation())
+    t0 = time.perf_counter()
+    try:
+        wall = _run(cpg, seconds, bar)
+        divergence.check()
+    except Diverged as e:  # keep what was recorded up to the divergence, for its folder
+        e.result = _partial(cpg, mons, None, t0)
+        raise
     spikes, traces = _collect(mons)
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces,
                             wall_seconds=wall, monitors=mons)
 
 
-def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel, robot_layout: RobotLayout, *,
+def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
+                         robot_layout: RobotLayout | None = None, *,
                          seconds: float, seed: int, n_trials: int = 1,
                          weights: np.ndarray | None = None, trace_dt: Any = 1 * ms,
                          robot_stride: int = 1, record_traces: bool = True,
                          record_spikes: bool = True, spikes: tuple[str, ...] | None = None,
                          traces: tuple[str, ...] | None = None,
                          progress: bool = True) -> SimulationResult:
-    """The whole CPG driving ``n_trials`` robots for ``seconds``, inter-limb weights fixed
-    (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero)."""
+    """The whole CPG driving ``n_trials`` robots (default: the project's A1) for ``seconds``,
+    inter-limb weights fixed (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero)."""
     check_duration(seconds)
-    cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=LEGS, dt=robot.opt.timestep * second,
-                    interlimb_weights=weights)
-    check_runs(cpg)
     bar = _Progress(seconds, f"run ({n_trials} trial{'s' if n_trials > 1 else ''})",
                     progress and seconds * n_trials > 3)
-    bridge = Bridge(cpg, robot, robot_layout, models, on_step=bar)
-    n_steps = int(round(seconds / robot.opt.timestep))
+    loop = build_closed_loop(models, n_trials=n_trials, seed=seed, weights=weights, robot=robot,
+                             robot_layout=robot_layout, on_step=bar)
+    cpg, bridge = loop.cpg, loop.bridge
+    n_steps = int(round(seconds / loop.robot.opt.timestep))
     rec = bridge.start_recording(n_steps, robot_stride)
     selection = check_selection(spikes, traces)
     mons = add_monitors(cpg, trace_dt, record_traces, *selection) if record_spikes else {}
-    cpg.net.add(bridge.operation())
-    wall = _run(cpg, seconds, bar)
+    t0 = time.perf_counter()
+    try:
+        wall = _run(cpg, seconds, bar)
+        bridge.check_cpg(network_time(cpg.net))  # the last steps since the bridge's last check
+    except Diverged as e:  # keep what was recorded up to the divergence, for its folder
+        e.result = _partial(cpg, mons, rec.truncated(bridge.step_count), t0,
+                            extra={"bridge": bridge})
+        raise
     spikes, traces = _collect(mons) if mons else ({}, {})
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces, robot=rec,
                             wall_seconds=wall, extra={"bridge": bridge}, monitors=mons)
 
 
+def _partial(cpg: CPG, mons: dict[str, Any], rec: Recording | None, t0: float,
+             extra: dict[str, Any] | None = None) -> SimulationResult:
+    """What a run that diverged recorded, up to the step it stopped at."""
+    spikes, traces = _collect(mons) if mons else ({}, {})
+    return SimulationResult(cpg=cpg, seconds=network_time(cpg.net), spikes=spikes, traces=traces,
+                            robot=rec, wall_seconds=time.perf_counter() - t0,
+                            extra=dict(extra or {}), monitors=mons)
+
+
 def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
     """One long ``Network.run`` (each call costs ~0.3 s of set-up); returns wall seconds."""
     t0 = time.perf_counter()
-    t_end = _network_time(cpg) + seconds
+    t_end = network_time(cpg.net) + seconds
     try:
-        cpg.net.run(seconds * second, namespace={})
+        run_network(cpg.net, seconds * second, namespace={})  # Diverged comes out as itself
     finally:
         bar.close()
     # Brian2 turns Ctrl-C (and our SIGTERM) into a clean stop at the end of a step: a run that
     # stopped early was interrupted, and its partial data must not pass for a finished run
-    if _network_time(cpg) < t_end - 0.5 * float(cpg.dt):
+    if network_time(cpg.net) < t_end - 0.5 * float(cpg.dt):
         raise KeyboardInterrupt
     return time.perf_counter() - t0
 
-
-def _network_time(cpg: CPG) -> float:
-    """The network's time in s (after a stopped run Brian2 holds it as a VariableView, which
-    float() refuses)."""
-    return float(np.asarray(cpg.net.t_))
 
 
 # The CPG steps with the physics (the A1 model's timestep, 1 ms)

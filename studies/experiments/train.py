@@ -23,20 +23,19 @@ import numpy as np
 from brian2 import NetworkOperation, second
 from tqdm.auto import tqdm
 
-from ...coupling.bridge import Bridge
+from ...coupling.assembly import build_closed_loop
 from ...coupling.recorder import RecordPlan, SessionRecorder
-from ...coupling.robot import A1Parameters, RobotLayout, build_model
 from ...coupling.training import SESSION_COLUMNS, Training
 from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
-from ...network import build_cpg, check_runs, interlimb_labels
+from ...network import interlimb_labels, run_network
 from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
                             holds_results)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..files.result import Result
 from .resources import check_memory, estimate_bytes
-from .settings import model_set, number, override_items
+from .settings import model_files_record, model_set, number, override_items
 from .simulate import check_selection
 
 CHECKPOINT = "checkpoint.pkl"
@@ -53,10 +52,14 @@ class TrainSettings:
     astrocytes: bool
     overrides: list[str] = field(default_factory=list)
     equations: dict[str, str] = field(default_factory=dict)  # model -> equation text
+    # model -> {"sha256", "content"} of a model file (TOML)
+    models: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def fingerprint(self) -> str:
         text = repr((self.n_sessions, self.seed, self.n_trials, self.astrocytes,
-                     sorted(self.overrides), sorted(self.equations.items())))
+                     sorted(self.overrides), sorted(self.equations.items()))
+                    + ((sorted((k, v["sha256"]) for k, v in self.models.items()),)
+                       if self.models else ()))
         return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -78,13 +81,9 @@ class Trainer:
         if not settings.astrocytes:
             models = models.with_values({"astrocyte_regulation": 0.0})
         self.models = models
-        params = A1Parameters()
-        self.robot = build_model(params)
-        self.layout = RobotLayout.from_model(self.robot, params)
-        self.cpg = build_cpg(models, n_trials=settings.n_trials, seed=settings.seed,
-                             dt=self.robot.opt.timestep * second)
-        check_runs(self.cpg)
-        self.bridge = Bridge(self.cpg, self.robot, self.layout, models)
+        loop = build_closed_loop(models, n_trials=settings.n_trials, seed=settings.seed)
+        self.robot, self.layout, self.cpg, self.bridge = (loop.robot, loop.robot_layout,
+                                                          loop.cpg, loop.bridge)
         self.training = Training(self.cpg, self.bridge, models, n_sessions=settings.n_sessions,
                                  on_session=self._on_session)
         self.recorder = None
@@ -93,7 +92,6 @@ class Trainer:
                 self.cpg, self.bridge, record, n_sessions=settings.n_sessions,
                 max_steps=self.training.max_steps,
                 step_in_session=self.training.step_in_session, on_recorded=self._write_recording)
-        self.cpg.net.add(self.bridge.operation())
         # after the weight update of the step (interlimb_learning, order 10)
         self.cpg.net.add(NetworkOperation(self._maybe_checkpoint, dt=self.cpg.dt, when="end",
                                           order=20, name="checkpoint"))
@@ -144,13 +142,14 @@ class Trainer:
                        models_json=self.models.to_json(),
                        files=files | {"robot.npz": "t (s); joint_angles, torques (1, t, leg, "
                                                    "joint); torso_position, torso_velocity "
-                                                   "(1, t, xyz)"},
+                                                   "(1, t, xyz); torso_quaternion (1, t, "
+                                                   "wxyz)"},
                        results={"layout": layout.to_json(), "dt_s": float(self.cpg.dt)})
 
     def write_outputs(self) -> None:
         rows = self.training.memory.rows
         buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=SESSION_COLUMNS, lineterminator="\n")
+        writer = csv.DictWriter(buf, fieldnames=SESSION_COLUMNS, lineterminator="\n", restval=0)
         writer.writeheader()
         for r in rows:
             writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v) for k, v in r.items()})
@@ -226,7 +225,9 @@ class Trainer:
     def run(self) -> float:
         """Run until every trial has done its sessions and write the outputs; returns wall
         seconds. Raises :class:`TrainingStopped` (outputs and checkpoint written) when the
-        simulation ended first: Brian2 turns Ctrl-C into a request to stop the run."""
+        simulation ended first: Brian2 turns Ctrl-C into a request to stop the run. A
+        divergence raises :class:`~astrocpg.errors.Diverged` itself (outputs written, the
+        diverged session's row last; the checkpoint stays at the last session end)."""
         import time
         L_max = float(np.asarray(self.models.progress.parameters["L_max"].value))
         left = (self.settings.n_sessions - self.training.sessions_done.min()) * L_max
@@ -237,7 +238,10 @@ class Trainer:
         try:
             if not self.training.done.all():
                 # an upper bound: the session loop stops the network when all trials are done
-                self.cpg.net.run((left + 1.0) * second, namespace={})
+                run_network(self.cpg.net, (left + 1.0) * second, namespace={})
+        except Diverged:
+            self.write_outputs()  # the sessions so far and the diverged one
+            raise
         finally:
             self.bar.close()
         self.write_outputs()
@@ -271,17 +275,17 @@ def read_checkpoint(path: Path) -> dict[str, Any]:
     try:
         raw = path.read_bytes()
     except OSError as e:
-        raise InputError(f"--resume: cannot read {path} ({e.strerror})") from None
+        raise InputError(f"cannot read {path} ({e.strerror})", culprit=f"--resume") from None
     if not raw.startswith(MAGIC):
-        raise InputError(f"--resume: {path} is not an astrocpg checkpoint")
+        raise InputError(f"{path} is not an astrocpg checkpoint", culprit=f"--resume")
     rest = raw[len(MAGIC):]
     digest, _, body = rest.partition(b"\n")
     if hashlib.sha256(body).hexdigest().encode() != digest:
-        raise InputError(f"--resume: {path} is corrupt (checksum mismatch)")
+        raise InputError(f"{path} is corrupt (checksum mismatch)", culprit=f"--resume")
     try:
         return pickle.loads(body)
     except Exception:
-        raise InputError(f"--resume: {path} is corrupt (cannot be read)") from None
+        raise InputError(f"{path} is corrupt (cannot be read)", culprit=f"--resume") from None
 
 
 TRAIN_FILES = {
@@ -347,7 +351,8 @@ def train_summary(rows: list[dict], n_trials: int, L_max: float) -> dict[str, An
 
 def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 1,
           astrocytes: bool = True, overrides: Any = None,
-          equations: dict[str, str] | None = None, record_every: int | None = None,
+          equations: dict[str, str] | None = None, models: dict[str, str] | None = None,
+          record_every: int | None = None,
           record_stride: int = 1, spikes: tuple[str, ...] | None = None,
           traces: tuple[str, ...] | None = None, overwrite: bool = False,
           progress: bool = True) -> Result:
@@ -369,7 +374,8 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
         seed=number(seed, "--seed", integer=True, minimum=0),
         n_trials=number(trials, "--trials", integer=True, minimum=1),
         astrocytes=bool(astrocytes), overrides=override_items(overrides),
-        equations=dict(equations or {}))
+        equations=dict(equations or {}), models=model_files_record(models))
+    model_set(settings.overrides, settings.equations, models=settings.models)  # before any file
     out = Path(out)
     if (out / CHECKPOINT).exists() and not overwrite:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
@@ -411,12 +417,15 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
                          culprit="--resume")
     stored = {"sessions": settings.n_sessions, "seed": settings.seed,
               "trials": settings.n_trials, "astrocytes": settings.astrocytes,
-              "overrides": sorted(settings.overrides), "equations": settings.equations}
+              "overrides": sorted(settings.overrides), "equations": settings.equations,
+              "models": settings.models}
     for key, value in (expect or {}).items():
         if value is not None and value != stored[key]:
-            if key in ("overrides", "equations"):
+            if key in ("overrides", "equations", "models"):
+                files = (f"; model files: {', '.join(sorted(settings.models))}"
+                         if settings.models else "")
                 raise InputError(f"that run has other model settings "
-                                 f"({', '.join(settings.overrides) or 'defaults'})",
+                                 f"({', '.join(settings.overrides) or 'defaults'}{files})",
                                  culprit=f"--resume {out}")
             raise InputError(f"that run has {key}={stored[key]}, not {value}",
                              culprit=f"--resume {out}")
@@ -435,7 +444,7 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            payload: dict[str, Any] | None, progress: bool, replace: bool = False,
            new: bool = False) -> "Trainer":
     """Build, own ``out`` (a lock: one process per training folder), train, write."""
-    models = model_set(settings.overrides, settings.equations)
+    models = model_set(settings.overrides, settings.equations, models=settings.models)
     trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
     try:
         out.mkdir(parents=True, exist_ok=True)

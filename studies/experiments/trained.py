@@ -10,11 +10,9 @@ import numpy as np
 
 from ...errors import InputError
 from ..analysis.gait import gait_label, leg_phases, phase_matrix, weight_structure
-from ..files.folder import OutputFolder, verify
+from ..files.folder import OutputFolder
 from ..files.outputs import write_manifest
-from ..files.weights import load_weights
 from .run import replay
-from .settings import number
 
 
 def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
@@ -46,23 +44,34 @@ FIGURES = "figures"
 
 
 def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
-                  out: str | Path | None = None, overwrite: bool = False) -> list[Path]:
-    """weights.png, training.png, thigh_extensor_activity.png and gait.png of one trial of the
-    training in ``folder``, into ``out`` (default ``folder/figures``, which each plot replaces
-    whole); returns the paths written."""
+                  out: str | Path | None = None, overwrite: bool = False, fmt: str = "png",
+                  window: tuple[float, float] | None = None) -> list[Path]:
+    """weights, training, thigh_extensor_activity and gait figures of one trial of the
+    training in ``folder`` (from a run of ``seconds`` with its trained weights; ``window``
+    within it, default its last 2 s), and the trace figures of the trial's last recorded
+    session (``train --record-every``) if any, in ``recording_trialTT_sessionSSSS/``; into
+    ``out`` (default ``folder/figures``, which each plot replaces whole); returns the paths."""
     from ..figures import plots
+    from ..figures.traces import save_figures, trace_figures
+    from ..files.result import load
 
     folder = Path(folder)
     # the default folder belongs to this command: replaced whole on every plot
     target = Path(out) if out is not None else folder / FIGURES
     OutputFolder(target, overwrite=overwrite or out is None).check()
-    trial = number(trial, "--trial", integer=True, minimum=0)
-    verify(folder, strict=False)
-    load_weights(folder, trial, culprit="plot")  # the trial exists, before simulating
+    training = load(folder)
+    if not 0 <= trial < training.n_trials:
+        raise InputError(f"{folder} has {training.n_trials} trial(s)", culprit=f"--trial {trial}")
+    if window is not None and window[0] >= seconds:
+        raise InputError(f"starts after the {seconds:g} s run with the trained weights "
+                         f"(--seconds)", culprit=f"--window {window[0]:g} {window[1]:g}")
+    recorded = sorted(s for b, s in training.recordings if b == trial)
     result, weights = replay(folder, seconds=seconds, seed=1, progress=False)
     b = trial
-    names = ["weights.png", "training.png", "thigh_extensor_activity.png", "gait.png"]
-    window = (max(0.0, seconds - 2.0), seconds)
+    names = [f"{n}.{fmt}" for n in ("weights", "training", "thigh_extensor_activity", "gait")]
+    window = (window[0], min(window[1], seconds)) if window is not None \
+        else (max(0.0, seconds - 2.0), seconds)
+    written = [target / n for n in names]
     with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
         plots.plot_weights(tmp / names[0], weights[b] * 1e3, trial=b)
         plots.plot_training_curves(tmp / names[1], folder / "sessions.csv")
@@ -72,14 +81,23 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
         g = leg_phases(t, i, result.cpg.layout, b, min(1.0, seconds / 5), seconds)
         plots.plot_gait(tmp / names[3], result.robot, b, phase_matrix(g["phases"]), g,
                         window=window)
-        write_manifest(tmp, command="plot", seed=1, models_json={},
+        if recorded:
+            session = recorded[-1]
+            rec = training.recording(trial, session)
+            sub = f"recording_trial{trial:02d}_session{session:04d}"
+            # a recorded session is one trial (0); the window: within it, else all of it
+            paths = save_figures(trace_figures(rec, 0), tmp / sub, fmt)
+            written += [target / sub / p.name for p in paths]
+        files = dict(zip(names, FIGURE_FILES))
+        if recorded:
+            files[sub + "/"] = "figures of the trial's last recorded session"
+        write_manifest(tmp, command="plot", seed=1, models_json={}, files=files,
                        settings={"training": os.path.abspath(folder), "trial": b,
-                                 "seconds": seconds},
-                       files=dict(zip(names, FIGURE_FILES)))
-    return [target / n for n in names]
+                                 "seconds": seconds, "window": window, "format": fmt})
+    return written
 
 
 FIGURE_FILES = ("the trial's trained 8x8 inter-limb table (mV)",
                 "mean reward, final x and session length per session (mean +- std over trials)",
-                "thigh-extensor activity of the 4 limbs, last 2 s of the run",
+                "thigh-extensor activity of the 4 limbs in the window",
                 "gait diagram and inter-limb phase matrix")

@@ -11,17 +11,19 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ...errors import Diverged
 from ..analysis.rhythm import rhythm_summary
 from ..files.folder import OutputFolder
 from ..files.outputs import save_spikes_and_traces, write_manifest
 from ..files.result import Result
-from .settings import Overrides, model_set, number, override_items
+from .settings import Overrides, model_files_record, model_set, number, override_items
 from .resources import check_memory, estimate_bytes
 from .simulate import STEP, SimulationResult, check_duration, check_selection, simulate_unit
 
 
 def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
+         models: Mapping[str, Any] | None = None,
          trace_dt: float = 1.0, spikes: tuple[str, ...] | None = None,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
          overwrite: bool = False, progress: bool = True,
@@ -31,7 +33,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
 
     overrides: parameter values with units, ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
     equations: ``{model: equation text}`` (e.g. ``{"astrocyte": text}``) replacing a model's
-    Brian2 equation string. trace_dt: sampling of the traces in ms. spikes / traces: which
+    Brian2 equation string. models: ``{model: model file text}`` replacing whole models.
+    trace_dt: sampling of the traces in ms. spikes / traces: which
     populations and traces to record (None: all). out: writes the folder ``astrocpg unit``
     writes, whole or nothing (``settings`` goes into its manifest; a folder that holds files is
     refused unless ``overwrite``). progress: a progress bar for long runs.
@@ -52,16 +55,28 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
                                 traces=names, spikes=bool(pops)),
                  culprit=f"--seconds {seconds:g} x --trials {trials}")
-    models = model_set(overrides, equations)
-    result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
-                           trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
-                           progress=progress)
-    result.extra["rhythm"] = rhythm_per_trial(result, seconds)
-    result.extra["models"] = models
+    files = model_files_record(models)
+    models = model_set(overrides, equations, models=models)
     settings = dict(settings or {}) or {
         "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
         "overrides": override_items(overrides), "equations": dict(equations or {}),
         "spikes": spikes, "traces": traces}
+    if files:
+        settings["models"] = files  # each model file's content and sha256
+    try:
+        result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
+                               trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
+                               progress=progress)
+    except Diverged as e:  # the folder keeps what ran, and says it diverged
+        partial = getattr(e, "result", None)
+        if out is not None and partial is not None:
+            partial.extra.update({"models": models, "rhythm": [], "status": "diverged",
+                                  "error": {"line": e.line, "t_s": e.t, "trial": e.trial}})
+            with OutputFolder(out, overwrite=overwrite) as folder:
+                write_unit_folder(folder, partial, settings)
+        raise
+    result.extra["rhythm"] = rhythm_per_trial(result, seconds)
+    result.extra["models"] = models
     if out is not None:
         with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
             write_unit_folder(folder, result, settings)
@@ -107,7 +122,8 @@ def write_unit_folder(out: Path, result: SimulationResult, settings: Mapping[str
 
 def unit_results(result: SimulationResult) -> dict[str, Any]:
     """What the manifest's ``results`` (and the Result's ``summary``) hold for a unit."""
-    return {"rhythm": result.extra.get("rhythm", []), "wall_seconds": result.wall_seconds,
+    return {"status": result.extra.get("status", "finished"), "error": result.extra.get("error"),
+            "rhythm": result.extra.get("rhythm", []), "wall_seconds": result.wall_seconds,
             "dt_s": float(result.cpg.dt), "seconds": result.seconds,
             "layout": result.cpg.layout.to_json()}
 

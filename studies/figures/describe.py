@@ -107,8 +107,8 @@ def _models(name: str | None, models: ModelSet) -> list[tuple[str, Any]]:
         return items
     found = [(n, m) for n, m in items if n == name]
     if not found:
-        raise InputError(f"describe: unknown model '{name}' "
-                         f"(models: {', '.join(n for n, _ in items)})")
+        raise InputError(f"unknown model '{name}' "
+                         f"(models: {', '.join(n for n, _ in items)})", culprit=f"describe")
     return found
 
 

@@ -9,7 +9,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ...network import INTERNEURONS, LEGS, POOLS, Layout
-from ..analysis.rhythm import convolve_same, pool_activity
+from ..analysis.rhythm import pool_activity
 
 POOL_COLOURS = {"thigh_flexor": "tab:blue", "thigh_extensor": "tab:red",
                 "calf_flexor": "tab:cyan", "calf_extensor": "tab:orange"}
@@ -68,7 +68,8 @@ def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, tr
     for ax, (leg_i, leg) in zip(np.atleast_1d(axes), enumerate(layout.legs)):
         ids = layout.motor_neurons(trial, leg_i, "thigh_extensor")
         act = pool_activity(t, i, ids, t1, dt, t0)
-        rate = convolve_same(act, kernel) / (dt * layout.pool_size)  # Hz per neuron
+        # "full" then centred: also right for a window shorter than the kernel
+        rate = np.convolve(act, kernel, "full")[half:half + len(act)] / (dt * layout.pool_size)
         x = t0 + np.arange(len(act)) * dt
         ax.fill_between(x, rate, color="tab:red", alpha=0.6, lw=0)
         ax.set_ylabel(f"{leg}\n(Hz/neuron)", rotation=0, labelpad=25, fontsize=8)

@@ -56,10 +56,10 @@ def _load(folder: Path) -> dict[str, Any]:
     # the folder's files are exactly what its manifest lists (or it is refused, naming why)
     manifest = verify(folder, culprit="export")
     if manifest.get("astrocpg_command") not in ("run", "unit", "train-session"):
-        raise InputError(f"export {folder}: holds a '{manifest.get('astrocpg_command')}' "
+        raise InputError(f"holds a '{manifest.get('astrocpg_command')}' "
                          f"folder; export reads the output of astrocpg run or unit, or a "
                          f"recorded training session (DIR/recordings/trialTT_sessionSSSS, from "
-                         f"astrocpg train --record-every N)")
+                         f"astrocpg train --record-every N)", culprit=f"export {folder}")
     data: dict[str, Any] = {"manifest": manifest}
     for name in ("spikes", "traces", "robot"):
         path = folder / f"{name}.npz"

@@ -58,11 +58,11 @@ def prepare_output_dir(path: str | os.PathLike) -> Path:
     """Create the output folder (parents too). Refuses a path that is a file."""
     p = Path(path)
     if p.exists() and not p.is_dir():
-        raise InputError(f"--out {p}: exists and is not a folder")
+        raise InputError("exists and is not a folder", culprit=f"--out {p}")
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise InputError(f"--out {p}: cannot create the folder ({e.strerror})") from None
+        raise InputError(f"cannot create the folder ({e.strerror})", culprit=f"--out {p}") from None
     return p
 
 

@@ -39,7 +39,8 @@ def _load(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     try:
         index = json.loads((folder / STUDY_INDEX).read_text())
     except (OSError, ValueError):
-        raise InputError(f"report {folder}: not a study folder (no readable {STUDY_INDEX})") \
+        raise InputError(f"not a study folder (no readable {STUDY_INDEX})",
+                         culprit=f"report {folder}") \
             from None
     runs = []
     for run_id, spec in index.get("specs", {}).items():
@@ -73,7 +74,7 @@ def _group_label(spec: dict[str, Any]) -> str:
 
 def _model_values(spec: dict[str, Any]) -> tuple[float, float]:
     """w_max (volt) and L_max (s) of a run, from its overrides."""
-    models = model_set(list(spec["overrides"]), {})
+    models = model_set(list(spec["overrides"]), {}, models=spec.get("models") or None)
     return (float(np.asarray(models.interlimb_synapse.parameters["w_max"].value)),
             float(np.asarray(models.progress.parameters["L_max"].value)))
 
@@ -124,7 +125,7 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     for r in runs:
         groups.setdefault(_group_label(r["spec"]), []).append(r)
     if not any(r["sessions"] is not None and len(r["sessions"]) for r in runs):
-        raise InputError(f"report {folder}: no run has finished a session yet")
+        raise InputError("no run has finished a session yet", culprit=f"report {folder}")
 
     fig = Figure(figsize=(8, 8))
     axes = fig.subplots(3, 1, sharex=True)

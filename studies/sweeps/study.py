@@ -11,10 +11,14 @@ A study file::
     [base]                            # parameter overrides for every run, with units
     L_max = "10*second"
 
+    [models]                          # optional: model files (TOML, `astrocpg models dump`)
+    astrocyte = "my_astrocyte.toml"   # replacing a model in every run (path beside the study)
+
     [sweep]                           # optional axes; every combination ("grid") or
     mode = "grid"                     # element by element ("zip")
     [sweep.axes]
     eta_ADO = ["0.5", "1.0"]
+    astrocyte = ["li_rinzel.toml", "variant.toml"]  # an axis named by a model: model files
 
     [conditions.astrocytes]           # at least one condition
     astrocytes = true
@@ -55,7 +59,7 @@ from ...coupling.training import SESSION_COLUMNS
 from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS
 from ..experiments.resources import check_memory, estimate_bytes
-from ..experiments.settings import model_set
+from ..experiments.settings import model_files_record, model_set, read_model_files
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
 from ..files.folder import FolderLock, clean_stale_temporaries, clear_folder, holds_results
@@ -94,6 +98,8 @@ class RunSpec:
     astrocytes: bool
     overrides: tuple[str, ...]
     record: dict[str, Any] | None = None  # RecordPlan fields (not part of the run's identity)
+    # model files of the run: {model: {"sha256": ..., "content": ...}} (the file's whole text)
+    models: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def record_plan(self):
         if not self.record:
@@ -102,7 +108,8 @@ class RunSpec:
 
     def train_settings(self):
         return TrainSettings(n_sessions=self.n_sessions, seed=self.seed, n_trials=self.n_trials,
-                             astrocytes=self.astrocytes, overrides=list(self.overrides))
+                             astrocytes=self.astrocytes, overrides=list(self.overrides),
+                             models=dict(self.models))
 
     def fingerprint(self) -> str:
         return self.train_settings().fingerprint()
@@ -125,8 +132,8 @@ class Study:
 
 def _value_text(key: str, value: Any, where: str) -> str:
     if isinstance(value, bool) or not isinstance(value, (str, int, float)):
-        raise InputError(f"{where}: '{key}' must be a number or a quantity string like "
-                         f"\"9*ms\", got {value!r}")
+        raise InputError(f"'{key}' must be a number or a quantity string like "
+                         f"\"9*ms\", got {value!r}", culprit=where)
     return str(value)
 
 
@@ -135,7 +142,7 @@ def _check_override(models, key: str, value: str, where: str) -> str:
     try:
         models.parse_assignment(item)
     except InputError as e:
-        raise InputError(f"{where}: {e}") from None
+        raise InputError(f"{e}", culprit=where) from None
     return item
 
 
@@ -162,15 +169,15 @@ def load_study(path: str | os.PathLike) -> Study:
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"not valid TOML ({e})", culprit=f"study {p}") from None
     where = f"study {p.name}"
-    unknown = set(doc) - {"study", "base", "sweep", "conditions"}
+    unknown = set(doc) - {"study", "base", "models", "sweep", "conditions"}
     if unknown:
-        raise InputError(f"{where}: unknown section [{sorted(unknown)[0]}] "
-                         f"(sections: study, base, sweep, conditions)")
+        raise InputError(f"unknown section [{sorted(unknown)[0]}] "
+                         f"(sections: study, base, models, sweep, conditions)", culprit=where)
     head = doc.get("study", {})
     bad = set(head) - _STUDY_KEYS
     if bad:
-        raise InputError(f"{where}: [study] has unknown key '{sorted(bad)[0]}' "
-                         f"(keys: {', '.join(sorted(_STUDY_KEYS))})")
+        raise InputError(f"[study] has unknown key '{sorted(bad)[0]}' "
+                         f"(keys: {', '.join(sorted(_STUDY_KEYS))})", culprit=where)
     name = head.get("name", p.stem)
     if not isinstance(name, str) or not _NAME.fullmatch(name):
         # the name becomes a folder (out/<name>): it may never leave the output root
@@ -178,15 +185,15 @@ def load_study(path: str | os.PathLike) -> Study:
                          f"name, not a path), got {name!r}", culprit=where)
     n_sessions = head.get("sessions", 400)
     if not isinstance(n_sessions, int) or isinstance(n_sessions, bool) or n_sessions < 1:
-        raise InputError(f"{where}: [study] sessions must be a positive integer, "
-                         f"got {n_sessions!r}")
+        raise InputError(f"[study] sessions must be a positive integer, "
+                         f"got {n_sessions!r}", culprit=where)
     seeds_doc = head.get("seeds", {"first": 1, "count": 1})
     if isinstance(seeds_doc, dict):
         first, count = seeds_doc.get("first", 1), seeds_doc.get("count", 1)
         if not all(isinstance(v, int) and not isinstance(v, bool) for v in (first, count)) \
                 or count < 1 or set(seeds_doc) - {"first", "count"}:
-            raise InputError(f"{where}: [study] seeds must be {{ first = K, count = N }} with "
-                             f"integers, N >= 1, or a list of integers")
+            raise InputError(f"[study] seeds must be {{ first = K, count = N }} with "
+                             f"integers, N >= 1, or a list of integers", culprit=where)
         if count > MAX_SEEDS:
             raise InputError(f"[study] seeds: {count} seeds is more than {MAX_SEEDS} (each seed "
                              f"is a training of {head.get('sessions', 400)} sessions)",
@@ -196,15 +203,15 @@ def load_study(path: str | os.PathLike) -> Study:
             isinstance(s, int) and not isinstance(s, bool) for s in seeds_doc):
         seeds = sorted(set(seeds_doc))
         if len(seeds) != len(seeds_doc):
-            raise InputError(f"{where}: [study] seeds lists a seed twice")
+            raise InputError("[study] seeds lists a seed twice", culprit=where)
     else:
-        raise InputError(f"{where}: [study] seeds must be {{ first = K, count = N }} or a "
-                         f"non-empty list of integers")
+        raise InputError(f"[study] seeds must be {{ first = K, count = N }} or a "
+                         f"non-empty list of integers", culprit=where)
     if min(seeds) < 0:
-        raise InputError(f"{where}: [study] seeds must be non-negative")
+        raise InputError("[study] seeds must be non-negative", culprit=where)
     batch = head.get("batch", len(seeds))
     if not isinstance(batch, int) or isinstance(batch, bool) or batch < 1:
-        raise InputError(f"{where}: [study] batch must be a positive integer, got {batch!r}")
+        raise InputError(f"[study] batch must be a positive integer, got {batch!r}", culprit=where)
     # one run trains min(batch, seeds) trials in one network: refuse what cannot fit
     check_memory(estimate_bytes(trials=min(batch, len(seeds)), seconds=0.0, spikes=False,
                                 sessions=n_sessions),
@@ -212,28 +219,50 @@ def load_study(path: str | os.PathLike) -> Study:
                          f"{n_sessions} sessions")
 
     record = _record_table(head.get("record"), where)
-    models = DEFAULT_MODELS
+    slots = {name for name, _ in DEFAULT_MODELS.items()}
+    models_doc = doc.get("models", {})
+    if not isinstance(models_doc, dict):
+        raise InputError("[models] must map model names to model files", culprit=where)
+    base_files = {}
+    for slot, file in models_doc.items():
+        if slot not in slots:
+            raise InputError(f"[models] unknown model '{slot}' (models: "
+                             f"{', '.join(sorted(slots))})", culprit=where)
+        base_files[slot] = _model_file(p, slot, file, f"{where} [models]")
+    models = model_set(models=base_files, option=f"{where} [models]")
     base = [_check_override(models, k, _value_text(k, v, f"{where} [base]"), f"{where} [base]")
             for k, v in doc.get("base", {}).items()]
 
     sweep_doc = doc.get("sweep", {})
     bad = set(sweep_doc) - {"mode", "axes"}
     if bad:
-        raise InputError(f"{where}: [sweep] has unknown key '{sorted(bad)[0]}' "
-                         f"(keys: mode, axes)")
+        raise InputError(f"[sweep] has unknown key '{sorted(bad)[0]}' "
+                         f"(keys: mode, axes)", culprit=where)
     mode = sweep_doc.get("mode", "grid")
     if mode not in ("grid", "zip"):
-        raise InputError(f"{where}: [sweep] mode must be \"grid\" or \"zip\", got {mode!r}")
+        raise InputError(f"[sweep] mode must be \"grid\" or \"zip\", got {mode!r}", culprit=where)
     axes: dict[str, list[str]] = {}
+    axis_files: dict[tuple[str, str], dict[str, str]] = {}  # (model, file) -> record
     for k, values in sweep_doc.get("axes", {}).items():
         if not isinstance(values, list) or not values:
-            raise InputError(f"{where}: [sweep.axes] '{k}' must be a non-empty list")
+            raise InputError(f"[sweep.axes] '{k}' must be a non-empty list", culprit=where)
+        if k in slots:  # an axis of model files
+            axes[k] = []
+            for v in values:
+                aw = f"{where} [sweep.axes] {k}"
+                if not isinstance(v, str):
+                    raise InputError(f"lists model files, got {v!r}", culprit=aw)
+                axis_files[(k, v)] = _model_file(p, k, v, f"{where} [sweep.axes]")
+                model_set(models={**base_files, k: axis_files[(k, v)]},
+                          option=f"{where} [sweep.axes]")
+                axes[k].append(v)
+            continue
         axes[k] = [_value_text(k, v, f"{where} [sweep.axes]") for v in values]
         for v in axes[k]:
             _check_override(models, k, v, f"{where} [sweep.axes]")
     if mode == "zip" and len({len(v) for v in axes.values()}) > 1:
-        raise InputError(f"{where}: [sweep] mode \"zip\" needs axes of equal length "
-                         f"({', '.join(f'{k}: {len(v)}' for k, v in axes.items())})")
+        raise InputError(f"[sweep] mode \"zip\" needs axes of equal length "
+                         f"({', '.join(f'{k}: {len(v)}' for k, v in axes.items())})", culprit=where)
     names = list(axes)
     if not names:
         points: list[dict[str, str]] = [{}]
@@ -244,42 +273,60 @@ def load_study(path: str | os.PathLike) -> Study:
 
     conditions = doc.get("conditions", {"default": {"astrocytes": True}})
     if not isinstance(conditions, dict) or not conditions:
-        raise InputError(f"{where}: [conditions] must name at least one condition")
+        raise InputError("[conditions] must name at least one condition", culprit=where)
     runs: list[RunSpec] = []
     groups = _consecutive_groups(seeds, batch)
     for cname, cond in conditions.items():
         cw = f"{where} [conditions.{cname}]"
         if not isinstance(cond, dict):
-            raise InputError(f"{cw}: must be a table")
+            raise InputError("must be a table", culprit=cw)
         bad = set(cond) - _CONDITION_KEYS
         if bad:
-            raise InputError(f"{cw}: unknown key '{sorted(bad)[0]}' (keys: astrocytes, set)")
+            raise InputError(f"unknown key '{sorted(bad)[0]}' (keys: astrocytes, set)", culprit=cw)
         astro = cond.get("astrocytes", True)
         if not isinstance(astro, bool):
-            raise InputError(f"{cw}: astrocytes must be true or false")
+            raise InputError("astrocytes must be true or false", culprit=cw)
         cset = [_check_override(models, k, _value_text(k, v, cw), cw)
                 for k, v in cond.get("set", {}).items()]
         for point in points:
-            overrides = tuple(base + [f"{k}={v}" for k, v in point.items()] + cset)
+            files = {**base_files, **{k: axis_files[(k, v)] for k, v in point.items()
+                                      if k in slots}}
+            overrides = tuple(base + [f"{k}={v}" for k, v in point.items() if k not in slots]
+                              + cset)
             # one model set per point: catches e.g. a value out of a parameter's range
+            point_models = model_set(models=files, option=cw) if files != base_files \
+                else models
             try:
-                models.with_values(dict(models.parse_assignment(o) for o in overrides))
+                point_models.with_values(dict(point_models.parse_assignment(o)
+                                              for o in overrides))
             except InputError as e:
-                raise InputError(f"{cw}: {e}") from None
+                raise InputError(f"{e}", culprit=cw) from None
             tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
             for first, n in groups:
                 seeds_tag = f"seed{first}" if n == 1 else f"seeds{first}-{first + n - 1}"
                 run_id = "__".join(x for x in (_slug(cname), tag, seeds_tag) if x)
                 runs.append(RunSpec(run_id=run_id, condition=cname, point=dict(point),
                                     seed=first, n_trials=n, n_sessions=n_sessions,
-                                    astrocytes=astro, overrides=overrides, record=record))
+                                    astrocytes=astro, overrides=overrides, record=record,
+                                    models=files))
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):
         dup = next(i for i in ids if ids.count(i) > 1)
-        raise InputError(f"{where}: two runs would share the folder '{dup}' (condition names or "
-                         f"swept values that differ only in punctuation)")
+        raise InputError(f"two runs would share the folder '{dup}' (condition names or "
+                         f"swept values that differ only in punctuation)", culprit=where)
     return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
                  n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs)
+
+
+def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]:
+    """The record ``{"sha256", "content"}`` of the model file for ``slot`` named in a study (a
+    path relative to the study file's folder)."""
+    if not isinstance(file, str) or not file:
+        raise InputError(f"expected the path of a model file, got {file!r}",
+                         culprit=f"{where} {slot}")
+    path = Path(file) if Path(file).is_absolute() else study.parent / file
+    text = read_model_files([f"{slot}={path}"], option=where)[slot]
+    return model_files_record({slot: text})[slot]
 
 
 def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
@@ -288,16 +335,17 @@ def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
     if doc is None:
         return None
     if not isinstance(doc, dict) or "every" not in doc:
-        raise InputError(f"{where}: [study] record must be a table with at least 'every' "
-                         f"(e.g. record = {{ every = 50, traces = [\"astrocyte_Ca\"] }})")
+        raise InputError(f"[study] record must be a table with at least 'every' "
+                         f"(e.g. record = {{ every = 50, traces = [\"astrocyte_Ca\"] }})",
+                         culprit=where)
     bad = set(doc) - {"every", "spikes", "traces", "stride"}
     if bad:
-        raise InputError(f"{where}: [study] record has unknown key '{sorted(bad)[0]}' "
-                         f"(keys: every, spikes, traces, stride)")
+        raise InputError(f"[study] record has unknown key '{sorted(bad)[0]}' "
+                         f"(keys: every, spikes, traces, stride)", culprit=where)
     try:
         plan = RecordPlan.from_dict(doc)
     except (TypeError, ValueError) as e:
-        raise InputError(f"{where}: [study] record: {e}") from None
+        raise InputError(f"[study] record: {e}", culprit=where) from None
     return {"every": plan.every, "spikes": list(plan.spikes), "traces": list(plan.traces),
             "stride": plan.stride}
 
@@ -355,8 +403,8 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
         if (out / CHECKPOINT).exists():
             payload = read_checkpoint(out / CHECKPOINT)
             if payload["fingerprint"] != settings.fingerprint():
-                raise InputError(f"{out}: its checkpoint belongs to other settings")
-        models = model_set(settings.overrides, {})
+                raise InputError("its checkpoint belongs to other settings", culprit=out)
+        models = model_set(settings.overrides, {}, models=settings.models)
         trainer = Trainer(models, settings, out, progress=False, record=spec.record_plan())
         if payload is not None:
             trainer.restore(payload)
@@ -397,23 +445,23 @@ def _check_folder(study: Study, out: Path) -> None:
         try:
             known = json.loads(index_path.read_text())["runs"]
         except (OSError, ValueError, KeyError):
-            raise InputError(f"--out {out}: {STUDY_INDEX} is unreadable") from None
+            raise InputError(f"{STUDY_INDEX} is unreadable", culprit=f"--out {out}") from None
     elif any(out.iterdir()):
-        raise InputError(f"--out {out}: is not empty and holds no study (no {STUDY_INDEX}); "
-                         f"use a new folder")
+        raise InputError(f"is not empty and holds no study (no {STUDY_INDEX}); "
+                         f"use a new folder", culprit=f"--out {out}")
     if index_path.exists():
         try:
             name = json.loads(index_path.read_text())["name"]
         except (OSError, ValueError, KeyError):
-            raise InputError(f"--out {out}: {STUDY_INDEX} is unreadable") from None
+            raise InputError(f"{STUDY_INDEX} is unreadable", culprit=f"--out {out}") from None
         if name != study.name:
-            raise InputError(f"--out {out}: belongs to study '{name}', not '{study.name}' "
-                             f"(use a new --out)")
+            raise InputError(f"belongs to study '{name}', not '{study.name}' "
+                             f"(use a new --out)", culprit=f"--out {out}")
     for run in study.runs:
         fp = known.get(run.run_id)
         if fp is not None and fp != run.fingerprint():
-            raise InputError(f"--out {out}: run '{run.run_id}' there has other settings than "
-                             f"in {study.path.name} (use a new --out)")
+            raise InputError(f"run '{run.run_id}' there has other settings than "
+                             f"in {study.path.name} (use a new --out)", culprit=f"--out {out}")
 
 
 def _save_index(study: Study, out: Path) -> None:
@@ -520,15 +568,29 @@ def _connect(workers: int | None, scheduler: str | None):
     from distributed import Client, LocalCluster
 
     if scheduler:
+        _reachable(scheduler)
         try:
             return Client(scheduler, timeout="10s"), None
         except Exception as e:  # OSError / TimeoutError / ValueError for a bad address
             first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-            raise InputError(f"--scheduler {scheduler}: cannot connect ({first})") from None
+            raise InputError(f"cannot connect ({first})", culprit=f"--scheduler {scheduler}") \
+                from None
     n = workers or os.cpu_count() or 1
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                            dashboard_address=":0", silence_logs=logging.ERROR)
     return Client(cluster), cluster
+
+
+def _reachable(scheduler: str) -> None:
+    """A closed port is refused at once (Dask's client would wait out its whole timeout)."""
+    m = re.fullmatch(r"(?:tcp://)?\[?([^\]/]+?)\]?:(\d+)/?", scheduler.strip())
+    if not m:
+        return  # other protocols and forms: Dask's client says what is wrong
+    try:
+        socket.create_connection((m.group(1), int(m.group(2))), timeout=3).close()
+    except OSError as e:
+        raise InputError(f"cannot connect ({e.strerror or type(e).__name__})",
+                         culprit=f"--scheduler {scheduler}") from None
 
 
 class _ImportBrian2:

@@ -1,0 +1,78 @@
+"""The closed loop put together once: robot model, CPG, bridge, and the bridge's operation in the
+network. ``run``, ``train``, ``power``, the gait and plot commands and the speed benchmark all
+start from :func:`build_closed_loop`.
+
+    loop = build_closed_loop(models, n_trials=4, seed=1)
+    Training(loop.cpg, loop.bridge, models, n_sessions=10)   # optional: hooks itself in
+    loop.run(5.0)                                            # Diverged comes out as itself
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import mujoco
+import numpy as np
+from brian2 import second
+
+from ..errors import InputError
+from ..models import ModelSet
+from ..network import CPG, LEGS, build_cpg, check_runs, run_network
+from .bridge import Bridge
+from .robot import A1Parameters, RobotLayout, build_model
+
+
+@dataclass
+class ClosedLoop:
+    """A CPG of ``n_trials`` copies driving as many robots through ``bridge``."""
+
+    cpg: CPG
+    robot: mujoco.MjModel
+    robot_layout: RobotLayout
+    bridge: Bridge
+    models: ModelSet
+
+    @property
+    def n_trials(self) -> int:
+        return self.cpg.n_trials
+
+    def run(self, seconds: float, **kwargs: Any) -> None:
+        """Run the network for ``seconds`` (one ``Network.run``); a divergence raises
+        :class:`~astrocpg.errors.Diverged` itself (:func:`~astrocpg.network.run_network`)."""
+        kwargs.setdefault("namespace", {})
+        run_network(self.cpg.net, seconds * second, **kwargs)
+
+
+def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
+                      weights: np.ndarray | None = None,
+                      robot: mujoco.MjModel | None = None,
+                      robot_layout: RobotLayout | None = None,
+                      robot_params: A1Parameters | None = None,
+                      on_step: Callable[[int], None] | None = None,
+                      check_every: int = 10, check: bool = True) -> ClosedLoop:
+    """Robot + CPG + bridge from settings, the bridge's operation added to the network.
+
+    robot: None = the project's A1 (``build_model(robot_params)``), or an MjModel with the A1's
+        joints and motors whose timestep is the CPG's step.
+    robot_layout: the robot's addresses (default: read from ``robot`` with ``robot_params``).
+    robot_params: reset pose and, for the project's A1, the model itself (default A1Parameters()).
+    weights: inter-limb tables, (8, 8) or (n_trials, 8, 8) volt (default zero).
+    on_step, check_every: see :class:`Bridge`.
+    check: prepare every Brian2 object first (:func:`check_runs`: one-line errors naming the model).
+    """
+    params = robot_params if robot_params is not None else A1Parameters()
+    model = build_model(params) if robot is None else robot
+    if not model.opt.timestep > 0:
+        raise InputError(f"robot timestep must be positive, got {model.opt.timestep}")
+    layout = robot_layout if robot_layout is not None else RobotLayout.from_model(model, params)
+    cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=LEGS,
+                    dt=model.opt.timestep * second, interlimb_weights=weights)
+    if check:
+        check_runs(cpg)
+    bridge = Bridge(cpg, model, layout, models, on_step=on_step, check_every=check_every)
+    cpg.net.add(bridge.operation())
+    return ClosedLoop(cpg=cpg, robot=model, robot_layout=layout, bridge=bridge, models=models)
+
+
+__all__ = ["ClosedLoop", "build_closed_loop"]

@@ -1,0 +1,256 @@
+"""Model files: one model, whole, as TOML (``astrocpg models dump NAME`` writes one, ``--model
+NAME=FILE`` reads one back).
+
+A file holds ``name``, ``kind`` (neuron, synapse, expression), ``description``, the model's code
+strings (``equations``, ``threshold``, ``reset``, ``refractory`` of a neuron; ``model``,
+``on_pre``, ``weight``, ``on_step`` of a synapse; ``expression`` and ``inputs`` of an expression),
+``method``, an ``[initial_values]`` table (``VAR = { value = "0.16*umolar" }`` or ``{ expression
+= "rand()" }``) and a ``[parameters]`` table, one inline table per parameter::
+
+    tau_extra = { value = "2*second", symbol = "\\\\tau_x", meaning = "...", positive = true }
+
+Values are parsed (:func:`~astrocpg.models.values.parse_value`), never evaluated. A file may
+declare new parameters and new state variables; it must keep the model's *interface*: the names
+the network reads or sets (:data:`astrocpg.models.INTERFACES`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import hashlib
+import json
+import tomllib
+from typing import Any, Mapping
+
+import numpy as np
+from brian2 import Quantity
+
+from ..errors import InputError
+from .base import BrianModel, Model, Parameter, ParameterTable, model_kinds
+from .values import parse_value, unit_spelling
+
+
+def file_sha256(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+# ---- writing
+
+def _toml_string(text: str) -> str:
+    """A TOML string holding ``text`` exactly: a multi-line literal string when that is safe
+    (readable equations), else a basic string (JSON escapes are TOML escapes)."""
+    if "\n" in text and "'''" not in text and not text.endswith("'") and all(
+            c in "\n\t" or (ord(c) >= 0x20 and ord(c) != 0x7f) for c in text):
+        return "'''\n" + text + "'''"
+    return json.dumps(text, ensure_ascii=False)
+
+
+def value_text(value: Any) -> str:
+    """``value`` written so that :func:`parse_value` reads back the same number: Brian2's own
+    spelling (``0.16 * umolar`` style) when it reads back exactly, else the SI number and unit."""
+    if not isinstance(value, Quantity):
+        if isinstance(value, (bool, np.bool_)):
+            value = int(value)
+        return repr(value.item() if isinstance(value, np.generic) else value)
+    candidates = [str(value)]
+    x = float(np.asarray(value))
+    for unit, scale in _units_of(value.dim):  # the shortest spelling that reads back exactly
+        scaled = x / scale
+        if scaled == 0 or 1e-3 <= abs(scaled) < 1e4:
+            candidates += [f"{scaled:.{p}g}*{unit}" for p in range(1, 18)]
+    candidates.sort(key=len)
+    candidates.append(f"{x!r}*{unit_spelling(value.dim)}")
+    if value.dim.is_dimensionless:
+        candidates = [repr(float(np.asarray(value)))]
+    for text in candidates:
+        try:
+            back = parse_value(text, culprit="value")
+        except InputError:
+            continue
+        if (np.asarray(back).tolist() == np.asarray(value).tolist()
+                and getattr(back, "dim", None) == value.dim):
+            return text
+    # the SI number with the SI base unit spelling
+    return f"{float(np.asarray(value))!r}*{unit_spelling(value.dim)}"
+
+
+_UNITS: dict[Any, list[Any]] = {}
+
+
+def _units_of(dim: Any) -> list[Any]:
+    """Brian2's named units (``umolar``, ``ms``, ``mV``...) of these dimensions."""
+    if not _UNITS:
+        from brian2 import Unit
+        from brian2.units import allunits
+        names = {k for k, u in vars(allunits).items() if isinstance(u, Unit)}
+
+        def usual(key: str) -> bool:  # no centi-, deci-, hecto-, exa-... units
+            return not ((key[:1] in "cdhazyfEPGTZY" and key[1:] in names)
+                        or (key[:2] == "da" and key[2:] in names))
+
+        for key, unit in vars(allunits).items():
+            if isinstance(unit, Unit) and key.isidentifier() and usual(key):
+                _UNITS.setdefault(unit.dim, []).append((key, float(unit)))
+    return _UNITS.get(dim, [])
+
+
+def model_to_toml(model: Model) -> str:
+    """The model as a model file (see the module's doc); :func:`model_from_toml` reads it
+    back to an equal model."""
+    lines = [f"name = {_toml_string(model.name)}", f"kind = {_toml_string(model.kind)}"]
+    for role in model.statement_fields:
+        value = getattr(model, role)
+        if value is not None:
+            lines.append(f"{role} = {_toml_string(value)}")
+    if isinstance(model, BrianModel):
+        lines.append(f"method = {_toml_string(model.method)}")
+    inputs = getattr(model, "inputs", None)
+    if inputs is not None:
+        lines.append("inputs = [" + ", ".join(_toml_string(i) for i in inputs) + "]")
+    lines.append(f"description = {_toml_string(model.description)}")
+    if isinstance(model, BrianModel):
+        lines += ["", "[initial_values]"]
+        for var, value in model.initial_values.items():
+            key = "expression" if isinstance(value, str) else "value"
+            text = value if isinstance(value, str) else value_text(value)
+            lines.append(f"{var} = {{ {key} = {_toml_string(text)} }}")
+    lines += ["", "[parameters]"]
+    for p in model.parameters.values():
+        entry = (f"value = {_toml_string(value_text(p.value))}, "
+                 f"symbol = {_toml_string(p.symbol)}, meaning = {_toml_string(p.meaning)}")
+        if p.positive:
+            entry += ", positive = true"
+        lines.append(f"{p.name} = {{ {entry} }}")
+    return "\n".join(lines) + "\n"
+
+
+# ---- reading
+
+def _text_value(entry: Any, culprit: str) -> Any:
+    if isinstance(entry, bool):
+        raise InputError(f"must be a number or text with units, got {entry!r}", culprit=culprit)
+    if isinstance(entry, (int, float)):
+        return entry
+    if not isinstance(entry, str):
+        raise InputError(f"must be text with units such as \"2*second\", got {entry!r}",
+                         culprit=culprit)
+    return parse_value(entry, culprit=culprit)
+
+
+def _declared_twice(text: str) -> str | None:
+    """``table.key`` of the first key written twice in a table (TOML refuses it; we name it)."""
+    import re
+    section, seen = "", set()
+    in_string = False
+    for line in text.splitlines():
+        if line.count("'''") % 2 or line.count('"""') % 2:
+            in_string = not in_string
+            continue
+        if in_string:
+            continue
+        head = re.match(r"\s*\[([^\]]+)\]\s*(#.*)?$", line)
+        if head:
+            section = head.group(1).strip()
+            continue
+        key = re.match(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=", line)
+        if key:
+            name = f"{section}.{key.group(1)}" if section else key.group(1)
+            if name in seen:
+                return name
+            seen.add(name)
+    return None
+
+
+def model_from_toml(text: str, *, culprit: str, default: Model | None = None) -> Model:
+    """The model a model file holds. ``culprit`` (e.g. ``--model astrocyte``) heads every
+    error; ``default`` (the built-in model of that slot) gives the kind when the file has
+    none. Every mistake is an :class:`InputError` of one line."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        twice = _declared_twice(text)
+        if twice:
+            raise InputError("is declared twice", culprit=f"{culprit}: {twice}") from None
+        raise InputError(f"is not valid TOML: {e}", culprit=culprit) from None
+    name = data.get("name", default.name if default else None)
+    if not isinstance(name, str) or not name.isidentifier():
+        raise InputError(f"'name' must be an identifier, got {name!r}", culprit=culprit)
+    kind = data.get("kind", default.kind if default else None)
+    kinds = model_kinds()
+    target = kinds.get(kind) if isinstance(kind, str) else None
+    if target is None:
+        raise InputError(f"unknown kind {kind!r} (kinds: {', '.join(kinds)})",
+                         culprit=f"{culprit}: kind")
+    fields = {f.name for f in dataclasses.fields(target) if f.init}
+    kwargs: dict[str, Any] = {}
+    for key, value in data.items():
+        if key in ("name", "kind"):
+            continue
+        where = f"{culprit}: {key}"
+        if key not in fields:
+            raise InputError(f"no such attribute of a {kind} model (attributes: "
+                             f"{', '.join(sorted(fields - {'name'}))})", culprit=where)
+        if key == "parameters":
+            if not isinstance(value, Mapping):
+                raise InputError("must be a table of parameters", culprit=where)
+            params = []
+            for pname, entry in value.items():
+                pwhere = f"{culprit}: parameters.{pname}"
+                if not isinstance(entry, Mapping) or "value" not in entry:
+                    raise InputError('expected { value = "...", symbol = "...", meaning = '
+                                     '"..." }', culprit=pwhere)
+                unknown = set(entry) - {"value", "symbol", "meaning", "positive"}
+                if unknown:
+                    raise InputError(f"unknown keys {sorted(unknown)} (value, symbol, meaning, "
+                                     f"positive)", culprit=pwhere)
+                params.append(Parameter(name=pname, value=_text_value(entry["value"], pwhere),
+                                        symbol=str(entry.get("symbol", "")),
+                                        meaning=str(entry.get("meaning", "")),
+                                        positive=bool(entry.get("positive", False))))
+            value = ParameterTable(name, params)
+        elif key == "initial_values":
+            if not isinstance(value, Mapping):
+                raise InputError("must be a table of values", culprit=where)
+            out = {}
+            for var, entry in value.items():
+                vwhere = f"{culprit}: initial_values.{var}"
+                if isinstance(entry, Mapping) and "expression" in entry:
+                    out[var] = str(entry["expression"])
+                elif isinstance(entry, Mapping) and "value" in entry:
+                    out[var] = _text_value(entry["value"], vwhere)
+                else:
+                    out[var] = _text_value(entry, vwhere)
+            value = out
+        elif key == "inputs":
+            if not isinstance(value, list):
+                raise InputError("must be a list of input names", culprit=where)
+            value = tuple(value)
+        kwargs[key] = value
+    if "parameters" not in kwargs:
+        kwargs["parameters"] = ParameterTable(name, [])
+    try:
+        return target(name=name, **kwargs)
+    except InputError as e:
+        raise InputError(e.line, culprit=culprit) from None
+    except TypeError as e:  # a required field is missing
+        raise InputError(f"incomplete model: {e}", culprit=culprit) from None
+
+
+def check_interface(model: Model, interface: tuple[str, ...], *, culprit: str) -> None:
+    """Refuse a model that lacks a name the network reads or sets (``interface``)."""
+    if not interface or not isinstance(model, BrianModel):
+        if interface and hasattr(model, "inputs"):
+            extra = [i for i in model.inputs if i not in interface]
+            if extra:
+                raise InputError(f"uses inputs {extra} the network does not give (inputs: "
+                                 f"{', '.join(interface)})", culprit=culprit)
+        return
+    names = set(model.brian_equations().names)
+    missing = [n for n in interface if n not in names]
+    if missing:
+        raise InputError(f"lacks {', '.join(missing)}, which the network reads or sets "
+                         f"(interface: {', '.join(interface)})", culprit=culprit)
+
+
+__all__ = ["model_to_toml", "model_from_toml", "check_interface", "value_text", "file_sha256"]

@@ -1,0 +1,183 @@
+"""Seeing a result: ``astrocpg plot DIR`` (figures of any output folder) and ``astrocpg video
+DIR`` (the recorded robot replayed in MuJoCo's offscreen renderer, as MP4)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...errors import InputError
+from ..figures.traces import FORMATS, recorded_span, save_figures, trace_figures
+from ..files.folder import OutputFolder
+from ..files.result import Result, load
+from .trained import FIGURES, plot_training
+
+
+def _check_trial(result: Result, trial: int) -> None:
+    if not isinstance(trial, (int, np.integer)) or not 0 <= trial < result.n_trials:
+        raise InputError(f"{result.folder} has {result.n_trials} trial(s) (0.."
+                         f"{result.n_trials - 1})", culprit=f"--trial {trial}")
+
+
+def _check_window(window: Any, span: tuple[float, float] | None) -> tuple[float, float] | None:
+    if window is None:
+        return None
+    try:
+        t0, t1 = (float(x) for x in window)
+    except (TypeError, ValueError):
+        raise InputError("needs two numbers, T0 T1 in s", culprit="--window") from None
+    culprit = f"--window {window[0]} {window[1]}"
+    if not (np.isfinite(t0) and np.isfinite(t1)) or t0 < 0 or t1 <= t0:
+        raise InputError("needs 0 <= T0 < T1 (s)", culprit=culprit)
+    if span is not None and t0 >= span[1]:
+        raise InputError(f"starts after the recording ends ({span[1]:g} s)", culprit=culprit)
+    return t0, t1
+
+
+def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "png",
+         seconds: float = 10.0, out: str | Path | None = None,
+         overwrite: bool = False) -> list[Path]:
+    """The figures of any output folder, into ``out`` (default ``folder/figures``, replaced
+    whole on every plot); returns the paths written.
+
+    unit, run, recorded training session: the trace figures of the recording (rasters, pool
+    activity, motor-neuron Ca2+, each astrocyte, joints, torso path, gait diagram; those the
+    recording allows), no new simulation. training (or a study's run): its figures from a run
+    of ``seconds`` with its trained weights, and the trace figures of the trial's last recorded
+    session. ``window`` (T0, T1) in s; ``fmt``: png, pdf or svg."""
+    if fmt not in FORMATS:
+        raise InputError(f"unknown format (formats: {', '.join(FORMATS)})",
+                         culprit=f"--format {fmt}")
+    folder = Path(folder)
+    result = load(folder)
+    if result.kind == "train":
+        return plot_training(folder, trial=trial, seconds=seconds, out=out,
+                             overwrite=overwrite, fmt=fmt, window=_check_window(window, None))
+    _check_trial(result, trial)
+    span = recorded_span(result)
+    win = _check_window(window, span) or span
+    target = Path(out) if out is not None else folder / FIGURES
+    OutputFolder(target, overwrite=overwrite or out is None).check()
+    figures = trace_figures(result, trial, win)
+    if not figures:
+        raise InputError("recorded nothing to draw (no spikes, traces or robot)",
+                         culprit=str(folder))
+    with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+        paths = save_figures(figures, tmp, fmt)
+    return [target / p.name for p in paths]
+
+
+# ---------------------------------------------------------------- video
+def _robot_model(result: Result) -> tuple[Any, Any]:
+    """The MjModel the run simulated (its --robot file, else the project's A1) and its layout."""
+    from ...coupling.robot import A1Parameters, RobotLayout, build_model, load_robot
+
+    robot = (result.manifest.get("settings") or {}).get("robot")
+    params = A1Parameters()
+    if robot:
+        if not Path(robot).is_file():
+            raise InputError(f"the run's robot model {robot} is gone; the replay needs it",
+                             culprit=str(result.folder))
+        model = load_robot(robot)
+    else:
+        model = build_model(params)
+    return model, RobotLayout.from_model(model, params)
+
+
+def _replayed(folder: Path, trial: int) -> tuple[Result, int]:
+    """The result whose robot.npz is replayed and the trial in it (a training: the trial's last
+    recorded session)."""
+    result = load(folder)
+    _check_trial(result, trial)
+    if result.kind == "train":
+        recorded = sorted(s for b, s in result.recordings if b == trial)
+        if not recorded:
+            raise InputError(f"has no recorded session of trial {trial} to replay (train with "
+                             f"--record-every N)", culprit=str(folder))
+        return result.recording(trial, recorded[-1]), 0
+    if result.robot is None:
+        raise InputError(f"holds no robot recording (a {result.kind}); video replays a run or "
+                         f"a recorded training session", culprit=str(folder))
+    return result, trial
+
+
+def _size(size: Any) -> tuple[int, int]:
+    try:
+        w, h = (int(x) for x in size)
+    except (TypeError, ValueError):
+        raise InputError("needs WIDTH HEIGHT in pixels", culprit="--size") from None
+    if not (16 <= w <= 4096 and 16 <= h <= 4096) or w % 2 or h % 2:
+        raise InputError("needs even WIDTH and HEIGHT in 16..4096 pixels (H.264)",
+                         culprit=f"--size {w} {h}")
+    return w, h
+
+
+def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float = 1.0,
+          size: Any = (640, 480), out: str | Path | None = None, overwrite: bool = False,
+          progress: bool = True, panel: bool = False) -> dict[str, Any]:
+    """Replay the robot recorded in ``folder`` (a run, a recorded training session, or a
+    training: its trial's last recorded session) as an MP4: the robot posed from the recorded
+    joint angles and torso pose, a camera tracking the trunk, ``fps`` frames per second of
+    video, ``speed`` simulated seconds per second of video (1: real time). ``out``: the file
+    (default ``folder/video_trialTT.mp4``, replaced on each video). ``panel``: a strip under
+    each frame (a third of its height) with the time, forward speed and a scrolling gait
+    diagram. Returns {"path", "frames",
+    "fps", "seconds"}."""
+    import imageio.v2 as imageio
+    from tqdm.auto import tqdm
+
+    from ...coupling.render import Replay, frame_samples
+    from ..files.outputs import atomic_path
+
+    folder = Path(folder)
+    for name, value in (("--fps", fps), ("--speed", speed)):
+        if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+            raise InputError("must be a positive number", culprit=f"{name} {value}")
+    width, height = _size(size)
+    result, b = _replayed(folder, trial)
+    rob = result.robot
+    if "torso_quaternion" not in rob:
+        raise InputError("robot.npz has no torso_quaternion (recorded before astrocpg kept the "
+                         "torso's orientation); run it again to make a video",
+                         culprit=str(result.folder))
+    path = Path(out) if out is not None else folder / f"video_trial{trial:02d}.mp4"
+    if path.suffix.lower() != ".mp4":
+        raise InputError("the file name must end in .mp4", culprit=f"--out {path}")
+    if not path.parent.is_dir():
+        raise InputError(f"folder '{path.parent}' does not exist", culprit=f"--out {path}")
+    if out is not None and path.exists() and not overwrite:
+        raise InputError("exists; --overwrite replaces it", culprit=f"--out {path}")
+    samples = frame_samples(rob["t"], fps, speed)
+    model, layout = _robot_model(result)
+
+    strip = None
+    if panel:
+        from ..figures.panel import GaitPanel
+
+        strip = GaitPanel(rob, b, width, (height // 3) // 2 * 2, speed=speed)
+
+    def write(tmp: Path) -> None:
+        bar = tqdm(total=len(samples), unit="frame", desc="rendering", disable=not progress)
+        with Replay(model, layout, rob["joint_angles"][b], rob["torso_position"][b],
+                    rob["torso_quaternion"][b], width=width, height=height) as replay:
+            writer = imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264",
+                                        pixelformat="yuv420p", macro_block_size=2, quality=7,
+                                        ffmpeg_log_level="error")
+            try:
+                for k, frame in zip(samples, replay.frames(samples,
+                                                           on_frame=lambda n: bar.update(1))):
+                    if strip is not None:
+                        frame = np.concatenate([frame, strip.draw(int(k))], axis=0)
+                    writer.append_data(frame)
+            finally:
+                writer.close()
+                bar.close()
+
+    atomic_path(path, write)
+    return {"path": path, "frames": len(samples), "fps": fps,
+            "seconds": len(samples) / fps}
+
+
+__all__ = ["plot", "video"]
