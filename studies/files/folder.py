@@ -27,6 +27,7 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import errno
+import fnmatch
 import json
 import os
 import re
@@ -49,6 +50,10 @@ OWNER_NAME = ".astrocpg.lock.owner"
 #: Top-level names that :func:`inventory` does not list and :func:`verify` does not count as
 #: extra files: the manifest itself and a lock (left behind by a killed holder).
 UNLISTED = frozenset({MANIFEST, LOCK_NAME, OWNER_NAME})
+#: What later commands write into a finished folder beside the files its manifest lists (plot:
+#: figures/, report: report/, video: video_trialTT.mp4, power: power_trialK.json). A strict
+#: :func:`verify` does not count them as extra files; the listed files must still match.
+DERIVED = ("figures/*", "report/*", "video_trial*.mp4", "power_trial*.json")
 
 TEMP_KINDS = ("partial", "replaced", "tmp")
 _TEMP_RE = re.compile(r"^\.(?P<name>.+)\.(?P<kind>partial|replaced|tmp)-(?P<pid>[0-9]{1,10})-"
@@ -513,7 +518,8 @@ def verify(folder: str | os.PathLike, *, culprit: str | None = None,
                 raise InputError(f"{name} is missing ({MANIFEST} lists it): the folder does not "
                                  "match its manifest", culprit=who)
             if name not in listed:
-                if not strict:  # a training folder may gain figures and exports later
+                # a training folder may gain anything later; any folder, derived outputs
+                if not strict or any(fnmatch.fnmatchcase(name, p) for p in DERIVED):
                     continue
                 raise InputError(f"{name} is not listed in {MANIFEST}: the folder does not "
                                  "match its manifest", culprit=who)
@@ -665,4 +671,4 @@ class FolderLock:
 
 __all__ = ["OutputFolder", "FolderLock", "inventory", "verify", "append_history",
            "clean_stale_temporaries", "temp_prefix", "parse_temp_name", "pid_alive", "exchange",
-           "MANIFEST", "LOCK_NAME", "OWNER_NAME", "UNLISTED"]
+           "MANIFEST", "LOCK_NAME", "OWNER_NAME", "UNLISTED", "DERIVED"]
