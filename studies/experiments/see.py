@@ -3,6 +3,7 @@ DIR`` (the recorded robot replayed in MuJoCo's offscreen renderer, as MP4)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +12,7 @@ import numpy as np
 from ...errors import InputError
 from ..figures.traces import FORMATS, recorded_span, save_figures, trace_figures
 from ..files.folder import OutputFolder
+from ..files.outputs import write_manifest
 from ..files.result import Result, load
 from .trained import FIGURES, plot_training
 
@@ -66,6 +68,10 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
                          culprit=str(folder))
     with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
         paths = save_figures(figures, tmp, fmt)
+        write_manifest(tmp, command="plot", seed=int(result.manifest.get("seed", 0) or 0),
+                       models_json={}, files={p.name: "figure" for p in paths},
+                       settings={"folder": os.path.abspath(folder), "trial": trial,
+                                 "window": list(win) if win else None, "format": fmt})
     return [target / p.name for p in paths]
 
 
