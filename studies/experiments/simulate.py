@@ -82,8 +82,9 @@ def _collect(mons: dict[str, Any]) -> tuple[dict, dict]:
         m = mons.get(f"{group}_state")
         if m is None or var not in m.record_variables:
             continue
-        traces[name] = (np.asarray(m.t_[:]),
-                        np.asarray(getattr(m, f"{var}_")[:].T * scale, dtype=np.float32))
+        with np.errstate(over="ignore", invalid="ignore"):  # a diverged trace: inf, as is
+            values = np.asarray(getattr(m, f"{var}_")[:].T * scale, dtype=np.float32)
+        traces[name] = (np.asarray(m.t_[:]), values)
     return spikes, traces
 
 
