@@ -7,8 +7,9 @@ One table, :data:`CASES`: each case builds its argv from small factories (paths 
 * a substring of the one line on stderr (the culprit: the option or the path the user typed);
 * the state of the folder the command would write or reads: ``absent`` (nothing there, no hidden
   temporaries beside it), ``unchanged`` (byte-identical: relative path -> sha256 of every file,
-  hidden ones included) or ``complete`` (``verify(folder)`` passes: every file listed in the
-  manifest's inventory, none missing, none extra).
+  hidden ones included), ``complete`` (``verify(folder)`` passes: every file listed in the
+  manifest's inventory, none missing, none extra) or ``diverged`` (written whole, its manifest
+  says ``diverged``).
 
 Every failing case must print exactly one non-empty line on stderr, starting with
 ``astrocpg:``, and no traceback anywhere. Cases run in-process (``main(argv)``, Brian2 imported
@@ -62,6 +63,9 @@ def fx(tmp_path_factory) -> dict[str, Path]:
     _ok(["run", "--seconds", "0.05", "--spikes", "none", "--traces", "none",
          "--out", str(out["run_nospikes"]), "--no-progress"])
     _ok(["unit", "--seconds", "0.3", "--out", str(out["unit"]), "--no-progress"])
+    out["unit_nothing"] = base / "unit_nothing"
+    _ok(["unit", "--seconds", "0.01", "--spikes", "none", "--traces", "none", "--out",
+         str(out["unit_nothing"]), "--no-progress"])
     _ok(["train", "--sessions", "2", "--seed", "3", *SHORT, "--out", str(out["train"]),
          "--no-progress"])
     study = base / "tiny.toml"
@@ -151,6 +155,26 @@ class Env:
             return d
         return self._once(f"tampered:{which}:{file}:{how}", make)
 
+    def geared_robot(self) -> Path:
+        """The project's A1 with a huge motor gear: MuJoCo's bad qacc at the first step."""
+        def make() -> Path:
+            from astrocpg.coupling.robot import export_xml
+            p = self.tmp / "a1_geared.xml"
+            export_xml(p)
+            text = p.read_text()
+            p.write_text(text.replace('ctrllimited="true"/>', 'ctrllimited="true" gear="1e12"/>'))
+            return p
+        return self._once("geared", make)
+
+    def derived(self, which: str) -> Path:
+        """A copy with what later commands write into it: plot's figures/, a video's mp4."""
+        def make() -> Path:
+            d = self.copy(which, f"{which}_derived")
+            assert main(["plot", str(d)]) == 0
+            (d / "video_trial00.mp4").write_bytes(b"\0" * 100)
+            return d
+        return self._once(f"derived:{which}", make)
+
     def corrupt_listed(self, which: str, file: str, manifest: str = "manifest.json") -> Path:
         """A copy whose ``file`` is truncated (binary: garbage) and whose ``manifest`` lists it
         as it now is: the folder verifies, but the file cannot be read."""
@@ -192,7 +216,7 @@ class Case:
     argv: Callable[[Env], list[str]]
     code: int
     culprit: str | Callable[[Env], str] | None
-    state: str  # "absent" | "unchanged" | "complete" | "none"
+    state: str  # "absent" | "unchanged" | "complete" | "diverged" | "none"
     target: Callable[[Env], Path] | None = None
     check: Callable[[Env], None] | None = None  # more assertions after the command
     marks: tuple = ()
@@ -211,6 +235,7 @@ CHEAP = {"unit": ["--seconds", "0.01", "--no-progress"],
          "train": ["--sessions", "1", *SHORT, "--no-progress"],
          "gait": ["--seconds", "0.05", "--no-progress"],
          "plot": ["--seconds", "0.05"],
+         "video": ["--no-progress", "--size", "64", "48", "--fps", "10"],
          "power": ["--sessions", "1", "--no-progress"]}
 
 
@@ -220,7 +245,7 @@ def S(*args: Any) -> list[str]:
     argv = [str(a) for a in args]
     if argv and argv[0] in CHEAP and "--resume" not in argv:
         # after the positional folder of gait/plot/power
-        at = 2 if argv[0] in ("gait", "plot", "power") and len(argv) > 1 else 1
+        at = 2 if argv[0] in ("gait", "plot", "power", "video") and len(argv) > 1 else 1
         argv[at:at] = CHEAP[argv[0]]
     return argv
 
@@ -255,6 +280,21 @@ def _drop_line(text: str, start: str) -> str:
     kept = [x for x in lines if not x.strip().startswith(start)]
     assert len(kept) < len(lines), start
     return "".join(kept)
+
+
+def said_when(e: Env) -> None:
+    """The diverged folder's manifest names the time."""
+    error = json.loads((out(e) / "manifest.json").read_text())["results"].get("error", "")
+    assert "t = " in json.dumps(error), error
+
+
+def diverged_row(folder: Path) -> None:
+    """A diverged training marks the session (a diverged column) and stops."""
+    import csv
+    with open(folder / "sessions.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert rows and "diverged" in rows[0], rows[:1]
+    assert rows[-1]["diverged"] in ("1", "True", "true"), rows[-1]
 
 
 def export_written(suffix: str) -> Callable[[Env], None]:
@@ -467,12 +507,14 @@ case("train-resume-truncated-checkpoint",
 case("train-resume-empty-folder", lambda e: S("train", "--resume", e.empty()), 2,
      lambda e: str(e.empty()), "unchanged", lambda e: e.empty())
 
-# ---- gait, plot, power: a training folder
-for cmd in ("gait", "plot", "power"):
+# ---- gait, plot, power, video: a training folder (plot and video: any output folder)
+for cmd in ("gait", "plot", "power", "video"):
     case(f"{cmd}-missing-folder", lambda e, c=cmd: S(c, e.tmp / "nosuch"), 2, "nosuch",
          "absent", lambda e: e.tmp / "nosuch")
+for cmd in ("gait", "power"):
     case(f"{cmd}-folder-without-weights", lambda e, c=cmd: S(c, e.copy("unit")), 2,
          lambda e: str(e.copy("unit")), "unchanged", lambda e: e.copy("unit"))
+for cmd in ("gait", "plot", "power"):
     case(f"{cmd}-a-file", lambda e, c=cmd: S(c, e.file("w.csv", "1")), 2, "w.csv", "unchanged",
          lambda e: e.file("w.csv", "1"))
     case(f"{cmd}-tampered-weights", lambda e, c=cmd: S(c, e.tampered("train", "weights.npz")), 2,
@@ -507,6 +549,45 @@ case("plot-out-not-empty", lambda e: S("plot", e.copy("train"), "--out", e.nonem
 case("plot-seconds-shorter-than-a-figure-needs",
      lambda e: S("plot", e.copy("train"), "--seconds", "0.05", "--out", out(e)), 0, None,
      "complete", out, marks=(pytest.mark.slow,))
+case("plot-a-unit-folder", lambda e: S("plot", e.copy("unit"), "--out", out(e)), 0, None,
+     "complete", out)
+case("plot-unit-trial-out-of-range", lambda e: S("plot", e.copy("unit"), "--trial", "3", "--out",
+                                                 out(e)), 2, "--trial", "absent", out)
+case("plot-format-unknown", lambda e: S("plot", e.copy("unit"), "--format", "gif", "--out",
+                                        out(e)), 2, "--format", "absent", out)
+case("plot-window-reversed", lambda e: S("plot", e.copy("unit"), "--window", "0.2", "0.1",
+                                         "--out", out(e)), 2, "--window", "absent", out)
+case("plot-window-nan", lambda e: S("plot", e.copy("unit"), "--window", "nan", "0.1", "--out",
+                                    out(e)), 2, "--window", "absent", out)
+case("plot-window-after-the-recording", lambda e: S("plot", e.copy("unit"), "--window", "50",
+                                                    "60", "--out", out(e)), 2, "--window",
+     "absent", out)
+case("plot-tampered-unit", lambda e: S("plot", e.tampered("unit", "spikes.npz"), "--out",
+                                       out(e)), 2, "spikes.npz", "absent", out)
+case("plot-recorded-nothing-to-draw",
+     lambda e: S("plot", e.copy("unit_nothing"), "--out", out(e)), 2,
+     lambda e: str(e.copy("unit_nothing")), "absent", out)
+case("video-a-unit-folder", lambda e: S("video", e.copy("unit")), 2,
+     lambda e: str(e.copy("unit")), "unchanged", lambda e: e.copy("unit"))
+case("video-a-training-without-recordings", lambda e: S("video", e.copy("train")), 2,
+     lambda e: str(e.copy("train")), "unchanged", lambda e: e.copy("train"))
+for opt, value in (("--fps", "0"), ("--fps", "nan"), ("--speed", "inf"), ("--speed", "-1")):
+    case(f"video-{opt[2:]}-{value}", lambda e, o=opt, v=value: S("video", e.copy("run"), o, v),
+         2, opt, "unchanged", lambda e: e.copy("run"))
+case("video-size-odd", lambda e: S("video", e.copy("run"), "--size", "641", "480"), 2, "--size",
+     "unchanged", lambda e: e.copy("run"))
+case("video-size-zero", lambda e: S("video", e.copy("run"), "--size", "0", "0"), 2, "--size",
+     "unchanged", lambda e: e.copy("run"))
+case("video-trial-out-of-range", lambda e: S("video", e.copy("run"), "--trial", "4"), 2,
+     "--trial", "unchanged", lambda e: e.copy("run"))
+case("video-out-not-mp4", lambda e: S("video", e.copy("run"), "--out", e.tmp / "v.avi"), 2,
+     "v.avi", "absent", lambda e: e.tmp / "v.avi")
+case("video-out-exists", lambda e: S("video", e.copy("run"), "--out", e.file("v.mp4", "mine")),
+     2, "v.mp4", "unchanged", lambda e: e.file("v.mp4", "mine"))
+case("video-tampered-robot", lambda e: S("video", e.tampered("run", "robot.npz")), 2,
+     "robot.npz", "unchanged", lambda e: e.tampered("run", "robot.npz"))
+case("export-after-plot-and-video", lambda e: S("export", e.derived("run"), "--format", "npz"),
+     0, None, "unchanged", lambda e: e.derived("run"), check=export_written(".npz"))
 case("power-trial-out-of-range", lambda e: S("power", e.copy("train"), "--trial", "3"), 2,
      "--trial", "unchanged", lambda e: e.copy("train"))
 case("power-trial-negative", lambda e: S("power", e.copy("train"), "--trial", "-1"), 2,
@@ -654,6 +735,19 @@ case("unit-spikes-none", lambda e: S("unit", "--seconds", "0.05", "--spikes", "n
                                      "none", "--no-progress", "--out", out(e)), 0, None,
      "complete", out)
 
+# ---- divergence: exit 3, one line naming population.variable and the time; the folder is
+# written whole and says so
+BLOW_UP = "r_IP3=1e306*umolar/second"  # IP3 without bound: the astrocytes go NaN within 0.05 s
+for cmd in (UNIT, RUN):
+    case(f"{cmd}-diverges", lambda e, c=cmd: S(c, "--seconds", "0.1", "--set", BLOW_UP, "--out",
+                                               out(e)),
+         3, "astrocyte.", "diverged", out, check=lambda e: said_when(e))
+case("run-robot-diverges", lambda e: S("run", "--seconds", "0.05", "--robot", e.geared_robot(),
+                                       "--out", out(e)),
+     3, "MuJoCo", "diverged", out, check=lambda e: said_when(e))
+case("train-diverges", lambda e: S("train", "--sessions", "3", "--set", BLOW_UP, "--out", out(e)),
+     3, "astrocyte.", "diverged", out, check=lambda e: diverged_row(out(e)))
+
 # ---- write failures (a fresh process: rlimits and mount namespaces)
 FSIZE = 20_000
 case("run-file-too-large", lambda e: S("run", "--seconds", "0.05", "--no-progress", "--out",
@@ -778,6 +872,9 @@ def test_case(c: Case, fx, tmp_path, capsys, monkeypatch) -> None:
         assert sha_tree(target) == before, f"{target} changed"
     elif c.state == "complete":
         verify(target)
+    elif c.state == "diverged":  # written whole, and it says so: never a finished-looking one
+        manifest = verify(target, strict=False)
+        assert manifest["results"].get("status") == "diverged", manifest["results"]
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists(), "MuJoCo wrote its log in the cwd"
     if c.check is not None:
         c.check(e)
@@ -787,7 +884,7 @@ def test_corpus_size() -> None:
     commands = {c.id.split("-")[0] for c in CASES}
     assert len(CASES) >= 60
     assert {"unit", "run", "train", "gait", "plot", "power", "study", "report", "export",
-            "describe", "robot"} <= commands
+            "describe", "robot", "video"} <= commands
 
 
 def test_help_lists_exit_codes(capsys) -> None:
@@ -803,3 +900,35 @@ def test_help_lists_exit_codes(capsys) -> None:
     for code in ("130", "diverged", "environment"):
         assert code in readme
     assert "exit code" in readme.lower()
+
+
+@pytest.mark.parametrize("typed", ["9*msec", "9*mv", "9 Ms", "9*milisecond"])
+def test_a_unit_message_suggests_a_spelling_the_parser_accepts(typed, capsys) -> None:
+    import re
+    code, _, err = run_in_process(["describe", "motor_neuron", "--set", f"tau_motor={typed}"],
+                                  capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    suggested = re.search(r"did you mean ([A-Za-z_]\w*)", err)
+    assert suggested, err
+    unit = suggested.group(1)
+    code, _, err = run_in_process(["describe", "motor_neuron", "--set",
+                                   f"tau_motor=9*{unit}"], capsys)
+    # the suggestion parses; the dimension may still be wrong for this parameter (mV), but
+    # then the message says so in one line rather than "unknown unit"
+    assert code in (0, 2) and "unknown unit" not in err, err
+
+
+def test_mujoco_warnings_stay_out_of_the_working_folder_and_stdout(tmp_path) -> None:
+    e = Env(tmp_path, {})
+    argv = S("run", "--seconds", "0.02", "--robot", e.geared_robot(), "--out", tmp_path / "o")
+    code, stdout, stderr = run_in_child(argv, e, {})
+    assert code == 3, stderr
+    assert "MuJoCo" in one_line_of(stderr)
+    assert "WARNING" not in stdout, stdout
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+
+
+def one_line_of(stderr: str) -> str:
+    lines = [x for x in stderr.splitlines() if x.strip()]
+    assert len(lines) == 1 and lines[0].startswith("astrocpg:"), stderr
+    return lines[0]
