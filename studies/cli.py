@@ -248,8 +248,36 @@ def _sigterm(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
+def _not_utf8(args: Sequence[str]) -> bool:
+    try:
+        "\0".join(args).encode("utf-8")
+    except UnicodeEncodeError:  # bytes that are not UTF-8, e.g. a file name in Latin-1
+        return True
+    return False
+
+
+def _survive_any_bytes() -> None:
+    """An argument that is not UTF-8 (a file name with other bytes) is a path like any other:
+    our messages print it escaped, and Brian2, which copies the command line into its temp
+    folder when imported (and fails on such bytes), is imported without that copy."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            try:
+                reconfigure(errors="backslashreplace")
+            except (ValueError, OSError):
+                pass
+    if "brian2" not in sys.modules and _not_utf8(sys.argv):
+        argv0, sys.argv[0] = sys.argv[0], ""  # no script to copy
+        try:
+            import brian2  # noqa: F401
+        finally:
+            sys.argv[0] = argv0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    _survive_any_bytes()
     warnings.filterwarnings("ignore", module="brian2")
     # Brian2 logs a second line on Ctrl-C ("Simulation stop requested"): we say "interrupted"
     logging.getLogger("brian2").addFilter(
