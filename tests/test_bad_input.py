@@ -387,6 +387,23 @@ case("unit-set-wrong-unit", lambda e: S("unit", "--set", "tau_motor=9*mV", "--ou
      "tau_motor", "absent", out)
 case("unit-set-no-equals", lambda e: S("unit", "--set", "tau_motor", "--out", out(e)), 2,
      "tau_motor", "absent", out)
+case("unit-set-empty-name", lambda e: S("unit", "--set", "=9*ms", "--out", out(e)), 2, "--set",
+     "absent", out)
+case("unit-set-empty-value", lambda e: S("unit", "--set", "tau_motor=", "--out", out(e)), 2,
+     "tau_motor", "absent", out)
+case("unit-spikes-empty-name", lambda e: S("unit", "--spikes", ",", "--out", out(e)), 2,
+     "--spikes", "absent", out)
+case("unit-out-root", lambda e: S("unit", "--out", "/"), 2, "--out /", "none")
+case("run-weights-trial-negative", lambda e: S("run", "--weights", e.fx["train"], "--trial",
+                                               "-1", "--out", out(e)),
+     2, "--trial", "absent", out)
+case("study-scheduler-refused", lambda e: S("study", e.study(study_text()), "--scheduler",
+                                            "tcp://127.0.0.1:1", "--out", out(e)),
+     2, "--scheduler", "absent", out)
+case("export-non-utf8-folder-name", lambda e: S("export", e.tmp / "no\udcffdir"), 2, "no",
+     "absent", lambda e: e.tmp / "no\udcffdir", subprocess={})
+case("unit-out-non-utf8-name", lambda e: S("unit", "--out", e.tmp / "u\udcffx"), 0, None,
+     "complete", lambda e: e.tmp / "u\udcffx", subprocess={})
 case("unit-set-inf-dimensionless", lambda e: S("unit", "--set", "A_random=inf", "--out",
                                                out(e)), 2, "A_random", "absent", out)
 case("run-set-negative-time-constant", lambda e: S("run", "--set", "tau_Ca=-5*ms", "--out",
@@ -932,3 +949,28 @@ def one_line_of(stderr: str) -> str:
     lines = [x for x in stderr.splitlines() if x.strip()]
     assert len(lines) == 1 and lines[0].startswith("astrocpg:"), stderr
     return lines[0]
+
+
+def _parameters() -> list[tuple[str, str, str]]:
+    import brian2
+    from astrocpg.models import DEFAULT_MODELS
+    out = []
+    for model, m in DEFAULT_MODELS.items():
+        for name in m.parameters:
+            dims = brian2.get_dimensions(m.parameters[name].value)
+            out.append((model, name, "" if dims.is_dimensionless
+                        else "*" + str(brian2.get_unit(dims))))
+    return out
+
+
+@pytest.mark.parametrize("value", ["inf", "-inf", "nan", "1e309"])
+def test_every_parameter_refuses_non_finite_values(value, capsys) -> None:
+    """nan, inf and 1e309 (inf once read) are refused for every parameter, with its unit."""
+    accepted = []
+    for model, name, unit in _parameters():
+        code, _, err = run_in_process(["describe", model, "--set", f"{name}={value}{unit}"],
+                                      capsys)
+        lines = [x for x in err.splitlines() if x.strip()]
+        if code != 2 or len(lines) != 1 or name not in lines[0]:
+            accepted.append((name, code, err))
+    assert not accepted, accepted
