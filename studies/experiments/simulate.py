@@ -89,20 +89,27 @@ def _collect(mons: dict[str, Any]) -> tuple[dict, dict]:
 
 
 class _Progress:
-    """A tqdm bar over simulated seconds, updated every ``every`` steps from inside the run."""
+    """A tqdm bar over simulated seconds, updated every ``every`` steps from inside the run;
+    shown from :meth:`open` (at the start of the run) to :meth:`close`, so that an error or an
+    interrupt before the run leaves no bar behind its one-line message."""
 
     def __init__(self, seconds: float, desc: str, enabled: bool, every: int = 100):
-        self.every = every
-        self.bar = tqdm(total=round(seconds, 3), unit="sim s", desc=desc, disable=not enabled,
+        self.every, self.seconds, self.desc, self.enabled = every, seconds, desc, enabled
+        self.bar: Any = None
+
+    def open(self) -> None:
+        self.bar = tqdm(total=round(self.seconds, 3), unit="sim s", desc=self.desc,
+                        disable=not self.enabled,
                         bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s "
                                    "[{elapsed}<{remaining}]")
 
     def __call__(self, step: int) -> None:
-        if step % self.every == 0:
+        if self.bar is not None and step % self.every == 0:
             self.bar.update(self.every * 1e-3)
 
     def close(self) -> None:
-        self.bar.close()
+        if self.bar is not None:
+            self.bar.close()
 
 
 def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int = 1,
@@ -184,6 +191,7 @@ def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
     t0 = time.perf_counter()
     t_end = network_time(cpg.net) + seconds
     try:
+        bar.open()
         run_network(cpg.net, seconds * second, namespace={})  # Diverged comes out as itself
     finally:
         bar.close()
