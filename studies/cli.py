@@ -284,7 +284,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         lambda record: "stop requested" not in record.getMessage())
     previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
-        return COMMANDS[args.command](args)
+        try:
+            return COMMANDS[args.command](args)
+        except Exception as e:
+            if _interrupted(e):  # cleanup that failed while an interrupt unwound the stack
+                raise KeyboardInterrupt from None
+            raise
     except AstrocpgError as e:
         sys.stderr.write(f"astrocpg: {_kind(e)}: {e.line}\n")
         return e.exit_code
@@ -308,6 +313,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _interrupted(e: BaseException) -> bool:
+    """Was ``e`` raised while a Ctrl-C/SIGTERM unwound the stack (e.g. a zip file that cannot
+    close its half-written member)? Then the command was interrupted, whatever came next."""
+    seen: set[int] = set()
+    err: BaseException | None = e
+    while err is not None and id(err) not in seen:
+        if isinstance(err, KeyboardInterrupt):
+            return True
+        seen.add(id(err))
+        err = err.__context__
+    return False
 
 
 def _kind(e: AstrocpgError) -> str:
