@@ -329,7 +329,8 @@ def run_folder(tmp_path_factory) -> Path:
     return out
 
 
-@pytest.mark.parametrize("delay", [0.5, 2.0, 3.5, 5.0])
+@pytest.mark.parametrize("delay", [pytest.param(0.5, marks=pytest.mark.slow), 2.0, 3.5,
+                                   pytest.param(5.0, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
 def test_export_interrupted_leaves_no_file_and_the_next_start_cleans(sig, delay, children,
                                                                      tmp_path, run_folder):
