@@ -135,6 +135,7 @@ def test_edited_equation_takes_effect_in_run(tmp_path):
         assert r1[pool][0] < 0.7 * r0[pool][0], (pool, r0[pool], r1[pool])
 
 
+@pytest.mark.slow
 def test_runs_a_user_supplied_a1(tmp_path, reference_a1_path):
     """--robot takes any MJCF with the A1's joint and motor names (here the authors' model)."""
     r = _run(tmp_path / "user", "--seconds", "1", "--robot", str(reference_a1_path))

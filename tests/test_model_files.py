@@ -162,6 +162,7 @@ astrocytes = true
 """
 
 
+@pytest.mark.slow
 def test_study_models_table_and_axis(capsys, tmp_path):
     from astrocpg.studies.sweeps.study import execute_run, load_study
 
@@ -204,6 +205,7 @@ def test_study_bad_model_file(capsys, tmp_path):
     assert "[models] astrocyte" in e.value.line and "lacks AG" in e.value.line
 
 
+@pytest.mark.slow
 def test_train_records_the_file_and_power_and_resume_use_it(capsys, tmp_path):
     text = _astrocyte_with_extra_term(_dump(capsys, "astrocyte"))
     f = tmp_path / "astro.toml"

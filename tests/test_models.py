@@ -166,6 +166,7 @@ def test_registering_the_scheme_twice_is_harmless():
     assert StateUpdateMethod.stateupdaters["input_then_decay"] is input_then_decay
 
 
+@pytest.mark.slow
 def test_registration_on_import_survives_a_reimport_in_a_fresh_process():
     import subprocess
     import sys

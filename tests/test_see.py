@@ -69,6 +69,7 @@ def test_trace_figures_of_a_run(run_dir):
                 assert ax.get_xlim() == pytest.approx((0.5, 1.0))
 
 
+@pytest.mark.slow
 def test_plot_a_run_writes_every_figure(run_dir, tmp_path, capsys):
     out = tmp_path / "figs"
     assert main(["plot", str(run_dir), "--window", "0.5", "1.5", "--format", "pdf",
@@ -95,6 +96,7 @@ def test_plot_refuses_bad_options(run_dir, tmp_path, capsys, argv, culprit):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_plot_a_unit(tmp_path):
     unit = tmp_path / "unit"
     assert main(["unit", "--seconds", "0.5", "--out", str(unit), "--no-progress"]) == 0
@@ -116,6 +118,7 @@ def _frames(path):
         return np.stack([f for f in reader])
 
 
+@pytest.mark.slow
 def test_video_of_a_run(run_dir, tmp_path):
     """2 s at 30 fps: 60 frames (+-1) that change along the run, the robot in the middle
     third. Robot pixels: a segmentation rendering of the same replay (same camera, same

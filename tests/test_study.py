@@ -252,6 +252,7 @@ def test_report_and_refusals(tmp_path: Path) -> None:
     assert main(["report", str(tmp_path)]) == 2
 
 
+@pytest.mark.slow
 def test_power_counts_come_from_the_network(tmp_path: Path) -> None:
     """Events per spike are counted on the built network; the estimate follows the paper's
     formula with the measured rates; the RL figure is the paper's."""

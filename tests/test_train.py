@@ -28,6 +28,7 @@ def _weights(out: Path) -> np.ndarray:
         return z["final_weights_mV"]
 
 
+@pytest.mark.slow
 def test_adenosine_alone_only_depresses(tmp_path):
     """With the reward term off (eta = 0) only adenosine acts: every learned weight is <= 0, and
     some are < 0 (the astrocytes release adenosine within a few sessions)."""
@@ -37,6 +38,7 @@ def test_adenosine_alone_only_depresses(tmp_path):
     assert np.all(w <= 0) and np.any(w < 0)
 
 
+@pytest.mark.slow
 def test_no_astrocytes_and_no_reward_learns_nothing(tmp_path):
     assert _train(tmp_path / "b", "--sessions", "3", "--seed", "2", "--no-astrocytes",
                   "--set", "eta=0*mV", "--set", "eta_ADO=1e-3*mV") == 0
@@ -46,6 +48,7 @@ def test_no_astrocytes_and_no_reward_learns_nothing(tmp_path):
     assert float(value) == 0.0
 
 
+@pytest.mark.slow
 def test_sessions_csv_rows(tmp_path):
     assert _train(tmp_path / "c", "--sessions", "3", "--trials", "2", "--seed", "1") == 0
     lines = (tmp_path / "c" / "sessions.csv").read_text().splitlines()
