@@ -18,7 +18,8 @@ from ..files.folder import OutputFolder, verify
 from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
 from ..files.result import Result
 from ..files.weights import load_weights
-from .settings import Overrides, model_files_record, model_set, number, override_items
+from .settings import (Overrides, model_files_record, model_set, number, override_items,
+                       seed_number)
 from .resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, firing_rates,
                        simulate_closed_loop)
@@ -58,7 +59,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
 
     seconds = number(seconds, "--seconds", positive=True)
     trials = number(trials, "--trials", integer=True, minimum=1)
-    seed = number(seed, "--seed", integer=True, minimum=0)
+    seed = seed_number(seed, trials=trials)
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
     robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
     check_duration(seconds, STEP)
@@ -212,7 +213,7 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
     """The trained tables of every trial of the training in ``folder``, run for ``seconds``
     with the training's models (one batch); returns the result and the tables (volt)."""
     seconds = number(seconds, "--seconds", positive=True)
-    seed = number(seed, "--seed", integer=True, minimum=0)
+    seed = seed_number(seed)
     verify(folder, strict=False)  # its files are what its manifest lists
     weights = load_weights(folder, culprit="")
     check_memory(estimate_bytes(trials=len(weights), seconds=seconds, dt=STEP, robot_stride=1),

@@ -130,3 +130,17 @@ def number(value: Any, culprit: str, *, integer: bool = False, minimum: float | 
     (:func:`astrocpg.models.values.finite_number`)."""
     return finite_number(value, culprit=culprit, kind=int if integer else float,
                          minimum=minimum, strictly_positive=positive)
+
+
+#: Brian2 seeds its (and numpy's legacy) generator with an unsigned 32-bit integer.
+MAX_SEED = 2**32 - 1
+
+
+def seed_number(value: Any, culprit: str = "--seed", trials: int = 1) -> int:
+    """A seed for ``trials`` trials (seeds value .. value + trials - 1), each in Brian2's range
+    0 .. 2**32 - 1, or an InputError naming the culprit."""
+    seed = number(value, culprit, integer=True, minimum=0)
+    if seed + trials - 1 > MAX_SEED:
+        raise InputError(f"must be at most {MAX_SEED - trials + 1} (seeds of {trials} trial(s) "
+                         f"up to 2**32 - 1), got {seed}", culprit=culprit)
+    return seed

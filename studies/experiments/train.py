@@ -35,7 +35,7 @@ from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_
                              write_manifest)
 from ..files.result import Result
 from .resources import check_memory, estimate_bytes
-from .settings import model_files_record, model_set, number, override_items
+from .settings import model_files_record, model_set, number, override_items, seed_number
 from .simulate import check_selection
 
 CHECKPOINT = "checkpoint.pkl"
@@ -369,10 +369,10 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
     session)``), with the live ``network`` and ``trainer`` (the :class:`Trainer`:
     ``trainer.training.memory.rows``, ``trainer.cpg``). Raises TrainingStopped if interrupted
     (continue with :func:`resume`)."""
+    n_trials = number(trials, "--trials", integer=True, minimum=1)
     settings = TrainSettings(
         n_sessions=number(sessions, "--sessions", integer=True, minimum=1),
-        seed=number(seed, "--seed", integer=True, minimum=0),
-        n_trials=number(trials, "--trials", integer=True, minimum=1),
+        seed=seed_number(seed, trials=n_trials), n_trials=n_trials,
         astrocytes=bool(astrocytes), overrides=override_items(overrides),
         equations=dict(equations or {}), models=model_files_record(models))
     model_set(settings.overrides, settings.equations, models=settings.models)  # before any file

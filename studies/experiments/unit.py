@@ -16,7 +16,8 @@ from ..analysis.rhythm import rhythm_summary
 from ..files.folder import OutputFolder
 from ..files.outputs import save_spikes_and_traces, write_manifest
 from ..files.result import Result
-from .settings import Overrides, model_files_record, model_set, number, override_items
+from .settings import (Overrides, model_files_record, model_set, number, override_items,
+                       seed_number)
 from .resources import check_memory, estimate_bytes
 from .simulate import STEP, SimulationResult, check_duration, check_selection, simulate_unit
 
@@ -46,7 +47,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
 
     seconds = number(seconds, "--seconds", positive=True)
     trials = number(trials, "--trials", integer=True, minimum=1)
-    seed = number(seed, "--seed", integer=True, minimum=0)
+    seed = seed_number(seed, trials=trials)
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
     check_duration(seconds, STEP)
     if out is not None:

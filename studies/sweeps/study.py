@@ -59,7 +59,7 @@ from ...coupling.training import SESSION_COLUMNS
 from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS
 from ..experiments.resources import check_memory, estimate_bytes
-from ..experiments.settings import model_files_record, model_set, read_model_files
+from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
 from ..files.folder import FolderLock, clean_stale_temporaries, clear_folder, holds_results
@@ -209,6 +209,9 @@ def load_study(path: str | os.PathLike) -> Study:
                          f"non-empty list of integers", culprit=where)
     if min(seeds) < 0:
         raise InputError("[study] seeds must be non-negative", culprit=where)
+    if max(seeds) > MAX_SEED:
+        raise InputError(f"[study] seeds must be at most {MAX_SEED} (2**32 - 1), got "
+                         f"{max(seeds)}", culprit=where)
     batch = head.get("batch", len(seeds))
     if not isinstance(batch, int) or isinstance(batch, bool) or batch < 1:
         raise InputError(f"[study] batch must be a positive integer, got {batch!r}", culprit=where)
