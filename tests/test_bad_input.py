@@ -387,6 +387,20 @@ case("unit-set-wrong-unit", lambda e: S("unit", "--set", "tau_motor=9*mV", "--ou
      "tau_motor", "absent", out)
 case("unit-set-no-equals", lambda e: S("unit", "--set", "tau_motor", "--out", out(e)), 2,
      "tau_motor", "absent", out)
+for cmd in (UNIT, "train", "gait"):
+    case(f"{cmd}-seed-2to32", lambda e, c=cmd: S(c, *([e.copy("train")] if c == "gait" else []),
+                                                 "--seed", str(2**32),
+                                                 *(["--out", out(e)] if c != "gait" else [])),
+         2, "--seed", "absent" if cmd != "gait" else "none", out)
+case("run-seeds-of-the-trials-beyond-2to32", lambda e: S("run", "--seed", str(2**32 - 1),
+                                                         "--trials", "2", "--out", out(e)),
+     2, "--seed", "absent", out)
+case("study-seed-2to32", lambda e: S("study", e.study(study_text(seeds=f"[{2**32}]")), "--out",
+                                     out(e)), 2, "seeds", "absent", out)
+case("unit-trace-dt-tiny", lambda e: S("unit", "--seconds", "10", "--trace-dt", "1e-6", "--out",
+                                       out(e)), 2, "memory", "absent", out)
+case("run-robot-a-folder", lambda e: S("run", "--robot", e.empty("a1.xml"), "--out", out(e)), 2,
+     "a1.xml", "absent", out)
 case("unit-set-empty-name", lambda e: S("unit", "--set", "=9*ms", "--out", out(e)), 2, "--set",
      "absent", out)
 case("unit-set-empty-value", lambda e: S("unit", "--set", "tau_motor=", "--out", out(e)), 2,
@@ -403,7 +417,7 @@ case("study-scheduler-refused", lambda e: S("study", e.study(study_text()), "--s
 case("export-non-utf8-folder-name", lambda e: S("export", e.tmp / "no\udcffdir"), 2, "no",
      "absent", lambda e: e.tmp / "no\udcffdir", subprocess={})
 case("unit-out-non-utf8-name", lambda e: S("unit", "--out", e.tmp / "u\udcffx"), 0, None,
-     "complete", lambda e: e.tmp / "u\udcffx", subprocess={})
+     "complete", lambda e: e.tmp / "u\udcffx", subprocess={}, marks=(pytest.mark.slow,))
 case("unit-set-inf-dimensionless", lambda e: S("unit", "--set", "A_random=inf", "--out",
                                                out(e)), 2, "A_random", "absent", out)
 case("run-set-negative-time-constant", lambda e: S("run", "--set", "tau_Ca=-5*ms", "--out",
@@ -603,8 +617,9 @@ case("video-out-exists", lambda e: S("video", e.copy("run"), "--out", e.file("v.
      2, "v.mp4", "unchanged", lambda e: e.file("v.mp4", "mine"))
 case("video-tampered-robot", lambda e: S("video", e.tampered("run", "robot.npz")), 2,
      "robot.npz", "unchanged", lambda e: e.tampered("run", "robot.npz"))
-case("export-after-plot-and-video", lambda e: S("export", e.derived("run"), "--format", "npz"),
-     0, None, "unchanged", lambda e: e.derived("run"), check=export_written(".npz"))
+case("export-after-plot-and-video", lambda e: S("export", e.derived("run_nospikes"), "--format",
+                                                "npz"),
+     0, None, "unchanged", lambda e: e.derived("run_nospikes"), check=export_written(".npz"))
 case("power-trial-out-of-range", lambda e: S("power", e.copy("train"), "--trial", "3"), 2,
      "--trial", "unchanged", lambda e: e.copy("train"))
 case("power-trial-negative", lambda e: S("power", e.copy("train"), "--trial", "-1"), 2,
@@ -794,7 +809,7 @@ case("unit-bad-equation-leaves-no-debug-files",
      subprocess={"tmpdir": True})
 case("unit-short-leaves-no-debug-files",
      lambda e: S("unit", "--seconds", "0.01", "--no-progress", "--out", out(e)), 0, None,
-     "complete", out, subprocess={"tmpdir": True})
+     "complete", out, subprocess={"tmpdir": True}, marks=(pytest.mark.slow,))
 
 
 # ---------------------------------------------------------------- running a case
