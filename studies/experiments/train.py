@@ -242,6 +242,10 @@ class Trainer:
         except Diverged:
             self.write_outputs()  # the sessions so far and the diverged one
             raise
+        except KeyboardInterrupt:
+            # Ctrl-C/SIGTERM outside Brian2's loop (while it prepares the run): stopped like
+            # a stop inside it, the sessions done so far written (the checkpoint stays)
+            pass
         finally:
             self.bar.close()
         self.write_outputs()
@@ -468,7 +472,6 @@ def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
     manifest = dict(command="train", seed=settings.seed,
                     settings=settings.__dict__ | {"record": record_json},
                     models_json=trainer.models.to_json(), files=TRAIN_FILES)
-    write_manifest(out, **manifest, results={"status": "running"}, history=True)
 
     def progress_manifest() -> None:  # the inventory follows every checkpoint
         done = trainer.training.sessions_done.tolist()
@@ -477,7 +480,12 @@ def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
 
     trainer.on_checkpoint = progress_manifest
     try:
-        wall = trainer.run()  # raises TrainingStopped (files written) when interrupted
+        try:
+            write_manifest(out, **manifest, results={"status": "running"}, history=True)
+            wall = trainer.run()  # raises TrainingStopped (files written) when interrupted
+        except KeyboardInterrupt:  # outside the network's run: stopped all the same
+            raise TrainingStopped(int(trainer.training.sessions_done.sum()),
+                                  settings.n_trials * settings.n_sessions) from None
     except TrainingStopped as e:
         write_manifest(out, **manifest, results={"status": "interrupted", "error": str(e)},
                        history=True)
