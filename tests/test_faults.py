@@ -25,7 +25,7 @@ from typing import Callable
 
 import pytest
 
-from astrocpg.studies.files.folder import parse_temp_name, verify
+from astrocpg.studies.files.folder import LOCK_NAME, OWNER_NAME, parse_temp_name, verify
 
 CLI = [sys.executable, "-m", "astrocpg.studies.cli"]
 # a short training: sessions of at most 0.3 s, 2 trials
@@ -139,9 +139,13 @@ def one_line(err: str) -> str:
     return lines[0]
 
 
-def sha_tree(root: Path) -> dict[str, str]:
+def sha_tree(root: Path, locks: bool = True) -> dict[str, str]:
+    """relative path -> sha256 of every file below ``root``; ``locks=False``: without the lock
+    files a killed process may leave at the top (by design: the kernel drops the lock, the
+    files stay; see FolderLock)."""
     return {p.relative_to(root).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*")) if p.is_file()}
+            for p in sorted(root.rglob("*")) if p.is_file()
+            and (locks or p.relative_to(root).as_posix() not in (LOCK_NAME, OWNER_NAME))}
 
 
 def temporaries(parent: Path) -> list[str]:
@@ -272,15 +276,21 @@ def test_train_interrupted_after_sessions_resumes_to_the_same_result(sig, childr
     c.no_debug_files()
 
 
-@pytest.mark.parametrize("then", ["resume", "overwrite"])
-def test_train_killed_before_its_first_checkpoint_resumes_or_is_replaced(then, children,
-                                                                         tmp_path, baseline):
+@pytest.mark.parametrize("sig, then", [(signal.SIGKILL, "resume"), (signal.SIGKILL, "overwrite"),
+                                       (signal.SIGINT, "resume")],
+                         ids=["SIGKILL-resume", "SIGKILL-overwrite", "SIGINT-resume"])
+def test_train_stopped_before_its_first_checkpoint_resumes_or_is_replaced(sig, then, children,
+                                                                          tmp_path, baseline):
     out = tmp_path / "train"
     c = children("train", *TRAIN, "--out", out)
     # the folder holds its manifest (status running) before the first session ends
     c.until(lambda: (out / "manifest.json").exists(), "the training's manifest", poll=0.001)
-    c.signal(signal.SIGKILL)
-    c.finish()
+    c.signal(sig)
+    code = c.finish()
+    if sig == signal.SIGINT and not (out / "checkpoint.pkl").exists():
+        assert code == 130, c.stderr
+        assert f"--resume {out}" in one_line(c.stderr)
+        assert manifest_status(out) == "interrupted"
     if (out / "checkpoint.pkl").exists():
         pytest.skip("the first checkpoint came before the kill")
     if then == "resume":
@@ -391,13 +401,53 @@ def test_export_signalled_while_its_temporary_exists(sig, children, tmp_path, ru
         assert "spikes_motor_times" in z.files
 
 
+# ---------------------------------------------------------------- plot and report
+@pytest.fixture(scope="module")
+def unit_folder(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("plot") / "unit"
+    proc = subprocess.run([*CLI, "unit", "--seconds", "1", "--no-progress", "--out", str(out)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+@pytest.mark.parametrize("cmd, sig", [("plot", signal.SIGINT), ("report", signal.SIGKILL)])
+def test_interrupted_figures_leave_the_previous_ones_whole(cmd, sig, children, tmp_path,
+                                                           unit_folder, study_baseline):
+    """plot and report replace their figure folder whole on every call: interrupted, the
+    previous figures stay byte for byte; the next start removes the temporaries."""
+    source = study_baseline[2] if cmd == "report" else unit_folder
+    folder = tmp_path / "src"
+    shutil.copytree(source, folder)
+    name = "report" if cmd == "report" else "figures"
+    first = children(cmd, folder, name="first")
+    assert first.finish() == 0, first.stderr
+    before = sha_tree(folder / name)
+    c = children(cmd, folder, name="second")
+    caught = c.until(partial_exists(folder, name), "the temporary folder", poll=0.001)
+    c.signal(sig)
+    code = c.finish()
+    if code != 0:
+        assert caught
+        assert sha_tree(folder / name, locks=sig != signal.SIGKILL) == before, \
+            "an interrupted plot changed the old figures"
+        if sig != signal.SIGKILL:
+            assert code == 130 and one_line(c.stderr) == "astrocpg: interrupted"
+            assert temporaries(folder) == []
+    verify(folder / name)
+    again = children(cmd, folder, name="again")
+    assert again.finish() == 0, again.stderr
+    assert temporaries(folder) == []
+    verify(folder / name)
+
+
 # ---------------------------------------------------------------- study
 def results(out: Path) -> bytes:
     return (out / "results.csv").read_bytes()
 
 
 @pytest.fixture(scope="module")
-def study_baseline(tmp_path_factory) -> tuple[Path, bytes]:
+def study_baseline(tmp_path_factory) -> tuple[Path, bytes, Path]:
     base = tmp_path_factory.mktemp("study")
     spec = base / "faults.toml"
     spec.write_text(STUDY)
@@ -406,7 +456,7 @@ def study_baseline(tmp_path_factory) -> tuple[Path, bytes]:
                            "--no-progress"], capture_output=True, text=True, timeout=900,
                           env={**os.environ, "PYTHONWARNINGS": "ignore"})
     assert proc.returncode == 0, proc.stderr
-    return spec, results(out)
+    return spec, results(out), out
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, pytest.param(signal.SIGKILL,
@@ -414,7 +464,7 @@ def study_baseline(tmp_path_factory) -> tuple[Path, bytes]:
                          ids=["SIGINT", "SIGKILL"])
 def test_study_interrupted_continues_to_the_same_result(sig, children, tmp_path,
                                                         study_baseline):
-    spec, expected = study_baseline
+    spec, expected, _ = study_baseline
     out = tmp_path / "out"
     argv = ["study", spec, "--out", out, "--workers", "2", "--no-progress"]
     c = children(*argv)
@@ -436,7 +486,7 @@ def test_study_interrupted_continues_to_the_same_result(sig, children, tmp_path,
 
 
 def test_second_study_on_one_folder_is_refused(children, tmp_path, study_baseline):
-    spec, _ = study_baseline
+    spec, _, _ = study_baseline
     out = tmp_path / "out"
     argv = ["study", spec, "--out", out, "--workers", "1", "--no-progress"]
     first = children(*argv, name="first")
