@@ -259,6 +259,8 @@ def study_text(**head: Any) -> str:
     return "\n".join(lines) + '\n[base]\nL_max = "0.2*second"\n'
 
 
+GRID = ("[sweep.axes]\nL_max = [" + ", ".join(f'"{0.1 + k * 1e-4:.5f}*second"' for k in range(1000))
+        + "]\ntau_STDP = [" + ", ".join(f'"{5 + k * 1e-3:.4f}*ms"' for k in range(1000)) + "]\n")
 EVIL_FLAG = Path(tempfile.gettempdir()) / "astrocpg_evaluated_a_value"
 EVIL = f"__import__('os').system('touch {EVIL_FLAG}')"
 # the classic escape from eval with empty builtins
@@ -650,6 +652,8 @@ case("study-million-seeds", lambda e: S("study", e.study(study_text(
 case("study-million-seeds-in-one-batch", lambda e: S("study", e.study(study_text(
     seeds="{ first = 1, count = 90000 }", batch="90000")), "--out", out(e)), 2, "memory",
      "absent", out)
+case("study-million-runs-by-a-sweep", lambda e: S("study", e.study(study_text() + GRID), "--out",
+                                                  out(e)), 2, "trainings", "absent", out)
 case("study-unknown-key", lambda e: S("study", e.study(study_text(sesions="3")), "--out",
                                       out(e)), 2, "sesions", "absent", out)
 case("study-value-evaluated", lambda e: S("study", e.study(

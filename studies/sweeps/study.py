@@ -41,6 +41,7 @@ from __future__ import annotations
 import csv
 import itertools
 import json
+import math
 import logging
 import os
 import re
@@ -267,6 +268,14 @@ def load_study(path: str | os.PathLike) -> Study:
         raise InputError(f"[sweep] mode \"zip\" needs axes of equal length "
                          f"({', '.join(f'{k}: {len(v)}' for k, v in axes.items())})", culprit=where)
     names = list(axes)
+    n_points = math.prod(len(v) for v in axes.values()) if mode == "grid" \
+        else min((len(v) for v in axes.values()), default=1)
+    n_conditions = len(doc["conditions"]) if isinstance(doc.get("conditions"), dict) else 1
+    trainings = n_points * max(n_conditions, 1) * len(seeds)
+    if trainings > MAX_SEEDS:  # before building (and checking) a million runs
+        raise InputError(f"{trainings} trainings ({n_points} sweep point(s) x {n_conditions} "
+                         f"condition(s) x {len(seeds)} seed(s)) is more than {MAX_SEEDS}",
+                         culprit=where)
     if not names:
         points: list[dict[str, str]] = [{}]
     elif mode == "grid":
