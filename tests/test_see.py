@@ -74,7 +74,8 @@ def test_plot_a_run_writes_every_figure(run_dir, tmp_path, capsys):
     out = tmp_path / "figs"
     assert main(["plot", str(run_dir), "--window", "0.5", "1.5", "--format", "pdf",
                  "--out", str(out)]) == 0
-    assert {p.name for p in out.iterdir()} == {f"{n}.pdf" for n in RUN_FIGURES}
+    # the figures and the folder's manifest (its inventory makes the folder verifiable)
+    assert {p.name for p in out.iterdir()} == {f"{n}.pdf" for n in RUN_FIGURES} | {"manifest.json"}
     assert all((out / f"{n}.pdf").read_bytes().startswith(b"%PDF") for n in RUN_FIGURES)
     # --out that exists: refused; the default folder is replaced whole each time
     assert main(["plot", str(run_dir), "--out", str(out)]) == 2
@@ -103,7 +104,7 @@ def test_plot_a_unit(tmp_path):
     import astrocpg as ac
 
     written = ac.plot(unit, fmt="svg")
-    names = {p.name for p in (unit / "figures").iterdir()}
+    names = {p.name for p in (unit / "figures").iterdir()} - {"manifest.json"}
     assert names == {p.name for p in written}
     assert {"rasters.svg", "pool_activity.svg", "motor_calcium.svg",
             "astrocyte_FR_thigh_flexor.svg", "gait_diagram.svg"} <= names
@@ -196,7 +197,7 @@ def test_plot_and_video_of_a_training(tmp_path):
     assert {"weights.png", "training.png", "thigh_extensor_activity.png",
             "gait.png"} <= {p.name for p in figs.iterdir()}
     sub = sorted(figs.glob("recording_trial00_session*"))[-1]
-    assert {f"{n}.png" for n in RUN_FIGURES} == {p.name for p in sub.iterdir()}
+    assert {f"{n}.png" for n in RUN_FIGURES} == {p.name for p in sub.iterdir()} - {"manifest.json"}
     # a recorded session plots and replays like a run
     session = sorted((train / "recordings").iterdir())[-1]
     assert main(["plot", str(session)]) == 0
