@@ -936,9 +936,13 @@ def test_corpus_size() -> None:
             "describe", "robot", "video"} <= commands
 
 
-def test_help_lists_exit_codes(capsys) -> None:
+@pytest.mark.parametrize("command", [[], ["unit"], ["run"], ["train"], ["gait"], ["plot"],
+                                     ["video"], ["study"], ["report"], ["power"], ["export"],
+                                     ["describe"], ["robot", "export"]],
+                         ids=lambda c: " ".join(c) or "astrocpg")
+def test_help_lists_exit_codes(command, capsys) -> None:
     with pytest.raises(SystemExit) as e:
-        main(["--help"])
+        main([*command, "--help"])
     assert e.value.code == 0
     text = capsys.readouterr().out
     for code, word in (("0", "done"), ("1", "environment"), ("2", "bad input"),
