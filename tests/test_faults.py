@@ -318,7 +318,8 @@ def test_second_training_on_one_folder_is_refused_and_the_first_finishes(childre
     first = children("train", *long, "--out", out, name="first")
     assert first.until(lambda: rows(out) >= 1, "the first session", poll=0.01), first.stderr
     seconds = [children(*argv, name="second") for argv in
-               (["train", "--resume", out], ["train", *long, "--out", out, "--overwrite"])]
+               (["train", "--resume", out], ["train", *long, "--out", out, "--overwrite"],
+                ["run", "--seconds", "0.01", "--no-progress", "--out", out, "--overwrite"])]
     for second in seconds:
         assert second.finish() == 2, second.stderr
         line = one_line(second.stderr)
