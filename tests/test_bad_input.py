@@ -1010,3 +1010,7 @@ def test_every_parameter_refuses_non_finite_values(value, capsys) -> None:
         if code != 2 or len(lines) != 1 or name not in lines[0]:
             accepted.append((name, code, err))
     assert not accepted, accepted
+
+
+# The whole table (and every signal case) is long: CI runs it (CI=true); `pytest -m slow` here.
+pytestmark = pytest.mark.slow

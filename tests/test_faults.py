@@ -529,3 +529,7 @@ def test_a_diverging_run_of_a_study_is_recorded_as_failed_with_its_reason(childr
     assert json.loads((out / "runs" / "astro__seed1" / "status.json").read_text())["state"] == \
         "finished"
     c.no_debug_files()
+
+
+# The whole table (and every signal case) is long: CI runs it (CI=true); `pytest -m slow` here.
+pytestmark = pytest.mark.slow

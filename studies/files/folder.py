@@ -382,12 +382,20 @@ class OutputFolder:
     def _discard(self) -> None:
         """Delete the temporary and the parent folders this created (if still empty)."""
         try:
-            if self.tmp is not None:
+            mine = [self.tmp] if self.tmp is not None else []
+            # an interrupt between mkdtemp's return and the assignment of self.tmp leaves a
+            # temporary no attribute names: find this process's own by its pid-tagged prefix
+            prefix = temp_prefix(self.target.name, "partial")
+            try:
+                mine += [p for p in self.target.parent.iterdir() if p.name.startswith(prefix)]
+            except OSError:
+                pass
+            for tmp in dict.fromkeys(mine):
                 try:
-                    _remove(self.tmp)
+                    _remove(tmp)
                 except OSError:
                     pass  # its name carries this pid: the next start removes it
-                self.tmp = None
+            self.tmp = None
             for d in reversed(self._created):
                 try:
                     os.rmdir(d)
