@@ -44,6 +44,11 @@ EXIT_HELP = """exit codes:
 
 
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:  # every --help lists the exit codes
+        kwargs.setdefault("epilog", EXIT_HELP)
+        kwargs.setdefault("formatter_class", argparse.RawDescriptionHelpFormatter)
+        super().__init__(*args, **kwargs)
+
     def error(self, message: str) -> None:  # one line, exit 2 (argparse prints usage too)
         sys.stderr.write(f"astrocpg: error: {one_line(message)}\n")
         raise SystemExit(2)

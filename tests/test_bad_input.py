@@ -166,6 +166,17 @@ class Env:
             return p
         return self._once("geared", make)
 
+    def resaved_weights(self) -> Path:
+        """A training copy whose weights.npz was saved again with other (valid) tables."""
+        def make() -> Path:
+            d = self.copy("train", "train_resaved")
+            with np.load(d / "weights.npz") as z:
+                arrays = {k: z[k] for k in z.files}
+            arrays["final_weights_mV"][..., 0, 2] += 0.5  # FR flexor -> FL flexor: allowed
+            np.savez_compressed(d / "weights.npz", **arrays)
+            return d
+        return self._once("resaved", make)
+
     def derived(self, which: str) -> Path:
         """A copy with what later commands write into it: plot's figures/, a video's mp4."""
         def make() -> Path:
@@ -480,6 +491,8 @@ case("run-weights-binary", lambda e: S("run", "--weights", e.file("w.npy", b"\x9
 case("run-weights-truncated-npz",
      lambda e: S("run", "--weights", e.tampered("train", "weights.npz", "truncate"), "--out",
                  out(e)), 2, "train_truncate", "absent", out)
+case("run-weights-folder-modified", lambda e: S("run", "--weights", e.resaved_weights(), "--out",
+                                                 out(e)), 2, "weights.npz", "absent", out)
 case("run-weights-folder-without-weights", lambda e: S("run", "--weights", e.copy("unit"),
                                                        "--out", out(e)),
      2, "unit", "absent", out)
@@ -923,9 +936,13 @@ def test_corpus_size() -> None:
             "describe", "robot", "video"} <= commands
 
 
-def test_help_lists_exit_codes(capsys) -> None:
+@pytest.mark.parametrize("command", [[], ["unit"], ["run"], ["train"], ["gait"], ["plot"],
+                                     ["video"], ["study"], ["report"], ["power"], ["export"],
+                                     ["describe"], ["robot", "export"]],
+                         ids=lambda c: " ".join(c) or "astrocpg")
+def test_help_lists_exit_codes(command, capsys) -> None:
     with pytest.raises(SystemExit) as e:
-        main(["--help"])
+        main([*command, "--help"])
     assert e.value.code == 0
     text = capsys.readouterr().out
     for code, word in (("0", "done"), ("1", "environment"), ("2", "bad input"),

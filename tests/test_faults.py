@@ -13,6 +13,7 @@ weights.npz byte for byte); two trainings on one folder: the second is refused i
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import os
 import shutil
@@ -43,6 +44,20 @@ L_non_alive = "0.15*second"
 [conditions.astro]
 astrocytes = true
 """
+
+
+SIGNALS = {"SIGINT": signal.SIGINT, "SIGTERM": signal.SIGTERM, "SIGKILL": signal.SIGKILL}
+
+
+def grid(*axes: dict, slow: set[str] = frozenset()) -> list:
+    """pytest params of every combination of the axes ({id: value}); the combinations named in
+    ``slow`` are marked slow (the default run keeps one or two of each signal per command)."""
+    params = []
+    for combo in itertools.product(*(list(a.items()) for a in axes)):
+        name = "-".join(k for k, _ in combo)
+        params.append(pytest.param(*(v for _, v in combo), id=name,
+                                   marks=(pytest.mark.slow,) if name in slow else ()))
+    return params
 
 
 # ---------------------------------------------------------------- child processes
@@ -176,9 +191,8 @@ SIM = {"unit": ["--seconds", "4", "--trace-dt", "1"],
        "run": ["--seconds", "4", "--robot-stride", "1"]}
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL],
-                         ids=["SIGINT", "SIGTERM", "SIGKILL"])
-@pytest.mark.parametrize("cmd", ["unit", "run"])
+@pytest.mark.parametrize("cmd, sig", grid({"unit": "unit", "run": "run"}, SIGNALS,
+                                          slow={"run-SIGTERM", "run-SIGKILL"}))
 def test_signal_while_simulating_leaves_no_folder(cmd, sig, children, tmp_path):
     out = tmp_path / "res" / "out"
     c = children(cmd, *SIM[cmd], "--out", out)
@@ -197,9 +211,8 @@ def test_signal_while_simulating_leaves_no_folder(cmd, sig, children, tmp_path):
     c.no_debug_files()
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL],
-                         ids=["SIGINT", "SIGTERM", "SIGKILL"])
-@pytest.mark.parametrize("cmd", ["unit", "run"])
+@pytest.mark.parametrize("cmd, sig", grid({"unit": "unit", "run": "run"}, SIGNALS,
+                                          slow={"unit-SIGTERM", "unit-SIGKILL", "run-SIGINT"}))
 def test_signal_while_writing_leaves_nothing_or_the_whole_folder(cmd, sig, children, tmp_path):
     parent = tmp_path / "res"
     parent.mkdir()
@@ -249,8 +262,7 @@ def resume(children, folder: Path) -> None:
     assert manifest_status(folder) == "finished"
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL],
-                         ids=["SIGINT", "SIGTERM", "SIGKILL"])
+@pytest.mark.parametrize("sig", grid(SIGNALS, slow={"SIGTERM"}))
 def test_train_interrupted_after_sessions_resumes_to_the_same_result(sig, children, tmp_path,
                                                                      baseline):
     out = tmp_path / "train"
@@ -276,9 +288,9 @@ def test_train_interrupted_after_sessions_resumes_to_the_same_result(sig, childr
     c.no_debug_files()
 
 
-@pytest.mark.parametrize("sig, then", [(signal.SIGKILL, "resume"), (signal.SIGKILL, "overwrite"),
-                                       (signal.SIGINT, "resume")],
-                         ids=["SIGKILL-resume", "SIGKILL-overwrite", "SIGINT-resume"])
+@pytest.mark.parametrize("sig, then", grid({"SIGKILL": signal.SIGKILL, "SIGINT": signal.SIGINT},
+                                          {"resume": "resume", "overwrite": "overwrite"},
+                                          slow={"SIGKILL-overwrite", "SIGINT-overwrite"}))
 def test_train_stopped_before_its_first_checkpoint_resumes_or_is_replaced(sig, then, children,
                                                                           tmp_path, baseline):
     out = tmp_path / "train"
@@ -318,7 +330,8 @@ def test_second_training_on_one_folder_is_refused_and_the_first_finishes(childre
     first = children("train", *long, "--out", out, name="first")
     assert first.until(lambda: rows(out) >= 1, "the first session", poll=0.01), first.stderr
     seconds = [children(*argv, name="second") for argv in
-               (["train", "--resume", out], ["train", *long, "--out", out, "--overwrite"])]
+               (["train", "--resume", out], ["train", *long, "--out", out, "--overwrite"],
+                ["run", "--seconds", "0.01", "--no-progress", "--out", out, "--overwrite"])]
     for second in seconds:
         assert second.finish() == 2, second.stderr
         line = one_line(second.stderr)
@@ -339,9 +352,10 @@ def run_folder(tmp_path_factory) -> Path:
     return out
 
 
-@pytest.mark.parametrize("delay", [pytest.param(0.5, marks=pytest.mark.slow), 2.0, 3.5,
-                                   pytest.param(5.0, marks=pytest.mark.slow)])
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
+@pytest.mark.parametrize("sig, delay", grid(
+    {"SIGINT": signal.SIGINT, "SIGKILL": signal.SIGKILL},
+    {"0.5": 0.5, "2.0": 2.0, "3.5": 3.5, "5.0": 5.0},
+    slow={"SIGINT-0.5", "SIGINT-2.0", "SIGINT-5.0", "SIGKILL-0.5", "SIGKILL-3.5", "SIGKILL-5.0"}))
 def test_export_interrupted_leaves_no_file_and_the_next_start_cleans(sig, delay, children,
                                                                      tmp_path, run_folder):
     folder = tmp_path / "run"
@@ -371,8 +385,7 @@ def test_export_interrupted_leaves_no_file_and_the_next_start_cleans(sig, delay,
     c.no_debug_files()
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL],
-                         ids=["SIGINT", "SIGTERM", "SIGKILL"])
+@pytest.mark.parametrize("sig", grid(SIGNALS, slow={"SIGINT"}))
 def test_export_signalled_while_its_temporary_exists(sig, children, tmp_path, run_folder):
     folder = tmp_path / "run"
     shutil.copytree(run_folder, folder)
@@ -411,7 +424,8 @@ def unit_folder(tmp_path_factory) -> Path:
     return out
 
 
-@pytest.mark.parametrize("cmd, sig", [("plot", signal.SIGINT), ("report", signal.SIGKILL)])
+@pytest.mark.parametrize("cmd, sig", [("plot", signal.SIGINT), ("report", signal.SIGKILL)],
+                         ids=["plot-SIGINT", "report-SIGKILL"])
 def test_interrupted_figures_leave_the_previous_ones_whole(cmd, sig, children, tmp_path,
                                                            unit_folder, study_baseline):
     """plot and report replace their figure folder whole on every call: interrupted, the
@@ -459,9 +473,7 @@ def study_baseline(tmp_path_factory) -> tuple[Path, bytes, Path]:
     return spec, results(out), out
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, pytest.param(signal.SIGKILL,
-                                                             marks=pytest.mark.slow)],
-                         ids=["SIGINT", "SIGKILL"])
+@pytest.mark.parametrize("sig", grid({"SIGINT": signal.SIGINT, "SIGKILL": signal.SIGKILL}))
 def test_study_interrupted_continues_to_the_same_result(sig, children, tmp_path,
                                                         study_baseline):
     spec, expected, _ = study_baseline
@@ -485,6 +497,7 @@ def test_study_interrupted_continues_to_the_same_result(sig, children, tmp_path,
     c.no_debug_files()
 
 
+@pytest.mark.slow
 def test_second_study_on_one_folder_is_refused(children, tmp_path, study_baseline):
     spec, _, _ = study_baseline
     out = tmp_path / "out"

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import json
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
 
 from ...errors import InputError
+from .folder import MANIFEST, verify
 
 WEIGHTS = "weights.npz"
 
@@ -23,10 +25,12 @@ def load_weights(path: str | Path, trial: int | None = None, *,
     if p.is_dir():
         if not (p / WEIGHTS).is_file():
             raise InputError(f"folder holds no {WEIGHTS} (not a training run)", culprit=where)
+        if (p / MANIFEST).is_file():  # a training's: the tables are what its manifest lists
+            verify(p, culprit=where, strict=False, only=(WEIGHTS,))
         try:
             with np.load(p / WEIGHTS) as z:
                 w = np.asarray(z["final_weights_mV"], dtype=float)
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error):
             raise InputError(f"{WEIGHTS} is corrupt or truncated", culprit=where) from None
         if w.ndim != 3 or w.shape[-2:] != (8, 8):
             raise InputError(f"{WEIGHTS} holds tables of shape {w.shape}, not (trials, 8, 8)",
