@@ -20,7 +20,8 @@ from ..errors import InputError
 from ..models import ModelSet
 from ..network import CPG, LEGS, build_cpg, check_runs, run_network
 from .bridge import Bridge
-from .robot import A1Parameters, RobotLayout, build_model
+from .robot import A1Parameters, RobotLayout
+from .world import add_disturbances, world_model
 
 
 @dataclass
@@ -53,8 +54,11 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
                       check_every: int = 10, check: bool = True) -> ClosedLoop:
     """Robot + CPG + bridge from settings, the bridge's operation added to the network.
 
-    robot: None = the project's A1 (``build_model(robot_params)``), or an MjModel with the A1's
-        joints and motors whose timestep is the CPG's step.
+    robot: None = the project's A1 in the world of ``models.world`` (slope, terrain, friction,
+        payload: :func:`~astrocpg.coupling.world.world_model`), or an MjModel with the A1's
+        joints and motors whose timestep is the CPG's step, used as it is (put a model of your
+        own in the world with ``world_model(models, robot=...)`` first). The world's push and
+        torque noise act every step either way (a bridge hook named ``world``).
     robot_layout: the robot's addresses (default: read from ``robot`` with ``robot_params``).
     robot_params: reset pose and, for the project's A1, the model itself (default A1Parameters()).
     weights: inter-limb tables, (8, 8) or (n_trials, 8, 8) volt (default zero).
@@ -62,7 +66,7 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
     check: prepare every Brian2 object first (:func:`check_runs`: one-line errors naming the model).
     """
     params = robot_params if robot_params is not None else A1Parameters()
-    model = build_model(params) if robot is None else robot
+    model = world_model(models, params) if robot is None else robot
     if not model.opt.timestep > 0:
         raise InputError(f"robot timestep must be positive, got {model.opt.timestep}")
     layout = robot_layout if robot_layout is not None else RobotLayout.from_model(model, params)
@@ -71,6 +75,7 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
     if check:
         check_runs(cpg)
     bridge = Bridge(cpg, model, layout, models, on_step=on_step, check_every=check_every)
+    add_disturbances(bridge, models)
     cpg.net.add(bridge.operation())
     return ClosedLoop(cpg=cpg, robot=model, robot_layout=layout, bridge=bridge, models=models)
 

@@ -157,6 +157,8 @@ class Bridge:
         B = self.n_trials = cpg.n_trials
         self.data = [mujoco.MjData(model) for _ in range(B)]
         self.step_count = 0  # physics steps done (hooks of a step see it counted)
+        # step_count at each trial's last reset: the start of its session
+        self.session_start = np.zeros(B, dtype=np.int64)
         self.recording: Recording | None = None
         if int(check_every) < 0:
             raise ValueError(f"check_every must be 0 (off) or positive, got {check_every}")
@@ -251,6 +253,11 @@ class Bridge:
         # the step loops over these precomputed tuples only
         self._run = {s: tuple(h.fn for h in self.hooks(s)) for s in STAGES}
 
+    @property
+    def actuators(self) -> np.ndarray:
+        """(4, 3) index into :attr:`ctrl` of each leg's hip, thigh and calf motor."""
+        return self._act
+
     # ---- torso state (world frame unless noted), after the last physics step
     @property
     def torso_position(self) -> np.ndarray:
@@ -282,6 +289,7 @@ class Bridge:
         """Reset one trial's robot and the bridge's per-trial state (hip integrator)."""
         reset(self.model, self.data[b], self.layout)
         self.hip_integral[b] = 0.0
+        self.session_start[b] = self.step_count
         self._read(b)
         self._sense()
 
@@ -290,6 +298,7 @@ class Bridge:
             reset(self.model, self.data[b], self.layout)
             self._read(b)
         self.hip_integral[:] = 0.0
+        self.session_start[:] = self.step_count
         self._sense()
 
     def _read(self, b: int) -> None:

@@ -29,6 +29,7 @@ from .base import (
     Parameter,
     ParameterTable,
     SynapseModel,
+    WorldModel,
 )
 from .integration import INPUT_THEN_DECAY, register_method, registered_methods
 from .hip_controller import HIP_CONTROLLER
@@ -41,6 +42,7 @@ from .pool import POOL, POOL_ACTIVITY
 from .reward import REWARD
 from .session import LEARNING_START, PROGRESS
 from .torque import TORQUE
+from .world import WORLD
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -66,6 +68,7 @@ class ModelSet:
     learning_start: ExpressionModel = LEARNING_START
     snn_power: ExpressionModel = SNN_POWER
     rl_power: ExpressionModel = RL_POWER
+    world: WorldModel = WORLD
 
     def __post_init__(self) -> None:
         owners: dict[str, str] = {}
@@ -167,6 +170,6 @@ others). Declared in each model's module as ``INTERFACE``."""
 
 __all__ = [
     "ModelSet", "DEFAULT_MODELS", "INTERFACES", "Model", "BrianModel", "NeuronModel", "SynapseModel",
-    "ExpressionModel", "Parameter", "ParameterTable", "INPUT_THEN_DECAY", "register_method",
+    "ExpressionModel", "WorldModel", "Parameter", "ParameterTable", "INPUT_THEN_DECAY", "register_method",
     "registered_methods",
 ]

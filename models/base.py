@@ -484,6 +484,24 @@ class ExpressionModel(Model):
                                   constants=consts)
 
 
+@dataclass(frozen=True, kw_only=True)
+class WorldModel(Model):
+    """The robot's surroundings (ground, gravity, load, disturbances): a parameter table only,
+    read by the coupling when it builds the robot and steps it. It has no code string."""
+
+    kind: ClassVar[str] = "world"
+    code_field: ClassVar[str] = ""
+    statement_fields: ClassVar[tuple[str, ...]] = ()
+
+    @property
+    def code(self) -> str:
+        return ""
+
+    def with_code(self, text: str) -> "Model":
+        raise InputError("has no code string to replace (set its values with --set)",
+                         culprit=self.name)
+
+
 def _parse_equations(owner: str, text: str, role: str = "equations") -> Equations:
     if not isinstance(text, str):
         raise InputError(f"must be a code string, got {type(text).__name__}",

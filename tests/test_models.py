@@ -9,7 +9,7 @@ from brian2 import Equations, NeuronGroup, Network, ms, mV, second, umolar
 
 from astrocpg.errors import InputError
 from astrocpg.models import DEFAULT_MODELS, Model, ModelSet
-from astrocpg.models.base import ExpressionModel, NeuronModel, SynapseModel
+from astrocpg.models.base import ExpressionModel, NeuronModel, SynapseModel, WorldModel
 from astrocpg.models.integration import InputThenDecay, input_then_decay, register_method
 from astrocpg.network import build_cpg, check_runs
 
@@ -272,7 +272,7 @@ def test_every_equation_string_comments_each_variable():
         for line in lines:
             code, sep, comment = line.partition("#")
             assert sep and comment.strip(), (name, line)
-    assert all(isinstance(m, ExpressionModel) or isinstance(m, (NeuronModel, SynapseModel))
+    assert all(isinstance(m, (ExpressionModel, NeuronModel, SynapseModel, WorldModel))
                for _, m in DEFAULT_MODELS.items())
 
 

@@ -55,7 +55,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     upright_share, rate_per_neuron_Hz per trial)."""
     from brian2 import ms
 
-    from ...coupling.robot import A1Parameters, RobotLayout, build_model, load_robot
+    from ...coupling.robot import A1Parameters, RobotLayout, load_robot
+    from ...coupling.world import world_model
 
     seconds = number(seconds, "--seconds", positive=True)
     trials = number(trials, "--trials", integer=True, minimum=1)
@@ -84,7 +85,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
                          culprit=f"--weights {weights if not isinstance(weights, np.ndarray) else ''}")
     params = A1Parameters()
-    model = load_robot(robot) if robot else build_model(params)
+    model = world_model(models, params, load_robot(robot) if robot else None)
     if abs(model.opt.timestep - params.timestep) > 1e-12:
         raise InputError(f"timestep is {model.opt.timestep:g} s; the CPG steps with the physics "
                          f"at {params.timestep:g} s (set <option timestep=\"{params.timestep:g}\"/>)",

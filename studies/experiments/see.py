@@ -78,17 +78,18 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
 # ---------------------------------------------------------------- video
 def _robot_model(result: Result) -> tuple[Any, Any]:
     """The MjModel the run simulated (its --robot file, else the project's A1) and its layout."""
-    from ...coupling.robot import A1Parameters, RobotLayout, build_model, load_robot
+    from ...coupling.robot import A1Parameters, RobotLayout, load_robot
+    from ...coupling.world import world_model
+    from ...models import DEFAULT_MODELS
 
     robot = (result.manifest.get("settings") or {}).get("robot")
     params = A1Parameters()
-    if robot:
-        if not Path(robot).is_file():
-            raise InputError(f"the run's robot model {robot} is gone; the replay needs it",
-                             culprit=str(result.folder))
-        model = load_robot(robot)
-    else:
-        model = build_model(params)
+    if robot and not Path(robot).is_file():
+        raise InputError(f"the run's robot model {robot} is gone; the replay needs it",
+                         culprit=str(result.folder))
+    # the run's world (its terrain is drawn; a folder from before world parameters: flat)
+    models = result.models if result.models is not None else DEFAULT_MODELS
+    model = world_model(models, params, load_robot(robot) if robot else None)
     return model, RobotLayout.from_model(model, params)
 
 
