@@ -4,6 +4,7 @@
     astrocpg run   --seconds S --seed K [--trials N] [--weights FILE|DIR] [--robot XML] --out DIR
     astrocpg train --sessions N --trials N --seed K [--no-astrocytes] --out DIR | --resume DIR
     astrocpg gait DIR | power DIR [--trial K]
+    astrocpg evaluate DIR [--worlds FILE|robustness] [--seconds S] [--repeats R] [--out DIR]
     astrocpg plot DIR [--trial K] [--window T0 T1] [--format png|pdf|svg] [--out DIR]
     astrocpg video DIR [--trial K] [--fps F] [--speed X] [--size W H] [--panel] [--out FILE]
     astrocpg study FILE [--out DIR] [--workers N] [--scheduler ADDRESS]
@@ -150,6 +151,21 @@ def build_parser() -> argparse.ArgumentParser:
     gait.add_argument("--seconds", type=float, default=10.0)
     gait.add_argument("--seed", type=int, default=1)
     gait.add_argument("--no-progress", action="store_true")
+
+    ev = sub.add_parser("evaluate", help="trained controllers, learning off, in other worlds "
+                                         "(slopes, terrain, friction, pushes)")
+    ev.add_argument("dir", help="a training folder or a study folder (its finished runs)")
+    ev.add_argument("--worlds", default="robustness",
+                    help="a worlds file (TOML: [worlds.NAME] with world parameters) or "
+                         "'robustness' (flat, slopes +-0.09 and +-0.17 rad, rough terrain 1 and "
+                         "2 cm, friction 0.3, a 60 N push)")
+    ev.add_argument("--seconds", type=float, default=10.0, help="per evaluation run (10)")
+    ev.add_argument("--repeats", type=int, default=2,
+                    help="runs per controller and world, each with its own noise (2)")
+    ev.add_argument("--seed", type=int, default=1)
+    ev.add_argument("--out", default=None, help="default DIR/evaluation (replaced whole)")
+    ev.add_argument("--overwrite", action="store_true")
+    ev.add_argument("--no-progress", action="store_true")
 
     plot = sub.add_parser("plot", help="figures of any output folder (unit, run, training, "
                                        "recorded session, study run)")
@@ -414,6 +430,18 @@ def _cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from .experiments.evaluate import evaluate, format_summary
+
+    res = evaluate(args.dir, worlds=args.worlds, seconds=args.seconds, repeats=args.repeats,
+                   seed=args.seed, out=args.out, overwrite=args.overwrite,
+                   progress=not args.no_progress)
+    for line in format_summary(res["summary"]):
+        print(line)
+    print(f"wrote {res['out']}/ (evaluation.csv, summary.csv, manifest.json)")
+    return 0
+
+
 def _cmd_gait(args: argparse.Namespace) -> int:
     from .experiments.trained import describe_gait
 
@@ -546,6 +574,7 @@ def _cmd_robot(args: argparse.Namespace) -> int:
 
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "unit": _cmd_unit, "run": _cmd_run, "train": _cmd_train, "gait": _cmd_gait,
+    "evaluate": _cmd_evaluate,
     "plot": _cmd_plot, "video": _cmd_video, "robot": _cmd_robot, "study": _cmd_study,
     "report": _cmd_report, "power": _cmd_power, "export": _cmd_export,
     "describe": _cmd_describe, "models": _cmd_models}

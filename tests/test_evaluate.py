@@ -1,0 +1,68 @@
+"""astrocpg evaluate: trained controllers in other worlds."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+
+from astrocpg.errors import InputError
+from astrocpg.models import DEFAULT_MODELS
+from astrocpg.studies.cli import main
+from astrocpg.studies.experiments.evaluate import COLUMNS, read_worlds
+
+
+def test_builtin_robustness_worlds_parse():
+    worlds = read_worlds("robustness", DEFAULT_MODELS)
+    assert "flat" in worlds and worlds["flat"] == []
+    assert worlds["uphill_0.17"] == ["slope=0.17"]
+    assert any(item.startswith("terrain_height=") for w in worlds.values() for item in w)
+
+
+@pytest.mark.parametrize("text, words", [
+    ('[worlds.a]\ntau_motor = "9*ms"\n', ["a.tau_motor", "not a world parameter"]),
+    ('[worlds.a]\nslope = "3*second"\n', ["slope"]),
+    ('[worlds.a]\nslope = "0.1"\n[other]\n', ["[worlds.NAME]"]),
+    ("[worlds.a\n", ["TOML"]),
+])
+def test_bad_worlds_files_are_named(tmp_path, text, words):
+    path = tmp_path / "w.toml"
+    path.write_text(text)
+    with pytest.raises(InputError) as e:
+        read_worlds(path, DEFAULT_MODELS)
+    for w in words:
+        assert w in str(e.value)
+
+
+def test_evaluate_refuses_a_folder_that_is_not_a_training(tmp_path, capsys):
+    (tmp_path / "x").mkdir()
+    assert main(["evaluate", str(tmp_path / "x"), "--no-progress"]) == 2
+    assert "neither a training" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_evaluate_a_training_in_two_worlds(tmp_path):
+    train = tmp_path / "train"
+    assert main(["train", "--out", str(train), "--sessions", "1", "--trials", "2", "--seed", "3",
+                 "--set", "L_max=0.3*second", "--no-progress"]) == 0
+    worlds = tmp_path / "w.toml"
+    worlds.write_text('[worlds.flat]\n[worlds.uphill]\nslope = "0.17"\n')
+    out = tmp_path / "ev"
+    assert main(["evaluate", str(train), "--worlds", str(worlds), "--seconds", "0.6",
+                 "--repeats", "2", "--out", str(out), "--no-progress"]) == 0
+    rows = list(csv.DictReader(open(out / "evaluation.csv")))
+    assert tuple(rows[0]) == COLUMNS
+    # 2 trained trials x 2 worlds x 2 repeats, seeds of the training's trials
+    assert len(rows) == 8
+    assert {r["seed"] for r in rows} == {"3", "4"}
+    assert {r["world"] for r in rows} == {"flat", "uphill"}
+    flat = sum(float(r["distance_m"]) for r in rows if r["world"] == "flat")
+    up = sum(float(r["distance_m"]) for r in rows if r["world"] == "uphill")
+    assert up < flat  # gravity pulls the robot back uphill
+    summary = list(csv.DictReader(open(out / "summary.csv")))
+    assert {s["world"] for s in summary} == {"flat", "uphill"}
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["settings"]["worlds"]["uphill"] == ["slope=0.17"]
+    assert manifest["astrocpg_command"] == "evaluate"
