@@ -109,11 +109,11 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
                                       progress=progress)
     except Diverged as e:  # the folder keeps what ran, and says it diverged
         if out is not None and getattr(e, "result", None) is not None:
-            _summarise(e.result, models, start_x, robot_info, e)
+            _summarise(e.result, models, start_x, robot_info, table, e)
             with OutputFolder(out, overwrite=overwrite) as folder:
                 write_run_folder(folder, e.result, settings)
         raise
-    _summarise(result, models, start_x, robot_info)
+    _summarise(result, models, start_x, robot_info, table)
     if out is not None:
         with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
             write_run_folder(folder, result, settings)
@@ -123,7 +123,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
 
 
 def _summarise(result: SimulationResult, models: Any, start_x: float, robot_info: dict,
-               diverged: Diverged | None = None) -> None:
+               initial_weights: np.ndarray | None, diverged: Diverged | None = None) -> None:
     rec = result.robot
     has = rec is not None and len(rec.t) > 0
     n = result.cpg.n_trials
@@ -137,9 +137,112 @@ def _summarise(result: SimulationResult, models: Any, start_x: float, robot_info
         "robot_info": robot_info,
         "status": "finished" if diverged is None else "diverged",
     })
+    result.extra["mechanisms"] = mechanisms(result, initial_weights)
     if diverged is not None:
         result.extra["error"] = {"line": diverged.line, "t_s": diverged.t,
                                  "trial": diverged.trial}
+
+
+def _per_trial(values: Any, fmt: str = "d") -> str:
+    """One number when every trial has it, else one per trial."""
+    v = np.asarray(values)
+    if len(v) == 1 or np.all(v == v[0]):
+        return format(v[0].item(), fmt)
+    return "(" + ", ".join(f"trial {b}: {format(x.item(), fmt)}" for b, x in enumerate(v)) + ")"
+
+
+def _weight_bounds(models: Any) -> tuple[float, float] | None:
+    """(w_min, w_max) in volt of the inter-limb synapse, if its model has them."""
+    try:
+        p = models.interlimb_synapse.parameters
+        return float(np.asarray(p["w_min"].value)), float(np.asarray(p["w_max"].value))
+    except (AttributeError, KeyError, TypeError):
+        return None
+
+
+def mechanisms(result: SimulationResult, initial_weights: np.ndarray | None) -> dict[str, Any]:
+    """Which mechanisms acted in a run, from what it recorded: the inter-limb tables at the
+    start and the end, the astrocytes' adenosine releases (their "spikes") and peak [ADO] and
+    Ca2+ (traces), the limit-position inhibition the bridge applied (onsets and steps), the
+    motor neurons' spikes. Returns the numbers (per trial) and ``statements``: one line each,
+    only what those numbers show; a mechanism whose data the run did not record is said to be
+    unrecorded, not absent."""
+    cpg = result.cpg
+    L, n = cpg.layout, cpg.n_trials
+    final = cpg.interlimb_weights()
+    start = (np.zeros_like(final) if initial_weights is None
+             else np.broadcast_to(np.asarray(initial_weights, dtype=float), final.shape))
+    pairs = cpg.interlimb_pairs
+    mask = np.zeros(final.shape[1:], dtype=bool)
+    if len(pairs):
+        mask[pairs[:, 0], pairs[:, 1]] = True
+    change_mV = np.abs(final - start)[:, mask].max(axis=1) * 1e3 if mask.any() else np.zeros(n)
+    nonzero = (np.count_nonzero(final[:, mask], axis=1) if mask.any()
+               else np.zeros(n, dtype=int))
+    out: dict[str, Any] = {"interlimb_synapses": int(mask.sum()),
+                           "interlimb_nonzero_at_end": nonzero,
+                           "interlimb_max_change_mV": change_mV}
+    said = []
+    if not mask.any():
+        said.append("no inter-limb synapses: limbs uncoupled")
+    elif not nonzero.any():
+        said.append("inter-limb weights all zero: limbs uncoupled")
+    else:
+        said.append(f"limbs coupled: {_per_trial(nonzero)} of {int(mask.sum())} inter-limb "
+                    f"weights non-zero")
+    bounds = _weight_bounds(result.extra.get("models"))
+    if mask.any():
+        clipped = (np.clip(start, *bounds) if bounds is not None else start)[:, mask]
+        n_clipped = np.count_nonzero(clipped != start[:, mask], axis=1)
+        out["interlimb_clipped_to_bounds"] = n_clipped
+        if not change_mV.any():
+            said.append("learning off: the inter-limb weights did not change (neither STDP "
+                        "nor adenosine changed a weight)")
+        elif np.allclose(final[:, mask], clipped, rtol=0, atol=1e-12):
+            # the synapse's update clips w to [w_min, w_max] every step, learning or not
+            lo, hi = (b * 1e3 for b in bounds)
+            said.append(f"learning off: the only change to the inter-limb weights is the clip "
+                        f"to [w_min, w_max] = [{lo:.3g}, {hi:.3g}] mV of "
+                        f"{_per_trial(n_clipped)} given weights (by up to "
+                        f"{_per_trial(change_mV, '.3g')} mV)")
+        else:
+            said.append(f"inter-limb weights changed during the run, by up to "
+                        f"{_per_trial(change_mV, '.3g')} mV")
+    if "astrocyte" in result.spikes:
+        _, idx = result.spikes["astrocyte"]
+        releases = np.bincount(idx // L.thigh_pools_per_trial, minlength=n)
+        out["adenosine_releases"] = releases
+        line = (f"astrocytes: {_per_trial(releases)} adenosine release events"
+                if releases.any() else "astrocytes: no adenosine release")
+    else:
+        line = "astrocytes: releases not recorded (astrocyte spikes off)"
+    peaks = []
+    for name, unit in (("astrocyte_ADO", "a.u."), ("astrocyte_Ca", "uM")):
+        if name in result.traces and result.traces[name][1].size:
+            v = result.traces[name][1].reshape(len(result.traces[name][0]), n, -1)
+            peak = np.nanmax(v, axis=(0, 2))
+            out[f"peak_{name}"] = peak
+            label = "[ADO]" if name.endswith("ADO") else "[Ca2+]"
+            peaks.append(f"peak {label} {_per_trial(peak, '.3g')} {unit}")
+    said.append(line + (", " + ", ".join(peaks) if peaks else ", traces of ADO/Ca2+ not recorded"))
+    limit = result.extra.get("limit_inhibition")
+    if limit is not None and limit["of_steps"]:
+        out["limit_inhibition_onsets"] = limit["onsets"]
+        out["limit_inhibition_steps"] = limit["steps"]
+        if limit["onsets"].any():
+            said.append(f"limit-position inhibition engaged {_per_trial(limit['onsets'])} times "
+                        f"(a pool's inhibition switching on), on "
+                        f"{_per_trial(limit['steps'])} of {limit['of_steps']} steps")
+        else:
+            said.append(f"limit-position inhibition never engaged ({limit['of_steps']} steps)")
+    if "motor" in result.spikes:
+        _, idx = result.spikes["motor"]
+        motor = np.bincount(idx // L.motor_per_trial, minlength=n)
+        out["motor_spikes"] = motor
+        said.append(f"motor neurons: {_per_trial(motor)} spikes" if motor.any()
+                    else "motor neurons: silent (no spike), no torque from the CPG")
+    out["statements"] = said
+    return out
 
 
 def robot_arrays(result: SimulationResult) -> dict[str, np.ndarray]:
@@ -179,6 +282,7 @@ def run_results(result: SimulationResult) -> dict[str, Any]:
             "distance_m": x["distance_m"],
             "mean_forward_speed_m_per_s": x["mean_forward_speed_m_per_s"],
             "upright_share": x["upright_share"], "rate_per_neuron_Hz": x["rate_per_neuron_Hz"],
+            "mechanisms": x["mechanisms"],
             "wall_seconds": result.wall_seconds, "seconds": result.seconds,
             "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
             "layout": result.cpg.layout.to_json()}
@@ -195,6 +299,10 @@ def format_run(result: Result, seed: int) -> list[str]:
         if x["rate_per_neuron_Hz"]:
             lines.append("  rate per neuron (Hz): " + ", ".join(
                 f"{k} {v[b]:.1f}" for k, v in x["rate_per_neuron_Hz"].items()))
+    mech = x.get("mechanisms") or {}
+    if mech.get("statements"):
+        lines.append("what acted (from the recorded data):")
+        lines += [f"  {s}" for s in mech["statements"]]
     lines.append(f"wall time {x['wall_seconds']:.1f} s for {result.seconds:g} simulated s "
                  f"x {result.layout.n_trials} trial(s)")
     return lines

@@ -14,7 +14,7 @@ from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second
 from tqdm.auto import tqdm
 
 from ...coupling.assembly import build_closed_loop
-from ...coupling.bridge import Recording
+from ...coupling.bridge import ORDER_MEASURE, Recording
 from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError
 from ...models import ModelSet
@@ -162,6 +162,8 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
     cpg, bridge = loop.cpg, loop.bridge
     n_steps = int(round(seconds / loop.robot.opt.timestep))
     rec = bridge.start_recording(n_steps, robot_stride)
+    limit = LimitCount(cpg)
+    bridge.add_hook("after_physics", "limit_count", limit, order=ORDER_MEASURE)
     selection = check_selection(spikes, traces)
     mons = add_monitors(cpg, trace_dt, record_traces, *selection) if record_spikes else {}
     t0 = time.perf_counter()
@@ -170,11 +172,36 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
         bridge.check_cpg(network_time(cpg.net))  # the last steps since the bridge's last check
     except Diverged as e:  # keep what was recorded up to the divergence, for its folder
         e.result = _partial(cpg, mons, rec.truncated(bridge.step_count), t0,
-                            extra={"bridge": bridge})
+                            extra={"bridge": bridge, "limit_inhibition": limit.counts()})
         raise
     spikes, traces = _collect(mons) if mons else ({}, {})
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces, robot=rec,
-                            wall_seconds=wall, extra={"bridge": bridge}, monitors=mons)
+                            wall_seconds=wall, monitors=mons,
+                            extra={"bridge": bridge, "limit_inhibition": limit.counts()})
+
+
+class LimitCount:
+    """A bridge hook counting, per trial, the limit-position inhibition the bridge applied:
+    ``onsets`` (a pool's inhibition switching on) and ``steps`` (steps with any pool of the
+    trial inhibited), read each step before a session loop may reset the trial."""
+
+    def __init__(self, cpg: CPG):
+        self.limit = cpg.array("pool", "limit_inhibition").reshape(cpg.n_trials, -1)
+        self.before = np.zeros(self.limit.shape, dtype=bool)
+        self.onsets = np.zeros(cpg.n_trials, dtype=np.int64)
+        self.steps = np.zeros(cpg.n_trials, dtype=np.int64)
+        self.n_steps = 0
+
+    def __call__(self) -> None:
+        now = self.limit > 0
+        self.onsets += (now & ~self.before).sum(axis=1)
+        self.steps += now.any(axis=1)
+        self.before[:] = now
+        self.n_steps += 1
+
+    def counts(self) -> dict[str, Any]:
+        return {"onsets": self.onsets.copy(), "steps": self.steps.copy(),
+                "of_steps": self.n_steps}
 
 
 def _partial(cpg: CPG, mons: dict[str, Any], rec: Recording | None, t0: float,

@@ -1,20 +1,29 @@
-"""``astrocpg report DIR``: the paper's Fig. 3c for any study, and its final figures.
+"""``astrocpg report DIR``: the paper's Fig. 3c for any study, its final figures, the final
+figures against the swept values and the tests between conditions.
 
 For every group of runs that differ only by seed (a condition, at one sweep point), per session:
 mean +- std across seeds of the session's mean reward, final x and length (``fig3c.png``). The
-final figures per group (``final_figures.csv`` and ``report.md``): over the last ``last`` (50)
-sessions of each seed, mean reward, forward speed, final x, session length and the share of
-sessions that reached L_max, then mean +- std across seeds; and from the trained weights the
-limb pairs with two inhibitory and two excitatory synapses and the share of weights above
-0.9 w_max (the paper's contrast between the two conditions).
+final figures per group (``final_figures.csv`` and ``report.md``): over the last ``last`` (50;
+fewer where a seed trained fewer) sessions of each seed, mean reward, forward speed, final x,
+session length and the share of sessions that reached L_max, then mean +- std across seeds; and
+from the trained weights the limb pairs with two inhibitory and two excitatory synapses and the
+share of weights above 0.9 w_max (the paper's contrast between the two conditions).
+
+A sweep: each final figure against the swept value, one line per condition
+(``sweep_<axis>.png``); over two axes swept as a grid, one heatmap per final figure
+(``heatmap_<figure>.png``). An axis of model files is categorical, its ticks the files' stems.
+Two or more conditions: every pair compared at every sweep point, one value per seed (Welch's
+t-test, Mann-Whitney U, Hedges' g, rank-biserial; ``condition_tests.csv`` and ``report.md``).
 
 Runs still in progress are included with the sessions they have and marked as such.
 """
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
+import re
 import zipfile
 import zlib
 from pathlib import Path
@@ -23,9 +32,12 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError
+from ...models import DEFAULT_MODELS
+from ..analysis.compare import compare
 from ..analysis.gait import weight_structure
 from ..experiments.settings import model_set
 from ..files.folder import OutputFolder, verify
+from ..figures.sweep import Axis, Measure, measure_heatmap, measure_vs_value
 from ..files.outputs import atomic_write, write_manifest
 from .study import RUNS, STUDY_INDEX, read_status
 
@@ -94,11 +106,26 @@ def moving_mean(table: np.ndarray, width: int) -> np.ndarray:
 
 REPORT = "report"
 
+# the final figures of a seed (over its last sessions), in the order of the tables and figures
+MEASURES = (Measure("speed", "forward speed", "m/s"), Measure("final_x", "final x", "m"),
+            Measure("length", "session length", "s"),
+            Measure("reward", "mean reward", "dimensionless"),
+            Measure("full", "full-length sessions", "fraction"))
+# from a seed's trained table (weights.npz), when the runs saved one
+WEIGHT_MEASURES = (Measure("mixed_limb_pairs", "mixed limb pairs", "count"),
+                   Measure("share_above_0.9_w_max", "weights above 0.9 w_max",
+                           "fraction"))
+TESTS = "condition_tests.csv"
+_NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:\*\s*(.+?))?\s*")
+
 
 def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = None,
            overwrite: bool = False) -> dict[str, Any]:
-    """Write ``fig3c.png``, ``final_figures.csv`` and ``report.md`` of the study in ``folder``
-    into ``out`` (default ``folder/report``, which each report replaces whole)."""
+    """Write the report of the study in ``folder`` into ``out`` (default ``folder/report``,
+    which each report replaces whole): ``fig3c.png``, ``final_figures.csv``, ``report.md``;
+    for a sweep, the final figures against the swept values (``sweep_<axis>.png``, or one
+    ``heatmap_<measure>.png`` per measure over two axes); for two or more conditions,
+    ``condition_tests.csv``. Returns files, rows, text, figures ({file: Figure}), tests."""
     if not (Path(folder) / STUDY_INDEX).is_file():
         raise InputError(f"not a study folder (no {STUDY_INDEX})", culprit=f"report {folder}")
     target = Path(out) if out is not None else Path(folder) / REPORT
@@ -108,12 +135,27 @@ def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = 
         write_manifest(tmp, command="report", seed=0, models_json={},
                        settings={"study": os.path.abspath(folder), "last": last,
                                  "smooth": smooth},
-                       files={"fig3c.png": "mean +- std across seeds per session and group "
-                                           "(paper Fig. 3c)",
-                              "final_figures.csv": f"per group, over the last {last} sessions",
-                              "report.md": "the final figures as a table"})
+                       files=written["described"])
     written["files"] = [target / p.name for p in written["files"]]
     return written
+
+
+def _axis(name: str, values: list[str]) -> Axis:
+    """How a swept axis is drawn: numeric (sorted by value, labelled with the unit the study
+    file writes) when every value is a number with one same unit; otherwise categorical in the
+    study file's order, model files by their stem."""
+    if name in dict(DEFAULT_MODELS.items()):
+        return Axis(name, tuple(values), tuple(float(i) for i in range(len(values))),
+                    tuple(Path(v).stem for v in values), f"{name} (model file)", True)
+    parsed = [_NUMBER.fullmatch(v) for v in values]
+    if all(parsed) and len({m.group(2) for m in parsed}) == 1:
+        unit = parsed[0].group(2) or "dimensionless"
+        order = sorted(range(len(values)), key=lambda i: float(parsed[i].group(1)))
+        return Axis(name, tuple(values[i] for i in order),
+                    tuple(float(parsed[i].group(1)) for i in order),
+                    tuple(parsed[i].group(1) for i in order), f"{name} ({unit})", False)
+    return Axis(name, tuple(values), tuple(float(i) for i in range(len(values))),
+                tuple(values), f"{name} (as in the study file)", True)
 
 
 def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, Any]:
@@ -121,19 +163,26 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     from matplotlib.figure import Figure
 
     index, runs = _load(folder)
-    groups: dict[str, list[dict[str, Any]]] = {}
+    name = index.get("name", folder.name)
+    swept: list[str] = list(index.get("sweep", []))
+    groups: dict[tuple[str, tuple[str, ...]], list[dict[str, Any]]] = {}
     for r in runs:
-        groups.setdefault(_group_label(r["spec"]), []).append(r)
+        key = (r["spec"]["condition"], tuple(str(r["spec"]["point"].get(k, "")) for k in swept))
+        groups.setdefault(key, []).append(r)
     if not any(r["sessions"] is not None and len(r["sessions"]) for r in runs):
         raise InputError("no run has finished a session yet", culprit=f"report {folder}")
+    study_sessions = sorted({int(r["spec"]["n_sessions"]) for r in runs})
 
     fig = Figure(figsize=(8, 8))
     axes = fig.subplots(3, 1, sharex=True)
     rows: list[dict[str, Any]] = []
-    for k, (label, members) in enumerate(groups.items()):
+    per_seed: list[dict[str, Any]] = []  # one row per (condition, point, seed)
+    for k, ((condition, point), members) in enumerate(groups.items()):
+        label = _group_label(members[0]["spec"])
         # one series per seed: table[seed, session-1]
         series: dict[int, Any] = {}
-        weights, w_max = [], None
+        structure: dict[int, dict[str, float]] = {}
+        w_max = None
         states = [m["state"] for m in members]
         for m in members:
             df = m["sessions"]
@@ -142,8 +191,9 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
             for trial, sdf in df.groupby("trial"):
                 series[m["spec"]["seed"] + int(trial)] = sdf.sort_values("session")
             if m["weights"] is not None:
-                weights.extend(m["weights"])
                 w_max = _model_values(m["spec"])[0]
+                for trial, w in enumerate(m["weights"]):
+                    structure[m["spec"]["seed"] + trial] = weight_structure(w, w_max)
         if not series:
             continue
         n = max(int(s["session"].max()) for s in series.values())
@@ -160,48 +210,174 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
             ax.fill_between(x, mean - std, mean + std, color=color, alpha=0.25, lw=0)
             ax.set_ylabel(ylabel)
         L_max = _model_values(members[0]["spec"])[1]
-        per_seed = {
-            "speed": [s["mean_forward_speed_m_per_s"].tail(last).mean() for s in series.values()],
-            "final_x": [s["final_x_m"].tail(last).mean() for s in series.values()],
-            "length": [s["length_s"].tail(last).mean() for s in series.values()],
-            "reward": [s["mean_reward"].tail(last).mean() for s in series.values()],
-            "full": [(s["length_s"].tail(last) >= L_max - 1e-6).mean()
-                     for s in series.values()],
-        }
+        seeds_here = []
+        for seed, s in series.items():
+            tail = s.tail(last)
+            one = {"condition": condition, "point": point, "seed": seed,
+                   "sessions": len(s), "last_sessions": len(tail),
+                   "speed": float(tail["mean_forward_speed_m_per_s"].mean()),
+                   "final_x": float(tail["final_x_m"].mean()),
+                   "length": float(tail["length_s"].mean()),
+                   "reward": float(tail["mean_reward"].mean()),
+                   "full": float((tail["length_s"] >= L_max - 1e-6).mean())}
+            if seed in structure:
+                one["mixed_limb_pairs"] = float(structure[seed]["mixed_limb_pairs"])
+                one["limb_pairs"] = int(structure[seed]["limb_pairs"])
+                one["share_above_0.9_w_max"] = structure[seed]["share_above_0.9_w_max"]
+            seeds_here.append(one)
+        per_seed.extend(seeds_here)
         row: dict[str, Any] = {
-            "group": label, "seeds": len(series),
+            "group": label, "condition": condition, **dict(zip(swept, point)),
+            "seeds": len(series),
             "runs_finished": f"{states.count('finished')}/{len(states)}",
             "sessions_min": min(len(s) for s in series.values()),
             "sessions_max": max(len(s) for s in series.values()),
+            "last_sessions_min": min(o["last_sessions"] for o in seeds_here),
+            "last_sessions_max": max(o["last_sessions"] for o in seeds_here),
         }
-        for key, vals in per_seed.items():
-            row[f"{key}_mean"], row[f"{key}_std"] = float(np.mean(vals)), float(np.std(vals))
-        if weights and w_max is not None:
-            ws = [weight_structure(w, w_max) for w in weights]
-            row["mixed_limb_pairs_mean"] = float(np.mean([w["mixed_limb_pairs"] for w in ws]))
-            row["share_above_0.9_w_max_mean"] = float(
-                np.mean([w["share_above_0.9_w_max"] for w in ws]))
+        for m in MEASURES + WEIGHT_MEASURES:
+            vals = [o[m.key] for o in seeds_here if m.key in o]
+            if vals:  # std across seeds with ddof=0, as in the curves of fig3c
+                row[f"{m.key}_mean"], row[f"{m.key}_std"] = (float(np.mean(vals)),
+                                                             float(np.std(vals)))
+        limb_pairs = {o["limb_pairs"] for o in seeds_here if "limb_pairs" in o}
+        if limb_pairs:
+            row["limb_pairs"] = limb_pairs.pop()
         rows.append(row)
     axes[0].legend(fontsize=8, loc="best")
     axes[-1].set_xlabel("session")
-    axes[0].set_title(f"Study {index.get('name', folder.name)}: mean +- std across seeds "
+    axes[0].set_title(f"Study {name}: mean +- std across seeds "
                       f"(paper Fig. 3c)"
                       + (f", trailing mean over {smooth} sessions" if smooth > 1 else ""))
     fig.tight_layout()
-    fig_path = dest / "fig3c.png"
-    fig.savefig(fig_path, dpi=110)
+    figures: dict[str, Any] = {"fig3c.png": fig}
+    shows = {"fig3c.png": "mean reward, final x (m) and session length (s) per session, "
+                          "mean ± std across seeds, one line per group (paper Fig. 3c)"
+                          + (f"; each seed's trailing mean over {smooth} sessions"
+                             if smooth > 1 else "")}
+    measures = [m for m in MEASURES + WEIGHT_MEASURES if any(m.key in o for o in per_seed)]
+    if swept:
+        _sweep_figures(name, swept, runs, per_seed, measures, figures, shows)
+    tests = _condition_tests(swept, [c for c, _ in groups], per_seed, measures)
 
-    cols = list(dict.fromkeys(k for r in rows for k in r))
-    csv_text = ",".join(cols) + "\n" + "".join(
-        ",".join(_cell(r.get(c, "")) for c in cols) + "\n" for r in rows)
-    atomic_write(dest / "final_figures.csv", lambda f: f.write(csv_text.encode()))
-    text = _markdown(index.get("name", folder.name), rows, last)
+    files = []
+    for file, f in figures.items():
+        f.savefig(dest / file, dpi=110)
+        files.append(dest / file)
+    atomic_write(dest / "final_figures.csv", lambda f: f.write(_csv(rows).encode()))
+    files.append(dest / "final_figures.csv")
+    described = dict(shows)
+    described["final_figures.csv"] = (f"per group (condition and sweep point): the final figures "
+                                      f"of each seed (mean over its last sessions, --last "
+                                      f"{last}), mean and std across seeds")
+    if tests:
+        atomic_write(dest / TESTS, lambda f: f.write(_csv(tests).encode()))
+        files.append(dest / TESTS)
+        described[TESTS] = ("per sweep point, pair of conditions and final figure: means, "
+                            "difference, Welch's t-test, Mann-Whitney U, Hedges' g, "
+                            "rank-biserial correlation")
+    described["report.md"] = ("this page: the final figures, the tests between conditions, "
+                              "the files written")
+    text = _markdown(name, rows, tests, per_seed, study_sessions, last, swept, measures,
+                     described)
     atomic_write(dest / "report.md", lambda f: f.write(text.encode()))
-    return {"files": [fig_path, dest / "final_figures.csv", dest / "report.md"],
-            "rows": rows, "text": text}
+    files.append(dest / "report.md")
+    return {"files": files, "rows": rows, "text": text, "figures": figures, "tests": tests,
+            "per_seed": per_seed, "described": described}
+
+
+def _sweep_figures(name: str, swept: list[str], runs: list[dict[str, Any]],
+                   per_seed: list[dict[str, Any]], measures: list[Measure],
+                   figures: dict[str, Any], shows: dict[str, str]) -> None:
+    """The final figures against the swept values: one axis, a panel per measure; two axes
+    swept as a grid, a heatmap per measure; otherwise each sweep point as a category."""
+    conditions = list(dict.fromkeys(o["condition"] for o in per_seed))
+    points = list(dict.fromkeys(tuple(str(r["spec"]["point"].get(k, "")) for k in swept)
+                                for r in runs))
+    values = [list(dict.fromkeys(p[i] for p in points)) for i in range(len(swept))]
+    grid = len(swept) == 2 and len(points) == len(values[0]) * len(values[1])
+    if len(swept) == 1 or not grid:
+        if len(swept) == 1:
+            axis, where = _axis(swept[0], values[0]), (lambda p: p[0])
+        else:  # zip mode or more than two axes: the points in the study's order
+            labels = [", ".join(f"{k}={v}" for k, v in zip(swept, p)) for p in points]
+            axis = Axis("sweep point", tuple(labels), tuple(map(float, range(len(labels)))),
+                        tuple(labels), "sweep point (values as in the study file)", True)
+            where = (lambda p: ", ".join(f"{k}={v}" for k, v in zip(swept, p)))
+        series = {m.key: {c: _stats([[o[m.key] for o in per_seed
+                                      if o["condition"] == c and where(o["point"]) == v
+                                      and m.key in o] for v in axis.values])
+                          for c in conditions} for m in measures}
+        file = f"sweep_{_file_slug(axis.name)}.png"
+        figures[file] = measure_vs_value(
+            axis, measures, series, f"Study {name}: final figures against {axis.name}, "
+                                    f"mean ± std across seeds")
+        shows[file] = (f"each final figure ({', '.join(m.title for m in measures)}) against "
+                       f"{axis.name}, mean ± std across seeds, one line per condition")
+        return
+    x_axis, y_axis = _axis(swept[0], values[0]), _axis(swept[1], values[1])
+    for m in measures:
+        grids = {}
+        for c in conditions:
+            cells = [[[o[m.key] for o in per_seed if o["condition"] == c and m.key in o
+                       and o["point"] == (xv, yv)] for xv in x_axis.values]
+                     for yv in y_axis.values]
+            mean, std, n = _stats([v for row in cells for v in row])
+            shape = (len(y_axis.values), len(x_axis.values))
+            grids[c] = (mean.reshape(shape), std.reshape(shape), n.reshape(shape))
+        file = f"heatmap_{_file_slug(m.key)}.png"
+        figures[file] = measure_heatmap(
+            x_axis, y_axis, m, grids, f"Study {name}: {m.title} ({m.unit}) over "
+                                      f"{x_axis.name} and {y_axis.name}, mean across seeds")
+        shows[file] = (f"{m.title} ({m.unit}), mean (± std, n) across seeds over {x_axis.name} "
+                       f"x {y_axis.name}, one panel per condition")
+
+
+def _stats(cells: list[list[float]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean, std (ddof=0) and count of the finite values of each cell (NaN where none)."""
+    out = np.full((3, len(cells)), np.nan)
+    for i, values in enumerate(cells):
+        v = np.asarray([x for x in values if np.isfinite(x)], dtype=float)
+        out[2, i] = len(v)
+        if len(v):
+            out[0, i], out[1, i] = v.mean(), v.std()
+    return out[0], out[1], out[2]
+
+
+def _file_slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9.+-]+", "_", text).strip("_") or "x"
+
+
+def _condition_tests(swept: list[str], conditions: list[str], per_seed: list[dict[str, Any]],
+                     measures: list[Measure]) -> list[dict[str, Any]]:
+    """Every pair of conditions (in the study's order, first minus second) at every sweep
+    point, every final figure: :func:`~astrocpg.studies.analysis.compare.compare`."""
+    conditions = list(dict.fromkeys(conditions))
+    points = list(dict.fromkeys(o["point"] for o in per_seed))
+    out = []
+    for point in points:
+        for a, b in itertools.combinations(conditions, 2):
+            for m in measures:
+                va = [o[m.key] for o in per_seed
+                      if o["condition"] == a and o["point"] == point and m.key in o]
+                vb = [o[m.key] for o in per_seed
+                      if o["condition"] == b and o["point"] == point and m.key in o]
+                if not va and not vb:
+                    continue
+                out.append({**dict(zip(swept, point)), "condition_a": a, "condition_b": b,
+                            "measure": m.key, "unit": m.unit, **compare(va, vb)})
+    return out
+
+
+def _csv(rows: list[dict[str, Any]]) -> str:
+    cols = list(dict.fromkeys(k for r in rows for k in r))
+    return ",".join(cols) + "\n" + "".join(
+        ",".join(_cell(r.get(c, "")) for c in cols) + "\n" for r in rows)
 
 
 def _cell(v: Any) -> str:
+    if v is None:
+        return ""
     if isinstance(v, float):
         return f"{v:.6g}"
     s = str(v)
@@ -209,36 +385,83 @@ def _cell(v: Any) -> str:
 
 
 def _pm(row: dict[str, Any], key: str, fmt: str) -> str:
+    if key + "_mean" not in row:
+        return "n/a"
     return f"{format(row[key + '_mean'], fmt)} ± {format(row[key + '_std'], fmt)}"
 
 
-def _markdown(name: str, rows: list[dict[str, Any]], last: int) -> str:
+def _span(low: int, high: int) -> str:
+    return str(low) if low == high else f"{low}–{high}"
+
+
+FORMATS = {"speed": ".3f", "final_x": ".2f", "length": ".2f", "reward": ".3f", "full": ".0%",
+           "mixed_limb_pairs": ".1f", "share_above_0.9_w_max": ".0%"}
+
+
+def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]],
+              per_seed: list[dict[str, Any]], study_sessions: list[int], last: int,
+              swept: list[str], measures: list[Measure], described: dict[str, str]) -> str:
+    trained = [o["sessions"] for o in per_seed]
+    used = [o["last_sessions"] for o in per_seed]
+    planned = _span(min(study_sessions), max(study_sessions))
+    if min(used) == max(used) == min(trained) == max(trained):
+        window = (f"its last {used[0]} sessions" + (f" (all it trained: --last {last} asks "
+                                                     f"for more)" if last > used[0] else ""))
+    else:
+        window = (f"its last {_span(min(used), max(used))} sessions (at most {last}; a seed "
+                  f"that trained fewer uses all of its {_span(min(trained), max(trained))})")
+    limb_pairs = {r["limb_pairs"] for r in rows if "limb_pairs" in r}
+    pairs = f" (of {limb_pairs.pop()})" if len(limb_pairs) == 1 else ""
     lines = [f"# Study {name}: final figures", "",
-             f"Per seed, the mean over its last {last} sessions; then mean ± std across seeds. "
+             f"The study trains {planned} sessions per seed; "
+             f"{_span(min(trained), max(trained))} of them are done. Per seed, the final "
+             f"figures are the mean over {window}; then mean ± std (ddof=0) across seeds. "
              f"Full-length: share of those sessions that reached L_max.", "",
-             "| group | seeds | runs finished | sessions | forward speed (m/s) | final x (m) | "
-             "session length (s) | mean reward | full-length | mixed limb pairs (of 12) | "
-             "weights > 0.9 w_max |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| group | seeds | runs finished | sessions | last sessions | forward speed (m/s) | "
+             "final x (m) | session length (s) | mean reward | full-length | "
+             f"mixed limb pairs{pairs} | weights > 0.9 w_max |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        sessions = (str(r["sessions_min"]) if r["sessions_min"] == r["sessions_max"]
-                    else f"{r['sessions_min']}–{r['sessions_max']}")
-        mixed = r.get("mixed_limb_pairs_mean")
-        sat = r.get("share_above_0.9_w_max_mean")
+        sessions = _span(r["sessions_min"], r["sessions_max"])
         lines.append(
             f"| {r['group']} | {r['seeds']} | {r['runs_finished']} | {sessions} | "
-            f"{_pm(r, 'speed', '.3f')} | {_pm(r, 'final_x', '.2f')} | {_pm(r, 'length', '.2f')} | "
-            f"{_pm(r, 'reward', '.3f')} | {r['full_mean']:.0%} ± {r['full_std']:.0%} | "
-            f"{'n/a' if mixed is None else f'{mixed:.1f}'} | "
-            f"{'n/a' if sat is None else f'{sat:.0%}'} |")
-    if len(rows) == 2:
-        a, b = rows
-        diff = ", ".join(
-            f"{label} {a[key + '_mean'] - b[key + '_mean']:+{fmt}}"
-            for key, label, fmt in (("reward", "mean reward", ".3f"),
-                                    ("final_x", "final x (m)", ".2f"),
-                                    ("length", "session length (s)", ".2f"),
-                                    ("speed", "forward speed (m/s)", ".3f"),
-                                    ("full", "full-length share", ".0%")))
-        lines += ["", f"Contrast, {a['group']} minus {b['group']}: {diff}."]
+            f"{_span(r['last_sessions_min'], r['last_sessions_max'])} | "
+            + " | ".join(_pm(r, m.key, FORMATS[m.key]) for m in MEASURES + WEIGHT_MEASURES)
+            + " |")
+    if tests:
+        lines += ["", "## Conditions compared", "",
+                  "Per seed one value (its final figure); difference = first condition minus "
+                  "second; Welch's t-test and the Mann-Whitney U test two-sided (scipy); effect "
+                  "sizes: Hedges' g (difference over the pooled sample std, small-sample "
+                  "corrected) and the rank-biserial correlation of U (+1: every seed of the "
+                  "first condition above every seed of the second). With fewer than 2 seeds "
+                  "on a side no test is made (n too small).", ""]
+        for key, chunk in itertools.groupby(
+                tests, key=lambda t: (tuple(t.get(k) for k in swept), t["condition_a"],
+                                      t["condition_b"])):
+            point, a, b = key
+            where = ", ".join(f"{k}={v}" for k, v in zip(swept, point))
+            lines += [f"### {a} vs {b}" + (f" ({where})" if where else ""), "",
+                      f"| final figure | {a} | {b} | difference | Welch t (p) | "
+                      f"Mann-Whitney U (p) | Hedges' g | rank-biserial |",
+                      "|---|---|---|---|---|---|---|---|"]
+            for t in chunk:
+                m = next(x for x in measures if x.key == t["measure"])
+                fmt = FORMATS[m.key]
+                head = (f"| {m.label} | {format(t['mean_a'], fmt)} (n={t['n_a']}) | "
+                        f"{format(t['mean_b'], fmt)} (n={t['n_b']}) | "
+                        f"{format(t['difference'], '+' + fmt)} | ")
+                if t["note"] == "n too small":
+                    lines.append(head + "n too small | n too small | n too small | "
+                                        "n too small |")
+                    continue
+                welch = ("undefined (no spread)" if t["welch_t"] is None
+                         else f"{t['welch_t']:.3g} ({t['welch_p']:.3g})")
+                g = "undefined (no spread)" if t["hedges_g"] is None else f"{t['hedges_g']:.3g}"
+                lines.append(head + f"{welch} | {t['mwu_U']:.3g} ({t['mwu_p']:.3g}) | {g} | "
+                                    f"{t['rank_biserial']:+.3g} |")
+            lines.append("")
+        lines.append(f"The same in {TESTS}.")
+    lines += ["", "## Files", ""]
+    lines += [f"- `{file}`: {what}" for file, what in described.items()]
     return "\n".join(lines) + "\n"
