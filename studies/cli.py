@@ -9,7 +9,7 @@
     astrocpg video DIR [--trial K] [--fps F] [--speed X] [--size W H] [--panel] [--out FILE]
     astrocpg study FILE [--out DIR] [--workers N] [--scheduler ADDRESS]
     astrocpg report DIR
-    astrocpg export DIR [--format nwb|npz]
+    astrocpg export DIR [--format nwb|npz] [--experimenter 'LAST, FIRST'] [--institution TEXT]
     astrocpg describe [MODEL] [--format markdown|latex]
     astrocpg robot export PATH.xml
     astrocpg models list | models dump MODEL [--set NAME=VALUE] [--model MODEL=FILE]
@@ -228,6 +228,9 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("dir", help="output of astrocpg run or unit")
     exp.add_argument("--format", default="nwb", help="nwb (default) or npz")
     exp.add_argument("--out", help="file to write (default DIR.<format>, beside DIR)")
+    exp.add_argument("--experimenter", action="append", default=[], metavar="'LAST, FIRST'",
+                     help="who ran the simulation (repeatable), recorded in the file")
+    exp.add_argument("--institution", help="where it was run, recorded in the file")
     _add_overwrite(exp)
 
     desc = sub.add_parser("describe", help="a model's equations (sympy) and parameter table")
@@ -521,7 +524,8 @@ def _cmd_power(args: argparse.Namespace) -> int:
 def _cmd_export(args: argparse.Namespace) -> int:
     from .experiments.api import export
 
-    path = export(args.dir, args.format, args.out or None, overwrite=args.overwrite)
+    path = export(args.dir, args.format, args.out or None, overwrite=args.overwrite,
+                  experimenter=args.experimenter, institution=args.institution)
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return 0
 

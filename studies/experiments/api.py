@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 from ..files.export import export as export_folder
 from ..files.result import Result, Trace, load
@@ -40,13 +40,17 @@ def describe(model: str | None = None, format: str = "markdown", *,
 
 
 def export(folder: str | os.PathLike, format: str = "nwb",
-           out: str | os.PathLike | None = None, *, overwrite: bool = False) -> Path:
+           out: str | os.PathLike | None = None, *, overwrite: bool = False,
+           experimenter: Sequence[str] = (), institution: str | None = None) -> Path:
     """Write the unit, run or recorded session in ``folder`` as one NWB (``format="nwb"``) or
     npz file, at ``out`` (default ``<folder>.<format>`` beside the folder; an existing file
-    only with ``overwrite``); returns its path. What ``astrocpg export`` does. Read the NWB
-    file with ``pynwb.NWBHDF5IO(path, "r").read()``."""
+    only with ``overwrite``); returns its path. What ``astrocpg export`` does. ``experimenter``
+    (names as "Last, First") and ``institution`` are recorded in the file. Read the NWB file
+    with ``pynwb.NWBHDF5IO(path, "r").read()``; the cell of each trace column is in
+    ``processing["misc"]["astrocyte_trace_columns"]`` / ``["motor_trace_columns"]``."""
     return export_folder(Path(folder), format, None if out is None else Path(out),
-                         overwrite=overwrite)
+                         overwrite=overwrite, experimenter=experimenter,
+                         institution=institution)
 
 
 __all__ = ["unit", "run", "train", "resume", "load", "describe", "export", "Result", "Trace"]

@@ -7,17 +7,50 @@ holds was chosen when it was recorded: ``--spikes`` and ``--traces`` pick popula
 ``--trace-dt``/``--robot-stride`` (``--record-stride`` and ``--record-every`` in training) the
 sampling, so a long run or training does not fill the disk.
 
-NWB (pynwb): every neuron of every recorded population is a row of the Units table with its
-spike times and the columns ``population``, ``trial``, ``limb``, ``pool`` and ``neuron_index``
-(its index in the population, the column of its trace); astrocyte "spikes" are adenosine
-releases. Traces (motor-neuron Ca2+, astrocyte Ca2+, IP3, 2-AG, adenosine) and, per trial, joint
-angles, torques and the torso's position and velocity are TimeSeries with their units. The
-model parameters (value, unit, the paper's symbol, meaning) and equations are tables in the
-``model`` processing module; the seed and settings are in the file's ``notes`` and
-``session_description``.
+NWB (pynwb, core types only, no extension; nwbinspector finds nothing at any importance once
+``experimenter`` and ``institution`` are given, which only the person exporting knows. One
+exception: ``astrocpg unit`` with one trial has two astrocytes, and nwbinspector's
+check_column_binary_capability takes the region indices 0 and 1 of ``astrocyte_trace_columns``
+for a yes/no flag; a region's indices are int32 by the schema, so that suggestion stays):
 
-npz: the same arrays in one compressed file, the unit metadata as string arrays and the
-metadata as a JSON string (``metadata_json``).
+- Units: every neuron of every population with recorded spikes is a row with its spike times
+  and the columns ``population``, ``trial``, ``limb``, ``pool`` and ``neuron_index`` (its index
+  in the population, the column of its trace in ``traces.npz``); astrocyte "spikes" are
+  adenosine releases.
+- ``processing/misc/astrocytes`` and ``processing/misc/motor_neurons``: one row per astrocyte
+  (trial, limb, the thigh pool it covers, neuron_index) and per motor neuron.
+- Traces (motor-neuron Ca2+ per trial and limb; astrocyte Ca2+, IP3, 2-AG and adenosine per
+  trial) are TimeSeries in ``acquisition``, time first, one column per cell. A TimeSeries cannot
+  hold a table region itself, so ``processing/misc/astrocyte_trace_columns`` and
+  ``motor_trace_columns`` have one row per column of such a series: ``timeseries`` (an object
+  reference to the series), ``column`` (the column's index) and ``astrocyte`` /
+  ``motor_neuron`` (a DynamicTableRegion into the cell table). The cell of a column is found
+  through these references, never by reading a description.
+- Per trial, joint angles, torques and the torso's position and velocity are TimeSeries.
+- Units are SI or "dimensionless": astrocyte Ca2+ and IP3 are stored as recorded, in uM, with
+  ``unit="mol/m^3"`` and ``conversion=1e-3`` (data * conversion is in the unit); motor-neuron
+  Ca2+, 2-AG and adenosine are dimensionless model variables.
+- Time: seconds from ``session_start_time`` (the start of the simulation, t = 0). A sample of a
+  TimeSeries at time t holds the state at time t, which is the state at the end of the
+  simulation step that ends at t (t = 0: the initial state). The network traces of ``run`` and
+  ``unit`` begin with the initial state (t = 0); the robot is sampled after each physics step,
+  so its series begin at t = dt; a recorded training session samples both after each step.
+  Spike times are Brian2's: the start of the step in which the threshold was crossed (the
+  spike shows in the state at t + dt). The rate is exact (1000.0 Hz for samples 1 ms apart):
+  it comes from the sampling interval as a fraction, not from a float difference. The same
+  text is the file's ``/general/data_collection``.
+- Subject: nwbinspector requires one (critical) with a species given as a Latin binomial or an
+  NCBI Taxonomy IRI. A simulated agent has no species; the subject is the simulation, its
+  species NCBI Taxonomy 32630 "synthetic construct" (the taxonomy's entry for what was made,
+  not born), its description says there is no animal.
+- The model parameters (value, unit, the paper's symbol, meaning) and equations are tables in
+  the ``misc`` processing module; the seed and settings are in the file's ``notes`` and
+  ``session_description``.
+
+npz: the same arrays in one compressed file; ``array_units_json`` (a JSON string) maps the name of
+every other array to the unit of its values ("s", "uM", "dimensionless", "rad", ...; null for
+labels, indices and flags, which have none); ``metadata_json`` (a JSON string) holds the
+manifest's metadata and the models.
 """
 
 from __future__ import annotations
@@ -26,9 +59,12 @@ import hashlib
 import io
 import json
 import os
+import re
 import zipfile
 import zlib
+from collections.abc import Sequence
 from datetime import datetime
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -43,13 +79,42 @@ TRACE_MEANING = {
     "motor_Ca": "motor-neuron Ca2+ (dimensionless, drives the K+ adaptation current)",
     "astrocyte_Ca": "astrocyte cytosolic Ca2+ (Li-Rinzel)",
     "astrocyte_IP3": "astrocyte IP3",
-    "astrocyte_AG": "2-AG (endocannabinoid) at the astrocyte",
-    "astrocyte_ADO": "adenosine released by the astrocyte",
+    "astrocyte_AG": "2-AG (endocannabinoid) at the astrocyte (dimensionless)",
+    "astrocyte_ADO": "adenosine released by the astrocyte (dimensionless)",
 }
-ROBOT_SERIES = (("joint_angles", "radian", "joint angles"),
-                ("torques", "N*m", "joint torques as applied (clipped to the motors' range)"),
-                ("torso_position", "meter", "torso position, world frame"),
-                ("torso_velocity", "m/s", "torso linear velocity, world frame"))
+# the unit of each robot.npz array (None: labels or flags, no unit)
+ROBOT_UNITS: dict[str, str | None] = {
+    "t": "s", "joint_angles": "rad", "torques": "N*m", "torso_position": "m",
+    "torso_velocity": "m/s", "torso_quaternion": "dimensionless", "reward": "dimensionless",
+    "alive": None, "foot_force": "N", "legs": None, "joints": None,
+    "interlimb_weights_mV": "mV",
+}
+ROBOT_SERIES = (("joint_angles", "joint angles"),
+                ("torques", "joint torques as applied (clipped to the motors' range)"),
+                ("torso_position", "torso position, world frame"),
+                ("torso_velocity", "torso linear velocity, world frame"))
+# a stored trace unit -> (NWB unit, conversion): NWB wants SI or "dimensionless", and keeps the
+# stored values with a factor to the unit (data * conversion); the traces' "a.u." are
+# dimensionless model variables (": 1" in their equations)
+NWB_UNITS = {"uM": ("mol/m^3", 1e-3), "a.u.": ("dimensionless", 1.0)}
+
+TIME_CONVENTION = (
+    "Times are seconds from session_start_time, the start of the simulation (t = 0). A sample "
+    "of a TimeSeries at time t holds the state at time t, i.e. the state at the end of the "
+    "simulation step that ends at t (t = 0: the initial state, before the first step). Network "
+    "traces of astrocpg run and unit begin with the initial state (t = 0); the robot is sampled "
+    "after each physics step, so its series begin at the end of the first step (t = dt); a "
+    "recorded training session samples both after each step (from t = dt, times from the "
+    "session's start). Spike times (Units) are Brian2's: the start of the step in which the "
+    "threshold was crossed; the spike shows in the state at t + dt.")
+SAMPLE_COMMENT = ("sample at time t = the state at the end of the simulation step ending at t "
+                  "(see /general/data_collection)")
+
+# nwbinspector (check_subject_species_form) takes a Latin binomial or an NCBI Taxonomy IRI; a
+# simulated agent has no species: 32630 is NCBI's "synthetic construct" (made, not born)
+SYNTHETIC_CONSTRUCT = "http://purl.obolibrary.org/obo/NCBITaxon_32630"
+# DANDI's form of a person's name, as nwbinspector's check_experimenter_form checks it
+EXPERIMENTER_FORM = r"^([\w\s\-\.']+),\s+([\w\s\-\.']+)$"
 
 
 def _load(folder: Path) -> dict[str, Any]:
@@ -104,7 +169,71 @@ def _metadata(manifest: dict[str, Any]) -> dict[str, Any]:
                                           "created", "package_versions", "git")}
 
 
-def export_nwb(folder: Path, path: Path) -> Path:
+def _index_dtype(largest: int) -> np.dtype:
+    """The smallest unsigned integer type holding 0..largest: compact, and a trial column of a
+    2-trial run (values 0 and 1) is then not mistaken for a yes/no flag by nwbinspector."""
+    return np.min_scalar_type(max(int(largest), 0))
+
+
+def _sampling(t: np.ndarray, dt: float) -> dict[str, Any]:
+    """``starting_time`` and ``rate`` of sample times ``t`` (s) on a regular grid, or
+    ``timestamps`` if they are not.
+
+    The interval and the start are taken as the nearest fractions with a denominator of at
+    most 10**6 (1/1000 s for 1 ms; recorded intervals are multiples or simple fractions of the
+    step), so 1 ms sampling gives exactly 1000.0 Hz rather than the inverse of a float
+    difference (999.9999999999991); a grid that does not match every time gives timestamps.
+    ``dt``: the interval of a single sample."""
+    t = np.asarray(t, dtype=np.float64)
+    step = (Fraction(float(np.median(np.diff(t)))) if len(t) > 1
+            else Fraction(dt)).limit_denominator(10**6)
+    start = Fraction(float(t[0])).limit_denominator(10**6)
+    grid = float(start) + np.arange(len(t)) * float(step)
+    if step <= 0 or not np.allclose(grid, t, rtol=0, atol=1e-6 * float(step)):
+        return {"timestamps": t}
+    return {"starting_time": float(start), "rate": float(1 / step)}
+
+
+def _cell_table(name: str, description: str, rows: list[dict[str, Any]],
+                pool_meaning: str) -> Any:
+    """A DynamicTable of cells (one row per neuron or astrocyte, in neuron_index order)."""
+    from hdmf.common import DynamicTable, VectorData
+
+    return DynamicTable(name=name, description=description, columns=[
+        VectorData(name="trial", description="independent trial of the batch (seed = file seed "
+                                             "+ trial)",
+                   data=np.array([r["trial"] for r in rows],
+                                 dtype=_index_dtype(max(r["trial"] for r in rows)))),
+        VectorData(name="limb", description="leg: FR, FL, RR, RL",
+                   data=[r["limb"] for r in rows]),
+        VectorData(name="pool", description=pool_meaning, data=[r["pool"] for r in rows]),
+        VectorData(name="neuron_index", description="index within the population (column of "
+                                                    "its trace in traces.npz)",
+                   data=np.arange(len(rows), dtype=_index_dtype(len(rows) - 1)))])
+
+
+def _column_table(name: str, description: str, cell: str, cells: Any,
+                  columns: list[tuple[Any, int, int]]) -> Any:
+    """One row per column of the trace TimeSeries: (series, column, row of ``cells``)."""
+    from hdmf.common import DynamicTable, DynamicTableRegion, VectorData
+
+    return DynamicTable(name=name, description=description, columns=[
+        VectorData(name="timeseries", description="the TimeSeries (object reference)",
+                   data=[series for series, _, _ in columns]),
+        VectorData(name="column", description="index of the column in the TimeSeries' data "
+                                              "(second dimension)",
+                   data=np.array([k for _, k, _ in columns],
+                                 dtype=_index_dtype(max(k for _, k, _ in columns)))),
+        DynamicTableRegion(name=cell, description=f"the {cell.replace('_', ' ')} whose state "
+                                                  f"the column holds (row of {cells.name})",
+                           # int32: the schema's type of a region's indices (not smaller)
+                           data=np.array([row for _, _, row in columns], dtype=np.int32),
+                           table=cells)])
+
+
+def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
+               institution: str | None = None) -> Path:
+    """Write ``folder`` as the NWB file ``path`` (see the module's docstring)."""
     from hdmf.common import DynamicTable, VectorData
     from pynwb import NWBHDF5IO, NWBFile, ProcessingModule, TimeSeries
     from pynwb.file import Subject
@@ -115,6 +244,7 @@ def export_nwb(folder: Path, path: Path) -> Path:
     created = datetime.strptime(m["created"], "%Y-%m-%dT%H:%M:%S%z")
     settings = m.get("settings", {})
     lay = m["results"]["layout"]
+    dt = _resolution(m, data)
     digest = hashlib.sha256(json.dumps(_metadata(m), sort_keys=True, default=str)
                             .encode()).hexdigest()
     nwb = NWBFile(
@@ -126,46 +256,72 @@ def export_nwb(folder: Path, path: Path) -> Path:
         session_start_time=created,
         experiment_description=("Simulation of the astrocyte-regulated spiking CPG of a "
                                 "quadruped (Brian2), coupled to a Unitree A1 in MuJoCo"),
+        experimenter=list(experimenter) or None,
+        institution=institution,
+        data_collection=TIME_CONVENTION,
         notes=json.dumps(_metadata(m), default=str),
         source_script=" ".join(m.get("argv") or []),
         source_script_file_name="astrocpg",
         keywords=["spiking neural network", "central pattern generator", "astrocyte",
                   "simulation"],
     )
-    # a simulated subject: no animal, no sex (U = unknown); it comes into being when the
-    # simulation starts, so its date of birth is the session start
+    # the subject is the simulation: it comes into being when the simulation starts, so its
+    # date of birth is the session start; no animal, no sex (U = unknown)
     nwb.subject = Subject(subject_id="astrocpg-simulation", sex="U", date_of_birth=created,
+                          species=SYNTHETIC_CONSTRUCT,
                           description=("a simulated spiking CPG with astrocytes driving a "
-                                       "simulated Unitree A1 quadruped robot; no animal"))
+                                       "simulated Unitree A1 quadruped robot; no animal (species: "
+                                       "NCBI Taxonomy 32630, synthetic construct)"))
     populations = unit_rows(m)
     spikes = data["spikes"]
     recorded = [pop for pop in populations if f"{pop}_times" in spikes]
     if recorded:  # recorded with --spikes none: no Units table
-        nwb.units = Units(name="units", resolution=_resolution(m, data),
+        nwb.units = Units(name="units", resolution=dt,
                           description="spikes of the simulated neurons (astrocytes: adenosine "
                                       "releases)")
-    for col, desc in (("population", "motor (motor neuron), interneuron (V1/V2b or IIN), "
-                                     "astrocyte (spike = adenosine release)"),
-                      ("trial", "independent trial of the batch (seed = file seed + trial)"),
-                      ("limb", "leg: FR, FL, RR, RL"),
-                      ("pool", "motor pool, interneuron (source_to_target) or astrocyte's pool"),
-                      ("neuron_index", "index within the population (column of its trace)")):
-        if recorded:
-            nwb.add_unit_column(name=col, description=desc)
-    for pop, rows in populations.items():
-        if pop not in recorded:
-            continue
-        trains = _spike_trains(spikes[f"{pop}_times"], spikes[f"{pop}_indices"], len(rows))
-        for row, train in zip(rows, trains):
-            nwb.add_unit(spike_times=train, population=pop, **row)
+        rows = []
+        for pop in recorded:
+            trains = _spike_trains(spikes[f"{pop}_times"], spikes[f"{pop}_indices"],
+                                   len(populations[pop]))
+            for row, train in zip(populations[pop], trains):
+                nwb.add_unit(spike_times=train)
+                rows.append(row | {"population": pop})
+        # typed columns (pynwb would store Python ints as int64)
+        for col, desc, values in (
+                ("population", "motor (motor neuron), interneuron (V1/V2b or IIN), astrocyte "
+                               "(spike = adenosine release)", [r["population"] for r in rows]),
+                ("trial", "independent trial of the batch (seed = file seed + trial)",
+                 np.array([r["trial"] for r in rows],
+                          dtype=_index_dtype(max(r["trial"] for r in rows)))),
+                ("limb", "leg: FR, FL, RR, RL", [r["limb"] for r in rows]),
+                ("pool", "motor pool, interneuron (source_to_target) or astrocyte's pool",
+                 [r["pool"] for r in rows]),
+                ("neuron_index", "index within the population (column of its trace)",
+                 np.array([r["neuron_index"] for r in rows],
+                          dtype=_index_dtype(max(r["neuron_index"] for r in rows))))):
+            nwb.units.add_column(name=col, description=desc, data=values)
+
+    module = ProcessingModule(name="misc", description=(
+        "the simulated network: its cells (astrocytes, motor_neurons), the cell of each column "
+        "of the trace TimeSeries (astrocyte_trace_columns, motor_trace_columns), and the model "
+        "as simulated (parameters and equations of every model)"))
+    cells = {"astrocyte": _cell_table("astrocytes", "one row per astrocyte: the trial, limb "
+                                                    "and thigh pool it covers",
+                                      populations["astrocyte"],
+                                      "the thigh pool whose spikes the astrocyte takes in"),
+             "motor": _cell_table("motor_neurons", "one row per motor neuron",
+                                  populations["motor"], "motor pool")}
+    column_rows: dict[str, list[tuple[Any, int, int]]] = {"astrocyte": [], "motor": []}
     dims = {"motor": (len(lay["legs"]), len(lay["pools"]) * lay["pool_size"]),
             "astrocyte": (1, len(lay["legs"]) * len(lay["thigh_pools"]))}
     for name, values in sorted(data.get("traces", {}).items()):
         if name.endswith("_t"):
             continue
         t = data["traces"][f"{name}_t"]
-        dt = float(np.median(np.diff(t))) if len(t) > 1 else 1e-3
+        if len(t) == 0:  # nothing was sampled (a run that diverged at once)
+            continue
         population = name.split("_")[0]
+        unit, conversion = NWB_UNITS.get(TRACE_SOURCES[name][3], (TRACE_SOURCES[name][3], 1.0))
         # one series per trial and limb (motor) or per trial (astrocytes): time stays the
         # longest dimension, and a series is one limb's or one trial's cells
         n_parts, width = dims[population]
@@ -173,29 +329,34 @@ def export_nwb(folder: Path, path: Path) -> Path:
             b, limb = divmod(part, n_parts)
             cols = slice(part * width, (part + 1) * width)
             suffix = f"trial{b}_{lay['legs'][limb]}" if population == "motor" else f"trial{b}"
-            nwb.add_acquisition(TimeSeries(
-                name=f"{name}_{suffix}", data=values[:, cols], unit=TRACE_SOURCES[name][3],
-                rate=1.0 / dt, starting_time=float(t[0]) if len(t) else 0.0,
-                description=(f"{TRACE_MEANING.get(name, name)}; column k = neuron_index "
-                             f"{cols.start}+k of the {population} population in the Units "
-                             f"table")))
+            series = TimeSeries(
+                name=f"{name}_{suffix}", data=values[:, cols], unit=unit,
+                conversion=conversion, comments=SAMPLE_COMMENT, **_sampling(t, dt),
+                description=(f"{TRACE_MEANING.get(name, name)}; one column per cell, the cell "
+                             f"of each column in processing/misc/{population}_trace_columns"))
+            nwb.add_acquisition(series)
+            column_rows[population] += [(series, k, cols.start + k) for k in range(width)]
+    for pop, table in cells.items():
+        module.add(table)
+    for pop, cell in (("astrocyte", "astrocyte"), ("motor", "motor_neuron")):
+        if column_rows[pop]:
+            module.add(_column_table(f"{pop}_trace_columns",
+                                     f"the {cell.replace('_', ' ')} of each column of the "
+                                     f"{pop} trace TimeSeries", cell, cells[pop],
+                                     column_rows[pop]))
     robot = data.get("robot")
-    if robot is not None:
-        t = robot["t"]
-        dt = float(np.median(np.diff(t))) if len(t) > 1 else 1e-3
+    if robot is not None and len(robot["t"]):
         legs, joints = [str(x) for x in robot["legs"]], [str(x) for x in robot["joints"]]
-        for key, unit, meaning in ROBOT_SERIES:
+        for key, meaning in ROBOT_SERIES:
             arr = robot[key]
             for b in range(arr.shape[0]):
                 values = arr[b].reshape(arr.shape[1], -1)
                 columns = ([f"{leg}_{j}" for leg in legs for j in joints]
                            if values.shape[1] == len(legs) * len(joints) else ["x", "y", "z"])
                 nwb.add_acquisition(TimeSeries(
-                    name=f"{key}_trial{b}", data=values, unit=unit, rate=1.0 / dt,
-                    starting_time=float(t[0]), description=f"{meaning}; columns: "
-                                                           f"{', '.join(columns)}"))
-    module = ProcessingModule(name="misc", description="the model as simulated: parameters and "
-                                                        "equations of every model (astrocpg)")
+                    name=f"{key}_trial{b}", data=values, unit=ROBOT_UNITS[key],
+                    comments=SAMPLE_COMMENT, **_sampling(robot["t"], dt),
+                    description=f"{meaning}; columns: {', '.join(columns)}"))
     names, params, values, symbols, meanings = [], [], [], [], []
     eq_models, eq_kinds, eq_texts = [], [], []
     for model, entry in m.get("models", {}).items():
@@ -232,7 +393,6 @@ def export_nwb(folder: Path, path: Path) -> Path:
     atomic_path(path, lambda p: _nwb_write(NWBHDF5IO, nwb, p))
     return path
 
-
 def _resolution(manifest: dict[str, Any], data: dict[str, Any]) -> float:
     """The simulation time step (spike times lie on its grid)."""
     dt = manifest.get("results", {}).get("dt_s")
@@ -261,7 +421,24 @@ def _nwb_write(io_cls, nwb, path: Path) -> None:
         os.fsync(out.fileno())
 
 
-def export_npz(folder: Path, path: Path) -> Path:
+def _npz_unit(name: str) -> str | None:
+    """The unit of the npz array ``name`` (None: labels, indices or flags)."""
+    if name.startswith("spikes_"):
+        return "s" if name.endswith("_times") else None  # _indices: neuron indices
+    if name.startswith("units_"):
+        return None  # trial, limb, pool of each neuron
+    if name.startswith("trace_"):
+        trace = name[len("trace_"):]
+        if trace.endswith("_t"):
+            return "s"
+        unit = TRACE_SOURCES[trace][3]
+        return "dimensionless" if unit == "a.u." else unit
+    return ROBOT_UNITS[name[len("robot_"):]]
+
+
+def export_npz(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
+               institution: str | None = None) -> Path:
+    """Write ``folder`` as the npz file ``path`` (see the module's docstring)."""
     data = _load(folder)
     m = data["manifest"]
     arrays: dict[str, np.ndarray] = {}
@@ -276,14 +453,13 @@ def export_npz(folder: Path, path: Path) -> Path:
         arrays[f"trace_{name}"] = v
     for name, v in data.get("robot", {}).items():
         arrays[f"robot_{name}"] = v
+    units = {name: _npz_unit(name) for name in arrays}
+    arrays["array_units_json"] = np.array(json.dumps(units))
     arrays["metadata_json"] = np.array(json.dumps(
-        _metadata(m) | {"models": m.get("models"),
-                        "units": {n: src[3] for n, src in TRACE_SOURCES.items()}
-                        | {"robot_joint_angles": "rad", "robot_torques": "N m",
-                           "spike times": "s"}}, default=str))
+        _metadata(m) | {"models": m.get("models"), "experimenter": list(experimenter),
+                        "institution": institution}, default=str))
     save_npz(path, arrays)
     return path
-
 
 def default_path(folder: Path, fmt: str) -> Path:
     """``<folder>.<fmt>`` beside the folder: an export never changes the folder it reads."""
@@ -291,11 +467,23 @@ def default_path(folder: Path, fmt: str) -> Path:
     return folder.with_name(f"{folder.name}.{fmt}")
 
 
-def export(folder: Path, fmt: str, out: Path | None = None, *, overwrite: bool = False) -> Path:
+def export(folder: Path, fmt: str, out: Path | None = None, *, overwrite: bool = False,
+           experimenter: Sequence[str] = (), institution: str | None = None) -> Path:
     """Export the run, unit or recorded-session ``folder`` to ``out`` (default
-    :func:`default_path`) as NWB or npz, atomically; returns the path written."""
+    :func:`default_path`) as NWB or npz, atomically; returns the path written.
+
+    experimenter: who ran the simulation, each as "Last, First" (DANDI's form); institution:
+    where. Only the person exporting knows them; without them nwbinspector suggests adding
+    them (its only messages on the file)."""
     if fmt not in ("nwb", "npz"):
         raise InputError(f"must be nwb or npz, got '{fmt}'", culprit="--format")
+    experimenter = tuple(experimenter)
+    for name in experimenter:
+        if not re.match(EXPERIMENTER_FORM, name):
+            raise InputError(f"'{name}' is not of the form 'Last, First' (e.g. 'Doe, Jane')",
+                             culprit="--experimenter")
+    if institution is not None and not institution.strip():
+        raise InputError("is empty", culprit="--institution")
     folder = Path(folder)
     path = Path(out) if out is not None else default_path(folder, fmt)
     shown = f"--out {out}" if out is not None else f"export {path}"
@@ -306,4 +494,5 @@ def export(folder: Path, fmt: str, out: Path | None = None, *, overwrite: bool =
     if not path.parent.is_dir():
         raise InputError(f"folder '{path.parent}' does not exist", culprit=shown)
     clean_stale_temporaries(path.parent)  # what a killed export left
-    return export_nwb(folder, path) if fmt == "nwb" else export_npz(folder, path)
+    write = export_nwb if fmt == "nwb" else export_npz
+    return write(folder, path, experimenter=experimenter, institution=institution)
