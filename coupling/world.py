@@ -41,6 +41,10 @@ class World:
     @classmethod
     def from_models(cls, models: ModelSet) -> "World":
         p = models.world.parameters
+        for f in fields(cls):
+            if f.name not in p:  # a world model file must declare every world parameter
+                raise InputError("is missing from the world model (astrocpg models dump world "
+                                 "shows them all)", culprit=f"world.{f.name}")
         values = {f.name: float(np.asarray(p[f.name].value)) for f in fields(cls)}
         seed = values["terrain_seed"]
         if seed != int(seed) or seed < 0:

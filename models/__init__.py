@@ -157,10 +157,12 @@ DEFAULT_MODELS = ModelSet()
 
 from . import astrocyte as _astrocyte, interlimb_synapse as _interlimb  # noqa: E402
 from . import motor_neuron as _motor, pool as _pool, torque as _torque  # noqa: E402
+from . import world as _world  # noqa: E402
 
 INTERFACES: dict[str, tuple[str, ...]] = {
     "motor_neuron": _motor.INTERFACE, "astrocyte": _astrocyte.INTERFACE, "pool": _pool.INTERFACE,
     "torque": _torque.INTERFACE, "interlimb_synapse": _interlimb.INTERFACE,
+    "world": _world.INTERFACE,
     **{name: tuple(model.inputs) for name, model in DEFAULT_MODELS.items()
        if isinstance(model, ExpressionModel)},
 }

@@ -7,9 +7,10 @@ slope tilts gravity in the robot's x-z plane instead of tilting the ground, so t
 height, the reward's forward velocity and the alive test all stay in the frame of the slope.
 The heightfield is Gaussian-filtered white noise of RMS ``terrain_height`` and correlation length
 ``terrain_length``, drawn from ``terrain_seed`` (the same field for every trial and session). The
-push acts on the torso, sideways (+y, to the robot's left), once per session (every run for
-``run``), from ``push_time`` for ``push_duration``. ``torque_noise`` multiplies every motor's
-torque by (1 + torque_noise * N(0, 1)), drawn per motor and step from the run's seed.
+push acts on the torso, sideways (+y, to the robot's left), once per session (in ``run``: once,
+from the run's start), from ``push_time`` for ``push_duration``. ``torque_noise`` multiplies
+every motor's torque by (1 + torque_noise * N(0, 1)), drawn per motor and step from the run's
+seed.
 """
 
 from brian2 import kilogram, meter, second

@@ -69,6 +69,10 @@ def read_worlds(source: str | Path, models: ModelSet) -> dict[str, list[str]]:
             raise InputError("must be a table of world parameters", culprit=f"{where} {name}")
         items = []
         for key, value in table.items():
+            if isinstance(value, dict):  # [worlds.a.b]: TOML reads the dot as a sub-table
+                raise InputError(f"is a table, not a value (a world name with a dot needs "
+                                 f'quotes: [worlds."{name}.{key}"])',
+                                 culprit=f"{where} {name}.{key}")
             if key not in world_names:
                 raise InputError(f"is not a world parameter ({', '.join(sorted(world_names))})",
                                  culprit=f"{where} {name}.{key}")

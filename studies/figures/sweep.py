@@ -52,7 +52,8 @@ def measure_vs_value(axis: Axis, measures: Sequence[Measure], series: Mapping[st
     = (mean, std, n) per value of the axis; error bars are ± std across seeds."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(7, 2.3 * len(measures) + 0.8))
+    # constrained layout keeps the figure title clear of the first panel's title
+    fig = Figure(figsize=(7, 2.3 * len(measures) + 0.8), layout="constrained")
     axes = np.atleast_1d(fig.subplots(len(measures), 1, sharex=True))
     x = np.asarray(axis.positions, dtype=float)
     for ax, m in zip(axes, measures):
@@ -70,7 +71,6 @@ def measure_vs_value(axis: Axis, measures: Sequence[Measure], series: Mapping[st
     if axis.categorical:
         axes[-1].set_xlim(x.min() - 0.5, x.max() + 0.5)
     fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
     return fig
 
 
