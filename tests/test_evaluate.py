@@ -11,14 +11,31 @@ import pytest
 from astrocpg.errors import InputError
 from astrocpg.models import DEFAULT_MODELS
 from astrocpg.studies.cli import main
-from astrocpg.studies.experiments.evaluate import COLUMNS, read_worlds
+from astrocpg.studies.experiments.evaluate import COLUMNS, in_world, read_worlds
 
 
 def test_builtin_robustness_worlds_parse():
-    worlds = read_worlds("robustness", DEFAULT_MODELS)
-    assert "flat" in worlds and worlds["flat"] == []
-    assert worlds["uphill_0.17"] == ["slope=0.17"]
-    assert any(item.startswith("terrain_height=") for w in worlds.values() for item in w)
+    worlds = read_worlds("robustness", DEFAULT_MODELS).worlds
+    assert worlds["flat"] == {"set": [], "scale": {}}
+    assert worlds["uphill_0.17"]["set"] == ["slope=0.17"]
+    assert any(item.startswith("terrain_height=") for w in worlds.values() for item in w["set"])
+
+
+def test_a_grid_is_the_product_of_its_axes(tmp_path):
+    path = tmp_path / "g.toml"
+    path.write_text('[grid.drive]\nscale = ["I_background_0"]\nvalues = [0.8, 1.0, 1.2]\n'
+                    '[grid.torque_gain]\nscale = ["I_thigh", "I_calf"]\nvalues = [0.5, 1.5]\n'
+                    '[worlds.uphill]\nslope = "0.1"\n')
+    ws = read_worlds(path, DEFAULT_MODELS)
+    assert len(ws.worlds) == 3 * 2 + 1
+    cell = ws.worlds["drive=1.2, torque_gain=0.5"]
+    assert cell["scale"] == {"I_background_0": 1.2, "I_thigh": 0.5, "I_calf": 0.5}
+    assert ws.cell["drive=1.2, torque_gain=0.5"] == (2, 0)
+    models = in_world(DEFAULT_MODELS, cell)
+    for name, f in (("I_background_0", 1.2), ("I_thigh", 0.5), ("I_calf", 0.5)):
+        assert float(models.parameter(name).value) == pytest.approx(
+            f * float(DEFAULT_MODELS.parameter(name).value))
+    assert ws.labels["torque_gain"] == "torque_gain (x I_thigh, I_calf)"
 
 
 @pytest.mark.parametrize("text, words", [
@@ -26,6 +43,9 @@ def test_builtin_robustness_worlds_parse():
     ('[worlds.a]\nslope = "3*second"\n', ["slope"]),
     ('[worlds.a]\nslope = "0.1"\n[other]\n', ["[worlds.NAME]"]),
     ("[worlds.a\n", ["TOML"]),
+    ('[grid.g]\nscale = ["I_thight"]\nvalues = [1.0]\n', ["I_thight"]),
+    ('[grid.g]\nscale = ["I_thigh"]\nvalues = [-1.0]\n', ["grid.g.values", "positive"]),
+    ('[grid.slope]\nvalues = []\n', ["grid.slope.values"]),
 ])
 def test_bad_worlds_files_are_named(tmp_path, text, words):
     path = tmp_path / "w.toml"
@@ -64,5 +84,16 @@ def test_evaluate_a_training_in_two_worlds(tmp_path):
     summary = list(csv.DictReader(open(out / "summary.csv")))
     assert {s["world"] for s in summary} == {"flat", "uphill"}
     manifest = json.loads((out / "manifest.json").read_text())
-    assert manifest["settings"]["worlds"]["uphill"] == ["slope=0.17"]
+    assert manifest["settings"]["worlds"]["uphill"]["set"] == ["slope=0.17"]
     assert manifest["astrocpg_command"] == "evaluate"
+    # a two-axis grid draws a gait map, and its values are columns
+    grid = tmp_path / "g.toml"
+    grid.write_text('[grid.drive]\nscale = ["I_background_0"]\nvalues = [0.9, 1.1]\n'
+                    '[grid.torque_gain]\nscale = ["I_thigh", "I_calf"]\nvalues = [0.8, 1.2]\n')
+    assert main(["evaluate", str(train), "--worlds", str(grid), "--seconds", "0.4",
+                 "--repeats", "1", "--no-progress"]) == 0  # default: DIR/evaluation
+    done = train / "evaluation"
+    assert (done / "gait_map.png").stat().st_size > 0
+    rows = list(csv.DictReader(open(done / "evaluation.csv")))
+    assert {(r["grid_drive"], r["grid_torque_gain"]) for r in rows} == {
+        ("0.9", "0.8"), ("0.9", "1.2"), ("1.1", "0.8"), ("1.1", "1.2")}

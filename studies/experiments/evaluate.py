@@ -20,8 +20,10 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import math
 import tomllib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -47,9 +49,29 @@ COLUMNS = ("source", "condition", "point", "seed", "world", "repeat", "distance_
            "phase_RL")
 
 
-def read_worlds(source: str | Path, models: ModelSet) -> dict[str, list[str]]:
-    """{world name: ["NAME=VALUE", ...]} from a worlds file or a built-in name; every name must
-    be a world parameter and every value parse with its unit."""
+@dataclass
+class WorldSet:
+    """The settings a controller is evaluated in, by name: ``set`` (world parameters, absolute:
+    ``NAME=VALUE`` texts) and ``scale`` (any model parameter times a factor, e.g. the torque per
+    spike); ``axes``: a grid's axes [(name, value labels)] and ``cell``: each grid world's
+    (i, j, ...) index, or empty."""
+
+    worlds: dict[str, dict[str, Any]]
+    axes: list[tuple[str, list[str]]]
+    cell: dict[str, tuple[int, ...]]
+    labels: dict[str, str]  # each axis as a figure labels it, e.g. "drive (x I_background_0)"
+
+    def to_json(self) -> dict[str, Any]:
+        return {"worlds": self.worlds, "axes": [[n, v] for n, v in self.axes]}
+
+
+def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
+    """The worlds of a worlds file or a built-in name: ``[worlds.NAME]`` tables of world
+    parameters (absolute values with units), and/or ``[grid.AXIS]`` tables whose product are
+    worlds: ``values = [...]`` of the world parameter AXIS, or ``values = [factors]`` with
+    ``scale = ["P", ...]``, model parameters multiplied together by each factor (e.g. the
+    descending drive ``I_background_0``, the torques per spike ``I_thigh`` and ``I_calf``).
+    Every name and value is checked (units, parse) here, each error naming its place."""
     path = BUILTIN_WORLDS.get(str(source), Path(source))
     where = f"--worlds {source}"
     try:
@@ -59,28 +81,87 @@ def read_worlds(source: str | Path, models: ModelSet) -> dict[str, list[str]]:
                          f"{', '.join(BUILTIN_WORLDS)}", culprit=where) from None
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
         raise InputError(f"is not a TOML worlds file ({e})", culprit=where) from None
-    worlds = doc.get("worlds")
-    if not isinstance(worlds, dict) or not worlds or set(doc) - {"worlds"}:
-        raise InputError("needs [worlds.NAME] tables and nothing else", culprit=where)
+    worlds, grid = doc.get("worlds", {}), doc.get("grid", {})
+    if (not isinstance(worlds, dict) or not isinstance(grid, dict) or not (worlds or grid)
+            or set(doc) - {"worlds", "grid"}):
+        raise InputError("needs [worlds.NAME] and/or [grid.AXIS] tables and nothing else",
+                         culprit=where)
     world_names = set(models.world.parameters)
-    out: dict[str, list[str]] = {}
+
+    def assignment(key: str, value: Any, at: str) -> str:
+        if isinstance(value, dict):  # [worlds.a.b]: TOML reads the dot as a sub-table
+            raise InputError(f"is a table, not a value (a name with a dot needs quotes: "
+                             f'[worlds."a.b"])', culprit=f"{where} {at}")
+        if key not in world_names:
+            raise InputError(f"is not a world parameter ({', '.join(sorted(world_names))})",
+                             culprit=f"{where} {at}")
+        text = f"{key}={value}"
+        models.parse_assignment(text)  # unit and parse check, named
+        return text
+
+    out: dict[str, dict[str, Any]] = {}
     for name, table in worlds.items():
         if not isinstance(table, dict):
             raise InputError("must be a table of world parameters", culprit=f"{where} {name}")
-        items = []
-        for key, value in table.items():
-            if isinstance(value, dict):  # [worlds.a.b]: TOML reads the dot as a sub-table
-                raise InputError(f"is a table, not a value (a world name with a dot needs "
-                                 f'quotes: [worlds."{name}.{key}"])',
-                                 culprit=f"{where} {name}.{key}")
-            if key not in world_names:
-                raise InputError(f"is not a world parameter ({', '.join(sorted(world_names))})",
-                                 culprit=f"{where} {name}.{key}")
-            text = f"{key}={value}"
-            models.parse_assignment(text)  # unit and parse check, named
-            items.append(text)
-        out[str(name)] = items
-    return out
+        out[str(name)] = {"set": [assignment(k, v, f"{name}.{k}") for k, v in table.items()],
+                          "scale": {}}
+    axes: list[tuple[str, list[str]]] = []
+    labels: dict[str, str] = {}
+    options: list[list[dict[str, Any]]] = []
+    for axis, table in grid.items():
+        at = f"{where} grid.{axis}"
+        if not isinstance(table, dict) or set(table) - {"values", "scale"}:
+            raise InputError("needs values = [...] and, for factors, scale = [parameters]",
+                             culprit=at)
+        values = table.get("values")
+        if not isinstance(values, list) or not values:
+            raise InputError("needs a non-empty list of values", culprit=f"{at}.values")
+        scale = table.get("scale")
+        if scale is None:
+            options.append([{"set": [assignment(axis, v, f"grid.{axis}")], "scale": {}}
+                            for v in values])
+            labels[str(axis)] = str(axis)
+        else:
+            if not isinstance(scale, list) or not scale:
+                raise InputError("needs a list of parameter names", culprit=f"{at}.scale")
+            for p in scale:
+                models.parameter(str(p))  # an unknown name is named
+            factors = []
+            for v in values:
+                if (isinstance(v, bool) or not isinstance(v, (int, float))
+                        or not math.isfinite(v) or v <= 0):
+                    raise InputError(f"a factor must be a positive number, got {v!r}",
+                                     culprit=f"{at}.values")
+                factors.append(float(v))
+            options.append([{"set": [], "scale": {str(p): f for p in scale}} for f in factors])
+            labels[str(axis)] = f"{axis} (x {', '.join(str(p) for p in scale)})"
+        axes.append((str(axis), [str(v) for v in values]))
+    cell: dict[str, tuple[int, ...]] = {}
+    if axes:
+        for index in itertools.product(*(range(len(v)) for _, v in axes)):
+            name = ", ".join(f"{axes[k][0]}={axes[k][1][i]}" for k, i in enumerate(index))
+            merged: dict[str, Any] = {"set": [], "scale": {}}
+            for k, i in enumerate(index):
+                merged["set"] += options[k][i]["set"]
+                merged["scale"].update(options[k][i]["scale"])
+            out[name] = merged
+            cell[name] = tuple(index)
+    return WorldSet(worlds=out, axes=axes, cell=cell, labels=labels)
+
+
+def grid_values(world_set: WorldSet, world: str) -> dict[str, str]:
+    """``grid_<axis>``: the world's value on each grid axis ("" for a world not on the grid)."""
+    index = world_set.cell.get(world)
+    return {f"grid_{a}": (values[index[k]] if index is not None else "")
+            for k, (a, values) in enumerate(world_set.axes)}
+
+
+def in_world(models: ModelSet, world: Mapping[str, Any]) -> ModelSet:
+    """``models`` with a world's absolute settings and scaled parameters applied."""
+    values = dict(models.parse_assignment(t) for t in world["set"])
+    for name, factor in world["scale"].items():
+        values[name] = models.parameter(name).value * factor
+    return models.with_values(values)
 
 
 def _controllers(folder: Path) -> list[dict[str, Any]]:
@@ -170,8 +251,8 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     for c, tables, models in plans:
         n = len(tables)
         batch = np.concatenate([tables] * repeats)  # trial r*n + k: controller k, repeat r
-        for world, items in world_set.items():
-            here = models.with_values(dict(models.parse_assignment(t) for t in items))
+        for world, setting in world_set.worlds.items():
+            here = in_world(models, setting)
             result = simulate_closed_loop(here, seconds=seconds, seed=seed, n_trials=len(batch),
                                           weights=batch, record_traces=False,
                                           spikes=("motor",), progress=progress)
@@ -179,20 +260,34 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
                 r, k = divmod(b, n)
                 rows.append({"source": c["folder"].name, "condition": c["condition"],
                              "point": c["point"], "seed": c["first_seed"] + k, "world": world,
-                             "repeat": r, **_trial_rows(result, b, seconds)})
+                             **grid_values(world_set, world), "repeat": r,
+                             **_trial_rows(result, b, seconds)})
     summary = summarise(rows)
-    settings = {"folder": str(folder), "worlds": {w: list(v) for w, v in world_set.items()},
+    columns = list(COLUMNS)
+    columns[columns.index("world") + 1:columns.index("world") + 1] = list(
+        grid_values(world_set, ""))
+    figures = {}
+    if len(world_set.axes) == 2:
+        from ..figures.gait_map import gait_map_figures
+
+        figures = gait_map_figures(rows, world_set.axes, world_set.labels)
+    settings = {"folder": str(folder), **world_set.to_json(),
                 "worlds_source": str(worlds), "seconds": seconds, "repeats": repeats,
                 "seed": seed, "trainings": [str(c["folder"]) for c, _, _ in plans]}
     with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
-        (tmp / EVALUATION).write_text(_csv(rows, COLUMNS))
+        (tmp / EVALUATION).write_text(_csv(rows, tuple(columns)))
         (tmp / SUMMARY).write_text(_csv(summary, tuple(summary[0]) if summary else ()))
+        for name, fig in figures.items():
+            fig.savefig(tmp / name, dpi=120)
         write_manifest(tmp, command="evaluate", seed=seed, settings=settings,
                        models_json=plans[0][2].to_json(),
                        files={EVALUATION: "one row per trained controller x world x repeat",
-                              SUMMARY: "mean and std per condition x point x world"},
+                              SUMMARY: "mean and std per condition x point x world",
+                              **{n: "gait map over the grid's two axes: the most common gait "
+                                    "label per cell (colour), mean speed (contours)"
+                                 for n in figures}},
                        results={"status": "finished", "rows": len(rows)})
-    return {"rows": rows, "summary": summary, "out": target}
+    return {"rows": rows, "summary": summary, "out": target, "figures": sorted(figures)}
 
 
 def summarise(rows: list[Mapping[str, Any]]) -> list[dict[str, Any]]:
@@ -203,6 +298,7 @@ def summarise(rows: list[Mapping[str, Any]]) -> list[dict[str, Any]]:
     out = []
     for (condition, point, world), rs in groups.items():
         entry: dict[str, Any] = {"condition": condition, "point": point, "world": world,
+                                 **{k: v for k, v in rs[0].items() if k.startswith("grid_")},
                                  "n": len(rs)}
         for key in ("distance_m", "mean_speed_m_per_s", "fell", "upright_share"):
             v = np.array([r[key] for r in rs], dtype=float)

@@ -1,0 +1,81 @@
+"""Gait maps: the gait found at each point of a two-axis grid (colour: the most common label
+over seeds and repeats, its share written in the cell) with the mean forward speed as
+contours. Used by ``astrocpg evaluate`` for a worlds file with a two-axis ``[grid]``."""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+GAITS = ("trot", "pace", "bound", "walk", "none")
+_COLOURS = {"trot": "#4c9a2a", "pace": "#2a6f9a", "bound": "#9a2a6f", "walk": "#d9a21b",
+            "none": "#d0d0d0"}
+
+
+def gait_grid(rows: Sequence[Mapping[str, Any]], axes: Sequence[tuple[str, Sequence[str]]],
+              condition: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """For one condition: (label index into GAITS, share of that label, mean speed m/s, fall
+    share) per cell (axis 0 along y, axis 1 along x); NaN/-1 where no row fell in the cell."""
+    (ya, yv), (xa, xv) = axes
+    shape = (len(yv), len(xv))
+    label = np.full(shape, -1)
+    share, speed, falls = (np.full(shape, np.nan) for _ in range(3))
+    for i, y in enumerate(yv):
+        for j, x in enumerate(xv):
+            cell = [r for r in rows if r["condition"] == condition
+                    and r.get(f"grid_{ya}") == y and r.get(f"grid_{xa}") == x]
+            if not cell:
+                continue
+            counts = Counter(r["gait"] for r in cell)
+            top, n = max(counts.items(), key=lambda kv: (kv[1], -GAITS.index(kv[0])
+                                                           if kv[0] in GAITS else 0))
+            label[i, j] = GAITS.index(top) if top in GAITS else GAITS.index("none")
+            share[i, j] = n / len(cell)
+            speed[i, j] = float(np.mean([r["mean_speed_m_per_s"] for r in cell]))
+            falls[i, j] = float(np.mean([r["fell"] for r in cell]))
+    return label, share, speed, falls
+
+
+def gait_map_figures(rows: Sequence[Mapping[str, Any]],
+                     axes: Sequence[tuple[str, Sequence[str]]],
+                     labels: Mapping[str, str] | None = None) -> dict[str, Any]:
+    """``{"gait_map.png": Figure}``: one panel per condition; ``labels``: axis titles."""
+    labels = dict(labels or {})
+    from matplotlib.colors import ListedColormap
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
+
+    conditions = sorted({r["condition"] for r in rows})
+    (ya, yv), (xa, xv) = axes
+    fig = Figure(figsize=(5.2 * len(conditions) + 1.6, 4.6), layout="constrained")
+    panels = np.atleast_1d(fig.subplots(1, len(conditions), squeeze=False)[0])
+    cmap = ListedColormap([_COLOURS[g] for g in GAITS])
+    for ax, condition in zip(panels, conditions):
+        label, share, speed, falls = gait_grid(rows, axes, condition)
+        shown = np.ma.masked_less(label, 0)
+        ax.imshow(shown, cmap=cmap, vmin=-0.5, vmax=len(GAITS) - 0.5, origin="lower",
+                  aspect="auto")
+        if np.isfinite(speed).sum() >= 4 and len(xv) > 1 and len(yv) > 1:
+            cs = ax.contour(np.arange(len(xv)), np.arange(len(yv)), speed, colors="k",
+                            linewidths=0.8, levels=6)
+            ax.clabel(cs, fmt="%.2f m/s", fontsize=7)
+        for i in range(len(yv)):
+            for j in range(len(xv)):
+                if label[i, j] >= 0:
+                    ax.text(j, i, f"{GAITS[label[i, j]]}\n{share[i, j]:.0%}"
+                            + (f"\nfalls {falls[i, j]:.0%}" if falls[i, j] > 0 else ""),
+                            ha="center", va="center", fontsize=6.5)
+        ax.set_xticks(range(len(xv)), list(xv))
+        ax.set_yticks(range(len(yv)), list(yv))
+        ax.set_xlabel(labels.get(xa, xa))
+        ax.set_ylabel(labels.get(ya, ya))
+        ax.set_title(f"{condition}: most common gait (share), mean speed (contours)",
+                     fontsize=9)
+    fig.legend(handles=[Patch(color=_COLOURS[g], label=g) for g in GAITS], loc="outside right",
+               fontsize=8, title="gait")
+    return {"gait_map.png": fig}
+
+
+__all__ = ["GAITS", "gait_grid", "gait_map_figures"]
