@@ -194,7 +194,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="frame size in pixels (640 480)")
     vid.add_argument("--out", help="MP4 file (default DIR/video_trialTT.mp4, replaced each time)")
     vid.add_argument("--panel", action="store_true",
-                     help="a strip under the frames: time, forward speed, scrolling gait diagram")
+                     help="a panel under the frames, scrolling with them: time, forward speed, "
+                          "gait diagram, thigh-pool activity and astrocyte Ca2+ (those recorded)")
     vid.add_argument("--no-progress", action="store_true")
     _add_overwrite(vid)
 

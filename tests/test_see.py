@@ -156,10 +156,67 @@ def test_video_speed_panel_and_default_path(run_dir):
                  "--panel", "--no-progress"]) == 0
     frames = _frames(run_dir / "video_trial00.mp4")
     assert abs(len(frames) - 10) <= 1  # 2 s at twice real time, 10 fps
-    assert frames.shape[1:] == (240 + 80, 320, 3)  # the panel: a third of the height below
+    # the panel below: gait, pool activity and astrocyte Ca2+ rows, half the height (>= 240)
+    assert frames.shape[1:] == (240 + 240, 320, 3)
     strip = frames[:, 240:].astype(int)
-    assert np.abs(strip[-1] - strip[1]).mean() > 1  # the gait diagram scrolls
+    assert np.abs(strip[-1] - strip[1]).mean() > 1  # the panel scrolls with the frame's time
     assert load(run_dir).kind == "run"  # an extra file leaves the folder verifiable
+
+
+def _texts(ax) -> str:
+    return " ".join(t.get_text() for t in ax.texts)
+
+
+def test_panel_rows_follow_the_frame(run_dir):
+    """The panel's rows are labelled with their units, its "now" line sits at the frame's
+    time, and two frames at different times differ."""
+    from astrocpg.studies.figures.panel import GaitPanel, panel_height
+
+    result = load(run_dir)
+    t = result.robot["t"]
+    panel = GaitPanel(result.robot, 0, 320, panel_height(240, result), result=result)
+    assert set(panel.axes) == {"gait", "activity", "calcium"}
+    labels = {name: ax.get_ylabel() for name, ax in panel.axes.items()}
+    assert "activity" in labels["activity"] and "Hz" in labels["activity"]
+    assert "Ca" in labels["calcium"] and "µM" in labels["calcium"]
+    assert "contact" in labels["gait"]
+    assert panel.axes["calcium"].get_xlabel() == "time (s)"
+    assert not _texts(panel.axes["activity"]) and not _texts(panel.axes["calcium"])
+    # 8 activity lines (4 legs x extensor, flexor), 8 astrocytes, their legends
+    assert len(panel.axes["activity"].get_legend().get_texts()) == 2
+    assert len(panel.axes["calcium"].get_legend().get_texts()) == 4 + 2
+    images = []
+    for when in (0.8, 1.6):
+        k = int(np.searchsorted(t, when))
+        images.append(panel.draw(k).astype(int))
+        assert images[-1].shape == (240, 320, 3)
+        for line in panel.now:
+            assert line.get_xdata()[0] == pytest.approx(t[k])
+        lo, hi = panel.axes["calcium"].get_xlim()
+        assert lo < t[k] < hi
+        assert len(panel.series) == 16
+        for line, xs, _ in panel.series:  # each series fills the window where it has data
+            x = np.asarray(line.get_xdata())
+            assert x[0] <= max(lo, xs[0]) + 0.02 and x[-1] >= min(hi, xs[-1]) - 0.02
+    assert np.abs(images[1] - images[0]).mean() > 1
+
+
+def test_video_panel_of_a_run_without_traces(tmp_path):
+    """A run recorded with --traces none still gets its panel: Ca2+ left out, with a note."""
+    from astrocpg.studies.figures.panel import GaitPanel
+
+    out = tmp_path / "run"
+    assert main(["run", "--seconds", "1", "--seed", "2", "--traces", "none", "--out", str(out),
+                 "--no-progress"]) == 0
+    assert main(["video", str(out), "--panel", "--size", "320", "240", "--fps", "4",
+                 "--no-progress"]) == 0
+    frames = _frames(out / "video_trial00.mp4")
+    assert frames.shape[1:] == (240 + 240, 320, 3)
+    result = load(out)
+    panel = GaitPanel(result.robot, 0, 320, 240, result=result)
+    assert "astrocyte Ca²⁺ not recorded" in _texts(panel.axes["calcium"])
+    assert not _texts(panel.axes["activity"])  # the motor spikes were recorded
+    assert panel.draw(len(result.robot["t"]) // 2).shape == (240, 320, 3)
 
 
 def test_video_refuses_a_run_recorded_without_orientation(run_dir, tmp_path, capsys):
@@ -201,6 +258,14 @@ def test_plot_and_video_of_a_training(tmp_path):
     # a recorded session plots and replays like a run
     session = sorted((train / "recordings").iterdir())[-1]
     assert main(["plot", str(session)]) == 0
-    assert main(["video", str(train), "--size", "160", "120", "--fps", "5",
+    assert main(["video", str(train), "--size", "160", "120", "--fps", "5", "--panel",
                  "--no-progress"]) == 0
-    assert len(_frames(train / "video_trial00.mp4")) > 1
+    frames = _frames(train / "video_trial00.mp4")
+    assert len(frames) > 1 and frames.shape[1:] == (120 + 240, 160, 3)
+    # the panel draws the recorded session's spikes and traces
+    from astrocpg.studies.figures.panel import GaitPanel
+
+    recording = load(session)
+    assert "motor" in recording.spikes and "astrocyte_Ca" in recording.traces
+    panel = GaitPanel(recording.robot, 0, 320, 240, result=recording)
+    assert not _texts(panel.axes["activity"]) and not _texts(panel.axes["calcium"])

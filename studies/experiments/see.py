@@ -128,10 +128,12 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     training: its trial's last recorded session) as an MP4: the robot posed from the recorded
     joint angles and torso pose, a camera tracking the trunk, ``fps`` frames per second of
     video, ``speed`` simulated seconds per second of video (1: real time). ``out``: the file
-    (default ``folder/video_trialTT.mp4``, replaced on each video). ``panel``: a strip under
-    each frame (a third of its height) with the time, forward speed and a scrolling gait
-    diagram. Returns {"path", "frames",
-    "fps", "seconds"}."""
+    (default ``folder/video_trialTT.mp4``, replaced on each video). ``panel``: a panel under
+    each frame (half its height, at least 240 pixels) with the time, forward speed and, in a
+    time window that scrolls with the frame (a line at "now"), a gait diagram, each leg's
+    thigh-pool activity and its astrocytes' Ca2+ (a row not recorded holds a note; see
+    :class:`~astrocpg.studies.figures.panel.GaitPanel`). Returns {"path", "frames", "fps",
+    "seconds"}."""
     import imageio.v2 as imageio
     from tqdm.auto import tqdm
 
@@ -161,9 +163,11 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
 
     strip = None
     if panel:
-        from ..figures.panel import GaitPanel
+        from ..figures.panel import GaitPanel, panel_height
 
-        strip = GaitPanel(rob, b, width, (height // 3) // 2 * 2, speed=speed)
+        # the replayed result (a training: its recorded session) gives the spikes and traces
+        strip = GaitPanel(rob, b, width, panel_height(height, result), speed=speed,
+                          result=result)
 
     def write(tmp: Path) -> None:
         bar = tqdm(total=len(samples), unit="frame", desc="rendering", disable=not progress)
