@@ -128,7 +128,8 @@ def test_sweep_grid_and_seed_batches(tmp_path: Path) -> None:
         built_in = load_study(Path(__file__).resolve().parents[1] / "studies" / "sweeps"
                               / f"{name}.toml")
         assert {r.condition for r in built_in.runs} == {"astrocytes", "no_astrocytes"}
-        assert load_study(name).path == built_in.path  # a built-in study by its name
+        # a built-in study by its name (resolved: the package may be imported via a symlink)
+        assert load_study(name).path.resolve() == built_in.path
     ablation = load_study(Path(__file__).resolve().parents[1] / "studies" / "sweeps" / "ablation.toml")
     assert ablation.n_sessions == 400 and len(ablation.seeds) == 20
 
@@ -351,3 +352,93 @@ def test_trailing_mean_of_the_report() -> None:
     np.testing.assert_allclose(out[0, :4], [1.0, 1.5, 2.5, 3.5])
     assert np.isnan(out[0, 4])  # a seed without that session stays missing
     np.testing.assert_allclose(out[1], 2.0)
+
+
+# six runs of unequal length: 3, 1 and 2 seeds per run, sessions of at most 1 s or 0.5 s
+UNEQUAL = """
+[study]
+name = "unequal"
+sessions = 2
+seeds = [1, 2, 3, 10, 20, 21]
+batch = 3
+[base]
+L_max = "1*second"
+[conditions.long]
+astrocytes = true
+[conditions.short]
+astrocytes = false
+set = { L_max = "0.5*second" }
+"""
+
+
+def test_runs_are_ordered_longest_first_and_idle_is_measured(tmp_path: Path) -> None:
+    """The cost estimate ranks runs by trials, sessions and session length; `utilisation`
+    finds a worker left free while a run waited (synthetic timeline, no cluster)."""
+    from astrocpg.studies.sweeps.study import utilisation
+
+    p = tmp_path / "unequal.toml"
+    p.write_text(UNEQUAL)
+    study = load_study(p)
+    cost = {(r.condition, r.n_trials): r.estimated_seconds() for r in study.runs}
+    assert len(study.runs) == 6 and {r.session_s for r in study.runs} == {1.0, 0.5}
+    assert cost[("long", 3)] > cost[("long", 2)] > cost[("long", 1)]
+    assert cost[("long", 3)] > cost[("short", 3)]  # same trials, shorter sessions
+
+    def row(worker, a, b):
+        return {"worker": worker, "host": "h", "pid": 1, "started": 100.0 + a,
+                "ended": None if b is None else 100.0 + b}
+
+    # back to back on two workers: nobody idle while runs wait
+    busy = [row("A", 0, 10), row("B", 0.5, 4), row("B", 4.2, 12), row("A", 10.3, 15)]
+    u = utilisation(busy, 2)
+    assert u["longest_idle_pending_s"] == pytest.approx(0.5)
+    assert u["idle_pending_s"] == pytest.approx(0.5 + 0.2 + 0.3)
+    assert u["wall_s"] == pytest.approx(15)
+    assert u["utilisation"] == pytest.approx((10 + 3.5 + 7.8 + 4.7) / 30)
+    # B free from 4 to 9 while the last run waited; a third worker that ran nothing counts
+    # as free from the first start to the last
+    idle = [row("A", 0, 10), row("B", 0, 4), row("B", 9, 12), row("A", 10, None)]
+    u = utilisation(idle, 3)
+    assert u["longest_idle_pending_s"] == pytest.approx(10)
+    assert u["idle_pending_s"] == pytest.approx(5 + 10)
+    assert u["worker_gaps"][next(w for w in u["worker_gaps"] if w != "A" and w != "B")] \
+        == [(0.0, 10.0)]
+
+
+@pytest.mark.slow
+def test_no_worker_idles_while_runs_wait(tmp_path: Path) -> None:
+    """Six runs of unequal length on two workers: from the recorded timeline, every worker
+    ran its runs back to back and was never free while a run waited (beyond the hand-over
+    from one run to the next), and runs started longest first."""
+    from astrocpg.studies.sweeps.study import run_study, utilisation
+
+    p = tmp_path / "unequal.toml"
+    p.write_text(UNEQUAL)
+    study = load_study(p)
+    out = tmp_path / "out"
+    res = run_study(study, out, workers=2, progress=False)
+    assert res["failed"] == []
+    with open(out / "timeline.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 6 and {r["run_id"] for r in rows} == {r.run_id for r in study.runs}
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert "timeline.csv" in manifest["files"] and "timeline.csv" in manifest["inventory"]
+    runs = []
+    for r in rows:
+        assert r["state"] == "finished" and r["attempt"] == "1" and r["worker"] and r["pid"]
+        started, ended = float(r["started"]), float(r["ended"])
+        assert float(r["duration_s"]) == pytest.approx(ended - started, abs=2e-3)
+        runs.append({**r, "started": started, "ended": ended})
+    assert len({r["worker"] for r in runs}) == 2
+    # the hand-over: the run's manifest, its result to the scheduler and the client, the next
+    # run to the worker; generous for a loaded two-core machine, far below any run's length
+    slack = 3.0
+    assert min(r["ended"] - r["started"] for r in runs) > slack
+    u = utilisation(runs, 2)
+    assert u["longest_idle_pending_s"] <= slack, u["worker_gaps"]
+    # longest first: a run estimated longer than another did not start after it
+    cost = {r.run_id: r.estimated_seconds() for r in study.runs}
+    for a in runs:
+        for b in runs:
+            if cost[a["run_id"]] > cost[b["run_id"]]:
+                assert a["started"] <= b["started"] + slack, (a["run_id"], b["run_id"])

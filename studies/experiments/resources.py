@@ -22,6 +22,13 @@ ROBOT_FLOATS_PER_STEP = 40
 # sessions.csv as a dict (~25 values) and the inter-limb table after the session (8x8 floats).
 SESSION_BYTES_PER_TRIAL = 2_000
 
+# Wall seconds per simulated second of the closed loop on one core for a network of n trials:
+# about WALL_PER_SIM_S + WALL_PER_SIM_S_PER_TRIAL * n (benchmarks/speed.py, README: 0.27 s for
+# 1 trial, 0.40 for 4, 0.91 for 16). The ablation simulates its astrocytes too (regulation 0),
+# so it costs the same per simulated second.
+WALL_PER_SIM_S = 0.23
+WALL_PER_SIM_S_PER_TRIAL = 0.043
+
 
 def available_memory() -> int:
     """Bytes this process may still allocate: MemAvailable (Linux), else physical memory."""
@@ -64,3 +71,9 @@ def check_memory(needed: int, culprit: str) -> None:
 
 def _gib(n: float) -> str:
     return f"{n / 2**30:.3g} GiB" if n >= 2**28 else f"{n / 2**20:.3g} MiB"
+
+
+def estimate_wall_seconds(*, trials: int, seconds: float) -> float:
+    """Wall seconds (one core) to simulate ``seconds`` of ``trials`` batched in one network:
+    an estimate to order work by (longest first), not a promise."""
+    return seconds * (WALL_PER_SIM_S + WALL_PER_SIM_S_PER_TRIAL * trials)

@@ -55,11 +55,13 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
+import numpy as np
+
 from ...coupling.recorder import RecordPlan
 from ...coupling.training import SESSION_COLUMNS
 from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS
-from ..experiments.resources import check_memory, estimate_bytes
+from ..experiments.resources import check_memory, estimate_bytes, estimate_wall_seconds
 from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
@@ -70,6 +72,9 @@ RUNS = "runs"
 STATUS = "status.json"
 RESULTS = "results.csv"
 FAILURES = "failures.csv"
+TIMELINE = "timeline.csv"
+TIMELINE_COLUMNS = ("run_id", "attempt", "state", "worker", "worker_name", "host", "pid",
+                    "started", "ended", "duration_s", "started_utc")
 STUDY_COPY = "study.toml"
 STUDY_INDEX = "study.json"
 
@@ -101,6 +106,14 @@ class RunSpec:
     record: dict[str, Any] | None = None  # RecordPlan fields (not part of the run's identity)
     # model files of the run: {model: {"sha256": ..., "content": ...}} (the file's whole text)
     models: dict[str, dict[str, str]] = field(default_factory=dict)
+    # the longest a session may last (L_max, seconds), for the run's cost estimate only
+    session_s: float | None = None
+
+    def estimated_seconds(self) -> float:
+        """Wall seconds the run takes at most on one core (every session lasting L_max),
+        to start the longest runs first; relative, not a promise."""
+        return estimate_wall_seconds(trials=self.n_trials,
+                                     seconds=self.n_sessions * (self.session_s or 1.0))
 
     def record_plan(self):
         if not self.record:
@@ -309,10 +322,11 @@ def load_study(path: str | os.PathLike) -> Study:
             point_models = model_set(models=files, option=cw) if files != base_files \
                 else models
             try:
-                point_models.with_values(dict(point_models.parse_assignment(o)
-                                              for o in overrides))
+                run_models = point_models.with_values(dict(point_models.parse_assignment(o)
+                                                           for o in overrides))
             except InputError as e:
                 raise InputError(f"{e}", culprit=cw) from None
+            session_s = float(np.asarray(run_models.progress.parameters["L_max"].value))
             tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
             for first, n in groups:
                 seeds_tag = f"seed{first}" if n == 1 else f"seeds{first}-{first + n - 1}"
@@ -320,7 +334,7 @@ def load_study(path: str | os.PathLike) -> Study:
                 runs.append(RunSpec(run_id=run_id, condition=cname, point=dict(point),
                                     seed=first, n_trials=n, n_sessions=n_sessions,
                                     astrocytes=astro, overrides=overrides, record=record,
-                                    models=files))
+                                    models=files, session_s=session_s))
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):
         dup = next(i for i in ids if ids.count(i) > 1)
@@ -401,12 +415,18 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
     status = read_status(out)
     if status.get("state") == "finished":
         return status
+    worker, worker_name = _this_worker()
     status.update({
         "run_id": spec.run_id, "state": "running", "attempts": status.get("attempts", 0) + 1,
-        "host": socket.gethostname(), "pid": os.getpid(), "started": time.time(),
-        "spec": asdict(spec),
+        "host": socket.gethostname(), "pid": os.getpid(), "worker": worker,
+        "worker_name": worker_name, "started": time.time(), "spec": asdict(spec),
     })
     status.pop("error", None)
+    status.pop("finished", None)
+    # every attempt keeps its own line (the timeline of the study): a killed attempt stays
+    # without an end
+    status["history"] = status.get("history", []) + [
+        {k: status[k] for k in ("attempts", "worker", "worker_name", "host", "pid", "started")}]
     t0 = time.perf_counter()
     try:
         _write_status(out, status)
@@ -428,6 +448,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
         wall = trainer.run()
         status.update({"state": "finished", "finished": time.time(),
                        "wall_seconds": status.get("wall_seconds", 0.0) + time.perf_counter() - t0})
+        _end_attempt(status)
         _write_status(out, status)
         # last: the manifest's inventory lists the run's files as they stay (status included)
         write_manifest(out, command="study-run", seed=spec.seed, settings=asdict(spec),
@@ -439,8 +460,26 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
     except Exception as e:  # recorded, not raised: the other runs go on
         status.update({"state": "failed", "error": f"{type(e).__name__}: {e}",
                        "traceback": traceback.format_exc(), "finished": time.time()})
+    _end_attempt(status)
     _write_status(out, status)
     return status
+
+
+def _this_worker() -> tuple[str, str]:
+    """(address, name) of the Dask worker running this task; empty outside a worker."""
+    try:
+        from distributed import get_worker
+
+        w = get_worker()
+        return str(w.address), str(w.name)
+    except (ImportError, ValueError):
+        return "", ""
+
+
+def _end_attempt(status: dict[str, Any]) -> None:
+    last = status["history"][-1]
+    last.update({"state": status["state"], "ended": status["finished"],
+                 "duration_s": status["finished"] - last["started"]})
 
 
 def _run_files() -> dict[str, str]:
@@ -563,6 +602,7 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     states = {r.run_id: read_status(folders[r.run_id]).get("state", "not run")
               for r in study.runs}
     table = write_results(study, out)
+    write_timeline(study, out)
     failed = [r for r in study.runs if states[r.run_id] != "finished"]
     _write_failures(out, failed, folders)
     counts = {s: list(states.values()).count(s) for s in sorted(set(states.values()))}
@@ -623,14 +663,24 @@ class _ImportBrian2:
 
 def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_before,
               tqdm) -> None:
+    """Run ``pending`` on the cluster, longest first, one run per free worker thread.
+
+    Runs are handed to the scheduler only as threads free up, never all at once: a study of at
+    most twice as many runs as threads is not "root-ish" to Dask, so submitted at once its runs
+    were assigned two per worker up front, and when the first worker fell idle work stealing
+    moved every waiting run onto it (measured with 8 workers x 16 runs: 7 runs queued on one
+    worker while the others sat idle, issue 13). With at most one run per thread in flight,
+    no run ever waits on a busy worker while another is free, whatever the scheduler's
+    settings (``--scheduler`` clusters included), and a freed thread gets the next run at once.
+    """
+    from distributed import wait
     from distributed.diagnostics.plugin import WorkerPlugin
 
     plugin = type("ImportBrian2", (_ImportBrian2, WorkerPlugin), {})()
     client.register_plugin(plugin)
-    futures = {client.submit(execute_run, r, str(folders[r.run_id]), pure=False,
-                             key=f"astrocpg-{r.run_id}-{os.getpid()}-{time.time_ns()}"): r
-               for r in pending}
-    keys = {f.key: r for f, r in futures.items()}
+    waiting = sorted(pending, key=lambda r: r.estimated_seconds(), reverse=True)
+    in_flight: dict[Any, RunSpec] = {}
+    failed = finished = 0
     done_sessions = sum(_sessions_done(f) for f in folders.values())
     bar = tqdm(total=total_sessions, initial=done_sessions, unit="session",
                desc=f"study {study.name}", disable=not progress, dynamic_ncols=True,
@@ -638,34 +688,53 @@ def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_
                # a log file (not a terminal) gets a line every 30 s, not every second
                mininterval=0.5 if sys.stderr.isatty() else 30.0)
     try:
-        while True:
-            states = [f.status for f in futures]
-            finished = sum(s in ("finished", "error", "cancelled") for s in states)
-            running = sum(any(k in keys for k in ks)
-                          for ks in client.processing().values())
-            failed = 0
-            for f, r in futures.items():
-                if f.status == "error":
+        ended: list[tuple[Any, RunSpec]] = []
+        while waiting or in_flight or ended:
+            # the threads now in the cluster (workers may join, leave or be restarted)
+            threads = max(1, sum(client.nthreads().values()))
+            while waiting and len(in_flight) < threads:
+                r = waiting.pop(0)
+                f = client.submit(execute_run, r, str(folders[r.run_id]), pure=False,
+                                  key=f"astrocpg-{r.run_id}-{os.getpid()}-{time.time_ns()}")
+                in_flight[f] = r
+            for f, r in ended:  # after the freed threads have their next runs
+                finished += 1
+                if not _collect(f, r, folders[r.run_id]):
                     failed += 1
-                elif f.status == "finished" and f.result().get("state") != "finished":
-                    failed += 1
+                f.release()
             now = sum(_sessions_done(f) for f in folders.values())
             bar.update(max(0, now - bar.n))
             bar.set_postfix_str(f"runs done {n_done_before + finished - failed}/"
-                                f"{len(study.runs)}, running {running}, failed {failed}")
-            if finished == len(futures):
-                break
-            time.sleep(1.0)
+                                f"{len(study.runs)}, running {len(in_flight)}, failed {failed}")
+            ended = []
+            if in_flight:  # back as soon as a run ends (a thread is free), or after 1 s
+                try:
+                    done = wait(list(in_flight), timeout=1.0, return_when="FIRST_COMPLETED").done
+                except TimeoutError:
+                    done = set()
+                ended = [(f, in_flight.pop(f)) for f in done]
     finally:
         bar.close()
-    for f, r in futures.items():
-        if f.status == "error":  # e.g. KilledWorker after repeated worker deaths
-            exc = f.exception()
-            prepare_output_dir(folders[r.run_id])
-            status = read_status(folders[r.run_id])
-            status.update({"run_id": r.run_id, "state": "failed",
-                           "error": f"{type(exc).__name__}: {exc}"})
-            _write_status(folders[r.run_id], status)
+        for f in in_flight:  # interrupted: the runs in flight stop with the cluster
+            f.release()
+
+
+def _collect(future: Any, spec: RunSpec, folder: Path) -> bool:
+    """True when the run of ``future`` finished; a run that failed on its worker has said so in
+    its status.json; one that could not run (e.g. KilledWorker after repeated worker deaths, or
+    a cancelled task) is recorded as failed here."""
+    if future.status == "finished":
+        return future.result().get("state") == "finished"
+    if future.status == "error":
+        exc = future.exception()
+        error = f"{type(exc).__name__}: {exc}"
+    else:
+        error = f"the task was {future.status}"
+    prepare_output_dir(folder)
+    status = read_status(folder)
+    status.update({"run_id": spec.run_id, "state": "failed", "error": error})
+    _write_status(folder, status)
+    return False
 
 
 def _write_failures(out: Path, failed: list[RunSpec], folders: dict[str, Path]) -> None:
@@ -689,6 +758,10 @@ def _study_files() -> dict[str, str]:
                  "swept parameters, seed, then the columns of a training's sessions.csv",
         FAILURES: "runs that did not finish, with their error (absent when none)",
         STUDY_COPY: "the study file as run", STUDY_INDEX: "run ids, their settings' fingerprints",
+        TIMELINE: "one row per attempt of every run, in the order they started: run_id, attempt, "
+                  "state (finished, failed, stopped; interrupted: its worker or the study "
+                  "stopped), worker (address), worker_name, host, pid, started and ended (Unix "
+                  "seconds, wall clock), duration_s, started_utc",
         RUNS + "/<run id>/": "one training folder per run (sessions.csv, weights.npz, "
                              "checkpoint.pkl, manifest.json, status.json)",
     }
@@ -714,6 +787,81 @@ def write_results(study: Study, out: Path) -> int:
     data = ("\n".join(lines) + "\n").encode()
     atomic_write(out / RESULTS, lambda f: f.write(data))
     return n
+
+
+def timeline(study: Study, out: Path) -> list[dict[str, Any]]:
+    """Every attempt of every run of ``study`` in ``out`` (from the runs' ``status.json``),
+    in the order they started; an attempt without an end has state ``interrupted``."""
+    rows = []
+    for r in study.runs:
+        for h in read_status(out / RUNS / r.run_id).get("history", []):
+            ended = h.get("ended")
+            rows.append({"run_id": r.run_id, "attempt": h.get("attempts"),
+                         "state": h.get("state", "interrupted") if ended else "interrupted",
+                         "worker": h.get("worker", ""), "worker_name": h.get("worker_name", ""),
+                         "host": h.get("host", ""), "pid": h.get("pid"),
+                         "started": h["started"], "ended": ended,
+                         "duration_s": h.get("duration_s"),
+                         "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ",
+                                                      time.gmtime(h["started"]))})
+    return sorted(rows, key=lambda row: row["started"])
+
+
+def utilisation(rows: Sequence[dict[str, Any]], n_workers: int = 0) -> dict[str, Any]:
+    """How busy the workers were, from a :func:`timeline`: ``wall_s`` (first start to last
+    end), ``utilisation`` (run seconds / (workers x wall)), ``idle_pending_s`` (seconds workers
+    were free while a run had not started yet, summed over workers), ``longest_idle_pending_s``
+    (the longest such stretch of one worker) and ``worker_gaps`` (per worker, those stretches
+    as (from, to) seconds after the first start). With ``n_workers`` more than the workers in
+    ``rows``, the others ran nothing: they count as free throughout. A worker is its address
+    (or host:pid)."""
+    def who(row):
+        return row["worker"] or f"{row['host']}:{row['pid']}"
+
+    names = list(dict.fromkeys(map(who, rows)))
+    n = max(n_workers, len(names))
+    if not rows:
+        return {"runs": 0, "workers": n, "wall_s": 0.0, "utilisation": 0.0,
+                "idle_pending_s": 0.0, "longest_idle_pending_s": 0.0, "worker_gaps": {}}
+    t0 = min(r["started"] for r in rows)
+    last_start = max(r["started"] for r in rows)  # after it, no run waits
+    t1 = max([r["ended"] for r in rows if r["ended"] is not None] + [last_start])
+    busy = sum((r["ended"] if r["ended"] is not None else t1) - r["started"] for r in rows)
+    gaps: dict[str, list[tuple[float, float]]] = {}
+    for w in names:
+        spans = sorted((r["started"], r["ended"] if r["ended"] is not None else t1)
+                       for r in rows if who(r) == w)
+        free_from, mine = t0, []
+        for a, b in spans:
+            if a > free_from and free_from < last_start:
+                mine.append((free_from - t0, min(a, last_start) - t0))
+            free_from = max(free_from, b)
+        if free_from < last_start:
+            mine.append((free_from - t0, last_start - t0))
+        gaps[w] = mine
+    for k in range(n - len(names)):
+        gaps[f"(no run {k + 1})"] = [(0.0, last_start - t0)]
+    every = [b - a for g in gaps.values() for a, b in g]
+    wall = t1 - t0
+    return {"runs": len(rows), "workers": n, "wall_s": wall,
+            "utilisation": busy / (n * wall) if wall > 0 else 1.0,
+            "idle_pending_s": sum(every), "longest_idle_pending_s": max(every, default=0.0),
+            "worker_gaps": gaps}
+
+
+def write_timeline(study: Study, out: Path) -> int:
+    """``OUT/timeline.csv``: when and where each attempt of each run ran; returns its rows."""
+    rows = timeline(study, out)
+    lines = [",".join(TIMELINE_COLUMNS)]
+    for row in rows:
+        cells = []
+        for c in TIMELINE_COLUMNS:
+            v = row[c]
+            cells.append("" if v is None else f"{v:.3f}" if isinstance(v, float) else str(v))
+        lines.append(",".join(_csv_cell(c) for c in cells))
+    data = ("\n".join(lines) + "\n").encode()
+    atomic_write(out / TIMELINE, lambda f: f.write(data))
+    return len(rows)
 
 
 def _csv_cell(text: str) -> str:

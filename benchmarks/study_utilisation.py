@@ -1,0 +1,80 @@
+"""How busy a study keeps its workers: runs a small study on a local Dask cluster (or a study
+file of yours) and prints its timeline, the utilisation (run seconds / (workers x wall)) and the
+seconds workers sat free while runs had not started (idle while pending).
+
+    python benchmarks/study_utilisation.py [--workers 8] [--runs 16] [--sessions 2]
+                                           [--batch 1] [--session-length 1*second]
+                                           [--study FILE] [--out DIR]
+
+The default is 8 workers x 16 runs of one seed (half with astrocytes, half without), which
+reproduces on two cores the shape of the 16-worker x 32-run study of issue 13 (runs <= 2 x
+workers: Dask does not treat them as root tasks). Oversubscribed cores make every run slower,
+but a worker that is free while runs wait shows as idle all the same.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+from astrocpg.studies.sweeps.study import load_study, run_study, timeline, utilisation  # noqa
+
+STUDY = """
+[study]
+name = "utilisation"
+sessions = {sessions}
+seeds = {{ first = 1, count = {seeds} }}
+batch = {batch}
+[base]
+L_max = "{length}"
+[conditions.astrocytes]
+astrocytes = true
+[conditions.no_astrocytes]
+astrocytes = false
+"""
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--workers", type=int, default=8)
+    ap.add_argument("--runs", type=int, default=16, help="runs (even: two conditions)")
+    ap.add_argument("--sessions", type=int, default=2)
+    ap.add_argument("--batch", type=int, default=1)
+    ap.add_argument("--session-length", default="1*second", help="L_max of every session")
+    ap.add_argument("--study", help="a study file instead of the generated one")
+    ap.add_argument("--out", help="study folder (default: a temporary one)")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory(prefix="astrocpg-utilisation-") as tmp:
+        if args.study:
+            path = Path(args.study)
+        else:
+            path = Path(tmp) / "utilisation.toml"
+            path.write_text(STUDY.format(sessions=args.sessions, seeds=args.runs // 2 * args.batch,
+                                         batch=args.batch, length=args.session_length))
+        study = load_study(path)
+        out = Path(args.out) if args.out else Path(tmp) / "out"
+        t0 = time.time()
+        run_study(study, out, workers=args.workers, progress=False)
+        total = time.time() - t0
+        rows = timeline(study, out)
+        stats = utilisation(rows, args.workers)
+        first = min(r["started"] for r in rows)
+        names: dict[str, str] = {}
+        print(f"{'run':44s} {'worker':>6s} {'start':>7s} {'end':>7s}")
+        for r in rows:
+            w = names.setdefault(r["worker"], f"w{len(names)}")
+            end = r["ended"] - first if r["ended"] is not None else float("nan")
+            print(f"{r['run_id']:44s} {w:>6s} {r['started'] - first:7.1f} {end:7.1f}")
+        print(f"\n{len(rows)} runs on {args.workers} workers ({len(names)} ran a run): command "
+              f"{total:.1f} s, first start to last end {stats['wall_s']:.1f} s")
+        print(f"utilisation {stats['utilisation']:.0%}; idle while runs waited: "
+              f"{stats['idle_pending_s']:.1f} worker-seconds, longest stretch "
+              f"{stats['longest_idle_pending_s']:.1f} s")
+
+if __name__ == "__main__":
+    main()
