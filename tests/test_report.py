@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from astrocpg.coupling.training import SESSION_COLUMNS
+from astrocpg.studies.experiments.trained import GAIT_COLUMNS
 from astrocpg.studies.files.outputs import write_manifest
 from astrocpg.studies.sweeps.report import report
 from astrocpg.studies.sweeps.study import _save_index, load_study
@@ -19,9 +20,10 @@ from astrocpg.studies.sweeps.study import _save_index, load_study
 VARIANTS = Path(__file__).resolve().parents[1] / "models" / "variants"
 
 
-def _study_folder(tmp_path: Path, text: str, value=None) -> tuple[Path, object]:
+def _study_folder(tmp_path: Path, text: str, value=None, gait=None) -> tuple[Path, object]:
     """A study folder as `astrocpg study` leaves it, its runs' sessions.csv made up:
-    ``value(run, seed, session) -> (final_x, reward)`` (default: from a seeded generator)."""
+    ``value(run, seed, session) -> (final_x, reward)`` (default: from a seeded generator);
+    ``gait(run, seed) -> label``: a gait.csv per run."""
     study_file = tmp_path / "s.toml"
     study_file.write_text(text)
     study = load_study(study_file)
@@ -44,6 +46,13 @@ def _study_folder(tmp_path: Path, text: str, value=None) -> tuple[Path, object]:
                        "t_learning_start_s": 0.0, "diverged": 0}
                 lines.append(",".join(str(row[c]) for c in SESSION_COLUMNS))
         (folder / "sessions.csv").write_text("\n".join(lines) + "\n")
+        if gait is not None:
+            g = ["trial," + ",".join(GAIT_COLUMNS)]
+            for b in range(run.n_trials):
+                row = {c: 0.5 for c in GAIT_COLUMNS} | {"final_gait": gait(run, run.seed + b),
+                                                         "final_speed_m_per_s": 0.1 * b}
+                g.append(f"{b}," + ",".join(str(row[c]) for c in GAIT_COLUMNS))
+            (folder / "gait.csv").write_text("\n".join(g) + "\n")
         (folder / "status.json").write_text(json.dumps({"state": "finished"}))
         write_manifest(folder, command="study-run", seed=run.seed, settings={}, models_json={},
                        files={"sessions.csv": "made up"})
@@ -102,6 +111,27 @@ def test_two_axis_sweep_draws_a_heatmap_per_measure(tmp_path: Path) -> None:
     text = (folder / "report" / "report.md").read_text()
     for file in heatmaps:
         assert f"`{file}`" in text
+
+
+def test_two_axis_sweep_with_gaits_draws_a_gait_map(tmp_path: Path) -> None:
+    text = HEAD.format(sessions=2, seeds=2) + (
+        '[sweep.axes]\nL_max = ["1*second", "2*second"]\n'
+        'tau_STDP = ["10*ms", "20*ms", "30*ms"]\n[conditions.astrocytes]\nastrocytes = true\n')
+
+    def gait(run, seed):  # trot where L_max is long, else pace
+        return "trot" if run.point["L_max"] == "2*second" else "pace"
+
+    folder, _ = _study_folder(tmp_path, text, gait=gait)
+    written = report(folder)
+    fig = written["figures"]["gait_map.png"]
+    assert (folder / "report" / "gait_map.png").stat().st_size > 0
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "L_max (second)" and ax.get_ylabel() == "tau_STDP (ms)"
+    labels = {t.get_text().split("\n")[0] for t in ax.texts}
+    assert labels == {"trot", "pace"}
+    cells = {(round(t.get_position()[0]), t.get_text().split("\n")[0]) for t in ax.texts}
+    assert cells == {(0, "pace"), (1, "trot")}  # columns: L_max 1 s, 2 s
+    assert "`gait_map.png`" in (folder / "report" / "report.md").read_text()
 
 
 def test_one_axis_sweep_draws_measures_against_the_value(tmp_path: Path) -> None:

@@ -81,6 +81,11 @@ def _assert_complete(out: Path, study_file: Path) -> list[dict]:
     assert set(keys) == expected
     for run in study.runs:
         assert _status(out / "runs" / run.run_id)["state"] == "finished"
+    # every seed's final gait (gait.csv of its run), on each of its rows
+    gaits = {(r["run_id"], r["seed"], r["final_gait"]) for r in rows}
+    assert len(gaits) == len({(r["run_id"], r["seed"]) for r in rows})
+    assert all(r["final_gait"] in ("trot", "pace", "bound", "walk", "none") for r in rows)
+    assert all(r["final_phase_FL"] != "" for r in rows)
     return rows
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -38,6 +39,37 @@ def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
             f"inhibitory and two excitatory synapses, {ws['share_above_0.9_w_max']:.0%} "
             f"above 0.9 w_max")
     return lines
+
+
+GAIT_COLUMNS = ("final_gait", "final_speed_m_per_s", "final_period_s", "final_phase_FL",
+                "final_phase_RR", "final_phase_RL", "final_locking_FL", "final_locking_RR",
+                "final_locking_RL")
+"""What :func:`final_gaits` says of each trained trial (study results carry them per seed)."""
+
+
+def final_gaits(models, tables: np.ndarray, *, seconds: float = 5.0,
+                seed: int = 1) -> list[dict[str, Any]]:
+    """The gait of each trained table (volt, (trials, 8, 8)) with learning off: one run of
+    ``seconds`` for all of them, leg phases relative to FR and their locking over its second
+    half, the gait label and the mean forward speed; one dict of :data:`GAIT_COLUMNS` per
+    trial."""
+    from .simulate import simulate_closed_loop
+
+    result = simulate_closed_loop(models, seconds=seconds, seed=seed, n_trials=len(tables),
+                                  weights=tables, record_traces=False, spikes=("motor",),
+                                  progress=False)
+    t, i = result.spikes["motor"]
+    rows = []
+    for b in range(len(tables)):
+        g = leg_phases(t, i, result.cpg.layout, b, seconds / 2, seconds)
+        row = {"final_gait": gait_label(g["phases"], g["locking"]),
+               "final_speed_m_per_s": float(result.robot.torso_velocity[b, :, 0].mean()),
+               "final_period_s": float(g["period"])}
+        for leg in ("FL", "RR", "RL"):
+            row[f"final_phase_{leg}"] = float(g["phases"][leg])
+            row[f"final_locking_{leg}"] = float(g["locking"][leg])
+        rows.append(row)
+    return rows
 
 
 FIGURES = "figures"

@@ -39,7 +39,7 @@ from ..experiments.settings import model_set
 from ..files.folder import OutputFolder, verify
 from ..figures.sweep import Axis, Measure, measure_heatmap, measure_vs_value
 from ..files.outputs import atomic_write, write_manifest
-from .study import RUNS, STUDY_INDEX, read_status
+from .study import GAITS, RUNS, STUDY_INDEX, read_status
 
 CURVES = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
           ("length_s", "session length (s)"))
@@ -71,8 +71,15 @@ def _load(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
                     zlib.error) as e:
                 raise InputError(f"cannot read sessions.csv or weights.npz ({type(e).__name__}"
                                  f"): corrupt or truncated", culprit=f"report {rdir}") from None
+        gaits = None
+        if state == "finished" and (rdir / GAITS).exists():  # runs trained before: none
+            try:
+                gaits = pd.read_csv(rdir / GAITS)
+            except (OSError, ValueError) as e:
+                raise InputError(f"cannot read {GAITS} ({type(e).__name__})",
+                                 culprit=f"report {rdir}") from None
         runs.append({"spec": spec, "state": state, "sessions": df, "folder": rdir,
-                     "weights": weights})
+                     "weights": weights, "gaits": gaits})
     return index, runs
 
 
@@ -316,6 +323,7 @@ def _sweep_figures(name: str, swept: list[str], runs: list[dict[str, Any]],
                        f"{axis.name}, mean ± std across seeds, one line per condition")
         return
     x_axis, y_axis = _axis(swept[0], values[0]), _axis(swept[1], values[1])
+    _gait_map(name, x_axis, y_axis, runs, figures, shows)
     for m in measures:
         grids = {}
         for c in conditions:
@@ -331,6 +339,35 @@ def _sweep_figures(name: str, swept: list[str], runs: list[dict[str, Any]],
                                       f"{x_axis.name} and {y_axis.name}, mean across seeds")
         shows[file] = (f"{m.title} ({m.unit}), mean (± std, n) across seeds over {x_axis.name} "
                        f"x {y_axis.name}, one panel per condition")
+
+
+def _gait_map(name: str, x_axis: Axis, y_axis: Axis, runs: list[dict[str, Any]],
+              figures: dict[str, Any], shows: dict[str, str]) -> None:
+    """``gait_map.png`` over the two swept axes from the runs' ``gait.csv`` (each seed's gait
+    with its final tables): the most common label per cell as colour, mean speed as contours.
+    Nothing when no run wrote one."""
+    from ..figures.gait_map import gait_map_figures
+
+    seeds = []
+    for r in runs:
+        g = r.get("gaits")
+        if g is None:
+            continue
+        point = r["spec"]["point"]
+        for row in g.to_dict("records"):
+            seeds.append({"condition": r["spec"]["condition"], "gait": row["final_gait"],
+                          "mean_speed_m_per_s": row["final_speed_m_per_s"], "fell": 0,
+                          f"grid_{y_axis.name}": str(point.get(y_axis.name, "")),
+                          f"grid_{x_axis.name}": str(point.get(x_axis.name, ""))})
+    if not seeds:
+        return
+    fig = gait_map_figures(seeds, [(y_axis.name, list(y_axis.values)),
+                                   (x_axis.name, list(x_axis.values))],
+                           {y_axis.name: y_axis.label, x_axis.name: x_axis.label})
+    figures["gait_map.png"] = fig["gait_map.png"]
+    shows["gait_map.png"] = (f"each seed's final gait (learning off, 5 s) over {x_axis.name} x "
+                             f"{y_axis.name}: the most common label per cell (colour, its share "
+                             f"written), mean forward speed (contours), one panel per condition")
 
 
 def _stats(cells: list[list[float]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -67,6 +67,7 @@ from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopp
                                  read_checkpoint)
 from ..files.folder import FolderLock, clean_stale_temporaries, clear_folder, holds_results
 from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
+from ..files.weights import WEIGHTS
 
 RUNS = "runs"
 STATUS = "status.json"
@@ -446,6 +447,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
                        models_json=trainer.models.to_json(), files=_run_files(),
                        results={"status": "running"})
         wall = trainer.run()
+        _write_gaits(out, trainer)
         status.update({"state": "finished", "finished": time.time(),
                        "wall_seconds": status.get("wall_seconds", 0.0) + time.perf_counter() - t0})
         _end_attempt(status)
@@ -463,6 +465,23 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
     _end_attempt(status)
     _write_status(out, status)
     return status
+
+
+GAITS = "gait.csv"
+
+
+def _write_gaits(out: Path, trainer: Trainer) -> None:
+    """``gait.csv``: each trial's gait with its final tables, learning off (a short run)."""
+    from ..experiments.trained import GAIT_COLUMNS, final_gaits
+
+    with np.load(out / WEIGHTS) as z:  # written by this process a moment ago
+        tables = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3
+    rows = final_gaits(trainer.models, tables)
+    lines = ["trial," + ",".join(GAIT_COLUMNS)]
+    for b, row in enumerate(rows):
+        lines.append(f"{b}," + ",".join(str(row[c]) for c in GAIT_COLUMNS))
+    data = ("\n".join(lines) + "\n").encode()
+    atomic_write(out / GAITS, lambda f: f.write(data))
 
 
 def _this_worker() -> tuple[str, str]:
@@ -484,7 +503,9 @@ def _end_attempt(status: dict[str, Any]) -> None:
 
 def _run_files() -> dict[str, str]:
     return TRAIN_FILES | {STATUS: "state of the run in its study (running, finished, failed), "
-                                     "attempts, error"}
+                                     "attempts, error",
+                          GAITS: "each trial's gait with its final tables, learning off, "
+                                 "5 s: label, speed, period, leg phases and locking to FR"}
 
 
 # ---------------------------------------------------------------- the study (client side)
@@ -768,20 +789,29 @@ def _study_files() -> dict[str, str]:
 
 
 def write_results(study: Study, out: Path) -> int:
-    """Gather the finished runs' ``sessions.csv`` into ``OUT/results.csv``; returns its rows."""
+    """Gather the finished runs' ``sessions.csv`` into ``OUT/results.csv``, each row with its
+    seed's final gait (``gait.csv`` of the run: label, speed, period, leg phases; empty for a
+    run trained before runs wrote it); returns its rows."""
+    from ..experiments.trained import GAIT_COLUMNS
 
-    head = ["run_id", "condition", *study.sweep, "seed", *SESSION_COLUMNS]
+    head = ["run_id", "condition", *study.sweep, "seed", *SESSION_COLUMNS, *GAIT_COLUMNS]
     lines = [",".join(head)]
     n = 0
     for r in study.runs:
         folder = out / RUNS / r.run_id
         if read_status(folder).get("state") != "finished":
             continue
+        gaits: dict[str, dict[str, str]] = {}
+        if (folder / GAITS).is_file():
+            with open(folder / GAITS, newline="") as f:
+                gaits = {row["trial"]: row for row in csv.DictReader(f)}
         with open(folder / "sessions.csv", newline="") as f:
             for row in csv.DictReader(f):
                 seed = r.seed + int(row["trial"])
+                gait = gaits.get(row["trial"], {})
                 cells = [r.run_id, r.condition, *[r.point[k] for k in study.sweep], str(seed),
-                         *[row[c] for c in SESSION_COLUMNS]]
+                         *[row[c] for c in SESSION_COLUMNS],
+                         *[gait.get(c, "") for c in GAIT_COLUMNS]]
                 lines.append(",".join(_csv_cell(c) for c in cells))
                 n += 1
     data = ("\n".join(lines) + "\n").encode()
