@@ -171,7 +171,7 @@ declare them), or, for an expression model, the inputs the network gives (a file
 others). Declared in each model's module as ``INTERFACE``."""
 
 __all__ = [
-    "ModelSet", "DEFAULT_MODELS", "INTERFACES", "Model", "BrianModel", "NeuronModel", "SynapseModel",
-    "ExpressionModel", "WorldModel", "Parameter", "ParameterTable", "INPUT_THEN_DECAY", "register_method",
-    "registered_methods",
+    "ModelSet", "DEFAULT_MODELS", "INTERFACES", "Model", "BrianModel", "NeuronModel",
+    "SynapseModel", "ExpressionModel", "WorldModel", "Parameter", "ParameterTable",
+    "INPUT_THEN_DECAY", "register_method", "registered_methods",
 ]

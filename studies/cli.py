@@ -163,6 +163,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--repeats", type=int, default=2,
                     help="runs per controller and world, each with its own noise (2)")
     ev.add_argument("--seed", type=int, default=1)
+    ev.add_argument("--condition", action="append", default=None, metavar="NAME",
+                    help="only a study's runs of this condition (repeatable; default all)")
     ev.add_argument("--out", default=None, help="default DIR/evaluation (replaced whole)")
     ev.add_argument("--overwrite", action="store_true")
     ev.add_argument("--no-progress", action="store_true")
@@ -438,7 +440,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     from .experiments.evaluate import evaluate, format_summary
 
     res = evaluate(args.dir, worlds=args.worlds, seconds=args.seconds, repeats=args.repeats,
-                   seed=args.seed, out=args.out, overwrite=args.overwrite,
+                   seed=args.seed, conditions=args.condition, out=args.out,
+                   overwrite=args.overwrite,
                    progress=not args.no_progress)
     for line in format_summary(res["summary"]):
         print(line)

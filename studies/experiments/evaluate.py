@@ -25,7 +25,7 @@ import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -217,15 +217,17 @@ def _trial_rows(result: Any, b: int, seconds: float) -> dict[str, Any]:
 
 
 def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: float = 10.0,
-             repeats: int = 2, seed: int = 1, out: str | Path | None = None,
-             overwrite: bool = False, progress: bool = True) -> dict[str, Any]:
+             repeats: int = 2, seed: int = 1, conditions: Sequence[str] | None = None,
+             out: str | Path | None = None, overwrite: bool = False,
+             progress: bool = True) -> dict[str, Any]:
     """Run every trained controller under ``folder`` in each world of ``worlds`` for
     ``seconds``, ``repeats`` times (different noise, seeds seed, seed+1, ... per repeat: all
     controllers of a training and all repeats run as trials of one network per world), learning
-    off. Writes ``evaluation.csv`` (one row per controller x world x repeat), ``summary.csv``
-    (mean and std over controllers and repeats per condition x point x world: distance, speed,
-    fall rate, time to fall, share of trot) and ``manifest.json`` into ``out`` (default
-    ``folder/evaluation``, replaced whole). Returns {"rows", "summary", "out"}."""
+    off (``conditions``: only a study's runs of these conditions). Writes ``evaluation.csv``
+    (one row per controller x world x repeat), ``summary.csv`` (mean and std over controllers
+    and repeats per condition x point x world: distance, speed, fall rate, time to fall, share
+    of trot), ``gait_map.png`` for a two-axis grid, and ``manifest.json`` into ``out`` (default
+    ``folder/evaluation``, replaced whole). Returns {"rows", "summary", "out", "figures"}."""
     folder = Path(folder)
     seconds = number(seconds, "--seconds", positive=True)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
@@ -233,6 +235,13 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     target = Path(out) if out is not None else folder / "evaluation"
     OutputFolder(target, overwrite=overwrite or out is None).check()
     controllers = _controllers(folder)
+    if conditions:
+        known = sorted({c["condition"] for c in controllers})
+        for name in conditions:
+            if name not in known:
+                raise InputError(f"no finished run of that condition (conditions: "
+                                 f"{', '.join(known)})", culprit=f"--condition {name}")
+        controllers = [c for c in controllers if c["condition"] in conditions]
     plans = []
     for c in controllers:
         verify(c["folder"], strict=False)
@@ -273,7 +282,8 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
         figures = gait_map_figures(rows, world_set.axes, world_set.labels)
     settings = {"folder": str(folder), **world_set.to_json(),
                 "worlds_source": str(worlds), "seconds": seconds, "repeats": repeats,
-                "seed": seed, "trainings": [str(c["folder"]) for c, _, _ in plans]}
+                "seed": seed, "conditions": list(conditions or []),
+                "trainings": [str(c["folder"]) for c, _, _ in plans]}
     with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
         (tmp / EVALUATION).write_text(_csv(rows, tuple(columns)))
         (tmp / SUMMARY).write_text(_csv(summary, tuple(summary[0]) if summary else ()))
