@@ -535,6 +535,18 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_describe(args: argparse.Namespace) -> int:
+    if not (args.overrides or args.equations or getattr(args, "model_files", [])):
+        # the built-in models: from the cache, without importing Brian2 when it is warm
+        from .figures.describe_cache import cached_text
+
+        def render() -> str:
+            from .experiments.api import describe
+            return describe(args.model, args.format)
+
+        name_ok = args.model is None or args.model.isidentifier()
+        if name_ok and args.format in ("markdown", "latex"):
+            sys.stdout.write(cached_text(args.model, args.format, render))
+            return 0
     from .experiments.api import describe
 
     sys.stdout.write(describe(args.model, args.format, **_models(args)))
