@@ -232,3 +232,23 @@ def test_nwb_units_rates_and_one_time_convention(short_run: Path, short_nwb: Pat
         assert nwb.units.resolution == 0.001
         assert set(nwb.units.to_dataframe()["population"]) == {"motor", "interneuron",
                                                                "astrocyte"}
+
+
+def test_experimenter_and_institution_from_the_environment(run_dir: Path, tmp_path: Path,
+                                                          monkeypatch) -> None:
+    from nwbinspector import Importance, inspect_nwbfile
+    from pynwb import NWBHDF5IO
+
+    monkeypatch.setenv("ASTROCPG_EXPERIMENTER", "Doe, Jane; Roe, Richard")
+    monkeypatch.setenv("ASTROCPG_INSTITUTION", "Example Institute")
+    path = tmp_path / "env.nwb"
+    assert main(["export", str(run_dir), "--out", str(path)]) == 0
+    with NWBHDF5IO(str(path), "r") as io:
+        nwb = io.read()
+        assert list(nwb.experimenter) == ["Doe, Jane", "Roe, Richard"]
+        assert nwb.institution == "Example Institute"
+    messages = list(inspect_nwbfile(nwbfile_path=str(path),
+                                    importance_threshold=Importance.BEST_PRACTICE_SUGGESTION))
+    assert messages == []
+    monkeypatch.setenv("ASTROCPG_EXPERIMENTER", "Jane Doe")  # not 'Last, First': named
+    assert main(["export", str(run_dir), "--out", str(tmp_path / "bad.nwb")]) == 2

@@ -473,11 +473,18 @@ def export(folder: Path, fmt: str, out: Path | None = None, *, overwrite: bool =
     :func:`default_path`) as NWB or npz, atomically; returns the path written.
 
     experimenter: who ran the simulation, each as "Last, First" (DANDI's form); institution:
-    where. Only the person exporting knows them; without them nwbinspector suggests adding
+    where. Only the person exporting knows them: given neither, they are read from the
+    environment, ``ASTROCPG_EXPERIMENTER`` (names separated by ";") and
+    ``ASTROCPG_INSTITUTION``, so a lab sets them once; without any, nwbinspector suggests adding
     them (its only messages on the file)."""
     if fmt not in ("nwb", "npz"):
         raise InputError(f"must be nwb or npz, got '{fmt}'", culprit="--format")
     experimenter = tuple(experimenter)
+    if not experimenter and os.environ.get("ASTROCPG_EXPERIMENTER", "").strip():
+        experimenter = tuple(n.strip() for n in os.environ["ASTROCPG_EXPERIMENTER"].split(";")
+                             if n.strip())
+    if institution is None and os.environ.get("ASTROCPG_INSTITUTION", "").strip():
+        institution = os.environ["ASTROCPG_INSTITUTION"].strip()
     for name in experimenter:
         if not re.match(EXPERIMENTER_FORM, name):
             raise InputError(f"'{name}' is not of the form 'Last, First' (e.g. 'Doe, Jane')",
