@@ -81,6 +81,7 @@ def test_evaluate_a_training_in_two_worlds(tmp_path):
     flat = sum(float(r["distance_m"]) for r in rows if r["world"] == "flat")
     up = sum(float(r["distance_m"]) for r in rows if r["world"] == "uphill")
     assert up < flat  # gravity pulls the robot back uphill
+    assert (out / "worlds.png").stat().st_size > 0  # two named worlds: speed and falls
     summary = list(csv.DictReader(open(out / "summary.csv")))
     assert {s["world"] for s in summary} == {"flat", "uphill"}
     manifest = json.loads((out / "manifest.json").read_text())

@@ -275,11 +275,14 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     columns = list(COLUMNS)
     columns[columns.index("world") + 1:columns.index("world") + 1] = list(
         grid_values(world_set, ""))
+    from ..figures.gait_map import gait_map_figures, world_bars
+
     figures = {}
     if len(world_set.axes) == 2:
-        from ..figures.gait_map import gait_map_figures
-
         figures = gait_map_figures(rows, world_set.axes, world_set.labels)
+    named = [s for s in summary if s["world"] not in world_set.cell]
+    if len({s["world"] for s in named}) >= 2:
+        figures["worlds.png"] = world_bars(named)
     settings = {"folder": str(folder), **world_set.to_json(),
                 "worlds_source": str(worlds), "seconds": seconds, "repeats": repeats,
                 "seed": seed, "conditions": list(conditions or []),
@@ -295,7 +298,10 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
                               SUMMARY: "mean and std per condition x point x world",
                               **{n: "gait map over the grid's two axes: the most common gait "
                                     "label per cell (colour), mean speed (contours)"
-                                 for n in figures}},
+                                 for n in figures if n.startswith("gait_map")},
+                              **({"worlds.png": "speed and fall share per named world, "
+                                                "one bar per condition"}
+                                 if "worlds.png" in figures else {})},
                        results={"status": "finished", "rows": len(rows)})
     return {"rows": rows, "summary": summary, "out": target, "figures": sorted(figures)}
 

@@ -78,4 +78,43 @@ def gait_map_figures(rows: Sequence[Mapping[str, Any]],
     return {"gait_map.png": fig}
 
 
-__all__ = ["GAITS", "gait_grid", "gait_map_figures"]
+__all__ = ["GAITS", "gait_grid", "gait_map_figures", "world_bars"]
+
+
+def world_bars(summary: Sequence[Mapping[str, Any]]) -> Any:
+    """Speed (mean +- std) and fall share per world, one bar per condition: the robustness of
+    trained controllers across named worlds (``summary`` rows of ``astrocpg evaluate``)."""
+    from matplotlib.figure import Figure
+
+    worlds = list(dict.fromkeys(s["world"] for s in summary))
+    groups = list(dict.fromkeys((s["condition"], s["point"]) for s in summary))
+    fig = Figure(figsize=(max(6.0, 0.9 * len(worlds) + 2), 6.4), layout="constrained")
+    speed_ax, fall_ax = fig.subplots(2, 1, sharex=True)
+    width = 0.8 / max(1, len(groups))
+    x = np.arange(len(worlds))
+    for k, (condition, point) in enumerate(groups):
+        rows = {s["world"]: s for s in summary
+                if s["condition"] == condition and s["point"] == point}
+        mean = np.array([rows[w]["mean_speed_m_per_s_mean"] if w in rows else np.nan
+                         for w in worlds], dtype=float)
+        std = np.array([rows[w]["mean_speed_m_per_s_std"] if w in rows else np.nan
+                        for w in worlds], dtype=float)
+        falls = np.array([rows[w]["fell_mean"] if w in rows else np.nan for w in worlds],
+                         dtype=float)
+        n = max((rows[w]["n"] for w in rows), default=0)
+        label = f"{condition}{' ' + point if point else ''} (n={n})"
+        offset = (k - (len(groups) - 1) / 2) * width
+        speed_ax.bar(x + offset, mean, width, yerr=np.nan_to_num(std), capsize=2,
+                     color=f"C{k}", label=label)
+        fall_ax.bar(x + offset, 100 * falls, width, color=f"C{k}", label=label)
+    speed_ax.set_ylabel("mean forward speed (m/s)")
+    speed_ax.set_title("trained controllers, learning off: speed (mean ± std over controllers "
+                       "and repeats)", fontsize=9)
+    speed_ax.legend(fontsize=8)
+    speed_ax.axhline(0, color="k", lw=0.6)
+    fall_ax.set_ylabel("runs that fell (%)")
+    fall_ax.set_ylim(0, 100)
+    fall_ax.set_title("falls", fontsize=9)
+    fall_ax.set_xticks(x, worlds, rotation=30, ha="right")
+    fall_ax.set_xlabel("world")
+    return fig
