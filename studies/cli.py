@@ -495,6 +495,8 @@ def _cmd_study(args: argparse.Namespace) -> int:
         return 130
     counts = ", ".join(f"{v} {k}" for k, v in res["counts"].items())
     print(f"runs: {counts}; {res['rows']} rows in {out / RESULTS}")
+    if res.get("evaluation"):
+        print(f"evaluated in other worlds: {res['evaluation']}/ (evaluation.csv, summary.csv)")
     if res["failed"]:
         print(f"not finished: {', '.join(res['failed'])} (errors in {out / FAILURES}); "
               f"rerun the same command to retry them")

@@ -96,6 +96,21 @@ def _kill_group(proc: subprocess.Popen, sig: int) -> None:
         pass
 
 
+@pytest.mark.parametrize("section, words", [
+    ('[evaluate]\nworlds = "nope.toml"\n', ["--worlds", "nope.toml"]),
+    ('[evaluate]\nrepeats = 0\n', ["[evaluate] repeats"]),
+    ('[evaluate]\nconditions = ["astro"]\n', ["no condition 'astro'"]),
+    ('[evaluate]\nworld = "robustness"\n', ["[evaluate] takes"]),
+])
+def test_evaluate_section_errors_are_named(tmp_path: Path, section: str, words) -> None:
+    p = tmp_path / "s.toml"
+    p.write_text(TINY.format(sessions=1) + section)
+    with pytest.raises(InputError) as e:
+        load_study(p)
+    for w in words:
+        assert w in str(e.value)
+
+
 def test_study_file_errors_name_the_key(tmp_path: Path) -> None:
     p = tmp_path / "bad.toml"
     for text, message in [
@@ -252,6 +267,15 @@ def test_report_and_refusals(tmp_path: Path) -> None:
     assert main(["study", str(study_file), "--out", str(out), "--no-progress"]) == 0
     assert (out / "runs" / "astrocytes__seed1" / "sessions.csv").stat().st_mtime_ns == mtime
     assert len(_rows(out)) == len(rows)
+    # an [evaluate] step: the study's controllers in two worlds once the runs are done
+    worlds = tmp_path / "w.toml"
+    worlds.write_text('[worlds.flat]\n[worlds.uphill]\nslope = "0.1"\n')
+    study_file.write_text(TINY.format(sessions=2) + '[evaluate]\nworlds = "w.toml"\n'
+                          'seconds = 0.3\nrepeats = 1\nconditions = ["astrocytes"]\n')
+    assert main(["study", str(study_file), "--out", str(out), "--no-progress"]) == 0
+    evaluated = list(csv.DictReader(open(out / "evaluation" / "evaluation.csv")))
+    assert {(r["condition"], r["seed"], r["world"]) for r in evaluated} == {
+        ("astrocytes", s, w) for s in ("1", "2") for w in ("flat", "uphill")}
     # the same folder with other settings for an existing run is refused
     study_file.write_text(TINY.format(sessions=3))
     assert main(["study", str(study_file), "--out", str(out), "--no-progress"]) == 2

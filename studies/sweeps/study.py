@@ -143,6 +143,8 @@ class Study:
     batch: int
     sweep: list[str]  # names of the swept parameters (table columns)
     runs: list[RunSpec] = field(default_factory=list)
+    # [evaluate]: after the runs, their controllers in other worlds (astrocpg evaluate)
+    evaluate: dict[str, Any] | None = None
 
 
 def _value_text(key: str, value: Any, where: str) -> str:
@@ -184,10 +186,11 @@ def load_study(path: str | os.PathLike) -> Study:
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"not valid TOML ({e})", culprit=f"study {p}") from None
     where = f"study {p.name}"
-    unknown = set(doc) - {"study", "base", "models", "sweep", "conditions"}
+    unknown = set(doc) - {"study", "base", "models", "sweep", "conditions", "evaluate"}
     if unknown:
         raise InputError(f"unknown section [{sorted(unknown)[0]}] "
-                         f"(sections: study, base, models, sweep, conditions)", culprit=where)
+                         f"(sections: study, base, models, sweep, conditions, evaluate)",
+                         culprit=where)
     head = doc.get("study", {})
     bad = set(head) - _STUDY_KEYS
     if bad:
@@ -341,8 +344,15 @@ def load_study(path: str | os.PathLike) -> Study:
         dup = next(i for i in ids if ids.count(i) > 1)
         raise InputError(f"two runs would share the folder '{dup}' (condition names or "
                          f"swept values that differ only in punctuation)", culprit=where)
+    evaluate = _evaluate_table(doc.get("evaluate"), p, where)
+    if evaluate is not None:
+        for c in evaluate["conditions"]:
+            if c not in {r.condition for r in runs}:
+                raise InputError(f"[evaluate] conditions: no condition '{c}' in the study",
+                                 culprit=where)
     return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
-                 n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs)
+                 n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs,
+                 evaluate=evaluate)
 
 
 def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]:
@@ -354,6 +364,38 @@ def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]
     path = Path(file) if Path(file).is_absolute() else study.parent / file
     text = read_model_files([f"{slot}={path}"], option=where)[slot]
     return model_files_record({slot: text})[slot]
+
+
+_EVALUATE_KEYS = {"worlds", "seconds", "repeats", "conditions"}
+
+
+def _evaluate_table(doc: Any, study: Path, where: str) -> dict[str, Any] | None:
+    """``[evaluate]``: worlds (a built-in name or a file beside the study file), seconds,
+    repeats, conditions; checked here, worlds included, so a typo stops the study at once."""
+    if doc is None:
+        return None
+    if not isinstance(doc, dict) or set(doc) - _EVALUATE_KEYS:
+        raise InputError(f"[evaluate] takes {', '.join(sorted(_EVALUATE_KEYS))}", culprit=where)
+    from ..experiments.evaluate import BUILTIN_WORLDS, read_worlds
+
+    worlds = doc.get("worlds", "robustness")
+    if not isinstance(worlds, str) or not worlds:
+        raise InputError("[evaluate] worlds must be a worlds file or 'robustness'",
+                         culprit=where)
+    if worlds not in BUILTIN_WORLDS:
+        worlds = str((study.parent / worlds).resolve())
+    read_worlds(worlds, DEFAULT_MODELS)
+    seconds, repeats = doc.get("seconds", 10.0), doc.get("repeats", 2)
+    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not seconds > 0:
+        raise InputError("[evaluate] seconds must be a positive number", culprit=where)
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
+        raise InputError("[evaluate] repeats must be a positive integer", culprit=where)
+    conditions = doc.get("conditions", [])
+    if not isinstance(conditions, list) or not all(isinstance(c, str) for c in conditions):
+        raise InputError("[evaluate] conditions must be a list of condition names",
+                         culprit=where)
+    return {"worlds": worlds, "seconds": float(seconds), "repeats": repeats,
+            "conditions": conditions}
 
 
 def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
@@ -627,13 +669,23 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     failed = [r for r in study.runs if states[r.run_id] != "finished"]
     _write_failures(out, failed, folders)
     counts = {s: list(states.values()).count(s) for s in sorted(set(states.values()))}
+    evaluated = None
+    if study.evaluate is not None and not failed:
+        # a step of the study: its trained controllers in other worlds (out/evaluation)
+        from ..experiments.evaluate import evaluate
+
+        e = study.evaluate
+        evaluated = str(evaluate(out, worlds=e["worlds"], seconds=e["seconds"],
+                                 repeats=e["repeats"], conditions=e["conditions"] or None,
+                                 progress=progress)["out"])
     write_manifest(out, command="study", seed=min(study.seeds),
                    settings={"study": str(study.path), "study_text": study.text,
                              "workers": workers, "scheduler": scheduler},
                    models_json={}, files=_study_files(),
                    results={"status": "finished" if not failed else "incomplete",
-                            "runs": counts, "rows": table})
-    return {"counts": counts, "failed": [r.run_id for r in failed], "rows": table}
+                            "runs": counts, "rows": table, "evaluation": evaluated})
+    return {"counts": counts, "failed": [r.run_id for r in failed], "rows": table,
+            "evaluation": evaluated}
 
 
 def _connect(workers: int | None, scheduler: str | None):
