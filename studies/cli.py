@@ -156,9 +156,10 @@ def build_parser() -> argparse.ArgumentParser:
                                          "(slopes, terrain, friction, pushes)")
     ev.add_argument("dir", help="a training folder or a study folder (its finished runs)")
     ev.add_argument("--worlds", default="robustness",
-                    help="a worlds file (TOML: [worlds.NAME] with world parameters) or "
-                         "'robustness' (flat, slopes +-0.09 and +-0.17 rad, rough terrain 1 and "
-                         "2 cm, friction 0.3, a 60 N push)")
+                    help="a worlds file (TOML: [worlds.NAME] tables of world parameters, "
+                         "and/or [grid.AXIS] with values = [...] and, for factors, scale = "
+                         "[parameters]) or 'robustness' (flat, slopes +-0.09 and +-0.17 rad, "
+                         "rough terrain 1 and 2 cm, friction 0.3, a 60 N push)")
     ev.add_argument("--seconds", type=float, default=10.0, help="per evaluation run (10)")
     ev.add_argument("--repeats", type=int, default=2,
                     help="runs per controller and world, each with its own noise (2)")
