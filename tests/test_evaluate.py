@@ -38,6 +38,19 @@ def test_a_grid_is_the_product_of_its_axes(tmp_path):
     assert ws.labels["torque_gain"] == "torque_gain (x I_thigh, I_calf)"
 
 
+def test_a_named_world_is_the_whole_world(tmp_path):
+    """A controller trained on rough terrain is evaluated on flat ground in the world 'flat'."""
+    import brian2
+
+    rough = DEFAULT_MODELS.with_values({"terrain_height": 0.02 * brian2.meter, "slope": 0.1})
+    flat = in_world(rough, {"set": [], "scale": {}})
+    assert float(flat.parameter("terrain_height").value) == 0.0
+    assert float(flat.parameter("slope").value) == 0.0
+    up = in_world(rough, {"set": ["slope=0.05"], "scale": {}})
+    assert float(up.parameter("slope").value) == pytest.approx(0.05)
+    assert float(up.parameter("terrain_height").value) == 0.0
+
+
 @pytest.mark.parametrize("text, words", [
     ('[worlds.a]\ntau_motor = "9*ms"\n', ["a.tau_motor", "not a world parameter"]),
     ('[worlds.a]\nslope = "3*second"\n', ["slope"]),

@@ -30,7 +30,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import InputError
-from ...models import ModelSet
+from ...models import DEFAULT_MODELS, ModelSet
 from ..analysis.gait import gait_label, leg_phases
 from ..files.folder import OutputFolder, verify
 from ..files.outputs import write_manifest
@@ -157,8 +157,13 @@ def grid_values(world_set: WorldSet, world: str) -> dict[str, str]:
 
 
 def in_world(models: ModelSet, world: Mapping[str, Any]) -> ModelSet:
-    """``models`` with a world's absolute settings and scaled parameters applied."""
-    values = dict(models.parse_assignment(t) for t in world["set"])
+    """``models`` in a world: every world parameter at its default (a named world is the whole
+    world, whatever the controller was trained in: ``flat`` is flat for a controller trained on
+    rough terrain too), then the world's settings, then its scaled parameters (factors of the
+    controller's own values)."""
+    values = {name: p.value for name, p in DEFAULT_MODELS.world.parameters.items()
+              if name in models.world.parameters}
+    values.update(dict(models.parse_assignment(t) for t in world["set"]))
     for name, factor in world["scale"].items():
         values[name] = models.parameter(name).value * factor
     return models.with_values(values)
