@@ -234,7 +234,7 @@ def test_nwb_units_rates_and_one_time_convention(short_run: Path, short_nwb: Pat
                                                                "astrocyte"}
 
 
-def test_experimenter_and_institution_from_the_environment(run_dir: Path, tmp_path: Path,
+def test_experimenter_and_institution_from_the_environment(short_run: Path, tmp_path: Path,
                                                           monkeypatch) -> None:
     from nwbinspector import Importance, inspect_nwbfile
     from pynwb import NWBHDF5IO
@@ -242,7 +242,7 @@ def test_experimenter_and_institution_from_the_environment(run_dir: Path, tmp_pa
     monkeypatch.setenv("ASTROCPG_EXPERIMENTER", "Doe, Jane; Roe, Richard")
     monkeypatch.setenv("ASTROCPG_INSTITUTION", "Example Institute")
     path = tmp_path / "env.nwb"
-    assert main(["export", str(run_dir), "--out", str(path)]) == 0
+    assert main(["export", str(short_run), "--out", str(path)]) == 0
     with NWBHDF5IO(str(path), "r") as io:
         nwb = io.read()
         assert list(nwb.experimenter) == ["Doe, Jane", "Roe, Richard"]
@@ -251,4 +251,4 @@ def test_experimenter_and_institution_from_the_environment(run_dir: Path, tmp_pa
                                     importance_threshold=Importance.BEST_PRACTICE_SUGGESTION))
     assert messages == []
     monkeypatch.setenv("ASTROCPG_EXPERIMENTER", "Jane Doe")  # not 'Last, First': named
-    assert main(["export", str(run_dir), "--out", str(tmp_path / "bad.nwb")]) == 2
+    assert main(["export", str(short_run), "--out", str(tmp_path / "bad.nwb")]) == 2
