@@ -67,6 +67,20 @@ def gait_label(phases: dict[str, float], locking: dict[str, float], *, tolerance
     return "none"
 
 
+def trial_gait(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: int,
+               t_start: float, t_stop: float) -> dict[str, Any]:
+    """One trial's gait between t_start and t_stop: ``gait`` (label), ``period_s`` and each
+    leg's ``phase_<leg>`` and ``locking_<leg>`` relative to FR (what evaluate and a study's
+    gait.csv report)."""
+    g = leg_phases(times, indices, layout, trial, t_start, t_stop)
+    row: dict[str, Any] = {"gait": gait_label(g["phases"], g["locking"]),
+                           "period_s": float(g["period"])}
+    for leg in LEGS[1:]:
+        row[f"phase_{leg}"] = float(g["phases"][leg])
+        row[f"locking_{leg}"] = float(g["locking"][leg])
+    return row
+
+
 def phase_matrix(phases: dict[str, float]) -> np.ndarray:
     """(4, 4) phase of leg j relative to leg i."""
     v = np.array([phases[leg] for leg in LEGS])

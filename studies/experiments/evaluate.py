@@ -31,7 +31,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...models import DEFAULT_MODELS, ModelSet
-from ..analysis.gait import gait_label, leg_phases
+from ..analysis.gait import trial_gait
 from ..files.folder import OutputFolder, verify
 from ..files.outputs import write_manifest
 from ..files.weights import load_weights
@@ -209,16 +209,10 @@ def _trial_rows(result: Any, b: int, seconds: float) -> dict[str, Any]:
     fell = not bool(alive.all())
     t_fall = float(np.argmin(alive) + 1) * STEP if fell else math.nan
     t, i = result.spikes["motor"]
-    g = leg_phases(t, i, result.cpg.layout, b, seconds / 2, seconds)
-    row = {"distance_m": float(x[-1] - x[0]), "mean_speed_m_per_s":
-           float(rec.torso_velocity[b, :, 0].mean()), "fell": int(fell),
-           "time_to_fall_s": t_fall, "upright_share": float(alive.mean()),
-           "gait": gait_label(g["phases"], g["locking"]),
-           "period_s": float(g["period"])}
-    for leg in ("FL", "RR", "RL"):
-        row[f"locking_{leg}"] = g["locking"][leg]
-        row[f"phase_{leg}"] = g["phases"][leg]
-    return row
+    return {"distance_m": float(x[-1] - x[0]), "mean_speed_m_per_s":
+            float(rec.torso_velocity[b, :, 0].mean()), "fell": int(fell),
+            "time_to_fall_s": t_fall, "upright_share": float(alive.mean()),
+            **trial_gait(t, i, result.cpg.layout, b, seconds / 2, seconds)}
 
 
 def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: float = 10.0,

@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError
-from ..analysis.gait import gait_label, leg_phases, phase_matrix, weight_structure
+from ..analysis.gait import (gait_label, leg_phases, phase_matrix, trial_gait,
+                             weight_structure)
 from ..files.folder import OutputFolder
 from ..files.outputs import write_manifest
 from .run import replay
@@ -61,14 +62,9 @@ def final_gaits(models, tables: np.ndarray, *, seconds: float = 5.0,
     t, i = result.spikes["motor"]
     rows = []
     for b in range(len(tables)):
-        g = leg_phases(t, i, result.cpg.layout, b, seconds / 2, seconds)
-        row = {"final_gait": gait_label(g["phases"], g["locking"]),
-               "final_speed_m_per_s": float(result.robot.torso_velocity[b, :, 0].mean()),
-               "final_period_s": float(g["period"])}
-        for leg in ("FL", "RR", "RL"):
-            row[f"final_phase_{leg}"] = float(g["phases"][leg])
-            row[f"final_locking_{leg}"] = float(g["locking"][leg])
-        rows.append(row)
+        g = trial_gait(t, i, result.cpg.layout, b, seconds / 2, seconds)
+        rows.append({"final_speed_m_per_s": float(result.robot.torso_velocity[b, :, 0].mean()),
+                     **{f"final_{k}": v for k, v in g.items()}})
     return rows
 
 
