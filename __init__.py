@@ -26,7 +26,12 @@ from __future__ import annotations
 
 import importlib
 
+from . import _quiet_brian
+
 __version__ = "0.1.0"
+
+# Brian2's import leaves debug files in the temp folder if the process is killed during it.
+_quiet_brian.install()
 
 # public name -> module that defines it (imported on first access)
 _API = {name: "astrocpg.studies.experiments.api"

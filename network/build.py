@@ -17,6 +17,7 @@ import brian2
 import numpy as np
 from brian2 import Network, NeuronGroup, Synapses, linked_var, ms, second
 
+from .._quiet_brian import close_debug_files
 from ..errors import InputError
 from ..models import DEFAULT_MODELS, ModelSet
 from ..models.base import NeuronModel, SynapseModel, brian_error_line
@@ -29,34 +30,10 @@ brian2.prefs.codegen.loop_invariant_optimisations = True
 brian2.prefs.logging.delete_log_on_exit = True
 
 
-def _no_debug_files() -> None:
-    """Brian2 opens a debug log and a copy of the main script in the temp folder when it is
-    imported (before any preference of ours applies), and keeps both when an exception
-    reaches its excepthook or the process is killed. Our errors are one line naming the
-    culprit: close and delete them now, so that no process leaves them behind."""
-    import logging
-    import os
-
-    from brian2.utils.logger import BrianLogger
-
-    handler = BrianLogger.file_handler
-    if handler is not None:
-        logging.getLogger("brian2").removeHandler(handler)
-        handler.close()
-        BrianLogger.file_handler = None
-    for attr in ("tmp_log", "tmp_script"):
-        path = getattr(BrianLogger, attr)
-        setattr(BrianLogger, attr, None)
-        for p in (path, f"{path}.1") if path else ():
-            try:
-                os.remove(p)
-            except OSError:
-                pass
-    brian2.prefs.logging.file_log = False
-    brian2.prefs.logging.save_script = False
-
-
-_no_debug_files()
+# Brian2 opened its debug log and script copy at import; if it was imported before astrocpg
+# (so astrocpg._quiet_brian did not wrap that import), close and delete them now. Our errors
+# are one line naming the culprit; no process should leave Brian2's files behind.
+close_debug_files()
 # A network that failed validation is dropped on purpose; don't warn about its objects.
 brian2.BrianLogger.suppress_name("unused_brian_object")
 # NaN/inf in the state is reported once, in one line, by the divergence check (CPG.first_nonfinite,

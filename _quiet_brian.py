@@ -1,0 +1,123 @@
+"""Brian2 without its debug files, even when the process is killed while importing it.
+
+Brian2 writes ``brian_debug_*.log`` and ``brian_script_*.py`` into the temp folder the moment
+it is imported (before any preference of ours can apply) and deletes them at a clean exit
+only. A process killed (SIGKILL, OOM) between the import and our clean-up left both behind
+in the user's temp folder, one pair per kill.
+
+So Brian2's own import runs with Python's temp folder pointed at a private folder named
+after this process (``astrocpg-brian-<pid>-*``). Right after the import the files are closed
+and removed, file logging is switched off and the folder goes. A process killed inside that
+window leaves only its own folder, and the next astrocpg process removes the folders of
+processes that no longer exist. A user who imported Brian2 before astrocpg is covered by the
+clean-up in ``network.build`` instead.
+
+:func:`install` is called by ``astrocpg/__init__.py``; it imports nothing heavy.
+"""
+
+from __future__ import annotations
+
+import importlib.abc
+import importlib.machinery
+import logging
+import os
+import shutil
+import sys
+import tempfile
+from types import ModuleType
+
+PREFIX = "astrocpg-brian-"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, not ours
+        return True
+    return True
+
+
+def remove_stale(folder: str | None = None) -> list[str]:
+    """Remove the private import folders of astrocpg processes that no longer exist; return
+    what was removed."""
+    folder = folder or tempfile.gettempdir()
+    removed = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for name in names:
+        if not name.startswith(PREFIX):
+            continue
+        pid = name[len(PREFIX):].split("-", 1)[0]
+        if not pid.isdigit() or int(pid) == os.getpid() or _alive(int(pid)):
+            continue
+        shutil.rmtree(os.path.join(folder, name), ignore_errors=True)
+        removed.append(name)
+    return removed
+
+
+def close_debug_files() -> None:
+    """Close and delete the debug log and script copy Brian2 opened at import, and switch
+    file logging off for the rest of the process."""
+    import brian2
+    from brian2.utils.logger import BrianLogger
+
+    handler = BrianLogger.file_handler
+    if handler is not None:
+        logging.getLogger("brian2").removeHandler(handler)
+        handler.close()
+        BrianLogger.file_handler = None
+    for attr in ("tmp_log", "tmp_script"):
+        path = getattr(BrianLogger, attr)
+        setattr(BrianLogger, attr, None)
+        for p in (path, f"{path}.1") if path else ():
+            try:
+                os.remove(p)
+            except OSError:
+                pass
+    brian2.prefs.logging.file_log = False
+    brian2.prefs.logging.save_script = False
+
+
+class _Loader(importlib.abc.Loader):
+    def __init__(self, inner: importlib.abc.Loader) -> None:
+        self.inner = inner
+
+    def __getattr__(self, name: str) -> object:  # resource readers, get_source, ...
+        return getattr(self.inner, name)
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType | None:
+        return self.inner.create_module(spec)
+
+    def exec_module(self, module: ModuleType) -> None:
+        remove_stale()
+        private = tempfile.mkdtemp(prefix=f"{PREFIX}{os.getpid()}-")
+        before = tempfile.tempdir
+        tempfile.tempdir = private
+        try:
+            self.inner.exec_module(module)
+            close_debug_files()
+        finally:
+            tempfile.tempdir = before
+            shutil.rmtree(private, ignore_errors=True)
+
+
+class _Finder(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):  # noqa: ANN001, ANN201
+        if name != "brian2":
+            return None
+        sys.meta_path.remove(self)  # once: find the real spec, then wrap its loader
+        spec = importlib.machinery.PathFinder.find_spec(name, path)
+        if spec is not None and spec.loader is not None:
+            spec.loader = _Loader(spec.loader)
+        return spec
+
+
+def install() -> None:
+    """Wrap the first import of Brian2 in this process (no-op if it is already imported)."""
+    if "brian2" in sys.modules or any(isinstance(f, _Finder) for f in sys.meta_path):
+        return
+    sys.meta_path.insert(0, _Finder())

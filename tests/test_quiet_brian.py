@@ -1,0 +1,56 @@
+"""Brian2 leaves no debug files in the temp folder, even from a process killed while it was
+importing Brian2 (astrocpg._quiet_brian)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+# The window: Brian2 has been imported (and has written its files), astrocpg has not yet
+# removed them. The child kills itself exactly there, as SIGKILL or the OOM killer could.
+KILLED_IN_THE_WINDOW = """
+import os, signal
+import astrocpg._quiet_brian as q
+q.close_debug_files = lambda: os.kill(os.getpid(), signal.SIGKILL)
+import brian2
+"""
+
+
+def python(code: str, tmp: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "TMPDIR": str(tmp)}
+    return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                          text=True, timeout=300)
+
+
+def test_importing_brian2_through_astrocpg_leaves_nothing(tmp_path):
+    done = python("import astrocpg, brian2, os\n"
+                  "assert not brian2.prefs.logging.file_log\n"
+                  "print(sorted(os.listdir(os.environ['TMPDIR'])))", tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_process_killed_while_importing_leaves_only_its_folder_and_the_next_removes_it(
+        tmp_path):
+    killed = python(KILLED_IN_THE_WINDOW, tmp_path)
+    assert killed.returncode == -signal.SIGKILL, killed.stderr
+    left = os.listdir(tmp_path)
+    # Brian2 did write its files (else this test shows nothing) -- inside the private folder
+    assert len(left) == 1 and left[0].startswith("astrocpg-brian-"), left
+    inside = os.listdir(tmp_path / left[0])
+    assert any(n.startswith("brian_debug_") for n in inside), inside
+    nxt = python("import astrocpg.models", tmp_path)
+    assert nxt.returncode == 0, nxt.stderr
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_live_process_folder_is_left_alone(tmp_path):
+    live = tmp_path / f"astrocpg-brian-{os.getpid()}-x"  # this pytest process is alive
+    live.mkdir()
+    nxt = python("import astrocpg.models", tmp_path)
+    assert nxt.returncode == 0, nxt.stderr
+    assert os.listdir(tmp_path) == [live.name]
