@@ -17,14 +17,13 @@ clean-up in ``network.build`` instead.
 
 from __future__ import annotations
 
-import importlib.abc
 import importlib.machinery
-import logging
 import os
-import shutil
 import sys
-import tempfile
 from types import ModuleType
+
+# logging, shutil and tempfile are imported where used: ``astrocpg --help`` imports this module
+# and must stay quick.
 
 PREFIX = "astrocpg-brian-"
 
@@ -42,6 +41,9 @@ def _alive(pid: int) -> bool:
 def remove_stale(folder: str | None = None) -> list[str]:
     """Remove the private import folders of astrocpg processes that no longer exist; return
     what was removed."""
+    import shutil
+    import tempfile
+
     folder = folder or tempfile.gettempdir()
     removed = []
     try:
@@ -62,6 +64,8 @@ def remove_stale(folder: str | None = None) -> list[str]:
 def close_debug_files() -> None:
     """Close and delete the debug log and script copy Brian2 opened at import, and switch
     file logging off for the rest of the process."""
+    import logging
+
     import brian2
     from brian2.utils.logger import BrianLogger
 
@@ -82,7 +86,7 @@ def close_debug_files() -> None:
     brian2.prefs.logging.save_script = False
 
 
-class _Loader(importlib.abc.Loader):
+class _Loader:  # an importlib Loader (duck-typed: importlib.abc is slow to import)
     def __init__(self, inner: importlib.abc.Loader) -> None:
         self.inner = inner
 
@@ -93,6 +97,9 @@ class _Loader(importlib.abc.Loader):
         return self.inner.create_module(spec)
 
     def exec_module(self, module: ModuleType) -> None:
+        import shutil
+        import tempfile
+
         remove_stale()
         private = tempfile.mkdtemp(prefix=f"{PREFIX}{os.getpid()}-")
         before = tempfile.tempdir
@@ -105,7 +112,7 @@ class _Loader(importlib.abc.Loader):
             shutil.rmtree(private, ignore_errors=True)
 
 
-class _Finder(importlib.abc.MetaPathFinder):
+class _Finder:  # an importlib MetaPathFinder
     def find_spec(self, name, path=None, target=None):  # noqa: ANN001, ANN201
         if name != "brian2":
             return None
