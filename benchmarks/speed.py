@@ -2,6 +2,7 @@
 one core, for 1, 4 and 16 trials batched in one network.
 
     python benchmarks/speed.py [--seconds 5] [--trials 1 4 16] [--record] [--check-every N]
+                               [--codegen numpy cython]
 
 Targets (issue 2): <= 1.2 s per simulated second for one trial, <= 0.2 s per trial at 16.
 Start-up (import, build, code generation, first step) is reported apart: it is paid once per run.
@@ -10,7 +11,10 @@ Pin to one core with ``taskset -c 0`` for a one-core figure; the script also rep
 measure what the check costs: ``--check-every 10 0`` measures both, interleaved. On a loaded
 machine the difference drowns in noise; ``--check-cost`` also times the divergence checks
 themselves in the same process (the robot's every step, the CPG's every N steps) and gives them
-as a share of the loop's CPU time per step.
+as a share of the loop's CPU time per step. ``--codegen numpy cython`` measures each trial count
+under both Brian2 targets (Cython's first build compiles for minutes; later ones load the
+cache). Each point also times MuJoCo's own step of the same robot in the same process, and
+gives a trial-step's cost as a multiple of it (issue 13's goal: 1.5 x at 16-20 trials).
 """
 
 from __future__ import annotations
@@ -30,10 +34,26 @@ from astrocpg.models import DEFAULT_MODELS  # noqa: E402
 from astrocpg.studies.experiments.simulate import add_monitors  # noqa: E402
 
 
+def mj_step_us(model, data, steps: int = 3000) -> float:
+    """MuJoCo's step of this robot alone (us, wall), from a copy of a trial's state."""
+    import mujoco
+
+    d = mujoco.MjData(model)
+    spec = mujoco.mjtState.mjSTATE_INTEGRATION
+    state = np.empty(mujoco.mj_stateSize(model, spec))
+    mujoco.mj_getState(model, data, state, spec)
+    mujoco.mj_setState(model, d, state, spec)
+    t = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(model, d)
+    return (time.perf_counter() - t) / steps * 1e6
+
+
 def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
-            check_cost: bool = False) -> dict[str, float]:
+            check_cost: bool = False, codegen: str = "numpy") -> dict[str, float]:
     t_start = time.perf_counter()
-    loop = build_closed_loop(DEFAULT_MODELS, n_trials=n_trials, seed=1, check_every=check_every)
+    loop = build_closed_loop(DEFAULT_MODELS, n_trials=n_trials, seed=1, check_every=check_every,
+                             codegen=codegen)
     cpg = loop.cpg
     if record:
         loop.bridge.start_recording(int(seconds * 1000) + 200, 1)
@@ -43,7 +63,11 @@ def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
     w0, c0 = time.perf_counter(), time.process_time()
     loop.run(seconds)
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-    out = {"trials": n_trials, "wall_per_sim_s": wall / seconds,
+    mj = mj_step_us(loop.bridge.model, loop.bridge.data[0])
+    per_trial_step_us = wall / seconds / n_trials * 1e3  # 1 ms steps: s per sim s -> us per step
+    out = {"trials": n_trials, "codegen": codegen, "mj_step_us": mj,
+           "trial_step_us": per_trial_step_us, "x_mj_step": per_trial_step_us / mj,
+           "wall_per_sim_s": wall / seconds,
            "cpu_per_sim_s": cpu / seconds, "wall_per_trial": wall / seconds / n_trials,
            "startup_s": startup, "check_every": check_every}
     if check_cost:
@@ -82,18 +106,23 @@ def main() -> None:
                          "measured one after the other for each trial count")
     ap.add_argument("--check-cost", action="store_true",
                     help="also time the divergence checks alone, as a share of the loop")
+    ap.add_argument("--codegen", nargs="+", default=["numpy"], choices=["numpy", "cython"],
+                    help="Brian2 targets to measure, interleaved per trial count")
     args = ap.parse_args()
-    print(f"closed loop, numpy target, {args.seconds:g} simulated s per point, "
+    print(f"closed loop, {args.seconds:g} simulated s per point, "
           f"recording {'on' if args.record else 'off'}")
-    print(f"{'trials':>6} {'check':>6} {'wall s/sim s':>13} {'per trial':>10} "
-          f"{'CPU s/sim s':>12} {'start-up s':>11}")
+    print(f"{'target':>7} {'trials':>6} {'check':>6} {'wall s/sim s':>13} {'per trial':>10} "
+          f"{'CPU s/sim s':>12} {'start-up s':>11} {'trial-step us':>14} {'mj_step us':>11} "
+          f"{'x mj_step':>10}")
     for n in args.trials:
         for every in args.check_every:
-            r = measure(n, args.seconds, args.record, every, args.check_cost)
-            check = str(every) if every else "off"
-            print(f"{r['trials']:>6} {check:>6} {r['wall_per_sim_s']:>13.3f} "
-                  f"{r['wall_per_trial']:>10.3f} {r['cpu_per_sim_s']:>12.3f} "
-                  f"{r['startup_s']:>11.1f}", flush=True)
+            for target in args.codegen:
+                r = measure(n, args.seconds, args.record, every, args.check_cost, target)
+                check = str(every) if every else "off"
+                print(f"{target:>7} {r['trials']:>6} {check:>6} {r['wall_per_sim_s']:>13.3f} "
+                      f"{r['wall_per_trial']:>10.3f} {r['cpu_per_sim_s']:>12.3f} "
+                      f"{r['startup_s']:>11.1f} {r['trial_step_us']:>14.1f} "
+                      f"{r['mj_step_us']:>11.1f} {r['x_mj_step']:>10.2f}", flush=True)
             if args.check_cost:
                 print(f"{'':>6} divergence checks: robot {r['robot_check_us']:.2f} us every "
                       f"step, CPG {r['cpg_check_us']:.1f} us every {r['every']} steps, loop "

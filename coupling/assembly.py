@@ -51,7 +51,8 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
                       robot_layout: RobotLayout | None = None,
                       robot_params: A1Parameters | None = None,
                       on_step: Callable[[int], None] | None = None,
-                      check_every: int = 10, check: bool = True) -> ClosedLoop:
+                      check_every: int = 10, check: bool = True,
+                      codegen: str | None = None) -> ClosedLoop:
     """Robot + CPG + bridge from settings, the bridge's operation added to the network.
 
     robot: None = the project's A1 in the world of ``models.world`` (slope, terrain, friction,
@@ -64,6 +65,7 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
     weights: inter-limb tables, (8, 8) or (n_trials, 8, 8) volt (default zero).
     on_step, check_every: see :class:`Bridge`.
     check: prepare every Brian2 object first (:func:`check_runs`: one-line errors naming the model).
+    codegen: Brian2's target, numpy or cython (default $ASTROCPG_CODEGEN, else numpy).
     """
     params = robot_params if robot_params is not None else A1Parameters()
     model = world_model(models, params) if robot is None else robot
@@ -71,7 +73,7 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
         raise InputError(f"robot timestep must be positive, got {model.opt.timestep}")
     layout = robot_layout if robot_layout is not None else RobotLayout.from_model(model, params)
     cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=LEGS,
-                    dt=model.opt.timestep * second, interlimb_weights=weights)
+                    dt=model.opt.timestep * second, interlimb_weights=weights, codegen=codegen)
     if check:
         check_runs(cpg)
     bridge = Bridge(cpg, model, layout, models, on_step=on_step, check_every=check_every)

@@ -21,10 +21,12 @@ from .._quiet_brian import close_debug_files
 from ..errors import InputError
 from ..models import DEFAULT_MODELS, ModelSet
 from ..models.base import NeuronModel, SynapseModel, brian_error_line
+from .codegen import DEFAULT as DEFAULT_CODEGEN
+from .codegen import initial_target, use_codegen
 from .divergence import NonFinite
 from .layout import INTERNEURONS, LEGS, THIGH_POOLS, Layout
 
-brian2.prefs.codegen.target = "numpy"
+brian2.prefs.codegen.target = initial_target()  # --codegen / $ASTROCPG_CODEGEN: see codegen.py
 brian2.prefs.codegen.loop_invariant_optimisations = True
 # Brian2 logs a debug file for every exception it sees; our errors are user-facing.
 brian2.prefs.logging.delete_log_on_exit = True
@@ -58,6 +60,7 @@ class CPG:
     torque: NeuronGroup
     synapses: dict[str, Synapses]
     interlimb_pairs: np.ndarray  # (n_synapses, 2): (row, col) in the per-trial table
+    codegen: str = DEFAULT_CODEGEN  # Brian2 target of its groups and synapses (codegen.py)
     _arrays: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
     _state: list[tuple[str, str, np.ndarray, int | None, Any, np.ndarray]] | None = None
 
@@ -250,6 +253,7 @@ def build_cpg(
     legs: Iterable[str] = LEGS,
     dt: Any = 1 * ms,
     interlimb_weights: np.ndarray | None = None,
+    codegen: str | None = None,
 ) -> CPG:
     """Build ``n_trials`` independent copies of the CPG.
 
@@ -259,6 +263,9 @@ def build_cpg(
     take them in, so the torque of step n holds the spikes of step n (SPEC: torque from this
     step's spikes drives this step's physics). The inter-limb input of the pools' spikes reaches
     the target neurons at the next step, like every other synapse.
+
+    ``codegen``: Brian2's target, "numpy" or "cython" (default: $ASTROCPG_CODEGEN, else numpy;
+    see :mod:`astrocpg.network.codegen`). It is stored as ``CPG.codegen``.
     """
     legs = tuple(legs)
     for leg in legs:
@@ -269,6 +276,10 @@ def build_cpg(
         raise InputError(f"n_trials must be at least 1, got {n_trials}", culprit="build_cpg")
     pool_size = int(np.asarray(models.pool.parameters["pool_size"].value))
     layout = Layout(n_trials=int(n_trials), pool_size=pool_size, legs=legs)
+    # numpy, or cython (opt-in): ``codegen``, else $ASTROCPG_CODEGEN. Every group and synapse
+    # is pinned to it, so a later change of Brian2's preference does not move this network.
+    codegen = use_codegen(codegen)
+    codeobj_class = brian2.CythonCodeObject if codegen == "cython" else brian2.NumpyCodeObject
     brian2.seed(int(seed))
 
     objects: list[Any] = []
@@ -280,6 +291,7 @@ def build_cpg(
                 n, model.equations, threshold=model.threshold, reset=model.reset,
                 refractory=model.refractory if model.refractory else False,
                 method=model.method, namespace=model.parameters.namespace(), name=name, dt=dt,
+                codeobj_class=codeobj_class,
             )
             for var, value in model.initial_values.items():
                 setattr(g, var, value)
@@ -294,7 +306,7 @@ def build_cpg(
         try:
             s = Synapses(source, target, model=model.model, on_pre=model.on_pre,
                          method=model.method, namespace=model.parameters.namespace(), name=name,
-                         dt=dt)
+                         dt=dt, codeobj_class=codeobj_class)
             s.connect(i=np.asarray(i, dtype=np.int32), j=np.asarray(j, dtype=np.int32))
             for var, value in model.initial_values.items():
                 setattr(s, var, value)
@@ -424,7 +436,7 @@ def build_cpg(
     net = Network(*objects)
     cpg = CPG(layout=layout, models=models, seed=int(seed), dt=dt, net=net, motor=motor,
               interneuron=interneuron, astrocyte=astrocyte, pool=pool, torque=torque,
-              synapses=syn, interlimb_pairs=pairs)
+              synapses=syn, interlimb_pairs=pairs, codegen=codegen)
     if interlimb_weights is not None:
         cpg.set_interlimb_weights(interlimb_weights)
     return cpg

@@ -153,6 +153,10 @@ def test_resume_with_other_parameters(capsys, tmp_path, finished):
     before = _snapshot(folder)
     _fails(capsys, ["train", "--resume", str(folder), "--seed", "9"], "seed")
     _fails(capsys, ["train", "--resume", str(folder), "--set", "eta=1e-9*mV"], "model settings")
+    # trained under numpy: refused under Cython, before anything is built or compiled
+    _fails(capsys, ["train", "--resume", str(folder), "--codegen", "cython"], "--codegen",
+           "started with Brian2's numpy target")
+    assert os.environ.get("ASTROCPG_CODEGEN") is None, "--codegen leaked out of the command"
     assert _snapshot(folder) == before
 
 

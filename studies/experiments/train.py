@@ -28,7 +28,7 @@ from ...coupling.recorder import RecordPlan, SessionRecorder
 from ...coupling.training import SESSION_COLUMNS, Training
 from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
-from ...network import interlimb_labels, run_network
+from ...network import codegen_target, interlimb_labels, run_network
 from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
                             holds_results)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
@@ -184,6 +184,7 @@ class Trainer:
         payload = {
             "fingerprint": self.settings.fingerprint(),
             "settings": self.settings.__dict__,
+            "codegen": self.cpg.codegen,
             "brian": brian_state,
             "mujoco": mj,
             "bridge": {k: getattr(br, k).copy() for k in
@@ -203,6 +204,9 @@ class Trainer:
         atomic_write(self.out / CHECKPOINT, lambda f: (f.write(MAGIC), f.write(digest), f.write(body)))
 
     def restore(self, payload: dict[str, Any]) -> None:
+        # the noise of a seed comes in another order under the other Brian2 target: resuming
+        # there would not continue the same training (checkpoints before codegen: numpy)
+        _same_codegen(payload.get("codegen", "numpy"), self.cpg.codegen)
         net = self.cpg.net
         net._stored_state["checkpoint"] = _rename_clocks(payload["brian"], net)
         net.restore("checkpoint", restore_random_state=True)
@@ -256,6 +260,16 @@ class Trainer:
 
 
 _CLOCK = re.compile(r"^(.*_clock)(_\d+)?$")
+
+
+def _same_codegen(started: str, now: str) -> None:
+    """A training continues under the Brian2 target it started with (checkpoints written before
+    targets were recorded: numpy). The targets draw the same noise, but C's and numpy's
+    floating point can part after many sessions: an exact resume needs the same one."""
+    if started != now:
+        raise InputError(f"this training started with Brian2's {started} target and continues "
+                         f"only with it (now: {now}); resume with --codegen {started}",
+                         culprit="--codegen")
 
 
 def _rename_clocks(state: dict[str, Any], net) -> dict[str, Any]:
@@ -433,6 +447,8 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
                                  culprit=f"--resume {out}")
             raise InputError(f"that run has {key}={stored[key]}, not {value}",
                              culprit=f"--resume {out}")
+    if not fresh:
+        _same_codegen(payload.get("codegen", "numpy"), codegen_target())
     if not fresh and bool(np.all(np.asarray(payload["training"]["sessions_done"])
                                  >= settings.n_sessions)):
         raise InputError(f"the training is already finished ({settings.n_sessions} sessions per "

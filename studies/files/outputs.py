@@ -27,6 +27,14 @@ PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "das
             "pandas", "pynwb")
 
 
+def brian2_target() -> str | None:
+    """Brian2's code-generation target in this process (numpy or cython: the same model, but a
+    seed draws its noise in another order under each), or None where Brian2 was never loaded
+    (nothing was simulated)."""
+    brian2 = sys.modules.get("brian2")
+    return None if brian2 is None else str(brian2.prefs.codegen.target)
+
+
 def package_versions() -> dict[str, str]:
     out = {"python": platform.python_version()}
     for name in PACKAGES:
@@ -178,6 +186,7 @@ def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str,
         "files": dict(files),
         "results": dict(results or {}),
         "package_versions": package_versions(),
+        "codegen": brian2_target(),
         "git": git_commit(),
         "machine": {"platform": platform.platform(), "processor": platform.processor(),
                     "cpu_count": os.cpu_count()},
