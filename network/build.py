@@ -241,7 +241,8 @@ def same_limb_mask(layout: Layout) -> np.ndarray:
 
 def trial_seeds(seed: int, n_trials: int) -> list[int]:
     """Trial ``b`` of a batch started with ``seed`` draws its connectivity from ``seed + b``, so
-    a trial's network does not depend on the batch it runs in."""
+    a trial's network does not depend on the batch it runs in. Its noise does: Brian2 draws it
+    for all trials from one generator seeded with ``seed`` (README, "Seeds and batches")."""
     return [int(seed) + b for b in range(n_trials)]
 
 

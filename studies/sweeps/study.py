@@ -27,8 +27,11 @@ A study file::
     set = { }                         # overrides of this condition only
 
 Every (condition, sweep point) is trained for every seed. Consecutive seeds of one point run as
-one *run*: ``batch`` trials in one network (trial ``b`` of a run that starts at seed ``s`` is
-seed ``s + b``, whatever the batch, so the result of a seed does not depend on the batching).
+one *run*: ``batch`` trials in one network. Trial ``b`` of a run that starts at seed ``s`` has
+the network (connectivity, neuron positions) of seed ``s + b`` whatever the batch, but its noise
+comes from the run's one Brian2 generator, which draws for every trial of the run at each
+step: a seed's trajectory depends on the batching, its statistics over seeds do not (README,
+"Seeds and batches"). Changing ``batch`` gives other, equally valid, trajectories.
 
 Each run lives in ``OUT/runs/<run id>/`` as an ordinary training folder (``sessions.csv``,
 ``weights.npz``, ``checkpoint.pkl``, ``manifest.json``) plus ``status.json``. A run whose
