@@ -177,6 +177,11 @@ def build_parser() -> argparse.ArgumentParser:
                     help="only a study's runs of this condition (repeatable; default all)")
     ev.add_argument("--out", default=None, help="default DIR/evaluation (replaced whole)")
     ev.add_argument("--overwrite", action="store_true")
+    ev.add_argument("--workers", type=int, default=None,
+                    help="run the (training, world) cells on a local Dask cluster of N processes "
+                         "(default: one after the other, here)")
+    ev.add_argument("--scheduler", metavar="ADDRESS",
+                    help="run the cells on a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
     ev.add_argument("--no-progress", action="store_true")
     _add_codegen_option(ev)
 
@@ -474,8 +479,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
     res = evaluate(args.dir, worlds=args.worlds, seconds=args.seconds, repeats=args.repeats,
                    seed=args.seed, conditions=args.condition, out=args.out,
-                   overwrite=args.overwrite,
-                   progress=not args.no_progress)
+                   overwrite=args.overwrite, progress=not args.no_progress,
+                   workers=args.workers, scheduler=args.scheduler)
     for line in format_summary(res["summary"]):
         print(line)
     print(f"wrote {res['out']}/ (evaluation.csv, summary.csv, manifest.json)")

@@ -111,3 +111,97 @@ def test_evaluate_a_training_in_two_worlds(tmp_path):
     rows = list(csv.DictReader(open(done / "evaluation.csv")))
     assert {(r["grid_drive"], r["grid_torque_gain"]) for r in rows} == {
         ("0.9", "0.8"), ("0.9", "1.2"), ("1.1", "0.8"), ("1.1", "1.2")}
+
+
+# ---- resumable, and on Dask (issue 12: "everything runs on Dask and resumes")
+WORLDS3 = '[worlds.flat]\n[worlds.uphill]\nslope = "0.1"\n[worlds.slippery]\nfriction = "0.4"\n'
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    root = tmp_path_factory.mktemp("ev")
+    train = root / "train"
+    assert main(["train", "--out", str(train), "--sessions", "1", "--trials", "2", "--seed", "5",
+                 "--set", "L_max=0.3*second", "--no-progress"]) == 0
+    worlds = root / "w3.toml"
+    worlds.write_text(WORLDS3)
+    return train, worlds
+
+
+def _evaluate(train, worlds, out, seconds="0.3", *extra) -> int:
+    return main(["evaluate", str(train), "--worlds", str(worlds), "--seconds", seconds,
+                 "--repeats", "1", "--out", str(out), "--no-progress", *extra])
+
+
+def _counting(monkeypatch, fail_at: int | None = None) -> list[str]:
+    """Count the cells run here; raise KeyboardInterrupt (Ctrl-C) when cell ``fail_at`` starts."""
+    import astrocpg.studies.experiments.evaluate as ev
+
+    real, calls = ev.evaluate_cell, []
+
+    def cell(controller, tables, world, *args, **kwargs):
+        calls.append(world)
+        if fail_at is not None and len(calls) == fail_at:
+            raise KeyboardInterrupt
+        return real(controller, tables, world, *args, **kwargs)
+
+    monkeypatch.setattr(ev, "evaluate_cell", cell)
+    return calls
+
+
+@pytest.mark.slow
+def test_an_interrupted_evaluation_runs_only_the_cells_it_had_not_finished(
+        trained, tmp_path, monkeypatch):
+    from astrocpg.studies.files.folder import verify
+
+    train, worlds = trained
+    whole = tmp_path / "whole"
+    with monkeypatch.context() as m:
+        calls = _counting(m)
+        assert _evaluate(train, worlds, whole) == 0
+        assert calls == ["flat", "uphill", "slippery"]
+    out = tmp_path / "ev"
+    parts = tmp_path / "ev.parts"
+    with monkeypatch.context() as m:
+        _counting(m, fail_at=3)
+        assert _evaluate(train, worlds, out) == 130  # Ctrl-C during the third cell
+    assert not out.exists(), "an interrupted evaluation wrote its folder"
+    assert sorted(p.name for p in parts.iterdir()) == ["0000-0000.json", "0000-0001.json",
+                                                        "fingerprint.txt"]
+    with monkeypatch.context() as m:
+        calls = _counting(m)
+        assert _evaluate(train, worlds, out) == 0
+        assert calls == ["slippery"], "the finished cells ran again"
+    assert not parts.exists(), "the parts outlived the written folder"
+    # the same table as an evaluation never interrupted
+    assert (out / "evaluation.csv").read_text() == (whole / "evaluation.csv").read_text()
+    assert json.loads((out / "manifest.json").read_text())["settings"]["cells_reused"] == 2
+
+
+@pytest.mark.slow
+def test_other_settings_do_not_reuse_the_cells(trained, tmp_path, monkeypatch):
+    train, worlds = trained
+    out = tmp_path / "ev"
+    with monkeypatch.context() as m:
+        _counting(m, fail_at=2)
+        assert _evaluate(train, worlds, out) == 130
+    assert (tmp_path / "ev.parts" / "0000-0000.json").exists()
+    with monkeypatch.context() as m:
+        calls = _counting(m)
+        assert _evaluate(train, worlds, out, "0.2") == 0  # other --seconds: other cells
+        assert calls == ["flat", "uphill", "slippery"]
+    assert not (tmp_path / "ev.parts").exists()
+
+
+@pytest.mark.slow
+def test_evaluate_on_dask_gives_the_rows_of_the_serial_run(trained, tmp_path):
+    from astrocpg.studies.files.folder import verify
+
+    train, worlds = trained
+    here, dask = tmp_path / "here", train / "evaluation"
+    assert _evaluate(train, worlds, here) == 0
+    assert main(["evaluate", str(train), "--worlds", str(worlds), "--seconds", "0.3",
+                 "--repeats", "1", "--no-progress", "--workers", "2"]) == 0
+    assert (dask / "evaluation.csv").read_text() == (here / "evaluation.csv").read_text()
+    assert json.loads((dask / "manifest.json").read_text())["settings"]["workers"] == 2
+    verify(train)  # evaluation/ beside a training's files: still its whole, listed folder

@@ -19,9 +19,12 @@ lateral push.
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import itertools
+import json
 import math
+import shutil
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,11 +32,12 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS, ModelSet
+from ...network import codegen_target
 from ..analysis.gait import trial_gait
 from ..files.folder import OutputFolder, verify
-from ..files.outputs import write_manifest
+from ..files.outputs import atomic_write, write_manifest
 from ..files.weights import load_weights
 from .resources import check_memory, estimate_bytes
 from .run import training_settings
@@ -43,6 +47,7 @@ from .simulate import STEP, simulate_closed_loop
 BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}
 EVALUATION = "evaluation.csv"
 SUMMARY = "summary.csv"
+PARTS_SUFFIX = ".parts"  # <out>.parts/: finished cells of an evaluation not yet written whole
 COLUMNS = ("source", "condition", "point", "seed", "world", "repeat", "distance_m",
            "mean_speed_m_per_s", "fell", "time_to_fall_s", "upright_share", "gait",
            "period_s", "locking_FL", "locking_RR", "locking_RL", "phase_FL", "phase_RR",
@@ -215,10 +220,97 @@ def _trial_rows(result: Any, b: int, seconds: float) -> dict[str, Any]:
             **trial_gait(t, i, result.cpg.layout, b, seconds / 2, seconds)}
 
 
+def _models_of(settings: Mapping[str, Any]) -> ModelSet:
+    """The model set a training was trained with (its overrides, equations, model files; the
+    ablation's astrocytes off)."""
+    models = model_set(settings.get("overrides", []), settings.get("equations", {}),
+                       models=settings.get("models"))
+    if not settings.get("astrocytes", True):
+        models = models.with_values({"astrocyte_regulation": 0.0})
+    return models
+
+
+def evaluate_cell(controller: Mapping[str, Any], tables: np.ndarray, world: str,
+                  setting: Mapping[str, Any], grid: Mapping[str, str], seconds: float, seed: int,
+                  repeats: int, progress: bool = False) -> list[dict[str, Any]]:
+    """One training's controllers in one world: its trials x ``repeats`` as the trials of one
+    network (trial ``r*n + k``: controller ``k``, repeat ``r``), learning off; one row each.
+    Runs here or on a Dask worker (everything it takes is picklable)."""
+    here = in_world(_models_of(controller["settings"]), setting)
+    n = len(tables)
+    batch = np.concatenate([tables] * repeats)
+    result = simulate_closed_loop(here, seconds=seconds, seed=seed, n_trials=len(batch),
+                                  weights=batch, record_traces=False, spikes=("motor",),
+                                  progress=progress)
+    rows = []
+    for b in range(len(batch)):
+        r, k = divmod(b, n)
+        rows.append({"source": Path(controller["folder"]).name,
+                     "condition": controller["condition"], "point": controller["point"],
+                     "seed": controller["first_seed"] + k, "world": world, **grid,
+                     "repeat": r, **_trial_rows(result, b, seconds)})
+    return rows
+
+
+class EvaluationParts:
+    """The finished cells (controller x world) of an evaluation not yet written whole, kept
+    beside its output folder in ``<out>.parts/``: an evaluation interrupted (Ctrl-C, a killed
+    machine) and started again with the same controllers and settings reuses them and runs
+    only the rest. Other settings or other trained weights (another ``fingerprint``) discard
+    them. The folder goes once the evaluation's folder is written."""
+
+    def __init__(self, folder: Path, fingerprint: str) -> None:
+        self.folder, self.fingerprint = folder, fingerprint
+        key = folder / "fingerprint.txt"
+        try:
+            stale = folder.is_dir() and (not key.is_file() or key.read_text() != fingerprint)
+        except OSError:
+            stale = True
+        if stale:
+            shutil.rmtree(folder, ignore_errors=True)
+
+    def _path(self, cell: str) -> Path:
+        return self.folder / f"{cell}.json"
+
+    def load(self, cell: str) -> list[dict[str, Any]] | None:
+        try:
+            return json.loads(self._path(cell).read_text())
+        except (OSError, ValueError):  # absent, or torn by a kill: run it again
+            return None
+
+    def save(self, cell: str, rows: list[dict[str, Any]]) -> None:
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            key = self.folder / "fingerprint.txt"
+            if not key.is_file():
+                atomic_write(key, lambda f: f.write(self.fingerprint.encode()))
+            body = json.dumps(rows).encode()  # NaN (time to fall of a trial that stood) too
+            atomic_write(self._path(cell), lambda f: f.write(body))
+        except OSError as e:
+            raise EnvironmentFault.from_os_error(e, self.folder, "cannot save a cell") from None
+
+    def remove(self) -> None:
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _fingerprint(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],
+                 world_set: "WorldSet", seconds: float, repeats: int, seed: int) -> str:
+    h = hashlib.sha256()
+    h.update(json.dumps({"worlds": world_set.to_json(), "seconds": seconds, "repeats": repeats,
+                         "seed": seed, "codegen": codegen_target(),
+                         "controllers": [(str(c["folder"]), c["condition"], c["point"],
+                                          c["first_seed"], c["settings"]) for c, _, _ in plans]},
+                        sort_keys=True, default=str).encode())
+    for _, tables, _ in plans:
+        h.update(np.ascontiguousarray(tables, dtype=float).tobytes())
+    return h.hexdigest()
+
+
 def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: float = 10.0,
              repeats: int = 2, seed: int = 1, conditions: Sequence[str] | None = None,
              out: str | Path | None = None, overwrite: bool = False,
-             progress: bool = True) -> dict[str, Any]:
+             progress: bool = True, workers: int | None = None,
+             scheduler: str | None = None) -> dict[str, Any]:
     """Run every trained controller under ``folder`` in each world of ``worlds`` for
     ``seconds``, ``repeats`` times (different noise, seeds seed, seed+1, ... per repeat: all
     controllers of a training and all repeats run as trials of one network per world), learning
@@ -226,11 +318,19 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     (one row per controller x world x repeat), ``summary.csv`` (mean and std over controllers
     and repeats per condition x point x world: distance, speed, fall rate, time to fall, share
     of trot), ``gait_map.png`` for a two-axis grid, and ``manifest.json`` into ``out`` (default
-    ``folder/evaluation``, replaced whole). Returns {"rows", "summary", "out", "figures"}."""
+    ``folder/evaluation``, replaced whole). Returns {"rows", "summary", "out", "figures"}.
+
+    Each (training, world) is one *cell*. With ``workers`` or ``scheduler`` the cells run on a
+    Dask cluster (a local one of ``workers`` processes, or a running scheduler), as a study's
+    runs do; otherwise here, one after the other. Every finished cell is kept in
+    ``<out>.parts/`` until the folder is written, so an interrupted evaluation, started again
+    with the same arguments, runs only the cells it had not finished."""
     folder = Path(folder)
     seconds = number(seconds, "--seconds", positive=True)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
     seed = seed_number(seed)
+    if workers is not None and workers < 1:
+        raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
     target = Path(out) if out is not None else folder / "evaluation"
     OutputFolder(target, overwrite=overwrite or out is None).check()
     controllers = _controllers(folder)
@@ -244,32 +344,23 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     plans = []
     for c in controllers:
         verify(c["folder"], strict=False)
-        tables = load_weights(c["folder"], culprit="")
-        s = c["settings"]
-        models = model_set(s.get("overrides", []), s.get("equations", {}),
-                           models=s.get("models"))
-        if not s.get("astrocytes", True):
-            models = models.with_values({"astrocyte_regulation": 0.0})
-        plans.append((c, tables, models))
+        plans.append((c, load_weights(c["folder"], culprit=""), _models_of(c["settings"])))
     world_set = read_worlds(worlds, plans[0][2])
     n_max = max(len(t) for _, t, _ in plans) * repeats
     check_memory(estimate_bytes(trials=n_max, seconds=seconds, dt=STEP, robot_stride=1),
                  culprit=f"--seconds {seconds:g} x {n_max} trials")
-    rows: list[dict[str, Any]] = []
-    for c, tables, models in plans:
-        n = len(tables)
-        batch = np.concatenate([tables] * repeats)  # trial r*n + k: controller k, repeat r
-        for world, setting in world_set.worlds.items():
-            here = in_world(models, setting)
-            result = simulate_closed_loop(here, seconds=seconds, seed=seed, n_trials=len(batch),
-                                          weights=batch, record_traces=False,
-                                          spikes=("motor",), progress=progress)
-            for b in range(len(batch)):
-                r, k = divmod(b, n)
-                rows.append({"source": c["folder"].name, "condition": c["condition"],
-                             "point": c["point"], "seed": c["first_seed"] + k, "world": world,
-                             **grid_values(world_set, world), "repeat": r,
-                             **_trial_rows(result, b, seconds)})
+    parts = EvaluationParts(target.with_name(target.name + PARTS_SUFFIX),
+                            _fingerprint(plans, world_set, seconds, repeats, seed))
+    cells = {f"{ci:04d}-{wi:04d}": (c, tables, world, setting, grid_values(world_set, world))
+             for ci, (c, tables, _) in enumerate(plans)
+             for wi, (world, setting) in enumerate(world_set.worlds.items())}
+    done = {cell: rows for cell in cells if (rows := parts.load(cell)) is not None}
+    todo = {cell: (c, tables, world, setting, grid, seconds, seed, repeats)
+            for cell, (c, tables, world, setting, grid) in cells.items() if cell not in done}
+    if todo:
+        _run_cells(todo, done, parts, workers=workers, scheduler=scheduler, progress=progress,
+                   n_cells=len(cells))
+    rows: list[dict[str, Any]] = [row for cell in cells for row in done[cell]]
     summary = summarise(rows)
     columns = list(COLUMNS)
     columns[columns.index("world") + 1:columns.index("world") + 1] = list(
@@ -285,7 +376,9 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     settings = {"folder": str(folder), **world_set.to_json(),
                 "worlds_source": str(worlds), "seconds": seconds, "repeats": repeats,
                 "seed": seed, "conditions": list(conditions or []),
-                "trainings": [str(c["folder"]) for c, _, _ in plans]}
+                "trainings": [str(c["folder"]) for c, _, _ in plans],
+                "workers": workers, "scheduler": scheduler,
+                "cells_reused": len(cells) - len(todo)}
     with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
         (tmp / EVALUATION).write_text(_csv(rows, tuple(columns)))
         (tmp / SUMMARY).write_text(_csv(summary, tuple(summary[0]) if summary else ()))
@@ -302,7 +395,46 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
                                                 "one bar per condition"}
                                  if "worlds.png" in figures else {})},
                        results={"status": "finished", "rows": len(rows)})
+    parts.remove()
     return {"rows": rows, "summary": summary, "out": target, "figures": sorted(figures)}
+
+
+def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],
+               parts: EvaluationParts, *, workers: int | None, scheduler: str | None,
+               progress: bool, n_cells: int) -> None:
+    """Run the cells of ``todo`` here or on Dask, saving each as it ends (into ``done`` and
+    ``parts``). On Dask, cells are handed out as threads free up, longest first: the same
+    dispatch as a study's runs (no cell waits on a busy worker while another is idle)."""
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=n_cells, initial=len(done), unit="cell", desc="evaluate",
+               disable=not progress, dynamic_ncols=True)
+    try:
+        if workers is None and scheduler is None:
+            for cell, args in todo.items():
+                done[cell] = evaluate_cell(*args, progress=progress and len(todo) == 1)
+                parts.save(cell, done[cell])
+                bar.update()
+            return
+        from .cluster import connect_cluster, run_on_cluster
+
+        client, cluster = connect_cluster(workers, scheduler)
+        try:
+            # the largest batches first: trials x repeats of a cell
+            order = sorted(todo, key=lambda cell: -len(todo[cell][1]))
+
+            def ended(cell: str, future: Any) -> None:
+                done[cell] = future.result()  # a cell's error (Diverged, ...) comes out as itself
+                parts.save(cell, done[cell])
+                bar.update()
+
+            run_on_cluster(client, evaluate_cell, [(cell, todo[cell]) for cell in order], ended)
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    finally:
+        bar.close()
 
 
 def summarise(rows: list[Mapping[str, Any]]) -> list[dict[str, Any]]:

@@ -51,10 +51,11 @@ OWNER_NAME = ".astrocpg.lock.owner"
 #: extra files: the manifest itself and a lock (left behind by a killed holder).
 UNLISTED = frozenset({MANIFEST, LOCK_NAME, OWNER_NAME})
 #: What later commands write into a finished folder beside the files its manifest lists (plot:
-#: figures/, report: report/, evaluate: evaluation/, video: video_trialTT.mp4, power:
-#: power_trialK.json). A strict :func:`verify` does not count them as extra files; the listed
-#: files must still match.
-DERIVED = ("figures/*", "report/*", "evaluation/*", "video_trial*.mp4", "power_trial*.json")
+#: figures/, report: report/, evaluate: evaluation/ and, while unfinished, evaluation.parts/,
+#: video: video_trialTT.mp4, power: power_trialK.json). A strict :func:`verify` does not count
+#: them as extra files; the listed files must still match.
+DERIVED = ("figures/*", "report/*", "evaluation/*", "evaluation.parts/*", "video_trial*.mp4",
+           "power_trial*.json")
 
 TEMP_KINDS = ("partial", "replaced", "tmp")
 _TEMP_RE = re.compile(r"^\.(?P<name>.+)\.(?P<kind>partial|replaced|tmp)-(?P<pid>[0-9]{1,10})-"

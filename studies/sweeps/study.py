@@ -45,7 +45,6 @@ import csv
 import itertools
 import json
 import math
-import logging
 import os
 import re
 import shutil
@@ -64,6 +63,7 @@ from ...coupling.recorder import RecordPlan
 from ...coupling.training import SESSION_COLUMNS
 from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS
+from ..experiments.cluster import connect_cluster, run_on_cluster
 from ..experiments.resources import check_memory, estimate_bytes, estimate_wall_seconds
 from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
@@ -649,7 +649,7 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") != "finished"]
     total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
     n_done_before = len(study.runs) - len(pending)
-    cluster = _connect(workers, scheduler) if pending else None
+    cluster = connect_cluster(workers, scheduler) if pending else None
     try:
         prepare_output_dir(out)
         _save_index(study, out)
@@ -678,9 +678,11 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
         from ..experiments.evaluate import evaluate
 
         e = study.evaluate
+        # on the study's cluster settings, resumable like its runs (out/evaluation.parts)
         evaluated = str(evaluate(out, worlds=e["worlds"], seconds=e["seconds"],
                                  repeats=e["repeats"], conditions=e["conditions"] or None,
-                                 progress=progress)["out"])
+                                 progress=progress, workers=workers or os.cpu_count() or 1,
+                                 scheduler=scheduler)["out"])
     write_manifest(out, command="study", seed=min(study.seeds),
                    settings={"study": str(study.path), "study_text": study.text,
                              "workers": workers, "scheduler": scheduler},
@@ -691,108 +693,36 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
             "evaluation": evaluated}
 
 
-def _connect(workers: int | None, scheduler: str | None):
-    """(client, local cluster or None): a running scheduler, or a local cluster."""
-    from distributed import Client, LocalCluster
-
-    if scheduler:
-        _reachable(scheduler)
-        try:
-            return Client(scheduler, timeout="10s"), None
-        except Exception as e:  # OSError / TimeoutError / ValueError for a bad address
-            first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-            raise InputError(f"cannot connect ({first})", culprit=f"--scheduler {scheduler}") \
-                from None
-    n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                           dashboard_address=":0", silence_logs=logging.ERROR)
-    return Client(cluster), cluster
-
-
-def _reachable(scheduler: str) -> None:
-    """A closed port is refused at once (Dask's client would wait out its whole timeout)."""
-    m = re.fullmatch(r"(?:tcp://)?\[?([^\]/]+?)\]?:(\d+)/?", scheduler.strip())
-    if not m:
-        return  # other protocols and forms: Dask's client says what is wrong
-    try:
-        socket.create_connection((m.group(1), int(m.group(2))), timeout=3).close()
-    except OSError as e:
-        raise InputError(f"cannot connect ({e.strerror or type(e).__name__})",
-                         culprit=f"--scheduler {scheduler}") from None
-
-
-class _ImportBrian2:
-    """Worker plugin: Brian2 installs a SIGINT handler when imported, which only works in a
-    process's main thread; Dask runs tasks in other threads, so import it at worker start-up
-    (plugins are set up on the worker's event loop, in its main thread)."""
-
-    name = "astrocpg-import-brian2"
-
-    def setup(self, worker: Any) -> None:
-        import brian2  # noqa: F401
-
-        from ..experiments import train  # noqa: F401
-
-    def teardown(self, worker: Any) -> None:
-        pass
-
-
 def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_before,
               tqdm) -> None:
-    """Run ``pending`` on the cluster, longest first, one run per free worker thread.
-
-    Runs are handed to the scheduler only as threads free up, never all at once: a study of at
-    most twice as many runs as threads is not "root-ish" to Dask, so submitted at once its runs
-    were assigned two per worker up front, and when the first worker fell idle work stealing
-    moved every waiting run onto it (measured with 8 workers x 16 runs: 7 runs queued on one
-    worker while the others sat idle, issue 13). With at most one run per thread in flight,
-    no run ever waits on a busy worker while another is free, whatever the scheduler's
-    settings (``--scheduler`` clusters included), and a freed thread gets the next run at once.
-    """
-    from distributed import wait
-    from distributed.diagnostics.plugin import WorkerPlugin
-
-    plugin = type("ImportBrian2", (_ImportBrian2, WorkerPlugin), {})()
-    client.register_plugin(plugin)
+    """Run ``pending`` on the cluster, longest first, one run per free worker thread
+    (:func:`run_on_cluster`), with the study's progress bar."""
     waiting = sorted(pending, key=lambda r: r.estimated_seconds(), reverse=True)
-    in_flight: dict[Any, RunSpec] = {}
-    failed = finished = 0
+    by_id = {r.run_id: r for r in waiting}
+    counts = {"failed": 0, "finished": 0}
     done_sessions = sum(_sessions_done(f) for f in folders.values())
     bar = tqdm(total=total_sessions, initial=done_sessions, unit="session",
                desc=f"study {study.name}", disable=not progress, dynamic_ncols=True,
                smoothing=0.05,
                # a log file (not a terminal) gets a line every 30 s, not every second
                mininterval=0.5 if sys.stderr.isatty() else 30.0)
+
+    def ended(run_id: str, future: Any) -> None:
+        counts["finished"] += 1
+        if not _collect(future, by_id[run_id], folders[run_id]):
+            counts["failed"] += 1
+
+    def tick(running: int) -> None:
+        now = sum(_sessions_done(f) for f in folders.values())
+        bar.update(max(0, now - bar.n))
+        bar.set_postfix_str(f"runs done {n_done_before + counts['finished'] - counts['failed']}/"
+                            f"{len(study.runs)}, running {running}, failed {counts['failed']}")
+
     try:
-        ended: list[tuple[Any, RunSpec]] = []
-        while waiting or in_flight or ended:
-            # the threads now in the cluster (workers may join, leave or be restarted)
-            threads = max(1, sum(client.nthreads().values()))
-            while waiting and len(in_flight) < threads:
-                r = waiting.pop(0)
-                f = client.submit(execute_run, r, str(folders[r.run_id]), pure=False,
-                                  key=f"astrocpg-{r.run_id}-{os.getpid()}-{time.time_ns()}")
-                in_flight[f] = r
-            for f, r in ended:  # after the freed threads have their next runs
-                finished += 1
-                if not _collect(f, r, folders[r.run_id]):
-                    failed += 1
-                f.release()
-            now = sum(_sessions_done(f) for f in folders.values())
-            bar.update(max(0, now - bar.n))
-            bar.set_postfix_str(f"runs done {n_done_before + finished - failed}/"
-                                f"{len(study.runs)}, running {len(in_flight)}, failed {failed}")
-            ended = []
-            if in_flight:  # back as soon as a run ends (a thread is free), or after 1 s
-                try:
-                    done = wait(list(in_flight), timeout=1.0, return_when="FIRST_COMPLETED").done
-                except TimeoutError:
-                    done = set()
-                ended = [(f, in_flight.pop(f)) for f in done]
+        run_on_cluster(client, execute_run,
+                       [(r.run_id, (r, str(folders[r.run_id]))) for r in waiting], ended, tick)
     finally:
         bar.close()
-        for f in in_flight:  # interrupted: the runs in flight stop with the cluster
-            f.release()
 
 
 def _collect(future: Any, spec: RunSpec, folder: Path) -> bool:
