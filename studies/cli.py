@@ -282,6 +282,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _ignore_unraisable(unraisable: Any) -> None:
+    """``sys.unraisablehook`` while a command ends by interrupt (see :func:`main`)."""
+
+
 def _sigterm(signum: int, frame: Any) -> None:
     """SIGTERM ends a command like Ctrl-C does: a Brian2 run in progress stops cleanly at the end
     of its step (the caller then sees it stopped early), anything else is interrupted."""
@@ -329,6 +333,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         lambda record: "stop requested" not in record.getMessage())
     previous = signal.signal(signal.SIGTERM, _sigterm)
     env_codegen = os.environ.get("ASTROCPG_CODEGEN")  # --codegen sets it for this command only
+    unraisable = sys.unraisablehook
+    interrupted = False
     try:
         try:
             if getattr(args, "codegen", None) is not None:
@@ -342,6 +348,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"astrocpg: {_kind(e)}: {e.line}\n")
         return e.exit_code
     except KeyboardInterrupt:
+        # An interrupt can land inside a constructor (e.g. zipfile.ZipFile's, while numpy
+        # writes an .npz): the half-built object's __del__ then fails as the stack unwinds and
+        # Python prints "Exception ignored in ..." with a traceback after our line. The
+        # interrupt is the whole story: say it once.
+        interrupted = True
+        sys.unraisablehook = _ignore_unraisable
         sys.stderr.write("astrocpg: interrupted\n")
         return 130
     except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
@@ -361,6 +373,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     finally:
         signal.signal(signal.SIGTERM, previous)
+        if interrupted:  # collect what the unwinding left in cycles while the hook is quiet
+            import gc
+
+            gc.collect()
+            sys.unraisablehook = unraisable
         if env_codegen is None:
             os.environ.pop("ASTROCPG_CODEGEN", None)
         else:

@@ -120,3 +120,30 @@ def test_robot_with_another_timestep(capsys, tmp_path):
     assert 'timestep="0.002"' in path.read_text()
     _fails_cleanly(capsys, ["run", "--seconds", "1", "--robot", str(path),
                             "--out", str(tmp_path / "o")], tmp_path / "o", "a1_2ms.xml", "timestep")
+
+
+def test_an_interrupt_inside_a_constructor_is_one_line(capsys, tmp_path, monkeypatch):
+    """Ctrl-C/SIGTERM landing inside a constructor (CI: zipfile.ZipFile's, as numpy wrote an
+    .npz) left a half-built object whose __del__ failed after "astrocpg: interrupted", and
+    Python printed its traceback: the interrupt must stay the one line."""
+    import io
+    import sys
+    import zipfile
+
+    import astrocpg.studies.cli as cli
+
+    class HalfBuilt(zipfile.ZipFile):
+        def __init__(self) -> None:  # interrupted after the file was open, before _writing
+            self.fp = io.BytesIO()
+            raise KeyboardInterrupt
+
+    def command(args):
+        HalfBuilt()
+
+    seen = []
+    monkeypatch.setattr(sys, "unraisablehook", seen.append)
+    monkeypatch.setitem(cli.COMMANDS, "unit", command)
+    assert main(["unit", "--out", str(tmp_path / "u")]) == 130
+    assert capsys.readouterr().err == "astrocpg: interrupted\n"
+    assert seen == [], [u.exc_value for u in seen]
+    assert sys.unraisablehook == seen.append  # restored
