@@ -2,8 +2,8 @@
 
 Brian2 runs each of the network's ~20 code objects every 1 ms step. With the numpy target each
 costs a fixed Python/numpy overhead, which dominates at small batches; Cython compiles every
-code object to a C extension, which runs the same step about twice as fast for one trial and
-1.3 x as fast at 20 (``python benchmarks/speed.py --codegen numpy cython``). The first build
+code object to a C extension, which ran the closed loop 2.0 x as fast per trial for 1 and 4
+trials and 1.5 x at 20 (``python benchmarks/speed.py --codegen numpy cython``). The first build
 compiles ~20 modules (minutes); Brian2 caches them on disk (``cache_dir()``) keyed by their
 code, so later runs, other seeds, batch sizes and parameter values load them in seconds; an
 edited equation compiles its own modules once.
@@ -11,9 +11,8 @@ edited equation compiles its own modules once.
 The target is chosen per process: ``--codegen cython`` on the command line, or the environment
 variable ``ASTROCPG_CODEGEN`` (which a study's local Dask workers inherit). Both targets draw
 the noise from the same generator in the same order (Cython from a buffer that numpy fills),
-so a seed gives the same trajectory up to floating-point rounding: the unit's spikes were
-identical over 1 s, and ``astrocpg run`` (10 s) went +6.753 m under both, its joint angles
-within 7e-13 rad after 3 s. C's and numpy's rounding can still part after long training, so
+so a seed gives the same trajectory up to floating-point rounding
+(``python benchmarks/codegen_agreement.py`` compares the two). C's and numpy's rounding can still part after long training, so
 every output records its target (``codegen`` in manifest.json) and a training resumes only
 under the target it started with.
 """
@@ -32,7 +31,7 @@ TARGETS = ("numpy", "cython")
 DEFAULT = "numpy"
 ENV = "ASTROCPG_CODEGEN"
 
-_told_cold: set[str] = set()
+_said_cold = False  # the first-build note is printed once per process
 
 
 def codegen_target(value: str | None = None) -> str:
@@ -81,18 +80,14 @@ def use_codegen(value: str | None = None) -> str:
                 "the Cython target needs the Cython package and a C compiler that Brian2 can "
                 "use (pip install cython; a compiler such as gcc); numpy needs neither",
                 culprit="codegen cython")
-        if cold and target not in _told_cold:
-            _told_cold.add(target)
+        global _said_cold
+        if cold and not _said_cold:
+            _said_cold = True
             sys.stderr.write(f"astrocpg: Brian2 compiles the network with Cython on first use "
                              f"(several minutes, once); the modules are cached in {cache_dir()}\n")
     brian2.prefs.codegen.target = target
     return target
 
 
-def active_codegen() -> str:
-    """The target Brian2 is set to in this process (what the objects built last used)."""
-    return str(brian2.prefs.codegen.target)
-
-
-__all__ = ["TARGETS", "DEFAULT", "ENV", "codegen_target", "use_codegen", "active_codegen",
-           "initial_target", "cache_dir"]
+__all__ = ["TARGETS", "DEFAULT", "ENV", "codegen_target", "use_codegen", "initial_target",
+           "cache_dir"]

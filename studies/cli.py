@@ -87,8 +87,8 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
 
 def _add_codegen_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--codegen", default=None, metavar="TARGET",
-                   help="Brian2 code generation: numpy (default) or cython (about 2x faster for "
-                        "one trial, 1.3x at 20; the first build compiles for minutes and is "
+                   help="Brian2 code generation: numpy (default) or cython (2x faster per trial "
+                        "for 1-4 trials, 1.5x at 20; the first build compiles for minutes and is "
                         "cached). Default: $ASTROCPG_CODEGEN, else numpy")
 
 

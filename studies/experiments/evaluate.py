@@ -40,7 +40,7 @@ from ..files.folder import OutputFolder, verify
 from ..files.outputs import atomic_write, write_manifest
 from ..files.weights import load_weights
 from .resources import check_memory, estimate_bytes
-from .run import training_settings
+from .run import trained_models, training_settings
 from .settings import model_set, number, seed_number
 from .simulate import STEP, simulate_closed_loop
 
@@ -220,23 +220,13 @@ def _trial_rows(result: Any, b: int, seconds: float) -> dict[str, Any]:
             **trial_gait(t, i, result.cpg.layout, b, seconds / 2, seconds)}
 
 
-def _models_of(settings: Mapping[str, Any]) -> ModelSet:
-    """The model set a training was trained with (its overrides, equations, model files; the
-    ablation's astrocytes off)."""
-    models = model_set(settings.get("overrides", []), settings.get("equations", {}),
-                       models=settings.get("models"))
-    if not settings.get("astrocytes", True):
-        models = models.with_values({"astrocyte_regulation": 0.0})
-    return models
-
-
 def evaluate_cell(controller: Mapping[str, Any], tables: np.ndarray, world: str,
                   setting: Mapping[str, Any], grid: Mapping[str, str], seconds: float, seed: int,
                   repeats: int, progress: bool = False) -> list[dict[str, Any]]:
     """One training's controllers in one world: its trials x ``repeats`` as the trials of one
     network (trial ``r*n + k``: controller ``k``, repeat ``r``), learning off; one row each.
     Runs here or on a Dask worker (everything it takes is picklable)."""
-    here = in_world(_models_of(controller["settings"]), setting)
+    here = in_world(trained_models(controller["settings"]), setting)
     n = len(tables)
     batch = np.concatenate([tables] * repeats)
     result = simulate_closed_loop(here, seconds=seconds, seed=seed, n_trials=len(batch),
@@ -344,7 +334,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     plans = []
     for c in controllers:
         verify(c["folder"], strict=False)
-        plans.append((c, load_weights(c["folder"], culprit=""), _models_of(c["settings"])))
+        plans.append((c, load_weights(c["folder"], culprit=""), trained_models(c["settings"])))
     world_set = read_worlds(worlds, plans[0][2])
     n_max = max(len(t) for _, t, _ in plans) * repeats
     check_memory(estimate_bytes(trials=n_max, seconds=seconds, dt=STEP, robot_stride=1),
@@ -403,32 +393,31 @@ def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],
                parts: EvaluationParts, *, workers: int | None, scheduler: str | None,
                progress: bool, n_cells: int) -> None:
     """Run the cells of ``todo`` here or on Dask, saving each as it ends (into ``done`` and
-    ``parts``). On Dask, cells are handed out as threads free up, longest first: the same
-    dispatch as a study's runs (no cell waits on a busy worker while another is idle)."""
+    ``parts``). On Dask, cells are handed out as threads free up, largest batches first: the
+    same dispatch as a study's runs (no cell waits on a busy worker while another is idle)."""
     from tqdm.auto import tqdm
 
     bar = tqdm(total=n_cells, initial=len(done), unit="cell", desc="evaluate",
                disable=not progress, dynamic_ncols=True)
+
+    def ended(cell: str, rows: list[dict[str, Any]]) -> None:
+        done[cell] = rows
+        parts.save(cell, rows)
+        bar.update()
+
     try:
         if workers is None and scheduler is None:
             for cell, args in todo.items():
-                done[cell] = evaluate_cell(*args, progress=progress and len(todo) == 1)
-                parts.save(cell, done[cell])
-                bar.update()
+                ended(cell, evaluate_cell(*args))
             return
         from .cluster import connect_cluster, run_on_cluster
 
         client, cluster = connect_cluster(workers, scheduler)
         try:
-            # the largest batches first: trials x repeats of a cell
-            order = sorted(todo, key=lambda cell: -len(todo[cell][1]))
-
-            def ended(cell: str, future: Any) -> None:
-                done[cell] = future.result()  # a cell's error (Diverged, ...) comes out as itself
-                parts.save(cell, done[cell])
-                bar.update()
-
-            run_on_cluster(client, evaluate_cell, [(cell, todo[cell]) for cell in order], ended)
+            order = sorted(todo, key=lambda cell: -len(todo[cell][1]))  # trials per cell
+            # a cell's error (Diverged, ...) comes out of result() as itself
+            run_on_cluster(client, evaluate_cell, [(cell, todo[cell]) for cell in order],
+                           lambda cell, future: ended(cell, future.result()))
         finally:
             client.close()
             if cluster is not None:

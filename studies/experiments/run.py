@@ -14,6 +14,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ...errors import Diverged, InputError
+from ...models import ModelSet
 from ..files.folder import OutputFolder, verify
 from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
 from ..files.result import Result
@@ -317,6 +318,16 @@ def training_settings(folder: str | Path) -> dict[str, Any]:
                          culprit=str(folder)) from None
 
 
+def trained_models(settings: Mapping[str, Any]) -> ModelSet:
+    """The model set a training's ``settings`` (:func:`training_settings`) trained with: its
+    overrides, equations and model files, the astrocytes' regulation off for the ablation."""
+    models = model_set(settings.get("overrides", []), settings.get("equations", {}),
+                       models=settings.get("models"))
+    if not settings.get("astrocytes", True):
+        models = models.with_values({"astrocyte_regulation": 0.0})
+    return models
+
+
 def replay(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
            progress: bool = True) -> tuple[SimulationResult, np.ndarray]:
     """The trained tables of every trial of the training in ``folder``, run for ``seconds``
@@ -327,12 +338,7 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
     weights = load_weights(folder, culprit="")
     check_memory(estimate_bytes(trials=len(weights), seconds=seconds, dt=STEP, robot_stride=1),
                  culprit=f"--seconds {seconds:g} x {len(weights)} trained trial(s)")
-    settings = training_settings(folder)
-    values = {} if settings.get("astrocytes", True) else {"astrocyte_regulation": 0.0}
-    models = model_set(settings.get("overrides", []), settings.get("equations", {}),
-                       models=settings.get("models"))
-    if values:
-        models = models.with_values(values)
+    models = trained_models(training_settings(folder))
     result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
                                   n_trials=len(weights), weights=weights, record_traces=False,
                                   progress=progress)

@@ -204,8 +204,7 @@ class Trainer:
         atomic_write(self.out / CHECKPOINT, lambda f: (f.write(MAGIC), f.write(digest), f.write(body)))
 
     def restore(self, payload: dict[str, Any]) -> None:
-        # the noise of a seed comes in another order under the other Brian2 target: resuming
-        # there would not continue the same training (checkpoints before codegen: numpy)
+        # an exact resume needs the target the training started with (_same_codegen)
         _same_codegen(payload.get("codegen", "numpy"), self.cpg.codegen)
         net = self.cpg.net
         net._stored_state["checkpoint"] = _rename_clocks(payload["brian"], net)

@@ -28,9 +28,9 @@ PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "das
 
 
 def brian2_target() -> str | None:
-    """Brian2's code-generation target in this process (numpy or cython: the same model, but a
-    seed draws its noise in another order under each), or None where Brian2 was never loaded
-    (nothing was simulated)."""
+    """Brian2's code-generation target in this process (numpy or cython: the same model and
+    noise, rounded by numpy or by C), or None where Brian2 was never loaded (nothing was
+    simulated)."""
     brian2 = sys.modules.get("brian2")
     return None if brian2 is None else str(brian2.prefs.codegen.target)
 
