@@ -286,6 +286,23 @@ def _ignore_unraisable(unraisable: Any) -> None:
     """``sys.unraisablehook`` while a command ends by interrupt (see :func:`main`)."""
 
 
+def _forget_unhandled_interrupt() -> None:
+    """Tell CPython the interrupt was handled, so that exit code 130 stands.
+
+    An interrupt that lands while a C extension runs Python source through ``PyRun_String``
+    (Cython modules do, as they are imported) sets CPython's "unhandled KeyboardInterrupt"
+    flag on its way out of that nested run, although we catch it further up. Under
+    ``python -m`` the interpreter then ends by killing itself with SIGINT (exit -2) instead
+    of our 130 (CI saw this once in ~850 tests). Every top-level run of source clears the
+    flag as it starts, and no public API does, so we run an empty one."""
+    import ctypes
+
+    try:
+        ctypes.pythonapi.PyRun_SimpleString(b"pass")
+    except (AttributeError, OSError):  # not CPython: no such flag
+        pass
+
+
 def _sigterm(signum: int, frame: Any) -> None:
     """SIGTERM ends a command like Ctrl-C does: a Brian2 run in progress stops cleanly at the end
     of its step (the caller then sees it stopped early), anything else is interrupted."""
@@ -354,6 +371,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         # interrupt is the whole story: say it once.
         interrupted = True
         sys.unraisablehook = _ignore_unraisable
+        _forget_unhandled_interrupt()
         sys.stderr.write("astrocpg: interrupted\n")
         return 130
     except BrokenPipeError:  # output piped into e.g. `head`: stop quietly

@@ -147,3 +147,27 @@ def test_an_interrupt_inside_a_constructor_is_one_line(capsys, tmp_path, monkeyp
     assert capsys.readouterr().err == "astrocpg: interrupted\n"
     assert seen == [], [u.exc_value for u in seen]
     assert sys.unraisablehook == seen.append  # restored
+
+
+def test_an_interrupt_inside_a_nested_python_run_still_exits_130(tmp_path):
+    """CI: Ctrl-C landed while a Cython module ran Python source through ``PyRun_String`` (as
+    it was imported); we printed "astrocpg: interrupted" but ``python -m`` ended by SIGINT
+    (-2), because CPython's flag for an unhandled interrupt stayed set."""
+    import textwrap
+
+    (tmp_path / "nested_interrupt.py").write_text(textwrap.dedent("""
+        import ctypes
+        import astrocpg.studies.cli as cli
+
+        def command(args):  # what a Cython module's import does, interrupted
+            run = ctypes.pythonapi.PyRun_String
+            run.restype = ctypes.py_object
+            run.argtypes = [ctypes.c_char_p, ctypes.c_int, ctypes.py_object, ctypes.py_object]
+            run(b"raise KeyboardInterrupt", 257, {}, {})  # 257: Py_file_input
+
+        cli.COMMANDS["describe"] = command
+        raise SystemExit(cli.main(["describe"]))
+        """))
+    proc = subprocess.run([sys.executable, "-m", "nested_interrupt"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300)
+    assert (proc.returncode, proc.stderr) == (130, "astrocpg: interrupted\n")
