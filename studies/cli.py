@@ -552,10 +552,18 @@ def _cmd_video(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from .sweeps.study import FAILURES, RESULTS, load_study, run_study
+    from .sweeps.study import FAILURES, RESULTS, load_study, prepare_study, run_study
 
     study = load_study(args.file)
     out = Path(args.out) if args.out else Path("out") / study.name
+    study = prepare_study(study, out, workers=args.workers, scheduler=args.scheduler,
+                          overwrite=args.overwrite, progress=not args.no_progress)
+    if study.batch_setting == "auto":
+        c = study.batch_choice or {}
+        how = c.get("reason") or (f"{c['runs']} runs on {c['workers']} workers: "
+                                  f"{c['projected_s'] / 60:.0f} min if every session lasts "
+                                  f"L_max, on this machine's measured cost per trial")
+        print(f"batch auto: {study.batch} seeds per run ({how})")
     n_trials = sum(r.n_trials for r in study.runs)
     print(f"study {study.name}: {len(study.runs)} runs ({n_trials} trials x "
           f"{study.n_sessions} sessions) -> {out}/")

@@ -6,7 +6,8 @@ A study file::
     name = "ablation"
     sessions = 400                    # training sessions per trial
     seeds = { first = 1, count = 20 } # or a list: seeds = [1, 2, 3]
-    batch = 20                        # seeds trained together in one network (one run)
+    batch = 20                        # seeds trained together in one network (one run),
+                                      # or "auto": chosen for the workers (batching.py)
 
     [base]                            # parameter overrides for every run, with units
     L_max = "10*second"
@@ -64,7 +65,8 @@ from ...coupling.training import SESSION_COLUMNS
 from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS
 from ..experiments.cluster import connect_cluster, run_on_cluster
-from ..experiments.resources import check_memory, estimate_bytes, estimate_wall_seconds
+from ..experiments.resources import (available_memory, check_memory, estimate_bytes,
+                                     estimate_wall_seconds)
 from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
@@ -148,6 +150,15 @@ class Study:
     runs: list[RunSpec] = field(default_factory=list)
     # [evaluate]: after the runs, their controllers in other worlds (astrocpg evaluate)
     evaluate: dict[str, Any] | None = None
+    # the file's batch: seeds per run, or "auto" (chosen by resolve_batch, then batch_choice
+    # says how; runs are split by ``batch`` only once it is chosen)
+    batch_setting: int | str = 0
+    batch_choice: dict[str, Any] | None = None
+
+    @property
+    def batch_pending(self) -> bool:
+        """``batch = "auto"`` not yet chosen: :func:`resolve_batch` must come first."""
+        return self.batch_setting == "auto" and self.batch_choice is None
 
 
 def _value_text(key: str, value: Any, where: str) -> str:
@@ -170,8 +181,11 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.+-]+", "-", text).strip("-") or "x"
 
 
-def load_study(path: str | os.PathLike) -> Study:
-    """Read and validate a study file; every error names the file and the offending key."""
+def load_study(path: str | os.PathLike, *, batch: int | None = None) -> Study:
+    """Read and validate a study file; every error names the file and the offending key.
+
+    batch: seeds per run, instead of the file's ``batch`` (how a ``batch = "auto"`` study is
+    split once its batch is chosen: :func:`resolve_batch`)."""
 
     p = Path(path)
     built_in = Path(__file__).with_name(f"{p.name}.toml")
@@ -184,6 +198,10 @@ def load_study(path: str | os.PathLike) -> Study:
     except UnicodeDecodeError:
         raise InputError("not a UTF-8 text file (a study file is TOML)",
                          culprit=f"study {p}") from None
+    return _parse_study(text, p, batch)
+
+
+def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -233,14 +251,20 @@ def load_study(path: str | os.PathLike) -> Study:
     if max(seeds) > MAX_SEED:
         raise InputError(f"[study] seeds must be at most {MAX_SEED} (2**32 - 1), got "
                          f"{max(seeds)}", culprit=where)
-    batch = head.get("batch", len(seeds))
-    if not isinstance(batch, int) or isinstance(batch, bool) or batch < 1:
-        raise InputError(f"[study] batch must be a positive integer, got {batch!r}", culprit=where)
+    batch_setting = head.get("batch", len(seeds))
+    if batch_setting != "auto" and (not isinstance(batch_setting, int)
+                                    or isinstance(batch_setting, bool) or batch_setting < 1):
+        raise InputError(f"[study] batch must be a positive integer or \"auto\", "
+                         f"got {batch_setting!r}", culprit=where)
+    # "auto": until resolve_batch chooses, one run per condition and point (nothing runs so)
+    batch = batch_given if batch_given is not None \
+        else (len(seeds) if batch_setting == "auto" else batch_setting)
     # one run trains min(batch, seeds) trials in one network: refuse what cannot fit
-    check_memory(estimate_bytes(trials=min(batch, len(seeds)), seconds=0.0, spikes=False,
-                                sessions=n_sessions),
-                 culprit=f"{where} [study] batch = {min(batch, len(seeds))} seeds per run of "
-                         f"{n_sessions} sessions")
+    if batch_setting != "auto" or batch_given is not None:
+        check_memory(estimate_bytes(trials=min(batch, len(seeds)), seconds=0.0, spikes=False,
+                                    sessions=n_sessions),
+                     culprit=f"{where} [study] batch = {min(batch, len(seeds))} seeds per run "
+                             f"of {n_sessions} sessions")
 
     record = _record_table(head.get("record"), where)
     slots = {name for name, _ in DEFAULT_MODELS.items()}
@@ -355,7 +379,9 @@ def load_study(path: str | os.PathLike) -> Study:
                                  culprit=where)
     return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
                  n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs,
-                 evaluate=evaluate)
+                 evaluate=evaluate, batch_setting=batch_setting,
+                 batch_choice=None if batch_setting != "auto" or batch_given is None
+                 else {"batch": batch_given})
 
 
 def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]:
@@ -431,6 +457,71 @@ def _consecutive_groups(seeds: Sequence[int], batch: int) -> list[tuple[int, int
         else:
             groups.append((s, 1))
     return groups
+
+
+def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
+                  scheduler: str | None = None, progress: bool = True) -> Study:
+    """``batch = "auto"``: the study split into runs of the batch that finishes it soonest on
+    these workers (:func:`~astrocpg.studies.sweeps.batching.choose_batch`, with this machine's
+    measured cost per trial). A folder that already holds the study keeps the batch it was
+    started with, whatever the workers now, so a rerun resumes the same runs. Any other study
+    is returned as it is."""
+    if not study.batch_pending:
+        return study
+    recorded = _recorded_batch(out) if out is not None else None
+    if recorded is not None:
+        chosen = {"batch": recorded, "reason": f"recorded in {STUDY_INDEX} when the study began"}
+    else:
+        from ..experiments.trial_cost import trial_cost
+        from .batching import choose_batch
+
+        n_workers = _cluster_threads(scheduler) if scheduler else (workers or os.cpu_count() or 1)
+        groups: dict[tuple[str, str], tuple[list[int], float]] = {}
+        for r in study.runs:  # one run per (condition, point) until the batch is chosen
+            groups[(r.condition, json.dumps(r.point, sort_keys=True))] = (
+                study.seeds, r.n_sessions * (r.session_s or 1.0))
+
+        def fits(n: int) -> bool:
+            runs_at_once = min(n_workers, len(groups) * math.ceil(len(study.seeds) / n))
+            return estimate_bytes(trials=n, seconds=0.0, spikes=False,
+                                  sessions=study.n_sessions) * runs_at_once \
+                <= available_memory()
+
+        cost = trial_cost(progress=progress)
+        chosen = choose_batch(list(groups.values()), workers=n_workers, cost=cost,
+                              split=_consecutive_groups, fits=fits)
+        if chosen["batch"] is None:
+            raise InputError("batch = \"auto\": not even one seed per run fits in memory "
+                             f"on {n_workers} workers", culprit=f"study {study.path.name}")
+        chosen["cost"] = {"fixed_s_per_sim_s": cost.fixed,
+                          "per_trial_s_per_sim_s": cost.per_trial,
+                          "measured": cost.measured, "codegen": cost.codegen,
+                          "when": cost.when}
+    resolved = _parse_study(study.text, study.path, int(chosen["batch"]))
+    resolved.batch_choice = chosen
+    return resolved
+
+
+def _recorded_batch(out: Path) -> int | None:
+    """The batch a study folder was started with (its index), or None for a new folder."""
+    try:
+        index = json.loads((Path(out) / STUDY_INDEX).read_text())
+    except (OSError, ValueError):
+        return None
+    if isinstance(index.get("batch"), int) and index["batch"] >= 1:
+        return index["batch"]
+    sizes = [s.get("n_trials") for s in index.get("specs", {}).values()]  # an older index
+    sizes = [n for n in sizes if isinstance(n, int) and n >= 1]
+    return max(sizes) if sizes else None
+
+
+def _cluster_threads(scheduler: str) -> int:
+    """Worker threads of a running Dask cluster (what runs at once)."""
+    client, _ = connect_cluster(None, scheduler)
+    try:
+        return max(1, sum(client.nthreads().values()))
+    finally:
+        client.close()
 
 
 # ---------------------------------------------------------------- one run (on a worker)
@@ -591,7 +682,9 @@ def _save_index(study: Study, out: Path) -> None:
     known.update({r.run_id: r.fingerprint() for r in study.runs})
     specs.update({r.run_id: asdict(r) for r in study.runs})
     save_json(index_path, {"name": study.name, "sweep": study.sweep, "runs": known,
-                           "specs": specs})
+                           "specs": specs, "batch": study.batch,
+                           "batch_setting": study.batch_setting,
+                           "batch_choice": study.batch_choice})
     data = study.text.encode()
     atomic_write(out / STUDY_COPY, lambda f: f.write(data))
 
@@ -604,6 +697,21 @@ def _sessions_done(folder: Path) -> int:
         return 0
 
 
+def prepare_study(study: Study, out: Path, *, workers: int | None = None,
+                  scheduler: str | None = None, overwrite: bool = False,
+                  progress: bool = True) -> Study:
+    """The checks of :func:`run_study` that need no cluster, and ``batch = "auto"`` chosen
+    (:func:`resolve_batch`): the study as it will run. Writes nothing."""
+    if workers is not None and workers < 1:
+        raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError("exists and is not a folder", culprit=f"--out {out}")
+    # --overwrite starts afresh: the batch the old folder began with does not count
+    return resolve_batch(study, None if overwrite else out, workers=workers,
+                         scheduler=scheduler, progress=progress)
+
+
 def run_study(study: Study, out: Path, *, workers: int | None = None,
               scheduler: str | None = None, progress: bool = True,
               overwrite: bool = False) -> dict[str, Any]:
@@ -611,11 +719,9 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
     of runs by state and the paths written. Nothing is written before the folder is known to
     belong to this study and the cluster is reachable; while it runs, the study owns its folder
     (a second process on it is refused). ``overwrite`` replaces the folder whole."""
-    if workers is not None and workers < 1:
-        raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError("exists and is not a folder", culprit=f"--out {out}")
+    study = prepare_study(study, out, workers=workers, scheduler=scheduler,
+                          overwrite=overwrite, progress=progress)
     if out.exists() and not overwrite:
         _check_folder(study, out)
     created = not out.exists()
@@ -655,7 +761,8 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
         _save_index(study, out)
         write_manifest(out, command="study", seed=min(study.seeds),
                        settings={"study": str(study.path), "study_text": study.text,
-                                 "workers": workers, "scheduler": scheduler},
+                                 "workers": workers, "scheduler": scheduler,
+                                 "batch": study.batch, "batch_choice": study.batch_choice},
                        models_json={}, files=_study_files(), results={"status": "running"})
         if pending:
             _dispatch(study, pending, folders, cluster[0], progress, total_sessions,
@@ -685,7 +792,8 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                                  scheduler=scheduler)["out"])
     write_manifest(out, command="study", seed=min(study.seeds),
                    settings={"study": str(study.path), "study_text": study.text,
-                             "workers": workers, "scheduler": scheduler},
+                             "workers": workers, "scheduler": scheduler,
+                             "batch": study.batch, "batch_choice": study.batch_choice},
                    models_json={}, files=_study_files(),
                    results={"status": "finished" if not failed else "incomplete",
                             "runs": counts, "rows": table, "evaluation": evaluated})

@@ -1,0 +1,187 @@
+"""``batch = "auto"``: the choice of seeds per run from the machine's measured cost per trial,
+kept by the study folder so that a rerun on other workers resumes the same runs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from astrocpg.errors import InputError
+from astrocpg.studies.experiments import trial_cost as tc
+from astrocpg.studies.sweeps.batching import choose_batch, longest_first_makespan
+from astrocpg.studies.sweeps.study import (_consecutive_groups, load_study, prepare_study,
+                                           resolve_batch)
+
+# the shape measured on the 2-core machine (numpy): 1.76 s per simulated s for 1 trial,
+# 4.16 for 20, i.e. a fixed part about 13 times a trial's
+COST = tc.TrialCost(fixed=1.64, per_trial=0.126, measured={1: 1.76, 20: 4.16},
+                    codegen="numpy", key="test", when="now")
+
+AUTO = """
+[study]
+name = "auto"
+sessions = 400
+seeds = {{ first = 1, count = {seeds} }}
+batch = "auto"
+[base]
+L_max = "10*second"
+[conditions.astrocytes]
+astrocytes = true
+[conditions.no_astrocytes]
+astrocytes = false
+"""
+
+
+def _groups(n_groups: int, seeds: int, simulated: float = 4000.0):
+    return [(list(range(1, seeds + 1)), simulated)] * n_groups
+
+
+def test_longest_first_is_what_the_dispatcher_does() -> None:
+    # 5 -> A, 4 -> B, 3 -> B (7), 3 -> A (8), 3 -> B (10)
+    assert longest_first_makespan([5, 4, 3, 3, 3], 2) == [10, 8]
+    assert longest_first_makespan([7, 1, 1], 4) == [7, 1, 1, 0]
+
+
+def test_the_ablation_on_two_cores_keeps_one_run_per_condition() -> None:
+    """2 conditions x 20 seeds on 2 workers: splitting a condition only adds fixed costs."""
+    c = choose_batch(_groups(2, 20), workers=2, cost=COST, split=_consecutive_groups)
+    assert c["batch"] == 20 and c["runs"] == 2
+    assert c["projected_s"] == pytest.approx(4000 * (1.64 + 0.126 * 20))
+    assert all(t >= c["projected_s"] for t in c["candidates"].values())
+
+
+def test_sixteen_workers_get_a_run_each() -> None:
+    """The issue's 16-core case: 2 conditions x 32 seeds. One run per condition would leave 14
+    workers idle; 4 seeds per run gives every worker one run."""
+    c = choose_batch(_groups(2, 32), workers=16, cost=COST, split=_consecutive_groups)
+    assert c["batch"] == 4 and c["runs"] == 16
+    one_per_condition = c["candidates"][32]
+    assert c["projected_s"] < 0.5 * one_per_condition
+
+
+def test_a_cost_without_fixed_part_spreads_the_work_evenly() -> None:
+    flat = tc.TrialCost(fixed=0.0, per_trial=1.0, measured={}, codegen="numpy", key="k",
+                        when="now")
+    c = choose_batch(_groups(3, 20), workers=2, cost=flat, split=_consecutive_groups)
+    # 60 trials on 2 workers: 30 each is the best any split can do
+    assert c["projected_s"] == pytest.approx(30 * 4000.0)
+
+
+def test_memory_limits_the_batch() -> None:
+    c = choose_batch(_groups(2, 20), workers=2, cost=COST, split=_consecutive_groups,
+                     fits=lambda n: n <= 7)
+    assert c["batch"] <= 7
+    assert choose_batch(_groups(2, 20), workers=2, cost=COST, split=_consecutive_groups,
+                        fits=lambda n: False)["batch"] is None
+
+
+def test_the_fit_is_a_line_through_the_measurements() -> None:
+    cost = tc.TrialCost.fit({1: 2.0, 4: 3.5, 10: 6.5, 20: 11.5}, codegen="numpy", key="k")
+    assert cost.fixed == pytest.approx(1.5) and cost.per_trial == pytest.approx(0.5)
+    assert cost.run_seconds(8, 10.0) == pytest.approx(10 * (1.5 + 4.0))
+
+
+@pytest.fixture
+def stored_cost(tmp_path, monkeypatch):
+    """A measured cost in a private cache (no measurement, the user's cache untouched)."""
+    monkeypatch.setenv("ASTROCPG_CACHE", str(tmp_path / "cache"))
+    cost = tc.TrialCost(**{**COST.__dict__, "key": tc.machine_key("numpy")})
+    assert tc.store_trial_cost(cost) is not None
+    assert tc.stored_trial_cost("numpy") == cost
+    monkeypatch.setattr(tc, "measure_trial_cost",
+                        lambda *a, **k: pytest.fail("measured although a cost was stored"))
+    return cost
+
+
+def test_a_study_chooses_its_batch_and_the_folder_keeps_it(tmp_path, stored_cost) -> None:
+    p = tmp_path / "auto.toml"
+    p.write_text(AUTO.format(seeds=32))
+    study = load_study(p)
+    assert study.batch_pending and study.batch_setting == "auto"
+    out = tmp_path / "out"
+    wide = prepare_study(study, out, workers=16, progress=False)
+    assert not wide.batch_pending and wide.batch == 4 and len(wide.runs) == 16
+    assert {r.n_trials for r in wide.runs} == {4}
+    assert wide.batch_choice["workers"] == 16
+    assert wide.batch_choice["cost"]["fixed_s_per_sim_s"] == pytest.approx(1.64)
+    narrow = prepare_study(study, out, workers=2, progress=False)
+    assert narrow.batch == 32 and len(narrow.runs) == 2
+    # a folder started with batch 4 keeps it on 2 workers: a rerun resumes the same runs
+    out.mkdir()
+    (out / "study.json").write_text(json.dumps({"name": "auto", "runs": {}, "specs": {},
+                                                "batch": 4}))
+    again = resolve_batch(study, out, workers=2, progress=False)
+    assert again.batch == 4 and [r.run_id for r in again.runs] == [r.run_id for r in wide.runs]
+    assert "recorded" in again.batch_choice["reason"]
+    # --overwrite starts afresh
+    assert prepare_study(study, out, workers=2, overwrite=True, progress=False).batch == 32
+
+
+def test_an_older_folder_without_a_recorded_batch_keeps_its_runs(tmp_path, stored_cost) -> None:
+    p = tmp_path / "auto.toml"
+    p.write_text(AUTO.format(seeds=8))
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "study.json").write_text(json.dumps(
+        {"name": "auto", "runs": {}, "specs": {"a": {"n_trials": 2}, "b": {"n_trials": 2}}}))
+    assert resolve_batch(load_study(p), out, workers=16, progress=False).batch == 2
+
+
+def test_a_fixed_batch_is_left_alone(tmp_path, stored_cost) -> None:
+    p = tmp_path / "fixed.toml"
+    p.write_text(AUTO.format(seeds=6).replace('batch = "auto"', "batch = 3"))
+    study = load_study(p)
+    assert not study.batch_pending
+    assert prepare_study(study, tmp_path / "o", workers=16, progress=False) is study
+
+
+@pytest.mark.parametrize("value", ['"big"', "0", "true", "2.5"])
+def test_a_bad_batch_is_named(tmp_path, value) -> None:
+    p = tmp_path / "bad.toml"
+    p.write_text(AUTO.format(seeds=4).replace('batch = "auto"', f"batch = {value}"))
+    with pytest.raises(InputError) as e:
+        load_study(p)
+    assert "batch must be a positive integer or \"auto\"" in str(e.value)
+
+
+def test_an_unwritable_cache_is_not_an_error(tmp_path, monkeypatch) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    monkeypatch.setenv("ASTROCPG_CACHE", str(blocker / "cache"))  # under a file: cannot mkdir
+    assert tc.store_trial_cost(COST) is None
+    assert tc.stored_trial_cost("numpy") is None
+
+
+@pytest.mark.slow
+def test_the_cost_is_measured_once_and_stored(tmp_path, monkeypatch) -> None:
+    """A real (short) measurement: more trials cost more per run and less per trial; the
+    second call reads the stored cost instead of measuring."""
+    monkeypatch.setenv("ASTROCPG_CACHE", str(tmp_path / "cache"))
+    cost = tc.measure_trial_cost("numpy", sizes=(1, 6), seconds=0.3, progress=False)
+    assert cost.measured[6] > cost.measured[1] > 0
+    assert cost.measured[6] / 6 < cost.measured[1]  # batching pays
+    assert cost.fixed > 0 and cost.per_trial > 0
+    tc.store_trial_cost(cost)
+    monkeypatch.setattr(tc, "measure_trial_cost", lambda *a, **k: pytest.fail("measured twice"))
+    assert tc.trial_cost("numpy", progress=False) == cost
+
+
+@pytest.mark.slow
+def test_an_auto_study_runs_and_records_its_choice(tmp_path, stored_cost) -> None:
+    from astrocpg.studies.sweeps.study import run_study
+
+    p = tmp_path / "auto.toml"
+    p.write_text(AUTO.format(seeds=2).replace("sessions = 400", "sessions = 2")
+                 .replace('"10*second"', '"0.5*second"'))
+    out = tmp_path / "out"
+    res = run_study(load_study(p), out, workers=2, progress=False)
+    assert res["failed"] == [] and res["rows"] == 2 * 2 * 2
+    index = json.loads((out / "study.json").read_text())
+    assert index["batch"] == 2 and index["batch_setting"] == "auto"
+    assert index["batch_choice"]["workers"] == 2
+    settings = json.loads((out / "manifest.json").read_text())["settings"]
+    assert settings["batch"] == 2 and settings["batch_choice"]["runs"] == 2
+    assert sorted(p.name for p in (out / "runs").iterdir()) == [
+        "astrocytes__seeds1-2", "no-astrocytes__seeds1-2"]
