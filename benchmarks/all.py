@@ -1,0 +1,146 @@
+"""Issue 13's figures side by side, in one run: a trial-step's cost against MuJoCo's step,
+start-up against the import, a study's worker utilisation, and the paper's ablation projected
+on this machine.
+
+    python benchmarks/all.py [--seconds 3] [--codegen numpy cython] [--workers 2]
+
+- **Trial-step**: the closed loop at 1 and 20 trials (``speed.py``), each against MuJoCo's own
+  step of the same robot timed in the same process (goal: 1.5 x at 16-20 trials).
+- **Start-up**: ``run --seconds 0.1`` and ``describe`` against ``import brian2, mujoco``
+  (``startup.py``; goals 1.3 x and 0.5 s), medians of interleaved repeats.
+- **Utilisation**: a study of 6 runs of unequal length on 2 workers; the seconds a worker was
+  free while a run waited (goal: none beyond the hand-over).
+- **Projected ablation** (2 conditions x 20 seeds x 400 sessions): the cost per trial measured
+  now (``trial_cost.py``, not the stored one), the conditions' mean session lengths of the
+  paper-scale run (README: 9.64 s with astrocytes, 6.34 s without), runs scheduled longest
+  first on ``--workers``: with the study file's ``batch = 20`` and with ``batch = "auto"``.
+  CPU time is measured, so on a busy machine the projection is what a quiet one would take.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import speed  # noqa: E402
+import startup  # noqa: E402
+
+from astrocpg.studies.experiments.trial_cost import measure_trial_cost  # noqa: E402
+from astrocpg.studies.sweeps.batching import choose_batch, longest_first_makespan  # noqa: E402
+from astrocpg.studies.sweeps.study import (_consecutive_groups, load_study, run_study,  # noqa
+                                           utilisation, timeline)
+
+UNEQUAL = """
+[study]
+name = "unequal"
+sessions = 2
+seeds = { first = 1, count = 6 }
+batch = 3
+[conditions.long]
+set = { L_max = "1*second" }
+[conditions.short]
+set = { L_max = "0.5*second" }
+"""
+
+
+def trial_steps(seconds: float, targets: list[str]) -> list[str]:
+    lines = [f"{'target':>7} {'trials':>6} {'s/sim s':>8} {'per trial':>10} "
+             f"{'trial-step us':>14} {'mj_step us':>11} {'x mj_step':>10}"]
+    for n in (1, 20):
+        for target in targets:
+            r = speed.measure(n, seconds, False, 10, False, target)
+            lines.append(f"{target:>7} {n:>6} {r['wall_per_sim_s']:>8.3f} "
+                         f"{r['wall_per_trial']:>10.3f} {r['trial_step_us']:>14.1f} "
+                         f"{r['mj_step_us']:>11.1f} {r['x_mj_step']:>10.2f}")
+    return lines
+
+
+def start_up(repeats: int) -> list[str]:
+    with tempfile.TemporaryDirectory() as tmp:
+        cmds = startup.commands(Path(tmp))
+        for argv in cmds.values():
+            startup.wall(argv)
+        times: dict[str, list[float]] = {k: [] for k in cmds}
+        for _ in range(repeats):
+            for name, argv in cmds.items():
+                times[name].append(startup.wall(argv))
+    med = {k: statistics.median(v) for k, v in times.items()}
+    base = med["import brian2 + mujoco"]
+    return [f"{name:<24} {v:6.2f} s  {v / base:5.2f} x the import" for name, v in med.items()]
+
+
+def study_utilisation() -> list[str]:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "unequal.toml"
+        path.write_text(UNEQUAL)
+        study = load_study(path)
+        t0 = time.time()
+        run_study(study, Path(tmp) / "out", workers=2, progress=False)
+        total = time.time() - t0
+        u = utilisation(timeline(study, Path(tmp) / "out"), 2)
+    return [f"6 runs on 2 workers: command {total:.1f} s, first start to last end "
+            f"{u['wall_s']:.1f} s, utilisation {u['utilisation']:.0%}",
+            f"free while runs waited: {u['idle_pending_s']:.1f} worker-s in all, longest "
+            f"{u['longest_idle_pending_s']:.1f} s"]
+
+
+def projected_ablation(targets: list[str], workers: int, with_s: float,
+                       without_s: float) -> list[str]:
+    seeds = list(range(1, 21))
+    groups = [(seeds, 400 * with_s), (seeds, 400 * without_s)]
+    lines = []
+    for target in targets:
+        cost = measure_trial_cost(target, progress=False)
+        fixed = [cost.run_seconds(n, simulated) for _, simulated in groups
+                 for _, n in _consecutive_groups(seeds, 20)]
+        fixed_wall = longest_first_makespan(fixed, workers)[0]
+        auto = choose_batch(groups, workers=workers, cost=cost, split=_consecutive_groups)
+        lines.append(f"{target:>7}: {cost.fixed:.3f} s + {cost.per_trial:.4f} s per trial per "
+                     f"simulated s (measured at {', '.join(map(str, cost.measured))} trials)")
+        lines.append(f"{'':>7}  batch 20: {fixed_wall / 60:6.1f} min on {workers} workers; "
+                     f"batch auto ({auto['batch']} per run, {auto['runs']} runs): "
+                     f"{auto['projected_s'] / 60:6.1f} min")
+    return lines
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seconds", type=float, default=3.0, help="simulated s per speed point")
+    ap.add_argument("--codegen", nargs="+", default=["numpy"], choices=["numpy", "cython"])
+    ap.add_argument("--workers", type=int, default=2, help="workers of the projected ablation")
+    ap.add_argument("--repeats", type=int, default=3, help="start-up repeats")
+    ap.add_argument("--session-with", type=float, default=9.64,
+                    help="mean session length with astrocytes, s (README's ablation)")
+    ap.add_argument("--session-without", type=float, default=6.34,
+                    help="mean session length without astrocytes, s")
+    args = ap.parse_args()
+    sections = [
+        ("trial-step against MuJoCo's step (goal 1.5 x at 20 trials)",
+         lambda: trial_steps(args.seconds, args.codegen)),
+        ("start-up (goals: run 0.1 s <= 1.3 x the import; describe < 0.5 s)",
+         lambda: start_up(args.repeats)),
+        ("study utilisation", study_utilisation),
+        ("the ablation projected (2 x 20 seeds x 400 sessions; goal 60 min on 2 cores)",
+         lambda: projected_ablation(args.codegen, args.workers, args.session_with,
+                                    args.session_without)),
+    ]
+    print(f"astrocpg benchmarks, {os.cpu_count()} cores, Python {sys.version.split()[0]}")
+    for title, run in sections:
+        t0 = time.time()
+        lines = run()
+        print(f"\n{title} [{time.time() - t0:.0f} s]")
+        for line in lines:
+            print(f"  {line}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
