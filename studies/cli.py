@@ -342,6 +342,15 @@ def _survive_any_bytes() -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; its exit code (0 done, 1 environment, 2 bad input, 3 diverged, 130
+    interrupted)."""
+    code = _main(argv)
+    if code == 130:  # interrupted, whichever layer caught the KeyboardInterrupt
+        _forget_unhandled_interrupt()
+    return code
+
+
+def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     _survive_any_bytes()
     warnings.filterwarnings("ignore", module="brian2")
@@ -371,7 +380,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         # interrupt is the whole story: say it once.
         interrupted = True
         sys.unraisablehook = _ignore_unraisable
-        _forget_unhandled_interrupt()
         sys.stderr.write("astrocpg: interrupted\n")
         return 130
     except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
