@@ -8,7 +8,9 @@ For each candidate batch size the study's seeds are split into runs as they woul
 dispatches them (a free worker takes the next run). The batch with the shortest projected
 wall time wins; within 2 % of it the largest batch wins (it spends the least CPU). Every run is
 costed at its longest: how much shorter one condition's sessions will be is not known before
-it has run.
+it has run. With ``--scheduler`` the cost is measured where the command runs, not on the
+cluster's machines: only the ratio of the fixed part to a trial's part matters to the choice,
+and that ratio is a property of the code more than of the machine.
 """
 
 from __future__ import annotations
