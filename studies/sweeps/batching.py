@@ -9,8 +9,9 @@ dispatches them (a free worker takes the next run). The batch with the shortest 
 wall time wins; within 2 % of it the largest batch wins (it spends the least CPU). Every run is
 costed at its longest: how much shorter one condition's sessions will be is not known before
 it has run. With ``--scheduler`` the cost is measured where the command runs, not on the
-cluster's machines: only the ratio of the fixed part to a trial's part matters to the choice,
-and that ratio is a property of the code more than of the machine.
+cluster's machines. Only the ratio of the fixed part to a trial's part matters to the choice,
+but that ratio does vary between machines (about 5 and about 14 on two sittings of the same
+2-core machine), so on a cluster unlike the submitting machine give ``batch`` a number.
 """
 
 from __future__ import annotations
