@@ -568,9 +568,11 @@ def _cmd_study(args: argparse.Namespace) -> int:
                           overwrite=args.overwrite, progress=not args.no_progress)
     if study.batch_setting == "auto":
         c = study.batch_choice or {}
-        how = c.get("reason") or (f"{c['runs']} runs on {c['workers']} workers: "
-                                  f"{c['projected_s'] / 60:.0f} min if every session lasts "
-                                  f"L_max, on this machine's measured cost per trial")
+        projected = c.get("projected_s", 0.0)
+        span = f"{projected / 60:.0f} min" if projected >= 120 else f"{projected:.0f} s"
+        how = c.get("reason") or (f"{c['runs']} runs on {c['workers']} workers: {span} if "
+                                  f"every session lasts L_max, on this machine's measured cost "
+                                  f"per trial")
         print(f"batch auto: {study.batch} seeds per run ({how})")
     n_trials = sum(r.n_trials for r in study.runs)
     print(f"study {study.name}: {len(study.runs)} runs ({n_trials} trials x "
