@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import sys
 import tempfile
 import time
@@ -33,11 +32,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import speed  # noqa: E402
 import startup  # noqa: E402
+import study_utilisation as utilisation_benchmark  # noqa: E402
 
 from astrocpg.studies.experiments.trial_cost import measure_trial_cost  # noqa: E402
 from astrocpg.studies.sweeps.batching import choose_batch, longest_first_makespan  # noqa: E402
-from astrocpg.studies.sweeps.study import (_consecutive_groups, load_study, run_study,  # noqa
-                                           utilisation, timeline)
+from astrocpg.studies.sweeps.study import _consecutive_groups  # noqa: E402
 
 UNEQUAL = """
 [study]
@@ -65,15 +64,7 @@ def trial_steps(seconds: float, targets: list[str]) -> list[str]:
 
 
 def start_up(repeats: int) -> list[str]:
-    with tempfile.TemporaryDirectory() as tmp:
-        cmds = startup.commands(Path(tmp))
-        for argv in cmds.values():
-            startup.wall(argv)
-        times: dict[str, list[float]] = {k: [] for k in cmds}
-        for _ in range(repeats):
-            for name, argv in cmds.items():
-                times[name].append(startup.wall(argv))
-    med = {k: statistics.median(v) for k, v in times.items()}
+    med = startup.medians(repeats)
     base = med["import brian2 + mujoco"]
     return [f"{name:<24} {v:6.2f} s  {v / base:5.2f} x the import" for name, v in med.items()]
 
@@ -82,11 +73,7 @@ def study_utilisation() -> list[str]:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "unequal.toml"
         path.write_text(UNEQUAL)
-        study = load_study(path)
-        t0 = time.time()
-        run_study(study, Path(tmp) / "out", workers=2, progress=False)
-        total = time.time() - t0
-        u = utilisation(timeline(study, Path(tmp) / "out"), 2)
+        total, _, u = utilisation_benchmark.measure(path, Path(tmp) / "out", 2)
     return [f"6 runs on 2 workers: command {total:.1f} s, first start to last end "
             f"{u['wall_s']:.1f} s, utilisation {u['utilisation']:.0%}",
             f"free while runs waited: {u['idle_pending_s']:.1f} worker-s in all, longest "

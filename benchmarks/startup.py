@@ -39,19 +39,25 @@ def wall(argv: list[str]) -> float:
     return time.perf_counter() - t
 
 
+def medians(repeats: int) -> dict[str, float]:
+    """Median wall seconds of each command over ``repeats`` interleaved repeats, after one
+    warm-up call each (file cache, describe's cache, .pyc)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cmds = commands(Path(tmp))
+        for argv in cmds.values():
+            wall(argv)
+        times: dict[str, list[float]] = {k: [] for k in cmds}
+        for _ in range(repeats):
+            for name, argv in cmds.items():
+                times[name].append(wall(argv))
+    return {k: statistics.median(v) for k, v in times.items()}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=5)
     args = ap.parse_args()
-    with tempfile.TemporaryDirectory() as tmp:
-        cmds = commands(Path(tmp))
-        for argv in cmds.values():  # warm: file cache, describe's cache, .pyc
-            wall(argv)
-        times: dict[str, list[float]] = {k: [] for k in cmds}
-        for _ in range(args.repeats):
-            for name, argv in cmds.items():
-                times[name].append(wall(argv))
-    med = {k: statistics.median(v) for k, v in times.items()}
+    med = medians(args.repeats)
     base = med["import brian2 + mujoco"]
     print(f"start-up, median of {args.repeats} interleaved repeats (wall s)")
     for name, value in med.items():

@@ -39,6 +39,17 @@ astrocytes = false
 """
 
 
+def measure(path: Path, out: Path, workers: int) -> tuple[float, list, dict]:
+    """Run the study file ``path`` into ``out`` on ``workers`` local workers: the command's
+    wall seconds, its timeline rows and :func:`utilisation` of them."""
+    study = load_study(path)
+    t0 = time.time()
+    run_study(study, out, workers=workers, progress=False)
+    total = time.time() - t0
+    rows = timeline(study, out)
+    return total, rows, utilisation(rows, workers)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--workers", type=int, default=8)
@@ -56,13 +67,8 @@ def main() -> None:
             path = Path(tmp) / "utilisation.toml"
             path.write_text(STUDY.format(sessions=args.sessions, seeds=args.runs // 2 * args.batch,
                                          batch=args.batch, length=args.session_length))
-        study = load_study(path)
         out = Path(args.out) if args.out else Path(tmp) / "out"
-        t0 = time.time()
-        run_study(study, out, workers=args.workers, progress=False)
-        total = time.time() - t0
-        rows = timeline(study, out)
-        stats = utilisation(rows, args.workers)
+        total, rows, stats = measure(path, out, args.workers)
         first = min(r["started"] for r in rows)
         names: dict[str, str] = {}
         print(f"{'run':44s} {'worker':>6s} {'start':>7s} {'end':>7s}")

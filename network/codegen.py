@@ -12,9 +12,9 @@ The target is chosen per process: ``--codegen cython`` on the command line, or t
 variable ``ASTROCPG_CODEGEN`` (which a study's local Dask workers inherit). Both targets draw
 the noise from the same generator in the same order (Cython from a buffer that numpy fills),
 so a seed gives the same trajectory up to floating-point rounding
-(``python benchmarks/codegen_agreement.py`` compares the two). C's and numpy's rounding can still part after long training, so
-every output records its target (``codegen`` in manifest.json) and a training resumes only
-under the target it started with.
+(``python benchmarks/codegen_agreement.py`` compares the two). C's and numpy's rounding can
+still part after long training, so every output records its target (``codegen`` in
+manifest.json) and a training resumes only under the target it started with.
 """
 
 from __future__ import annotations

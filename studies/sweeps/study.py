@@ -381,7 +381,7 @@ def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
                  n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs,
                  evaluate=evaluate, batch_setting=batch_setting,
                  batch_choice=None if batch_setting != "auto" or batch_given is None
-                 else {"batch": batch_given})
+                 else {"batch": batch_given, "reason": "given by the caller"})
 
 
 def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]:
@@ -755,14 +755,14 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") != "finished"]
     total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
     n_done_before = len(study.runs) - len(pending)
+    settings = {"study": str(study.path), "study_text": study.text, "workers": workers,
+                "scheduler": scheduler, "batch": study.batch, "batch_choice": study.batch_choice}
     cluster = connect_cluster(workers, scheduler) if pending else None
     try:
         prepare_output_dir(out)
         _save_index(study, out)
         write_manifest(out, command="study", seed=min(study.seeds),
-                       settings={"study": str(study.path), "study_text": study.text,
-                                 "workers": workers, "scheduler": scheduler,
-                                 "batch": study.batch, "batch_choice": study.batch_choice},
+                       settings=settings,
                        models_json={}, files=_study_files(), results={"status": "running"})
         if pending:
             _dispatch(study, pending, folders, cluster[0], progress, total_sessions,
@@ -791,9 +791,7 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                                  progress=progress, workers=workers or os.cpu_count() or 1,
                                  scheduler=scheduler)["out"])
     write_manifest(out, command="study", seed=min(study.seeds),
-                   settings={"study": str(study.path), "study_text": study.text,
-                             "workers": workers, "scheduler": scheduler,
-                             "batch": study.batch, "batch_choice": study.batch_choice},
+                   settings=settings,
                    models_json={}, files=_study_files(),
                    results={"status": "finished" if not failed else "incomplete",
                             "runs": counts, "rows": table, "evaluation": evaluated})
