@@ -40,7 +40,6 @@ import time
 from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping
 
-import filelock
 
 from ...errors import EnvironmentFault, InputError
 
@@ -583,7 +582,7 @@ class FolderLock:
     def __init__(self, folder: str | os.PathLike, *, culprit: str | None = None) -> None:
         self.folder = Path(folder)
         self.culprit = culprit
-        self._lock: filelock.BaseFileLock | None = None
+        self._lock: Any = None  # a filelock.BaseFileLock while held
         self._mine: dict[Path, os.stat_result] = {}
 
     @property
@@ -612,6 +611,8 @@ class FolderLock:
         if not self.folder.is_dir():
             raise InputError("no such folder" if not os.path.lexists(self.folder)
                              else "is not a folder", culprit=self._who)
+        import filelock  # here: its import takes ~0.1 s of every command's start-up
+
         lock = filelock.FileLock(os.fspath(self.path), timeout=0)
         try:
             lock.acquire()
