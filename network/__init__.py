@@ -1,11 +1,11 @@
 """Wiring: builds the populations and synapses of the CPG from ``astrocpg.models``."""
 
-from .build import CPG, build_cpg, check_runs, same_limb_mask, trial_seeds
+from .build import CPG, build_cpg, built_in_models, check_runs, same_limb_mask, trial_seeds
 from .codegen import codegen_target, use_codegen
 from .divergence import DivergenceCheck, NonFinite, find_diverged, network_time, run_network
 from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout, interlimb_labels
 
-__all__ = ["CPG", "build_cpg", "check_runs", "same_limb_mask", "trial_seeds", "Layout", "LEGS",
-           "POOLS", "THIGH_POOLS", "INTERNEURONS", "interlimb_labels", "DivergenceCheck",
+__all__ = ["CPG", "build_cpg", "built_in_models", "check_runs", "same_limb_mask", "trial_seeds",
+           "Layout", "LEGS", "POOLS", "THIGH_POOLS", "INTERNEURONS", "interlimb_labels", "DivergenceCheck",
            "NonFinite", "find_diverged", "network_time", "run_network", "codegen_target",
            "use_codegen"]

@@ -443,6 +443,14 @@ def build_cpg(
     return cpg
 
 
+def built_in_models(models: ModelSet) -> bool:
+    """Is every Brian2 model of the CPG the built-in one (the same object as in
+    ``DEFAULT_MODELS``)? Such a network needs no :func:`check_runs`: the test suite builds and
+    runs it, and a check would generate all its code twice (about 0.4 s of every command)."""
+    return all(getattr(models, name) is getattr(DEFAULT_MODELS, name)
+               for name in dict.fromkeys(MODEL_OF.values()))
+
+
 def check_runs(cpg: CPG) -> None:
     """Prepare every object once (units, names, code generation), turning Brian2's errors into
     one line that names the model at fault. Costs about as much as the start of a run."""

@@ -95,3 +95,18 @@ def test_bad_sizes_are_rejected():
         build_cpg(n_trials=0)
     with pytest.raises(InputError, match="unknown leg"):
         build_cpg(legs=("FX",))
+
+
+def test_only_a_network_of_other_models_than_the_built_in_ones_is_checked_first():
+    """``check_runs`` generates every object's code once more before the run; the built-in
+    models need no check (the suite runs them), any replaced Brian2 model does."""
+    from brian2 import ms, mV
+
+    from astrocpg.models import DEFAULT_MODELS
+    from astrocpg.network import built_in_models
+
+    assert built_in_models(DEFAULT_MODELS)
+    world = DEFAULT_MODELS.with_values(dict([DEFAULT_MODELS.parse_assignment("slope=0.1")]))
+    assert built_in_models(world)  # the world is no Brian2 model
+    assert not built_in_models(DEFAULT_MODELS.with_values({"tau_motor": 8 * ms}))
+    assert not built_in_models(DEFAULT_MODELS.with_values({"eta_ADO": 0 * mV}))
