@@ -179,3 +179,64 @@ def test_an_interrupt_inside_a_nested_python_run_still_exits_130(tmp_path):
         proc = subprocess.run([sys.executable, "-m", "nested_interrupt", where], cwd=tmp_path,
                               capture_output=True, text=True, timeout=300)
         assert (proc.returncode, proc.stderr) == (130, said), where
+
+
+ENTRY = ("import atexit, sys\n"
+         "marker = sys.argv[1]\n"
+         "atexit.register(lambda: open(marker, 'w').write('exit handlers ran'))\n"
+         "sys.argv = ['astrocpg'] + sys.argv[2:]\n"
+         "from astrocpg.studies.cli import entry\n"
+         "entry()\n"
+         "print('not reached')\n")
+
+
+@pytest.mark.parametrize("argv, code", [(["describe"], 0),
+                                        (["describe", "no_such_model"], 2)])
+def test_the_command_ends_at_once_with_its_code_its_output_whole_and_exit_handlers_run(
+        tmp_path, argv, code):
+    """``entry`` ends the process without the interpreter's teardown (start-up, issue 13): the
+    exit code stands, piped output is flushed whole and atexit handlers still run."""
+    marker = tmp_path / "atexit.txt"
+    p = subprocess.run([sys.executable, "-c", ENTRY, str(marker), *argv], capture_output=True,
+                       text=True, timeout=300, cwd=tmp_path)
+    assert p.returncode == code, p.stderr
+    assert marker.read_text() == "exit handlers ran"
+    assert "not reached" not in p.stdout
+    if code == 0:  # every model's section, to the last line
+        full = subprocess.run([sys.executable, "-m", "astrocpg.studies.cli", *argv],
+                              capture_output=True, text=True, timeout=300)
+        assert p.stdout == full.stdout and "## world" in p.stdout
+    else:
+        assert p.stderr.count("\n") == 1 and "no_such_model" in p.stderr
+
+
+def test_brian2_is_imported_without_pylab_or_pytest_unless_they_were_there():
+    """Brian2's own import takes pylab and pytest where they exist (about 0.65 s of start-up);
+    astrocpg imports it without them, and leaves them in where the user imported them first."""
+    check = ("import sys\n{before}import astrocpg.network, brian2\n"
+             "print('pylab' in sys.modules, 'pytest' in sys.modules, hasattr(brian2, 'plot'),"
+             " hasattr(brian2, 'exp'))\n")
+    bare = subprocess.run([sys.executable, "-c", check.format(before="")], capture_output=True,
+                          text=True, timeout=300)
+    assert bare.stdout.split() == ["False", "False", "False", "True"], bare.stderr
+    user = subprocess.run([sys.executable, "-c", check.format(
+        before="import matplotlib; matplotlib.use('Agg'); import matplotlib.pyplot, pytest\n")],
+        capture_output=True, text=True, timeout=300)
+    assert user.stdout.split() == ["True", "True", "True", "True"], user.stderr
+
+
+def test_run_draws_its_figure_only_when_asked(tmp_path, capsys):
+    """The figure costs about a second (matplotlib and one figure), ten times a 0.1 s run, so
+    ``run`` draws it with ``--figure``; the folder says where the figures are otherwise."""
+    import json
+
+    plain, drawn = tmp_path / "plain", tmp_path / "drawn"
+    assert main(["run", "--seconds", "0.05", "--no-progress", "--out", str(plain)]) == 0
+    assert f"(figures: astrocpg plot {plain})" in capsys.readouterr().out
+    assert main(["run", "--seconds", "0.05", "--no-progress", "--figure",
+                 "--out", str(drawn)]) == 0
+    assert not list(plain.glob("*.png"))
+    assert (drawn / "thigh_extensor_activity.png").stat().st_size > 0
+    manifest = json.loads((drawn / "manifest.json").read_text())
+    assert "thigh_extensor_activity.png" in manifest["files"]
+    assert manifest["settings"]["figure"] is True

@@ -38,7 +38,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         robot: str | Path | None = None, trace_dt: float = 1.0, robot_stride: int = 1,
         spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
         out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
-        settings: Mapping[str, Any] | None = None) -> Result:
+        figure: bool = False, settings: Mapping[str, Any] | None = None) -> Result:
     """Run the CPG driving ``trials`` A1 robots in MuJoCo for ``seconds`` (seeds seed,
     seed+1, ...): the closed loop, what ``astrocpg run`` runs.
 
@@ -49,7 +49,9 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     tables; ``trial`` picks one), or an array in volt of shape (8, 8) or (trials, 8, 8); default
     zero. robot: an MJCF file with the A1's joint and actuator names (default: the project's
     A1). trace_dt in ms; robot_stride in physics steps. spikes / traces: which populations and
-    traces to record (None: all). out: writes the folder ``astrocpg run`` writes.
+    traces to record (None: all). out: writes the folder ``astrocpg run`` writes. figure: also
+    draw ``thigh_extensor_activity.png`` there (about a second; ``astrocpg plot OUT`` draws it
+    and the other figures at any time later).
 
     Returns a :class:`~astrocpg.studies.files.result.Result` of kind "run": spikes, traces, the
     robot's arrays (``result.robot``) and ``summary`` (distance_m, mean_forward_speed_m_per_s,
@@ -97,7 +99,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         "robot_stride": robot_stride, "overrides": override_items(overrides),
         "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
         "weights": None if weights is None or isinstance(weights, np.ndarray)
-        else str(weights), "trial": trial, "robot": None if robot is None else str(robot)}
+        else str(weights), "trial": trial, "robot": None if robot is None else str(robot),
+        "figure": bool(figure)}
     if files:
         settings["models"] = files  # each model file's content and sha256
     robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
@@ -112,12 +115,12 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         if out is not None and getattr(e, "result", None) is not None:
             _summarise(e.result, models, start_x, robot_info, table, e)
             with OutputFolder(out, overwrite=overwrite) as folder:
-                write_run_folder(folder, e.result, settings)
+                write_run_folder(folder, e.result, settings, figure=figure)
         raise
     _summarise(result, models, start_x, robot_info, table)
     if out is not None:
         with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
-            write_run_folder(folder, result, settings)
+            write_run_folder(folder, result, settings, figure=figure)
     return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                   summary=run_results(result), robot=robot_arrays(result),
                                   models=models, folder=out)
@@ -260,14 +263,16 @@ def robot_arrays(result: SimulationResult) -> dict[str, np.ndarray]:
     }
 
 
-def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str, Any]) -> None:
-    """spikes.npz, traces.npz, robot.npz, the thigh-extensor figure and manifest.json."""
-    from ..figures import plots
-
+def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str, Any], *,
+                     figure: bool = False) -> None:
+    """spikes.npz, traces.npz, robot.npz, manifest.json and, with ``figure``, the thigh-extensor
+    figure (matplotlib's import and one figure cost about a second: ten times a 0.1 s run)."""
     files = save_spikes_and_traces(out, result.spikes, result.traces)
     save_npz(out / "robot.npz", robot_arrays(result))
     files["robot.npz"] = ROBOT_FILE
-    if "motor" in result.spikes:
+    if figure and "motor" in result.spikes:
+        from ..figures import plots
+
         plots.plot_thigh_extensor_activity(out / "thigh_extensor_activity.png", result.spikes,
                                            result.cpg.layout)
         files["thigh_extensor_activity.png"] = "thigh-extensor activity of the 4 limbs (trial 0)"
