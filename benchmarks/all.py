@@ -66,7 +66,7 @@ def trial_steps(seconds: float, targets: list[str]) -> list[str]:
 def start_up(repeats: int) -> list[str]:
     med = startup.medians(repeats)
     base = med["import brian2 + mujoco"]
-    return [f"{name:<24} {v:6.2f} s  {v / base:5.2f} x the import" for name, v in med.items()]
+    return [f"{name:<28} {v:6.2f} s  {v / base:5.2f} x the import" for name, v in med.items()]
 
 
 def study_utilisation() -> list[str]:

@@ -5,7 +5,8 @@ repeats (issue 13, goal 4: ``run --seconds 0.1`` within 1.3 x the import; ``desc
     python benchmarks/startup.py [--repeats 5]
 
 Each command is a fresh process, as a user or a test starts it. The baseline is a plain
-``python -c "import brian2, mujoco"`` (Brian2's own import, pylab included). ``describe`` is
+``python -c "import brian2, mujoco"`` (Brian2's own import, pylab and pytest included where
+installed; astrocpg imports Brian2 without them). ``describe`` is
 timed warm (its cache filled by the first, discarded, call). Run it on a quiet machine: the
 figures scale with the machine's load.
 """
@@ -28,6 +29,9 @@ def commands(tmp: Path) -> dict[str, list[str]]:
         "import brian2 + mujoco": [sys.executable, "-c", "import brian2, mujoco"],
         "run --seconds 0.1": [*CLI, "run", "--seconds", "0.1", "--no-progress", "--overwrite",
                               "--out", str(tmp / "run")],
+        # the same with its figure (matplotlib and one figure: drawn only when asked)
+        "run --seconds 0.1 --figure": [*CLI, "run", "--seconds", "0.1", "--no-progress",
+                                       "--overwrite", "--figure", "--out", str(tmp / "runf")],
         "describe astrocyte": [*CLI, "describe", "astrocyte"],
         "--help": [*CLI, "--help"],
     }
@@ -61,7 +65,7 @@ def main() -> None:
     base = med["import brian2 + mujoco"]
     print(f"start-up, median of {args.repeats} interleaved repeats (wall s)")
     for name, value in med.items():
-        print(f"  {name:<24} {value:6.2f} s   {value / base:5.2f} x the import")
+        print(f"  {name:<28} {value:6.2f} s   {value / base:5.2f} x the import")
     print(f"run --seconds 0.1 / import: {med['run --seconds 0.1'] / base:.2f} (goal <= 1.3); "
           f"describe {med['describe astrocyte']:.2f} s (goal < 0.5)")
 
