@@ -18,7 +18,7 @@ from brian2 import second
 
 from ..errors import InputError
 from ..models import ModelSet
-from ..network import CPG, LEGS, build_cpg, built_in_models, check_runs, run_network
+from ..network import CPG, LEGS, build_cpg, check_runs, run_network
 from .bridge import Bridge
 from .robot import A1Parameters, RobotLayout
 from .world import add_disturbances, world_model
@@ -65,7 +65,7 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
     weights: inter-limb tables, (8, 8) or (n_trials, 8, 8) volt (default zero).
     on_step, check_every: see :class:`Bridge`.
     check: prepare every Brian2 object first (:func:`check_runs`: one-line errors naming the
-        model), unless every Brian2 model is the built-in one (:func:`built_in_models`).
+        model; nothing to do for the built-in models).
     codegen: Brian2's target, numpy or cython (default $ASTROCPG_CODEGEN, else numpy).
     """
     params = robot_params if robot_params is not None else A1Parameters()
@@ -75,7 +75,7 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
     layout = robot_layout if robot_layout is not None else RobotLayout.from_model(model, params)
     cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=LEGS,
                     dt=model.opt.timestep * second, interlimb_weights=weights, codegen=codegen)
-    if check and not built_in_models(models):
+    if check:
         check_runs(cpg)
     bridge = Bridge(cpg, model, layout, models, on_step=on_step, check_every=check_every)
     add_disturbances(bridge, models)

@@ -6,6 +6,6 @@ from .divergence import DivergenceCheck, NonFinite, find_diverged, network_time,
 from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout, interlimb_labels
 
 __all__ = ["CPG", "build_cpg", "built_in_models", "check_runs", "same_limb_mask", "trial_seeds",
-           "Layout", "LEGS", "POOLS", "THIGH_POOLS", "INTERNEURONS", "interlimb_labels", "DivergenceCheck",
-           "NonFinite", "find_diverged", "network_time", "run_network", "codegen_target",
-           "use_codegen"]
+           "Layout", "LEGS", "POOLS", "THIGH_POOLS", "INTERNEURONS", "interlimb_labels",
+           "DivergenceCheck", "NonFinite", "find_diverged", "network_time", "run_network",
+           "codegen_target", "use_codegen"]

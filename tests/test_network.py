@@ -110,3 +110,10 @@ def test_only_a_network_of_other_models_than_the_built_in_ones_is_checked_first(
     assert built_in_models(world)  # the world is no Brian2 model
     assert not built_in_models(DEFAULT_MODELS.with_values({"tau_motor": 8 * ms}))
     assert not built_in_models(DEFAULT_MODELS.with_values({"eta_ADO": 0 * mV}))
+    # check_runs itself decides: no code generated for the built-in models, all of it otherwise
+    built_in = build_cpg(legs=("FR",))
+    check_runs(built_in)
+    assert built_in.motor.state_updater.codeobj is None
+    changed = build_cpg(DEFAULT_MODELS.with_values({"tau_motor": 8 * ms}), legs=("FR",))
+    check_runs(changed)
+    assert changed.motor.state_updater.codeobj is not None

@@ -18,8 +18,8 @@ from ...coupling.bridge import ORDER_MEASURE, Recording
 from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError
 from ...models import ModelSet
-from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, built_in_models, check_runs,
-                        network_time, run_network)
+from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, network_time,
+                        run_network)
 from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
 
 
@@ -120,8 +120,7 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
     limit-position inhibition (the paper's Fig. 1c). ``n_trials`` units with seeds seed..."""
     check_duration(seconds)
     cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=("FR",))
-    if not built_in_models(models):
-        check_runs(cpg)
+    check_runs(cpg)
     mons = add_monitors(cpg, trace_dt, record_traces, *check_selection(spikes, traces))
     bar = _Progress(seconds, "unit", progress and seconds > 3)
     steps = [0]

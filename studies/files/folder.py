@@ -40,7 +40,6 @@ import time
 from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping
 
-
 from ...errors import EnvironmentFault, InputError
 
 MANIFEST = "manifest.json"

@@ -1,0 +1,52 @@
+"""Where a step of the closed loop goes: Brian2's per-object profile and Python's cProfile of
+one run of the CPG + A1 at a trial count (issue 13, goal 3: what stands between a trial-step
+and 1.5 x MuJoCo's step).
+
+    python benchmarks/profile_step.py [--trials 20] [--seconds 2] [--codegen cython]
+
+Prints the wall seconds per simulated second (the profilers add overhead), Brian2's time per
+code object (``Network.run(profile=True)``) and the functions with the most own time
+(MuJoCo's ``mj_step``, Brian2's per-step loop, the bridge).
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import os
+import pstats
+import time
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+from brian2 import profiling_summary, second  # noqa: E402
+
+from astrocpg.coupling.assembly import build_closed_loop  # noqa: E402
+from astrocpg.models import DEFAULT_MODELS  # noqa: E402
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--trials", type=int, default=20)
+    ap.add_argument("--seconds", type=float, default=2.0)
+    ap.add_argument("--codegen", choices=("numpy", "cython"), default="cython")
+    ap.add_argument("--top", type=int, default=15)
+    args = ap.parse_args()
+    loop = build_closed_loop(DEFAULT_MODELS, n_trials=args.trials, seed=1, codegen=args.codegen)
+    loop.run(0.1)  # code generation and first steps, outside the profile
+    net = loop.cpg.net
+    profiler = cProfile.Profile()
+    t0 = time.perf_counter()
+    profiler.enable()
+    net.run(args.seconds * second, profile=True, namespace={})
+    profiler.disable()
+    wall = time.perf_counter() - t0
+    steps = args.seconds / float(loop.cpg.dt)
+    print(f"{args.codegen}, {args.trials} trials, {args.seconds:g} simulated s (profiled): "
+          f"{wall / args.seconds:.3f} s per simulated s, {wall / steps * 1e3:.3f} ms per step")
+    print(profiling_summary(net, show=args.top))
+    pstats.Stats(profiler).sort_stats("tottime").print_stats(args.top)
+
+
+if __name__ == "__main__":
+    main()
