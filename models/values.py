@@ -413,6 +413,21 @@ def _factors(unit_name: str) -> dict[str, float] | None:
     return factors if walk(tree, 1) else None
 
 
+def _unprefixed(factors: Mapping[str, float]) -> dict[str, float] | None:
+    """``{"mvolt": 1, "msecond": -1}`` -> ``{"volt": 1, "second": -1}``: each factor as the
+    unscaled unit of its dimensions; None if one has none."""
+    out: dict[str, float] = {}
+    for name, power in factors.items():
+        if float(np.asarray(UNITS[name])) == 1.0:  # already unscaled (metre or meter)
+            out[name] = out.get(name, 0) + power
+            continue
+        unscaled = getattr(brian2.get_unit(get_dimensions(UNITS[name])), "name", None)
+        if not isinstance(unscaled, str) or unscaled not in UNITS:
+            return None
+        out[unscaled] = out.get(unscaled, 0) + power
+    return {n: e for n, e in out.items() if e}
+
+
 # the short Brian2 names people type (both spellings are in UNITS)
 _SHORT_NAMES = {"msecond": "ms", "mvolt": "mV", "hertz": "Hz"}
 
@@ -462,6 +477,11 @@ def unit_spelling(value_or_dimensions: Any) -> str:
         name = getattr(unit, "name", None)
         if isinstance(name, str):
             factors = _factors(name)
+            if factors is not None and len(factors) > 1:
+                # a combined unit is whichever one this process happened to create last for
+                # these dimensions (``mV/ms`` or ``volt/second``): spell it unprefixed, so the
+                # answer does not depend on what ran before
+                factors = _unprefixed(factors)
             if factors is not None:
                 text = _format_factors(factors)
                 if _spells(text, dims):

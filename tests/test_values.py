@@ -432,3 +432,13 @@ def test_random_expressions_compile_safely_or_give_input_error(expression):
                 except (TypeError, ValueError, ZeroDivisionError, OverflowError):
                     pass  # numpy refusing an operation (e.g. '-' of booleans) at run time
     assert not os.path.exists(SENTINEL)
+
+
+def test_a_combined_unit_is_spelled_the_same_whatever_the_process_created_before():
+    """Brian2 keeps every combined unit a process creates; dividing mV by ms made the spelling
+    of volt/second read ``mV/ms`` in a clean checkout's test run. It must not depend on that."""
+    from brian2 import ms as _ms, mV as _mV
+
+    _ = _mV / _ms  # registers mV/ms for the dimensions of volt/second
+    assert unit_spelling(8 * volt / second) == "volt/second"
+    assert example_value(8000 * _mV / second) == "8*volt/second"
