@@ -167,9 +167,12 @@ class Bridge:
         self._hooks: dict[str, Hook] = {}
         self._run: dict[str, tuple[Callable[..., None], ...]] = {s: () for s in STAGES}
 
-        # cached raw views into the Brian2 state (numpy target: live arrays)
-        self._torso_speed = cpg.array("pool", "torso_speed").reshape(B, 4, len(POOLS))
-        self._limit = cpg.array("pool", "limit_inhibition").reshape(B, 4, len(POOLS))
+        # cached raw views into the Brian2 state (numpy target: live arrays; with the limbs in
+        # stages, buffers in trial-major order that _sense copies into the pool group)
+        self._speed_table = cpg.table("pool", "torso_speed")
+        self._limit_table = cpg.table("pool", "limit_inhibition")
+        self._torso_speed = self._speed_table.values.reshape(B, 4, len(POOLS))
+        self._limit = self._limit_table.values.reshape(B, 4, len(POOLS))
         self._h = cpg.array("torque", "h").reshape(B, 4, 2)  # (trial, leg, thigh/calf)
 
         # model-side constants, as plain floats
@@ -406,6 +409,8 @@ class Bridge:
         thigh = self.qpos[:, self._qa[:, _THIGH]]  # (B, 4)
         self._limit[:, :, _FLEXOR] = thigh < self._flexor_limit
         self._limit[:, :, _EXTENSOR] = thigh > self._extensor_limit
+        self._speed_table.write()
+        self._limit_table.write()
         self.reward[:] = self._reward(vel_x=v[:, 0], omega_roll=omega[:, 0],
                                       omega_pitch=omega[:, 1], omega_yaw=omega[:, 2])
         # alive: z component of the torso's z axis in the world frame, from the quaternion

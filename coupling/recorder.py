@@ -73,12 +73,13 @@ class SessionRecorder:
         self._step_in_session = step_in_session  # the session loop's live counters
         B = self.n_trials = cpg.n_trials
         self.dt = float(cpg.dt)
-        self._lastspike = {p: cpg.array(p, "lastspike").reshape(B, -1) for p in plan.spikes}
+        # (trial, element) tables in the files' order (live arrays with one stage of limbs)
+        self._lastspike = {p: cpg.table(p, "lastspike") for p in plan.spikes}
         self._traces = {}
         for name in plan.traces:
             group, var, scale, _ = TRACE_SOURCES[name]
-            self._traces[name] = (cpg.array(group, var).reshape(B, -1), scale)
-        self._clock = cpg.motor.clock
+            self._traces[name] = (cpg.table(group, var), scale)
+        self._clock = cpg.clock
         self.session = np.zeros(B, dtype=np.int64)  # the session being recorded, 0 = none
         self.buffers: list[dict[str, Any] | None] = [None] * B
         self.n_samples = self.max_steps // plan.stride + 1
@@ -98,8 +99,8 @@ class SessionRecorder:
         self.session[b] = session
         self.buffers[b] = {
             "spikes": {p: [] for p in self.plan.spikes},  # (step, indices) per step with spikes
-            "traces": {name: np.zeros((n, arr.shape[1]), dtype=np.float32)
-                       for name, (arr, _) in self._traces.items()},
+            "traces": {name: np.zeros((n, table.values.shape[1]), dtype=np.float32)
+                       for name, (table, _) in self._traces.items()},
             "joint_angles": np.zeros((n,) + angles.shape),
             "torques": np.zeros((n,) + torques.shape),
             "torso_position": np.zeros((n, 3)),
@@ -143,17 +144,24 @@ class SessionRecorder:
         t = self._clock.t_
         br = self.bridge
         stride = self.plan.stride
+        for table in self._lastspike.values():
+            table.read()
+        sampled = False
         for b in active:
             buf = self.buffers[b]
             step = int(self._step_in_session[b])  # 0-based step of the session (this step)
-            for pop, arr in self._lastspike.items():
-                fired = np.flatnonzero(arr[b] == t)
+            for pop, table in self._lastspike.items():
+                fired = np.flatnonzero(table.values[b] == t)
                 if fired.size:
                     buf["spikes"][pop].append((step, fired.astype(np.int32)))
             if step % stride == 0 and buf["samples"] < self.n_samples:
                 k = buf["samples"]
-                for name, (arr, scale) in self._traces.items():
-                    buf["traces"][name][k] = arr[b] * scale
+                if not sampled:
+                    for table, _ in self._traces.values():
+                        table.read()
+                    sampled = True
+                for name, (table, scale) in self._traces.items():
+                    buf["traces"][name][k] = table.values[b] * scale
                 (buf["joint_angles"][k], buf["torques"][k], buf["torso_position"][k],
                  buf["torso_velocity"][k]) = br.robot_sample(b)
                 if "torso_quaternion" in buf:

@@ -68,11 +68,12 @@ class Training:
         self._learning_start_fn = models.learning_start.compile()
 
         n_pools = len(POOLS)
-        self._reward = cpg.array("pool", "reward").reshape(B, -1)
-        self._reward_mean = cpg.array("pool", "reward_mean").reshape(B, -1)
-        self._progress_arr = cpg.array("pool", "progress").reshape(B, -1)
-        self._learning = cpg.array("pool", "learning").reshape(B, -1)
-        self._pool_n = cpg.array("pool", "n").reshape(B, -1)
+        # (trial, pool) tables of the pool group (live arrays with one stage of limbs)
+        self._tables = [cpg.table("pool", v) for v in ("reward", "reward_mean", "learning")]
+        self._reward, self._reward_mean, self._learning = (t.values for t in self._tables)
+        self._progress_table = cpg.table("pool", "progress")
+        self._progress_arr = self._progress_table.values
+        self._n_table = cpg.table("pool", "n")
         L = cpg.layout
         kinds = np.arange(L.pools_per_trial) % n_pools
         self._thigh_pools = np.flatnonzero(kinds < 2)
@@ -123,9 +124,11 @@ class Training:
         self._reward_mean[:] = (self.ring_sum / self.window)[:, None]
         learning = (self.step_in_session * self.dt >= self.t_learning_start) & ~self.done
         self._learning[:] = learning[:, None]
+        for table in self._tables:
+            table.write()
         self.reward_sum += r
         self.speed_sum += self._forward
-        self.pool_counts += self._pool_n.astype(np.int64)
+        self.pool_counts += self._n_table.read().astype(np.int64)
         ended = (self.step_in_session >= self.max_steps) | (self.non_alive >= self.non_alive_limit)
         if ended.any():
             for b in np.flatnonzero(ended & ~self.done):
@@ -141,6 +144,7 @@ class Training:
         self.progress[b] = 0.0 if self.done[b] else float(self._progress_fn(mean_length=mean_length))
         self.t_learning_start[b] = float(self._learning_start_fn(mean_length=mean_length))
         self._progress_arr[b, :] = self.progress[b]
+        self._progress_table.write()
 
     def _finish(self, b: int) -> None:
         # a session's end is a cheap moment to look at the whole CPG state

@@ -11,9 +11,16 @@ with the STDP signal of the pool pair (``n``: spikes of a pool in this step, ``u
 r_eff = r - c_average * (mean r over the last 0.1 s), and zeta(w) keeping w in [w_min, w_max].
 ``astrocyte_regulation`` = 0 removes the adenosine term (the paper's ablation). ``ADO`` is the
 adenosine of the target pool's astrocyte. The paper's learning rates are per 1 ms step.
+
+Delays: ``delay_X_Y`` is the delay from limb X's thigh pools to limb Y's, 0 or one step (1 ms).
+The paper states none; 1 ms for every pair is the default. The authors' code adds the inter-limb
+input inside its loop over the limbs FR, FL, RR, RL, so a lower-index limb reaches a higher-index
+one in the same step (SPEC): ``models/variants/interlimb_authors_delays.toml`` sets those six
+pairs to 0 ms. The limbs then integrate one after another within a step (see
+``astrocpg.network.delays``).
 """
 
-from brian2 import mV, second
+from brian2 import mV, ms, second
 
 from .base import Parameter, ParameterTable, SynapseModel
 
@@ -31,6 +38,11 @@ ON_STEP = (
     "w = clip(w + learning_post*progress_post*(eta*r_eff*STDP"
     " - astrocyte_regulation*eta_ADO*ADO)*zeta, w_min, w_max)"
 )
+
+LIMBS = ("FR", "FL", "RR", "RL")
+# The authors' loop over the limbs in this order: 0 ms to a later limb, 1 ms to an earlier one.
+_AUTHORS = {(a, b): "0 ms" if LIMBS.index(a) < LIMBS.index(b) else "1 ms"
+            for a in LIMBS for b in LIMBS if a != b}
 
 PARAMETERS = ParameterTable("interlimb_synapse", [
     Parameter(name="w_min", value=-0.05*mV, symbol=r"w_{\mathrm{min}}",
@@ -50,6 +62,12 @@ PARAMETERS = ParameterTable("interlimb_synapse", [
               meaning="adenosine inhibition efficacy (weight change per step per unit [ADO])"),
     Parameter(name="astrocyte_regulation", value=1.0, symbol="-",
               meaning="1: adenosine depresses the weights into its pool; 0: the paper's ablation"),
+] + [
+    Parameter(name=f"delay_{source}_{target}", value=1*ms,
+              symbol=rf"d_{{\mathrm{{{source}}}\to\mathrm{{{target}}}}}",
+              meaning=f"delay from the {source} to the {target} thigh pools "
+                      f"(0 or one step; authors' code: {_AUTHORS[source, target]})")
+    for source in LIMBS for target in LIMBS if source != target
 ])
 
 INTERFACE = ("w",)

@@ -9,6 +9,7 @@ decides which element connects to which, and schedules the few objects whose ord
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from dataclasses import dataclass, field
 from typing import Any, Iterable
@@ -23,8 +24,10 @@ from ..models import DEFAULT_MODELS, ModelSet
 from ..models.base import NeuronModel, SynapseModel, brian_error_line
 from .codegen import DEFAULT as DEFAULT_CODEGEN
 from .codegen import initial_target, use_codegen
-from .divergence import NonFinite
-from .layout import INTERNEURONS, LEGS, THIGH_POOLS, Layout
+from .divergence import MODEL_OF, NonFinite, model_of
+from .delays import limb_stages
+from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
+from .parts import Part, TrialTable
 
 brian2.prefs.codegen.target = initial_target()  # --codegen / $ASTROCPG_CODEGEN: see codegen.py
 brian2.prefs.codegen.loop_invariant_optimisations = True
@@ -46,14 +49,20 @@ warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"<string>$")
 
 @dataclass
 class CPG:
-    """The built network: Brian2 groups, synapses and the index layout."""
+    """The built network: Brian2 groups, synapses and the index layout.
+
+    ``motor_groups`` holds one motor-neuron group per stage of limbs (one, named ``motor``,
+    unless 0 ms inter-limb delays make the limbs integrate one after another: see
+    :mod:`astrocpg.network.delays`); ``synapses`` maps each synapse object's name to it (per
+    stage: ``interlimb_FR``, ...). :meth:`parts` and :meth:`table` give any population in the
+    files' trial-major order either way."""
 
     layout: Layout
     models: ModelSet
     seed: int
     dt: Any
     net: Network
-    motor: NeuronGroup
+    motor_groups: tuple[NeuronGroup, ...]
     interneuron: NeuronGroup
     astrocyte: NeuronGroup
     pool: NeuronGroup
@@ -61,19 +70,48 @@ class CPG:
     synapses: dict[str, Synapses]
     interlimb_pairs: np.ndarray  # (n_synapses, 2): (row, col) in the per-trial table
     codegen: str = DEFAULT_CODEGEN  # Brian2 target of its groups and synapses (codegen.py)
+    #: per synapse kind (``interlimb``, ``intra_pool``, ...): its objects, stage by stage
+    synapse_kinds: dict[str, tuple[Synapses, ...]] = field(default_factory=dict)
+    #: per inter-limb object: its (row, col) pairs of the per-trial table
+    interlimb_pairs_of: dict[str, np.ndarray] = field(default_factory=dict)
     _arrays: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
-    _state: list[tuple[str, str, np.ndarray, int | None, Any, np.ndarray]] | None = None
+    _state: list[tuple[str, str, np.ndarray, np.ndarray, Any, np.ndarray]] | None = None
 
     @property
     def n_trials(self) -> int:
         return self.layout.n_trials
 
+    @property
+    def motor(self) -> NeuronGroup:
+        """The motor-neuron group, where there is one (one stage of limbs)."""
+        if len(self.motor_groups) != 1:
+            raise AttributeError("the motor neurons are split into one group per stage of "
+                                 "limbs (0 ms inter-limb delays): use CPG.parts('motor')")
+        return self.motor_groups[0]
+
+    @property
+    def clock(self) -> Any:
+        """The clock of the network's step (every object runs on the same ``dt``)."""
+        return self.pool.clock
+
+    def _object(self, name: str) -> Any:
+        if name in self.synapses:
+            return self.synapses[name]
+        for g in self.motor_groups:
+            if g.name == name:
+                return g
+        if name in ("interneuron", "astrocyte", "pool", "torque"):
+            return getattr(self, name)
+        raise KeyError(f"no Brian2 object named {name!r} in this network")
+
     def array(self, group: str, variable: str) -> np.ndarray:
-        """The raw state array of ``group.variable`` (numpy target: the live array, writes in
-        place change the simulation). Cached: use it in hot loops instead of ``G.v[:]``."""
+        """The raw state array of ``group.variable`` (``group``: a Brian2 object's name; numpy
+        target: the live array, writes in place change the simulation). Cached: use it in hot
+        loops instead of ``G.v[:]``. Its order is the object's own: :meth:`table` gives a
+        population in the files' order whatever its objects."""
         key = (group, variable)
         if key not in self._arrays:
-            obj = self.synapses[group] if group in self.synapses else getattr(self, group)
+            obj = self._object(group)
             _require(obj, variable)
             arr = obj.variables[variable].get_value()
             if not isinstance(arr, np.ndarray):  # pragma: no cover - other devices
@@ -81,13 +119,44 @@ class CPG:
             self._arrays[key] = arr
         return self._arrays[key]
 
+    def parts(self, population: str) -> list[Part]:
+        """The Brian2 objects holding ``population`` (``motor``, ``interneuron``, ``astrocyte``,
+        ``pool``, ``torque`` or a synapse kind such as ``interlimb``), with the files' number of
+        each element."""
+        L = self.layout
+        if population == "motor":
+            if len(self.motor_groups) == 1:
+                return [Part(self.motor_groups[0], None, L.motor_per_trial)]
+            return [Part(g, L.stage_motor_index(s), L.motor_per_trial)
+                    for s, g in enumerate(self.motor_groups)]
+        if population == "pool":
+            return [Part(self.pool, L.pool_number if L.staged else None, L.pools_per_trial)]
+        per_trial = {"interneuron": L.interneurons_per_trial,
+                     "astrocyte": L.thigh_pools_per_trial, "torque": L.joints_per_trial}
+        if population in per_trial:
+            return [Part(getattr(self, population), None, per_trial[population])]
+        if population in self.synapse_kinds:
+            return [Part(s, None, max(1, len(s) // self.n_trials))
+                    for s in self.synapse_kinds[population]]
+        raise KeyError(f"no population {population!r} in this network")
+
+    def table(self, population: str, variable: str) -> TrialTable:
+        """``population.variable`` as an ``(n_trials, per_trial)`` table in the files' order
+        (a live view of Brian2's array where there is one object in that order)."""
+        key = ("table", population, variable)
+        if key not in self._arrays:
+            arrays = [(self.array(p.name, variable), p.number) for p in self.parts(population)]
+            self._arrays[key] = TrialTable(arrays, self.n_trials)  # type: ignore[assignment]
+        return self._arrays[key]  # type: ignore[return-value]
+
     # ---- inter-limb weights, as (n_trials, 8, 8) tables in volt
     def interlimb_weights(self) -> np.ndarray:
         n = self.layout.thigh_pools_per_trial
         table = np.zeros((self.n_trials, n, n))
-        if len(self.interlimb_pairs):
-            w = self.array("interlimb", "w").reshape(self.n_trials, -1)
-            table[:, self.interlimb_pairs[:, 0], self.interlimb_pairs[:, 1]] = w
+        for name, pairs in self.interlimb_pairs_of.items():
+            if len(pairs):
+                w = self.array(name, "w").reshape(self.n_trials, -1)
+                table[:, pairs[:, 0], pairs[:, 1]] = w
         return table
 
     def set_interlimb_weights(self, weights: np.ndarray) -> None:
@@ -103,42 +172,40 @@ class CPG:
         mask = same_limb_mask(self.layout)
         if np.any(w[:, mask] != 0):
             raise InputError("the same-limb 2x2 blocks must be zero", culprit="inter-limb weights")
-        if not len(self.interlimb_pairs):
-            return
-        self.array("interlimb", "w")[:] = w[:, self.interlimb_pairs[:, 0],
-                                            self.interlimb_pairs[:, 1]].ravel()
+        for name, pairs in self.interlimb_pairs_of.items():
+            if len(pairs):
+                self.array(name, "w")[:] = w[:, pairs[:, 0], pairs[:, 1]].ravel()
 
     # ---- divergence
-    def state_arrays(self) -> list[tuple[str, str, np.ndarray, int | None]]:
-        """(population, variable, live array, elements per trial) of every float state variable
-        that can change during a run: the per-synapse state of every synapse group (the
+    def state_arrays(self) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
+        """(object, variable, live array, trial of each element) of every float state variable
+        that can change during a run: the per-synapse state of every synapse object (the
         inter-limb weights and STDP signals), and the differential equations and plain
         parameters of the pools, astrocytes, torque traces, interneurons and motor neurons. Not
         constants, linked variables, subexpressions, ``lastspike``, integers or booleans.
         Upstream first (a NaN weight spreads to the pools' input, then to the motor neurons),
-        so the first found is the likeliest origin. Groups are trial-major, so element ``k``
-        belongs to trial ``k // per_trial``. Built once."""
-        return [(p, v, a, n) for p, v, a, n, _, _ in self._state_table()]
+        so the first found is the likeliest origin. Built once."""
+        return [(p, v, a, t) for p, v, a, t, _, _ in self._state_table()]
 
-    def _state_table(self) -> list[tuple[str, str, np.ndarray, int | None, Any, np.ndarray]]:
+    def _state_table(self) -> list[tuple[str, str, np.ndarray, np.ndarray, Any, np.ndarray]]:
         if self._state is None:
-            groups = list(self.synapses.items())
-            groups += [(name, getattr(self, name)) for name in
-                       ("pool", "astrocyte", "torque", "interneuron", "motor")]
+            parts = [p for kind in self.synapse_kinds for p in self.parts(kind)]
+            parts += [p for name in ("pool", "astrocyte", "torque", "interneuron", "motor")
+                      for p in self.parts(name)]
             table = []
-            for name, obj in groups:
+            for part in parts:
+                obj = part.obj
                 for var, eq in obj.equations.items():
                     if eq.type == "subexpression":
                         continue
                     if {"constant", "linked", "shared"} & set(eq.flags) or var == "lastspike":
                         continue
-                    arr = self.array(name, var)
+                    arr = self.array(part.name, var)
                     if arr.dtype.kind != "f" or arr.ndim != 1 or not arr.size:
                         continue
-                    per_trial = arr.size // self.n_trials if arr.size % self.n_trials == 0 \
-                        else None
                     # arr @ zeros is NaN iff arr holds a NaN or an inf, and never overflows
-                    table.append((name, var, arr, per_trial, arr.dot, np.zeros(arr.size)))
+                    table.append((part.name, var, arr, part.trials(), arr.dot,
+                                  np.zeros(arr.size)))
             self._state = table
         return self._state
 
@@ -147,7 +214,7 @@ class CPG:
         reduction per array (about 1 us each); the element is located only when one fails."""
         isfinite = math.isfinite
         with np.errstate(invalid="ignore"):  # inf * 0 in the reduction
-            for name, var, arr, per_trial, dot, zeros in self._state_table():
+            for name, var, arr, trials, dot, zeros in self._state_table():
                 if isfinite(dot(zeros)):
                     continue
                 bad = np.flatnonzero(~np.isfinite(arr))
@@ -156,36 +223,41 @@ class CPG:
                 k = int(bad[0])
                 others = tuple(f"{n}.{v}" for n, v, a, _, d, z in self._state_table()
                                if (n, v) != (name, var) and not isfinite(d(z)))
-                return NonFinite(population=name, variable=var,
-                                 trial=None if per_trial is None else k // per_trial, index=k,
+                return NonFinite(population=name, variable=var, trial=int(trials[k]), index=k,
                                  value=float(arr[k]), others=others)
         return None
 
     def reset_trial(self, trial: int, keep: tuple[str, ...] = ("astrocyte",)) -> None:
         """Reset one trial's state to the start of a session: every state variable of the
         groups not in ``keep`` (astrocytes keep theirs: SPEC) and every dynamic variable of the
-        inter-limb synapses except the weights. Array-slice writes only (no code generation)."""
-        L = self.layout
-        per_trial = {"motor": L.motor_per_trial, "interneuron": L.interneurons_per_trial,
-                     "astrocyte": L.thigh_pools_per_trial, "pool": L.pools_per_trial,
-                     "torque": L.joints_per_trial}
-        for name, n in per_trial.items():
-            if name in keep:
+        inter-limb synapses except the weights. Array writes only (no code generation)."""
+        for name in ("motor", "interneuron", "astrocyte", "pool", "torque", "interlimb"):
+            if name in keep or (name == "interlimb" and name not in self.synapse_kinds):
                 continue
-            for var, arr in self._reset_arrays(name):
-                sl = slice(trial * n, (trial + 1) * n)
-                arr[sl] = self._initial(name, var)
-        if "interlimb" in self.synapses:
-            n = len(self.interlimb_pairs)
-            for var, arr in self._reset_arrays("interlimb"):
-                arr[trial * n:(trial + 1) * n] = self._initial("interlimb", var)
+            model = "interlimb" if name == "interlimb" else name
+            for part in self.parts(name):
+                where = self._trial_slices(part)[trial]
+                for var, arr in self._reset_arrays(part.name, part.obj):
+                    arr[where] = self._initial(model, var)
 
-    def _reset_arrays(self, name: str) -> list[tuple[str, np.ndarray]]:
+    def _trial_slices(self, part: Part) -> list[Any]:
+        """Per trial, the elements of ``part`` in it: a slice where they are contiguous."""
+        key = ("trials", part.name)
+        if key not in self._arrays:
+            trials = part.trials()
+            out: list[Any] = []
+            for b in range(self.n_trials):
+                idx = np.flatnonzero(trials == b)
+                contiguous = idx.size and idx[-1] - idx[0] + 1 == idx.size
+                out.append(slice(int(idx[0]), int(idx[-1]) + 1) if contiguous else idx)
+            self._arrays[key] = out  # type: ignore[assignment]
+        return self._arrays[key]  # type: ignore[return-value]
+
+    def _reset_arrays(self, name: str, obj: Any) -> list[tuple[str, np.ndarray]]:
         """(variable, live array) of what a session reset sets back: the model's differential
         equations and non-constant parameters (not linked ones, not the weights ``w``)."""
         key = ("reset", name)
         if key not in self._arrays:
-            obj = self.synapses[name] if name in self.synapses else getattr(self, name)
             out = []
             for var, eq in obj.equations.items():
                 if eq.type == "subexpression" or var == "w":
@@ -215,20 +287,13 @@ class CPG:
         return float(np.asarray(value))
 
 
-#: The model each Brian2 object of the network is built from (object name -> model name).
-MODEL_OF = {"motor": "motor_neuron", "interneuron": "interneuron", "astrocyte": "astrocyte",
-            "pool": "pool", "torque": "torque", "pool_activity": "pool_activity",
-            "intra_pool": "intra_pool_synapse", "pool_to_interneuron": "pool_to_interneuron",
-            "interneuron_to_pool": "interneuron_to_pool", "interlimb": "interlimb_synapse"}
-
-
 def _require(obj: Any, *variables: str) -> None:
     """The network (or the coupling) sets or reads ``variables`` of ``obj``: an equation
     string that lacks one is an InputError naming its model and the variable."""
     defined = set(obj.variables) | set(getattr(obj, "equations", {}) or {})  # linked ones too
     for var in variables:
         if var not in defined:
-            model = MODEL_OF.get(obj.name, obj.name)
+            model = model_of(obj.name) or obj.name
             raise InputError(f"the equations do not define '{var}', which astrocpg sets or "
                              f"reads (keep its line in the {model} equations)", culprit=model)
 
@@ -276,7 +341,9 @@ def build_cpg(
     if int(n_trials) < 1:
         raise InputError(f"n_trials must be at least 1, got {n_trials}", culprit="build_cpg")
     pool_size = int(np.asarray(models.pool.parameters["pool_size"].value))
-    layout = Layout(n_trials=int(n_trials), pool_size=pool_size, legs=legs)
+    stages = limb_stages(models, legs, dt)  # 0 ms inter-limb delays: limbs one after another
+    layout = Layout(n_trials=int(n_trials), pool_size=pool_size, legs=legs,
+                    stages=stages if len(stages) > 1 else None)
     # numpy, or cython (opt-in): ``codegen``, else $ASTROCPG_CODEGEN. Every group and synapse
     # is pinned to it, so a later change of Brian2's preference does not move this network.
     codegen = use_codegen(codegen)
@@ -321,32 +388,47 @@ def build_cpg(
         return s
 
     B, L = layout.n_trials, layout
-    motor = group(models.motor_neuron, B * L.motor_per_trial, "motor")
+    S = len(stages)
+
+    def suffix(stage: int) -> str:
+        """The name suffix of a stage's objects: none with one stage, else its limbs."""
+        return "" if S == 1 else "_" + "_".join(legs[i] for i in stages[stage])
+
+    per_stage_motor = [B * len(m) * len(POOLS) * L.pool_size for m in stages]
+    motors = [group(models.motor_neuron, per_stage_motor[s], "motor" + suffix(s))
+              for s in range(S)]
+    # the trial-major motor-neuron number of each neuron of each stage's group
+    motor_number = [np.arange(B * L.motor_per_trial)] if S == 1 else \
+        [L.stage_motor_index(s) for s in range(S)]
     interneuron = group(models.interneuron, B * L.interneurons_per_trial, "interneuron")
     astrocyte = group(models.astrocyte, B * L.thigh_pools_per_trial, "astrocyte")
     pool = group(models.pool, B * L.pools_per_trial, "pool")
     torque = group(models.torque, B * L.joints_per_trial, "torque")
+    # each stage's pools, one contiguous block of the pool group (the whole group with one stage)
+    stage_pools = [pool] if S == 1 else [pool[slice(*L.stage_pool_range(s))] for s in range(S)]
 
     # Anatomy: neuron positions in the unit cube, drawn per trial from the trial's own seed.
     positions = np.concatenate([
         np.random.default_rng(s).uniform(0.0, 1.0, size=(L.motor_per_trial, 3))
         for s in trial_seeds(seed, B)
     ])
-    _require(motor, "x_position", "y_position", "z_position")
-    motor.x_position = positions[:, 0]
-    motor.y_position = positions[:, 1]
-    motor.z_position = positions[:, 2]
+    for motor, number in zip(motors, motor_number):
+        _require(motor, "x_position", "y_position", "z_position")
+        motor.x_position = positions[number, 0]
+        motor.y_position = positions[number, 1]
+        motor.z_position = positions[number, 2]
 
     # Pool-level inputs reach every neuron of the pool.
-    pool_index = L.pool_of_motor_neuron
+    pool_of_motor = L.pool_of_motor_neuron
     try:
         # every linked variable of the motor neuron model is a pool variable of the same name
-        for var, eq in motor.equations.items():
-            if "linked" in eq.flags:
-                if var not in pool.variables:
-                    raise InputError(f"linked variable '{var}' is not a variable "
-                                     f"of the pool model", culprit=f"motor_neuron")
-                setattr(motor, var, linked_var(pool, var, index=pool_index))
+        for motor, number in zip(motors, motor_number):
+            for var, eq in motor.equations.items():
+                if "linked" in eq.flags:
+                    if var not in pool.variables:
+                        raise InputError(f"linked variable '{var}' is not a variable "
+                                         f"of the pool model", culprit=f"motor_neuron")
+                    setattr(motor, var, linked_var(pool, var, index=pool_of_motor[number]))
         _require(pool, "n")
         _require(astrocyte, "n_pool")
         _require(torque, "n_extensor", "n_flexor", "I_joint")
@@ -368,23 +450,29 @@ def build_cpg(
         raise InputError(f"{brian_error_line(e)}", culprit=f"network wiring") from None
 
     syn: dict[str, Synapses] = {}
-    syn["pool_activity"] = synapses(models.pool_activity, motor, pool, "pool_activity",
-                                    np.arange(len(pool_index)), pool_index)
-    for updater in syn["pool_activity"].summed_updaters.values():
-        updater.when, updater.order = "after_thresholds", 0
-    # pool traces and torque traces take this step's spike counts in
-    for g in (torque, pool):
-        if getattr(g, "state_updater", None) is not None:
-            g.state_updater.when, g.state_updater.order = "after_thresholds", 1
+    kinds: dict[str, list[Synapses]] = {}
+
+    def add(kind: str, stage: int, s: Synapses) -> Synapses:
+        syn[s.name] = s
+        kinds.setdefault(kind, []).append(s)
+        return s
+
+    for s, motor in enumerate(motors):
+        start = L.stage_pool_range(s)[0] if S > 1 else 0
+        add("pool_activity", s, synapses(
+            models.pool_activity, motor, stage_pools[s], "pool_activity" + suffix(s),
+            np.arange(len(motor)), pool_of_motor[motor_number[s]] - start))
 
     # Intra-pool: all ordered pairs of distinct neurons of a pool.
     a, b_ = np.meshgrid(np.arange(L.pool_size), np.arange(L.pool_size), indexing="ij")
     off = a != b_
     base_i, base_j = a[off], b_[off]
-    starts = np.arange(B * L.pools_per_trial) * L.pool_size
-    syn["intra_pool"] = synapses(models.intra_pool_synapse, motor, motor, "intra_pool",
-                                 (starts[:, None] + base_i).ravel(),
-                                 (starts[:, None] + base_j).ravel())
+    for s, motor in enumerate(motors):
+        starts = np.arange(len(motor) // L.pool_size) * L.pool_size
+        add("intra_pool", s, synapses(models.intra_pool_synapse, motor, motor,
+                                      "intra_pool" + suffix(s),
+                                      (starts[:, None] + base_i).ravel(),
+                                      (starts[:, None] + base_j).ravel()))
 
     # Interneurons: each driven by every neuron of one pool, inhibiting every neuron of another.
     pre_i, pre_j, post_i, post_j = [], [], [], []
@@ -396,51 +484,106 @@ def build_cpg(
                 tgt = L.motor_neurons(b, leg, target)
                 pre_i.append(src); pre_j.append(np.full(len(src), k))
                 post_i.append(np.full(len(tgt), k)); post_j.append(tgt)
-    syn["pool_to_interneuron"] = synapses(models.pool_to_interneuron, motor, interneuron,
-                                          "pool_to_interneuron", np.concatenate(pre_i),
-                                          np.concatenate(pre_j))
-    syn["interneuron_to_pool"] = synapses(models.interneuron_to_pool, interneuron, motor,
-                                          "interneuron_to_pool", np.concatenate(post_i),
-                                          np.concatenate(post_j))
+    src_stage, src_local = L.motor_local(np.concatenate(pre_i))
+    tgt_stage, tgt_local = L.motor_local(np.concatenate(post_j))
+    pre_j_, post_i_ = np.concatenate(pre_j), np.concatenate(post_i)
+    for s, motor in enumerate(motors):
+        here, there = src_stage == s, tgt_stage == s
+        add("pool_to_interneuron", s, synapses(
+            models.pool_to_interneuron, motor, interneuron, "pool_to_interneuron" + suffix(s),
+            src_local[here], pre_j_[here]))
+        add("interneuron_to_pool", s, synapses(
+            models.interneuron_to_pool, interneuron, motor, "interneuron_to_pool" + suffix(s),
+            post_i_[there], tgt_local[there]))
 
-    # Inter-limb: thigh pool x -> thigh pool y of another limb, one weight per pair and trial.
+    # Inter-limb: thigh pool x -> thigh pool y of another limb, one weight per pair and trial;
+    # one object per stage of target limbs.
     n_thigh = L.thigh_pools_per_trial
     mask = same_limb_mask(L)
     pairs = np.argwhere(~mask)  # (row, col) in the per-trial table
+    pairs_of: dict[str, np.ndarray] = {}
+    learning = []
     if len(pairs):
-        thigh_pool_index = np.array([L.pool(0, leg, p) for leg in range(L.n_legs)
-                                     for p in THIGH_POOLS])
-        inter_i = np.concatenate([b * L.pools_per_trial + thigh_pool_index[pairs[:, 0]]
-                                  for b in range(B)])
-        inter_j = np.concatenate([b * L.pools_per_trial + thigh_pool_index[pairs[:, 1]]
-                                  for b in range(B)])
-        inter = syn["interlimb"] = synapses(models.interlimb_synapse, pool, pool, "interlimb",
-                                            inter_i, inter_j)
-        try:
-            # the astrocyte of each synapse's target pool (the table's column)
-            if "astrocyte_index" in inter.variables:
-                inter.astrocyte_index = np.concatenate([b * n_thigh + pairs[:, 1]
-                                                        for b in range(B)])
-            for var, eq in inter.equations.items():
-                if "linked" in eq.flags:
-                    setattr(inter, var, linked_var(astrocyte, var, index="astrocyte_index"))
-            if getattr(inter, "state_updater", None) is not None:  # STDP: after the counts
-                inter.state_updater.when, inter.state_updater.order = "after_thresholds", 2
-            if models.interlimb_synapse.on_step:  # after the robot moved and the reward is known
-                objects.append(inter.run_regularly(models.interlimb_synapse.on_step, dt=dt,
-                                                   when="end", order=10, name="interlimb_learning"))
-        except InputError:
-            raise
-        except Exception as e:
-            raise InputError(f"{brian_error_line(e)}", culprit=f"interlimb_synapse") from None
+        def thigh_pool(b: int, x: np.ndarray) -> np.ndarray:
+            return np.array([L.pool(b, int(t) // 2, THIGH_POOLS[int(t) % 2]) for t in x],
+                            dtype=np.intp)
+        for s in range(S):
+            these = pairs[np.isin(pairs[:, 1] // len(THIGH_POOLS), stages[s])]
+            start = L.stage_pool_range(s)[0] if S > 1 else 0
+            name = "interlimb" + suffix(s)
+            inter = add("interlimb", s, synapses(
+                models.interlimb_synapse, pool, stage_pools[s], name,
+                np.concatenate([thigh_pool(b, these[:, 0]) for b in range(B)]),
+                np.concatenate([thigh_pool(b, these[:, 1]) - start for b in range(B)])))
+            pairs_of[name] = these
+            try:
+                # the astrocyte of each synapse's target pool (the table's column)
+                if "astrocyte_index" in inter.variables:
+                    inter.astrocyte_index = np.concatenate([b * n_thigh + these[:, 1]
+                                                            for b in range(B)])
+                for var, eq in inter.equations.items():
+                    if "linked" in eq.flags:
+                        setattr(inter, var, linked_var(astrocyte, var, index="astrocyte_index"))
+                if getattr(inter, "state_updater", None) is not None:  # STDP: after the counts
+                    inter.state_updater.when, inter.state_updater.order = "after_thresholds", 2
+                if models.interlimb_synapse.on_step:  # after the robot moved, reward known
+                    learning.append(inter.run_regularly(
+                        models.interlimb_synapse.on_step, dt=dt, when="end", order=10,
+                        name="interlimb_learning" + suffix(s)))
+            except InputError:
+                raise
+            except Exception as e:
+                raise InputError(f"{brian_error_line(e)}", culprit=f"interlimb_synapse") from None
+    objects.extend(learning)
 
+    _schedule(motors, kinds, pool, torque, interneuron, astrocyte)
     net = Network(*objects)
-    cpg = CPG(layout=layout, models=models, seed=int(seed), dt=dt, net=net, motor=motor,
-              interneuron=interneuron, astrocyte=astrocyte, pool=pool, torque=torque,
-              synapses=syn, interlimb_pairs=pairs, codegen=codegen)
+    cpg = CPG(layout=layout, models=models, seed=int(seed), dt=dt, net=net,
+              motor_groups=tuple(motors), interneuron=interneuron, astrocyte=astrocyte,
+              pool=pool, torque=torque, synapses=syn, interlimb_pairs=pairs, codegen=codegen,
+              synapse_kinds={k: tuple(v) for k, v in kinds.items()}, interlimb_pairs_of=pairs_of)
     if interlimb_weights is not None:
         cpg.set_interlimb_weights(interlimb_weights)
     return cpg
+
+
+def _schedule(motors: list[NeuronGroup], kinds: dict[str, list[Synapses]], pool: NeuronGroup,
+              torque: NeuronGroup, interneuron: NeuronGroup, astrocyte: NeuronGroup) -> None:
+    """Order the objects within a step where the order matters.
+
+    Always: the pools count this step's spikes (``pool_activity``) before the pool traces and
+    torque traces take them in, and the STDP signals after those (``after_thresholds``).
+
+    One stage of limbs: every group integrates in ``groups``, spikes in ``thresholds``; the
+    inter-limb input is summed at the start of the step from the previous step's counts (1 ms).
+
+    Stages (0 ms delays): astrocytes and interneurons integrate first; then, stage by stage, the
+    inter-limb input into the stage's pools is summed from the pools' current counts (this
+    step's for the stages before, the previous step's for this and later ones), the stage's motor
+    neurons integrate and spike, and their pools count the spikes, all in ``groups``. Synapses,
+    resets and everything after are as with one stage.
+    """
+    for g in (torque, pool):
+        if getattr(g, "state_updater", None) is not None:
+            g.state_updater.when, g.state_updater.order = "after_thresholds", 1
+    if len(motors) == 1:
+        for s in kinds.get("pool_activity", ()):
+            for updater in s.summed_updaters.values():
+                updater.when, updater.order = "after_thresholds", 0
+        return
+    for g in (astrocyte, interneuron):
+        if getattr(g, "state_updater", None) is not None:
+            g.state_updater.when, g.state_updater.order = "groups", -10
+    for s, motor in enumerate(motors):
+        base = 10 * s
+        for syn_ in kinds.get("interlimb", ())[s:s + 1]:
+            for updater in syn_.summed_updaters.values():
+                updater.when, updater.order = "groups", base + 1
+        motor.state_updater.when, motor.state_updater.order = "groups", base + 2
+        for thresholder in motor.thresholder.values():
+            thresholder.when, thresholder.order = "groups", base + 3
+        for updater in kinds["pool_activity"][s].summed_updaters.values():
+            updater.when, updater.order = "groups", base + 4
 
 
 def built_in_models(models: ModelSet) -> bool:
@@ -458,7 +601,6 @@ def check_runs(cpg: CPG) -> None:
     generates its code once, and the test suite runs those models."""
     if built_in_models(cpg.models):
         return
-    names = MODEL_OF
     try:
         cpg.net.run(0 * second, namespace={})
     except Exception as e:
@@ -466,10 +608,9 @@ def check_runs(cpg: CPG) -> None:
         err: BaseException | None = e
         while err is not None:
             text = str(err)
-            for obj, model in names.items():
-                if f"object named '{obj}" in text:
-                    culprit = model
-                    break
+            found = re.search(r"object named '([A-Za-z0-9_]+)", text)
+            if found and model_of(found.group(1)):
+                culprit = model_of(found.group(1)) or culprit
             if culprit != "network":
                 break
             err = err.__cause__

@@ -32,11 +32,21 @@ from ..errors import Diverged
 if TYPE_CHECKING:  # pragma: no cover
     from .build import CPG
 
-# population (Brian2 group) -> the model that defines it, for messages
+#: The model each Brian2 object of the network is built from (object name -> model name).
 MODEL_OF = {"motor": "motor_neuron", "interneuron": "interneuron", "astrocyte": "astrocyte",
             "pool": "pool", "torque": "torque", "pool_activity": "pool_activity",
             "intra_pool": "intra_pool_synapse", "pool_to_interneuron": "pool_to_interneuron",
             "interneuron_to_pool": "interneuron_to_pool", "interlimb": "interlimb_synapse"}
+
+
+def model_of(name: str) -> str | None:
+    """The model a Brian2 object of the network (or one of its code objects) is built from,
+    by its name: ``interlimb_FR`` (a stage's object) and ``motor_stateupdater`` start with the
+    name of their kind. None for a name of no model."""
+    for obj in sorted(MODEL_OF, key=len, reverse=True):  # pool_activity before pool
+        if name.startswith(obj):
+            return MODEL_OF[obj]
+    return None
 
 
 @dataclass(frozen=True)
@@ -57,7 +67,7 @@ class NonFinite:
 
     def error(self, t: float | None) -> Diverged:
         """The :class:`Diverged` to raise, at simulated time ``t`` (s)."""
-        model = MODEL_OF.get(self.population, self.population)
+        model = model_of(self.population) or self.population
         where = f"trial {self.trial}" if self.trial is not None else "unknown trial"
         at = f" at t = {t:.3f} s" if t is not None else ""
         also = f" (also non-finite: {', '.join(self.others)})" if self.others else ""
@@ -109,7 +119,7 @@ class DivergenceCheck:
         if int(every) < 1:
             raise ValueError(f"DivergenceCheck: every must be at least 1, got {every}")
         self.cpg, self.every = cpg, int(every)
-        self._t = cpg.motor.clock.variables["t"].get_value()  # live (1,) array, s
+        self._t = cpg.clock.variables["t"].get_value()  # live (1,) array, s
         self._dt = float(cpg.dt)
 
     def operation(self, when: str = "end", order: int = 100,
@@ -131,4 +141,4 @@ class DivergenceCheck:
             raise found.error(t if math.isfinite(t) else None)
 
 
-__all__ = ["NonFinite", "DivergenceCheck", "find_diverged", "run_network", "MODEL_OF"]
+__all__ = ["NonFinite", "DivergenceCheck", "find_diverged", "run_network", "MODEL_OF", "model_of"]

@@ -6,6 +6,13 @@ trial-major, so the state of trial ``b`` is one contiguous slice of each group.
 
 Inter-limb table: rows and columns are the thigh pools in the order
 FR flexor, FR extensor, FL flexor, FL extensor, RR ..., RL ...; ``w[x, y]`` is from pool x to y.
+
+Motor neurons are numbered trial-major (``motor_index`` of :meth:`Layout.to_json`) in every file
+and table. Where inter-limb delays of 0 ms make the limbs integrate in *stages* one after another
+within a step (:mod:`astrocpg.network.delays`), each stage has its own motor-neuron group
+(trial-major within the stage), and the pool group holds the stages' pools one block after
+another, so that each stage's pools form one contiguous sub-group; :meth:`Layout.stage_motor_index`
+and :meth:`Layout.pool_number` map them back to the trial-major numbering.
 """
 
 from __future__ import annotations
@@ -14,6 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+# The order of the authors' loop over the limbs; the inter-limb synapse model names its delays
+# with the same names (models.interlimb_synapse.LIMBS: this module imports no Brian2, so that
+# `describe` can print cached text without it; tests/test_delays.py checks the two agree).
 LEGS: tuple[str, ...] = ("FR", "FL", "RR", "RL")
 POOLS: tuple[str, ...] = ("thigh_flexor", "thigh_extensor", "calf_flexor", "calf_extensor")
 THIGH_POOLS: tuple[str, ...] = ("thigh_flexor", "thigh_extensor")
@@ -42,6 +52,64 @@ class Layout:
     n_trials: int
     pool_size: int
     legs: tuple[str, ...] = LEGS
+    #: positions in ``legs`` of the limbs of each stage, in the order the stages integrate within
+    #: a step; None: one stage of every limb (no 0 ms inter-limb delay)
+    stages: tuple[tuple[int, ...], ...] | None = None
+
+    @property
+    def limb_stages(self) -> tuple[tuple[int, ...], ...]:
+        return self.stages if self.stages is not None else (tuple(range(self.n_legs)),)
+
+    @property
+    def staged(self) -> bool:
+        """Do the limbs integrate in more than one stage (0 ms inter-limb delays)?"""
+        return len(self.limb_stages) > 1
+
+    def stage_of(self, leg: int) -> tuple[int, int]:
+        """(stage, position of ``leg`` within its stage)."""
+        for s, members in enumerate(self.limb_stages):
+            if leg in members:
+                return s, members.index(leg)
+        raise ValueError(f"leg {leg} is in no stage")
+
+    def stage_pool_range(self, stage: int) -> tuple[int, int]:
+        """[start, stop) of the stage's pools in the pool group."""
+        start = sum(self.n_trials * len(m) * len(POOLS) for m in self.limb_stages[:stage])
+        return start, start + self.n_trials * len(self.limb_stages[stage]) * len(POOLS)
+
+    def stage_motor_index(self, stage: int) -> np.ndarray:
+        """The trial-major motor-neuron number of each neuron of the stage's group, in the
+        group's order (trial, leg of the stage, pool, neuron)."""
+        members = self.limb_stages[stage]
+        b, m, k = np.meshgrid(np.arange(self.n_trials), np.array(members, dtype=np.intp),
+                              np.arange(len(POOLS) * self.pool_size), indexing="ij")
+        return (b * self.motor_per_trial + m * len(POOLS) * self.pool_size + k).ravel()
+
+    def motor_local(self, motor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(stage, index in the stage's group) of trial-major motor-neuron numbers."""
+        motor = np.asarray(motor, dtype=np.intp)
+        per_leg = len(POOLS) * self.pool_size
+        b, r = np.divmod(motor, self.motor_per_trial)
+        leg, k = np.divmod(r, per_leg)
+        stage = np.empty_like(motor)
+        local = np.empty_like(motor)
+        for s, members in enumerate(self.limb_stages):
+            for pos, m in enumerate(members):
+                here = leg == m
+                stage[here] = s
+                local[here] = (b[here] * len(members) + pos) * per_leg + k[here]
+        return stage, local
+
+    @property
+    def pool_number(self) -> np.ndarray:
+        """For every pool of the pool group, its trial-major number ``trial*pools_per_trial +
+        leg*4 + pool`` (the identity when there is one stage)."""
+        out = np.empty(self.n_trials * self.pools_per_trial, dtype=np.intp)
+        for b in range(self.n_trials):
+            for leg in range(self.n_legs):
+                for p, name in enumerate(POOLS):
+                    out[self.pool(b, leg, name)] = b * self.pools_per_trial + leg * len(POOLS) + p
+        return out
 
     @property
     def n_legs(self) -> int:
@@ -90,11 +158,18 @@ class Layout:
 
     # ---- global indices
     def pool(self, trial: int, leg: int, pool: str) -> int:
-        """Index into the pool group."""
-        return trial * self.pools_per_trial + leg * len(POOLS) + POOLS.index(pool)
+        """Index into the pool group (trial-major with one stage; stage by stage otherwise)."""
+        if self.stages is None:
+            return trial * self.pools_per_trial + leg * len(POOLS) + POOLS.index(pool)
+        s, pos = self.stage_of(leg)
+        start, _ = self.stage_pool_range(s)
+        per_trial = len(self.limb_stages[s]) * len(POOLS)
+        return start + trial * per_trial + pos * len(POOLS) + POOLS.index(pool)
 
     def motor_neurons(self, trial: int, leg: int, pool: str) -> np.ndarray:
-        start = self.pool(trial, leg, pool) * self.pool_size
+        """Trial-major motor-neuron numbers of one pool (files, tables)."""
+        start = (trial * self.pools_per_trial + leg * len(POOLS) + POOLS.index(pool)) \
+            * self.pool_size
         return np.arange(start, start + self.pool_size)
 
     def interneuron(self, trial: int, leg: int, name: str) -> int:
@@ -112,8 +187,13 @@ class Layout:
     # ---- vectorised maps
     @property
     def pool_of_motor_neuron(self) -> np.ndarray:
-        """For every motor neuron, the index of its pool in the pool group."""
-        return np.repeat(np.arange(self.n_trials * self.pools_per_trial), self.pool_size)
+        """For every motor neuron (trial-major number), the index of its pool in the pool
+        group."""
+        number = np.repeat(np.arange(self.n_trials * self.pools_per_trial), self.pool_size)
+        if self.stages is None:
+            return number
+        index_of_number = np.argsort(self.pool_number)
+        return index_of_number[number]
 
     @property
     def pool_of_astrocyte(self) -> np.ndarray:

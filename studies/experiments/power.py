@@ -44,16 +44,21 @@ def synaptic_events_per_spike(cpg) -> dict[str, float]:
     L = cpg.layout
     n_motor = L.n_trials * L.motor_per_trial
     fanout = np.zeros(n_motor)
+    # every synapse object's source element, as the files' motor-neuron (or pool) number
+    motor_number = [p.numbers() for p in cpg.parts("motor")]
     for name in ("intra_pool", "pool_to_interneuron"):
-        fanout += np.bincount(np.asarray(cpg.synapses[name].i[:]), minlength=n_motor)
-    if "interlimb" in cpg.synapses:
+        for s, number in zip(cpg.synapse_kinds[name], motor_number):
+            fanout += np.bincount(number[np.asarray(s.i[:])], minlength=n_motor)
+    if "interlimb" in cpg.synapse_kinds:
         n_pools = L.n_trials * L.pools_per_trial
-        per_pool = np.bincount(np.asarray(cpg.synapses["interlimb"].i[:]),
-                               minlength=n_pools) * L.pool_size
-        fanout += per_pool[L.pool_of_motor_neuron]
+        pool_number = cpg.parts("pool")[0].numbers()
+        per_pool = sum(np.bincount(pool_number[np.asarray(s.i[:])], minlength=n_pools)
+                       for s in cpg.synapse_kinds["interlimb"]) * L.pool_size
+        fanout += np.repeat(per_pool, L.pool_size)  # pool of each motor neuron, files' order
     kind = (np.arange(n_motor) % L.motor_per_trial) // L.pool_size % 4  # POOLS order
     n_in = L.n_trials * L.interneurons_per_trial
-    in_fanout = np.bincount(np.asarray(cpg.synapses["interneuron_to_pool"].i[:]), minlength=n_in)
+    in_fanout = sum(np.bincount(np.asarray(s.i[:]), minlength=n_in)
+                    for s in cpg.synapse_kinds["interneuron_to_pool"])
     return {"inhibitory": float(in_fanout.mean()), "calf": float(fanout[kind >= 2].mean()),
             "thigh": float(fanout[kind < 2].mean()), "limit": float(L.pool_size)}
 

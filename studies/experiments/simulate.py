@@ -58,33 +58,66 @@ def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
               spikes: tuple[str, ...] = POPULATIONS,
               traces: tuple[str, ...] = TRACES) -> dict[str, Any]:
     """Spike monitors of ``spikes`` and state monitors (every ``trace_dt``) of ``traces``,
-    added to the network; returns them by population / ``<group>_state``."""
-    mons: dict[str, Any] = {p: SpikeMonitor(getattr(cpg, p), name=f"spikes_{p}")
-                            for p in spikes}
+    added to the network; returns them by population / ``<group>_state``: a monitor, or a tuple
+    of them, one per stage, where the limbs integrate in stages (:meth:`CPG.parts`)."""
+    mons: dict[str, Any] = {}
+    for p in spikes:
+        ms = tuple(SpikeMonitor(part.obj, name=f"spikes_{part.name}") for part in cpg.parts(p))
+        mons[p] = ms[0] if len(ms) == 1 else ms
     if record_traces:
         per_group: dict[str, list[str]] = {}
         for name in traces:
             group, var, _, _ = TRACE_SOURCES[name]
             per_group.setdefault(group, []).append(var)
         for group, variables in per_group.items():
-            mons[f"{group}_state"] = StateMonitor(getattr(cpg, group), variables, record=True,
-                                                  dt=trace_dt, name=f"trace_{group}")
-    cpg.net.add(*mons.values())
+            ms = tuple(StateMonitor(part.obj, variables, record=True, dt=trace_dt,
+                                    name=f"trace_{part.name}") for part in cpg.parts(group))
+            mons[f"{group}_state"] = ms[0] if len(ms) == 1 else ms
+    cpg.net.add(*(m for ms in mons.values() for m in (ms if isinstance(ms, tuple) else (ms,))))
     return mons
 
 
-def _collect(mons: dict[str, Any]) -> tuple[dict, dict]:
-    spikes = {p: (np.asarray(mons[p].t_[:]), np.asarray(mons[p].i_[:], dtype=np.int32))
-              for p in POPULATIONS if p in mons}
+def _with_numbers(cpg: CPG, population: str, monitors: Any) -> list[tuple[Any, Any]]:
+    """(monitor, files' number of each element of its object or None) per object."""
+    ms = monitors if isinstance(monitors, tuple) else (monitors,)
+    return [(m, part.number) for m, part in zip(ms, cpg.parts(population))]
+
+
+def _collect(cpg: CPG, mons: dict[str, Any]) -> tuple[dict, dict]:
+    """Spikes (t, files' index) and traces (t, values in the files' column order)."""
+    spikes = {}
+    for p in POPULATIONS:
+        if p not in mons:
+            continue
+        ts, idx = [], []
+        for m, number in _with_numbers(cpg, p, mons[p]):
+            i = np.asarray(m.i_[:], dtype=np.int32)
+            ts.append(np.asarray(m.t_[:]))
+            idx.append(i if number is None else number[i].astype(np.int32))
+        t, i = (ts[0], idx[0]) if len(ts) == 1 else (np.concatenate(ts), np.concatenate(idx))
+        if len(ts) > 1:  # the stages' spikes, merged in time order
+            order = np.argsort(t, kind="stable")
+            t, i = t[order], i[order]
+        spikes[p] = (t, i)
     traces = {}
     for name in TRACES:
         group, var, scale, _ = TRACE_SOURCES[name]
-        m = mons.get(f"{group}_state")
-        if m is None or var not in m.record_variables:
+        if f"{group}_state" not in mons:
+            continue
+        ms = _with_numbers(cpg, group, mons[f"{group}_state"])
+        if var not in ms[0][0].record_variables:
             continue
         with np.errstate(over="ignore", invalid="ignore"):  # a diverged trace: inf, as is
-            values = np.asarray(getattr(m, f"{var}_")[:].T * scale, dtype=np.float32)
-        traces[name] = (np.asarray(m.t_[:]), values)
+            parts = [(np.asarray(getattr(m, f"{var}_")[:].T * scale, dtype=np.float32), number)
+                     for m, number in ms]
+        if len(parts) == 1 and parts[0][1] is None:
+            values = parts[0][0]
+        else:
+            values = np.zeros((parts[0][0].shape[0], sum(v.shape[1] for v, _ in parts)),
+                              dtype=np.float32)
+            for v, number in parts:
+                values[:, number] = v
+        traces[name] = (np.asarray(ms[0][0].t_[:]), values)
     return spikes, traces
 
 
@@ -139,7 +172,7 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
     except Diverged as e:  # keep what was recorded up to the divergence, for its folder
         e.result = _partial(cpg, mons, None, t0)
         raise
-    spikes, traces = _collect(mons)
+    spikes, traces = _collect(cpg, mons)
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces,
                             wall_seconds=wall, monitors=mons)
 
@@ -174,7 +207,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
         e.result = _partial(cpg, mons, rec.truncated(bridge.step_count), t0,
                             extra={"bridge": bridge, "limit_inhibition": limit.counts()})
         raise
-    spikes, traces = _collect(mons) if mons else ({}, {})
+    spikes, traces = _collect(cpg, mons) if mons else ({}, {})
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces, robot=rec,
                             wall_seconds=wall, monitors=mons,
                             extra={"bridge": bridge, "limit_inhibition": limit.counts()})
@@ -186,14 +219,15 @@ class LimitCount:
     trial inhibited), read each step before a session loop may reset the trial."""
 
     def __init__(self, cpg: CPG):
-        self.limit = cpg.array("pool", "limit_inhibition").reshape(cpg.n_trials, -1)
+        self._table = cpg.table("pool", "limit_inhibition")  # (trial, pool)
+        self.limit = self._table.values
         self.before = np.zeros(self.limit.shape, dtype=bool)
         self.onsets = np.zeros(cpg.n_trials, dtype=np.int64)
         self.steps = np.zeros(cpg.n_trials, dtype=np.int64)
         self.n_steps = 0
 
     def __call__(self) -> None:
-        now = self.limit > 0
+        now = self._table.read() > 0
         self.onsets += (now & ~self.before).sum(axis=1)
         self.steps += now.any(axis=1)
         self.before[:] = now
@@ -207,7 +241,7 @@ class LimitCount:
 def _partial(cpg: CPG, mons: dict[str, Any], rec: Recording | None, t0: float,
              extra: dict[str, Any] | None = None) -> SimulationResult:
     """What a run that diverged recorded, up to the step it stopped at."""
-    spikes, traces = _collect(mons) if mons else ({}, {})
+    spikes, traces = _collect(cpg, mons) if mons else ({}, {})
     return SimulationResult(cpg=cpg, seconds=network_time(cpg.net), spikes=spikes, traces=traces,
                             robot=rec, wall_seconds=time.perf_counter() - t0,
                             extra=dict(extra or {}), monitors=mons)

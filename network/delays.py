@@ -1,0 +1,89 @@
+"""Inter-limb delays: from the projection's delay table to the order in which the limbs integrate
+within one 1 ms step.
+
+Every pair of limbs has a delay of 0 or one step (``delay_X_Y`` of the inter-limb synapse model).
+One step is what every synapse of Brian2's schedule gives: the input of step n's spikes reaches
+its target at step n + 1. A delay of 0 means that limb Y, within the same step, integrates with
+the spikes limb X fired in that step; so X must integrate and fire *before* Y. The limbs are
+therefore put into *stages*: the limbs of one stage integrate together, the stages one after
+another, and a pair has a delay of 0 exactly when its source's stage comes before its target's.
+
+A table can be built this way when its 0 ms pairs order the limbs in stages (a strict weak order).
+The default (1 ms everywhere) is one stage: the network as it always was. The authors' code (0 ms
+from a lower-index to a higher-index limb, SPEC) is four stages, FR, FL, RR, RL. Anything else,
+e.g. FR->FL at 0 ms while FR->RR and RR->FL stay at 1 ms, cannot be ordered and is refused,
+naming a pair.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..errors import InputError
+from ..models import ModelSet
+
+
+def delay_steps(models: ModelSet, legs: Sequence[str], dt: Any) -> dict[tuple[str, str], int]:
+    """The delay of every ordered pair of ``legs`` in steps (0 or 1), from the inter-limb synapse
+    model's ``delay_X_Y`` parameters (a pair without one: one step, as every synapse)."""
+    params = models.interlimb_synapse.parameters
+    step = float(dt)
+    out = {}
+    for a, b in itertools.permutations(legs, 2):
+        name = f"delay_{a}_{b}"
+        if name not in params:
+            out[a, b] = 1
+            continue
+        value = params[name].value
+        seconds = float(np.asarray(value))
+        if not np.isfinite(seconds) or not (abs(seconds) <= 1e-12 * step
+                                            or abs(seconds - step) <= 1e-9 * step):
+            raise InputError(f"must be 0 ms or one step ({step * 1e3:g} ms), got {value}",
+                             culprit=f"interlimb_synapse.{name}")
+        out[a, b] = 0 if abs(seconds) <= 1e-12 * step else 1
+    return out
+
+
+def limb_stages(models: ModelSet, legs: Sequence[str], dt: Any) -> tuple[tuple[int, ...], ...]:
+    """The stages (tuples of leg positions in ``legs``) in the order they integrate within a
+    step, such that the delay from limb a to limb b is 0 exactly when a's stage comes first.
+    One stage holding every leg when every delay is one step."""
+    legs = tuple(legs)
+    delays = delay_steps(models, legs, dt)
+    n = len(legs)
+    if all(d == 1 for d in delays.values()):
+        return (tuple(range(n)),)
+    best: tuple[int, ...] | None = None
+    # a handful of limbs: try every assignment of stages, keep the one with the fewest stages
+    for stage in itertools.product(range(n), repeat=n):
+        if all((stage[i] < stage[j]) == (delays[legs[i], legs[j]] == 0)
+               for i, j in itertools.permutations(range(n), 2)):
+            if best is None or len(set(stage)) < len(set(best)):
+                best = stage
+    if best is None:
+        raise InputError(_why_not(delays, legs), culprit="interlimb_synapse delays")
+    levels = sorted(set(best))
+    return tuple(tuple(i for i in range(n) if best[i] == s) for s in levels)
+
+
+def _why_not(delays: dict[tuple[str, str], int], legs: tuple[str, ...]) -> str:
+    """One line naming pairs that no order of the limbs within a step can give."""
+    zero = {p for p, d in delays.items() if d == 0}
+    for a, b in zero:
+        if (b, a) in zero:
+            return (f"delay_{a}_{b} and delay_{b}_{a} are both 0 ms: two limbs cannot each "
+                    f"integrate before the other within one step")
+    for a, b in zero:
+        for c in legs:
+            if c in (a, b):
+                continue
+            # a before b; c must come after a, before b, or both
+            if (a, c) not in zero and (c, b) not in zero:
+                return (f"delay_{a}_{b} is 0 ms, so {a} integrates before {b}; {c} must then "
+                        f"follow {a} (delay_{a}_{c} = 0 ms) or precede {b} "
+                        f"(delay_{c}_{b} = 0 ms), and neither is")
+    return ("the 0 ms pairs do not order the limbs in stages (a 0 ms pair needs its source "
+            "to integrate before its target, and every 1 ms pair the opposite or together)")
