@@ -15,6 +15,9 @@ as a share of the loop's CPU time per step. ``--codegen numpy cython`` measures 
 under both Brian2 targets (Cython's first build compiles for minutes; later ones load the
 cache). Each point also times MuJoCo's own step of the same robot in the same process, and
 gives a trial-step's cost as a multiple of it (issue 13's goal: 1.5 x at 16-20 trials).
+``--delays default authors`` measures each point with the built-in inter-limb delays (1 ms, one
+stage) and with the authors' preset (``models/variants/interlimb_authors_delays.toml``: the limbs
+integrate in four stages, each with its own motor-neuron group and synapses), interleaved.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -49,10 +53,23 @@ def mj_step_us(model, data, steps: int = 3000) -> float:
     return (time.perf_counter() - t) / steps * 1e6
 
 
+AUTHORS = Path(__file__).resolve().parents[1] / "models" / "variants" \
+    / "interlimb_authors_delays.toml"
+
+
+def delay_models(delays: str):
+    """The model set of a ``--delays`` choice."""
+    if delays == "default":
+        return DEFAULT_MODELS
+    from astrocpg.studies.experiments.settings import model_set
+    return model_set(models={"interlimb_synapse": AUTHORS.read_text()})
+
+
 def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
-            check_cost: bool = False, codegen: str = "numpy") -> dict[str, float]:
+            check_cost: bool = False, codegen: str = "numpy",
+            delays: str = "default") -> dict[str, float]:
     t_start = time.perf_counter()
-    loop = build_closed_loop(DEFAULT_MODELS, n_trials=n_trials, seed=1, check_every=check_every,
+    loop = build_closed_loop(delay_models(delays), n_trials=n_trials, seed=1, check_every=check_every,
                              codegen=codegen)
     cpg = loop.cpg
     if record:
@@ -108,18 +125,21 @@ def main() -> None:
                     help="also time the divergence checks alone, as a share of the loop")
     ap.add_argument("--codegen", nargs="+", default=["numpy"], choices=["numpy", "cython"],
                     help="Brian2 targets to measure, interleaved per trial count")
+    ap.add_argument("--delays", nargs="+", default=["default"], choices=["default", "authors"],
+                    help="inter-limb delays: built in (1 ms) and/or the authors' preset, "
+                         "interleaved per trial count")
     args = ap.parse_args()
     print(f"closed loop, {args.seconds:g} simulated s per point, "
           f"recording {'on' if args.record else 'off'}")
-    print(f"{'target':>7} {'trials':>6} {'check':>6} {'wall s/sim s':>13} {'per trial':>10} "
+    print(f"{'delays':>8} {'target':>7} {'trials':>6} {'check':>6} {'wall s/sim s':>13} {'per trial':>10} "
           f"{'CPU s/sim s':>12} {'start-up s':>11} {'trial-step us':>14} {'mj_step us':>11} "
           f"{'x mj_step':>10}")
     for n in args.trials:
         for every in args.check_every:
-            for target in args.codegen:
-                r = measure(n, args.seconds, args.record, every, args.check_cost, target)
+            for target, delays in [(t, d) for t in args.codegen for d in args.delays]:
+                r = measure(n, args.seconds, args.record, every, args.check_cost, target, delays)
                 check = str(every) if every else "off"
-                print(f"{target:>7} {r['trials']:>6} {check:>6} {r['wall_per_sim_s']:>13.3f} "
+                print(f"{delays:>8} {target:>7} {r['trials']:>6} {check:>6} {r['wall_per_sim_s']:>13.3f} "
                       f"{r['wall_per_trial']:>10.3f} {r['cpu_per_sim_s']:>12.3f} "
                       f"{r['startup_s']:>11.1f} {r['trial_step_us']:>14.1f} "
                       f"{r['mj_step_us']:>11.1f} {r['x_mj_step']:>10.2f}", flush=True)

@@ -143,6 +143,7 @@ class Training:
         mean_length = sum(last) / self.memory_size
         self.progress[b] = 0.0 if self.done[b] else float(self._progress_fn(mean_length=mean_length))
         self.t_learning_start[b] = float(self._learning_start_fn(mean_length=mean_length))
+        self._progress_table.read()  # the other trials' values as Brian2 holds them (restored)
         self._progress_arr[b, :] = self.progress[b]
         self._progress_table.write()
 

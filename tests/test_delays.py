@@ -176,3 +176,20 @@ def test_run_with_the_authors_preset_records_every_limb_in_the_files_numbering(c
     assert per_limb.shape == (4,) and np.all(per_limb > 100)
     ca = r.trace("motor_Ca")
     assert ca.values.shape[1] == 320 and np.all(np.asarray(ca.values)[-1].reshape(4, -1).max(1) > 0)
+
+
+def test_the_stages_count_the_same_synaptic_events_per_spike():
+    from astrocpg.studies.experiments.power import synaptic_events_per_spike
+
+    assert synaptic_events_per_spike(build_cpg(_authors(), n_trials=2, seed=3)) == \
+        synaptic_events_per_spike(build_cpg(DEFAULT_MODELS, n_trials=2, seed=3))
+
+
+def test_a_non_finite_value_in_a_stage_names_its_group_and_trial():
+    cpg = build_cpg(_authors(), n_trials=3, seed=2)
+    assert cpg.first_nonfinite() is None
+    fl = cpg.array("motor_FL", "v")
+    fl[2 * 80 + 7] = np.nan  # trial 2 of the FL stage's group (80 neurons per trial)
+    found = cpg.first_nonfinite()
+    assert (found.population, found.variable, found.trial) == ("motor_FL", "v", 2)
+    assert "model motor_neuron" in str(found.error(0.1))

@@ -68,11 +68,17 @@ def _cli(*args: str, **kw) -> subprocess.Popen:
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, **kw)
 
 
+AUTHORS_DELAYS = Path(__file__).resolve().parents[1] / "models" / "variants" \
+    / "interlimb_authors_delays.toml"
+
+
 @pytest.mark.slow
-def test_resume_after_sigkill_is_exact(tmp_path):
+@pytest.mark.parametrize("delays", [[], ["--model", f"interlimb_synapse={AUTHORS_DELAYS}"]],
+                         ids=["built-in delays", "authors' delays (limbs in stages)"])
+def test_resume_after_sigkill_is_exact(tmp_path, delays):
     # with recorded sessions: their state is part of the checkpoint too
     args = ["train", "--sessions", "20", "--trials", "2", "--seed", "4", "--record-every", "3",
-            "--record-stride", "2", *SHORT]
+            "--record-stride", "2", *SHORT, *delays]
     whole = tmp_path / "whole"
     p = _cli(*args, "--out", str(whole))
     assert p.wait(timeout=600) == 0, p.stderr.read()

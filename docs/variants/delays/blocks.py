@@ -1,0 +1,73 @@
+"""The learning curves of ``models/variants/compare_delays.toml`` compared block by block, and
+the gait each seed learnt, from the study's folder:
+
+    python docs/variants/delays/blocks.py out/compare_delays [--block 20] > blocks.md
+
+Per block of sessions: each seed's mean, then mean ± std across seeds per delay table and
+Welch's two-sided p (``astrocpg.studies.analysis.compare``). Then each seed's gait with its final
+table (``gait.csv`` of each run: learning off, 5 s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from astrocpg.studies.analysis.compare import compare
+
+MEASURES = ("mean_reward", "length_s", "mean_forward_speed_m_per_s", "final_x_m")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("study", type=Path)
+    ap.add_argument("--block", type=int, default=20)
+    args = ap.parse_args()
+    rows = list(csv.DictReader((args.study / "results.csv").open()))
+    tables = sorted({r["interlimb_synapse"] for r in rows})
+    per = {t: {} for t in tables}
+    for r in rows:
+        per[r["interlimb_synapse"]].setdefault(int(r["seed"]), []).append(r)
+    n_sessions = min(len(v) for t in tables for v in per[t].values())
+    print(f"Blocks of {args.block} sessions; per seed the block's mean, then mean ± std "
+          f"(ddof=0) across seeds; Welch's p.\n")
+    print("| measure | sessions | " + " | ".join(tables) + " | Welch p |")
+    print("|---|---|" + "---|" * len(tables) + "---|")
+    for key in MEASURES:
+        for a in range(0, n_sessions, args.block):
+            b = min(a + args.block, n_sessions)
+            values = []
+            for t in tables:
+                values.append(np.array([np.mean([float(r[key]) for r in sorted(
+                    seeds, key=lambda r: int(r["session"]))[a:b]]) for seeds in per[t].values()]))
+            p = compare(values[0], values[1])["welch_p"] if len(values) == 2 else None
+            cells = " | ".join(f"{v.mean():.3f} ± {v.std():.3f}" for v in values)
+            print(f"| {key} | {a + 1}-{b} | {cells} | {'' if p is None else f'{p:.2f}'} |")
+    print("\nEach seed's gait with its final table (learning off, 5 s):\n")
+    print("| table | seed | gait | speed (m/s) | phase FL, RR, RL (of FR's cycle) |")
+    print("|---|---|---|---|---|")
+    speeds: dict[str, list[float]] = {}
+    for run in sorted((args.study / "runs").iterdir()):
+        manifest_rows = [r for r in rows if r["run_id"] == run.name]
+        if not manifest_rows or not (run / "gait.csv").exists():
+            continue
+        table = manifest_rows[0]["interlimb_synapse"]
+        seeds = sorted({int(r["seed"]) for r in manifest_rows})
+        for g in csv.DictReader((run / "gait.csv").open()):
+            seed = seeds[int(g["trial"])]
+            phases = ", ".join(f"{float(g[f'final_phase_{leg}']):.2f}" for leg in ("FL", "RR", "RL"))
+            print(f"| {table} | {seed} | {g['final_gait']} | "
+                  f"{float(g['final_speed_m_per_s']):.2f} | {phases} |")
+            speeds.setdefault(table, []).append(float(g["final_speed_m_per_s"]))
+    if len(speeds) == 2:
+        (ta, a), (tb, b) = sorted(speeds.items())
+        c = compare(a, b)
+        print(f"\nSpeed with the final table: {ta} {np.mean(a):.3f} ± {np.std(a):.3f}, {tb} "
+              f"{np.mean(b):.3f} ± {np.std(b):.3f} m/s; Welch's p = {c['welch_p']:.3f}.")
+
+
+if __name__ == "__main__":
+    main()
