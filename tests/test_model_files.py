@@ -242,3 +242,30 @@ def test_shipped_variants(capsys):
     runs = load_study(VARIANTS / "compare_astrocytes.toml").runs
     assert {r.point["astrocyte"] for r in runs} == {"li_rinzel_astrocyte.toml",
                                                     "gchi_astrocyte.toml"}
+
+
+BEYOND = Path(__file__).resolve().parents[1] / "docs" / "beyond"
+
+
+def test_the_gait_map_study_sweeps_a_parameter_its_model_file_declares(tmp_path):
+    """docs/beyond/gait_map_trained.toml: 5 x 5 points over the drive and torque_gain, a
+    parameter of torque_gain.toml; at torque_gain = 1 that file runs exactly as the built-in
+    torque trace."""
+    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.studies.sweeps.study import load_study
+
+    runs = load_study(BEYOND / "gait_map_trained.toml").runs
+    assert len(runs) == 25 and {r.point["torque_gain"] for r in runs} == \
+        {"0.6", "0.8", "1.0", "1.2", "1.4"}
+    out = {}
+    for name, models in (("built-in", []), ("file", ["--model",
+                                                    f"torque={BEYOND / 'torque_gain.toml'}"])):
+        assert main(["run", "--seconds", "0.3", "--no-progress", *models,
+                     "--out", str(tmp_path / name)]) == 0
+        with np.load(tmp_path / name / "robot.npz") as z:
+            out[name] = {k: z[k] for k in z.files}
+    assert out["built-in"].keys() == out["file"].keys()
+    for k in out["file"]:
+        assert np.array_equal(out["built-in"][k], out["file"][k]), k
+    assert model_set(models={"torque": (BEYOND / "torque_gain.toml").read_text()}) \
+        .torque.parameters["torque_gain"].value == 1.0
