@@ -442,8 +442,11 @@ def test_no_worker_idles_while_runs_wait(tmp_path: Path) -> None:
     from astrocpg.studies.sweeps.study import run_study, utilisation
 
     p = tmp_path / "unequal.toml"
-    p.write_text(UNEQUAL)
+    # six sessions: every run lasts well beyond the hand-over slack below, also on a fast
+    # machine (with two, the shortest run took 2.9 s on a sitting with a 12 us MuJoCo step)
+    p.write_text(UNEQUAL.replace("sessions = 2\n", "sessions = 6\n"))
     study = load_study(p)
+    assert {r.n_sessions for r in study.runs} == {6}
     out = tmp_path / "out"
     res = run_study(study, out, workers=2, progress=False)
     assert res["failed"] == []
