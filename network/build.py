@@ -234,11 +234,10 @@ class CPG:
         for name in ("motor", "interneuron", "astrocyte", "pool", "torque", "interlimb"):
             if name in keep or (name == "interlimb" and name not in self.synapse_kinds):
                 continue
-            model = "interlimb" if name == "interlimb" else name
             for part in self.parts(name):
                 where = self._trial_slices(part)[trial]
                 for var, arr in self._reset_arrays(part.name, part.obj):
-                    arr[where] = self._initial(model, var)
+                    arr[where] = self._initial(name, var)
 
     def _trial_slices(self, part: Part) -> list[Any]:
         """Per trial, the elements of ``part`` in it: a slice where they are contiguous."""
@@ -452,14 +451,14 @@ def build_cpg(
     syn: dict[str, Synapses] = {}
     kinds: dict[str, list[Synapses]] = {}
 
-    def add(kind: str, stage: int, s: Synapses) -> Synapses:
+    def add(kind: str, s: Synapses) -> Synapses:
         syn[s.name] = s
         kinds.setdefault(kind, []).append(s)
         return s
 
     for s, motor in enumerate(motors):
         start = L.stage_pool_range(s)[0] if S > 1 else 0
-        add("pool_activity", s, synapses(
+        add("pool_activity", synapses(
             models.pool_activity, motor, stage_pools[s], "pool_activity" + suffix(s),
             np.arange(len(motor)), pool_of_motor[motor_number[s]] - start))
 
@@ -469,7 +468,7 @@ def build_cpg(
     base_i, base_j = a[off], b_[off]
     for s, motor in enumerate(motors):
         starts = np.arange(len(motor) // L.pool_size) * L.pool_size
-        add("intra_pool", s, synapses(models.intra_pool_synapse, motor, motor,
+        add("intra_pool", synapses(models.intra_pool_synapse, motor, motor,
                                       "intra_pool" + suffix(s),
                                       (starts[:, None] + base_i).ravel(),
                                       (starts[:, None] + base_j).ravel()))
@@ -489,10 +488,10 @@ def build_cpg(
     pre_j_, post_i_ = np.concatenate(pre_j), np.concatenate(post_i)
     for s, motor in enumerate(motors):
         here, there = src_stage == s, tgt_stage == s
-        add("pool_to_interneuron", s, synapses(
+        add("pool_to_interneuron", synapses(
             models.pool_to_interneuron, motor, interneuron, "pool_to_interneuron" + suffix(s),
             src_local[here], pre_j_[here]))
-        add("interneuron_to_pool", s, synapses(
+        add("interneuron_to_pool", synapses(
             models.interneuron_to_pool, interneuron, motor, "interneuron_to_pool" + suffix(s),
             post_i_[there], tgt_local[there]))
 
@@ -511,7 +510,7 @@ def build_cpg(
             these = pairs[np.isin(pairs[:, 1] // len(THIGH_POOLS), stages[s])]
             start = L.stage_pool_range(s)[0] if S > 1 else 0
             name = "interlimb" + suffix(s)
-            inter = add("interlimb", s, synapses(
+            inter = add("interlimb", synapses(
                 models.interlimb_synapse, pool, stage_pools[s], name,
                 np.concatenate([thigh_pool(b, these[:, 0]) for b in range(B)]),
                 np.concatenate([thigh_pool(b, these[:, 1]) - start for b in range(B)])))
