@@ -1,9 +1,11 @@
 """Gait learning: ``n_trials`` independent trials, each training for ``n_sessions`` sessions, in
-one network. After every session the folder gets, atomically: ``sessions.csv`` (one row per
+one network. At session ends the folder gets, atomically: ``sessions.csv`` (one row per
 trial and session), ``weights.npz`` (each trial's table after each session) and
 ``checkpoint.pkl`` (everything needed to continue exactly: Brian2 state and random state,
-MuJoCo states, the session loop's memory). ``resume`` continues a killed run and ends with the
-same files as a run never interrupted.
+MuJoCo states, the session loop's memory): after the first session end, then spaced so that
+writing takes at most 2 % of the wall time (:data:`CHECKPOINT_SPACING`), at the last session
+end and when the run is stopped. ``resume`` continues a killed run from its last checkpoint and
+ends with the same files as a run never interrupted.
 """
 
 from __future__ import annotations
@@ -12,15 +14,17 @@ import csv
 import dataclasses
 import hashlib
 import io
+import math
 import pickle
 import re
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
 import mujoco
 import numpy as np
-from brian2 import NetworkOperation, second
+from brian2 import Network, NetworkOperation, second
 from tqdm.auto import tqdm
 
 from ...coupling.assembly import build_closed_loop
@@ -39,6 +43,12 @@ from .settings import model_files_record, model_set, number, override_items, see
 from .simulate import check_selection
 
 CHECKPOINT = "checkpoint.pkl"
+# Writing the outputs and the checkpoint costs time that grows with the sessions done (20 trials
+# x 400 sessions: about 0.2 s a write, and with 20 trials a session ends about twice per
+# simulated second). So after a write the next one waits CHECKPOINT_SPACING times as long as it
+# took: at most 1 / (1 + CHECKPOINT_SPACING) of the wall time goes to writing, a small training
+# still writes at about every session end, the first session end and the last are always written.
+CHECKPOINT_SPACING = 49.0
 MAGIC = b"ASTROCPG-CHECKPOINT-1\n"
 
 
@@ -96,6 +106,7 @@ class Trainer:
         self.cpg.net.add(NetworkOperation(self._maybe_checkpoint, dt=self.cpg.dt, when="end",
                                           order=20, name="checkpoint"))
         self._pending = False
+        self._next_checkpoint = -math.inf  # time.monotonic() from when the next write may come
         self.on_checkpoint: Callable[[], None] | None = None
         self.progress = progress
         self.bar: Any = None  # shown from the start of the run (not while a refusal may come)
@@ -113,12 +124,22 @@ class Trainer:
                              last=f"t{trial}:{row['length_s']:.1f}s")
 
     def _maybe_checkpoint(self) -> None:
-        if self._pending:
-            self._pending = False
-            self.write_outputs()
-            self.write_checkpoint()
-            if self.on_checkpoint is not None:  # e.g. the manifest's inventory
-                self.on_checkpoint()
+        """At the end of a step after a session ended: the outputs and the checkpoint, unless the
+        last write was too recent (:data:`CHECKPOINT_SPACING`). Always when every trial is done
+        or a stop (Ctrl-C, SIGTERM) was asked for in this step: the network stops after it."""
+        if not self._pending:
+            return
+        now = time.monotonic()
+        if (now < self._next_checkpoint and not self.training.done.all()
+                and not (Network._globally_stopped or self.cpg.net._stopped)):
+            return
+        self._pending = False
+        self.write_outputs()
+        self.write_checkpoint()
+        if self.on_checkpoint is not None:  # e.g. the manifest's inventory
+            self.on_checkpoint()
+        done = time.monotonic()
+        self._next_checkpoint = done + CHECKPOINT_SPACING * (done - now)
 
     # ---- files
     def _write_recording(self, trial: int, session: int, arrays: dict[str, Any]) -> None:
@@ -230,8 +251,7 @@ class Trainer:
         seconds. Raises :class:`TrainingStopped` (outputs and checkpoint written) when the
         simulation ended first: Brian2 turns Ctrl-C into a request to stop the run. A
         divergence raises :class:`~astrocpg.errors.Diverged` itself (outputs written, the
-        diverged session's row last; the checkpoint stays at the last session end)."""
-        import time
+        diverged session's row last; the checkpoint stays as last written)."""
         L_max = float(np.asarray(self.models.progress.parameters["L_max"].value))
         left = (self.settings.n_sessions - self.training.sessions_done.min()) * L_max
         t0 = time.perf_counter()
