@@ -10,7 +10,8 @@ after this process (``astrocpg-brian-<pid>-*``). Right after the import the file
 and removed, file logging is switched off and the folder goes. A process killed inside that
 window leaves only its own folder, and the next astrocpg process removes the folders of
 processes that no longer exist. A user who imported Brian2 before astrocpg is covered by the
-clean-up in ``network.build`` instead.
+clean-up in ``network.build`` instead. The same two places mend Brian2's Ctrl-C handler for
+processes started with SIGINT ignored (:func:`mend_interrupt_handler`).
 
 The same import leaves pylab and pytest out (:class:`_WithoutExtras`), as Brian2 allows where
 they are missing, and every command starts about 0.6 s sooner.
@@ -89,6 +90,32 @@ def close_debug_files() -> None:
     brian2.prefs.logging.save_script = False
 
 
+def mend_interrupt_handler() -> None:
+    """Brian2 replaces the SIGINT handler at import with one that stops a running network and
+    otherwise calls the handler it replaced. Where that was not a function (a process started
+    with SIGINT ignored: a background job of a shell script, ``nohup cmd &``), the call raised a
+    TypeError and an interrupt became an internal error (exit 1). An ignored SIGINT stays
+    ignored, as in any program started so (SIGTERM still interrupts: exit 130); a default one
+    becomes Python's KeyboardInterrupt. A no-op outside the main thread (signals are set
+    there only) and when Brian2's handler is no longer installed."""
+    import signal
+    import threading
+
+    brian2 = sys.modules.get("brian2")
+    handler = getattr(brian2, "_int_handler", None)
+    previous = getattr(handler, "previous_handler", None)
+    if handler is None or callable(previous):
+        return
+    if threading.current_thread() is not threading.main_thread():
+        return
+    if signal.getsignal(signal.SIGINT) is not handler:
+        return
+    if previous == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    else:  # SIG_DFL, or None: set outside Python
+        handler.previous_handler = signal.default_int_handler
+
+
 class _Loader:  # an importlib Loader (duck-typed: importlib.abc is slow to import)
     def __init__(self, inner: importlib.abc.Loader) -> None:
         self.inner = inner
@@ -113,6 +140,7 @@ class _Loader:  # an importlib Loader (duck-typed: importlib.abc is slow to impo
         try:
             self.inner.exec_module(module)
             close_debug_files()
+            mend_interrupt_handler()
         finally:
             if without in sys.meta_path:
                 sys.meta_path.remove(without)

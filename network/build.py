@@ -18,7 +18,7 @@ import brian2
 import numpy as np
 from brian2 import Network, NeuronGroup, Synapses, linked_var, ms, second
 
-from .._quiet_brian import close_debug_files
+from .._quiet_brian import close_debug_files, mend_interrupt_handler
 from ..errors import InputError
 from ..models import DEFAULT_MODELS, ModelSet
 from ..models.base import NeuronModel, SynapseModel, brian_error_line
@@ -37,8 +37,10 @@ brian2.prefs.logging.delete_log_on_exit = True
 
 # Brian2 opened its debug log and script copy at import; if it was imported before astrocpg
 # (so astrocpg._quiet_brian did not wrap that import), close and delete them now. Our errors
-# are one line naming the culprit; no process should leave Brian2's files behind.
+# are one line naming the culprit; no process should leave Brian2's files behind. Its Ctrl-C
+# handler is mended the same way (a process started with SIGINT ignored).
 close_debug_files()
+mend_interrupt_handler()
 # A network that failed validation is dropped on purpose; don't warn about its objects.
 brian2.BrianLogger.suppress_name("unused_brian_object")
 # NaN/inf in the state is reported once, in one line, by the divergence check (CPG.first_nonfinite,

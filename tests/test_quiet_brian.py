@@ -54,3 +54,51 @@ def test_a_live_process_folder_is_left_alone(tmp_path):
     nxt = python("import astrocpg.models", tmp_path)
     assert nxt.returncode == 0, nxt.stderr
     assert os.listdir(tmp_path) == [live.name]
+
+
+# Brian2's Ctrl-C handler calls the handler it replaced; in a process started with SIGINT
+# ignored (a background job of a shell script) that was SIG_IGN, and a SIGINT raised a
+# TypeError ("'Handlers' object is not callable"): `astrocpg study` ended as an internal error.
+SIGINT_TO_ITSELF = """
+import os, signal, sys, time
+{before}
+import astrocpg, brian2
+{after}
+try:
+    os.kill(os.getpid(), signal.SIGINT)
+    time.sleep(0.2)
+except KeyboardInterrupt:
+    print("KeyboardInterrupt")
+else:
+    print("ignored")
+"""
+
+
+def _ignoring_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def test_a_process_started_with_sigint_ignored_keeps_ignoring_it(tmp_path):
+    for after in ("", "import astrocpg.network"):  # the import hook, then the network's check
+        done = subprocess.run([sys.executable, "-c", SIGINT_TO_ITSELF.format(before="",
+                                                                             after=after)],
+                              capture_output=True, text=True, timeout=300,
+                              preexec_fn=_ignoring_sigint)
+        assert done.returncode == 0, done.stderr
+        assert done.stdout.strip() == "ignored"
+
+
+def test_brian2_imported_first_with_sigint_ignored_is_mended_by_the_network(tmp_path):
+    # Brian2 imported before astrocpg (its hook does not wrap that import): network.build mends
+    done = subprocess.run([sys.executable, "-c", SIGINT_TO_ITSELF.format(
+        before="import brian2", after="import astrocpg.network")],
+        capture_output=True, text=True, timeout=300, preexec_fn=_ignoring_sigint)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "ignored"
+
+
+def test_a_default_sigint_becomes_a_keyboard_interrupt(tmp_path):
+    done = python(SIGINT_TO_ITSELF.format(
+        before="signal.signal(signal.SIGINT, signal.SIG_DFL)", after=""), tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "KeyboardInterrupt"
