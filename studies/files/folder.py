@@ -453,7 +453,7 @@ def inventory(folder: str | os.PathLike,
     """``{relative POSIX path: {"bytes": int, "sha256": str, "mtime_ns": int}}`` of every file
     in ``folder`` (sub-folders included) except ``manifest.json`` and the lock files. Hashing is
     streamed; a file whose size and mtime match its entry in ``previous`` keeps that hash (a
-    training rewrites its inventory after every session without rehashing its recordings)."""
+    training rewrites its inventory at every checkpoint without rehashing its recordings)."""
     root = Path(folder)
     out: dict[str, dict[str, Any]] = {}
     previous = previous or {}
