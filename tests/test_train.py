@@ -170,3 +170,34 @@ def test_out_that_holds_a_run_is_not_overwritten(capsys, finished):
     before = _snapshot(finished)
     _fails(capsys, ["train", "--out", str(finished), "--sessions", "2"], "--resume")
     assert _snapshot(finished) == before
+
+
+def test_checkpoints_are_spaced_by_their_cost_and_the_files_stay_the_same(tmp_path, monkeypatch):
+    """Writes are spaced (CHECKPOINT_SPACING x the last write's duration): with slow writes
+    (0.1 s each) a training writes at its first session end and its last and little between,
+    where unspaced it writes at every step with a session end; the files are the same."""
+    import astrocpg.studies.experiments.train as train_module
+
+    original = train_module.Trainer.write_checkpoint
+    writes: list[list[int]] = []
+
+    def slow_write(self):
+        time.sleep(0.1)
+        writes.append(self.training.sessions_done.tolist())
+        original(self)
+
+    monkeypatch.setattr(train_module.Trainer, "write_checkpoint", slow_write)
+    args = ("--sessions", "6", "--trials", "2", "--seed", "3")
+    assert _train(tmp_path / "spaced", *args) == 0
+    spaced = list(writes)
+    writes.clear()
+    monkeypatch.setattr(train_module, "CHECKPOINT_SPACING", 0.0)
+    assert _train(tmp_path / "every", *args) == 0
+    every = list(writes)
+    assert every[0] != [0, 0] and every[-1] == [6, 6]
+    assert len(every) >= 6  # a step with a session end per session of a trial, at least
+    assert spaced[0] == every[0] and spaced[-1] == [6, 6]
+    assert len(spaced) <= len(every) // 2, (spaced, every)
+    for name in ("sessions.csv", "weights.npz"):
+        assert (tmp_path / "spaced" / name).read_bytes() == \
+            (tmp_path / "every" / name).read_bytes(), name

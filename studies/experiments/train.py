@@ -248,7 +248,8 @@ class Trainer:
     # ---- run
     def run(self) -> float:
         """Run until every trial has done its sessions and write the outputs; returns wall
-        seconds. Raises :class:`TrainingStopped` (outputs and checkpoint written) when the
+        seconds. Raises :class:`TrainingStopped` (outputs written; the checkpoint at the step
+        the stop was asked in, or if it came after that step's write, the last one) when the
         simulation ended first: Brian2 turns Ctrl-C into a request to stop the run. A
         divergence raises :class:`~astrocpg.errors.Diverged` itself (outputs written, the
         diverged session's row last; the checkpoint stays as last written)."""
