@@ -269,8 +269,10 @@ def test_train_interrupted_after_sessions_resumes_to_the_same_result(sig, childr
                                                                      baseline):
     out = tmp_path / "train"
     c = children("train", *TRAIN, "--out", out)
-    # the first checkpoint comes at the first session end; later ones are spaced (train.py)
-    assert c.until(lambda: rows(out) >= 1, "the first session", poll=0.01), c.stderr
+    # the first checkpoint comes at the first session end, after sessions.csv; later ones are
+    # spaced (train.py), so the signal goes once the first is whole (renamed into place)
+    assert c.until(lambda: (out / "checkpoint.pkl").exists(), "the first checkpoint",
+                   poll=0.01), c.stderr
     c.signal(sig)
     code = c.finish()
     assert rows(out) < 10, "the signal came too late to test anything"

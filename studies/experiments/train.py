@@ -130,8 +130,9 @@ class Trainer:
         if not self._pending:
             return
         now = time.monotonic()
-        if (now < self._next_checkpoint and not self.training.done.all()
-                and not (Network._globally_stopped or self.cpg.net._stopped)):
+        # the session loop stops the network in the step its last trial finished (net._stopped)
+        if (now < self._next_checkpoint
+                and not (self.cpg.net._stopped or Network._globally_stopped)):
             return
         self._pending = False
         self.write_outputs()
