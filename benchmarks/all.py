@@ -15,7 +15,8 @@ on this machine.
   second (trainings now space them: at most 2 % of the wall time).
 - **Projected ablation** (2 conditions x 20 seeds x 400 sessions, one run of 20 seeds per
   condition): each run's simulated time (its slowest trial's sessions: 3713 s with astrocytes and
-  2675 s without in the measured run of ``docs/ablation/cython_2cores``) times the wall seconds
+  2675 s without in the measured run of ``docs/ablation/cython_2cores``, from
+  ``python docs/ablation/gaits.py OUT/results.csv``) times the wall seconds
   per simulated second measured above at 20 trials, the runs scheduled longest first on
   ``--workers``. That measured run took 55 min 14 s against 53.5 min projected from the sitting's
   0.865 s (two runs side by side are a few % slower than one alone). Then the batch that
