@@ -19,6 +19,7 @@ apart from the message, and formats the one line in one place: ``<culprit>: <mes
 
 from __future__ import annotations
 
+import difflib
 from typing import Any
 
 EXIT_CODES = {"done": 0, "environment": 1, "input": 2, "diverged": 3, "interrupted": 130}
@@ -28,6 +29,25 @@ def one_line(text: str, limit: int = 600) -> str:
     """Collapse whitespace and newlines: a message is always one line."""
     line = " ".join(str(text).split())
     return line if len(line) <= limit else line[:limit - 3] + "..."
+
+
+def did_you_mean(name: str, choices: Any, cutoff: float = 0.6) -> str:
+    """`` (did you mean X?)`` naming the closest of ``choices`` to a misspelt ``name``
+    (difflib's similarity ratio, at least ``cutoff``; names as close as the closest are named
+    too, up to three), else ``""``: the one way every "unknown ..." message of the project
+    suggests a name (a parameter, a model, a command, an option). A difference of case alone
+    is the closest."""
+    name = str(name)
+    choices = [c for c in dict.fromkeys(str(c) for c in choices) if c != name]
+    same_case = [c for c in choices if c.lower() == name.lower()]
+    if same_case:
+        hints = same_case[:3]
+    else:
+        scored = sorted(((difflib.SequenceMatcher(None, name, c).ratio(), c) for c in choices),
+                        key=lambda sc: -sc[0])
+        best = scored[0][0] if scored else 0.0
+        hints = [c for r, c in scored if r >= cutoff and r >= best - 0.02][:3]
+    return f" (did you mean {' or '.join(hints)}?)" if hints else ""
 
 
 class AstrocpgError(Exception):
@@ -92,4 +112,4 @@ def _rebuild_diverged(message: str, culprit: Any, t: float | None, trial: int | 
 
 
 __all__ = ["AstrocpgError", "InputError", "EnvironmentFault", "Diverged", "EXIT_CODES",
-           "one_line"]
+           "one_line", "did_you_mean"]

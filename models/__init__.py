@@ -16,7 +16,7 @@ from typing import Any, Iterator, Mapping
 import brian2
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 from .values import example_value, parse_value, unit_spelling
 from .alive import ALIVE
 from .astrocyte import ASTROCYTE
@@ -93,14 +93,17 @@ class ModelSet:
         names = [f.name for f in dataclasses.fields(self)]
         for name in models:
             if name not in names:
-                raise InputError(f"unknown model (models: {', '.join(names)})", culprit=name)
+                raise InputError(f"unknown model{did_you_mean(name, names)} (models: "
+                                 f"{', '.join(names)})", culprit=name)
         return dataclasses.replace(self, **models)
 
     def owner_of(self, parameter: str) -> str:
         for model_name, model in self.items():
             if parameter in model.parameters:
                 return model_name
-        raise InputError("unknown model parameter", culprit=parameter)
+        known = [p for _, model in self.items() for p in model.parameters]
+        raise InputError(f"unknown model parameter{did_you_mean(parameter, known)}",
+                         culprit=parameter)
 
     def parameter(self, name: str) -> Parameter:
         return getattr(self, self.owner_of(name)).parameters[name]
@@ -121,7 +124,10 @@ class ModelSet:
         name, sep, expr = (s.strip() for s in text.partition("="))
         if not sep or not name:
             raise InputError("expected NAME=VALUE", culprit=f"--set '{text}'")
-        param = self.parameter(name)
+        try:
+            param = self.parameter(name)
+        except InputError as e:  # name what the user typed: the option and the name
+            raise InputError(e.message, culprit=f"--set {name}") from None
         value = parse_value(expr, culprit=f"--set {name}")
         if brian2.get_dimensions(value) != param.dimensions:
             raise InputError(f"needs units of {unit_spelling(param.value)}, e.g. "
@@ -148,7 +154,8 @@ class ModelSet:
         models = {}
         for name, entry in data.items():
             if name not in names:
-                raise InputError(f"unknown model (models: {', '.join(names)})", culprit=name)
+                raise InputError(f"unknown model{did_you_mean(name, names)} (models: "
+                                 f"{', '.join(names)})", culprit=name)
             models[name] = Model.from_json(entry, name=name)
         return cls(**models)
 

@@ -29,7 +29,7 @@ from brian2.units.fundamentalunits import (
     get_or_create_dimension,
 )
 
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 from .integration import method_name, registered_methods
 from .values import compile_expression, example_value, unit_spelling
 
@@ -106,7 +106,8 @@ class ParameterTable(Mapping[str, Parameter]):
         try:
             return self._parameters[name]
         except KeyError:
-            raise InputError("unknown parameter", culprit=f"{self.owner}.{name}") from None
+            raise InputError(f"unknown parameter{did_you_mean(name, self._parameters)}",
+                             culprit=f"{self.owner}.{name}") from None
 
     def __contains__(self, name: object) -> bool:
         return name in self._parameters
@@ -129,7 +130,8 @@ class ParameterTable(Mapping[str, Parameter]):
         new = []
         for name in values:
             if name not in self._parameters:
-                raise InputError("unknown parameter", culprit=f"{self.owner}.{name}")
+                raise InputError(f"unknown parameter{did_you_mean(name, self._parameters)}",
+                                 culprit=f"{self.owner}.{name}")
         for name, p in self._parameters.items():
             if name in values:
                 value = values[name]

@@ -34,9 +34,24 @@ import warnings
 from pathlib import Path
 from typing import Any, Callable, NoReturn, Sequence
 
-from ..errors import AstrocpgError, EnvironmentFault, InputError, one_line
+from ..errors import AstrocpgError, EnvironmentFault, InputError, did_you_mean, one_line
 
 DEFAULT_RUN_OUT = "out/run"
+DESCRIPTION = """\
+astrocpg simulates a spiking central pattern generator with astrocytes (Brian2) that drives
+a simulated Unitree A1 quadruped (MuJoCo), and learns its gait by reward-modulated STDP.
+
+typical use:
+  astrocpg run --seconds 10 --out out/run         the CPG drives the robot, weights fixed
+  astrocpg train --sessions 400 --out out/train   learn a gait; --resume continues it
+  astrocpg gait out/train                         name the gait the training learnt
+  astrocpg plot out/run                           figures of any output folder
+  astrocpg video out/run                          the robot replayed as MP4
+  astrocpg study quick                            a parameter study (TOML), resumable
+
+Every command writes one output folder (whole, or nothing). 'astrocpg COMMAND --help' lists
+a command's options with their defaults; '--set NAME=VALUE' overrides a model parameter
+(with units, e.g. --set tau_motor=9*ms), and 'astrocpg describe' shows the equations."""
 EXIT_HELP = """exit codes:
   0    done
   1    environment: a file or folder could not be read or written (disk full, permissions)
@@ -52,9 +67,58 @@ class _Parser(argparse.ArgumentParser):
         kwargs.setdefault("formatter_class", argparse.RawDescriptionHelpFormatter)
         super().__init__(*args, **kwargs)
 
-    def error(self, message: str) -> None:  # one line, exit 2 (argparse prints usage too)
+    def error(self, message: str) -> NoReturn:  # one line, exit 2 (argparse prints usage too)
         sys.stderr.write(f"astrocpg: error: {one_line(message)}\n")
         raise SystemExit(2)
+
+    def _check_value(self, action: argparse.Action, value: Any) -> None:
+        # a misspelt command gets the closest name (argparse's own message lists them all)
+        if action.choices is not None and value not in action.choices:
+            raise argparse.ArgumentError(
+                action, f"invalid choice: {value!r}{did_you_mean(value, action.choices)} "
+                        f"(choose from {', '.join(map(str, action.choices))})")
+
+    def parse_args(self, args: Sequence[str] | None = None,  # type: ignore[override]
+                   namespace: argparse.Namespace | None = None) -> argparse.Namespace:
+        """argparse's, with the closest option named for a misspelt one (of the command
+        typed: its options, not the top level's)."""
+        ns, extras = self.parse_known_args(args, namespace)
+        if extras:
+            options = [o for a in _chosen_parsers(self, ns)[-1]._actions for o in a.option_strings]
+            said = [x + (did_you_mean(x.split("=", 1)[0], options) if x.startswith("-") else "")
+                    for x in extras]
+            self.error(f"unrecognized arguments: {' '.join(said)}")
+        return ns
+
+
+def _chosen_parsers(parser: argparse.ArgumentParser,
+                    ns: argparse.Namespace) -> list[argparse.ArgumentParser]:
+    """The parser and the (sub)command parsers chosen in ``ns``, outermost first."""
+    chain = [parser]
+    while True:
+        groups = [a for a in chain[-1]._actions if isinstance(a, argparse._SubParsersAction)]
+        chosen = [a.choices[getattr(ns, a.dest)] for a in groups
+                  if getattr(ns, a.dest, None) in a.choices]
+        if not chosen:
+            return chain
+        chain.append(chosen[0])
+
+
+def _command_list(parser: argparse.ArgumentParser, ns: argparse.Namespace) -> str | None:
+    """What a command group typed alone (``astrocpg``, ``astrocpg models``...) prints: its
+    commands, one line each; None when the command typed is complete."""
+    last = _chosen_parsers(parser, ns)[-1]
+    groups = [a for a in last._actions if isinstance(a, argparse._SubParsersAction)]
+    if not groups or getattr(ns, groups[0].dest, None) is not None:
+        return None
+    lines = [last.format_usage().rstrip(), ""]
+    if last.description:
+        lines += [last.description.rstrip(), ""]
+    lines.append("commands:")
+    for choice in groups[0]._choices_actions:  # one per command, with its help
+        lines.append(f"  {choice.dest:10s} {choice.help or ''}")
+    lines += ["", f"'{last.prog} COMMAND --help' shows a command's options."]
+    return "\n".join(lines) + "\n"
 
 
 def _csv_list(text: str) -> tuple[str, ...]:
@@ -84,7 +148,12 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
                    help="replace the equation string of MODEL (e.g. motor_neuron) by FILE's text")
     _add_model_file_option(p)
     _add_codegen_option(p)
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_no_progress(p)
+
+
+def _add_no_progress(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress bar on stderr (default: a bar while it works)")
 
 
 def _add_codegen_option(p: argparse.ArgumentParser) -> None:
@@ -96,13 +165,13 @@ def _add_codegen_option(p: argparse.ArgumentParser) -> None:
 
 def _add_simulation_options(p: argparse.ArgumentParser, seconds: float) -> None:
     p.add_argument("--seconds", type=float, default=seconds,
-                   help=f"simulated time in s (default {seconds:g})")
+                   help=f"simulated time in s (default {seconds:g} s)")
     p.add_argument("--seed", type=int, default=1, help="seed of trial 0 (default 1)")
     p.add_argument("--trials", type=int, default=1,
                    help="independent trials, seeds K, K+1, ... (default 1)")
     p.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
                    help="sampling interval of the Ca2+/IP3/2-AG/adenosine traces in ms "
-                        "(default 1)")
+                        "(default 1 ms)")
 
 
 def _add_overwrite(p: argparse.ArgumentParser) -> None:
@@ -111,14 +180,16 @@ def _add_overwrite(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="astrocpg", description=__doc__.split("\n\n")[0], epilog=EXIT_HELP,
+    parser = _Parser(prog="astrocpg", description=DESCRIPTION, epilog=EXIT_HELP,
                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=False, parser_class=_Parser,
+                                metavar="COMMAND", help="what to do (alone: lists the commands)")
 
     unit = sub.add_parser("unit", help="one locomotion unit, open loop (paper Fig. 1c)",
                           epilog=EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     _add_simulation_options(unit, seconds=30.0)
-    unit.add_argument("--out", required=True)
+    unit.add_argument("--out", required=True, metavar="DIR",
+                      help="output folder (required; new or empty, --overwrite replaces it)")
     _add_overwrite(unit)
     _add_record_options(unit)
     _add_model_options(unit)
@@ -126,14 +197,20 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="the closed loop: CPG drives the A1 (fixed weights)",
                          epilog=EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     _add_simulation_options(run, seconds=10.0)
-    run.add_argument("--weights", help="8x8 inter-limb table in mV (.npy, .csv/.txt, .json), or "
-                     "a training folder (its final weights)")
+    run.add_argument("--weights", metavar="FILE|DIR",
+                     help="8x8 inter-limb table in mV (.npy, .csv/.txt, .json), or a training "
+                          "folder (its final weights); default: all zero, limbs uncoupled")
     run.add_argument("--trial", type=int, default=None,
-                     help="with --weights DIR: use that trial's table for every trial")
-    run.add_argument("--robot", help="an MJCF file with the A1's joint and actuator names")
+                     help="with --weights DIR: use that trial's table for every trial "
+                          "(default: trial k's table for trial k)")
+    run.add_argument("--robot", metavar="XML",
+                     help="an MJCF file with the A1's joint and actuator names (default: the "
+                          "project's A1, as 'astrocpg robot export' writes it)")
     run.add_argument("--robot-stride", type=int, default=1, metavar="STEPS",
                      help="record the robot every STEPS physics steps (default 1)")
-    run.add_argument("--out", default=DEFAULT_RUN_OUT)
+    run.add_argument("--out", default=DEFAULT_RUN_OUT, metavar="DIR",
+                     help=f"output folder, new or empty (default {DEFAULT_RUN_OUT}; --overwrite "
+                          f"replaces it)")
     run.add_argument("--figure", action="store_true",
                      help="also draw thigh_extensor_activity.png in --out (about 1 s; "
                      "'astrocpg plot OUT' draws every figure of the folder later)")
@@ -143,27 +220,36 @@ def build_parser() -> argparse.ArgumentParser:
 
     train = sub.add_parser("train", help="gait learning over sessions (reward-modulated STDP)",
                            epilog=EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    train.add_argument("--sessions", type=int, default=None, help="sessions per trial (400)")
-    train.add_argument("--seed", type=int, default=None, help="seed (1)")
-    train.add_argument("--trials", type=int, default=None, help="independent trials (1)")
+    train.add_argument("--sessions", type=int, default=None,
+                       help="sessions per trial (default 400; with --resume: the run's own)")
+    train.add_argument("--seed", type=int, default=None,
+                       help="seed of trial 0; trial k has seed K+k (default 1)")
+    train.add_argument("--trials", type=int, default=None,
+                       help="independent trials, trained side by side (default 1)")
     train.add_argument("--no-astrocytes", action="store_true", default=None,
                        help="remove the adenosine term (the paper's ablation)")
-    train.add_argument("--out", help="output folder (new, or empty)")
-    train.add_argument("--resume", metavar="DIR", help="continue the run in DIR")
+    train.add_argument("--out", metavar="DIR",
+                       help="output folder, new or empty (required unless --resume)")
+    train.add_argument("--resume", metavar="DIR",
+                       help="continue the interrupted run in DIR from its last checkpoint")
     _add_overwrite(train)
     train.add_argument("--record-every", type=int, default=None, metavar="N",
                        help="record sessions 1, 1+N, 1+2N... and the last of each trial "
-                            "(spikes, traces, robot) into DIR/recordings/")
+                            "(spikes, traces, robot) into DIR/recordings/ (default: none)")
     train.add_argument("--record-stride", type=int, default=1, metavar="STEPS",
-                       help="with --record-every: steps between trace and robot samples (1)")
+                       help="with --record-every: physics steps (1 ms) between trace and robot "
+                            "samples (default 1)")
     _add_record_options(train)
     _add_model_options(train)
 
     gait = sub.add_parser("gait", help="run trained weights and name the gait")
     gait.add_argument("dir", help="a training folder")
-    gait.add_argument("--seconds", type=float, default=10.0)
-    gait.add_argument("--seed", type=int, default=1)
-    gait.add_argument("--no-progress", action="store_true")
+    gait.add_argument("--seconds", type=float, default=10.0,
+                      help="simulated time of the run with the trained weights, in s "
+                           "(default 10 s; the gait is read from its second half)")
+    gait.add_argument("--seed", type=int, default=1,
+                      help="seed of the run's noise (default 1)")
+    _add_no_progress(gait)
     _add_codegen_option(gait)
 
     ev = sub.add_parser("evaluate", help="trained controllers, learning off, in other worlds "
@@ -173,64 +259,74 @@ def build_parser() -> argparse.ArgumentParser:
                     help="a worlds file (TOML: [worlds.NAME] tables of world parameters, "
                          "and/or [grid.AXIS] with values = [...] and, for factors, scale = "
                          "[parameters]) or 'robustness' (flat, slopes +-0.09 and +-0.17 rad, "
-                         "rough terrain 1 and 2 cm, friction 0.3, a 60 N push)")
-    ev.add_argument("--seconds", type=float, default=10.0, help="per evaluation run (10)")
+                         "rough terrain 1 and 2 cm, friction 0.3, a 60 N push; the default)")
+    ev.add_argument("--seconds", type=float, default=10.0,
+                    help="simulated time of each evaluation run, in s (default 10 s)")
     ev.add_argument("--repeats", type=int, default=2,
-                    help="runs per controller and world, each with its own noise (2)")
-    ev.add_argument("--seed", type=int, default=1)
+                    help="runs per controller and world, each with its own noise (default 2)")
+    ev.add_argument("--seed", type=int, default=1,
+                    help="seed of the first repeat's noise; repeat r has seed K+r (default 1)")
     ev.add_argument("--condition", action="append", default=None, metavar="NAME",
                     help="only a study's runs of this condition (repeatable; default all)")
-    ev.add_argument("--out", default=None, help="default DIR/evaluation (replaced whole)")
-    ev.add_argument("--overwrite", action="store_true")
+    ev.add_argument("--out", default=None, metavar="OUT",
+                    help="output folder (default DIR/evaluation, replaced whole each time)")
+    _add_overwrite(ev)
     ev.add_argument("--workers", type=int, default=None,
                     help="run the (training, world) cells on a local Dask cluster of N processes "
                          "(default: one after the other, here)")
     ev.add_argument("--scheduler", metavar="ADDRESS",
-                    help="run the cells on a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
-    ev.add_argument("--no-progress", action="store_true")
+                    help="run the cells on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 "
+                         "(default: none)")
+    _add_no_progress(ev)
     _add_codegen_option(ev)
 
     plot = sub.add_parser("plot", help="figures of any output folder (unit, run, training, "
                                        "recorded session, study run)")
     plot.add_argument("dir", help="an output folder of unit, run, train or a study's run, or a "
                                   "recorded session (TRAINING/recordings/...)")
-    plot.add_argument("--trial", type=int, default=0, help="which trial (0)")
+    plot.add_argument("--trial", type=int, default=0, help="which trial (default 0)")
     plot.add_argument("--window", type=float, nargs=2, metavar=("T0", "T1"), default=None,
                       help="time window in s (default: the whole recording; a training: the "
                            "last 2 s of its run)")
-    plot.add_argument("--format", default="png", help="png (default), pdf or svg")
+    plot.add_argument("--format", default="png", help="png, pdf or svg (default png)")
     plot.add_argument("--seconds", type=float, default=10.0,
-                      help="a training: length of the run with the trained weights (for "
-                           "activity and gait)")
-    plot.add_argument("--out", help="figure folder (default DIR/figures, replaced on each plot)")
+                      help="a training: simulated time of the run with the trained weights, "
+                           "in s, for its activity and gait figures (default 10 s)")
+    plot.add_argument("--out", metavar="OUT",
+                      help="figure folder (default DIR/figures, replaced on each plot)")
     _add_overwrite(plot)
+    _add_no_progress(plot)
 
     vid = sub.add_parser("video", help="the recorded robot replayed as MP4 (MuJoCo offscreen; "
                                        "MUJOCO_GL honoured, else EGL then OSMesa)")
     vid.add_argument("dir", help="a run, a recorded training session, or a training (its "
                                  "trial's last recorded session)")
-    vid.add_argument("--trial", type=int, default=0, help="which trial (0)")
-    vid.add_argument("--fps", type=float, default=30.0, help="frames per second of video (30)")
+    vid.add_argument("--trial", type=int, default=0, help="which trial (default 0)")
+    vid.add_argument("--fps", type=float, default=30.0,
+                     help="frames per second of video (default 30)")
     vid.add_argument("--speed", type=float, default=1.0,
-                     help="simulated seconds per second of video (1: real time)")
+                     help="simulated seconds per second of video (default 1: real time)")
     vid.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), default=(640, 480),
-                     help="frame size in pixels (640 480)")
-    vid.add_argument("--out", help="MP4 file (default DIR/video_trialTT.mp4, replaced each time)")
+                     help="frame size in pixels, even numbers (default 640 480)")
+    vid.add_argument("--out", metavar="FILE",
+                     help="MP4 file (default DIR/video_trialTT.mp4, replaced each time)")
     vid.add_argument("--panel", action="store_true",
                      help="a panel under the frames, scrolling with them: time, forward speed, "
                           "gait diagram, thigh-pool activity and astrocyte Ca2+ (those recorded)")
-    vid.add_argument("--no-progress", action="store_true")
+    _add_no_progress(vid)
     _add_overwrite(vid)
 
     study = sub.add_parser("study", help="a parameter study (TOML) on Dask; resumable")
     study.add_argument("file", help="study file, e.g. studies/sweeps/quick.toml, or a built-in "
                                     "study's name (quick, ablation)")
-    study.add_argument("--out", help="study folder (default: out/<study name>)")
+    study.add_argument("--out", metavar="DIR",
+                       help="study folder (default out/<study name>; rerunning continues it)")
     study.add_argument("--workers", type=int, default=None,
                        help="local cluster size (default: one worker per core)")
     study.add_argument("--scheduler", metavar="ADDRESS",
-                       help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786")
-    study.add_argument("--no-progress", action="store_true")
+                       help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (default: "
+                            "a local cluster)")
+    _add_no_progress(study)
     _add_codegen_option(study)
     _add_overwrite(study)
 
@@ -239,29 +335,35 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument("--smooth", type=int, default=1, metavar="N",
                         help="plot each seed's trailing mean over N sessions (default 1: raw)")
     report.add_argument("--last", type=int, default=50,
-                        help="sessions at the end over which final figures are averaged (50)")
-    report.add_argument("--out", help="report folder (default DIR/report, replaced each time)")
+                        help="sessions at the end over which final figures are averaged "
+                             "(default 50; fewer where a seed trained fewer, and it says so)")
+    report.add_argument("--out", metavar="OUT",
+                        help="report folder (default DIR/report, replaced each time)")
     _add_overwrite(report)
 
     power = sub.add_parser("power", help="SNN vs RL power estimate of a trained controller")
     power.add_argument("dir", help="a training folder (astrocpg train, or a study's run)")
-    power.add_argument("--trial", type=int, default=0, help="which trial's weights (0)")
-    power.add_argument("--sessions", type=int, default=10, help="sessions to measure (10)")
-    power.add_argument("--no-progress", action="store_true")
+    power.add_argument("--trial", type=int, default=0, help="which trial's weights (default 0)")
+    power.add_argument("--sessions", type=int, default=10,
+                       help="sessions to measure (default 10)")
+    _add_no_progress(power)
     _add_codegen_option(power)
 
     exp = sub.add_parser("export", help="a run or unit folder as NWB or npz")
     exp.add_argument("dir", help="output of astrocpg run or unit")
-    exp.add_argument("--format", default="nwb", help="nwb (default) or npz")
-    exp.add_argument("--out", help="file to write (default DIR.<format>, beside DIR)")
+    exp.add_argument("--format", default="nwb", help="nwb or npz (default nwb)")
+    exp.add_argument("--out", metavar="FILE",
+                     help="file to write (default DIR.<format>, beside DIR)")
     exp.add_argument("--experimenter", action="append", default=[], metavar="'LAST, FIRST'",
-                     help="who ran the simulation (repeatable), recorded in the file")
-    exp.add_argument("--institution", help="where it was run, recorded in the file")
+                     help="who ran the simulation (repeatable), recorded in the file "
+                          "(default: none)")
+    exp.add_argument("--institution", metavar="TEXT",
+                     help="where it was run, recorded in the file (default: none)")
     _add_overwrite(exp)
 
     desc = sub.add_parser("describe", help="a model's equations (sympy) and parameter table")
     desc.add_argument("model", nargs="?", help="one model (default: all)")
-    desc.add_argument("--format", default="markdown", help="markdown (default) or latex")
+    desc.add_argument("--format", default="markdown", help="markdown or latex (default markdown)")
     desc.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
                       help="describe MODEL with the equation string of FILE")
     desc.add_argument("--set", dest="overrides", action="append", default=[],
@@ -269,10 +371,13 @@ def build_parser() -> argparse.ArgumentParser:
     _add_model_file_option(desc)
 
     mods = sub.add_parser("models", help="list the models, or dump one as a model file (TOML)")
-    mods_sub = mods.add_subparsers(dest="models_command", required=True, parser_class=_Parser)
+    mods_sub = mods.add_subparsers(dest="models_command", required=False, parser_class=_Parser,
+                                   metavar="COMMAND",
+                                   help="list or dump (alone: lists these commands)")
     mods_sub.add_parser("list", help="the models, their kinds and interfaces")
     dump = mods_sub.add_parser("dump", help="print MODEL as a model file (TOML)")
-    dump.add_argument("name", metavar="MODEL")
+    dump.add_argument("name", metavar="MODEL",
+                      help="the model to dump (e.g. astrocyte; 'astrocpg models list' names them)")
     dump.add_argument("--set", dest="overrides", action="append", default=[],
                       metavar="NAME=VALUE", help="dump with a parameter overridden")
     dump.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
@@ -280,9 +385,11 @@ def build_parser() -> argparse.ArgumentParser:
     _add_model_file_option(dump)
 
     robot = sub.add_parser("robot", help="the project's A1 model")
-    robot_sub = robot.add_subparsers(dest="robot_command", required=True, parser_class=_Parser)
+    robot_sub = robot.add_subparsers(dest="robot_command", required=False, parser_class=_Parser,
+                                     metavar="COMMAND",
+                                     help="export (alone: lists these commands)")
     export = robot_sub.add_parser("export", help="write the A1 model as MJCF")
-    export.add_argument("path")
+    export.add_argument("path", metavar="PATH.xml", help="the MJCF file to write")
     _add_overwrite(export)
     return parser
 
@@ -380,7 +487,12 @@ def entry() -> NoReturn:
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    listing = _command_list(parser, args)
+    if listing is not None:  # a command group alone lists what it can do
+        sys.stdout.write(listing)
+        return 0
     _survive_any_bytes()
     warnings.filterwarnings("ignore", module="brian2")
     # Brian2 logs a second line on Ctrl-C ("Simulation stop requested"): we say "interrupted"
@@ -690,7 +802,8 @@ def _cmd_models(args: argparse.Namespace) -> int:
                   f"{label}: {', '.join(interface) or '-'}")
         return 0
     if args.name not in known:
-        raise InputError(f"unknown model (models: {', '.join(known)})", culprit=args.name)
+        raise InputError(f"unknown model{did_you_mean(args.name, known)} (models: "
+                         f"{', '.join(known)})", culprit=args.name)
     sys.stdout.write(model_to_toml(known[args.name]))
     return 0
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-from ...errors import InputError
+from ...errors import InputError, did_you_mean
 from ...models import DEFAULT_MODELS, ModelSet
 from ...models.values import finite_number
 
@@ -92,7 +92,8 @@ def model_set(overrides: Overrides | None = None,
     for name, item in (files or {}).items():
         culprit = f"{option} {name}"
         if name not in known:
-            raise InputError(f"unknown model (models: {', '.join(known)})", culprit=culprit)
+            raise InputError(f"unknown model{did_you_mean(name, known)} (models: "
+                             f"{', '.join(known)})", culprit=culprit)
         if isinstance(item, Mapping):  # a manifest's record: {"sha256", "content"}
             text = item.get("content")
             if not isinstance(text, str):
@@ -115,8 +116,8 @@ def model_set(overrides: Overrides | None = None,
     for name, text in (equations or {}).items():
         model = known.get(name)
         if model is None:
-            raise InputError(f"unknown model '{name}' (models: {', '.join(known)})",
-                             culprit="--equations")
+            raise InputError(f"unknown model '{name}'{did_you_mean(name, known)} (models: "
+                             f"{', '.join(known)})", culprit="--equations")
         model = model.with_code(text)
         check_interface(model, INTERFACES.get(name, ()), culprit=f"--equations {name}")
         models = models.replace(**{name: model})

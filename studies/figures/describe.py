@@ -15,7 +15,7 @@ from brian2 import Equations
 from brian2.equations.equations import DIFFERENTIAL_EQUATION, SUBEXPRESSION
 from brian2.parsing.sympytools import str_to_sympy
 
-from ...errors import InputError
+from ...errors import InputError, did_you_mean
 from ...models import DEFAULT_MODELS, ModelSet
 
 def _symbol_names(model: Any) -> dict[sympy.Symbol, str]:
@@ -107,8 +107,9 @@ def _models(name: str | None, models: ModelSet) -> list[tuple[str, Any]]:
         return items
     found = [(n, m) for n, m in items if n == name]
     if not found:
-        raise InputError(f"unknown model '{name}' "
-                         f"(models: {', '.join(n for n, _ in items)})", culprit=f"describe")
+        names = [n for n, _ in items]
+        raise InputError(f"unknown model '{name}'{did_you_mean(name, names)} "
+                         f"(models: {', '.join(names)})", culprit=f"describe")
     return found
 
 

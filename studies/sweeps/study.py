@@ -62,7 +62,7 @@ import numpy as np
 
 from ...coupling.recorder import RecordPlan
 from ...coupling.training import SESSION_COLUMNS
-from ...errors import EnvironmentFault, InputError
+from ...errors import EnvironmentFault, InputError, did_you_mean
 from ...models import DEFAULT_MODELS
 from ..experiments.cluster import connect_cluster, run_on_cluster
 from ..experiments.resources import (available_memory, check_memory, estimate_bytes,
@@ -274,7 +274,7 @@ def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
     base_files = {}
     for slot, file in models_doc.items():
         if slot not in slots:
-            raise InputError(f"[models] unknown model '{slot}' (models: "
+            raise InputError(f"[models] unknown model '{slot}'{did_you_mean(slot, slots)} (models: "
                              f"{', '.join(sorted(slots))})", culprit=where)
         base_files[slot] = _model_file(p, slot, file, f"{where} [models]")
     models = model_set(models=base_files, option=f"{where} [models]")
