@@ -136,11 +136,14 @@ class Replay:
 
     def frames(self, samples: np.ndarray, *, on_frame: Callable[[int], None] | None = None
                ) -> Iterator[np.ndarray]:
-        """The frames of ``samples`` (sample indices), in order."""
+        """The frames of ``samples`` (sample indices), in order. ``on_frame(n)`` is called as
+        the n-th frame is rendered, before it is handed out (after the ``yield`` it would miss
+        the last frame: a consumer such as ``zip`` never resumes the generator for it)."""
         for j, k in enumerate(samples):
-            yield self.frame(int(k))
+            frame = self.frame(int(k))
             if on_frame is not None:
                 on_frame(j + 1)
+            yield frame
 
     def close(self) -> None:
         self.renderer.close()

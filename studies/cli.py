@@ -684,7 +684,8 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     from .experiments.see import plot
 
     written = plot(args.dir, trial=args.trial, window=args.window, fmt=args.format,
-                   seconds=args.seconds, out=args.out, overwrite=args.overwrite)
+                   seconds=args.seconds, out=args.out, overwrite=args.overwrite,
+                   progress=not args.no_progress)
     print(f"wrote {len(written)} figure(s): {', '.join(str(p) for p in written)}")
     return 0
 

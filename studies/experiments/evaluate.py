@@ -395,7 +395,7 @@ def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],
     """Run the cells of ``todo`` here or on Dask, saving each as it ends (into ``done`` and
     ``parts``). On Dask, cells are handed out as threads free up, largest batches first: the
     same dispatch as a study's runs (no cell waits on a busy worker while another is idle)."""
-    from tqdm.auto import tqdm
+    from .progress import Bar as tqdm  # warnings wait until the bar closes
 
     bar = tqdm(total=n_cells, initial=len(done), unit="cell", desc="evaluate",
                disable=not progress, dynamic_ncols=True)

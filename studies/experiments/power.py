@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from tqdm.auto import tqdm
 
 from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import ORDER_MEASURE
@@ -27,6 +26,7 @@ from ...coupling.training import Training
 from ...errors import InputError
 from ..files.folder import verify
 from ..files.weights import load_weights
+from .progress import Bar as tqdm  # warnings wait until the bar closes
 from .resources import check_memory, estimate_bytes
 from .settings import model_set, number
 

@@ -10,10 +10,12 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError
-from ..figures.traces import FORMATS, recorded_span, save_figures, trace_figures
+from ..figures.traces import (FIGURE_FUNCTIONS, FORMATS, recorded_span, save_figures,
+                              trace_figures)
 from ..files.folder import OutputFolder
 from ..files.outputs import write_manifest
 from ..files.result import Result, load
+from .progress import Bar
 from .trained import FIGURES, plot_training
 
 
@@ -40,7 +42,7 @@ def _check_window(window: Any, span: tuple[float, float] | None) -> tuple[float,
 
 def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "png",
          seconds: float = 10.0, out: str | Path | None = None,
-         overwrite: bool = False) -> list[Path]:
+         overwrite: bool = False, progress: bool = True) -> list[Path]:
     """The figures of any output folder, into ``out`` (default ``folder/figures``, replaced
     whole on every plot); returns the paths written.
 
@@ -48,7 +50,9 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     activity, motor-neuron Ca2+, each astrocyte, joints, torso path, gait diagram; those the
     recording allows), no new simulation. training (or a study's run): its figures from a run
     of ``seconds`` with its trained weights, and the trace figures of the trial's last recorded
-    session. ``window`` (T0, T1) in s; ``fmt``: png, pdf or svg."""
+    session. ``window`` (T0, T1) in s; ``fmt``: png, pdf or svg. ``progress``: a bar on
+    stderr, a step per kind of figure drawn and per figure written (and the run's own bar, for
+    a training)."""
     if fmt not in FORMATS:
         raise InputError(f"unknown format (formats: {', '.join(FORMATS)})",
                          culprit=f"--format {fmt}")
@@ -56,22 +60,27 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     result = load(folder)
     if result.kind == "train":
         return plot_training(folder, trial=trial, seconds=seconds, out=out,
-                             overwrite=overwrite, fmt=fmt, window=_check_window(window, None))
+                             overwrite=overwrite, fmt=fmt, window=_check_window(window, None),
+                             progress=progress)
     _check_trial(result, trial)
     span = recorded_span(result)
     win = _check_window(window, span) or span
     target = Path(out) if out is not None else folder / FIGURES
     OutputFolder(target, overwrite=overwrite or out is None).check()
-    figures = trace_figures(result, trial, win)
-    if not figures:
-        raise InputError("recorded nothing to draw (no spikes, traces or robot)",
-                         culprit=str(folder))
-    with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
-        paths = save_figures(figures, tmp, fmt)
-        write_manifest(tmp, command="plot", seed=int(result.manifest.get("seed", 0) or 0),
-                       models_json={}, files={p.name: "figure" for p in paths},
-                       settings={"folder": os.path.abspath(folder), "trial": trial,
-                                 "window": list(win) if win else None, "format": fmt})
+    with Bar(total=len(FIGURE_FUNCTIONS), unit="step", desc="plot",
+             disable=not progress) as bar:
+        figures = trace_figures(result, trial, win, on_part=lambda: bar.update(1))
+        if not figures:
+            raise InputError("recorded nothing to draw (no spikes, traces or robot)",
+                             culprit=str(folder))
+        bar.total = len(FIGURE_FUNCTIONS) + len(figures)  # drawn; now one step per file
+        bar.refresh()
+        with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+            paths = save_figures(figures, tmp, fmt, on_saved=lambda: bar.update(1))
+            write_manifest(tmp, command="plot", seed=int(result.manifest.get("seed", 0) or 0),
+                           models_json={}, files={p.name: "figure" for p in paths},
+                           settings={"folder": os.path.abspath(folder), "trial": trial,
+                                     "window": list(win) if win else None, "format": fmt})
     return [target / p.name for p in paths]
 
 
@@ -135,7 +144,6 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     :class:`~astrocpg.studies.figures.panel.GaitPanel`). Returns {"path", "frames", "fps",
     "seconds"}."""
     import imageio.v2 as imageio
-    from tqdm.auto import tqdm
 
     from ...coupling.render import Replay, frame_samples
     from ..files.outputs import atomic_path
@@ -170,18 +178,20 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
                           result=result)
 
     def write(tmp: Path) -> None:
-        bar = tqdm(total=len(samples), unit="frame", desc="rendering", disable=not progress)
+        bar = Bar(total=len(samples), unit="frame", desc="rendering", disable=not progress)
         with Replay(model, layout, rob["joint_angles"][b], rob["torso_position"][b],
                     rob["torso_quaternion"][b], width=width, height=height) as replay:
             writer = imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264",
                                         pixelformat="yuv420p", macro_block_size=2, quality=7,
                                         ffmpeg_log_level="error")
             try:
-                for k, frame in zip(samples, replay.frames(samples,
-                                                           on_frame=lambda n: bar.update(1))):
+                # the bar counts frames written, here: a count kept by the frame generator
+                # (after its yield) missed the last frame, which zip never resumes it for
+                for k, frame in zip(samples, replay.frames(samples)):
                     if strip is not None:
                         frame = np.concatenate([frame, strip.draw(int(k))], axis=0)
                     writer.append_data(frame)
+                    bar.update(1)
             finally:
                 writer.close()
                 bar.close()

@@ -11,7 +11,6 @@ from typing import Any
 import mujoco
 import numpy as np
 from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second
-from tqdm.auto import tqdm
 
 from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import ORDER_MEASURE, Recording
@@ -21,6 +20,7 @@ from ...models import ModelSet
 from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, network_time,
                         run_network)
 from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
+from .progress import time_bar
 
 
 
@@ -122,23 +122,37 @@ def _collect(cpg: CPG, mons: dict[str, Any]) -> tuple[dict, dict]:
 
 
 class _Progress:
-    """A tqdm bar over simulated seconds, updated every ``every`` steps from inside the run;
-    shown from :meth:`open` (at the start of the run) to :meth:`close`, so that an error or an
-    interrupt before the run leaves no bar behind its one-line message."""
+    """A bar over a run's ``seconds`` of simulated time, counted in whole steps of ``dt``
+    (:func:`~.progress.time_bar`: a float total reached by adding 0.1 s overshoots it) and
+    moved every ``every`` steps from inside the run; shown from :meth:`open` (at the start of
+    the run) to :meth:`close`, so that an error or an interrupt before the run leaves no bar
+    behind its one-line message. :meth:`finish` takes a whole run to its total."""
 
-    def __init__(self, seconds: float, desc: str, enabled: bool, every: int = 100):
+    def __init__(self, seconds: float, desc: str, enabled: bool, every: int = 100,
+                 dt: float | None = None):
         self.every, self.seconds, self.desc, self.enabled = every, seconds, desc, enabled
+        self.dt = STEP if dt is None else float(dt)
+        self.steps = max(1, int(round(seconds / self.dt)))
         self.bar: Any = None
 
     def open(self) -> None:
-        self.bar = tqdm(total=round(self.seconds, 3), unit="sim s", desc=self.desc,
-                        disable=not self.enabled,
-                        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s "
-                                   "[{elapsed}<{remaining}]")
+        self.bar = time_bar(self.steps, self.dt, self.desc, self.enabled)
+
+    def position(self, step: int) -> int | None:
+        """Where the bar stands after ``step`` steps: None between strides, never past the
+        total."""
+        if step % self.every and step < self.steps:
+            return None
+        return min(int(step), self.steps)
 
     def __call__(self, step: int) -> None:
-        if self.bar is not None and step % self.every == 0:
-            self.bar.update(self.every * 1e-3)
+        at = self.position(step) if self.bar is not None else None
+        if at is not None and at > self.bar.n:
+            self.bar.update(at - self.bar.n)
+
+    def finish(self) -> None:
+        if self.bar is not None:
+            self.bar.finish()
 
     def close(self) -> None:
         if self.bar is not None:
@@ -254,6 +268,8 @@ def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
     try:
         bar.open()
         run_network(cpg.net, seconds * second, namespace={})  # Diverged comes out as itself
+        if network_time(cpg.net) >= t_end - 0.5 * float(cpg.dt):
+            bar.finish()  # the whole run: the bar at its total whatever its stride
     finally:
         bar.close()
     # Brian2 turns Ctrl-C (and our SIGTERM) into a clean stop at the end of a step: a run that

@@ -25,7 +25,6 @@ from typing import Any, Callable
 import mujoco
 import numpy as np
 from brian2 import Network, NetworkOperation, second
-from tqdm.auto import tqdm
 
 from ...coupling.assembly import build_closed_loop
 from ...coupling.recorder import RecordPlan, SessionRecorder
@@ -38,6 +37,7 @@ from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, c
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..files.result import Result
+from .progress import Bar as tqdm  # warnings wait until the bar closes
 from .resources import check_memory, estimate_bytes
 from .settings import model_files_record, model_set, number, override_items, seed_number
 from .simulate import check_selection

@@ -14,6 +14,7 @@ from ..analysis.gait import (gait_label, leg_phases, phase_matrix, trial_gait,
                              weight_structure)
 from ..files.folder import OutputFolder
 from ..files.outputs import write_manifest
+from .progress import Bar
 from .run import replay
 
 
@@ -73,14 +74,15 @@ FIGURES = "figures"
 
 def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
                   out: str | Path | None = None, overwrite: bool = False, fmt: str = "png",
-                  window: tuple[float, float] | None = None) -> list[Path]:
+                  window: tuple[float, float] | None = None,
+                  progress: bool = True) -> list[Path]:
     """weights, training, thigh_extensor_activity and gait figures of one trial of the
     training in ``folder`` (from a run of ``seconds`` with its trained weights; ``window``
     within it, default its last 2 s), and the trace figures of the trial's last recorded
     session (``train --record-every``) if any, in ``recording_trialTT_sessionSSSS/``; into
     ``out`` (default ``folder/figures``, which each plot replaces whole); returns the paths."""
     from ..figures import plots
-    from ..figures.traces import save_figures, trace_figures
+    from ..figures.traces import FIGURE_FUNCTIONS, save_figures, trace_figures
     from ..files.result import load
 
     folder = Path(folder)
@@ -94,27 +96,36 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
         raise InputError(f"starts after the {seconds:g} s run with the trained weights "
                          f"(--seconds)", culprit=f"--window {window[0]:g} {window[1]:g}")
     recorded = sorted(s for b, s in training.recordings if b == trial)
-    result, weights = replay(folder, seconds=seconds, seed=1, progress=False)
+    result, weights = replay(folder, seconds=seconds, seed=1, progress=progress)
     b = trial
     names = [f"{n}.{fmt}" for n in ("weights", "training", "thigh_extensor_activity", "gait")]
     window = (window[0], min(window[1], seconds)) if window is not None \
         else (max(0.0, seconds - 2.0), seconds)
     written = [target / n for n in names]
-    with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+    # a step per figure; a recorded session adds a step per kind of figure, then per file
+    bar = Bar(total=len(names) + (len(FIGURE_FUNCTIONS) if recorded else 0), unit="step",
+              desc="plot", disable=not progress)
+    with bar, OutputFolder(target, overwrite=overwrite or out is None) as tmp:
         plots.plot_weights(tmp / names[0], weights[b] * 1e3, trial=b)
+        bar.update(1)
         plots.plot_training_curves(tmp / names[1], folder / "sessions.csv")
+        bar.update(1)
         plots.plot_thigh_extensor_activity(tmp / names[2], result.spikes, result.cpg.layout,
                                            trial=b, window=window)
+        bar.update(1)
         t, i = result.spikes["motor"]
         g = leg_phases(t, i, result.cpg.layout, b, min(1.0, seconds / 5), seconds)
         plots.plot_gait(tmp / names[3], result.robot, b, phase_matrix(g["phases"]), g,
                         window=window)
+        bar.update(1)
         if recorded:
             session = recorded[-1]
             rec = training.recording(trial, session)
             sub = f"recording_trial{trial:02d}_session{session:04d}"
             # a recorded session is one trial (0); the window: within it, else all of it
-            paths = save_figures(trace_figures(rec, 0), tmp / sub, fmt)
+            figures = trace_figures(rec, 0, on_part=lambda: bar.update(1))
+            bar.total += len(figures)
+            paths = save_figures(figures, tmp / sub, fmt, on_saved=lambda: bar.update(1))
             written += [target / sub / p.name for p in paths]
         files = dict(zip(names, FIGURE_FILES))
         if recorded:

@@ -9,7 +9,7 @@ the result holds nothing to draw); :func:`trace_figures` collects them all.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -325,21 +325,27 @@ FIGURE_FUNCTIONS = (raster_figures, activity_figures, motor_calcium_figures, ast
 
 
 def trace_figures(result: Any, trial: int = 0,
-                  window: tuple[float, float] | None = None) -> dict[str, Figure]:
+                  window: tuple[float, float] | None = None, *,
+                  on_part: Callable[[], None] | None = None) -> dict[str, Figure]:
     """Every figure the result's recording allows, {name: Figure}; ``window`` (s) defaults to
-    the whole recording."""
+    the whole recording. ``on_part`` is called after each of :data:`FIGURE_FUNCTIONS` (a
+    progress bar's step)."""
     window = window or recorded_span(result)
     figs: dict[str, Figure] = {}
     for fn in FIGURE_FUNCTIONS:
         figs.update(fn(result, trial, window))
+        if on_part is not None:
+            on_part()
     return figs
 
 
 FORMATS = ("png", "pdf", "svg")
 
 
-def save_figures(figures: dict[str, Figure], folder: Any, fmt: str = "png") -> list[Any]:
-    """Write each figure as ``folder/<name>.<fmt>``; returns the paths."""
+def save_figures(figures: dict[str, Figure], folder: Any, fmt: str = "png", *,
+                 on_saved: Callable[[], None] | None = None) -> list[Any]:
+    """Write each figure as ``folder/<name>.<fmt>``; returns the paths. ``on_saved`` is called
+    after each figure (a progress bar's step)."""
     from pathlib import Path
 
     folder = Path(folder)
@@ -349,6 +355,8 @@ def save_figures(figures: dict[str, Figure], folder: Any, fmt: str = "png") -> l
         path = folder / f"{name}.{fmt}"
         fig.savefig(path, dpi=110, format=fmt)
         paths.append(path)
+        if on_saved is not None:
+            on_saved()
     return paths
 
 

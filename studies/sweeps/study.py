@@ -744,7 +744,8 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
 
 def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler: str | None,
                       progress: bool) -> dict[str, Any]:
-    from tqdm.auto import tqdm  # the progress bar of a study (tqdm.auto picks notebook or tty)
+    # the progress bar of a study (tqdm.auto: notebook or tty; warnings wait until it closes)
+    from ..experiments.progress import Bar as tqdm
 
     largest = max(r.n_trials for r in study.runs)
     check_memory(estimate_bytes(trials=largest, seconds=0.0, spikes=False,

@@ -1,0 +1,102 @@
+"""The progress bars of every command (tqdm), and the one rule about what else may print while
+one is on the screen.
+
+A warning printed while a bar is drawn lands in the middle of the bar's line (``...| 2.1/4.0 sim
+s/path/file.py:12: SomeWarning: ...``) and the bar goes on below it. :class:`Bar` is tqdm's bar
+(:mod:`tqdm.auto`: a terminal or a notebook) that holds the warnings shown while any bar is
+open and shows them, in Python's usual way and order, once the last bar has closed: the bar
+stays whole and no warning is lost (an ``ignore`` filter still silences one; pytest still
+records them).
+
+Counting is in whole units (steps, sessions, frames, figures): a bar whose total is a sum of
+floats (0.1 s a hundred steps) overshoots it by rounding, which tqdm reports as
+``TqdmWarning: clamping frac to range [0, 1]``. A bar of simulated time counts steps and shows
+seconds with ``unit_scale`` (:func:`time_bar`).
+"""
+
+from __future__ import annotations
+
+import warnings
+import weakref
+from typing import Any
+
+from tqdm.auto import tqdm
+
+_open_bars: "weakref.WeakSet[Bar]" = weakref.WeakSet()
+_held: list[warnings.WarningMessage] = []
+_shown_before: Any = None  # warnings.showwarning while no bar is open
+
+
+def _hold(message: Any, category: type[Warning], filename: str, lineno: int,
+          file: Any = None, line: str | None = None) -> None:
+    """``warnings.showwarning`` while a bar is open: keep the warning for after the bar."""
+    if any(not bar.disable for bar in list(_open_bars)):
+        _held.append(warnings.WarningMessage(message, category, filename, lineno, file, line))
+        return
+    (_shown_before or warnings._showwarning_orig)(message, category, filename, lineno,
+                                                   file, line)
+
+
+def _opened(bar: "Bar") -> None:
+    global _shown_before
+    if not _open_bars:
+        _shown_before = warnings.showwarning
+        warnings.showwarning = _hold
+    _open_bars.add(bar)
+
+
+def _closed(bar: "Bar") -> None:
+    global _shown_before
+    if bar not in _open_bars:
+        return
+    _open_bars.discard(bar)
+    if _open_bars:
+        return
+    if warnings.showwarning is _hold:  # else someone replaced it since: leave theirs
+        warnings.showwarning = _shown_before
+    _shown_before = None
+    held, _held[:] = list(_held), []
+    for msg in held:  # as Python would have shown them (or a recorder would have kept them)
+        warnings._showwarnmsg(msg)
+
+
+class Bar(tqdm):
+    """tqdm's bar (terminal or notebook); warnings shown while it is open wait until every
+    bar has closed (see the module's docstring). Close it (``with`` or ``close()``)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        if not self.disable:
+            _opened(self)
+
+    def close(self) -> None:
+        try:
+            super().close()
+        finally:
+            _closed(self)
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        if exc_type is not None:  # an error or an interrupt: its one line, no bar above it
+            self.leave = False
+        super().__exit__(exc_type, exc, tb)
+
+    def finish(self) -> None:
+        """Move the bar to its total (a whole run ends there, whatever the update stride)."""
+        if self.total is not None and self.n < self.total:
+            self.update(self.total - self.n)
+
+
+def held_warnings() -> int:
+    """How many warnings are waiting for the open bars to close (for tests)."""
+    return len(_held)
+
+
+def time_bar(steps: int, dt: float, desc: str, enabled: bool) -> Bar:
+    """A bar over ``steps`` steps of ``dt`` seconds, shown in simulated seconds
+    (``1.2/4.0 sim s``); update it with whole steps."""
+    return Bar(total=int(steps), unit="sim s", unit_scale=float(dt), desc=desc,
+               disable=not enabled,
+               bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
+
+
+__all__ = ["Bar", "time_bar", "held_warnings"]
