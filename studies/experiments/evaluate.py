@@ -35,6 +35,7 @@ import numpy as np
 from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
+from ..analysis.fall import first_fall
 from ..analysis.gait import trial_gait
 from ..files.folder import OutputFolder, verify
 from ..files.outputs import atomic_write, write_manifest
@@ -211,8 +212,9 @@ def _trial_rows(result: Any, b: int, seconds: float) -> dict[str, Any]:
     rec = result.robot
     x = rec.torso_position[b, :, 0]
     alive = np.asarray(rec.alive[b], dtype=bool)
-    fell = not bool(alive.all())
-    t_fall = float(np.argmin(alive) + 1) * STEP if fell else math.nan
+    fall = first_fall(rec.t, alive)  # the one definition of a fall (its first sample down)
+    fell = fall is not None
+    t_fall = fall.t_s if fell else math.nan
     t, i = result.spikes["motor"]
     return {"distance_m": float(x[-1] - x[0]), "mean_speed_m_per_s":
             float(rec.torso_velocity[b, :, 0].mean()), "fell": int(fell),

@@ -15,6 +15,7 @@ import numpy as np
 
 from ...errors import Diverged, InputError
 from ...models import ModelSet
+from ..analysis.fall import fall_words, falls
 from ..files.folder import OutputFolder, verify
 from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
 from ..files.result import Result
@@ -295,16 +296,26 @@ def run_results(result: SimulationResult) -> dict[str, Any]:
 
 
 def format_run(result: Result, seed: int) -> list[str]:
-    """Distance, speed, upright share and rates per trial, and the wall time."""
+    """Distance, speed, upright share, the fall if the robot fell (when, in simulated s) and
+    rates per trial, and the wall time."""
     x = result.summary
+    rob = result.robot or {}
+    fell = (falls(rob["t"], rob["alive"]) if "alive" in rob and "t" in rob
+            else [None] * result.layout.n_trials)
     lines = []
     for b in range(result.layout.n_trials):
+        fall = fall_words(fell[b]) if b < len(fell) else ""
         lines.append(f"trial {b} (seed {seed}+{b}): distance {x['distance_m'][b]:+.3f} m, mean "
                      f"forward speed {x['mean_forward_speed_m_per_s'][b]:+.3f} m/s, upright "
-                     f"{x['upright_share'][b] * 100:.0f}% of steps")
+                     f"{x['upright_share'][b] * 100:.0f}% of steps" + (f"; {fall}" if fall
+                                                                         else ""))
         if x["rate_per_neuron_Hz"]:
             lines.append("  rate per neuron (Hz): " + ", ".join(
                 f"{k} {v[b]:.1f}" for k, v in x["rate_per_neuron_Hz"].items()))
+    fallen = [(b, f) for b, f in enumerate(fell) if f is not None]
+    if fallen:  # the fall in a line of its own: the upright share alone hides it
+        lines.append(f"the robot fell in {len(fallen)} of {result.layout.n_trials} trial(s): "
+                     + ", ".join(f"trial {b} at {f.t_s:.2f} s" for b, f in fallen))
     mech = x.get("mechanisms") or {}
     if mech.get("statements"):
         lines.append("what acted (from the recorded data):")

@@ -12,6 +12,7 @@ import numpy as np
 from ...errors import InputError
 from ..analysis.gait import (gait_label, leg_phases, phase_matrix, trial_gait,
                              weight_structure)
+from ..analysis.fall import fall_words, first_fall
 from ..files.folder import OutputFolder
 from ..files.outputs import write_manifest
 from .progress import Bar
@@ -21,7 +22,8 @@ from .run import replay
 def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
                   progress: bool = True) -> list[str]:
     """Run every trial's trained table for ``seconds``; one line per trial: leg phases relative
-    to FR, the gait label, speed, upright share and the weight structure."""
+    to FR, the gait label, speed, upright share, the fall if the robot fell (when, in simulated
+    s) and the weight structure."""
     result, weights = replay(folder, seconds=seconds, seed=seed, progress=progress)
     w_max = float(np.asarray(result.cpg.models.interlimb_synapse.parameters["w_max"].value))
     t, i = result.spikes["motor"]
@@ -34,9 +36,11 @@ def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
         ph = ", ".join(f"{leg} {g['phases'][leg]:.2f} (lock {g['locking'][leg]:.2f})"
                        for leg in ("FR", "FL", "RR", "RL"))
         ws = weight_structure(weights[b], w_max)
+        fall = fall_words(first_fall(rec.t, rec.alive[b]))
         lines.append(
             f"trial {b}: phases relative to FR: {ph}; gait: {label}; "
-            f"mean forward speed {speed:.3f} m/s; upright {rec.alive[b].mean():.0%}; "
+            f"mean forward speed {speed:.3f} m/s; upright {rec.alive[b].mean():.0%}"
+            f"{'; ' + fall if fall else ''}; "
             f"weights: {ws['mixed_limb_pairs']} of {ws['limb_pairs']} limb pairs with two "
             f"inhibitory and two excitatory synapses, {ws['share_above_0.9_w_max']:.0%} "
             f"above 0.9 w_max")

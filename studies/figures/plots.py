@@ -9,6 +9,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ...network import INTERNEURONS, LEGS, POOLS, Layout
+from ..analysis.fall import fall_words, first_fall
 from ..analysis.rhythm import pool_activity
 
 POOL_COLOURS = {"thigh_flexor": "tab:blue", "thigh_extensor": "tab:red",
@@ -20,6 +21,24 @@ def _subplots(*args: Any, figsize: Any = None, **kwargs: Any) -> tuple[Figure, A
     caller's backend and open figures alone, e.g. a notebook's inline plots."""
     fig = Figure(figsize=figsize)
     return fig, fig.subplots(*args, **kwargs)
+
+
+def mark_fall(axes: Any, t: Any, alive: Any) -> str:
+    """On each of ``axes`` (time on x), the time the robot was not upright shaded and a red
+    line where it fell (:func:`~astrocpg.studies.analysis.fall.first_fall`); returns the words
+    for the figure's title (``""`` when it did not fall): a figure of a fallen robot says so."""
+    fall = first_fall(t, alive)
+    if fall is None:
+        return ""
+    t = np.asarray(t, dtype=float).reshape(-1)
+    down = ~np.asarray(alive, dtype=bool).reshape(-1)
+    edges = np.diff(np.concatenate([[0], down.astype(int), [0]]))
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 1e-3
+    for ax in np.atleast_1d(axes).ravel():
+        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+            ax.axvspan(t[a], t[b - 1] + step, color="tab:red", alpha=0.12, lw=0)
+        ax.axvline(fall.t_s, color="tab:red", ls="--", lw=1.0)
+    return f"robot {fall_words(fall)}; shaded: not upright"
 
 
 def plot_unit(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
@@ -152,7 +171,9 @@ def plot_gait(path: Path, recording, trial: int, phases: np.ndarray, gait: dict,
     ax.invert_yaxis()
     ax.set_xlim(*window)
     ax.set_xlabel("time (s)")
-    ax.set_title("Gait diagram (black: foot contact)")
+    fell = mark_fall(ax, t, recording.alive[trial])
+    ax.set_title("Gait diagram (black: foot contact)" + (f"\n{fell}" if fell else ""),
+                 color="tab:red" if fell else None)
     im = axm.imshow(phases, cmap="twilight", vmin=0, vmax=1)
     axm.set_xticks(range(4), LEGS)
     axm.set_yticks(range(4), LEGS)

@@ -18,7 +18,7 @@ from ...network.layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS
 from ...network.recordable import TRACE_SOURCES
 from ..analysis.gait import leg_phases
 from ..analysis.rhythm import pool_activity
-from .plots import POOL_COLOURS
+from .plots import POOL_COLOURS, mark_fall
 
 JOINT_COLOURS = {"hip": "tab:green", "thigh": "tab:blue", "calf": "tab:purple"}
 ASTRO_ROWS = (("astrocyte_Ca", "Ca²⁺"), ("astrocyte_IP3", "IP3"), ("astrocyte_AG", "2-AG"),
@@ -221,6 +221,15 @@ def _robot(result: Any, trial: int, window: tuple[float, float]):
     return rob, t[keep], keep
 
 
+def _fall_note(result: Any, trial: int, axes: Any) -> str:
+    """The fall marked on ``axes`` (:func:`~.plots.mark_fall`) from the recording's upright
+    samples, and its words for a title ("" when the robot did not fall or none was kept)."""
+    rob = result.robot
+    if rob is None or "alive" not in rob or "t" not in rob:
+        return ""
+    return mark_fall(axes, rob["t"], np.asarray(rob["alive"])[trial])
+
+
 def joint_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[str, Figure]:
     """joints: each leg's hip, thigh and calf angles (deg) and applied torques (N m)."""
     if result.robot is None or "joint_angles" not in result.robot:
@@ -239,6 +248,9 @@ def joint_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[
             axes[k, 1].plot(t, torques[:, k, j], lw=0.8, color=c, label=joint)
         axes[k, 0].set_ylabel(f"{leg}\nangle (deg)")
         axes[k, 1].set_ylabel(f"{leg}\ntorque (N m)")
+    fell = _fall_note(result, trial, axes)
+    if fell:
+        fig.suptitle(fell, color="tab:red")
     axes[0, 0].set_title(f"Joint angles (trial {trial})")
     axes[0, 1].set_title(f"Applied torques (trial {trial})")
     axes[0, 1].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, title="joint",
@@ -271,6 +283,9 @@ def torso_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[
     az.set_xlabel("time (s)")
     az.set_ylabel("torso height z (m)")
     az.set_title("Torso height")
+    fell = _fall_note(result, trial, az)
+    if fell:  # the figure's own title: the fall is the first thing it says
+        fig.suptitle(fell, color="tab:red")
     if len(t):
         az.set_xlim(*window)
     return {"torso_path": fig}
@@ -316,7 +331,9 @@ def gait_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[s
     ax.set_xlim(*window)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("leg")
-    ax.set_title(f"Gait diagram (trial {trial}; {what})")
+    fell = _fall_note(result, trial, ax) if rob is not None else ""
+    ax.set_title(f"Gait diagram (trial {trial}; {what})" + (f"\n{fell}" if fell else ""),
+                 color="tab:red" if fell else None)
     return {"gait_diagram": fig}
 
 
