@@ -18,6 +18,7 @@ from matplotlib.lines import Line2D
 
 from ...network.layout import LEGS, THIGH_POOLS
 from ...network.recordable import TRACE_SOURCES
+from ..analysis.fall import first_fall
 from ..analysis.rhythm import convolve_same, pool_activity
 from .plots import POOL_COLOURS
 from .traces import DT, recorded_span
@@ -66,6 +67,10 @@ class GaitPanel:
         self.stance = (force > 0) if force is not None and np.all(np.isfinite(force)) else None
         self.step = float(np.median(np.diff(self.t))) if len(self.t) > 1 else 1e-3
         self.vx = np.asarray(robot["torso_velocity"])[trial][:, 0]
+        # the fall, said beside the time from the frame it happens on (a video of a fallen
+        # robot says so, as its figures do)
+        self.fall = (first_fall(self.t, np.asarray(robot["alive"])[trial]) if "alive" in robot
+                     else None)
         self.speed, self.span = speed, span
         self.legs = [str(x) for x in robot.get("legs", LEGS)]
         self.size = (height, width)
@@ -231,8 +236,10 @@ class GaitPanel:
         for line in self.now:
             line.set_xdata([t_now, t_now])
         self.axes["gait"].set_xlim(t0, t1)  # the rows share the time axis
+        fell = (f"\nfell at {self.fall.t_s:.2f} s"
+                if self.fall is not None and t_now >= self.fall.t_s else "")
         self.text.set_text(f"t = {t_now:6.2f} s\nx{self.speed:g} real time\n"
-                           f"vx = {self.vx[k]:+.2f} m/s")
+                           f"vx = {self.vx[k]:+.2f} m/s{fell}")
         if self._background is None:
             self.canvas.draw()
             self._background = self.canvas.copy_from_bbox(self.fig.bbox)
