@@ -25,7 +25,7 @@ from pathlib import Path
 
 import brian2
 
-from ..errors import EnvironmentFault, InputError
+from ..errors import EnvironmentFault, InputError, did_you_mean
 
 TARGETS = ("numpy", "cython")
 DEFAULT = "numpy"
@@ -39,7 +39,8 @@ def codegen_target(value: str | None = None) -> str:
     culprit = "codegen" if value is not None else ENV
     chosen = value if value is not None else os.environ.get(ENV, "").strip() or DEFAULT
     if chosen not in TARGETS:
-        raise InputError(f"unknown code-generation target '{chosen}' (one of "
+        raise InputError(f"unknown code-generation target '{chosen}'"
+                         f"{did_you_mean(chosen, TARGETS)} (one of "
                          f"{', '.join(TARGETS)})", culprit=culprit)
     return chosen
 

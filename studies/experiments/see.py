@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, did_you_mean
 from ..figures.traces import (FIGURE_FUNCTIONS, FORMATS, recorded_span, save_figures,
                               trace_figures)
 from ..files.folder import OutputFolder
@@ -54,7 +54,8 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     stderr, a step per kind of figure drawn and per figure written (and the run's own bar, for
     a training)."""
     if fmt not in FORMATS:
-        raise InputError(f"unknown format (formats: {', '.join(FORMATS)})",
+        raise InputError(f"unknown format{did_you_mean(fmt, FORMATS)} (formats: "
+                         f"{', '.join(FORMATS)})",
                          culprit=f"--format {fmt}")
     folder = Path(folder)
     result = load(folder)

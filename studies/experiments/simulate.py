@@ -15,7 +15,7 @@ from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second
 from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import ORDER_MEASURE, Recording
 from ...coupling.robot import A1Parameters, RobotLayout
-from ...errors import Diverged, InputError
+from ...errors import Diverged, InputError, did_you_mean
 from ...models import ModelSet
 from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, network_time,
                         run_network)
@@ -45,11 +45,12 @@ def check_selection(spikes: tuple[str, ...] | None,
     traces = TRACES if traces is None else tuple(traces)
     for name in spikes:
         if name not in POPULATIONS:
-            raise InputError(f"unknown population '{name}' "
+            raise InputError(f"unknown population '{name}'{did_you_mean(name, POPULATIONS)} "
                              f"(populations: {', '.join(POPULATIONS)})", culprit=f"--spikes")
     for name in traces:
         if name not in TRACES:
-            raise InputError(f"unknown trace '{name}' (traces: {', '.join(TRACES)})",
+            raise InputError(f"unknown trace '{name}'{did_you_mean(name, TRACES)} (traces: "
+                             f"{', '.join(TRACES)})",
                              culprit=f"--traces")
     return spikes, traces
 

@@ -173,7 +173,7 @@ def plot_gait(path: Path, recording, trial: int, phases: np.ndarray, gait: dict,
     ax.set_xlabel("time (s)")
     fell = mark_fall(ax, t, recording.alive[trial])
     ax.set_title("Gait diagram (black: foot contact)" + (f"\n{fell}" if fell else ""),
-                 color="tab:red" if fell else None)
+                 **({"color": "tab:red"} if fell else {}))
     im = axm.imshow(phases, cmap="twilight", vmin=0, vmax=1)
     axm.set_xticks(range(4), LEGS)
     axm.set_yticks(range(4), LEGS)

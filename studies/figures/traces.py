@@ -333,7 +333,7 @@ def gait_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[s
     ax.set_ylabel("leg")
     fell = _fall_note(result, trial, ax) if rob is not None else ""
     ax.set_title(f"Gait diagram (trial {trial}; {what})" + (f"\n{fell}" if fell else ""),
-                 color="tab:red" if fell else None)
+                 **({"color": "tab:red"} if fell else {}))
     return {"gait_diagram": fig}
 
 

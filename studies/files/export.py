@@ -70,7 +70,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, did_you_mean
 from ...network.recordable import TRACE_SOURCES
 from .folder import clean_stale_temporaries, verify
 from .outputs import atomic_path, save_npz
@@ -478,7 +478,8 @@ def export(folder: Path, fmt: str, out: Path | None = None, *, overwrite: bool =
     ``ASTROCPG_INSTITUTION``, so a lab sets them once; without any, nwbinspector suggests adding
     them (its only messages on the file)."""
     if fmt not in ("nwb", "npz"):
-        raise InputError(f"must be nwb or npz, got '{fmt}'", culprit="--format")
+        raise InputError(f"must be nwb or npz, got '{fmt}'{did_you_mean(fmt, ('nwb', 'npz'))}",
+                         culprit="--format")
     experimenter = tuple(experimenter)
     if not experimenter and os.environ.get("ASTROCPG_EXPERIMENTER", "").strip():
         experimenter = tuple(n.strip() for n in os.environ["ASTROCPG_EXPERIMENTER"].split(";")

@@ -26,7 +26,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, did_you_mean
 from ...network.layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
 from ...network.recordable import POPULATIONS, TRACE_SOURCES
 from .folder import MANIFEST, verify
@@ -219,7 +219,8 @@ class Result:
 
     def _population(self, population: str) -> str:
         if population not in POPULATIONS:
-            raise InputError(f"unknown population (populations: {_choices(POPULATIONS)})",
+            raise InputError(f"unknown population{did_you_mean(population, POPULATIONS)} "
+                             f"(populations: {_choices(POPULATIONS)})",
                              culprit=f"population={population!r}")
         if population not in self.spikes:
             raise InputError(f"was not recorded in this result (recorded: "
@@ -231,7 +232,8 @@ class Result:
                 pool: str | None = None, neuron: int | None = None) -> np.ndarray:
         """Indices (in the population) of the cells :meth:`spike_times` selects."""
         if population not in _CELLS_PER_LEG:
-            raise InputError(f"unknown population (populations: {_choices(POPULATIONS)})",
+            raise InputError(f"unknown population{did_you_mean(population, POPULATIONS)} "
+                             f"(populations: {_choices(POPULATIONS)})",
                              culprit=f"population={population!r}")
         L = self.layout
         if trial is not None and (not isinstance(trial, (int, np.integer)) or isinstance(trial, bool)
@@ -239,7 +241,8 @@ class Result:
             raise InputError(f"must be an integer in 0..{L.n_trials - 1} (or None: every trial)",
                              culprit=f"trial={trial!r}")
         if leg is not None and leg not in L.legs:
-            raise InputError(f"unknown leg (legs: {_choices(L.legs)})", culprit=f"leg={leg!r}")
+            raise InputError(f"unknown leg{did_you_mean(leg, L.legs)} (legs: {_choices(L.legs)})",
+                             culprit=f"leg={leg!r}")
         names = _POOL_NAMES[population]
         if pool is not None and pool not in names:
             what = "interneurons" if population == "interneuron" else "pools"
@@ -297,7 +300,8 @@ class Result:
         columns mapped to trial/leg/pool): "motor_Ca" (a.u.), "astrocyte_Ca" and
         "astrocyte_IP3" (uM), "astrocyte_AG" and "astrocyte_ADO" (a.u.)."""
         if name not in TRACE_SOURCES:
-            raise InputError(f"unknown trace (traces: {_choices(TRACE_SOURCES)})",
+            raise InputError(f"unknown trace{did_you_mean(name, TRACE_SOURCES)} (traces: "
+                             f"{_choices(TRACE_SOURCES)})",
                              culprit=f"trace {name!r}")
         if name not in self.traces:
             raise InputError(f"was not recorded in this result (recorded: "
