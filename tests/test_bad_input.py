@@ -334,7 +334,7 @@ def case(*args: Any, **kw: Any) -> None:
 
 
 # ---- the command line itself
-case("no-command", lambda e: [], 2, "astrocpg: error", "none")
+case("no-command", lambda e: [], 0, None, "none")  # lists the commands
 case("unknown-command", lambda e: ["fly"], 2, "fly", "none")
 case("seconds-not-a-number", lambda e: S("run", "--seconds", "abc", "--out", out(e)), 2,
      "--seconds", "absent", out)
@@ -827,6 +827,24 @@ case("unit-bad-equation-leaves-no-debug-files",
 case("unit-short-leaves-no-debug-files",
      lambda e: S("unit", "--seconds", "0.01", "--no-progress", "--out", out(e)), 0, None,
      "complete", out, subprocess={"tmpdir": True}, marks=(pytest.mark.slow,))
+# ---- the command line's own words: a misspelt name gets the closest, in the one line
+case("run-misspelt-parameter", lambda e: S("run", "--set", "tau_motr=8*ms", "--out", out(e)), 2,
+     "--set tau_motr: unknown model parameter (did you mean tau_motor?)", "absent", out)
+case("run-misspelt-option", lambda e: S("run", "--secnds", "1", "--out", out(e)), 2,
+     "--secnds (did you mean --seconds?)", "absent", out)
+case("misspelt-command", lambda e: ["rn"], 2, "'rn' (did you mean run?)", "none")
+case("models-misspelt-subcommand", lambda e: ["models", "lst"], 2, "did you mean list?", "none")
+case("models-dump-misspelt-model", lambda e: ["models", "dump", "astrocite"], 2,
+     "astrocite: unknown model (did you mean astrocyte?)", "none")
+case("run-misspelt-model-file-slot",
+     lambda e: S("run", "--model", f"astrocite={e.file('a.toml', 'kind = 1')}", "--out",
+                 out(e)), 2, "--model astrocite: unknown model (did you mean astrocyte?)",
+     "absent", out)
+case("plot-misspelt-format", lambda e: S("plot", e.copy("run"), "--format", "pnj",
+                                         "--no-progress"), 2, "did you mean png?", "none")
+# a command group alone lists its commands: done, nothing on stderr
+case("models-alone", lambda e: ["models"], 0, None, "none")
+case("robot-alone", lambda e: ["robot"], 0, None, "none")
 
 
 # ---------------------------------------------------------------- running a case
