@@ -350,3 +350,27 @@ def test_a_gait_summary_names_the_fall(fallen_training, capsys) -> None:
     assert main(["gait", str(folder), "--seconds", "0.6", "--no-progress"]) == 0
     said = capsys.readouterr().out
     assert re.search(r"trial 0: .*fell at \d+\.\d+ s", said), said
+
+
+def test_a_log_record_during_a_bar_is_shown_after_it() -> None:
+    """Brian2 prints its log records (and the warnings it captures) with a console handler
+    on stderr: in the middle of a bar, unless held."""
+    import logging
+
+    from astrocpg.studies.experiments.progress import Bar
+
+    stream = io.StringIO()
+    handler = logging.StreamHandler(stream)
+    log = logging.getLogger("brian2")
+    log.addHandler(handler)
+    try:
+        bar = Bar(total=2, file=io.StringIO())
+        log.warning("a library says something")
+        assert stream.getvalue() == ""
+        bar.update(2)
+        bar.close()
+        assert stream.getvalue() == "a library says something\n"
+        log.warning("no bar open")
+        assert stream.getvalue().endswith("no bar open\n")
+    finally:
+        log.removeHandler(handler)

@@ -4,9 +4,9 @@ one is on the screen.
 A warning printed while a bar is drawn lands in the middle of the bar's line (``...| 2.1/4.0 sim
 s/path/file.py:12: SomeWarning: ...``) and the bar goes on below it. :class:`Bar` is tqdm's bar
 (:mod:`tqdm.auto`: a terminal or a notebook) that holds the warnings shown while any bar is
-open and shows them, in Python's usual way and order, once the last bar has closed: the bar
-stays whole and no warning is lost (an ``ignore`` filter still silences one; pytest still
-records them).
+open, and the records that console log handlers (the root logger's, Brian2's) would print, and
+shows them, in Python's usual way and order, once the last bar has closed: the bar stays whole
+and no warning is lost (an ``ignore`` filter still silences one; pytest still records them).
 
 Counting is in whole units (steps, sessions, frames, figures): a bar whose total is a sum of
 floats (0.1 s a hundred steps) overshoots it by rounding, which tqdm reports as
@@ -16,6 +16,7 @@ seconds with ``unit_scale`` (:func:`time_bar`).
 
 from __future__ import annotations
 
+import logging
 import warnings
 import weakref
 from typing import Any
@@ -25,6 +26,36 @@ from tqdm.auto import tqdm
 _open_bars: "weakref.WeakSet[Bar]" = weakref.WeakSet()
 _held: list[warnings.WarningMessage] = []
 _shown_before: Any = None  # warnings.showwarning while no bar is open
+# loggers whose console handlers a library's messages reach (Brian2 prints its log records, and
+# the Python warnings it captures, on stderr with its own handler)
+_LOGGERS = ("", "brian2", "py.warnings")
+
+
+class _HoldRecords(logging.Filter):
+    """On a console handler while a bar is open: keep its records for after the bar."""
+
+    def __init__(self, handler: logging.Handler) -> None:
+        super().__init__()
+        self.handler, self.records = handler, []  # type: list[logging.LogRecord]
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if any(not bar.disable for bar in list(_open_bars)):
+            self.records.append(record)
+            return False
+        return True
+
+
+_holding: list[_HoldRecords] = []
+
+
+def _console_handlers() -> list[logging.Handler]:
+    found: list[logging.Handler] = []
+    for name in _LOGGERS:
+        for h in logging.getLogger(name).handlers:
+            if (isinstance(h, logging.StreamHandler) and not isinstance(h, logging.FileHandler)
+                    and h not in found):
+                found.append(h)
+    return found
 
 
 def _hold(message: Any, category: type[Warning], filename: str, lineno: int,
@@ -42,6 +73,10 @@ def _opened(bar: "Bar") -> None:
     if not _open_bars:
         _shown_before = warnings.showwarning
         warnings.showwarning = _hold
+        for handler in _console_handlers():
+            hold = _HoldRecords(handler)
+            handler.addFilter(hold)
+            _holding.append(hold)
     _open_bars.add(bar)
 
 
@@ -55,9 +90,15 @@ def _closed(bar: "Bar") -> None:
     if warnings.showwarning is _hold:  # else someone replaced it since: leave theirs
         warnings.showwarning = _shown_before
     _shown_before = None
+    holding, _holding[:] = list(_holding), []
+    for hold in holding:
+        hold.handler.removeFilter(hold)
     held, _held[:] = list(_held), []
     for msg in held:  # as Python would have shown them (or a recorder would have kept them)
         warnings._showwarnmsg(msg)
+    for hold in holding:  # then the log records, on the handler that refused them
+        for record in hold.records:
+            hold.handler.handle(record)
 
 
 class Bar(tqdm):
