@@ -245,7 +245,7 @@ CHEAP = {"unit": ["--seconds", "0.01", "--no-progress"],
          "run": ["--seconds", "0.01", "--no-progress"],
          "train": ["--sessions", "1", *SHORT, "--no-progress"],
          "gait": ["--seconds", "0.05", "--no-progress"],
-         "plot": ["--seconds", "0.05"],
+         "plot": ["--seconds", "0.05", "--no-progress"],
          "video": ["--no-progress", "--size", "64", "48", "--fps", "10"],
          "power": ["--sessions", "1", "--no-progress"]}
 

@@ -16,6 +16,7 @@ import hashlib
 import itertools
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -147,11 +148,15 @@ def children(tmp_path):
             c.proc.wait()
 
 
+# a progress bar's line, of simulated time or of any other count (tqdm: "plot:  40%|####  |")
+BAR = re.compile(r"^(?!astrocpg:)(.*sim s|[^|]*\d+%\|.*\|)")
+
+
 def one_line(err: str) -> str:
     """The single ``astrocpg:`` line of a failed command (progress bars aside)."""
     assert "Traceback" not in err, err
     lines = [x for x in err.replace("\r", "\n").splitlines()
-             if x.strip() and "sim s" not in x]  # progress bars aside
+             if x.strip() and not BAR.search(x)]  # progress bars aside
     assert len(lines) == 1 and lines[0].startswith("astrocpg:"), err
     return lines[0]
 
