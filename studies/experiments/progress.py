@@ -102,8 +102,10 @@ def _closed(bar: "Bar") -> None:
 
 
 class Bar(tqdm):
-    """tqdm's bar (terminal or notebook); warnings shown while it is open wait until every
-    bar has closed (see the module's docstring). Close it (``with`` or ``close()``)."""
+    """tqdm's bar (terminal or notebook); warnings and console log records shown while it is
+    open wait until every bar has closed (see the module's docstring). Close it (``with`` or
+    ``close()``); closed by an exception in a ``with``, it erases itself (the error's one line
+    stands alone)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
