@@ -42,7 +42,8 @@ ACTUATOR_NAMES = tuple(f"{leg}_{j}" for leg in LEGS for j in JOINTS)
 
 @dataclass(kw_only=True, frozen=True)
 class A1Parameters:
-    """The robot and simulation settings of the paper (supplementary, Table II) and docs/model.md, "The robot".
+    """The robot and simulation settings of the paper (supplementary, Table II)
+    and docs/model.md, "The robot".
 
     start_height: torso height at reset, m (paper: 0.35, modified from Unitree's 0.3).
     thigh_range_front, thigh_range_rear, calf_range: joint limits, rad (paper, modified from the

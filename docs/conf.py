@@ -39,7 +39,6 @@ extensions = [
     "myst_nb",
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
-    "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
     "sphinx_copybutton",
 ]
@@ -85,8 +84,6 @@ autosummary_generate = False          # the pages hold the autodoc directives th
 autodoc_typehints = "none"            # signatures stay readable; docstrings say the types
 autodoc_member_order = "bysource"
 autodoc_default_options = {"members": False}
-napoleon_google_docstring = True
-napoleon_numpy_docstring = False
 
 nitpicky = True
 # Names of other libraries (no intersphinx: the build must not need the network).
@@ -96,3 +93,49 @@ nitpick_ignore_regex = [
     (r"py:.*", r"(Path|Any|Mapping|Sequence|Iterable|Callable|NoReturn|Figure|Quantity"
                r"|Network|DataFrame|MjModel|MjData|ndarray)"),
 ]
+
+
+def _plain_docstring(app, what, name, obj, options, lines):
+    """The project's docstrings are plain text: ``name: what it is`` lines whose continuation
+    is indented, and aligned ``name    what`` tables. reST reads an indented continuation as a
+    block quote ("Unexpected indentation"), so join continuations to their line (literal
+    blocks after ``::`` stay as they are), and keep a paragraph made only of such lines one
+    line each (a line block)."""
+    out: list[str] = []
+    literal = None          # indentation of the paragraph that opened a literal block
+    for line in lines:
+        indent = len(line) - len(line.lstrip())
+        if literal is not None and (not line.strip() or indent > literal):
+            out.append(line)
+            continue
+        literal = None
+        prev = out[-1] if out else ""
+        prev_indent = len(prev) - len(prev.lstrip())
+        if line.strip() and prev.strip() and indent > prev_indent and not prev.rstrip().endswith("::"):
+            out[-1] = prev.rstrip() + " " + line.strip()
+        else:
+            out.append(line)
+        if out[-1].rstrip().endswith("::"):
+            literal = len(out[-1]) - len(out[-1].lstrip())
+    key = re.compile(r"^\s*[\w][\w ,/()*.-]*?(: | {2,})\S")
+    result: list[str] = []
+    paragraph: list[str] = []
+    for line in out + [""]:
+        if line.strip():
+            paragraph.append(line)
+            continue
+        if len(paragraph) >= 2 and all(key.match(x) for x in paragraph):
+            result.extend("| " + x.strip() for x in paragraph)
+        else:
+            result.extend(paragraph)
+        result.append(line)
+        paragraph = []
+    lines[:] = result[:-1]
+
+
+nitpick_ignore = [("py:class", "Trainer"), ("py:class", "TrainingStopped"),
+                  ("py:class", "Study"), ("py:class", "RunSpec")]
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _plain_docstring)

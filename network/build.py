@@ -231,7 +231,7 @@ class CPG:
 
     def reset_trial(self, trial: int, keep: tuple[str, ...] = ("astrocyte",)) -> None:
         """Reset one trial's state to the start of a session: every state variable of the
-        groups not in ``keep`` (astrocytes keep theirs: docs/model.md, "Sessions") and every dynamic variable of the
+        groups not in ``keep`` (astrocytes keep theirs: docs/model.md) and every dynamic variable of the
         inter-limb synapses except the weights. Array writes only (no code generation)."""
         for name in ("motor", "interneuron", "astrocyte", "pool", "torque", "interlimb"):
             if name in keep or (name == "interlimb" and name not in self.synapse_kinds):
