@@ -15,6 +15,7 @@ an example that raises fails the build (``tests/test_docs.py`` runs it).
 from __future__ import annotations
 
 import json
+import re
 import os
 import sys
 import tempfile
@@ -64,6 +65,7 @@ nb_execution_raise_on_error = True   # an example that raises fails the build
 nb_execution_in_temp = True          # whatever an example writes stays out of the tree
 nb_execution_show_tb = True
 nb_merge_streams = True
+nb_render_markdown_format = "myst"   # Markdown outputs (the model's parameter tables) as MyST
 
 # One kernel for every notebook: this very interpreter, with matplotlib's inline backend (so
 # figures land on the page even when MPLBACKEND=Agg is set for the tests), found first on
@@ -74,7 +76,9 @@ _kernels = Path(tempfile.mkdtemp(prefix="astrocpg-docs-jupyter-"))
 (_kernels / "kernels" / _KERNEL / "kernel.json").write_text(json.dumps({
     "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
     "display_name": "astrocpg docs", "language": "python",
-    "env": {"MPLBACKEND": "module://matplotlib_inline.backend_inline"}}))
+    "env": {"MPLBACKEND": "module://matplotlib_inline.backend_inline",
+            # no ipywidgets here: tqdm's notebook bars fall back to text, which it says
+            "PYTHONWARNINGS": "ignore:IProgress not found"}}))
 os.environ["JUPYTER_PATH"] = os.pathsep.join(
     [str(_kernels)] + [p for p in os.environ.get("JUPYTER_PATH", "").split(os.pathsep) if p])
 nb_kernel_rgx_aliases = {".*": _KERNEL}
@@ -83,7 +87,6 @@ nb_kernel_rgx_aliases = {".*": _KERNEL}
 autosummary_generate = False          # the pages hold the autodoc directives themselves
 autodoc_typehints = "none"            # signatures stay readable; docstrings say the types
 autodoc_member_order = "bysource"
-autodoc_default_options = {"members": False}
 
 nitpicky = True
 # Names of other libraries (no intersphinx: the build must not need the network).
