@@ -78,7 +78,9 @@ _kernels = Path(tempfile.mkdtemp(prefix="astrocpg-docs-jupyter-"))
     "display_name": "astrocpg docs", "language": "python",
     "env": {"MPLBACKEND": "module://matplotlib_inline.backend_inline",
             # no ipywidgets here: tqdm's notebook bars fall back to text, which it says
-            "PYTHONWARNINGS": "ignore:IProgress not found"}}))
+            "PYTHONWARNINGS": "ignore:IProgress not found",
+            # where the recorded results are, for the pages that read their manifests
+            "ASTROCPG_DOCS": str(DOCS)}}))
 os.environ["JUPYTER_PATH"] = os.pathsep.join(
     [str(_kernels)] + [p for p in os.environ.get("JUPYTER_PATH", "").split(os.pathsep) if p])
 nb_kernel_rgx_aliases = {".*": _KERNEL}
