@@ -120,3 +120,16 @@ def test_the_wheel_runs_from_a_fresh_environment(dist: Path, tmp_path: Path) -> 
                             "print(len(load_study(str(p)).runs))"],
                            cwd=elsewhere, env=env, capture_output=True, text=True, timeout=300)
     assert study.returncode == 0 and int(study.stdout.strip()) > 0, study.stderr[-3000:]
+
+
+def test_pip_wheel_leaves_nothing_in_the_source_tree(tmp_path: Path) -> None:
+    """``pip wheel .`` builds in the tree itself (no sdist first); setuptools alone would leave
+    ``build/`` and ``astrocpg.egg-info`` there."""
+    before = {p.name for p in ROOT.iterdir()}
+    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w",
+                           str(tmp_path), str(ROOT)], cwd=tmp_path, env=_clean_env(),
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert list(tmp_path.glob("astrocpg-*.whl"))
+    left = {p.name for p in ROOT.iterdir()} - before
+    assert not left, f"pip wheel left {sorted(left)} in the source tree"
