@@ -117,7 +117,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2, help="workers of the projected ablation")
     ap.add_argument("--repeats", type=int, default=3, help="start-up repeats")
     ap.add_argument("--session-with", type=float, default=9.64,
-                    help="mean session length with astrocytes, s (README's ablation; for the "
+                    help="mean session length with astrocytes, s (docs/results.md, the ablation; for the "
                          "training writes)")
     ap.add_argument("--run-with", type=float, default=3713.0,
                     help="simulated s of the ablation's run with astrocytes (its slowest "

@@ -83,7 +83,7 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=20)
     ap.add_argument("--sessions", type=int, nargs="+", default=[0, 50, 200, 400])
     ap.add_argument("--session-length", type=float, default=9.64,
-                    help="mean session length, s (README's ablation, with astrocytes)")
+                    help="mean session length, s (docs/results.md: the ablation, with astrocytes)")
     args = ap.parse_args()
     for line in lines(args.trials, tuple(args.sessions), args.session_length):
         print(line)

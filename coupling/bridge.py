@@ -1,6 +1,6 @@
 """The 1 ms coupling between the Brian2 CPG and MuJoCo: one ``network_operation`` per step.
 
-Per step (SPEC section 1, "Coupling to the robot"), after the CPG has spiked and its torque
+Per step (docs/model.md, "Coupling to the robot"), after the CPG has spiked and its torque
 traces have taken this step's spikes in:
 
 1. thigh and calf motors get their torque traces, hips get the PI torque (from the hip angles

@@ -42,13 +42,14 @@ ACTUATOR_NAMES = tuple(f"{leg}_{j}" for leg in LEGS for j in JOINTS)
 
 @dataclass(kw_only=True, frozen=True)
 class A1Parameters:
-    """The robot and simulation settings of the paper (supplementary, Table II) and SPEC 1.
+    """The robot and simulation settings of the paper (supplementary, Table II)
+    and docs/model.md, "The robot".
 
     start_height: torso height at reset, m (paper: 0.35, modified from Unitree's 0.3).
     thigh_range_front, thigh_range_rear, calf_range: joint limits, rad (paper, modified from the
         manufacturer's for better gait formation); hip_range: Unitree's hip limits, rad.
     frictionloss_thigh, frictionloss_calf, frictionloss_hip: joint dry friction, N m (paper).
-    frictionloss_free_joint: dry friction on the torso's six free degrees of freedom (SPEC: the
+    frictionloss_free_joint: dry friction on the torso's six free degrees of freedom (docs/model.md: the
         authors' model gave the free joint the default joint frictionloss of 10; the published
         results were obtained with it).
     joint_damping, joint_armature: for every joint, free joint included (authors' model).

@@ -1,4 +1,4 @@
-"""Training sessions, run inside the 1 ms loop (SPEC section 1, "Sessions"; paper "Training
+"""Training sessions, run inside the 1 ms loop (docs/model.md, "Sessions"; paper "Training
 Session and Training Progress").
 
 Each trial of a batch has its own sessions: a session ends at L_max or once the robot has spent

@@ -48,7 +48,8 @@ from .world import WORLD
 @dataclass(frozen=True, kw_only=True)
 class ModelSet:
     """Every model the CPG, its astrocytes and its coupling are built from (defaults: the paper
-    plus SPEC). Parameter names are unique across the set, so ``--set NAME=VALUE`` is unambiguous.
+    plus the facts it leaves out, docs/model.md). Parameter names are unique across the set, so
+    ``--set NAME=VALUE`` is unambiguous.
     """
 
     motor_neuron: NeuronModel = MOTOR_NEURON

@@ -1,7 +1,8 @@
 """Li-Rinzel astrocyte with 2-AG input and adenosine release (one per thigh motor-neuron pool).
 
-Paper: "Astrocyte Regulation" and Table II; the Li-Rinzel equations and constants are SPEC
-section 1 (time in s, concentrations in uM). 2-AG is released by the astrocyte's own pool
+Paper: "Astrocyte Regulation" and Table II; the Li-Rinzel equations and constants are not in the
+paper: docs/model.md, "Li-Rinzel astrocyte" (time in s, concentrations in uM). 2-AG is
+released by the astrocyte's own pool
 (``n_pool`` spikes in a step add ``r_AG`` each). Adenosine is released (``+r_ADO``) when
 [Ca2+] exceeds its threshold and the release refractory period has passed, then decays.
 """
@@ -35,32 +36,32 @@ INITIAL_STATE = {"Ca": 0.071006*umolar, "h": 0.7791, "IP3": 0.16*umolar, "AG": 0
 
 PARAMETERS = ParameterTable("astrocyte", [
     Parameter(name="IP3_star", value=0.16*umolar, symbol=r"IP_3^*",
-              meaning="resting IP3 concentration (SPEC)"),
+              meaning="resting IP3 concentration (docs/model.md)"),
     Parameter(name="tau_IP3", value=7*second, symbol=r"\tau_{IP_3}",
-              meaning="IP3 decay time constant (SPEC)", positive=True),
+              meaning="IP3 decay time constant (docs/model.md)", positive=True),
     Parameter(name="r_IP3", value=0.5*umolar/second, symbol=r"r_{IP_3}",
-              meaning="IP3 production per unit of 2-AG (SPEC)"),
+              meaning="IP3 production per unit of 2-AG (docs/model.md)"),
     Parameter(name="r_C", value=6/second, symbol=r"r_C",
-              meaning="maximal IP3R channel flux rate (SPEC)"),
-    Parameter(name="r_L", value=0.11/second, symbol=r"r_L", meaning="ER leak rate (SPEC)"),
+              meaning="maximal IP3R channel flux rate (docs/model.md)"),
+    Parameter(name="r_L", value=0.11/second, symbol=r"r_L", meaning="ER leak rate (docs/model.md)"),
     Parameter(name="C0", value=2*umolar, symbol=r"C_0",
-              meaning="total cell free Ca2+ per cytosolic volume (SPEC)"),
+              meaning="total cell free Ca2+ per cytosolic volume (docs/model.md)"),
     Parameter(name="c1", value=0.185, symbol=r"c_1",
-              meaning="ER to cytosol volume ratio (SPEC)"),
+              meaning="ER to cytosol volume ratio (docs/model.md)"),
     Parameter(name="v_ER", value=0.8*umolar/second, symbol=r"v_{ER}",
-              meaning="maximal SERCA pump rate (SPEC)"),
+              meaning="maximal SERCA pump rate (docs/model.md)"),
     Parameter(name="k_ER", value=0.1*umolar, symbol=r"k_{ER}",
-              meaning="SERCA pump half-activation (SPEC)", positive=True),
+              meaning="SERCA pump half-activation (docs/model.md)", positive=True),
     Parameter(name="a2", value=0.2/(umolar*second), symbol=r"a_2",
-              meaning="IP3R Ca2+ inactivation binding rate (SPEC)", positive=True),
+              meaning="IP3R Ca2+ inactivation binding rate (docs/model.md)", positive=True),
     Parameter(name="d1", value=0.13*umolar, symbol=r"d_1",
-              meaning="IP3 dissociation constant (SPEC)", positive=True),
+              meaning="IP3 dissociation constant (docs/model.md)", positive=True),
     Parameter(name="d2", value=1.049*umolar, symbol=r"d_2",
-              meaning="Ca2+ inactivation dissociation constant (SPEC)", positive=True),
+              meaning="Ca2+ inactivation dissociation constant (docs/model.md)", positive=True),
     Parameter(name="d3", value=0.9434*umolar, symbol=r"d_3",
-              meaning="IP3 dissociation constant (SPEC)", positive=True),
+              meaning="IP3 dissociation constant (docs/model.md)", positive=True),
     Parameter(name="d5", value=0.08234*umolar, symbol=r"d_5",
-              meaning="Ca2+ activation dissociation constant (SPEC)", positive=True),
+              meaning="Ca2+ activation dissociation constant (docs/model.md)", positive=True),
     Parameter(name="r_AG", value=1e-3, symbol=r"r_{\mathrm{AG}}",
               meaning="2-AG released per motor-neuron spike of the pool"),
     Parameter(name="tau_AG", value=1*second, symbol=r"\tau_{\mathrm{AG}}",

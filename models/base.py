@@ -42,7 +42,7 @@ class Parameter:
     value: the value, a Brian2 quantity or a plain number for dimensionless parameters.
     symbol: the paper's symbol (LaTeX), so the table can be checked against the paper.
     meaning: one line saying what the parameter is, and where the value comes from when it is
-        not the paper's table (e.g. SPEC).
+        not the paper's table (e.g. docs/model.md).
     positive: the value must be > 0 (time constants, sizes, rates of decay).
     """
 
@@ -234,7 +234,7 @@ class Model:
 
     name: the model's name (errors read ``<name>.<attribute>: ...``).
     parameters: its :class:`ParameterTable`.
-    description: what it models and where it comes from (the paper, SPEC).
+    description: what it models and where it comes from (the paper, docs/model.md).
 
     Class attributes: ``kind`` (``"neuron"``, ``"synapse"``, ``"expression"``), ``code_field``
     (the name of the main code string: ``equations``, ``model`` or ``expression``) and

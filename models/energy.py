@@ -1,4 +1,4 @@
-"""Power estimates of the controller (paper: "Power Consumption Benefits"; SPEC).
+"""Power estimates of the controller (paper: "Power Consumption Benefits"; docs/model.md).
 
 SNN: one accumulate (ADD) per synaptic event. ``ops_*`` are the synaptic events caused by one
 spike of each population (counted on the built network), ``f_*`` the total firing frequencies

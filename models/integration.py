@@ -1,7 +1,7 @@
 """The authors' discretisation as a Brian2 integration method.
 
 The paper advances every first-order model as "add this step's input, then apply the decay"
-(supplementary, "Computational Implementation"; SPEC section 1). For an equation that is linear
+(supplementary, "Computational Implementation"; docs/model.md). For an equation that is linear
 in its own variable, ``dx/dt = A*x + B`` (A and B may depend on other variables), one step is
 
     x <- (x + dt*B) * exp(A*dt)
@@ -9,8 +9,8 @@ in its own variable, ``dx/dt = A*x + B`` (A and B may depend on other variables)
 This differs from exponential Euler (``x <- x*exp(A dt) + B*(exp(A dt)-1)/A``) by a factor of
 about 1 - dt/(2 tau) on the input; for tau = 9 ms and dt = 1 ms that is 5%, which moves the
 membrane potential's steady state by ~0.7 mV against a 10 mV threshold and changes the burst's
-firing rate by ~20%. The rhythm of SPEC section 3 was measured with this scheme, so the neurons
-use it.
+firing rate by ~20%. The rhythm of the published figures (docs/model.md) was measured with
+this scheme, so the neurons use it.
 
 Schemes are registered by name in Brian2's table of state updaters (as Brian2 registers
 ``"euler"`` or ``"exponential_euler"``), so a model refers to its scheme by name

@@ -15,7 +15,7 @@ adenosine of the target pool's astrocyte. The paper's learning rates are per 1 m
 Delays: ``delay_X_Y`` is the delay from limb X's thigh pools to limb Y's, 0 or one step (1 ms).
 The paper states none; 1 ms for every pair is the default. The authors' code adds the inter-limb
 input inside its loop over the limbs FR, FL, RR, RL, so a lower-index limb reaches a higher-index
-one in the same step (SPEC): ``models/variants/interlimb_authors_delays.toml`` sets those six
+one in the same step (docs/model.md): ``models/variants/interlimb_authors_delays.toml`` sets those six
 pairs to 0 ms. The limbs then integrate one after another within a step (see
 ``astrocpg.network.delays``).
 """

@@ -19,7 +19,7 @@ RESET = "v = v_interneuron_rest"
 
 # Refractory in the step of the spike and the next refractory_interneuron (authors' counter: set at the
 # spike, checked before it counts down). With the 1 ms step the neuron can fire again after
-# refractory + 1 ms; this reading reproduces SPEC section 3 (period 0.52 s, 27/25 Hz), while
+# refractory + 1 ms; this reading reproduces docs/model.md's figures (period 0.52 s, 27/25 Hz), while
 # Brian2's plain refractory=refractory_interneuron gives a 0.44 s period and 28.6 Hz.
 REFRACTORY = "timestep(t - lastspike, dt) <= timestep(refractory_interneuron, dt)"
 

@@ -1,6 +1,6 @@
 """The two projections of a V1/V2b or IIN interneuron: every spike of its source pool excites it,
 and each of its spikes inhibits every neuron of its target pool. Paper: "Locomotion Unit" and
-Table I; the table of which interneuron links which pools is SPEC section 1.
+Table I; the table of which interneuron links which pools is docs/model.md.
 """
 
 from brian2 import mV

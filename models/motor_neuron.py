@@ -3,7 +3,7 @@
 Paper: "Locomotion Unit" (membrane equation, Ca2+ dynamics, spike probability) and Table I.
 The background drive grows with torso speed and carries uniform noise drawn per neuron per step.
 Input (background, inter-limb, limit-position inhibition, synaptic) reaches only neurons that are
-not refractory; the K+ current acts on every neuron (SPEC section 1, authors' discretisation).
+not refractory; the K+ current acts on every neuron (docs/model.md, "Discretisation").
 """
 
 from brian2 import Hz, meter, ms, mV, second
@@ -32,7 +32,7 @@ RESET = "v = v_motor_rest; Ca += r_Ca"
 
 # Refractory in the step of the spike and the next refractory_motor (authors' counter: set at the
 # spike, checked before it counts down). With the 1 ms step the neuron can fire again after
-# refractory + 1 ms; this reading reproduces SPEC section 3 (period 0.52 s, 27/25 Hz), while
+# refractory + 1 ms; this reading reproduces docs/model.md's figures (period 0.52 s, 27/25 Hz), while
 # Brian2's plain refractory=refractory_motor gives a 0.44 s period and 28.6 Hz.
 REFRACTORY = "timestep(t - lastspike, dt) <= timestep(refractory_motor, dt)"
 

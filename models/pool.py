@@ -8,7 +8,8 @@ summed inter-limb input). The motor neurons read these through linked variables.
 set by the session loop and read by the inter-limb synapses.
 
 ``limit_margin`` is the distance from a thigh joint limit within which the pool that drives the
-joint toward that limit is inhibited (paper: 0.05 rad; SPEC: the authors' code in effect used 0).
+joint toward that limit is inhibited (paper: 0.05 rad; the
+authors' code in effect used 0: docs/model.md).
 """
 
 from brian2 import second
@@ -34,7 +35,7 @@ PARAMETERS = ParameterTable("pool", [
     Parameter(name="tau_trace", value=0.01*second, symbol=r"\tau_{\mathrm{trace}}",
               meaning="pool spike trace decay time constant (STDP)", positive=True),
     Parameter(name="limit_margin", value=0.05*radian, symbol=r"\mathrm{margin}",
-              meaning="inhibition region next to a thigh joint limit (paper 0.05 rad; SPEC)"),
+              meaning="inhibition region next to a thigh joint limit (paper 0.05 rad)"),
 ])
 
 INTERFACE = ("n", "torso_speed", "limit_inhibition", "I_interlimb", "reward", "reward_mean",

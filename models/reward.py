@@ -1,5 +1,6 @@
 """Reward of the gait search (paper: "Gait Learning Algorithm", Table II). The angular-rate
-coefficients are negative, so the angular rates are penalties (SPEC settles the double minus).
+coefficients are negative, so the angular rates are penalties
+(docs/model.md settles the double minus).
 ``vel_x``: torso velocity along world x; ``omega_*``: gyro rates in the torso frame.
 """
 

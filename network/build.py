@@ -231,7 +231,7 @@ class CPG:
 
     def reset_trial(self, trial: int, keep: tuple[str, ...] = ("astrocyte",)) -> None:
         """Reset one trial's state to the start of a session: every state variable of the
-        groups not in ``keep`` (astrocytes keep theirs: SPEC) and every dynamic variable of the
+        groups not in ``keep`` (astrocytes keep theirs: docs/model.md) and every dynamic variable of the
         inter-limb synapses except the weights. Array writes only (no code generation)."""
         for name in ("motor", "interneuron", "astrocyte", "pool", "torque", "interlimb"):
             if name in keep or (name == "interlimb" and name not in self.synapse_kinds):
@@ -308,7 +308,8 @@ def same_limb_mask(layout: Layout) -> np.ndarray:
 def trial_seeds(seed: int, n_trials: int) -> list[int]:
     """Trial ``b`` of a batch started with ``seed`` draws its connectivity from ``seed + b``, so
     a trial's network does not depend on the batch it runs in. Its noise does: Brian2 draws it
-    for all trials from one generator seeded with ``seed`` (README, "Seeds and batches")."""
+    for all trials from one generator seeded with ``seed``
+    (docs/reproducibility.md, "Seeds and batches")."""
     return [int(seed) + b for b in range(n_trials)]
 
 
@@ -327,7 +328,7 @@ def build_cpg(
     Order within one step (Brian2 schedule): motor neurons, interneurons and astrocytes integrate
     (``groups``), spike (``thresholds``), synapses deliver (``synapses``), neurons reset. Right
     after the thresholds, each pool counts its spikes (``pool_activity``) and the torque traces
-    take them in, so the torque of step n holds the spikes of step n (SPEC: torque from this
+    take them in, so the torque of step n holds the spikes of step n (docs/model.md: torque from this
     step's spikes drives this step's physics). The inter-limb input of the pools' spikes reaches
     the target neurons at the next step, like every other synapse.
 

@@ -10,7 +10,7 @@ another, and a pair has a delay of 0 exactly when its source's stage comes befor
 
 A table can be built this way when its 0 ms pairs order the limbs in stages (a strict weak order).
 The default (1 ms everywhere) is one stage: the network as it always was. The authors' code (0 ms
-from a lower-index to a higher-index limb, SPEC) is four stages, FR, FL, RR, RL. Anything else,
+from a lower-index to a higher-index limb, docs/model.md) is four stages, FR, FL, RR, RL. Anything else,
 e.g. FR->FL at 0 ms while FR->RR and RR->FL stay at 1 ms, cannot be ordered and is refused,
 naming a pair.
 """

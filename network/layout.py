@@ -29,7 +29,8 @@ POOLS: tuple[str, ...] = ("thigh_flexor", "thigh_extensor", "calf_flexor", "calf
 THIGH_POOLS: tuple[str, ...] = ("thigh_flexor", "thigh_extensor")
 JOINTS_DRIVEN: tuple[str, ...] = ("thigh", "calf")
 
-# The six interneurons of a locomotion unit: (name, kind, source pool, target pool) (SPEC 1).
+# The six interneurons of a locomotion unit: (name, kind, source pool, target pool) (docs/model.md,
+# "Wiring of one limb").
 INTERNEURONS: tuple[tuple[str, str, str, str], ...] = (
     ("thigh_flexor_to_extensor", "V1/V2b", "thigh_flexor", "thigh_extensor"),
     ("thigh_extensor_to_flexor", "V1/V2b", "thigh_extensor", "thigh_flexor"),

@@ -182,6 +182,9 @@ def _add_overwrite(p: argparse.ArgumentParser) -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="astrocpg", description=DESCRIPTION, epilog=EXIT_HELP,
                      formatter_class=argparse.RawDescriptionHelpFormatter)
+    from .. import __version__  # the package's one version (pyproject reads it too)
+    parser.add_argument("--version", action="version", version=f"astrocpg {__version__}",
+                        help="print the version and exit")
     sub = parser.add_subparsers(dest="command", required=False, parser_class=_Parser,
                                 metavar="COMMAND", help="what to do (alone: lists the commands)")
 

@@ -23,7 +23,8 @@ ROBOT_FLOATS_PER_STEP = 40
 SESSION_BYTES_PER_TRIAL = 2_000
 
 # Wall seconds per simulated second of the closed loop on one core for a network of n trials:
-# about WALL_PER_SIM_S + WALL_PER_SIM_S_PER_TRIAL * n (benchmarks/speed.py, README: 0.27 s for
+# about WALL_PER_SIM_S + WALL_PER_SIM_S_PER_TRIAL * n (benchmarks/speed.py,
+# docs/performance.md: 0.27 s for
 # 1 trial, 0.40 for 4, 0.91 for 16). The ablation simulates its astrocytes too (regulation 0),
 # so it costs the same per simulated second.
 WALL_PER_SIM_S = 0.23

@@ -31,8 +31,9 @@ Every (condition, sweep point) is trained for every seed. Consecutive seeds of o
 one *run*: ``batch`` trials in one network. Trial ``b`` of a run that starts at seed ``s`` has
 the network (connectivity, neuron positions) of seed ``s + b`` whatever the batch, but its noise
 comes from the run's one Brian2 generator, which draws for every trial of the run at each
-step: a seed's trajectory depends on the batching, its statistics over seeds do not (README,
-"Seeds and batches"). Changing ``batch`` gives other, equally valid, trajectories.
+step: a seed's trajectory depends on the batching, its statistics over seeds do not
+(docs/reproducibility.md, "Seeds and batches"). Changing ``batch`` gives other, equally
+valid, trajectories.
 
 Each run lives in ``OUT/runs/<run id>/`` as an ordinary training folder (``sessions.csv``,
 ``weights.npz``, ``checkpoint.pkl``, ``manifest.json``) plus ``status.json``. A run whose

@@ -1,0 +1,135 @@
+"""The release: ``python -m build`` gives an sdist and a wheel without leaving files in the
+source tree; the wheel holds the package data, and installed into a fresh virtual environment
+it runs ``astrocpg --version`` and a short ``astrocpg run`` from another folder.
+
+To keep the test off the network for the dependencies, the fresh environment sees this
+environment's site-packages through a ``.pth`` line (a plain path: the ``.pth`` files there,
+among them an editable install of this checkout, are not processed) and the wheel is installed
+with ``--no-deps``; the test checks that ``astrocpg`` is imported from the fresh environment.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import sysconfig
+import venv
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# what the wheel must carry besides the modules: the model variants, the built-in studies and
+# worlds, and the code that builds the robot model
+PACKAGE_DATA = [
+    "astrocpg/models/variants/gchi_astrocyte.toml",
+    "astrocpg/models/variants/li_rinzel_astrocyte.toml",
+    "astrocpg/models/variants/interlimb_authors_delays.toml",
+    "astrocpg/models/variants/compare_astrocytes.toml",
+    "astrocpg/studies/sweeps/quick.toml",
+    "astrocpg/studies/sweeps/ablation.toml",
+    "astrocpg/studies/experiments/robustness.toml",
+    "astrocpg/coupling/robot.py",
+]
+
+
+def _clean_env(**extra: str) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+    env.update(MPLBACKEND="Agg", **extra)
+    return env
+
+
+@pytest.fixture(scope="module")
+def dist(tmp_path_factory) -> Path:
+    pytest.importorskip("build")
+    out = tmp_path_factory.mktemp("dist")
+    before = {p.name for p in ROOT.iterdir()}
+    proc = subprocess.run([sys.executable, "-m", "build", "--outdir", str(out), str(ROOT)],
+                          cwd=out, env=_clean_env(), capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert "deprecat" not in (proc.stdout + proc.stderr).lower(), proc.stderr[-3000:]
+    left = {p.name for p in ROOT.iterdir()} - before
+    assert not left, f"the build left {sorted(left)} in the source tree"
+    return out
+
+
+def test_build_gives_an_sdist_and_a_wheel_with_the_package_data(dist: Path) -> None:
+    sdists, wheels = list(dist.glob("astrocpg-*.tar.gz")), list(dist.glob("astrocpg-*.whl"))
+    assert len(sdists) == 1 and len(wheels) == 1, sorted(p.name for p in dist.iterdir())
+    names = set(zipfile.ZipFile(wheels[0]).namelist())
+    missing = [p for p in PACKAGE_DATA if p not in names]
+    assert not missing, missing
+    metadata = zipfile.ZipFile(wheels[0]).read(
+        next(n for n in names if n.endswith(".dist-info/METADATA"))).decode()
+    import astrocpg
+    assert f"Version: {astrocpg.__version__}" in metadata
+    assert "License-Expression: MIT" in metadata
+    assert "Author: " in metadata and "Project-URL: " in metadata
+    assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
+    assert not any(n.startswith(("tests/", "docs/", "astrocpg/tests/", "astrocpg/docs/"))
+                   for n in names)
+
+
+def test_the_wheel_runs_from_a_fresh_environment(dist: Path, tmp_path: Path) -> None:
+    env_dir = tmp_path / "venv"
+    venv.create(env_dir, with_pip=False)
+    python = env_dir / ("Scripts" if os.name == "nt" else "bin") / "python"
+    purelib = subprocess.run([str(python), "-c", "import sysconfig; "
+                              "print(sysconfig.get_paths()['purelib'])"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+    # this environment's dependencies (and pip), as a plain path: no .pth file there runs
+    (Path(purelib) / "astrocpg_test_base.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    wheel = next(dist.glob("astrocpg-*.whl"))
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    env = _clean_env()
+    proc = subprocess.run([str(python), "-m", "pip", "install", "-q", "--no-deps",
+                           "--ignore-installed", "--no-compile", str(wheel)],
+                          cwd=elsewhere, env=env, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+
+    where = subprocess.run([str(python), "-c", "import astrocpg; print(astrocpg.__file__)"],
+                           cwd=elsewhere, env=env, capture_output=True, text=True, check=True)
+    assert Path(where.stdout.strip()).resolve().is_relative_to(env_dir.resolve()), where.stdout
+
+    script = env_dir / ("Scripts" if os.name == "nt" else "bin") / "astrocpg"
+    import astrocpg
+    version = subprocess.run([str(script), "--version"], cwd=elsewhere, env=env,
+                             capture_output=True, text=True, timeout=120)
+    assert version.returncode == 0, version.stderr
+    assert version.stdout.strip() == f"astrocpg {astrocpg.__version__}"
+
+    run = subprocess.run([str(script), "run", "--seconds", "0.2", "--no-progress", "--out",
+                          "out/r"], cwd=elsewhere, env=env, capture_output=True, text=True,
+                         timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert (elsewhere / "out" / "r" / "manifest.json").is_file()
+
+    robot = subprocess.run([str(script), "robot", "export", "a1.xml"], cwd=elsewhere, env=env,
+                           capture_output=True, text=True, timeout=300)
+    assert robot.returncode == 0, robot.stderr[-3000:]
+    assert "<mujoco" in (elsewhere / "a1.xml").read_text()
+
+    study = subprocess.run([str(python), "-c",
+                            "from astrocpg.studies.sweeps.study import load_study; "
+                            "from importlib.resources import files; "
+                            "p = files('astrocpg.studies.sweeps') / 'quick.toml'; "
+                            "print(len(load_study(str(p)).runs))"],
+                           cwd=elsewhere, env=env, capture_output=True, text=True, timeout=300)
+    assert study.returncode == 0 and int(study.stdout.strip()) > 0, study.stderr[-3000:]
+
+
+def test_pip_wheel_leaves_nothing_in_the_source_tree(tmp_path: Path) -> None:
+    """``pip wheel .`` builds in the tree itself (no sdist first); setuptools alone would leave
+    ``build/`` and ``astrocpg.egg-info`` there."""
+    before = {p.name for p in ROOT.iterdir()}
+    proc = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w",
+                           str(tmp_path), str(ROOT)], cwd=tmp_path, env=_clean_env(),
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert list(tmp_path.glob("astrocpg-*.whl"))
+    left = {p.name for p in ROOT.iterdir()} - before
+    assert not left, f"pip wheel left {sorted(left)} in the source tree"
