@@ -11,7 +11,7 @@ import numpy as np
 
 from ...errors import InputError
 from ..figures.traces import FORMATS, recorded_span, save_figures, trace_figures
-from ..files.folder import OutputFolder
+from ..files.folder import OutputFolder, check_output_path, check_replaceable
 from ..files.outputs import write_manifest
 from ..files.result import Result, load
 from .trained import FIGURES, plot_training
@@ -61,12 +61,12 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     span = recorded_span(result)
     win = _check_window(window, span) or span
     target = Path(out) if out is not None else folder / FIGURES
-    OutputFolder(target, overwrite=overwrite or out is None).check()
+    OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]).check()
     figures = trace_figures(result, trial, win)
     if not figures:
         raise InputError("recorded nothing to draw (no spikes, traces or robot)",
                          culprit=str(folder))
-    with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+    with OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]) as tmp:
         paths = save_figures(figures, tmp, fmt)
         write_manifest(tmp, command="plot", seed=int(result.manifest.get("seed", 0) or 0),
                        models_json={}, files={p.name: "figure" for p in paths},
@@ -156,8 +156,13 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
         raise InputError("the file name must end in .mp4", culprit=f"--out {path}")
     if not path.parent.is_dir():
         raise InputError(f"folder '{path.parent}' does not exist", culprit=f"--out {path}")
+    if path.is_dir():
+        raise InputError("is a folder; name the file to write", culprit=f"--out {path}")
+    # not inside the folder it replays (but as its video_trialTT.mp4), never a listed file
+    check_output_path(path, [folder], culprit=f"--out {path}", file=True)
     if out is not None and path.exists() and not overwrite:
         raise InputError("exists; --overwrite replaces it", culprit=f"--out {path}")
+    check_replaceable(path, culprit=f"--out {path}")
     samples = frame_samples(rob["t"], fps, speed)
     model, layout = _robot_model(result)
 

@@ -16,11 +16,12 @@ import hashlib
 import io
 import math
 import pickle
+import os
 import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import mujoco
 import numpy as np
@@ -394,14 +395,16 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
           record_every: int | None = None,
           record_stride: int = 1, spikes: tuple[str, ...] | None = None,
           traces: tuple[str, ...] | None = None, overwrite: bool = False,
-          progress: bool = True) -> Result:
+          progress: bool = True, inputs: Sequence[str | os.PathLike] = ()) -> Result:
     """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
     each, writing ``out`` (sessions.csv, weights.npz, checkpoint.pkl, manifest.json) after every
     session: what ``astrocpg train`` runs. ``astrocytes=False`` is the paper's ablation;
     overrides/equations as for :func:`~astrocpg.studies.experiments.run.run` (e.g.
     ``["L_max=0.5*second"]`` for short sessions). ``record_every=N`` records sessions 1, 1+N,
     ... and each trial's last into ``out/recordings/`` (``record_stride`` steps between trace
-    and robot samples; ``spikes``/``traces`` pick what).
+    and robot samples; ``spikes``/``traces`` pick what). ``overwrite`` replaces only an astrocpg
+    output folder that is none of ``inputs`` (files the caller read, e.g. model files) and
+    holds none of them.
 
     Returns a :class:`~astrocpg.studies.files.result.Result` of kind "train", read back from
     ``out`` (``sessions`` DataFrame, ``weights`` (trial, session, 8, 8) mV, ``recording(trial,
@@ -419,7 +422,7 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
     if (out / CHECKPOINT).exists() and not overwrite:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
                          f"replace it with --overwrite)", culprit=f"--out {out}")
-    OutputFolder(out, overwrite=overwrite).check()
+    OutputFolder(out, overwrite=overwrite, inputs=inputs).check()
     plan = record_plan(record_every, record_stride, spikes, traces)
     check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
                                 sessions=settings.n_sessions),

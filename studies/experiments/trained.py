@@ -86,7 +86,7 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     folder = Path(folder)
     # the default folder belongs to this command: replaced whole on every plot
     target = Path(out) if out is not None else folder / FIGURES
-    OutputFolder(target, overwrite=overwrite or out is None).check()
+    OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]).check()
     training = load(folder)
     if not 0 <= trial < training.n_trials:
         raise InputError(f"{folder} has {training.n_trials} trial(s)", culprit=f"--trial {trial}")
@@ -100,7 +100,7 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     window = (window[0], min(window[1], seconds)) if window is not None \
         else (max(0.0, seconds - 2.0), seconds)
     written = [target / n for n in names]
-    with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+    with OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]) as tmp:
         plots.plot_weights(tmp / names[0], weights[b] * 1e3, trial=b)
         plots.plot_training_curves(tmp / names[1], folder / "sessions.csv")
         plots.plot_thigh_extensor_activity(tmp / names[2], result.spikes, result.cpg.layout,
