@@ -777,9 +777,9 @@ case("gait-seconds-short", lambda e: S("gait", e.copy("train"), "--seconds", "0.
                                        "--no-progress"), 0, None, "unchanged",
      lambda e: e.copy("train"))
 case("run-overwrite-replaces-whole", lambda e: S("run", "--seconds", "0.01", "--no-progress",
-                                                 "--overwrite", "--out", e.nonempty()),
-     0, None, "complete", lambda e: e.nonempty(),
-     check=lambda e: not (e.nonempty() / "mine.txt").exists() or pytest.fail("merged"))
+                                                 "--overwrite", "--out", e.derived("run")),
+     0, None, "complete", lambda e: e.derived("run"),
+     check=lambda e: not (e.derived("run") / "figures").exists() or pytest.fail("merged"))
 case("unit-spikes-none", lambda e: S("unit", "--seconds", "0.05", "--spikes", "none", "--traces",
                                      "none", "--no-progress", "--out", out(e)), 0, None,
      "complete", out)
@@ -827,6 +827,71 @@ case("unit-bad-equation-leaves-no-debug-files",
 case("unit-short-leaves-no-debug-files",
      lambda e: S("unit", "--seconds", "0.01", "--no-progress", "--out", out(e)), 0, None,
      "complete", out, subprocess={"tmpdir": True}, marks=(pytest.mark.slow,))
+
+# ---- overwrite: what --out may replace (one rule, studies/files/folder.py check_output_path
+# and check_replaceable): never a folder of the user's own files, the command's input (nor a
+# folder holding it, nor a place inside it but figures/, report/, ...), nor the current folder
+for cmd in (UNIT, RUN, "train"):
+    case(f"{cmd}-overwrite-a-folder-of-user-files",
+         lambda e, c=cmd: S(c, "--seconds", "0.01", "--overwrite", "--out", e.nonempty())
+         if c != "train" else S(c, "--overwrite", "--out", e.nonempty()), 2,
+         lambda e: f"--out {e.nonempty()}: holds files that are not an astrocpg output",
+         "unchanged", lambda e: e.nonempty())
+case("study-overwrite-a-folder-of-user-files",
+     lambda e: S("study", e.study(study_text()), "--overwrite", "--out", e.nonempty()), 2,
+     "not an astrocpg output", "unchanged", lambda e: e.nonempty())
+case("plot-overwrite-its-own-input", lambda e: S("plot", e.copy("run"), "--out", e.copy("run"),
+                                                  "--overwrite"), 2,
+     lambda e: f"--out {e.copy('run')}: is {e.copy('run')}, which this command reads",
+     "unchanged", lambda e: e.copy("run"))
+case("plot-training-overwrite-its-own-input",
+     lambda e: S("plot", e.copy("train"), "--out", e.copy("train"), "--overwrite"), 2,
+     "which this command reads", "unchanged", lambda e: e.copy("train"))
+case("report-overwrite-its-own-study",
+     lambda e: S("report", e.copy("study"), "--out", e.copy("study"), "--overwrite"), 2,
+     lambda e: f"--out {e.copy('study')}: is", "unchanged", lambda e: e.copy("study"))
+case("report-out-inside-the-study-not-its-report",
+     lambda e: S("report", e.copy("study"), "--out", e.copy("study") / "runs", "--overwrite"), 2,
+     "is inside", "unchanged", lambda e: e.copy("study"))
+case("evaluate-overwrite-its-own-training",
+     lambda e: S("evaluate", e.copy("train"), "--seconds", "0.05", "--repeats", "1",
+                 "--no-progress", "--out", e.copy("train"), "--overwrite"), 2,
+     "which this command reads", "unchanged", lambda e: e.copy("train"))
+case("run-overwrite-the-training-of-its-weights",
+     lambda e: S("run", "--seconds", "0.01", "--weights", e.copy("train"), "--out",
+                 e.copy("train"), "--overwrite"), 2,
+     "which this command reads", "unchanged", lambda e: e.copy("train"))
+case("unit-out-holds-its-model-file",
+     lambda e: S("unit", "--seconds", "0.01", "--equations",
+                 f"astrocyte={e.equations('astrocyte', name='run/eqs.txt')}",
+                 "--out", e.tmp / "run", "--overwrite"), 2,
+     "holds", "unchanged", lambda e: e.tmp / "run")
+case("study-out-holds-its-study-file",
+     lambda e: S("study", (e.copy("study"), e.file("study/tiny.toml", TINY_STUDY))[1],
+                 "--out", e.copy("study"), "--overwrite"), 2,
+     "holds", "unchanged", lambda e: e.copy("study"))
+case("plot-overwrite-the-parent-of-its-input",
+     lambda e: S("plot", e.copy("run", "sub/run"), "--out", e.tmp / "sub", "--overwrite"), 2,
+     "holds", "unchanged", lambda e: e.tmp / "sub")
+case("plot-overwrite-dot", lambda e: S("plot", e.copy("run"), "--out", ".", "--overwrite"), 2,
+     "--out .: is the current folder", "unchanged", lambda e: e.tmp)
+case("run-overwrite-dot-dot", lambda e: S("run", "--seconds", "0.01", "--out", "..",
+                                          "--overwrite"), 2,
+     "--out ..: holds the current folder", "unchanged", lambda e: e.tmp)
+case("export-overwrite-a-file-of-its-input",
+     lambda e: S("export", e.copy("run"), "--format", "npz", "--out",
+                 e.copy("run") / "spikes.npz", "--overwrite"), 2,
+     "is inside", "unchanged", lambda e: e.copy("run"))
+case("export-overwrite-a-file-another-output-lists",
+     lambda e: S("export", e.copy("run"), "--format", "npz", "--out",
+                 e.copy("train") / "weights.npz", "--overwrite"), 2,
+     "listed in its manifest", "unchanged", lambda e: e.copy("train"))
+case("video-out-inside-its-input",
+     lambda e: S("video", e.copy("run"), "--out", e.copy("run") / "clip.mp4", "--overwrite"), 2,
+     "is inside", "unchanged", lambda e: e.copy("run"))
+case("plot-overwrite-another-run", lambda e: S("plot", e.copy("run"), "--out",
+                                                e.copy("run", "other"), "--overwrite"), 0,
+     None, "complete", lambda e: e.copy("run", "other"))
 
 
 # ---------------------------------------------------------------- running a case
