@@ -35,7 +35,7 @@ from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
 from ...network import codegen_target, interlimb_labels, run_network
 from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
-                            holds_results)
+                            holds_results, remove_derived)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..files.result import Result
@@ -434,7 +434,9 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
 def resume(folder: str | Path, *, progress: bool = True, record_every: int | None = None,
            expect: dict[str, Any] | None = None) -> Result:
     """Continue the training in ``folder`` from its checkpoint (``astrocpg train --resume``)
-    and end with the same files as a training never interrupted; ``expect`` (e.g. the options
+    and end with the same files as a training never interrupted (what later commands derived
+    from the earlier weights, e.g. ``evaluation/`` and ``figures/``, is removed: it would be
+    stale); ``expect`` (e.g. the options
     given again on the command line) must agree with the stored settings. Returns the
     training's Result, like :func:`train`."""
     out = Path(folder)
@@ -481,13 +483,15 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     if plan is None and record_every is not None:
         raise InputError("that run records no sessions", culprit="--record-every")
     return Result.from_training(_train(settings, out, plan, None if fresh else payload,
-                                       progress), out)
+                                       progress, resumed=True), out)
 
 
 def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            payload: dict[str, Any] | None, progress: bool, replace: bool = False,
-           new: bool = False) -> "Trainer":
-    """Build, own ``out`` (a lock: one process per training folder), train, write."""
+           new: bool = False, resumed: bool = False) -> "Trainer":
+    """Build, own ``out`` (a lock: one process per training folder), train, write. ``resumed``:
+    the training continues, so what later commands derived from its earlier weights (figures/,
+    evaluation/, videos, power estimates) is removed first (:func:`remove_derived`)."""
     models = model_set(settings.overrides, settings.equations, models=settings.models)
     trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
     try:
@@ -501,6 +505,8 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
             raise InputError("is not empty; --overwrite replaces it whole",
                              culprit=f"--out {out}")
         clean_stale_temporaries(out)
+        if resumed:  # made from the weights this run is about to change: stale from now on
+            remove_derived(out)
         return _train_locked(trainer, settings, out, plan, payload)
 
 

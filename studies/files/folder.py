@@ -70,16 +70,45 @@ def _now() -> str:
 
 
 # ---------------------------------------------------------------- temporaries
-def temp_prefix(stem: str, kind: str = "tmp") -> str:
+#: the longest file name most file systems take (bytes): a temporary's name must fit too
+NAME_MAX = 255
+#: what ``tempfile`` (and ``secrets.token_hex(4)``) appends to a prefix
+TOKEN_LENGTH = 8
+_SHORTENED = re.compile(r"~[0-9a-f]{8}$")
+
+
+def _fit(stem: str, room: int) -> str:
+    """``stem``, or when its UTF-8 bytes exceed ``room``, its start and ``~`` and 8 hex digits
+    of its sha256 (a shortened stem: unique per stem, and still recognisable)."""
+    raw = os.fsencode(stem)
+    if len(raw) <= room:
+        return stem
+    digest = hashlib.sha256(raw).hexdigest()[:8]
+    head = raw[:max(0, room - 9)].decode("utf-8", "ignore")  # never half a character
+    return f"{head}~{digest}"
+
+
+def temp_suffix(suffix: str) -> str:
+    """The suffix a temporary keeps: ``suffix`` if it is short (``.npz``, ``.nwb``, ``.mp4``),
+    else none (a long "suffix" is part of a name, and no library checks it)."""
+    return suffix if len(os.fsencode(suffix)) <= 16 else ""
+
+
+def temp_prefix(stem: str, kind: str = "tmp", suffix: str = "") -> str:
     """``.<stem>.<kind>-<pid>-``: the start of a hidden temporary's name, for ``tempfile``.
 
     An atomic file writer uses
-    ``tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem), suffix=path.suffix)``,
-    which makes ``.<stem>.tmp-<pid>-<8 random><suffix>`` (the suffix kept for libraries that
-    check it, e.g. pynwb); :func:`clean_stale_temporaries` recognises it."""
+    ``tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem, suffix=s), suffix=s)``
+    with ``s = temp_suffix(path.suffix)``, which makes ``.<stem>.tmp-<pid>-<8 random><suffix>``
+    (the suffix kept for libraries that check it, e.g. pynwb); :func:`clean_stale_temporaries`
+    recognises it. The whole name fits in :data:`NAME_MAX` bytes: a long stem (a legal name of
+    up to 255 bytes leaves no room for the rest) is shortened to its start, ``~`` and a hash of
+    it; the temporary's name then no longer says the target's whole name (see
+    :func:`clean_stale_temporaries`)."""
     if kind not in TEMP_KINDS:
         raise ValueError(f"kind must be one of {TEMP_KINDS}, got {kind!r}")
-    return f".{stem}.{kind}-{os.getpid()}-"
+    fixed = len(os.fsencode(f"...{kind}-{os.getpid()}-{suffix}")) + TOKEN_LENGTH
+    return f".{_fit(stem, NAME_MAX - fixed)}.{kind}-{os.getpid()}-"
 
 
 def parse_temp_name(name: str) -> dict[str, Any] | None:
@@ -121,7 +150,8 @@ def clean_stale_temporaries(parent: str | os.PathLike) -> list[Path]:
 
     An old folder that a killed ``--overwrite`` had set aside (``.<name>.replaced-<pid>-...``)
     while ``<name>`` is absent is renamed back to ``<name>``: the interrupted overwrite did not
-    happen. Best effort: what cannot be removed (a read-only folder, another process cleaning at
+    happen. (Where ``<name>`` was too long to fit, the aside name holds a shortened one and the
+    folder is left as it is, hidden but whole: never deleted.) Best effort: what cannot be removed (a read-only folder, another process cleaning at
     the same moment) is left for the next start."""
     parent = Path(parent)
     try:
@@ -139,6 +169,8 @@ def clean_stale_temporaries(parent: str | os.PathLike) -> list[Path]:
             if tmp["kind"] == "replaced" and path.is_dir() and not path.is_symlink():
                 original = parent / tmp["name"]
                 if not os.path.lexists(original):
+                    if _SHORTENED.search(tmp["name"]):
+                        continue  # its name was shortened: keep the old folder, never delete it
                     os.rename(path, original)
                     continue
             _remove(path)
@@ -547,14 +579,16 @@ class OutputFolder:
 # ---------------------------------------------------------------- inventory
 def _files(root: Path) -> Iterator[tuple[str, Path]]:
     """(relative POSIX path, path) of every file below ``root``, sorted, without the
-    top-level :data:`UNLISTED` names. Links to files count as files; links to folders are not
-    followed."""
+    top-level :data:`UNLISTED` names and without hidden temporaries (:func:`parse_temp_name`:
+    what a running or killed ``plot``, ``video`` or atomic writer has there is not the
+    folder's, and a killed one's is removed by the next start beside it). Links to files count
+    as files; links to folders are not followed."""
     def fail(err: OSError) -> None:
         raise err
 
     for dirpath, dirnames, filenames in os.walk(root, onerror=fail):
-        dirnames.sort()
-        for f in sorted(filenames):
+        dirnames[:] = sorted(d for d in dirnames if parse_temp_name(d) is None)
+        for f in sorted(x for x in filenames if parse_temp_name(x) is None):
             path = Path(dirpath, f)
             rel = path.relative_to(root).as_posix()
             if rel not in UNLISTED:
@@ -683,6 +717,31 @@ def clear_folder(folder: str | os.PathLike) -> None:
         raise EnvironmentFault.from_os_error(e, e.filename or root, "cannot clear") from None
 
 
+def remove_derived(folder: str | os.PathLike) -> list[str]:
+    """Delete what later commands derived from ``folder`` (the :data:`DERIVED` entries at its
+    top: ``figures/``, ``report/``, ``evaluation/`` and ``evaluation.parts/``, videos, power
+    estimates); returns their names. A training that continues (``train --resume``) calls it:
+    those were made from weights the training is about to change, and a stale evaluation beside
+    new weights would read as theirs (and ``evaluation.parts/`` would even be reused by the next
+    ``evaluate``)."""
+    root = Path(folder)
+    removed: list[str] = []
+    try:
+        names = sorted(os.listdir(root))
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, root, "cannot read the folder") from None
+    for name in names:
+        path = root / name
+        is_dir = path.is_dir() and not path.is_symlink()
+        if _derived(name, folder=is_dir):
+            try:
+                _remove(path)
+            except OSError as e:
+                raise EnvironmentFault.from_os_error(e, path, "cannot remove") from None
+            removed.append(name + ("/" if is_dir else ""))
+    return removed
+
+
 def holds_results(folder: str | os.PathLike) -> bool:
     """Does ``folder`` hold anything but lock files?"""
     try:
@@ -803,5 +862,5 @@ class FolderLock:
 
 __all__ = ["OutputFolder", "FolderLock", "check_output_path", "check_replaceable",
            "is_astrocpg_output", "inventory", "verify", "append_history",
-           "clean_stale_temporaries", "temp_prefix", "parse_temp_name", "pid_alive", "exchange",
+           "clean_stale_temporaries", "remove_derived", "temp_prefix", "temp_suffix", "parse_temp_name", "pid_alive", "exchange",
            "MANIFEST", "LOCK_NAME", "OWNER_NAME", "UNLISTED", "DERIVED"]

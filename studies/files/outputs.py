@@ -20,7 +20,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ...errors import InputError
-from .folder import MANIFEST, file_sha256, inventory, temp_prefix
+from .folder import MANIFEST, file_sha256, inventory, temp_prefix, temp_suffix
 
 _STARTED = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # when this process started (history entries)
 PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
@@ -79,8 +79,9 @@ def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
     check it, e.g. pynwb), which then replaces ``path``: never a half-written result."""
     # pid-tagged, so that the next start removes what a killed process left
     try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem),
-                                   suffix=path.suffix)
+        suffix = temp_suffix(path.suffix)  # the name fits NAME_MAX, however long the path's
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem, suffix=suffix),
+                                   suffix=suffix)
     except OSError as e:
         raise _naming(e, path) from None
     os.close(fd)
