@@ -894,6 +894,54 @@ case("plot-overwrite-another-run", lambda e: S("plot", e.copy("run"), "--out",
      None, "complete", lambda e: e.copy("run", "other"))
 
 
+# ---- leftovers: names of 235-255 bytes (their temporaries' names fit), a killed plot's or
+# video's temporary (export still reads the run), the README's delay example (why, and the fix)
+LONG = 255
+
+
+def _dead_pid() -> int:
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def _killed_plot_and_video(e: Env) -> Path:
+    """A run copy with what a SIGKILLed plot and video leave in it (their pid is gone)."""
+    d = e.copy("run", "run_killed")
+    if not any(n.startswith(".figures.") for n in os.listdir(d)):
+        pid = _dead_pid()
+        (d / f".figures.partial-{pid}-k2j4h5g6").mkdir()
+        (d / f".figures.partial-{pid}-k2j4h5g6" / "rasters.png").write_bytes(b"half")
+        (d / f".video_trial00.tmp-{pid}-a1b2c3d4.mp4").write_bytes(b"half")
+    return d
+
+
+for length in (235, LONG):
+    case(f"run-out-name-{length}-bytes", lambda e, n=length: S(
+        "run", "--seconds", "0.01", "--no-progress", "--out", e.tmp / ("r" * n)), 0, None,
+        "complete", lambda e, n=length: e.tmp / ("r" * n))
+    case(f"run-overwrite-name-{length}-bytes", lambda e, n=length: S(
+        "run", "--seconds", "0.01", "--no-progress", "--overwrite", "--out",
+        e.copy("run", "r" * n)), 0, None, "complete", lambda e, n=length: e.copy("run", "r" * n))
+case("plot-out-name-255-bytes", lambda e: S("plot", e.copy("run"), "--out", e.tmp / ("f" * LONG)),
+     0, None, "complete", lambda e: e.tmp / ("f" * LONG))
+case("unit-out-name-255-multibyte", lambda e: S("unit", "--seconds", "0.01", "--no-progress",
+                                                "--out", e.tmp / ("\u00e9" * 127)),
+     0, None, "complete", lambda e: e.tmp / ("\u00e9" * 127))
+case("export-out-name-255-bytes", lambda e: S("export", e.copy("run"), "--format", "npz", "--out",
+                                              e.tmp / ("x" * (LONG - 4) + ".npz")), 0, None,
+     "unchanged", lambda e: e.copy("run"), check=export_written("x.npz"))
+case("export-after-a-killed-plot-and-video", lambda e: S("export", _killed_plot_and_video(e),
+                                                         "--format", "npz"), 0, None,
+     "unchanged", _killed_plot_and_video, check=export_written("run_killed.npz"))
+case("run-readme-delay-example", lambda e: S("run", "--set", "delay_FR_FL=0*ms", "--set",
+                                             "delay_FR_RR=0*ms", "--out", out(e)), 2,
+     "also set delay_FR_RL=0*ms", "absent", out)
+case("run-readme-delay-example-as-the-error-suggests", lambda e: S(
+    "run", "--set", "delay_FR_FL=0*ms", "--set", "delay_FR_RR=0*ms", "--set",
+    "delay_FR_RL=0*ms", "--out", out(e)), 0, None, "complete", out)
+
+
 # ---------------------------------------------------------------- running a case
 def sha_tree(root: Path) -> dict[str, str]:
     """relative path -> sha256 of every file below ``root`` (hidden ones too), or of ``root``
