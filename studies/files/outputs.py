@@ -20,7 +20,8 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ...errors import InputError
-from .folder import MANIFEST, file_sha256, inventory, temp_prefix, temp_suffix
+from .folder import (MANIFEST, clean_stale_temporaries, file_sha256, inventory, temp_prefix,
+                     temp_suffix)
 
 _STARTED = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # when this process started (history entries)
 PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
@@ -76,7 +77,10 @@ def prepare_output_dir(path: str | os.PathLike) -> Path:
 
 def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
     """``write_to(tmp)`` writes a temporary file beside ``path`` (same suffix, for libraries that
-    check it, e.g. pynwb), which then replaces ``path``: never a half-written result."""
+    check it, e.g. pynwb), which then replaces ``path``: never a half-written result. What a
+    killed writer left beside ``path`` (its pid gone) is removed first, so that e.g. a killed
+    ``video``'s temporary goes with the next video, not only with the next ``plot``."""
+    clean_stale_temporaries(path.parent)
     # pid-tagged, so that the next start removes what a killed process left
     try:
         suffix = temp_suffix(path.suffix)  # the name fits NAME_MAX, however long the path's
