@@ -25,6 +25,11 @@ Temporary names (one scheme for folders and files, made by :func:`temp_prefix`):
     .<stem>.tmp-<pid>-<token><suffix>        a file being written by an atomic writer
 
 ``<token>`` is 6 to 32 characters of ``[A-Za-z0-9_]`` (what ``tempfile.mkstemp`` appends).
+Every such name fits in :data:`NAME_MAX` (255) bytes: a ``<name>`` or ``<stem>`` too long for
+that (a legal name of 235-255 bytes) is shortened to its start, ``~`` and 8 hex digits of its
+sha256; a long ``<suffix>`` is dropped (:func:`temp_prefix`, :func:`temp_suffix`). Hidden
+temporaries are nobody's files: :func:`inventory` does not list them, :func:`verify` does not
+count them.
 """
 
 from __future__ import annotations
