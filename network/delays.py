@@ -69,14 +69,42 @@ def limb_stages(models: ModelSet, legs: Sequence[str], dt: Any) -> tuple[tuple[i
     return tuple(tuple(i for i in range(n) if best[i] == s) for s in levels)
 
 
+def _completion(zero: set[tuple[str, str]], legs: tuple[str, ...]) -> list[tuple[str, str]]:
+    """The fewest pairs to set to 0 ms as well so that the 0 ms pairs order the limbs in stages
+    (empty when none can: two limbs at 0 ms both ways)."""
+    n, best = len(legs), None
+    for stage in itertools.product(range(n), repeat=n):
+        at = dict(zip(legs, stage))
+        if all(at[a] < at[b] for a, b in zero):
+            more = sorted((a, b) for a, b in itertools.permutations(legs, 2)
+                          if at[a] < at[b] and (a, b) not in zero)
+            if best is None or len(more) < len(best):
+                best = more
+    return best or []
+
+
 def _why_not(delays: dict[tuple[str, str], int], legs: tuple[str, ...]) -> str:
-    """One line naming pairs that no order of the limbs within a step can give."""
+    """One line naming pairs that no order of the limbs within a step can give, why, and the
+    fewest further 0 ms pairs that would make the table one.
+
+    Why a 1 ms pair can fail: the limbs integrate one stage after another within a step, and a
+    limb's inter-limb input is summed, just before its stage integrates, from the latest spikes
+    of each source; a source of an earlier stage has already fired this step. So a pair is at
+    0 ms exactly when its source's stage comes first, and at 1 ms when it does not: a limb
+    cannot read one limb's spikes of this step and another's (of the same earlier stage) of
+    the step before."""
     zero = {p for p, d in delays.items() if d == 0}
     for a, b in zero:
         if (b, a) in zero:
             return (f"delay_{a}_{b} and delay_{b}_{a} are both 0 ms: two limbs cannot each "
                     f"integrate before the other within one step")
-    for a, b in zero:
+    more = _completion(zero, legs)
+    hint = ("; e.g. also set " + ", ".join(f"delay_{a}_{b}=0*ms" for a, b in more)
+            if more else "")
+    why = ("(a limb that integrates after another within a step reads that limb's spikes of "
+           "the same step: its pair is 0 ms; a 1 ms pair's target must integrate before or "
+           "with its source)")
+    for a, b in sorted(zero):
         for c in legs:
             if c in (a, b):
                 continue
@@ -84,6 +112,7 @@ def _why_not(delays: dict[tuple[str, str], int], legs: tuple[str, ...]) -> str:
             if (a, c) not in zero and (c, b) not in zero:
                 return (f"delay_{a}_{b} is 0 ms, so {a} integrates before {b}; {c} must then "
                         f"follow {a} (delay_{a}_{c} = 0 ms) or precede {b} "
-                        f"(delay_{c}_{b} = 0 ms), and neither is")
+                        f"(delay_{c}_{b} = 0 ms), and neither is {why}{hint}")
     return ("the 0 ms pairs do not order the limbs in stages (a 0 ms pair needs its source "
-            "to integrate before its target, and every 1 ms pair the opposite or together)")
+            f"to integrate before its target, and every 1 ms pair the opposite or together)"
+            f"{hint}")

@@ -234,7 +234,9 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--out", metavar="DIR",
                        help="output folder, new or empty (required unless --resume)")
     train.add_argument("--resume", metavar="DIR",
-                       help="continue the interrupted run in DIR from its last checkpoint")
+                       help="continue the interrupted run in DIR from its last checkpoint (its "
+                            "figures/, evaluation/, videos and power estimates, made from the "
+                            "earlier weights, are removed)")
     _add_overwrite(train)
     train.add_argument("--record-every", type=int, default=None, metavar="N",
                        help="record sessions 1, 1+N, 1+2N... and the last of each trial "
@@ -591,6 +593,12 @@ def _models(args: argparse.Namespace) -> dict[str, Any]:
             "models": read_model_files(getattr(args, "model_files", []))}
 
 
+def _input_files(args: argparse.Namespace) -> list[str]:
+    """The files --model and --equations MODEL=FILE name: --out may not be or hold them."""
+    items = [*getattr(args, "model_files", []), *getattr(args, "equations", [])]
+    return [item.partition("=")[2] for item in items if "=" in item]
+
+
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
     return dict(vars(args))
 
@@ -601,7 +609,7 @@ def _cmd_unit(args: argparse.Namespace) -> int:
     result = unit(seconds=args.seconds, seed=args.seed, trials=args.trials,
                   trace_dt=args.trace_dt, spikes=args.spikes, traces=args.traces, out=args.out,
                   overwrite=args.overwrite, progress=not args.no_progress,
-                  settings=_settings(args), **_models(args))
+                  settings=_settings(args), inputs=_input_files(args), **_models(args))
     for b, s in enumerate(result.summary["rhythm"]):
         print(format_rhythm(b, args.seed + b, s))
     print(f"wrote {args.out}/")
@@ -615,7 +623,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                  trial=args.trial, robot=args.robot, trace_dt=args.trace_dt,
                  robot_stride=args.robot_stride, spikes=args.spikes, traces=args.traces,
                  out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
-                 figure=args.figure, settings=_settings(args), **_models(args))
+                 figure=args.figure, settings=_settings(args), inputs=_input_files(args),
+                 **_models(args))
     print("\n".join(format_run(result, args.seed)))
     print(f"wrote {args.out}/" + ("" if args.figure else f" (figures: astrocpg plot {args.out})"))
     return 0
@@ -648,7 +657,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
                            astrocytes=not args.no_astrocytes, record_every=args.record_every,
                            record_stride=args.record_stride, spikes=args.spikes,
                            traces=args.traces, overwrite=args.overwrite,
-                           progress=not args.no_progress, **_models(args))
+                           progress=not args.no_progress, inputs=_input_files(args),
+                           **_models(args))
             out = args.out
     except TrainingStopped as e:
         where = args.resume or args.out

@@ -112,6 +112,8 @@ def test_a_study_chooses_its_batch_and_the_folder_keeps_it(tmp_path, stored_cost
     out.mkdir()
     (out / "study.json").write_text(json.dumps({"name": "auto", "runs": {}, "specs": {},
                                                 "batch": 4}))
+    # (a study's manifest, as every study folder has: what --overwrite may replace)
+    (out / "manifest.json").write_text(json.dumps({"astrocpg_command": "study"}))
     again = resolve_batch(study, out, workers=2, progress=False)
     assert again.batch == 4 and [r.run_id for r in again.runs] == [r.run_id for r in wide.runs]
     assert "recorded" in again.batch_choice["reason"]

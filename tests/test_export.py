@@ -87,7 +87,7 @@ def test_nwb_round_trip_and_inspector(run_dir: Path) -> None:
 
 
 def test_npz_export(run_dir: Path) -> None:
-    out = run_dir / "copy.npz"
+    out = run_dir.parent / "copy.npz"  # beside: inside, the run would no longer verify
     assert main(["export", str(run_dir), "--format", "npz", "--out", str(out)]) == 0
     with np.load(out) as z, np.load(run_dir / "spikes.npz") as s:
         np.testing.assert_array_equal(z["spikes_motor_times"], s["motor_times"])

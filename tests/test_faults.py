@@ -541,5 +541,60 @@ def test_a_diverging_run_of_a_study_is_recorded_as_failed_with_its_reason(childr
     c.no_debug_files()
 
 
+# ---- leftovers: what a killed plot or video leaves does not lock the run out of export; a
+# resumed training keeps nothing derived from its earlier weights
+@pytest.mark.parametrize("cmd, hidden", [("plot", ".figures.partial-"),
+                                         ("video", ".video_trial00.tmp-")])
+def test_a_killed_plot_or_video_leaves_a_run_that_export_reads(cmd, hidden, children, tmp_path,
+                                                               run_folder):
+    folder = tmp_path / "run"
+    shutil.copytree(run_folder, folder)
+    argv = [cmd, folder] + (["--no-progress", "--size", "64", "48", "--fps", "30"]
+                            if cmd == "video" else [])
+    c = children(*argv)
+
+    def written() -> bool:  # a temporary file, or a temporary folder holding a figure already
+        return any(n.startswith(hidden) and (not (folder / n).is_dir() or os.listdir(folder / n))
+                   for n in os.listdir(folder))
+    caught = c.until(written, f"the {cmd}'s temporary", poll=0.0005)
+    c.signal(signal.SIGKILL)
+    c.finish()
+    if not caught or not written():
+        pytest.skip(f"the {cmd} finished before the kill")
+    before = sha_tree(folder)
+    e = children("export", folder, "--format", "npz", name="export")
+    assert e.finish() == 0, e.stderr  # no later plot needed
+    assert sha_tree(folder) == before, "export changed the folder it read"
+    again = children(*argv, name="again")  # and the next plot/video cleans the leftover
+    assert again.finish() == 0, again.stderr
+    assert not any(n.startswith(hidden) for n in os.listdir(folder))
+
+
+def test_a_resumed_training_removes_what_was_derived_from_its_earlier_weights(children,
+                                                                              tmp_path):
+    out = tmp_path / "train"
+    c = children("train", *TRAIN, "--out", out)
+    c.until(lambda: (out / "checkpoint.pkl").exists(), "the first checkpoint", poll=0.005)
+    c.signal(signal.SIGINT)
+    if c.finish() == 0:
+        pytest.skip("the training finished before the signal")
+    # what evaluate, plot, video and power wrote from the interrupted training's weights
+    for sub in ("evaluation", "evaluation.parts", "figures"):
+        (out / sub).mkdir()
+        (out / sub / "manifest.json").write_text(json.dumps({"astrocpg_command": "evaluate"}))
+    (out / "video_trial00.mp4").write_bytes(b"old video")
+    (out / "power_trial0.json").write_text("{}")
+    (out / "notes.txt").write_text("the user's own notes")  # not derived: kept
+    r = children("train", "--resume", out, name="resume")
+    assert r.finish() == 0, r.stderr
+    left = sorted(os.listdir(out))
+    for name in ("evaluation", "evaluation.parts", "figures", "video_trial00.mp4",
+                 "power_trial0.json"):
+        assert name not in left, f"stale {name} kept after --resume: {left}"
+    assert (out / "notes.txt").read_text() == "the user's own notes"
+    verify(out, strict=False)
+    assert manifest_status(out) == "finished"
+
+
 # The whole table (and every signal case) is long: CI runs it (CI=true); `pytest -m slow` here.
 pytestmark = pytest.mark.slow

@@ -42,6 +42,13 @@ def hidden(parent: Path) -> list[str]:
     return sorted(n for n in os.listdir(parent) if n.startswith("."))
 
 
+def astrocpg_output(folder: Path) -> Path:
+    """Make ``folder`` an astrocpg output (its manifest): what --overwrite may replace."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "manifest.json").write_text(json.dumps({"astrocpg_command": "run"}))
+    return folder
+
+
 def one_line(err: BaseException) -> str:
     line = str(err)
     assert "\n" not in line and line
@@ -116,6 +123,7 @@ def test_failed_overwrite_leaves_the_old_folder_byte_identical(tmp_path, exc):
     (target / "sub").mkdir(parents=True)
     (target / "spikes.npz").write_bytes(b"old spikes")
     (target / "sub" / "t.txt").write_text("old")
+    astrocpg_output(target)
     before = snapshot(target)
     with pytest.raises(type(exc)):
         with OutputFolder(target, overwrite=True) as d:
@@ -133,6 +141,7 @@ def test_overwrite_replaces_whole_never_merges(tmp_path, monkeypatch, swap):
     target.mkdir()
     (target / "only_old.txt").write_text("old")
     (target / "shared.txt").write_text("old")
+    astrocpg_output(target)
     with OutputFolder(target, overwrite=True) as d:
         (d / "shared.txt").write_text("new")
     assert snapshot(target) == {"shared.txt": b"new"}
@@ -162,6 +171,7 @@ def test_symlinked_target_is_written_through(tmp_path):
     real = tmp_path / "real"
     real.mkdir()
     (real / "old").write_text("old")
+    astrocpg_output(real)
     (tmp_path / "link").symlink_to(real)
     with OutputFolder(tmp_path / "link", overwrite=True) as d:
         (d / "new").write_text("new")

@@ -24,6 +24,7 @@ import io
 import itertools
 import json
 import math
+import os
 import shutil
 import tomllib
 from dataclasses import dataclass
@@ -324,7 +325,11 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     if workers is not None and workers < 1:
         raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
     target = Path(out) if out is not None else folder / "evaluation"
-    OutputFolder(target, overwrite=overwrite or out is None).check()
+    # what it reads (the training or study, a worlds file) is never replaced nor written into
+    # but at folder/evaluation
+    inputs = [folder, *([worlds] if isinstance(worlds, (str, os.PathLike))
+                        and os.path.isfile(worlds) else [])]
+    OutputFolder(target, overwrite=overwrite or out is None, inputs=inputs).check()
     controllers = _controllers(folder)
     if conditions:
         known = sorted({c["condition"] for c in controllers})
@@ -371,7 +376,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
                 "trainings": [str(c["folder"]) for c, _, _ in plans],
                 "workers": workers, "scheduler": scheduler,
                 "cells_reused": len(cells) - len(todo)}
-    with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+    with OutputFolder(target, overwrite=overwrite or out is None, inputs=inputs) as tmp:
         (tmp / EVALUATION).write_text(_csv(rows, tuple(columns)))
         (tmp / SUMMARY).write_text(_csv(summary, tuple(summary[0]) if summary else ()))
         for name, fig in figures.items():

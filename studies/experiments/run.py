@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -39,7 +39,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         robot: str | Path | None = None, trace_dt: float = 1.0, robot_stride: int = 1,
         spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
         out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
-        figure: bool = False, settings: Mapping[str, Any] | None = None) -> Result:
+        figure: bool = False, settings: Mapping[str, Any] | None = None,
+        inputs: Sequence[str | os.PathLike] = ()) -> Result:
     """Run the CPG driving ``trials`` A1 robots in MuJoCo for ``seconds`` (seeds seed,
     seed+1, ...): the closed loop, what ``astrocpg run`` runs.
 
@@ -52,7 +53,9 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     A1). trace_dt in ms; robot_stride in physics steps. spikes / traces: which populations and
     traces to record (None: all). out: writes the folder ``astrocpg run`` writes. figure: also
     draw ``thigh_extensor_activity.png`` there (about a second; ``astrocpg plot OUT`` draws it
-    and the other figures at any time later).
+    and the other figures at any time later). inputs: other files the caller read (e.g. model
+    files): ``out`` may not be or hold one, nor ``weights`` and ``robot`` (see
+    :func:`~astrocpg.studies.files.folder.check_output_path`).
 
     Returns a :class:`~astrocpg.studies.files.result.Result` of kind "run": spikes, traces, the
     robot's arrays (``result.robot``) and ``summary`` (distance_m, mean_forward_speed_m_per_s,
@@ -68,8 +71,11 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
     robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
     check_duration(seconds, STEP)
+    # what the run reads: --out may not replace it (nor hold it)
+    inputs = [*inputs, *([weights] if isinstance(weights, (str, os.PathLike)) else []),
+              *([robot] if robot is not None else [])]
     if out is not None:
-        OutputFolder(out, overwrite=overwrite).check()  # before the simulation, not after
+        OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
     pops, names = check_selection(spikes, traces)
     check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
                                 traces=names, spikes=bool(pops), robot_stride=robot_stride),
@@ -115,12 +121,12 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     except Diverged as e:  # the folder keeps what ran, and says it diverged
         if out is not None and getattr(e, "result", None) is not None:
             _summarise(e.result, models, start_x, robot_info, table, e)
-            with OutputFolder(out, overwrite=overwrite) as folder:
+            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
                 write_run_folder(folder, e.result, settings, figure=figure)
         raise
     _summarise(result, models, start_x, robot_info, table)
     if out is not None:
-        with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
+        with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:  # whole, or nothing
             write_run_folder(folder, result, settings, figure=figure)
     return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                   summary=run_results(result), robot=robot_arrays(result),

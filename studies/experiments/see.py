@@ -12,7 +12,7 @@ import numpy as np
 from ...errors import InputError, did_you_mean
 from ..figures.traces import (FIGURE_FUNCTIONS, FORMATS, recorded_span, save_figures,
                               trace_figures)
-from ..files.folder import OutputFolder
+from ..files.folder import OutputFolder, check_output_path, check_replaceable
 from ..files.outputs import write_manifest
 from ..files.result import Result, load
 from .progress import Bar
@@ -67,7 +67,7 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     span = recorded_span(result)
     win = _check_window(window, span) or span
     target = Path(out) if out is not None else folder / FIGURES
-    OutputFolder(target, overwrite=overwrite or out is None).check()
+    OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]).check()
     with Bar(total=len(FIGURE_FUNCTIONS), unit="step", desc="plot",
              disable=not progress) as bar:
         figures = trace_figures(result, trial, win, on_part=lambda: bar.update(1))
@@ -76,7 +76,7 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
                              culprit=str(folder))
         bar.total = len(FIGURE_FUNCTIONS) + len(figures)  # drawn; now one step per file
         bar.refresh()
-        with OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+        with OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]) as tmp:
             paths = save_figures(figures, tmp, fmt, on_saved=lambda: bar.update(1))
             write_manifest(tmp, command="plot", seed=int(result.manifest.get("seed", 0) or 0),
                            models_json={}, files={p.name: "figure" for p in paths},
@@ -165,8 +165,13 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
         raise InputError("the file name must end in .mp4", culprit=f"--out {path}")
     if not path.parent.is_dir():
         raise InputError(f"folder '{path.parent}' does not exist", culprit=f"--out {path}")
+    if path.is_dir():
+        raise InputError("is a folder; name the file to write", culprit=f"--out {path}")
+    # not inside the folder it replays (but as its video_trialTT.mp4), never a listed file
+    check_output_path(path, [folder], culprit=f"--out {path}", file=True)
     if out is not None and path.exists() and not overwrite:
         raise InputError("exists; --overwrite replaces it", culprit=f"--out {path}")
+    check_replaceable(path, culprit=f"--out {path}")
     samples = frame_samples(rob["t"], fps, speed)
     model, layout = _robot_model(result)
 

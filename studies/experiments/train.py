@@ -16,11 +16,12 @@ import hashlib
 import io
 import math
 import pickle
+import os
 import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 import mujoco
 import numpy as np
@@ -33,7 +34,7 @@ from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
 from ...network import codegen_target, interlimb_labels, run_network
 from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
-                            holds_results)
+                            holds_results, remove_derived)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..files.result import Result
@@ -433,14 +434,16 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
           record_every: int | None = None,
           record_stride: int = 1, spikes: tuple[str, ...] | None = None,
           traces: tuple[str, ...] | None = None, overwrite: bool = False,
-          progress: bool = True) -> Result:
+          progress: bool = True, inputs: Sequence[str | os.PathLike] = ()) -> Result:
     """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
     each, writing ``out`` (sessions.csv, weights.npz, checkpoint.pkl, manifest.json) after every
     session: what ``astrocpg train`` runs. ``astrocytes=False`` is the paper's ablation;
     overrides/equations as for :func:`~astrocpg.studies.experiments.run.run` (e.g.
     ``["L_max=0.5*second"]`` for short sessions). ``record_every=N`` records sessions 1, 1+N,
     ... and each trial's last into ``out/recordings/`` (``record_stride`` steps between trace
-    and robot samples; ``spikes``/``traces`` pick what).
+    and robot samples; ``spikes``/``traces`` pick what). ``overwrite`` replaces only an astrocpg
+    output folder that is none of ``inputs`` (files the caller read, e.g. model files) and
+    holds none of them.
 
     Returns a :class:`~astrocpg.studies.files.result.Result` of kind "train", read back from
     ``out`` (``sessions`` DataFrame, ``weights`` (trial, session, 8, 8) mV, ``recording(trial,
@@ -458,7 +461,7 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
     if (out / CHECKPOINT).exists() and not overwrite:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
                          f"replace it with --overwrite)", culprit=f"--out {out}")
-    OutputFolder(out, overwrite=overwrite).check()
+    OutputFolder(out, overwrite=overwrite, inputs=inputs).check()
     plan = record_plan(record_every, record_stride, spikes, traces)
     check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
                                 sessions=settings.n_sessions),
@@ -470,7 +473,9 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
 def resume(folder: str | Path, *, progress: bool = True, record_every: int | None = None,
            expect: dict[str, Any] | None = None) -> Result:
     """Continue the training in ``folder`` from its checkpoint (``astrocpg train --resume``)
-    and end with the same files as a training never interrupted; ``expect`` (e.g. the options
+    and end with the same files as a training never interrupted (what later commands derived
+    from the earlier weights, e.g. ``evaluation/`` and ``figures/``, is removed: it would be
+    stale); ``expect`` (e.g. the options
     given again on the command line) must agree with the stored settings. Returns the
     training's Result, like :func:`train`."""
     out = Path(folder)
@@ -517,13 +522,15 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     if plan is None and record_every is not None:
         raise InputError("that run records no sessions", culprit="--record-every")
     return Result.from_training(_train(settings, out, plan, None if fresh else payload,
-                                       progress), out)
+                                       progress, resumed=True), out)
 
 
 def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            payload: dict[str, Any] | None, progress: bool, replace: bool = False,
-           new: bool = False) -> "Trainer":
-    """Build, own ``out`` (a lock: one process per training folder), train, write."""
+           new: bool = False, resumed: bool = False) -> "Trainer":
+    """Build, own ``out`` (a lock: one process per training folder), train, write. ``resumed``:
+    the training continues, so what later commands derived from its earlier weights (figures/,
+    evaluation/, videos, power estimates) is removed first (:func:`remove_derived`)."""
     models = model_set(settings.overrides, settings.equations, models=settings.models)
     trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
     try:
@@ -537,6 +544,8 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
             raise InputError("is not empty; --overwrite replaces it whole",
                              culprit=f"--out {out}")
         clean_stale_temporaries(out)
+        if resumed:  # made from the weights this run is about to change: stale from now on
+            remove_derived(out)
         return _train_locked(trainer, settings, out, plan, payload)
 
 

@@ -92,7 +92,7 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     folder = Path(folder)
     # the default folder belongs to this command: replaced whole on every plot
     target = Path(out) if out is not None else folder / FIGURES
-    OutputFolder(target, overwrite=overwrite or out is None).check()
+    OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]).check()
     training = load(folder)
     if not 0 <= trial < training.n_trials:
         raise InputError(f"{folder} has {training.n_trials} trial(s)", culprit=f"--trial {trial}")
@@ -109,7 +109,7 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     # a step per figure; a recorded session adds a step per kind of figure, then per file
     bar = Bar(total=len(names) + (len(FIGURE_FUNCTIONS) if recorded else 0), unit="step",
               desc="plot", disable=not progress)
-    with bar, OutputFolder(target, overwrite=overwrite or out is None) as tmp:
+    with bar, OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]) as tmp:
         plots.plot_weights(tmp / names[0], weights[b] * 1e3, trial=b)
         bar.update(1)
         plots.plot_training_curves(tmp / names[1], folder / "sessions.csv")

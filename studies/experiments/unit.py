@@ -6,8 +6,9 @@ given ``out``, writes spikes, traces, a raster figure and the manifest.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -28,7 +29,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          trace_dt: float = 1.0, spikes: tuple[str, ...] | None = None,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
          overwrite: bool = False, progress: bool = True,
-         settings: Mapping[str, Any] | None = None) -> Result:
+         settings: Mapping[str, Any] | None = None,
+         inputs: Sequence[str | os.PathLike] = ()) -> Result:
     """Simulate ``trials`` independent locomotion units (the FR limb's CPG, open loop; seeds
     seed, seed+1, ...) for ``seconds``; what ``astrocpg unit`` runs.
 
@@ -38,7 +40,9 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     trace_dt: sampling of the traces in ms. spikes / traces: which
     populations and traces to record (None: all). out: writes the folder ``astrocpg unit``
     writes, whole or nothing (``settings`` goes into its manifest; a folder that holds files is
-    refused unless ``overwrite``). progress: a progress bar for long runs.
+    refused unless ``overwrite``, which replaces only an astrocpg output folder that is none of
+    ``inputs``, the files the caller read, e.g. model files). progress: a progress bar for long
+    runs.
 
     Returns a :class:`~astrocpg.studies.files.result.Result` of kind "unit"; its
     ``summary["rhythm"]`` holds each trial's period, phases and rates. Bad input: InputError
@@ -51,7 +55,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
     check_duration(seconds, STEP)
     if out is not None:
-        OutputFolder(out, overwrite=overwrite).check()  # before the simulation, not after
+        OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
     pops, names = check_selection(spikes, traces)
     check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
                                 traces=names, spikes=bool(pops)),
@@ -73,13 +77,13 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
         if out is not None and partial is not None:
             partial.extra.update({"models": models, "rhythm": [], "status": "diverged",
                                   "error": {"line": e.line, "t_s": e.t, "trial": e.trial}})
-            with OutputFolder(out, overwrite=overwrite) as folder:
+            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
                 write_unit_folder(folder, partial, settings)
         raise
     result.extra["rhythm"] = rhythm_per_trial(result, seconds)
     result.extra["models"] = models
     if out is not None:
-        with OutputFolder(out, overwrite=overwrite) as folder:  # whole, or nothing
+        with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:  # whole, or nothing
             write_unit_folder(folder, result, settings)
     return Result.from_simulation(result, kind="unit", seed=seed, settings=settings,
                                   summary=unit_results(result), models=models, folder=out)

@@ -72,7 +72,7 @@ import numpy as np
 
 from ...errors import InputError, did_you_mean
 from ...network.recordable import TRACE_SOURCES
-from .folder import clean_stale_temporaries, verify
+from .folder import check_output_path, check_replaceable, clean_stale_temporaries, verify
 from .outputs import atomic_path, save_npz
 
 TRACE_MEANING = {
@@ -497,8 +497,11 @@ def export(folder: Path, fmt: str, out: Path | None = None, *, overwrite: bool =
     shown = f"--out {out}" if out is not None else f"export {path}"
     if path.is_dir():
         raise InputError("is a folder; name the file to write", culprit=shown)
+    # an export never writes into the folder it reads, nor replaces a file an output lists
+    check_output_path(path, [folder], culprit=shown, file=True)
     if path.exists() and not overwrite:
         raise InputError("exists; --overwrite replaces it", culprit=shown)
+    check_replaceable(path, culprit=shown)
     if not path.parent.is_dir():
         raise InputError(f"folder '{path.parent}' does not exist", culprit=shown)
     clean_stale_temporaries(path.parent)  # what a killed export left

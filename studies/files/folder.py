@@ -4,6 +4,11 @@
   (``.<name>.partial-<pid>-<random>``) that is renamed into place only when the command
   finishes; on an exception, Ctrl-C or ``SystemExit`` the temporary is deleted. A folder that
   holds files is refused unless ``--overwrite``, which replaces it whole (never merges).
+* :func:`check_output_path` / :func:`check_replaceable` -- the one rule of every ``--out``: it
+  is never the current folder, a folder or file the command reads, nor holds one, nor lies
+  inside one but at a derived place (``figures/``, ``report/``, ...); and ``--overwrite``
+  replaces only an astrocpg output folder (it has astrocpg's ``manifest.json``), never a
+  folder of the user's own files, nor a file an output folder's manifest lists.
 * :func:`inventory` / :func:`verify` -- the manifest's ``"inventory"`` lists every file with its
   size and sha256; readers refuse a folder whose files do not match it.
 * :class:`FolderLock` -- a running ``train`` or ``study`` owns its folder; a second process on
@@ -20,6 +25,11 @@ Temporary names (one scheme for folders and files, made by :func:`temp_prefix`):
     .<stem>.tmp-<pid>-<token><suffix>        a file being written by an atomic writer
 
 ``<token>`` is 6 to 32 characters of ``[A-Za-z0-9_]`` (what ``tempfile.mkstemp`` appends).
+Every such name fits in :data:`NAME_MAX` (255) bytes: a ``<name>`` or ``<stem>`` too long for
+that (a legal name of 235-255 bytes) is shortened to its start, ``~`` and 8 hex digits of its
+sha256; a long ``<suffix>`` is dropped (:func:`temp_prefix`, :func:`temp_suffix`). Hidden
+temporaries are nobody's files: :func:`inventory` does not list them, :func:`verify` does not
+count them.
 """
 
 from __future__ import annotations
@@ -65,16 +75,45 @@ def _now() -> str:
 
 
 # ---------------------------------------------------------------- temporaries
-def temp_prefix(stem: str, kind: str = "tmp") -> str:
+#: the longest file name most file systems take (bytes): a temporary's name must fit too
+NAME_MAX = 255
+#: what ``tempfile`` (and ``secrets.token_hex(4)``) appends to a prefix
+TOKEN_LENGTH = 8
+_SHORTENED = re.compile(r"~[0-9a-f]{8}$")
+
+
+def _fit(stem: str, room: int) -> str:
+    """``stem``, or when its UTF-8 bytes exceed ``room``, its start and ``~`` and 8 hex digits
+    of its sha256 (a shortened stem: unique per stem, and still recognisable)."""
+    raw = os.fsencode(stem)
+    if len(raw) <= room:
+        return stem
+    digest = hashlib.sha256(raw).hexdigest()[:8]
+    head = raw[:max(0, room - 9)].decode("utf-8", "ignore")  # never half a character
+    return f"{head}~{digest}"
+
+
+def temp_suffix(suffix: str) -> str:
+    """The suffix a temporary keeps: ``suffix`` if it is short (``.npz``, ``.nwb``, ``.mp4``),
+    else none (a long "suffix" is part of a name, and no library checks it)."""
+    return suffix if len(os.fsencode(suffix)) <= 16 else ""
+
+
+def temp_prefix(stem: str, kind: str = "tmp", suffix: str = "") -> str:
     """``.<stem>.<kind>-<pid>-``: the start of a hidden temporary's name, for ``tempfile``.
 
     An atomic file writer uses
-    ``tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem), suffix=path.suffix)``,
-    which makes ``.<stem>.tmp-<pid>-<8 random><suffix>`` (the suffix kept for libraries that
-    check it, e.g. pynwb); :func:`clean_stale_temporaries` recognises it."""
+    ``tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem, suffix=s), suffix=s)``
+    with ``s = temp_suffix(path.suffix)``, which makes ``.<stem>.tmp-<pid>-<8 random><suffix>``
+    (the suffix kept for libraries that check it, e.g. pynwb); :func:`clean_stale_temporaries`
+    recognises it. The whole name fits in :data:`NAME_MAX` bytes: a long stem (a legal name of
+    up to 255 bytes leaves no room for the rest) is shortened to its start, ``~`` and a hash of
+    it; the temporary's name then no longer says the target's whole name (see
+    :func:`clean_stale_temporaries`)."""
     if kind not in TEMP_KINDS:
         raise ValueError(f"kind must be one of {TEMP_KINDS}, got {kind!r}")
-    return f".{stem}.{kind}-{os.getpid()}-"
+    fixed = len(os.fsencode(f"...{kind}-{os.getpid()}-{suffix}")) + TOKEN_LENGTH
+    return f".{_fit(stem, NAME_MAX - fixed)}.{kind}-{os.getpid()}-"
 
 
 def parse_temp_name(name: str) -> dict[str, Any] | None:
@@ -116,7 +155,8 @@ def clean_stale_temporaries(parent: str | os.PathLike) -> list[Path]:
 
     An old folder that a killed ``--overwrite`` had set aside (``.<name>.replaced-<pid>-...``)
     while ``<name>`` is absent is renamed back to ``<name>``: the interrupted overwrite did not
-    happen. Best effort: what cannot be removed (a read-only folder, another process cleaning at
+    happen. (Where ``<name>`` was too long to fit, the aside name holds a shortened one and the
+    folder is left as it is, hidden but whole: never deleted.) Best effort: what cannot be removed (a read-only folder, another process cleaning at
     the same moment) is left for the next start."""
     parent = Path(parent)
     try:
@@ -134,6 +174,8 @@ def clean_stale_temporaries(parent: str | os.PathLike) -> list[Path]:
             if tmp["kind"] == "replaced" and path.is_dir() and not path.is_symlink():
                 original = parent / tmp["name"]
                 if not os.path.lexists(original):
+                    if _SHORTENED.search(tmp["name"]):
+                        continue  # its name was shortened: keep the old folder, never delete it
                     os.rename(path, original)
                     continue
             _remove(path)
@@ -141,6 +183,112 @@ def clean_stale_temporaries(parent: str | os.PathLike) -> list[Path]:
         except OSError:
             continue
     return removed
+
+
+# ---------------------------------------------------------------- what an output may replace
+def _real(path: str | os.PathLike) -> str:
+    return os.path.realpath(os.path.abspath(os.fspath(path)))
+
+
+def _below(path: str, folder: str) -> bool:
+    """Is the real path ``path`` strictly inside the real path ``folder``?"""
+    return path != folder and path.startswith(folder.rstrip(os.sep) + os.sep)
+
+
+def _derived(rel: str, *, folder: bool) -> bool:
+    """Is ``rel`` (POSIX, relative to an input folder) one of the places :data:`DERIVED` names,
+    where later commands write beside an output folder's own files?"""
+    probe = rel + "/x" if folder else rel
+    return any(fnmatch.fnmatchcase(probe, p) for p in DERIVED)
+
+
+def _derived_places() -> str:
+    return ", ".join(dict.fromkeys(p[:-2] + "/" if p.endswith("/*") else p for p in DERIVED))
+
+
+def is_astrocpg_output(folder: str | os.PathLike) -> bool:
+    """Does ``folder`` hold an astrocpg output: a ``manifest.json`` that astrocpg wrote (a JSON
+    object with ``"astrocpg_command"``), or nothing but astrocpg's own lock files and hidden
+    temporaries (what a process killed before its first manifest leaves)?"""
+    root = Path(folder)
+    try:
+        with open(root / MANIFEST, "rb") as f:
+            manifest = json.loads(f.read())
+    except FileNotFoundError:
+        try:
+            names = os.listdir(root)
+        except OSError:
+            return False
+        return all(n in UNLISTED or parse_temp_name(n) is not None for n in names)
+    except (OSError, ValueError):
+        return False
+    return isinstance(manifest, dict) and isinstance(manifest.get("astrocpg_command"), str)
+
+
+def check_output_path(target: str | os.PathLike, inputs: Iterable[str | os.PathLike] = (), *,
+                      culprit: str, file: bool = False) -> None:
+    """The rule of every ``--out`` (a folder, or with ``file`` a file) against what the command
+    reads (``inputs``: folders and files; None and paths that do not exist are skipped).
+    InputError naming ``culprit`` when the output
+
+    * is the current folder, or holds it (replacing it would pull the folder from under the
+      user's shell);
+    * is an input, or holds one (``--out`` would delete what the command reads);
+    * lies inside an input folder anywhere but at a place later commands write into
+      (:data:`DERIVED`: ``figures/``, ``report/``, ``evaluation/``, ``video_trial*.mp4``, ...):
+      elsewhere it would change the input, which would then no longer match its manifest.
+
+    Applies whether or not ``--overwrite`` is given; what ``--overwrite`` may replace on top of
+    this: :func:`check_replaceable`."""
+    real = _real(target)
+    cwd = _real(os.getcwd())
+    if not file and (real == cwd or _below(cwd, real)):
+        where = "is the current folder" if real == cwd else "holds the current folder"
+        raise InputError(f"{where}; the output must go to a folder of its own, beside or "
+                         "inside it", culprit=culprit)
+    for given in inputs:
+        if given is None or not os.path.lexists(given):
+            continue
+        src = _real(given)
+        if real == src:
+            raise InputError(f"is {os.fspath(given)}, which this command reads; write the output "
+                             "elsewhere", culprit=culprit)
+        if _below(src, real):
+            raise InputError(f"holds {os.fspath(given)}, which this command reads; write the "
+                             "output elsewhere", culprit=culprit)
+        if _below(real, src) and os.path.isdir(src) \
+                and not _derived(Path(os.path.relpath(real, src)).as_posix(), folder=not file):
+            raise InputError(f"is inside {os.fspath(given)}, which this command reads (only "
+                             f"{_derived_places()} may be written there)", culprit=culprit)
+
+
+def check_replaceable(target: str | os.PathLike, *, culprit: str) -> None:
+    """What ``--overwrite`` may replace: an existing folder that :func:`is_astrocpg_output`
+    (an existing file: one that no astrocpg output folder around it lists in its manifest).
+    Anything else, e.g. a folder of the user's own files, is refused (InputError naming
+    ``culprit``) and left as it is. Call it after :func:`check_output_path`."""
+    path = Path(_real(target))
+    if path.is_dir():
+        if not is_astrocpg_output(path):
+            raise InputError(f"holds files that are not an astrocpg output (no astrocpg "
+                             f"{MANIFEST}); --overwrite replaces only a folder astrocpg wrote: "
+                             f"choose another folder, or empty this one yourself",
+                             culprit=culprit)
+        return
+    if not path.exists():
+        return
+    for folder in path.parents:  # the astrocpg output folder the file belongs to, if any
+        if (folder / MANIFEST).is_file() and is_astrocpg_output(folder):
+            rel = path.relative_to(folder).as_posix()
+            try:
+                listed = json.loads((folder / MANIFEST).read_bytes()).get("inventory") or {}
+            except (OSError, ValueError):
+                listed = {}
+            if rel == MANIFEST or rel in listed:
+                raise InputError(f"is a file of the astrocpg output folder {folder} (listed in "
+                                 f"its {MANIFEST}); --overwrite never replaces part of a "
+                                 f"folder", culprit=culprit)
+            return
 
 
 # ---------------------------------------------------------------- the output folder
@@ -203,7 +351,10 @@ class OutputFolder:
 
     On enter: a target that is a file is refused, and so is a folder that holds anything
     unless ``overwrite`` (InputError naming the culprit and the path); an overwritten folder
-    that a running train/study holds (:class:`FolderLock`) is refused too. The parent folders
+    that a running train/study holds (:class:`FolderLock`) is refused too. ``inputs`` (what the
+    command reads) and the current folder are never the target nor inside it
+    (:func:`check_output_path`), and ``overwrite`` replaces only an astrocpg output folder
+    (:func:`check_replaceable`): never a folder of the user's own files. The parent folders
     are created, stale temporaries in the parent removed, and the hidden temporary sibling
     ``.<name>.partial-<pid>-<random>`` created and returned.
 
@@ -220,8 +371,12 @@ class OutputFolder:
     """
 
     def __init__(self, target: str | os.PathLike, *, overwrite: bool = False,
-                 culprit: str | None = "--out") -> None:
+                 culprit: str | None = "--out",
+                 inputs: Iterable[str | os.PathLike | None] = ()) -> None:
         self.shown = Path(target)
+        #: what the command reads: the target may not be one, hold one, or lie inside one but
+        #: at a derived place (:func:`check_output_path`)
+        self.inputs = [p for p in inputs if p is not None]
         path = os.path.abspath(os.fspath(target))
         if os.path.islink(path):  # write where the link points, and keep the link
             path = os.path.realpath(path)
@@ -277,6 +432,7 @@ class OutputFolder:
 
     def _check_target(self) -> None:
         t = self.target
+        check_output_path(t, self.inputs, culprit=self._who)
         if not os.path.lexists(t):
             return
         if not t.is_dir():
@@ -291,8 +447,11 @@ class OutputFolder:
         if not self.overwrite:
             raise InputError("is not empty; --overwrite replaces it whole (its files are deleted, "
                              "never mixed with the new ones)", culprit=self._who)
+        if os.path.lexists(t / LOCK_NAME):  # a running train/study: say so, whatever it holds
+            self._lock = FolderLock(t, culprit=self.culprit).acquire()
+        check_replaceable(t, culprit=self._who)
         self._replacing = True
-        self._lock = FolderLock(t, culprit=self.culprit).acquire()
+        self._lock = self._lock or FolderLock(t, culprit=self.culprit).acquire()
 
     def _make_parents(self) -> None:
         missing: list[Path] = []
@@ -425,14 +584,16 @@ class OutputFolder:
 # ---------------------------------------------------------------- inventory
 def _files(root: Path) -> Iterator[tuple[str, Path]]:
     """(relative POSIX path, path) of every file below ``root``, sorted, without the
-    top-level :data:`UNLISTED` names. Links to files count as files; links to folders are not
-    followed."""
+    top-level :data:`UNLISTED` names and without hidden temporaries (:func:`parse_temp_name`:
+    what a running or killed ``plot``, ``video`` or atomic writer has there is not the
+    folder's, and a killed one's is removed by the next start beside it). Links to files count
+    as files; links to folders are not followed."""
     def fail(err: OSError) -> None:
         raise err
 
     for dirpath, dirnames, filenames in os.walk(root, onerror=fail):
-        dirnames.sort()
-        for f in sorted(filenames):
+        dirnames[:] = sorted(d for d in dirnames if parse_temp_name(d) is None)
+        for f in sorted(x for x in filenames if parse_temp_name(x) is None):
             path = Path(dirpath, f)
             rel = path.relative_to(root).as_posix()
             if rel not in UNLISTED:
@@ -561,6 +722,31 @@ def clear_folder(folder: str | os.PathLike) -> None:
         raise EnvironmentFault.from_os_error(e, e.filename or root, "cannot clear") from None
 
 
+def remove_derived(folder: str | os.PathLike) -> list[str]:
+    """Delete what later commands derived from ``folder`` (the :data:`DERIVED` entries at its
+    top: ``figures/``, ``report/``, ``evaluation/`` and ``evaluation.parts/``, videos, power
+    estimates); returns their names. A training that continues (``train --resume``) calls it:
+    those were made from weights the training is about to change, and a stale evaluation beside
+    new weights would read as theirs (and ``evaluation.parts/`` would even be reused by the next
+    ``evaluate``)."""
+    root = Path(folder)
+    removed: list[str] = []
+    try:
+        names = sorted(os.listdir(root))
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, root, "cannot read the folder") from None
+    for name in names:
+        path = root / name
+        is_dir = path.is_dir() and not path.is_symlink()
+        if _derived(name, folder=is_dir):
+            try:
+                _remove(path)
+            except OSError as e:
+                raise EnvironmentFault.from_os_error(e, path, "cannot remove") from None
+            removed.append(name + ("/" if is_dir else ""))
+    return removed
+
+
 def holds_results(folder: str | os.PathLike) -> bool:
     """Does ``folder`` hold anything but lock files?"""
     try:
@@ -679,6 +865,7 @@ class FolderLock:
         self.release()
 
 
-__all__ = ["OutputFolder", "FolderLock", "inventory", "verify", "append_history",
-           "clean_stale_temporaries", "temp_prefix", "parse_temp_name", "pid_alive", "exchange",
+__all__ = ["OutputFolder", "FolderLock", "check_output_path", "check_replaceable",
+           "is_astrocpg_output", "inventory", "verify", "append_history",
+           "clean_stale_temporaries", "remove_derived", "temp_prefix", "temp_suffix", "parse_temp_name", "pid_alive", "exchange",
            "MANIFEST", "LOCK_NAME", "OWNER_NAME", "UNLISTED", "DERIVED"]

@@ -20,7 +20,8 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ...errors import InputError
-from .folder import MANIFEST, file_sha256, inventory, temp_prefix
+from .folder import (MANIFEST, clean_stale_temporaries, file_sha256, inventory, temp_prefix,
+                     temp_suffix)
 
 _STARTED = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # when this process started (history entries)
 PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
@@ -76,26 +77,43 @@ def prepare_output_dir(path: str | os.PathLike) -> Path:
 
 def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
     """``write_to(tmp)`` writes a temporary file beside ``path`` (same suffix, for libraries that
-    check it, e.g. pynwb), which then replaces ``path``: never a half-written result."""
+    check it, e.g. pynwb), which then replaces ``path``: never a half-written result. What a
+    killed writer left beside ``path`` (its pid gone) is removed first, so that e.g. a killed
+    ``video``'s temporary goes with the next video, not only with the next ``plot``."""
+    clean_stale_temporaries(path.parent)
     # pid-tagged, so that the next start removes what a killed process left
+    suffix = temp_suffix(path.suffix)  # the name fits NAME_MAX, however long the path's
+    prefix = temp_prefix(path.stem, suffix=suffix)
+    tmp: str | None = None
     try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=temp_prefix(path.stem),
-                                   suffix=path.suffix)
-    except OSError as e:
-        raise _naming(e, path) from None
-    os.close(fd)
-    try:
+        try:
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=prefix, suffix=suffix)
+        except OSError as e:
+            raise _naming(e, path) from None
+        os.close(fd)  # inside the try: an interrupt here still removes the temporary
         write_to(Path(tmp))
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are ordinary files
         os.replace(tmp, path)
     except BaseException as e:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        # an interrupt inside mkstemp, after it made the file: find it by this pid's prefix
+        mine = [tmp] if tmp is not None else [
+            os.path.join(path.parent, n) for n in _listdir(path.parent)
+            if n.startswith(prefix) and n.endswith(suffix)]
+        for name in mine:
+            if os.path.exists(name):
+                os.unlink(name)
         if isinstance(e, OSError) and not isinstance(e, BrokenPipeError):
             raise _naming(e, path) from None
         raise
+
+
+def _listdir(folder: Path) -> list[str]:
+    try:
+        return os.listdir(folder)
+    except OSError:
+        return []
 
 
 def _naming(err: OSError, path: Path) -> OSError:

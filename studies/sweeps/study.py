@@ -71,7 +71,8 @@ from ..experiments.resources import (available_memory, check_memory, estimate_by
 from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
-from ..files.folder import FolderLock, clean_stale_temporaries, clear_folder, holds_results
+from ..files.folder import (FolderLock, check_output_path, check_replaceable,
+                            clean_stale_temporaries, clear_folder, holds_results)
 from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
 from ..files.weights import WEIGHTS
 
@@ -708,6 +709,14 @@ def prepare_study(study: Study, out: Path, *, workers: int | None = None,
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError("exists and is not a folder", culprit=f"--out {out}")
+    # the study file (and a worlds file it names) is never the folder nor inside it; what
+    # --overwrite replaces is a folder astrocpg wrote, never the user's own files
+    worlds = (study.evaluate or {}).get("worlds")
+    inputs = [study.path, *([worlds] if isinstance(worlds, str) and os.path.isfile(worlds)
+                            else [])]
+    check_output_path(out, inputs, culprit=f"--out {out}")
+    if overwrite and holds_results(out):
+        check_replaceable(out, culprit=f"--out {out}")
     # --overwrite starts afresh: the batch the old folder began with does not count
     return resolve_batch(study, None if overwrite else out, workers=workers,
                          scheduler=scheduler, progress=progress)
