@@ -273,4 +273,23 @@ def check_interface(model: Model, interface: tuple[str, ...], *, culprit: str) -
                          f"(interface: {', '.join(interface)})", culprit=culprit)
 
 
-__all__ = ["model_to_toml", "model_from_toml", "check_interface", "value_text", "file_sha256"]
+def check_parameters_used(model: Model, default: Model | None, *, culprit: str) -> None:
+    """Refuse a parameter the model declares that nothing reads: not one of the built-in
+    slot's parameters (``default``: those the network reads by name) and named by none of the
+    model's code strings. ``--set`` on such a parameter would change nothing, yet the manifest
+    would record the value."""
+    from brian2.utils.stringtools import get_identifiers
+
+    known = set(default.parameters) if default is not None else set()
+    used: set[str] = set()
+    for text in model.statements().values():
+        used |= get_identifiers(text)
+    for name in model.parameters:
+        if name not in known and name not in used:
+            raise InputError("is declared but no code string of the model reads it (nor does "
+                             "the network): --set on it would change nothing; use it or drop it",
+                             culprit=f"{culprit}: parameters.{name}")
+
+
+__all__ = ["model_to_toml", "model_from_toml", "check_interface", "check_parameters_used",
+           "value_text", "file_sha256"]

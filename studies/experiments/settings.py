@@ -64,7 +64,7 @@ def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str,
     involves other models (a parameter another model declares) is checked by
     :func:`model_set`."""
     from ...models import INTERFACES
-    from ...models.files import check_interface, model_from_toml
+    from ...models.files import check_interface, check_parameters_used, model_from_toml
 
     texts = read_equation_files(items, option=option)
     slots = dict(DEFAULT_MODELS.items())
@@ -74,6 +74,11 @@ def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str,
             where = f"{option} {name} ({file})"
             model = model_from_toml(texts[name], culprit=where, default=slots[name])
             check_interface(model, INTERFACES.get(name, ()), culprit=where)
+            try:  # a parameter another model declares
+                DEFAULT_MODELS.replace(**{name: model})
+            except InputError as e:
+                raise InputError(e.line, culprit=where) from None
+            check_parameters_used(model, slots[name], culprit=where)
     return texts
 
 
@@ -99,7 +104,8 @@ def model_set(overrides: Overrides | None = None,
     (``NAME=VALUE`` items or ``{name: value}``), validated. Errors about a model file name
     ``<option> <model>``."""
     from ...models import INTERFACES, Model
-    from ...models.files import check_interface, file_sha256, model_from_toml
+    from ...models.files import (check_interface, check_parameters_used, file_sha256,
+                                 model_from_toml)
 
     files = models
     models = base
@@ -122,6 +128,7 @@ def model_set(overrides: Overrides | None = None,
             raise InputError(f"is a {model.kind} model; {name} is a {known[name].kind} model",
                              culprit=culprit)
         check_interface(model, INTERFACES.get(name, ()), culprit=culprit)
+        check_parameters_used(model, getattr(DEFAULT_MODELS, name), culprit=culprit)
         try:
             models = models.replace(**{name: model})
         except InputError as e:
