@@ -96,13 +96,14 @@ def _add_codegen_option(p: argparse.ArgumentParser) -> None:
 
 def _add_simulation_options(p: argparse.ArgumentParser, seconds: float) -> None:
     p.add_argument("--seconds", type=float, default=seconds,
-                   help=f"simulated time in s (default {seconds:g})")
+                   help=f"simulated time in s, a whole number of 1 ms steps (default "
+                        f"{seconds:g})")
     p.add_argument("--seed", type=int, default=1, help="seed of trial 0 (default 1)")
     p.add_argument("--trials", type=int, default=1,
                    help="independent trials, seeds K, K+1, ... (default 1)")
     p.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
-                   help="sampling interval of the Ca2+/IP3/2-AG/adenosine traces in ms "
-                        "(default 1)")
+                   help="sampling interval of the Ca2+/IP3/2-AG/adenosine traces in ms, a "
+                        "whole number of 1 ms steps (default 1)")
 
 
 def _add_overwrite(p: argparse.ArgumentParser) -> None:
@@ -161,7 +162,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     gait = sub.add_parser("gait", help="run trained weights and name the gait")
     gait.add_argument("dir", help="a training folder")
-    gait.add_argument("--seconds", type=float, default=10.0)
+    gait.add_argument("--seconds", type=float, default=10.0,
+                      help="simulated time in s, a whole number of 1 ms steps (10)")
     gait.add_argument("--seed", type=int, default=1)
     gait.add_argument("--no-progress", action="store_true")
     _add_codegen_option(gait)
@@ -174,7 +176,8 @@ def build_parser() -> argparse.ArgumentParser:
                          "and/or [grid.AXIS] with values = [...] and, for factors, scale = "
                          "[parameters]) or 'robustness' (flat, slopes +-0.09 and +-0.17 rad, "
                          "rough terrain 1 and 2 cm, friction 0.3, a 60 N push)")
-    ev.add_argument("--seconds", type=float, default=10.0, help="per evaluation run (10)")
+    ev.add_argument("--seconds", type=float, default=10.0,
+                    help="per evaluation run, in s: a whole number of 1 ms steps (10)")
     ev.add_argument("--repeats", type=int, default=2,
                     help="runs per controller and world, each with its own noise (2)")
     ev.add_argument("--seed", type=int, default=1)
@@ -201,7 +204,7 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("--format", default="png", help="png (default), pdf or svg")
     plot.add_argument("--seconds", type=float, default=10.0,
                       help="a training: length of the run with the trained weights (for "
-                           "activity and gait)")
+                           "activity and gait), a whole number of 1 ms steps")
     plot.add_argument("--out", help="figure folder (default DIR/figures, replaced on each plot)")
     _add_overwrite(plot)
 

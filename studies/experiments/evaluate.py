@@ -42,7 +42,7 @@ from ..files.weights import load_weights
 from .resources import check_memory, estimate_bytes
 from .run import trained_models, training_settings
 from .settings import model_set, number, seed_number
-from .simulate import STEP, simulate_closed_loop
+from .simulate import STEP, check_duration, simulate_closed_loop
 
 BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}
 EVALUATION = "evaluation.csv"
@@ -317,6 +317,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     with the same arguments, runs only the cells it had not finished."""
     folder = Path(folder)
     seconds = number(seconds, "--seconds", positive=True)
+    check_duration(seconds, STEP)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
     seed = seed_number(seed)
     if workers is not None and workers < 1:

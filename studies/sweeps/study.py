@@ -61,13 +61,14 @@ from typing import Any, Sequence
 import numpy as np
 
 from ...coupling.recorder import RecordPlan
-from ...coupling.training import SESSION_COLUMNS
+from ...coupling.training import SESSION_COLUMNS, session_steps
 from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS
 from ..experiments.cluster import connect_cluster, run_on_cluster
 from ..experiments.resources import (available_memory, check_memory, estimate_bytes,
                                      estimate_wall_seconds)
 from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
+from ..experiments.simulate import STEP, check_duration
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
 from ..files.folder import FolderLock, clean_stale_temporaries, clear_folder, holds_results
@@ -355,6 +356,7 @@ def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
             try:
                 run_models = point_models.with_values(dict(point_models.parse_assignment(o)
                                                            for o in overrides))
+                session_steps(run_models, STEP)  # whole steps, before anything runs
             except InputError as e:
                 raise InputError(f"{e}", culprit=cw) from None
             session_s = float(np.asarray(run_models.progress.parameters["L_max"].value))
@@ -417,6 +419,7 @@ def _evaluate_table(doc: Any, study: Path, where: str) -> dict[str, Any] | None:
     seconds, repeats = doc.get("seconds", 10.0), doc.get("repeats", 2)
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not seconds > 0:
         raise InputError("[evaluate] seconds must be a positive number", culprit=where)
+    check_duration(seconds, STEP, culprit=f"{where} [evaluate] seconds")
     if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
         raise InputError("[evaluate] repeats must be a positive integer", culprit=where)
     conditions = doc.get("conditions", [])
