@@ -271,7 +271,6 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
     data = _load(folder)
     m = data["manifest"]
     created = datetime.strptime(m["created"], "%Y-%m-%dT%H:%M:%S%z")
-    settings = m.get("settings", {})
     lay = m["results"]["layout"]
     dt = _resolution(m, data)
     digest = hashlib.sha256(json.dumps(_metadata(m), sort_keys=True, default=str)
