@@ -113,6 +113,7 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
     axes: list[tuple[str, list[str]]] = []
     labels: dict[str, str] = {}
     options: list[list[dict[str, Any]]] = []
+    touched: dict[str, str] = {}  # parameter -> the axis that sets or scales it
     for axis, table in grid.items():
         at = f"{where} grid.{axis}"
         if not isinstance(table, dict) or set(table) - {"values", "scale"}:
@@ -122,6 +123,19 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
         if not isinstance(values, list) or not values:
             raise InputError("needs a non-empty list of values", culprit=f"{at}.values")
         scale = table.get("scale")
+        # one parameter, one axis: of two axes on it, one's value would win (or a factor
+        # would be applied once) while each cell's label named both
+        for p in ([str(axis)] if scale is None else
+                  [str(p) for p in scale] if isinstance(scale, list) else []):
+            if p in touched:
+                other = touched[p]
+                both = (f"grid.{other} and grid.{axis}" if other != axis
+                        else f"grid.{axis}.scale")
+                raise InputError(f"{'both set or scale' if other != axis else 'names twice'} "
+                                 f"the parameter {p}: a cell would run at one value while its "
+                                 f"label names {'both' if other != axis else 'it twice'}; "
+                                 f"one axis per parameter", culprit=f"{where} {both}")
+            touched[p] = str(axis)
         if scale is None:
             options.append([{"set": [assignment(axis, v, f"grid.{axis}")], "scale": {}}
                             for v in values])
