@@ -929,6 +929,11 @@ case("evaluate-two-axes-scale-one-parameter",
                                                                  TWO_AXES_ONE_PARAMETER),
                  "--out", out(e)), 2, "grid.double and grid.triple", "absent", out)
 
+case("study-condition-sets-a-swept-parameter", lambda e: S("study", e.study(
+    study_text() + '[sweep.axes]\ntau_STDP = ["1*second", "2*second"]\n'
+    '[conditions.a]\nset = { tau_STDP = "3*second" }\n'), "--out", out(e)), 2,
+     "[conditions.a] and [sweep.axes] tau_STDP", "absent", out)
+
 
 # an export says how the run ended; upright means upright
 def _diverged_run(e: Env) -> Path:

@@ -407,3 +407,21 @@ def test_distinct_axes_are_accepted(tmp_path):
     f.write_text('[grid.a]\nvalues = [2.0, 3.0]\nscale = ["I_thigh"]\n'
                  '[grid.b]\nvalues = [0.5]\nscale = ["I_calf"]\n')
     assert len(read_worlds(str(f), DEFAULT_MODELS).cell) == 2
+
+
+@pytest.mark.parametrize("axis,condition", [
+    ('tau_STDP = ["1*second", "2*second"]', 'set = { tau_STDP = "3*second" }'),
+    ("astrocyte_regulation = [0.5, 1.0]", "astrocytes = false"),
+])
+def test_a_study_condition_on_a_swept_parameter_is_refused(axis, condition, tmp_path, capsys):
+    """The same class in studies: a condition's value won over the sweep axis of the same
+    parameter while the run's id named the axis value."""
+    f = tmp_path / "s.toml"
+    f.write_text('[study]\nname = "t"\nsessions = 1\nseeds = [1]\n[base]\nL_max = "0.2*second"\n'
+                 f"[sweep.axes]\n{axis}\n[conditions.a]\n{condition}\n")
+    code = main(["study", str(f), "--out", str(tmp_path / "o"), "--workers", "1",
+                 "--no-progress"])
+    line = _one_line(capsys)
+    name = axis.split()[0]
+    assert code == 2 and f"[conditions.a] and [sweep.axes] {name}" in line, line
+    assert not (tmp_path / "o").exists()

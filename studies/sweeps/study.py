@@ -343,6 +343,18 @@ def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
         astro = cond.get("astrocytes", True)
         if not isinstance(astro, bool):
             raise InputError("astrocytes must be true or false", culprit=cw)
+        # one parameter, one source per run: a condition's value would win over a sweep axis
+        # of the same parameter while the run's id named the axis value
+        touched = dict.fromkeys(cond.get("set", {}) if isinstance(cond.get("set"), dict)
+                                else (), "its set")
+        if not astro:
+            touched.setdefault("astrocyte_regulation", "astrocytes = false")
+        for k, how in touched.items():
+            if k in axes:
+                raise InputError(f"{how} changes {k}, which [sweep.axes] {k} also sweeps: "
+                                 f"each run would take the "
+                                 f"condition's value while its id names the axis value; sweep "
+                                 f"it or set it, not both", culprit=f"{cw} and [sweep.axes] {k}")
         cset = [_check_override(models, k, _value_text(k, v, cw), cw)
                 for k, v in cond.get("set", {}).items()]
         for point in points:
