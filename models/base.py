@@ -69,9 +69,10 @@ class Parameter:
         if not isinstance(data, Mapping):
             raise InputError(f"expected a parameter entry, got {type(data).__name__}",
                              culprit=culprit)
+        # as read: ParameterTable checks the types (bool("false") would be True)
         return cls(name=name, value=_value_from_json(data, culprit),
-                   symbol=str(data.get("symbol", "")), meaning=str(data.get("meaning", "")),
-                   positive=bool(data.get("positive", False)))
+                   symbol=data.get("symbol", ""), meaning=data.get("meaning", ""),
+                   positive=data.get("positive", False))
 
 
 class ParameterTable(Mapping[str, Parameter]):

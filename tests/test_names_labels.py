@@ -425,3 +425,12 @@ def test_a_study_condition_on_a_swept_parameter_is_refused(axis, condition, tmp_
     name = axis.split()[0]
     assert code == 2 and f"[conditions.a] and [sweep.axes] {name}" in line, line
     assert not (tmp_path / "o").exists()
+
+
+def test_a_manifest_model_entry_with_a_text_flag_is_refused():
+    from astrocpg.models import Model
+    entry = DEFAULT_MODELS.astrocyte.to_json()
+    assert Model.from_json(entry) == DEFAULT_MODELS.astrocyte
+    entry["parameters"]["tau_IP3"]["positive"] = "false"
+    with pytest.raises(InputError, match="'positive' must be true or false"):
+        Model.from_json(entry)
