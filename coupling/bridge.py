@@ -187,6 +187,7 @@ class Bridge:
         self._hip_torque = models.hip_controller.compile()
         self._reward = models.reward.compile()
         self._alive = models.alive.compile()
+        self._alive_inputs = tuple(models.alive.inputs)  # a model file may read fewer
         self.dt = float(cpg.dt)
 
         # batched robot state, refreshed after every physics step; qpos, qvel and ctrl are views
@@ -413,9 +414,12 @@ class Bridge:
         self._limit_table.write()
         self.reward[:] = self._reward(vel_x=v[:, 0], omega_roll=omega[:, 0],
                                       omega_pitch=omega[:, 1], omega_yaw=omega[:, 2])
-        # alive: z component of the torso's z axis in the world frame, from the quaternion
+        # alive: z component of the torso's z axis in the world frame, from the quaternion,
+        # and the height of the torso's centre above the ground (z = 0)
         qx, qy = self.qpos[:, fq + 4], self.qpos[:, fq + 5]
-        self.alive[:] = self._alive(torso_z_up=1.0 - 2.0 * (qx * qx + qy * qy))
+        senses = {"torso_z_up": 1.0 - 2.0 * (qx * qx + qy * qy),
+                  "torso_height": self.qpos[:, fq + 2]}
+        self.alive[:] = self._alive(**{k: senses[k] for k in self._alive_inputs})
 
     def robot_sample(self, trials: int | slice = slice(None)) -> tuple[np.ndarray, ...]:
         """Joint angles (leg, joint) rad, applied torques (leg, joint) N m, torso position and

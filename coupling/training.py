@@ -24,8 +24,9 @@ from typing import Any, Callable
 import numpy as np
 from brian2 import SpikeMonitor
 
-from ..errors import Diverged
+from ..errors import Diverged, InputError
 from ..models import ModelSet
+from ..models.values import whole_steps
 from ..network import CPG, POOLS
 from .bridge import ORDER_TRAINING, Bridge
 
@@ -49,6 +50,24 @@ class SessionMemory:
     rows: list[dict[str, Any]] = field(default_factory=list)
 
 
+def session_steps(models: ModelSet, dt: float) -> tuple[int, int, int, int]:
+    """The session loop's counts from the models: (steps of the longest session ``L_max``,
+    non-upright steps that end one ``L_non_alive``, sessions remembered ``session_memory``,
+    steps of the reward's window ``reward_window``). Durations run as whole steps, so one
+    that is not a whole number of ``dt`` steps is refused (it would be rounded while the
+    manifest records it as set; :func:`astrocpg.models.values.whole_steps`)."""
+    pp = models.progress.parameters
+    max_steps = whole_steps(_si(pp["L_max"].value), dt, culprit="progress.L_max")
+    non_alive = whole_steps(_si(pp["L_non_alive"].value), dt, culprit="progress.L_non_alive")
+    memory = _si(pp["session_memory"].value)
+    if not (memory >= 1 and float(memory).is_integer()):  # int(2.5) would keep 2
+        raise InputError(f"must be a whole number of sessions, at least 1, got {memory:g}",
+                         culprit="progress.session_memory")
+    window = whole_steps(_si(models.reward.parameters["reward_window"].value), dt,
+                         culprit="reward.reward_window")
+    return max_steps, non_alive, int(memory), window
+
+
 class Training:
     """The session loop of ``n_sessions`` sessions per trial, hooked into a :class:`Bridge`."""
 
@@ -60,10 +79,8 @@ class Training:
         B = self.n_trials = cpg.n_trials
         dt = self.dt = bridge.dt
         pp = models.progress.parameters
-        self.max_steps = int(round(_si(pp["L_max"].value) / dt))
-        self.non_alive_limit = int(round(_si(pp["L_non_alive"].value) / dt))
-        self.memory_size = int(_si(pp["session_memory"].value))
-        self.window = int(round(_si(models.reward.parameters["reward_window"].value) / dt))
+        (self.max_steps, self.non_alive_limit, self.memory_size,
+         self.window) = session_steps(models, dt)
         self._progress_fn = models.progress.compile()
         self._learning_start_fn = models.learning_start.compile()
 

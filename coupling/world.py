@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..models import ModelSet
+from ..models.values import whole_steps
 from ..models.world import (TERRAIN_FLAT_RADIUS, TERRAIN_RESOLUTION, TERRAIN_THICKNESS,
                             TERRAIN_X, TERRAIN_Y)
 from .robot import A1Parameters, build_spec
@@ -166,8 +167,8 @@ def add_disturbances(bridge, models: ModelSet) -> None:
     trunk = _trunk(bridge.model)
     B, dt = bridge.n_trials, bridge.dt
     forces = [d.xfrc_applied[trunk] for d in bridge.data]  # views into each MjData
-    on_step = int(round(world.push_time / dt))
-    off_step = on_step + max(1, int(round(world.push_duration / dt)))
+    on_step = whole_steps(world.push_time, dt, culprit="world.push_time", minimum=0)
+    off_step = on_step + whole_steps(world.push_duration, dt, culprit="world.push_duration")
     noise = np.random.default_rng([bridge.cpg.seed, 0x77]) if world.torque_noise else None
     act = bridge.actuators.ravel()
     push, sigma, ctrl = world.push_force, world.torque_noise, bridge.ctrl

@@ -31,6 +31,7 @@ from brian2.units.fundamentalunits import (
 
 from ..errors import InputError, did_you_mean
 from .integration import method_name, registered_methods
+from .names import check_parameter_names
 from .values import compile_expression, example_value, unit_spelling
 
 
@@ -68,9 +69,10 @@ class Parameter:
         if not isinstance(data, Mapping):
             raise InputError(f"expected a parameter entry, got {type(data).__name__}",
                              culprit=culprit)
+        # as read: ParameterTable checks the types (bool("false") would be True)
         return cls(name=name, value=_value_from_json(data, culprit),
-                   symbol=str(data.get("symbol", "")), meaning=str(data.get("meaning", "")),
-                   positive=bool(data.get("positive", False)))
+                   symbol=data.get("symbol", ""), meaning=data.get("meaning", ""),
+                   positive=data.get("positive", False))
 
 
 class ParameterTable(Mapping[str, Parameter]):
@@ -99,6 +101,14 @@ class ParameterTable(Mapping[str, Parameter]):
             raise InputError(f"must be a number or a quantity, got {p.value!r}", culprit=culprit)
         if not np.all(np.isfinite(np.asarray(p.value, dtype=float))):
             raise InputError(f"must be finite, got {p.value}", culprit=culprit)
+        if not isinstance(p.positive, (bool, np.bool_)):
+            # bool("false") is True: a flag is a boolean, never text or a number
+            raise InputError(f"'positive' must be true or false, got {p.positive!r}",
+                             culprit=culprit)
+        for key in ("symbol", "meaning"):
+            if not isinstance(getattr(p, key), str):
+                raise InputError(f"'{key}' must be text, got {getattr(p, key)!r}",
+                                 culprit=culprit)
         if p.positive and not float(np.asarray(p.value)) > 0:
             raise InputError(f"must be positive ({p.meaning}), got {p.value}", culprit=culprit)
 
@@ -271,9 +281,17 @@ class Model:
                 raise InputError(f"must be a code string, got {type(value).__name__}",
                                  culprit=f"{self.name}.{role}")
         self._validate()
+        # one name check for every model: a parameter named dt, ms, exp, pi or like one of
+        # the model's own variables would never be the value the code reads
+        check_parameter_names(self.name, self.parameters, self.own_names())
 
     def _validate(self) -> None:
         """Checks of the kind (equations parse, the expression compiles...)."""
+
+    def own_names(self) -> dict[str, str]:
+        """The names the model's code defines itself (state variables, subexpressions,
+        inputs), each with what it is: a parameter may not take one of them."""
+        return {}
 
     # ---- the contract
 
@@ -403,6 +421,13 @@ class BrianModel(Model):
                                  f"{value!r}", culprit=culprit)
         object.__setattr__(self, "initial_values", dict(self.initial_values))
 
+    def own_names(self) -> dict[str, str]:
+        from brian2.equations.equations import DIFFERENTIAL_EQUATION, SUBEXPRESSION
+        what = {DIFFERENTIAL_EQUATION: "a state variable of the equations",
+                SUBEXPRESSION: "a subexpression of the equations"}
+        return {name: what.get(eq.type, "a variable declared in the equations")
+                for name, eq in self.brian_equations().items()}
+
     def brian_equations(self) -> Equations:
         """The main code string, parsed by Brian2."""
         return _parse_equations(self.name, self.code, self.code_field)
@@ -475,6 +500,10 @@ class ExpressionModel(Model):
                                  culprit=f"{self.name}.inputs")
         object.__setattr__(self, "inputs", inputs)
         self.compile()
+
+    def own_names(self) -> dict[str, str]:
+        # compile_expression lets an input shadow a parameter of the same name
+        return {name: "an input of the expression" for name in self.inputs}
 
     def compile(self) -> Callable[..., Any]:
         """A numpy function of the inputs (keywords), with parameters bound as plain SI

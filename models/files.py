@@ -138,6 +138,13 @@ def _text_value(entry: Any, culprit: str) -> Any:
     return parse_value(entry, culprit=culprit)
 
 
+def _typed(entry: Mapping[str, Any], key: str, kind: type, what: str, culprit: str) -> None:
+    """Refuse ``entry[key]`` (when present) unless it is of TOML type ``kind``: a flag is a
+    boolean, never the text "false" (which Python's ``bool`` reads as true)."""
+    if key in entry and not isinstance(entry[key], kind):
+        raise InputError(f"'{key}' must be {what}, got {entry[key]!r}", culprit=culprit)
+
+
 def _declared_twice(text: str) -> str | None:
     """``table.key`` of the first key written twice in a table (TOML refuses it; we name it)."""
     import re
@@ -204,28 +211,41 @@ def model_from_toml(text: str, *, culprit: str, default: Model | None = None) ->
                 if unknown:
                     raise InputError(f"unknown keys {sorted(unknown)} (value, symbol, meaning, "
                                      f"positive)", culprit=pwhere)
+                _typed(entry, "symbol", str, "text", pwhere)
+                _typed(entry, "meaning", str, "text", pwhere)
+                _typed(entry, "positive", bool, "true or false (a TOML boolean)", pwhere)
                 params.append(Parameter(name=pname, value=_text_value(entry["value"], pwhere),
-                                        symbol=str(entry.get("symbol", "")),
-                                        meaning=str(entry.get("meaning", "")),
-                                        positive=bool(entry.get("positive", False))))
-            value = ParameterTable(name, params)
+                                        symbol=entry.get("symbol", ""),
+                                        meaning=entry.get("meaning", ""),
+                                        positive=entry.get("positive", False)))
+            try:
+                value = ParameterTable(name, params)
+            except InputError as e:
+                raise InputError(e.line, culprit=culprit) from None
         elif key == "initial_values":
             if not isinstance(value, Mapping):
                 raise InputError("must be a table of values", culprit=where)
             out = {}
             for var, entry in value.items():
                 vwhere = f"{culprit}: initial_values.{var}"
+                if isinstance(entry, Mapping) and set(entry) - {"value", "expression"}:
+                    raise InputError(f"unknown keys {sorted(set(entry) - {'value', 'expression'})}"
+                                     f" (value or expression)", culprit=vwhere)
                 if isinstance(entry, Mapping) and "expression" in entry:
-                    out[var] = str(entry["expression"])
+                    _typed(entry, "expression", str, "text (a Brian2 expression)", vwhere)
+                    out[var] = entry["expression"]
                 elif isinstance(entry, Mapping) and "value" in entry:
                     out[var] = _text_value(entry["value"], vwhere)
                 else:
                     out[var] = _text_value(entry, vwhere)
             value = out
         elif key == "inputs":
-            if not isinstance(value, list):
-                raise InputError("must be a list of input names", culprit=where)
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise InputError("must be a list of input names (text)", culprit=where)
             value = tuple(value)
+        elif not isinstance(value, str):  # description, method and every code string
+            raise InputError(f"must be text, got {type(value).__name__} {value!r}",
+                             culprit=where)
         kwargs[key] = value
     if "parameters" not in kwargs:
         kwargs["parameters"] = ParameterTable(name, [])
@@ -253,4 +273,23 @@ def check_interface(model: Model, interface: tuple[str, ...], *, culprit: str) -
                          f"(interface: {', '.join(interface)})", culprit=culprit)
 
 
-__all__ = ["model_to_toml", "model_from_toml", "check_interface", "value_text", "file_sha256"]
+def check_parameters_used(model: Model, default: Model | None, *, culprit: str) -> None:
+    """Refuse a parameter the model declares that nothing reads: not one of the built-in
+    slot's parameters (``default``: those the network reads by name) and named by none of the
+    model's code strings. ``--set`` on such a parameter would change nothing, yet the manifest
+    would record the value."""
+    from brian2.utils.stringtools import get_identifiers
+
+    known = set(default.parameters) if default is not None else set()
+    used: set[str] = set()
+    for text in model.statements().values():
+        used |= get_identifiers(text)
+    for name in model.parameters:
+        if name not in known and name not in used:
+            raise InputError("is declared but no code string of the model reads it (nor does "
+                             "the network): --set on it would change nothing; use it or drop it",
+                             culprit=f"{culprit}: parameters.{name}")
+
+
+__all__ = ["model_to_toml", "model_from_toml", "check_interface", "check_parameters_used",
+           "value_text", "file_sha256"]

@@ -557,6 +557,31 @@ FUNCTIONS: Mapping[str, tuple[Callable[..., Any], int]] = types.MappingProxyType
 })
 """The functions a model expression may call: name -> (numpy function, number of arguments)."""
 
+def whole_steps(value: float, step: float, *, culprit: str, unit: str = "s",
+                minimum: int = 1) -> int:
+    """The number of ``step``-long steps in ``value`` (both in ``unit``), when it is a whole
+    number of at least ``minimum``; else an :class:`InputError` naming ``culprit`` and the
+    nearest valid values.
+
+    Every duration the simulation takes (``--seconds``, ``--trace-dt``, a session's
+    ``L_max``...) is run as a number of steps; one that is not a whole number of them would
+    run a rounded number of steps while the manifest, the labels and the summary showed the
+    value as typed (``--seconds 0.0015`` ran 2 steps and recorded 0.0015 s)."""
+    value, step = float(value), float(step)
+    if not math.isfinite(value) or not step > 0:
+        raise InputError(f"must be a finite number of {unit}, got {value:g}", culprit=culprit)
+    n = value / step
+    k = round(n)
+    if k >= minimum and abs(n - k) <= 1e-6 * max(1.0, abs(n)):
+        return int(k)
+    low, high = max(minimum, math.floor(n)), max(minimum, math.ceil(n))
+    nearest = " or ".join(f"{m * step:.10g}" for m in sorted({low, high}))
+    step_text = f"{step * 1e3:g} ms" if unit == "s" else f"{step:g} {unit}"
+    raise InputError(f"{value:.10g} {unit} is not a whole number of {step_text} steps (at "
+                     f"least {minimum}): it would be rounded to whole steps while labelled "
+                     f"{value:.10g} {unit}; nearest valid: {nearest} {unit}", culprit=culprit)
+
+
 MAX_EXPRESSION = 2000
 MAX_EXPRESSION_DEPTH = 100
 
@@ -745,5 +770,5 @@ def compile_expression(expression: str, *, owner: str, inputs: Sequence[str],
     return result
 
 
-__all__ = ["parse_value", "unit_spelling", "example_value", "finite_number",
+__all__ = ["parse_value", "unit_spelling", "example_value", "finite_number", "whole_steps",
            "compile_expression", "UNITS", "FUNCTIONS"]

@@ -21,7 +21,8 @@ from brian2 import Network, NeuronGroup, Synapses, linked_var, ms, second
 from .._quiet_brian import close_debug_files, mend_interrupt_handler
 from ..errors import InputError
 from ..models import DEFAULT_MODELS, ModelSet
-from ..models.base import NeuronModel, SynapseModel, brian_error_line
+from ..models.base import BrianModel, NeuronModel, SynapseModel, brian_error_line
+from ..models.names import why_reserved
 from .codegen import DEFAULT as DEFAULT_CODEGEN
 from .codegen import initial_target, use_codegen
 from .divergence import MODEL_OF, NonFinite, model_of
@@ -369,6 +370,7 @@ def build_cpg(
             raise
         except Exception as e:
             raise InputError(f"{brian_error_line(e)}", culprit=model.name) from None
+        check_parameters_reach(g, model)
         objects.append(g)
         return g
 
@@ -386,6 +388,7 @@ def build_cpg(
             raise
         except Exception as e:
             raise InputError(f"{brian_error_line(e)}", culprit=model.name) from None
+        check_parameters_reach(s, model)
         objects.append(s)
         return s
 
@@ -586,6 +589,31 @@ def _schedule(motors: list[NeuronGroup], kinds: dict[str, list[Synapses]], pool:
             thresholder.when, thresholder.order = "groups", base + 3
         for updater in kinds["pool_activity"][s].summed_updaters.values():
             updater.when, updater.order = "groups", base + 4
+
+
+def check_parameters_reach(obj: Any, model: BrianModel) -> None:
+    """Refuse a network in which a parameter of ``model`` is not what ``obj`` (the Brian2 group
+    or projection built from it) reads by that name, so that a value set with ``--set`` and
+    recorded in a manifest is the value the network uses.
+
+    Brian2 resolves a name in a group's code from the group's own variables first (for a
+    projection, those of its source and target groups too), then from its constants, units and
+    functions, and only then from the group's namespace, which holds the model's parameters.
+    The model's own name check (:mod:`astrocpg.models.names`) refuses most shadowing names when
+    the model is made; what only the built network knows (a synapse parameter named like a
+    variable of its target group) is caught here."""
+    namespace = getattr(obj, "namespace", None) or {}
+    variables = getattr(obj, "variables", {})
+    for name, parameter in model.parameters.items():
+        if name in variables:
+            why = f"'{name}' is also a variable of the Brian2 object {obj.name}"
+        else:
+            why = why_reserved(name)
+        if why is None and namespace.get(name) is not parameter.value:
+            why = f"the Brian2 object {obj.name} was not given it"
+        if why is not None:
+            raise InputError(f"is not the value the network reads: {why}",
+                             culprit=f"{model.name}.{name}")
 
 
 def built_in_models(models: ModelSet) -> bool:

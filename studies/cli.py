@@ -165,13 +165,14 @@ def _add_codegen_option(p: argparse.ArgumentParser) -> None:
 
 def _add_simulation_options(p: argparse.ArgumentParser, seconds: float) -> None:
     p.add_argument("--seconds", type=float, default=seconds,
-                   help=f"simulated time in s (default {seconds:g} s)")
+                   help=f"simulated time in s, a whole number of 1 ms steps (default "
+                        f"{seconds:g} s)")
     p.add_argument("--seed", type=int, default=1, help="seed of trial 0 (default 1)")
     p.add_argument("--trials", type=int, default=1,
                    help="independent trials, seeds K, K+1, ... (default 1)")
     p.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
-                   help="sampling interval of the Ca2+/IP3/2-AG/adenosine traces in ms "
-                        "(default 1 ms)")
+                   help="sampling interval of the Ca2+/IP3/2-AG/adenosine traces in ms, a "
+                        "whole number of 1 ms steps (default 1 ms)")
 
 
 def _add_overwrite(p: argparse.ArgumentParser) -> None:
@@ -250,8 +251,9 @@ def build_parser() -> argparse.ArgumentParser:
     gait = sub.add_parser("gait", help="run trained weights and name the gait")
     gait.add_argument("dir", help="a training folder")
     gait.add_argument("--seconds", type=float, default=10.0,
-                      help="simulated time of the run with the trained weights, in s "
-                           "(default 10 s; the gait is read from its second half)")
+                      help="simulated time of the run with the trained weights, in s, a "
+                           "whole number of 1 ms steps (default 10 s; the gait is read from its "
+                           "second half)")
     gait.add_argument("--seed", type=int, default=1,
                       help="seed of the run's noise (default 1)")
     _add_no_progress(gait)
@@ -266,7 +268,8 @@ def build_parser() -> argparse.ArgumentParser:
                          "[parameters]) or 'robustness' (flat, slopes +-0.09 and +-0.17 rad, "
                          "rough terrain 1 and 2 cm, friction 0.3, a 60 N push; the default)")
     ev.add_argument("--seconds", type=float, default=10.0,
-                    help="simulated time of each evaluation run, in s (default 10 s)")
+                    help="simulated time of each evaluation run, in s, a whole number of 1 ms "
+                         "steps (default 10 s)")
     ev.add_argument("--repeats", type=int, default=2,
                     help="runs per controller and world, each with its own noise (default 2)")
     ev.add_argument("--seed", type=int, default=1,
@@ -296,7 +299,8 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("--format", default="png", help="png, pdf or svg (default png)")
     plot.add_argument("--seconds", type=float, default=10.0,
                       help="a training: simulated time of the run with the trained weights, "
-                           "in s, for its activity and gait figures (default 10 s)")
+                           "in s, a whole number of 1 ms steps, for its activity and gait "
+                           "figures (default 10 s)")
     plot.add_argument("--out", metavar="OUT",
                       help="figure folder (default DIR/figures, replaced on each plot)")
     _add_overwrite(plot)

@@ -411,7 +411,7 @@ case("run-seeds-of-the-trials-beyond-2to32", lambda e: S("run", "--seed", str(2*
 case("study-seed-2to32", lambda e: S("study", e.study(study_text(seeds=f"[{2**32}]")), "--out",
                                      out(e)), 2, "seeds", "absent", out)
 case("unit-trace-dt-tiny", lambda e: S("unit", "--seconds", "10", "--trace-dt", "1e-6", "--out",
-                                       out(e)), 2, "memory", "absent", out)
+                                       out(e)), 2, "--trace-dt", "absent", out)
 case("run-robot-a-folder", lambda e: S("run", "--robot", e.empty("a1.xml"), "--out", out(e)), 2,
      "a1.xml", "absent", out)
 case("unit-set-empty-name", lambda e: S("unit", "--set", "=9*ms", "--out", out(e)), 2, "--set",
@@ -958,6 +958,153 @@ case("run-readme-delay-example", lambda e: S("run", "--set", "delay_FR_FL=0*ms",
 case("run-readme-delay-example-as-the-error-suggests", lambda e: S(
     "run", "--set", "delay_FR_FL=0*ms", "--set", "delay_FR_RR=0*ms", "--set",
     "delay_FR_RL=0*ms", "--out", out(e)), 0, None, "complete", out)
+
+# ---- names that shadow, labels that lie (issue 20, classes 4 and 5)
+def _astro_file(e: Env, line: str, name: str = "astro.toml") -> Path:
+    """The built-in astrocyte as a model file with ``line`` added to its [parameters]."""
+    from astrocpg.models import DEFAULT_MODELS
+    from astrocpg.models.files import model_to_toml
+    text = model_to_toml(DEFAULT_MODELS.astrocyte)
+    return e.file(name, text.replace("[parameters]\n", f"[parameters]\n{line}\n"))
+
+
+for pname, value in (("dt", "0.1*second"), ("t", "1*second"), ("ms", "1*second"),
+                     ("exp", "1*second"), ("rand", "1*second"), ("pi", "1*second"),
+                     ("lastspike", "1*second"), ("Ca", "1*umolar")):
+    case(f"run-model-file-parameter-named-{pname}",
+         lambda e, n=pname, v=value: S("run", "--model", "astrocyte=" + str(_astro_file(
+             e, n + ' = { value = "' + v + '" }', "shadow.toml")),
+             "--set", f"{n}={v}", "--out", out(e)),
+         2, f"shadow.toml): astrocyte.{pname}: cannot name a parameter", "absent", out)
+case("describe-model-file-parameter-named-dt",
+     lambda e: S("describe", "astrocyte", "--model",
+                 "astrocyte=" + str(_astro_file(e, 'dt = { value = "1*ms" }', "shadow.toml"))),
+     2, "shadow.toml): astrocyte.dt", "none")
+case("models-dump-file-parameter-named-exp",
+     lambda e: S("models", "dump", "astrocyte", "--model",
+                 "astrocyte=" + str(_astro_file(e, 'exp = { value = "1*ms" }', "shadow.toml"))),
+     2, "shadow.toml): astrocyte.exp", "none")
+case("run-model-file-positive-is-text",
+     lambda e: S("run", "--model", "astrocyte=" + str(_astro_file(
+         e, 'tau_IP3x = { value = "-1*second", positive = "false" }', "typed.toml")),
+                 "--out", out(e)),
+     2, "typed.toml): parameters.tau_IP3x: 'positive' must be true or false", "absent", out)
+case("run-model-file-symbol-is-a-number",
+     lambda e: S("run", "--model", "astrocyte=" + str(_astro_file(
+         e, 'tau_IP3x = { value = "1*second", symbol = 3 }', "typed.toml")), "--out", out(e)),
+     2, "parameters.tau_IP3x: 'symbol' must be text", "absent", out)
+case("run-model-file-parameter-nothing-reads",
+     lambda e: S("run", "--model", "astrocyte=" + str(_astro_file(
+         e, 'tau_dead = { value = "1*second" }', "dead.toml")),
+                 "--set", "tau_dead=2*second", "--out", out(e)),
+     2, "dead.toml): parameters.tau_dead: is declared but no code string", "absent", out)
+
+
+def _interlimb_reading_u(e: Env) -> Path:
+    """An inter-limb synapse file declaring ``u``, which its code reads: Brian2 resolves it to
+    the target pools' variable, not the parameter (caught when the network is built)."""
+    from astrocpg.models import DEFAULT_MODELS
+    from astrocpg.models.files import model_to_toml
+    text = model_to_toml(DEFAULT_MODELS.interlimb_synapse)
+    text = text.replace("[parameters]\n", '[parameters]\nu = { value = "1" }\n')
+    return e.file("il.toml", text.replace("model = '''\n", "model = '''\nu_seen = u : 1\n", 1))
+
+
+case("run-model-file-synapse-parameter-shadowed-by-its-target",
+     lambda e: S("run", "--model", f"interlimb_synapse={_interlimb_reading_u(e)}", "--out",
+                 out(e)), 2, "interlimb_synapse.u: is not the value the network reads",
+     "absent", out)
+case("train-set-dt", lambda e: S("train", "--set", "dt=0.1*second", "--out", out(e)), 2, "dt",
+     "absent", out)
+case("study-model-file-parameter-named-dt",
+     lambda e: S("study", e.study(study_text() + "[models]\nastrocyte = \"shadow.toml\"\n")
+                 if _astro_file(e, 'dt = { value = "1*ms" }', "shadow.toml") else None,
+                 "--out", out(e)), 2, "shadow.toml): astrocyte.dt", "absent", out)
+
+# durations are whole steps
+for cmd in (UNIT, RUN):
+    case(f"{cmd}-seconds-not-whole-steps", lambda e, c=cmd: S(c, "--seconds", "0.0015", "--out",
+                                                              out(e)),
+         2, "--seconds: 0.0015 s is not a whole number of 1 ms steps", "absent", out)
+    case(f"{cmd}-trace-dt-half-a-step", lambda e, c=cmd: S(c, "--trace-dt", "0.5", "--out",
+                                                           out(e)),
+         2, "--trace-dt: 0.5 ms is not a whole number of 1 ms steps", "absent", out)
+    case(f"{cmd}-trace-dt-not-whole-steps", lambda e, c=cmd: S(c, "--trace-dt", "2.5", "--out",
+                                                               out(e)),
+         2, "nearest valid: 2 or 3 ms", "absent", out)
+case("gait-seconds-not-whole-steps", lambda e: S("gait", e.copy("train"), "--seconds",
+                                                 "0.0015"), 2, "--seconds", "unchanged",
+     lambda e: e.copy("train"))
+case("plot-seconds-not-whole-steps", lambda e: S("plot", e.copy("train"), "--seconds", "1.0005",
+                                                 "--out", out(e)), 2, "--seconds", "absent", out)
+case("evaluate-seconds-not-whole-steps", lambda e: S("evaluate", e.copy("train"), "--seconds",
+                                                     "0.0015", "--out", out(e)), 2,
+     "--seconds", "absent", out)
+case("train-L_max-not-whole-steps", lambda e: S("train", "--set", "L_max=0.2005*second", "--out",
+                                                out(e)),
+     2, "L_max: 0.2005 s is not a whole number of 1 ms steps", "absent", out)
+case("train-session_memory-not-whole", lambda e: S("train", "--set", "session_memory=2.5",
+                                                   "--out", out(e)),
+     2, "session_memory", "absent", out)
+case("study-L_max-not-whole-steps", lambda e: S("study", e.study(study_text().replace(
+    '"0.2*second"', '"0.2005*second"')), "--out", out(e)), 2, "L_max", "absent", out)
+case("study-evaluate-seconds-not-whole-steps", lambda e: S("study", e.study(
+    study_text() + "[evaluate]\nseconds = 0.0015\n"), "--out", out(e)), 2,
+     "[evaluate] seconds", "absent", out)
+
+# an evaluation grid: one axis per parameter
+TWO_AXES_ONE_PARAMETER = ('[grid.double]\nvalues = [2.0]\nscale = ["I_thigh"]\n'
+                          '[grid.triple]\nvalues = [3.0]\nscale = ["I_thigh", "I_calf"]\n')
+case("evaluate-two-axes-scale-one-parameter",
+     lambda e: S("evaluate", e.copy("train"), "--worlds", e.file("w.toml",
+                                                                 TWO_AXES_ONE_PARAMETER),
+                 "--out", out(e)), 2, "grid.double and grid.triple", "absent", out)
+
+case("study-condition-sets-a-swept-parameter", lambda e: S("study", e.study(
+    study_text() + '[sweep.axes]\ntau_STDP = ["1*second", "2*second"]\n'
+    '[conditions.a]\nset = { tau_STDP = "3*second" }\n'), "--out", out(e)), 2,
+     "[conditions.a] and [sweep.axes] tau_STDP", "absent", out)
+
+
+# an export says how the run ended; upright means upright
+def _diverged_run(e: Env) -> Path:
+    """A run that diverged at its first step (a huge motor gear), its messages kept off the
+    case's own stderr."""
+    import contextlib
+    import io
+
+    def make() -> Path:
+        d = e.tmp / "diverged_run"
+        with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+            assert main(["run", "--seconds", "0.05", "--robot", str(e.geared_robot()),
+                         "--no-progress", "--out", str(d)]) == 3
+        return d
+    return e._once("diverged_run", make)
+
+
+def nwb_says_diverged(e: Env) -> None:
+    from pynwb import NWBHDF5IO
+    with NWBHDF5IO(str(e.tmp / "d.nwb"), "r") as io:
+        nwb = io.read()
+        notes = json.loads(nwb.notes)
+        assert notes["status"] == "diverged" and notes["error"]["line"], notes
+        assert notes["simulated_seconds"] < 0.05, notes
+        assert "DIVERGED" in nwb.session_description and "of the 0.05 s asked" in \
+            nwb.session_description, nwb.session_description
+
+
+def not_upright(e: Env) -> None:
+    share = json.loads((out(e) / "manifest.json").read_text())["results"]["upright_share"]
+    assert share[0] < 0.5, share
+
+
+case("export-diverged-run-says-diverged", lambda e: S("export", _diverged_run(e), "--out",
+                                                      e.tmp / "d.nwb"),
+     0, None, "unchanged", _diverged_run, check=nwb_says_diverged)
+case("run-payload-crushes-the-robot-not-upright",
+     lambda e: S("run", "--seconds", "1", "--set", "payload=1e6*kilogram", "--spikes", "none",
+                 "--traces", "none", "--out", out(e)), 0, None, "complete", out,
+     check=not_upright)
 
 
 # ---------------------------------------------------------------- running a case

@@ -44,7 +44,7 @@ from ..files.weights import load_weights
 from .resources import check_memory, estimate_bytes
 from .run import trained_models, training_settings
 from .settings import model_set, number, seed_number
-from .simulate import STEP, simulate_closed_loop
+from .simulate import STEP, check_duration, simulate_closed_loop
 
 BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}
 EVALUATION = "evaluation.csv"
@@ -115,6 +115,7 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
     axes: list[tuple[str, list[str]]] = []
     labels: dict[str, str] = {}
     options: list[list[dict[str, Any]]] = []
+    touched: dict[str, str] = {}  # parameter -> the axis that sets or scales it
     for axis, table in grid.items():
         at = f"{where} grid.{axis}"
         if not isinstance(table, dict) or set(table) - {"values", "scale"}:
@@ -124,6 +125,19 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
         if not isinstance(values, list) or not values:
             raise InputError("needs a non-empty list of values", culprit=f"{at}.values")
         scale = table.get("scale")
+        # one parameter, one axis: of two axes on it, one's value would win (or a factor
+        # would be applied once) while each cell's label named both
+        for p in ([str(axis)] if scale is None else
+                  [str(p) for p in scale] if isinstance(scale, list) else []):
+            if p in touched:
+                other = touched[p]
+                both = (f"grid.{other} and grid.{axis}" if other != axis
+                        else f"grid.{axis}.scale")
+                raise InputError(f"{'both set or scale' if other != axis else 'names twice'} "
+                                 f"the parameter {p}: a cell would run at one value while its "
+                                 f"label names {'both' if other != axis else 'it twice'}; "
+                                 f"one axis per parameter", culprit=f"{where} {both}")
+            touched[p] = str(axis)
         if scale is None:
             options.append([{"set": [assignment(axis, v, f"grid.{axis}")], "scale": {}}
                             for v in values])
@@ -320,6 +334,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     with the same arguments, runs only the cells it had not finished."""
     folder = Path(folder)
     seconds = number(seconds, "--seconds", positive=True)
+    check_duration(seconds, STEP)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
     seed = seed_number(seed)
     if workers is not None and workers < 1:

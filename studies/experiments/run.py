@@ -23,8 +23,8 @@ from ..files.weights import load_weights
 from .settings import (Overrides, model_files_record, model_set, number, override_items,
                        seed_number)
 from .resources import check_memory, estimate_bytes
-from .simulate import (STEP, SimulationResult, check_duration, check_selection, firing_rates,
-                       simulate_closed_loop)
+from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
+                       firing_rates, simulate_closed_loop)
 
 ROBOT_FILE = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t, leg, joint) "
               "N m; torso_position/velocity (trial, t, xyz) m, m/s world; torso_quaternion "
@@ -69,6 +69,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     trials = number(trials, "--trials", integer=True, minimum=1)
     seed = seed_number(seed, trials=trials)
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
+    check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
     robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
     check_duration(seconds, STEP)
     # what the run reads: --out may not replace it (nor hold it)
@@ -355,6 +356,7 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
     """The trained tables of every trial of the training in ``folder``, run for ``seconds``
     with the training's models (one batch); returns the result and the tables (volt)."""
     seconds = number(seconds, "--seconds", positive=True)
+    check_duration(seconds, STEP)
     seed = seed_number(seed)
     verify(folder, strict=False)  # its files are what its manifest lists
     weights = load_weights(folder, culprit="")

@@ -58,8 +58,28 @@ def read_equation_files(items: Sequence[str], option: str = "--equations") -> di
 
 def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str, str]:
     """``MODEL=FILE`` items of model files (TOML) -> {model: text}, checked as
-    :func:`read_equation_files` checks files; the content is parsed by :func:`model_set`."""
-    return read_equation_files(items, option=option)
+    :func:`read_equation_files` checks files, and each file read once as a model so that a
+    mistake within it (a reserved or shadowing parameter name, a field of the wrong TOML type,
+    a missing interface variable) names the file: ``--model astrocyte (a.toml): ...``. What
+    involves other models (a parameter another model declares) is checked by
+    :func:`model_set`."""
+    from ...models import INTERFACES
+    from ...models.files import check_interface, check_parameters_used, model_from_toml
+
+    texts = read_equation_files(items, option=option)
+    slots = dict(DEFAULT_MODELS.items())
+    for item in items:
+        name, _, file = item.partition("=")
+        if name in slots:
+            where = f"{option} {name} ({file})"
+            model = model_from_toml(texts[name], culprit=where, default=slots[name])
+            check_interface(model, INTERFACES.get(name, ()), culprit=where)
+            try:  # a parameter another model declares
+                DEFAULT_MODELS.replace(**{name: model})
+            except InputError as e:
+                raise InputError(e.line, culprit=where) from None
+            check_parameters_used(model, slots[name], culprit=where)
+    return texts
 
 
 def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, str]]:
@@ -84,7 +104,8 @@ def model_set(overrides: Overrides | None = None,
     (``NAME=VALUE`` items or ``{name: value}``), validated. Errors about a model file name
     ``<option> <model>``."""
     from ...models import INTERFACES, Model
-    from ...models.files import check_interface, file_sha256, model_from_toml
+    from ...models.files import (check_interface, check_parameters_used, file_sha256,
+                                 model_from_toml)
 
     files = models
     models = base
@@ -108,6 +129,7 @@ def model_set(overrides: Overrides | None = None,
             raise InputError(f"is a {model.kind} model; {name} is a {known[name].kind} model",
                              culprit=culprit)
         check_interface(model, INTERFACES.get(name, ()), culprit=culprit)
+        check_parameters_used(model, getattr(DEFAULT_MODELS, name), culprit=culprit)
         try:
             models = models.replace(**{name: model})
         except InputError as e:

@@ -17,6 +17,7 @@ from ...coupling.bridge import ORDER_MEASURE, Recording
 from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError, did_you_mean
 from ...models import ModelSet
+from ...models.values import whole_steps
 from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, network_time,
                         run_network)
 from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
@@ -285,13 +286,18 @@ def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
 STEP = A1Parameters().timestep
 
 
-def check_duration(seconds: float, dt: float = STEP) -> None:
-    """A run lasts at least one step."""
+def check_duration(seconds: float, dt: float = STEP, culprit: str = "--seconds") -> int:
+    """A run lasts a whole number of steps, at least one; returns that number (an
+    InputError names ``culprit`` and the nearest valid durations otherwise)."""
     if not np.isfinite(seconds) or seconds <= 0:
-        raise InputError(f"must be positive, got {seconds:g}", culprit="--seconds")
-    if seconds < dt - 1e-12:
-        raise InputError(f"{seconds:g} s is shorter than one {dt * 1e3:g} ms step",
-                         culprit="--seconds")
+        raise InputError(f"must be positive, got {seconds:g}", culprit=culprit)
+    return whole_steps(seconds, dt, culprit=culprit, unit="s")
+
+
+def check_trace_dt(trace_dt_ms: float, dt: float = STEP, culprit: str = "--trace-dt") -> int:
+    """A trace sampling interval (ms) is a whole number of steps: samples are taken at steps,
+    and labelled with the sampling times. Returns the steps between samples."""
+    return whole_steps(trace_dt_ms, dt * 1e3, culprit=culprit, unit="ms")
 
 
 def firing_rates(result: SimulationResult) -> dict[str, Any]:

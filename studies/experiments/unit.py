@@ -20,7 +20,8 @@ from ..files.result import Result
 from .settings import (Overrides, model_files_record, model_set, number, override_items,
                        seed_number)
 from .resources import check_memory, estimate_bytes
-from .simulate import STEP, SimulationResult, check_duration, check_selection, simulate_unit
+from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
+                       simulate_unit)
 
 
 def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
@@ -53,6 +54,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     trials = number(trials, "--trials", integer=True, minimum=1)
     seed = seed_number(seed, trials=trials)
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
+    check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
     check_duration(seconds, STEP)
     if out is not None:
         OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after

@@ -165,8 +165,37 @@ def _spike_trains(times: np.ndarray, indices: np.ndarray, n: int) -> list[np.nda
 
 
 def _metadata(manifest: dict[str, Any]) -> dict[str, Any]:
-    return {k: manifest.get(k) for k in ("astrocpg_command", "seed", "settings", "argv",
-                                          "created", "package_versions", "git")}
+    """What an export carries of the manifest: the command, its settings, its versions, and
+    how the run ended (``status``: finished or diverged, with the ``error`` of a diverged
+    run) and the time it actually simulated (``simulated_seconds``), which a diverged run has
+    less of than its settings asked for."""
+    results = manifest.get("results") or {}
+    return {**{k: manifest.get(k) for k in ("astrocpg_command", "seed", "settings", "argv",
+                                           "created", "package_versions", "git")},
+            "status": results.get("status", "finished"),
+            "simulated_seconds": _simulated_seconds(manifest),
+            "error": results.get("error")}
+
+
+def _simulated_seconds(manifest: dict[str, Any]) -> Any:
+    """The simulated time the folder holds (the results' ``seconds``; the settings' for a
+    folder written before results recorded it)."""
+    results = manifest.get("results") or {}
+    return results.get("seconds", (manifest.get("settings") or {}).get("seconds"))
+
+
+def _duration_text(manifest: dict[str, Any]) -> str:
+    """``10 s``, or for a diverged run ``DIVERGED: 0.37 s simulated of the 10 s asked (...)``:
+    a description never claims the full duration of a run that stopped."""
+    results = manifest.get("results") or {}
+    simulated = _simulated_seconds(manifest)
+    shown = f"{simulated:g} s" if isinstance(simulated, (int, float)) else "? s"
+    if results.get("status") != "diverged":
+        return shown
+    asked = (manifest.get("settings") or {}).get("seconds")
+    line = (results.get("error") or {}).get("line", "")
+    asked_text = f" of the {asked:g} s asked" if isinstance(asked, (int, float)) else ""
+    return f"DIVERGED: {shown} simulated{asked_text}" + (f" ({line})" if line else "")
 
 
 def _index_dtype(largest: int) -> np.dtype:
@@ -242,7 +271,6 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
     data = _load(folder)
     m = data["manifest"]
     created = datetime.strptime(m["created"], "%Y-%m-%dT%H:%M:%S%z")
-    settings = m.get("settings", {})
     lay = m["results"]["layout"]
     dt = _resolution(m, data)
     digest = hashlib.sha256(json.dumps(_metadata(m), sort_keys=True, default=str)
@@ -251,7 +279,7 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
         session_description=(f"astrocpg {m['astrocpg_command']}: simulated astrocyte-regulated "
                              f"spiking CPG, {lay['n_trials']} trial(s), seed {m['seed']} "
                              f"(trial b uses seed {m['seed']}+b), "
-                             f"{settings.get('seconds', '?')} s"),
+                             f"{_duration_text(m)}"),
         identifier=f"astrocpg-{digest[:32]}",
         session_start_time=created,
         experiment_description=("Simulation of the astrocyte-regulated spiking CPG of a "
@@ -263,7 +291,8 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
         source_script=" ".join(m.get("argv") or []),
         source_script_file_name="astrocpg",
         keywords=["spiking neural network", "central pattern generator", "astrocyte",
-                  "simulation"],
+                  "simulation"] + (["diverged"] if m["results"].get("status") == "diverged"
+                                   else []),
     )
     # the subject is the simulation: it comes into being when the simulation starts, so its
     # date of birth is the session start; no animal, no sex (U = unknown)

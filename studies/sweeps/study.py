@@ -62,13 +62,14 @@ from typing import Any, Sequence
 import numpy as np
 
 from ...coupling.recorder import RecordPlan
-from ...coupling.training import SESSION_COLUMNS
+from ...coupling.training import SESSION_COLUMNS, session_steps
 from ...errors import EnvironmentFault, InputError, did_you_mean
 from ...models import DEFAULT_MODELS
 from ..experiments.cluster import connect_cluster, run_on_cluster
 from ..experiments.resources import (available_memory, check_memory, estimate_bytes,
                                      estimate_wall_seconds)
 from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
+from ..experiments.simulate import STEP, check_duration
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
 from ..files.folder import (FolderLock, check_output_path, check_replaceable,
@@ -344,6 +345,18 @@ def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
         astro = cond.get("astrocytes", True)
         if not isinstance(astro, bool):
             raise InputError("astrocytes must be true or false", culprit=cw)
+        # one parameter, one source per run: a condition's value would win over a sweep axis
+        # of the same parameter while the run's id named the axis value
+        touched = dict.fromkeys(cond.get("set", {}) if isinstance(cond.get("set"), dict)
+                                else (), "its set")
+        if not astro:
+            touched.setdefault("astrocyte_regulation", "astrocytes = false")
+        for k, how in touched.items():
+            if k in axes:
+                raise InputError(f"{how} changes {k}, which [sweep.axes] {k} also sweeps: "
+                                 f"each run would take the "
+                                 f"condition's value while its id names the axis value; sweep "
+                                 f"it or set it, not both", culprit=f"{cw} and [sweep.axes] {k}")
         cset = [_check_override(models, k, _value_text(k, v, cw), cw)
                 for k, v in cond.get("set", {}).items()]
         for point in points:
@@ -357,6 +370,7 @@ def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
             try:
                 run_models = point_models.with_values(dict(point_models.parse_assignment(o)
                                                            for o in overrides))
+                session_steps(run_models, STEP)  # whole steps, before anything runs
             except InputError as e:
                 raise InputError(f"{e}", culprit=cw) from None
             session_s = float(np.asarray(run_models.progress.parameters["L_max"].value))
@@ -419,6 +433,7 @@ def _evaluate_table(doc: Any, study: Path, where: str) -> dict[str, Any] | None:
     seconds, repeats = doc.get("seconds", 10.0), doc.get("repeats", 2)
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not seconds > 0:
         raise InputError("[evaluate] seconds must be a positive number", culprit=where)
+    check_duration(seconds, STEP, culprit=f"{where} [evaluate] seconds")
     if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
         raise InputError("[evaluate] repeats must be a positive integer", culprit=where)
     conditions = doc.get("conditions", [])
