@@ -166,6 +166,7 @@ DEFAULT_MODELS = ModelSet()
 from . import astrocyte as _astrocyte, interlimb_synapse as _interlimb  # noqa: E402
 from . import motor_neuron as _motor, pool as _pool, torque as _torque  # noqa: E402
 from . import world as _world  # noqa: E402
+from . import alive as _alive  # noqa: E402
 
 INTERFACES: dict[str, tuple[str, ...]] = {
     "motor_neuron": _motor.INTERFACE, "astrocyte": _astrocyte.INTERFACE, "pool": _pool.INTERFACE,
@@ -173,6 +174,7 @@ INTERFACES: dict[str, tuple[str, ...]] = {
     "world": _world.INTERFACE,
     **{name: tuple(model.inputs) for name, model in DEFAULT_MODELS.items()
        if isinstance(model, ExpressionModel)},
+    "alive": _alive.SENSES,
 }
 """Each model's interface: the names the network reads or sets on its group (a model file must
 declare them), or, for an expression model, the inputs the network gives (a file may use no

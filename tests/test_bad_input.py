@@ -1094,8 +1094,8 @@ def nwb_says_diverged(e: Env) -> None:
 
 
 def not_upright(e: Env) -> None:
-    share = json.loads((out(e) / "manifest.json").read_text())["results"]["upright_share"]
-    assert share[0] < 0.5, share
+    low = json.loads((out(e) / "manifest.json").read_text())["results"]["lowest_torso_height_m"]
+    assert low[0] < 0.15, low
 
 
 case("export-diverged-run-says-diverged", lambda e: S("export", _diverged_run(e), "--out",

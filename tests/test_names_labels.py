@@ -353,34 +353,44 @@ def test_a_diverged_run_exported_to_nwb_says_so(tmp_path, capsys):
 
 # ---- upright means upright
 
-def test_lying_on_the_ground_is_not_upright():
-    alive = DEFAULT_MODELS.alive.compile()
+ALIVE_HEIGHT = Path(__file__).resolve().parents[1] / "models" / "variants" / "alive_height.toml"
+
+
+def test_the_built_in_alive_indicator_is_the_papers_and_the_height_variant_adds_a_bound():
     level = np.array([1.0, 1.0, 0.3])
     height = np.array([0.05, 0.30, 0.30])  # lying, standing, standing but tilted
-    assert alive(torso_z_up=level, torso_height=height).astype(bool).tolist() == \
+    assert DEFAULT_MODELS.alive.compile()(torso_z_up=level).astype(bool).tolist() == \
+        [True, True, False]
+    variant = model_from_toml(ALIVE_HEIGHT.read_text(), culprit="alive",
+                              default=DEFAULT_MODELS.alive).compile()
+    assert variant(torso_z_up=level, torso_height=height).astype(bool).tolist() == \
         [False, True, False]
 
 
-def test_a_crushing_payload_is_not_upright(tmp_path, capsys):
-    assert main(["run", "--seconds", "1", "--set", "payload=1e6*kilogram", "--spikes", "none",
-                 "--traces", "none", "--no-progress", "--out", str(tmp_path / "r")]) == 0
+def test_a_crushing_payload_is_named_in_the_summary_and_the_height_variant_is_not_upright(
+        tmp_path, capsys):
+    argv = ["run", "--seconds", "1", "--set", "payload=1e6*kilogram", "--spikes", "none",
+            "--traces", "none", "--no-progress"]
+    assert main([*argv, "--out", str(tmp_path / "r")]) == 0
     out = capsys.readouterr().out
     results = json.loads((tmp_path / "r" / "manifest.json").read_text())["results"]
+    assert results["lowest_torso_height_m"][0] < 0.15, results["lowest_torso_height_m"]
+    assert "upright 100%" not in out and "above the ground" in out, out
+    assert main([*argv, "--model", f"alive={ALIVE_HEIGHT}", "--out", str(tmp_path / "h")]) == 0
+    results = json.loads((tmp_path / "h" / "manifest.json").read_text())["results"]
     assert results["upright_share"][0] < 0.5, results["upright_share"]
-    assert "upright 100%" not in out
 
 
-def test_an_alive_model_file_reading_the_orientation_alone_still_runs(tmp_path, capsys):
-    """The bridge gives an alive model only the inputs it declares."""
-    text = model_to_toml(DEFAULT_MODELS.alive)
-    text = text.replace(DEFAULT_MODELS.alive.expression, "torso_z_up >= Thres_z_alive")
-    text = text.replace('inputs = ["torso_z_up", "torso_height"]', 'inputs = ["torso_z_up"]')
-    text = "\n".join(x for x in text.splitlines() if not x.startswith("Thres_height_alive"))
-    f = tmp_path / "alive.toml"
-    f.write_text(text + "\n")
-    assert main(["run", "--seconds", "0.05", "--model", f"alive={f}", "--spikes", "none",
-                 "--traces", "none", "--no-progress", "--out", str(tmp_path / "r")]) == 0, \
+def test_an_alive_model_file_may_read_any_sense_the_robot_offers_and_no_other(tmp_path, capsys):
+    """The bridge gives an alive model the inputs it declares, of those the robot offers."""
+    assert main(["run", "--seconds", "0.05", "--model", f"alive={ALIVE_HEIGHT}", "--spikes",
+                 "none", "--traces", "none", "--no-progress", "--out", str(tmp_path / "r")]) == 0, \
         capsys.readouterr().err
+    f = tmp_path / "alive.toml"
+    f.write_text(ALIVE_HEIGHT.read_text().replace("torso_height", "torso_heigth"))
+    assert main(["run", "--seconds", "0.05", "--model", f"alive={f}", "--spikes", "none",
+                 "--traces", "none", "--no-progress", "--out", str(tmp_path / "x")]) == 2
+    assert "torso_heigth" in capsys.readouterr().err
 
 
 # ---- one grid axis per parameter

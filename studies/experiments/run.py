@@ -144,7 +144,11 @@ def _summarise(result: SimulationResult, models: Any, start_x: float, robot_info
         "distance_m": rec.torso_position[:, -1, 0] - start_x if has else np.zeros(n),
         "mean_forward_speed_m_per_s": rec.torso_velocity[:, :, 0].mean(axis=1) if has
         else np.zeros(n),
+        # the share of steps the alive model counts as upright (the paper's: torso level), and
+        # the torso's lowest height, which shows a robot pressed flat with a level torso
         "upright_share": rec.alive.mean(axis=1) if has else np.zeros(n),
+        "lowest_torso_height_m": rec.torso_position[:, :, 2].min(axis=1) if has
+        else np.zeros(n),
         "rate_per_neuron_Hz": firing_rates(result) if result.seconds > 0 else {},
         "robot_info": robot_info,
         "status": "finished" if diverged is None else "diverged",
@@ -295,11 +299,18 @@ def run_results(result: SimulationResult) -> dict[str, Any]:
     return {"status": x.get("status", "finished"), "error": x.get("error"),
             "distance_m": x["distance_m"],
             "mean_forward_speed_m_per_s": x["mean_forward_speed_m_per_s"],
-            "upright_share": x["upright_share"], "rate_per_neuron_Hz": x["rate_per_neuron_Hz"],
-            "mechanisms": x["mechanisms"],
+            "upright_share": x["upright_share"],
+            "lowest_torso_height_m": x["lowest_torso_height_m"],
+            "rate_per_neuron_Hz": x["rate_per_neuron_Hz"], "mechanisms": x["mechanisms"],
             "wall_seconds": result.wall_seconds, "seconds": result.seconds,
             "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
             "layout": result.cpg.layout.to_json()}
+
+
+def _lowest(x: dict, b: int) -> str:
+    """``, torso centre at least H m above the ground`` (runs recorded before it: nothing)."""
+    low = x.get("lowest_torso_height_m")
+    return "" if low is None else f", torso centre at least {low[b]:.2f} m above the ground"
 
 
 def format_run(result: Result, seed: int) -> list[str]:
@@ -313,9 +324,9 @@ def format_run(result: Result, seed: int) -> list[str]:
     for b in range(result.layout.n_trials):
         fall = fall_words(fell[b]) if b < len(fell) else ""
         lines.append(f"trial {b} (seed {seed}+{b}): distance {x['distance_m'][b]:+.3f} m, mean "
-                     f"forward speed {x['mean_forward_speed_m_per_s'][b]:+.3f} m/s, upright "
-                     f"{x['upright_share'][b] * 100:.0f}% of steps" + (f"; {fall}" if fall
-                                                                         else ""))
+                     f"forward speed {x['mean_forward_speed_m_per_s'][b]:+.3f} m/s, alive "
+                     f"(the alive model: torso level) {x['upright_share'][b] * 100:.0f}% of "
+                     f"steps" + _lowest(x, b) + (f"; {fall}" if fall else ""))
         if x["rate_per_neuron_Hz"]:
             lines.append("  rate per neuron (Hz): " + ", ".join(
                 f"{k} {v[b]:.1f}" for k, v in x["rate_per_neuron_Hz"].items()))

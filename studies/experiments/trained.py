@@ -39,7 +39,8 @@ def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
         fall = fall_words(first_fall(rec.t, rec.alive[b]))
         lines.append(
             f"trial {b}: phases relative to FR: {ph}; gait: {label}; "
-            f"mean forward speed {speed:.3f} m/s; upright {rec.alive[b].mean():.0%}"
+            f"mean forward speed {speed:.3f} m/s; alive (torso level) {rec.alive[b].mean():.0%}, "
+            f"torso centre at least {rec.torso_position[b, :, 2].min():.2f} m above the ground"
             f"{'; ' + fall if fall else ''}; "
             f"weights: {ws['mixed_limb_pairs']} of {ws['limb_pairs']} limb pairs with two "
             f"inhibitory and two excitatory synapses, {ws['share_above_0.9_w_max']:.0%} "
