@@ -28,6 +28,7 @@ from .divergence import MODEL_OF, NonFinite, model_of
 from .delays import limb_stages
 from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
 from .parts import Part, TrialTable
+from .runlock import exclusive
 
 brian2.prefs.codegen.target = initial_target()  # --codegen / $ASTROCPG_CODEGEN: see codegen.py
 brian2.prefs.codegen.loop_invariant_optimisations = True
@@ -312,6 +313,7 @@ def trial_seeds(seed: int, n_trials: int) -> list[int]:
     return [int(seed) + b for b in range(n_trials)]
 
 
+@exclusive  # Brian2's global seed and objects: one build or run at a time (runlock.py)
 def build_cpg(
     models: ModelSet = DEFAULT_MODELS,
     *,
@@ -595,6 +597,7 @@ def built_in_models(models: ModelSet) -> bool:
                for name in dict.fromkeys(MODEL_OF.values()))
 
 
+@exclusive
 def check_runs(cpg: CPG) -> None:
     """Prepare every object once (units, names, code generation), turning Brian2's errors into
     one line that names the model at fault. Costs about as much as the start of a run, so a

@@ -28,6 +28,7 @@ import brian2
 import numpy as np
 
 from ..errors import Diverged
+from .runlock import exclusive
 
 if TYPE_CHECKING:  # pragma: no cover
     from .build import CPG
@@ -94,6 +95,7 @@ def network_time(net: brian2.Network) -> float:
     return float(np.asarray(net.t_))
 
 
+@exclusive  # one Brian2 run at a time in a process (runlock.py)
 def run_network(net: brian2.Network, duration: Any, **kwargs: Any) -> None:
     """``net.run(duration, **kwargs)``, but a :class:`Diverged` raised inside the run (by the
     bridge or a :class:`DivergenceCheck`) comes out as itself, whatever Brian2 wrapped it in."""

@@ -386,7 +386,9 @@ def _main(argv: Sequence[str] | None) -> int:
     # Brian2 logs a second line on Ctrl-C ("Simulation stop requested"): we say "interrupted"
     logging.getLogger("brian2").addFilter(
         lambda record: "stop requested" not in record.getMessage())
-    previous = signal.signal(signal.SIGTERM, _sigterm)
+    # only the main thread may set handlers (main() called in another thread: none of ours)
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _sigterm) if in_main else None
     env_codegen = os.environ.get("ASTROCPG_CODEGEN")  # --codegen sets it for this command only
     unraisable = sys.unraisablehook
     interrupted = False
@@ -427,7 +429,8 @@ def _main(argv: Sequence[str] | None) -> int:
                          f"(a bug in astrocpg; ASTROCPG_DEBUG=1 shows the traceback)\n")
         return 1
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        if in_main:
+            signal.signal(signal.SIGTERM, previous)
         if interrupted:  # collect what the unwinding left in cycles while the hook is quiet
             import gc
 

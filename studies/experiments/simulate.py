@@ -18,8 +18,8 @@ from ...coupling.bridge import ORDER_MEASURE, Recording
 from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError
 from ...models import ModelSet
-from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, network_time,
-                        run_network)
+from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, exclusive,
+                        network_time, run_network)
 from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
 
 
@@ -145,6 +145,7 @@ class _Progress:
             self.bar.close()
 
 
+@exclusive  # build to last read: no other thread's Brian2 in between (network/runlock.py)
 def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int = 1,
                   trace_dt: Any = 1 * ms, record_traces: bool = True,
                   spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
@@ -177,6 +178,7 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
                             wall_seconds=wall, monitors=mons)
 
 
+@exclusive
 def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
                          robot_layout: RobotLayout | None = None, *,
                          seconds: float, seed: int, n_trials: int = 1,
