@@ -41,7 +41,8 @@ EXIT_HELP = """exit codes:
   0    done
   1    environment: a file or folder could not be read or written (disk full, permissions)
   2    bad input: an option, a value, an equation, a file's content; nothing was written
-  3    diverged: NaN/inf in the network or an unstable robot; the folder says 'diverged'
+  3    diverged: a network state NaN, inf or beyond 1e50 (SI units), or an unstable robot;
+       the folder says 'diverged'
   130  interrupted (Ctrl-C, SIGTERM); no folder that looks finished is left
 """
 

@@ -204,7 +204,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
     t0 = time.perf_counter()
     try:
         wall = _run(cpg, seconds, bar)
-        bridge.check_cpg(network_time(cpg.net))  # the last steps since the bridge's last check
+        bridge.check_cpg(network_time(cpg.net), full=True)  # the steps since its last check
     except Diverged as e:  # keep what was recorded up to the divergence, for its folder
         e.result = _partial(cpg, mons, rec.truncated(bridge.step_count), t0,
                             extra={"bridge": bridge, "limit_inhibition": limit.counts()})
