@@ -11,7 +11,10 @@ and removed, file logging is switched off and the folder goes. A process killed 
 window leaves only its own folder, and the next astrocpg process removes the folders of
 processes that no longer exist. A user who imported Brian2 before astrocpg is covered by the
 clean-up in ``network.build`` instead. The same two places mend Brian2's Ctrl-C handler for
-processes started with SIGINT ignored (:func:`mend_interrupt_handler`).
+processes started with SIGINT ignored (:func:`mend_interrupt_handler`). Imported first from
+another thread than the main one (``ac.run`` in a thread), Brian2 could not install that
+handler at all and its import failed; it is then installed from the main thread later
+(:func:`install_interrupt_handler`).
 
 The same import leaves pylab and pytest out (:class:`_WithoutExtras`), as Brian2 allows where
 they are missing, and every command starts about 0.6 s sooner.
@@ -30,6 +33,9 @@ from types import ModuleType
 # and must stay quick.
 
 PREFIX = "astrocpg-brian-"
+# Brian2 was imported in another thread than the main one: its Ctrl-C handler is not installed
+# yet (install_interrupt_handler does it from the main thread)
+_handler_pending = False
 
 
 def _alive(pid: int) -> bool:
@@ -116,6 +122,29 @@ def mend_interrupt_handler() -> None:
         handler.previous_handler = signal.default_int_handler
 
 
+def install_interrupt_handler() -> None:
+    """Install Brian2's Ctrl-C handler (a clean stop of a running network at the end of a
+    step) where Brian2 was imported in another thread than the main one, which could not
+    install it. From the main thread only, and only while Python's own handler is in place
+    (a handler the user installed stays); a no-op otherwise and once installed."""
+    import signal
+    import threading
+
+    global _handler_pending
+    if not _handler_pending:
+        return
+    brian2 = sys.modules.get("brian2")
+    handler = getattr(brian2, "_int_handler", None)
+    if handler is None or threading.current_thread() is not threading.main_thread():
+        return
+    current = signal.getsignal(signal.SIGINT)
+    if current is handler or current is not signal.default_int_handler:
+        return
+    handler.previous_handler = current
+    signal.signal(signal.SIGINT, handler)
+    _handler_pending = False
+
+
 class _Loader:  # an importlib Loader (duck-typed: importlib.abc is slow to import)
     def __init__(self, inner: importlib.abc.Loader) -> None:
         self.inner = inner
@@ -138,7 +167,8 @@ class _Loader:  # an importlib Loader (duck-typed: importlib.abc is slow to impo
         if without.skipped:
             sys.meta_path.insert(0, without)
         try:
-            self.inner.exec_module(module)
+            with _signals_from_any_thread():
+                self.inner.exec_module(module)
             close_debug_files()
             mend_interrupt_handler()
         finally:
@@ -146,6 +176,35 @@ class _Loader:  # an importlib Loader (duck-typed: importlib.abc is slow to impo
                 sys.meta_path.remove(without)
             tempfile.tempdir = before
             shutil.rmtree(private, ignore_errors=True)
+
+
+class _signals_from_any_thread:  # a context manager, only while Brian2's own import runs
+    """Brian2's import installs its Ctrl-C handler with ``signal.signal``, which only the main
+    thread may call: imported first from another thread (``ac.run`` in a thread, a Dask task),
+    the import failed with ``ValueError: signal only works in main thread``. While it runs, a
+    call from another thread installs nothing (and returns the handler in place); the handler
+    is installed later, from the main thread, by :func:`install_interrupt_handler`. A call
+    from the main thread is passed through unchanged."""
+
+    def __enter__(self) -> None:
+        import signal
+        import threading
+
+        global _handler_pending
+        self.signal_module, self.real = signal, signal.signal
+        if threading.current_thread() is threading.main_thread():
+            return
+        _handler_pending = True
+
+        def from_this_thread(signalnum, handler):  # noqa: ANN001, ANN202
+            if threading.current_thread() is threading.main_thread():
+                return self.real(signalnum, handler)
+            return signal.getsignal(signalnum)
+
+        signal.signal = from_this_thread
+
+    def __exit__(self, *exc: object) -> None:
+        self.signal_module.signal = self.real
 
 
 class _WithoutExtras:  # an importlib MetaPathFinder, only while Brian2's own import runs

@@ -8,7 +8,7 @@ exit      exception          meaning
 0         (none)             done
 1         EnvironmentFault   the environment failed us: disk full, unwritable folder, I/O
 2         InputError         bad input: a value, an option, an equation, a file's content
-3         Diverged           the simulation produced NaN/inf or MuJoCo reported instability
+3         Diverged           a state NaN, inf or beyond 1e50, or a MuJoCo instability
 130       KeyboardInterrupt  interrupted (Ctrl-C, SIGTERM)
 ========  =================  ==============================================================
 
@@ -92,8 +92,9 @@ class EnvironmentFault(AstrocpgError):
 
 
 class Diverged(AstrocpgError):
-    """The simulation left the numbers: NaN/inf in a state variable, or a MuJoCo instability
-    warning. ``what`` names the population and variable (or the warning), ``t`` the time in s,
+    """The simulation left the numbers: a state variable NaN, inf or beyond 1e50 in SI units
+    (Brian2's bound of a valid state: :mod:`astrocpg.network.divergence`), or a MuJoCo
+    instability warning. ``what`` names the population and variable (or the warning), ``t`` the time in s,
     ``trial`` the trial (None when unknown)."""
 
     exit_code = 3

@@ -102,7 +102,7 @@ def _check_cost(loop, cpu_per_step: float, calls: int = 3000) -> dict[str, float
             bridge._robot_unstable()
         c1 = time.process_time()
         for _ in range(calls // 10):
-            cpg.first_nonfinite()
+            cpg.first_invalid()
         c2 = time.process_time()
         robot += (c1 - c0) / (5 * calls)
         cpg_check += (c2 - c1) / (5 * (calls // 10))

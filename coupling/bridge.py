@@ -30,10 +30,12 @@ loop may end a session and reset the trial: ``session_recorder``, power's ``limi
 :data:`ORDER_RECORDING` 30 (``recording``, :meth:`Bridge.start_recording`),
 :data:`ORDER_PROGRESS` 100 (``progress``, the ``on_step`` callback).
 
-Divergence (errors.Diverged, exit 3): after every physics step, each trial's MuJoCo instability
-warnings (bad qpos, qvel, qacc, ctrl: MuJoCo resets such a robot itself, so the counters are read
-the step it happens) and NaN/inf in the robot state and torques; every ``check_every`` steps,
-NaN/inf in any state variable of the CPG (:meth:`CPG.first_nonfinite`). Run the network with
+Divergence (errors.Diverged, exit 3), by the one rule of :mod:`astrocpg.network.divergence`
+(NaN, inf or beyond 1e50 in SI units): after every physics step, each trial's MuJoCo
+instability warnings (bad qpos, qvel, qacc, ctrl, which MuJoCo raises beyond its own stricter
+bound of 1e10: MuJoCo resets such a robot itself, so the counters are read the step it happens)
+and NaN/inf in the robot state and torques; every ``check_every`` steps, and once after a run,
+every state variable of the CPG (:meth:`CPG.first_invalid`). Run the network with
 :func:`astrocpg.network.run_network` to get the ``Diverged`` out of ``Network.run``.
 """
 
@@ -50,7 +52,7 @@ import numpy as np
 
 from ..errors import Diverged
 from ..models import ModelSet
-from ..network import CPG, LEGS, POOLS, NonFinite
+from ..network import CPG, LEGS, POOLS, invalid
 from .robot import RobotLayout, reset
 
 _THIGH, _CALF = 1, 2  # joint order within a leg: hip, thigh, calf
@@ -133,8 +135,8 @@ class Bridge:
 
     on_step: called with the number of steps done after every step (a hook named ``progress``,
         order :data:`ORDER_PROGRESS`).
-    check_every: steps between two checks of the CPG's state for NaN/inf (0: never; the robot is
-        checked every step).
+    check_every: steps between two checks of the CPG's state (NaN, inf or beyond 1e50; 0: never;
+        the robot is checked every step).
     """
 
     def __init__(
@@ -356,10 +358,11 @@ class Bridge:
         network's time after that step, the bridge being in the network from its start)."""
         return self.step_count * self.dt
 
-    def check_cpg(self, t: float | None = None) -> None:
-        """Raise :class:`Diverged` (through :meth:`diverge`) if any CPG state is NaN/inf.
-        ``t``: the time to report (default: the end of the step in progress)."""
-        found = self.cpg.first_nonfinite()
+    def check_cpg(self, t: float | None = None, full: bool = False) -> None:
+        """Raise :class:`Diverged` (through :meth:`diverge`) if any CPG state is invalid (NaN,
+        inf or beyond 1e50: :meth:`CPG.first_invalid`; ``full``: constants too, e.g. after a
+        run). ``t``: the time to report (default: the end of the step in progress)."""
+        found = self.cpg.first_invalid(full)
         if found is not None:
             self.diverge(found.error(self.t if t is None else t))
 
@@ -391,8 +394,8 @@ class Bridge:
                         f"MuJoCo reported {what} at {index} {info} in trial {b} at "
                         f"t = {t:.3f} s (MuJoCo resets such a robot; the run stops)",
                         culprit=f"MuJoCo {name}", t=t, trial=b))
-        bad = np.argwhere(~np.isfinite(self._robot_state))
-        if not len(bad):  # a sum of huge finite values overflowed: nothing to report
+        bad = np.argwhere(invalid(self._robot_state))
+        if not len(bad):  # a sum of huge valid values overflowed: nothing to report
             return
         b, k = (int(x) for x in bad[0])
         nq, nv = self.model.nq, self.model.nv

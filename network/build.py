@@ -25,10 +25,11 @@ from ..models.base import BrianModel, NeuronModel, SynapseModel, brian_error_lin
 from ..models.names import why_reserved
 from .codegen import DEFAULT as DEFAULT_CODEGEN
 from .codegen import initial_target, use_codegen
-from .divergence import MODEL_OF, NonFinite, model_of
+from .divergence import MODEL_OF, InvalidState, StateScan, leave_to_the_scan, model_of
 from .delays import limb_stages
 from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
 from .parts import Part, TrialTable
+from .runlock import exclusive
 
 brian2.prefs.codegen.target = initial_target()  # --codegen / $ASTROCPG_CODEGEN: see codegen.py
 brian2.prefs.codegen.loop_invariant_optimisations = True
@@ -44,8 +45,8 @@ close_debug_files()
 mend_interrupt_handler()
 # A network that failed validation is dropped on purpose; don't warn about its objects.
 brian2.BrianLogger.suppress_name("unused_brian_object")
-# NaN/inf in the state is reported once, in one line, by the divergence check (CPG.first_nonfinite,
-# errors.Diverged); numpy's floating-point warnings from Brian2's generated code (exec'd source,
+# An invalid state (NaN, inf, beyond 1e50) is reported once, in one line, by the divergence check
+# (CPG.first_invalid, errors.Diverged); numpy's floating-point warnings from Brian2's generated code (exec'd source,
 # module "<string>") would only repeat it on stderr, several lines per step.
 warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"<string>$")
 
@@ -78,7 +79,7 @@ class CPG:
     #: per inter-limb object: its (row, col) pairs of the per-trial table
     interlimb_pairs_of: dict[str, np.ndarray] = field(default_factory=dict)
     _arrays: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
-    _state: list[tuple[str, str, np.ndarray, np.ndarray, Any, np.ndarray]] | None = None
+    _scan: StateScan | None = None
 
     @property
     def n_trials(self) -> int:
@@ -179,56 +180,51 @@ class CPG:
             if len(pairs):
                 self.array(name, "w")[:] = w[:, pairs[:, 0], pairs[:, 1]].ravel()
 
-    # ---- divergence
+    # ---- divergence (the rule and the scan: divergence.py)
     def state_arrays(self) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
         """(object, variable, live array, trial of each element) of every float state variable
-        that can change during a run: the per-synapse state of every synapse object (the
-        inter-limb weights and STDP signals), and the differential equations and plain
-        parameters of the pools, astrocytes, torque traces, interneurons and motor neurons. Not
-        constants, linked variables, subexpressions, ``lastspike``, integers or booleans.
-        Upstream first (a NaN weight spreads to the pools' input, then to the motor neurons),
-        so the first found is the likeliest origin. Built once."""
-        return [(p, v, a, t) for p, v, a, t, _, _ in self._state_table()]
+        that the divergence check scans: the per-synapse state of every synapse object (the
+        inter-limb weights and STDP signals), and the differential equations, parameters and
+        constants of the pools, astrocytes, torque traces, interneurons and motor neurons. Not
+        linked variables (their source is scanned), subexpressions, ``lastspike``, integers or
+        booleans. Upstream first (a NaN weight spreads to the pools' input, then to the motor
+        neurons), so the first found is the likeliest origin."""
+        return [(n, v, a, t) for n, v, a, t, _ in self._state_entries()]
 
-    def _state_table(self) -> list[tuple[str, str, np.ndarray, np.ndarray, Any, np.ndarray]]:
-        if self._state is None:
-            parts = [p for kind in self.synapse_kinds for p in self.parts(kind)]
-            parts += [p for name in ("pool", "astrocyte", "torque", "interneuron", "motor")
-                      for p in self.parts(name)]
-            table = []
-            for part in parts:
-                obj = part.obj
-                for var, eq in obj.equations.items():
-                    if eq.type == "subexpression":
-                        continue
-                    if {"constant", "linked", "shared"} & set(eq.flags) or var == "lastspike":
-                        continue
-                    arr = self.array(part.name, var)
-                    if arr.dtype.kind != "f" or arr.ndim != 1 or not arr.size:
-                        continue
-                    # arr @ zeros is NaN iff arr holds a NaN or an inf, and never overflows
-                    table.append((part.name, var, arr, part.trials(), arr.dot,
-                                  np.zeros(arr.size)))
-            self._state = table
-        return self._state
+    def _state_entries(self) -> list[tuple[str, str, np.ndarray, np.ndarray, bool]]:
+        parts = [p for kind in self.synapse_kinds for p in self.parts(kind)]
+        parts += [p for name in ("pool", "astrocyte", "torque", "interneuron", "motor")
+                  for p in self.parts(name)]
+        entries = []
+        for part in parts:
+            obj = part.obj
+            for var, eq in obj.equations.items():
+                if eq.type == "subexpression" or "linked" in eq.flags or var == "lastspike":
+                    continue
+                arr = self.array(part.name, var)
+                if arr.dtype.kind != "f" or arr.ndim != 1 or not arr.size:
+                    continue
+                shared = "shared" in eq.flags
+                entries.append((part.name, var, arr, None if shared else part.trials(),
+                                "constant" not in eq.flags))
+        return entries
 
-    def first_nonfinite(self) -> NonFinite | None:
-        """The first NaN or inf in the state (in :meth:`state_arrays` order), or None. One
-        reduction per array (about 1 us each); the element is located only when one fails."""
-        isfinite = math.isfinite
-        with np.errstate(invalid="ignore"):  # inf * 0 in the reduction
-            for name, var, arr, trials, dot, zeros in self._state_table():
-                if isfinite(dot(zeros)):
-                    continue
-                bad = np.flatnonzero(~np.isfinite(arr))
-                if not bad.size:  # pragma: no cover - the array changed under us
-                    continue
-                k = int(bad[0])
-                others = tuple(f"{n}.{v}" for n, v, a, _, d, z in self._state_table()
-                               if (n, v) != (name, var) and not isfinite(d(z)))
-                return NonFinite(population=name, variable=var, trial=int(trials[k]), index=k,
-                                 value=float(arr[k]), others=others)
-        return None
+    @property
+    def scan(self) -> StateScan:
+        """The divergence scan of :meth:`state_arrays` (built once)."""
+        if self._scan is None:
+            self._scan = StateScan(self._state_entries())
+        return self._scan
+
+    def first_invalid(self, full: bool = False) -> InvalidState | None:
+        """The first invalid state value (NaN, inf or beyond 1e50 in SI units:
+        :func:`astrocpg.network.divergence.invalid`), in :meth:`state_arrays` order, or None.
+        One reduction per array (about 1 us each), constants on the first call and with
+        ``full`` only; the element is located only when one fails."""
+        return self.scan.first(full)
+
+    #: The former name of :meth:`first_invalid` (NaN and inf only were invalid then).
+    first_nonfinite = first_invalid
 
     def reset_trial(self, trial: int, keep: tuple[str, ...] = ("astrocyte",)) -> None:
         """Reset one trial's state to the start of a session: every state variable of the
@@ -314,6 +310,7 @@ def trial_seeds(seed: int, n_trials: int) -> list[int]:
     return [int(seed) + b for b in range(n_trials)]
 
 
+@exclusive  # Brian2's global seed and objects: one build or run at a time (runlock.py)
 def build_cpg(
     models: ModelSet = DEFAULT_MODELS,
     *,
@@ -542,6 +539,8 @@ def build_cpg(
     objects.extend(learning)
 
     _schedule(motors, kinds, pool, torque, interneuron, astrocyte)
+    # the divergence scan decides for these, in one line (Brian2's check: a raw warning)
+    leave_to_the_scan([*objects, *stage_pools])
     net = Network(*objects)
     cpg = CPG(layout=layout, models=models, seed=int(seed), dt=dt, net=net,
               motor_groups=tuple(motors), interneuron=interneuron, astrocyte=astrocyte,
@@ -624,6 +623,7 @@ def built_in_models(models: ModelSet) -> bool:
                for name in dict.fromkeys(MODEL_OF.values()))
 
 
+@exclusive
 def check_runs(cpg: CPG) -> None:
     """Prepare every object once (units, names, code generation), turning Brian2's errors into
     one line that names the model at fault. Costs about as much as the start of a run, so a

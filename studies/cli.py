@@ -56,7 +56,8 @@ EXIT_HELP = """exit codes:
   0    done
   1    environment: a file or folder could not be read or written (disk full, permissions)
   2    bad input: an option, a value, an equation, a file's content; nothing was written
-  3    diverged: NaN/inf in the network or an unstable robot; the folder says 'diverged'
+  3    diverged: a network state NaN, inf or beyond 1e50 (SI units), or an unstable robot;
+       the folder says 'diverged'
   130  interrupted (Ctrl-C, SIGTERM); no folder that looks finished is left
 """
 
@@ -507,7 +508,9 @@ def _main(argv: Sequence[str] | None) -> int:
     # Brian2 logs a second line on Ctrl-C ("Simulation stop requested"): we say "interrupted"
     logging.getLogger("brian2").addFilter(
         lambda record: "stop requested" not in record.getMessage())
-    previous = signal.signal(signal.SIGTERM, _sigterm)
+    # only the main thread may set handlers (main() called in another thread: none of ours)
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _sigterm) if in_main else None
     env_codegen = os.environ.get("ASTROCPG_CODEGEN")  # --codegen sets it for this command only
     unraisable = sys.unraisablehook
     interrupted = False
@@ -548,7 +551,8 @@ def _main(argv: Sequence[str] | None) -> int:
                          f"(a bug in astrocpg; ASTROCPG_DEBUG=1 shows the traceback)\n")
         return 1
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        if in_main:
+            signal.signal(signal.SIGTERM, previous)
         if interrupted:  # collect what the unwinding left in cycles while the hook is quiet
             import gc
 

@@ -1106,6 +1106,63 @@ case("run-payload-crushes-the-robot-not-upright",
                  "--traces", "none", "--out", out(e)), 0, None, "complete", out,
      check=not_upright)
 
+# ---- absurd but finite states: any state variable beyond 1e50 (SI units, Brian2's own bound of
+# a valid state) means the run diverged, whatever the population (network/divergence.py): exit
+# 3, one line naming population.variable, the folder written whole and marked diverged. In a
+# fresh process: Brian2's raw "has NaN, very large values" warning goes to the real stderr.
+HUGE = {  # case -> (--set values, the population.variable they drive beyond 1e50)
+    "motor-v": (["C_K_chan=1e300*mV/second"], "motor.v"),  # -2e251 V, never inf
+    "astrocyte-IP3": (["IP3_star=1e60*nM"], "astrocyte.IP3"),
+    "astrocyte-AG": (["r_AG=1e60"], "astrocyte.AG"),
+    "intra-pool-weight": (["w_0dist=1e60*mV"], "intra_pool.w"),  # a constant of a synapse
+    "torque-trace": (["I_thigh=1e60*newton*meter"], "torque."),
+}
+
+
+def _sets(values: list[str]) -> list[str]:
+    return [x for v in values for x in ("--set", v)]
+
+
+def _huge_interlimb(e: Env) -> Path:
+    """Off-diagonal inter-limb weights of 1e60 mV (the same-limb blocks stay zero)."""
+    w = np.full((8, 8), 1e60)
+    for leg in range(4):
+        w[2 * leg:2 * leg + 2, 2 * leg:2 * leg + 2] = 0.0
+    return e.weights(w, "huge.csv")
+
+
+for name, (values, culprit) in HUGE.items():
+    case(f"run-huge-{name}", lambda e, v=values: S("run", "--seconds", "0.05", *_sets(v),
+                                                   "--out", out(e)),
+         3, culprit, "diverged", out, check=said_when, subprocess={})
+# a synapse weight: w_max lets 1e57 V through the learning rule's clip
+case("run-huge-interlimb-weight",
+     lambda e: S("run", "--seconds", "0.05", "--weights", _huge_interlimb(e), "--set",
+                 "w_max=1e60*volt", "--out", out(e)),
+     3, "interlimb.w", "diverged", out, check=said_when, subprocess={})
+# shorter than the 10-step check: found by the check after the run, where Brian2's own check
+# printed its warning
+for cmd in (UNIT, RUN):
+    case(f"{cmd}-huge-in-the-last-steps",
+         lambda e, c=cmd: S(c, "--seconds", "0.005", *_sets(HUGE["motor-v"][0]), "--out",
+                            out(e)),
+         3, "motor.v", "diverged", out, check=said_when, subprocess={})
+case("unit-huge-astrocyte", lambda e: S("unit", "--seconds", "0.05", *_sets(["IP3_star=1e60*nM"]),
+                                        "--out", out(e)), 3, "astrocyte.IP3", "diverged", out)
+case("train-huge-motor-v", lambda e: S("train", "--sessions", "2", *_sets(HUGE["motor-v"][0]),
+                                       "--out", out(e)),
+     3, "motor.v", "diverged", out, check=lambda e: diverged_row(out(e)))
+# the limbs in stages (0 ms delays): each stage's motor group is scanned
+case("run-huge-motor-v-staged",
+     lambda e: S("run", "--seconds", "0.005", "--model",
+                 f"interlimb_synapse={ROOT / 'models' / 'variants' / 'interlimb_authors_delays.toml'}",
+                 *_sets(HUGE["motor-v"][0]), "--out", out(e)),
+     3, "motor_FR.v", "diverged", out, check=said_when, subprocess={})
+# just below the bound: a valid state, the run finishes
+case("unit-large-but-valid", lambda e: S("unit", "--seconds", "0.02", "--set",
+                                         "IP3_star=1e40*nM", "--out", out(e)),
+     0, None, "complete", out)
+
 
 # ---------------------------------------------------------------- running a case
 def sha_tree(root: Path) -> dict[str, str]:

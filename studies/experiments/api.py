@@ -11,6 +11,12 @@
 Every function takes the settings of its command (seconds, seed, trials, ``overrides`` with
 units, ``equations``, weights, robot, what to record) as keyword arguments; bad input raises
 :class:`astrocpg.errors.InputError` naming the culprit, before anything is written.
+
+Threads: Brian2 is not thread-safe, so the functions that simulate (``unit``, ``run``, ``train``,
+``resume``, and ``plot`` where it replays a training) run one at a time per process
+(:data:`astrocpg.network.RUN_LOCK`): called from several threads, each waits for the one before
+and returns exactly what it would have alone, the command line's result for the same settings.
+For simulations in parallel, use processes (``astrocpg study`` does).
 """
 
 from __future__ import annotations

@@ -24,6 +24,7 @@ from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import ORDER_MEASURE
 from ...coupling.training import Training
 from ...errors import InputError
+from ...network import exclusive
 from ..files.folder import verify
 from ..files.weights import load_weights
 from .progress import Bar as tqdm  # warnings wait until the bar closes
@@ -63,6 +64,7 @@ def synaptic_events_per_spike(cpg) -> dict[str, float]:
             "thigh": float(fanout[kind < 2].mean()), "limit": float(L.pool_size)}
 
 
+@exclusive  # one Brian2 build-and-run at a time per process (network/runlock.py)
 def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
             progress: bool = True) -> dict[str, Any]:
     """Run trial ``trial``'s trained table of the training in ``folder`` for ``sessions``

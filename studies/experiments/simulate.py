@@ -18,8 +18,8 @@ from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError, did_you_mean
 from ...models import ModelSet
 from ...models.values import whole_steps
-from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, network_time,
-                        run_network)
+from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, exclusive,
+                        network_time, run_network)
 from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
 from .progress import time_bar
 
@@ -161,6 +161,7 @@ class _Progress:
             self.bar.close()
 
 
+@exclusive  # build to last read: no other thread's Brian2 in between (network/runlock.py)
 def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int = 1,
                   trace_dt: Any = 1 * ms, record_traces: bool = True,
                   spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
@@ -193,6 +194,7 @@ def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int 
                             wall_seconds=wall, monitors=mons)
 
 
+@exclusive
 def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
                          robot_layout: RobotLayout | None = None, *,
                          seconds: float, seed: int, n_trials: int = 1,
@@ -218,7 +220,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
     t0 = time.perf_counter()
     try:
         wall = _run(cpg, seconds, bar)
-        bridge.check_cpg(network_time(cpg.net))  # the last steps since the bridge's last check
+        bridge.check_cpg(network_time(cpg.net), full=True)  # the steps since its last check
     except Diverged as e:  # keep what was recorded up to the divergence, for its folder
         e.result = _partial(cpg, mons, rec.truncated(bridge.step_count), t0,
                             extra={"bridge": bridge, "limit_inhibition": limit.counts()})

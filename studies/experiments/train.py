@@ -32,7 +32,7 @@ from ...coupling.recorder import RecordPlan, SessionRecorder
 from ...coupling.training import SESSION_COLUMNS, Training
 from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
-from ...network import codegen_target, interlimb_labels, run_network
+from ...network import codegen_target, exclusive, interlimb_labels, run_network
 from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
                             holds_results, remove_derived)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
@@ -525,6 +525,7 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
                                        progress, resumed=True), out)
 
 
+@exclusive  # the whole training in one hold: Brian2 is not thread-safe (network/runlock.py)
 def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            payload: dict[str, Any] | None, progress: bool, replace: bool = False,
            new: bool = False, resumed: bool = False) -> "Trainer":

@@ -127,11 +127,18 @@ def measure_trial_cost(codegen: str | None = None, *, sizes: tuple[int, ...] = S
                        seconds: float = SECONDS, progress: bool = True) -> TrialCost:
     """Run the closed loop (default models, fixed weights) for ``seconds`` at each batch size
     in ``sizes`` and fit :class:`TrialCost` to the CPU time per simulated second."""
-    from ...coupling.assembly import build_closed_loop
-    from ...models import DEFAULT_MODELS
+    from ...network import RUN_LOCK
     from ...network.codegen import codegen_target
 
     target = codegen_target(codegen)
+    with RUN_LOCK:  # one Brian2 build-and-run at a time per process (network/runlock.py)
+        return _measure(target, sizes, seconds, progress)
+
+
+def _measure(target: str, sizes: tuple[int, ...], seconds: float, progress: bool) -> TrialCost:
+    from ...coupling.assembly import build_closed_loop
+    from ...models import DEFAULT_MODELS
+
     if len(set(sizes)) < 2 or min(sizes) < 1 or not seconds > 0:
         raise InputError("needs two or more batch sizes >= 1 and seconds > 0",
                          culprit="trial cost measurement")

@@ -65,6 +65,7 @@ from ...coupling.recorder import RecordPlan
 from ...coupling.training import SESSION_COLUMNS, session_steps
 from ...errors import EnvironmentFault, InputError, did_you_mean
 from ...models import DEFAULT_MODELS
+from ...network import exclusive
 from ..experiments.cluster import connect_cluster, run_on_cluster
 from ..experiments.resources import (available_memory, check_memory, estimate_bytes,
                                      estimate_wall_seconds)
@@ -554,6 +555,7 @@ def _write_status(folder: Path, status: dict[str, Any]) -> None:
     save_json(folder / STATUS, status)
 
 
+@exclusive  # a worker's tasks are threads: one Brian2 training at a time (network/runlock.py)
 def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
     """Train one run in ``folder`` (resuming from its checkpoint if there is one).
 

@@ -1,0 +1,52 @@
+"""One Brian2 simulation at a time per process: the run lock.
+
+Brian2 is not thread-safe. Its random generator (seeded by :func:`~astrocpg.network.build_cpg`,
+drawn from by every step's noise), its device, its preferences and the flags of the running
+network are process-wide. Two runs in two threads of one process interleaved their draws: both
+returned, each with spikes that matched neither the other nor ``astrocpg run`` with the same
+seed. So every entry of the framework that builds and runs a network holds :data:`RUN_LOCK` from
+the build to its last step (:func:`exclusive`); a second thread waits for the first to finish,
+then gets exactly the result it would have got alone (the command line's, for the same
+settings). Processes do not share it: the workers of a study are processes.
+
+The lock is reentrant (an entry that calls another holds it once more). :func:`build_cpg`,
+:func:`check_runs` and :func:`run_network` take it too, so code that builds and runs a network
+itself holds it around the whole, as the entries do::
+
+    from astrocpg.network import RUN_LOCK, build_cpg, run_network
+    with RUN_LOCK:                       # build, run, read: nobody else's draws in between
+        cpg = build_cpg(seed=3)
+        run_network(cpg.net, 1 * second, namespace={})
+
+Taking the lock in the main thread also installs Brian2's Ctrl-C handler where Brian2 was first
+imported in another thread (which could not install it).
+"""
+
+from __future__ import annotations
+
+import functools
+import threading
+from typing import Callable, TypeVar
+
+from .._quiet_brian import install_interrupt_handler
+
+#: Held by the thread that builds or runs a Brian2 network of the framework (reentrant).
+RUN_LOCK = threading.RLock()
+
+F = TypeVar("F", bound=Callable)
+
+
+def exclusive(fn: F) -> F:
+    """``fn`` runs holding :data:`RUN_LOCK`: one build-and-run of Brian2 at a time in this
+    process, later callers in other threads waiting their turn."""
+
+    @functools.wraps(fn)
+    def holding_the_run_lock(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        with RUN_LOCK:
+            install_interrupt_handler()  # no-op unless Brian2 was imported in another thread
+            return fn(*args, **kwargs)
+
+    return holding_the_run_lock  # type: ignore[return-value]
+
+
+__all__ = ["RUN_LOCK", "exclusive"]
