@@ -35,9 +35,13 @@ step: a seed's trajectory depends on the batching, its statistics over seeds do 
 "Seeds and batches"). Changing ``batch`` gives other, equally valid, trajectories.
 
 Each run lives in ``OUT/runs/<run id>/`` as an ordinary training folder (``sessions.csv``,
-``weights.npz``, ``checkpoint.pkl``, ``manifest.json``) plus ``status.json``. A run whose
+``weights.npz``, ``checkpoint.npz``, ``manifest.json``) plus ``status.json``. A run whose
 status is ``finished`` is never run again; any other run resumes from its checkpoint, so
-repeating the command after a crash, a killed worker or Ctrl-C continues where it stopped.
+repeating the command after a crash, a killed worker or Ctrl-C continues where it stopped. A
+checkpoint is data, never code (:mod:`astrocpg.studies.files.checkpoint`): before any worker
+starts, the checkpoints of the runs to resume are checked, and one that is not a checkpoint of
+this format (an old pickled ``checkpoint.pkl`` included, which is never loaded) refuses the
+study, naming the file.
 """
 
 from __future__ import annotations
@@ -70,6 +74,7 @@ from ..experiments.resources import (available_memory, check_memory, estimate_by
 from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
+from ..files.checkpoint import probe_checkpoint, refuse_legacy
 from ..files.folder import FolderLock, clean_stale_temporaries, clear_folder, holds_results
 from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
 from ..files.weights import WEIGHTS
@@ -569,8 +574,9 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
         _write_status(out, status)
         settings = spec.train_settings()
         payload = None
+        refuse_legacy(out)  # an old pickled checkpoint is never loaded
         if (out / CHECKPOINT).exists():
-            payload = read_checkpoint(out / CHECKPOINT)
+            payload = read_checkpoint(out / CHECKPOINT, culprit=out)
             if payload["fingerprint"] != settings.fingerprint():
                 raise InputError("its checkpoint belongs to other settings", culprit=out)
         models = model_set(settings.overrides, {}, models=settings.models)
@@ -672,6 +678,21 @@ def _check_folder(study: Study, out: Path) -> None:
                              f"in {study.path.name} (use a new --out)", culprit=f"--out {out}")
 
 
+def _check_checkpoints(pending: Sequence[RunSpec], folders: dict[str, Path]) -> None:
+    """Before any worker starts: each run to resume holds no checkpoint or one of this format
+    (its meta read, not its arrays); else the study is refused naming the file (an InputError:
+    exit 2). The workers read checkpoints as data only all the same (a file changed after
+    this check fails its run, recorded in failures.csv, and runs no code)."""
+    for r in pending:
+        folder = folders[r.run_id]
+        refuse_legacy(folder)
+        if (folder / CHECKPOINT).exists() or (folder / CHECKPOINT).is_symlink():
+            meta = probe_checkpoint(folder / CHECKPOINT, culprit=folder / CHECKPOINT)
+            if meta.get("fingerprint") != r.train_settings().fingerprint():
+                raise InputError("belongs to other settings than its run in the study file "
+                                 "(use a new --out)", culprit=folder / CHECKPOINT)
+
+
 def _save_index(study: Study, out: Path) -> None:
     index_path = out / STUDY_INDEX
     known: dict[str, str] = {}
@@ -753,6 +774,7 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                  culprit=f"study {study.name} (runs of {largest} trials)")
     folders = {r.run_id: out / RUNS / r.run_id for r in study.runs}
     pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") != "finished"]
+    _check_checkpoints(pending, folders)
     total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
     n_done_before = len(study.runs) - len(pending)
     settings = {"study": str(study.path), "study_text": study.text, "workers": workers,
@@ -875,7 +897,7 @@ def _study_files() -> dict[str, str]:
                   "stopped), worker (address), worker_name, host, pid, started and ended (Unix "
                   "seconds, wall clock), duration_s, started_utc",
         RUNS + "/<run id>/": "one training folder per run (sessions.csv, weights.npz, "
-                             "checkpoint.pkl, manifest.json, status.json)",
+                             "checkpoint.npz, manifest.json, status.json)",
     }
 
 
