@@ -545,11 +545,11 @@ case("train-resume-other-seed", lambda e: S("train", "--resume", e.copy("train")
 case("train-resume-unit-folder", lambda e: S("train", "--resume", e.copy("unit")), 2, "unit",
      "unchanged", lambda e: e.copy("unit"))
 case("train-resume-corrupt-checkpoint",
-     lambda e: S("train", "--resume", e.tampered("train", "checkpoint.pkl", "flip")), 2,
-     "checkpoint", "unchanged", lambda e: e.tampered("train", "checkpoint.pkl", "flip"))
+     lambda e: S("train", "--resume", e.tampered("train", "checkpoint.npz", "flip")), 2,
+     "checkpoint", "unchanged", lambda e: e.tampered("train", "checkpoint.npz", "flip"))
 case("train-resume-truncated-checkpoint",
-     lambda e: S("train", "--resume", e.tampered("train", "checkpoint.pkl", "truncate")), 2,
-     "checkpoint", "unchanged", lambda e: e.tampered("train", "checkpoint.pkl", "truncate"))
+     lambda e: S("train", "--resume", e.tampered("train", "checkpoint.npz", "truncate")), 2,
+     "checkpoint", "unchanged", lambda e: e.tampered("train", "checkpoint.npz", "truncate"))
 case("train-resume-empty-folder", lambda e: S("train", "--resume", e.empty()), 2,
      lambda e: str(e.empty()), "unchanged", lambda e: e.empty())
 

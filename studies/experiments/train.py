@@ -567,12 +567,19 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
                "that run trained without astrocytes (recorded: off, given: on)")
     for name, record in (given.get("models") or {}).items():
         _check_model_file(name, settings.models.get(name), record, refuse)
+    if given.get("equations"):
+        known = dict(model_set(models=settings.models).items())
     for name, text in (given.get("equations") or {}).items():
+        if name not in known:
+            raise InputError(f"unknown model '{name}' (models: {', '.join(known)})",
+                             culprit="--equations")
         recorded_text = settings.equations.get(name)
-        if recorded_text is None:
-            refuse(f"--equations {name}", f"that run used the built-in equations of {name}, "
-                                          f"not an equation file")
-        if text.strip() != recorded_text.strip():
+        if recorded_text is None:  # the model's own equations, as trained
+            if text.strip() != known[name].code.strip():
+                refuse(f"--equations {name}", f"that run was trained with the built-in "
+                                              f"equations of {name}, not these (sha256 "
+                                              f"{_short_sha(text)})")
+        elif text.strip() != recorded_text.strip():
             refuse(f"--equations {name}", f"that run was trained with other equations of "
                                           f"{name} (recorded sha256 {_short_sha(recorded_text)}, "
                                           f"given {_short_sha(text)})")
@@ -633,20 +640,20 @@ def _check_model_file(name: str, recorded: dict[str, str] | None, given: dict[st
                       refuse: Callable[[str, str], None]) -> None:
     """``--model NAME=FILE`` against the model file the training recorded for NAME."""
     option = f"--model {name}"
-    if recorded is None:
-        refuse(option, f"that run was trained with the built-in {name} model, not a model "
-                       f"file (given sha256 {given['sha256'][:12]})")
-    if recorded["sha256"] == given["sha256"]:
+    if recorded is not None and recorded["sha256"] == given["sha256"]:
         return
-    # the same model spelled otherwise (comments, order, number spelling) is the same model
-    try:
-        same = (model_set(models={name: recorded["content"]}).to_json()[name]
-                == model_set(models={name: given["content"]}).to_json()[name])
-    except InputError:
-        same = False
-    if not same:
-        refuse(option, f"that run was trained with another {name} model file (recorded "
-                       f"sha256 {recorded['sha256'][:12]}, given {given['sha256'][:12]})")
+    # the same model spelled otherwise (comments, order, number spelling) is the same model;
+    # a file given for a model the run did not replace must define the built-in one
+    given_json = model_set(models={name: given["content"]}, option="--model").to_json()[name]
+    recorded_json = (model_set() if recorded is None
+                     else model_set(models={name: recorded["content"]})).to_json()[name]
+    if given_json == recorded_json:
+        return
+    if recorded is None:
+        refuse(option, f"that run was trained with the built-in {name} model, not this model "
+                       f"file (sha256 {given['sha256'][:12]})")
+    refuse(option, f"that run was trained with another {name} model file (recorded sha256 "
+                   f"{recorded['sha256'][:12]}, given {given['sha256'][:12]})")
 
 
 def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,

@@ -298,21 +298,6 @@ def _meta(z: Any, path: Path, culprit: str) -> dict[str, Any]:
 _DAMAGE = (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile)
 
 
-def probe_checkpoint(path: Path, culprit: Any = None) -> dict[str, Any]:
-    """The checkpoint's ``meta`` (its format checked, the arrays not read): a quick check that
-    a file is a checkpoint of this format before work starts."""
-    path = Path(path)
-    z = _open(path, culprit)
-    try:
-        return _meta(z, path, culprit)
-    except _DAMAGE as e:
-        if isinstance(e, InputError):
-            raise
-        raise _error(path, culprit, f"is corrupt ({type(e).__name__})") from None
-    finally:
-        z.close()
-
-
 def read_checkpoint(path: Path, culprit: Any = None) -> tuple[dict[str, Any], Any]:
     """``(meta, state)`` of the checkpoint at ``path``: every entry read and checked against
     the archive's CRC-32. Any file that is not a whole checkpoint of this format is an

@@ -74,7 +74,7 @@ from ..experiments.resources import (available_memory, check_memory, estimate_by
 from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
-from ..files.checkpoint import probe_checkpoint, refuse_legacy
+from ..files.checkpoint import refuse_legacy
 from ..files.folder import FolderLock, clean_stale_temporaries, clear_folder, holds_results
 from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
 from ..files.weights import WEIGHTS
@@ -679,16 +679,17 @@ def _check_folder(study: Study, out: Path) -> None:
 
 
 def _check_checkpoints(pending: Sequence[RunSpec], folders: dict[str, Path]) -> None:
-    """Before any worker starts: each run to resume holds no checkpoint or one of this format
-    (its meta read, not its arrays); else the study is refused naming the file (an InputError:
-    exit 2). The workers read checkpoints as data only all the same (a file changed after
-    this check fails its run, recorded in failures.csv, and runs no code)."""
+    """Before any worker starts: each run to resume holds no checkpoint or a whole one of this
+    format and of its settings (read and checked as a worker will); else the study is refused
+    naming the file (an InputError: exit 2), rather than each worker failing its run. The
+    workers read checkpoints as data only all the same (a file changed after this check fails
+    its run, recorded in failures.csv, and runs no code)."""
     for r in pending:
         folder = folders[r.run_id]
         refuse_legacy(folder)
         if (folder / CHECKPOINT).exists() or (folder / CHECKPOINT).is_symlink():
-            meta = probe_checkpoint(folder / CHECKPOINT, culprit=folder / CHECKPOINT)
-            if meta.get("fingerprint") != r.train_settings().fingerprint():
+            payload = read_checkpoint(folder / CHECKPOINT)
+            if payload["fingerprint"] != r.train_settings().fingerprint():
                 raise InputError("belongs to other settings than its run in the study file "
                                  "(use a new --out)", culprit=folder / CHECKPOINT)
 
