@@ -338,21 +338,53 @@ def _split(payload: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
 
 
 def _memory_state(memory: SessionMemory, shape: tuple[int, ...]) -> dict[str, Any]:
-    """The session memory as data: each trial's tables after each session as one array."""
-    return {"lengths": [list(x) for x in memory.lengths],
+    """The session memory as data: each trial's tables after each session as one array, the
+    rows as one array per column (thousands of rows: a few arrays, not a JSON value each)."""
+    return {"lengths": [np.asarray(x, dtype=np.float64) for x in memory.lengths],
             "weights": [np.stack(ws) if ws else np.zeros((0,) + tuple(shape))
                         for ws in memory.weights],
-            "rows": memory.rows}
+            "rows": _rows_state(memory.rows)}
+
+
+def _rows_state(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    keys = list(rows[0]) if rows else list(SESSION_COLUMNS)
+    if any(list(r) != keys for r in rows):  # not one table: row by row
+        return {"rows": rows}
+    columns: dict[str, Any] = {}
+    for k in keys:
+        values = [r[k] for r in rows]
+        if all(isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+               for v in values):
+            columns[k] = np.asarray(values, dtype=np.int64)
+        elif all(isinstance(v, (float, np.floating)) for v in values):
+            columns[k] = np.asarray(values, dtype=np.float64)
+        else:
+            columns[k] = values
+    return {"columns": keys, "values": columns, "n": len(rows)}
+
+
+def _rows_from_state(state: dict[str, Any]) -> list[dict[str, Any]]:
+    if "rows" in state:
+        rows = state["rows"]
+    else:
+        keys, n = state["columns"], state["n"]
+        columns = [state["values"][k] for k in keys]
+        columns = [c.tolist() if isinstance(c, np.ndarray) else list(c) for c in columns]
+        if any(len(c) != n for c in columns):
+            raise ValueError("session rows of unequal lengths")
+        rows = [dict(zip(keys, values)) for values in zip(*columns)] if keys else [{}] * n
+    if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+        raise ValueError("session rows that are not rows")
+    return rows
 
 
 def _memory_from_state(state: dict[str, Any], n_trials: int) -> SessionMemory:
-    lengths, weights, rows = state["lengths"], state["weights"], state["rows"]
-    if not (len(lengths) == len(weights) == n_trials and isinstance(rows, list)
-            and all(isinstance(r, dict) for r in rows)):
-        raise ValueError("a session memory of another shape")
-    return SessionMemory(lengths=[list(x) for x in lengths],
+    lengths, weights = state["lengths"], state["weights"]
+    if not len(lengths) == len(weights) == n_trials:
+        raise ValueError("a session memory of another number of trials")
+    return SessionMemory(lengths=[np.asarray(x, dtype=np.float64).tolist() for x in lengths],
                          weights=[list(np.asarray(w, dtype=np.float64)) for w in weights],
-                         rows=rows)
+                         rows=_rows_from_state(state["rows"]))
 
 
 def read_checkpoint(path: Path, culprit: Any = None) -> dict[str, Any]:

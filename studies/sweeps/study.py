@@ -616,7 +616,7 @@ def _write_gaits(out: Path, trainer: Trainer) -> None:
     """``gait.csv``: each trial's gait with its final tables, learning off (a short run)."""
     from ..experiments.trained import GAIT_COLUMNS, final_gaits
 
-    with np.load(out / WEIGHTS) as z:  # written by this process a moment ago
+    with np.load(out / WEIGHTS, allow_pickle=False) as z:  # written by this process a moment ago
         tables = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3
     rows = final_gaits(trainer.models, tables)
     lines = ["trial," + ",".join(GAIT_COLUMNS)]
