@@ -149,7 +149,11 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--no-astrocytes", action="store_true", default=None,
                        help="remove the adenosine term (the paper's ablation)")
     train.add_argument("--out", help="output folder (new, or empty)")
-    train.add_argument("--resume", metavar="DIR", help="continue the run in DIR")
+    train.add_argument("--resume", metavar="DIR",
+                       help="continue the run in DIR with the settings it started with (an "
+                            "option given again must agree with them, values compared as "
+                            "quantities: else it is refused, naming the option); a checkpoint "
+                            "of astrocpg before format 2 (checkpoint.pkl) is refused unread")
     _add_overwrite(train)
     train.add_argument("--record-every", type=int, default=None, metavar="N",
                        help="record sessions 1, 1+N, 1+2N... and the last of each trial "

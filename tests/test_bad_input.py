@@ -921,7 +921,7 @@ case("train-resume-old-format-says-so",
      lambda e: S("train", "--resume", _planted(e, "train", "old-format")), 2, "old format",
      "unchanged", lambda e: _planted(e, "train", "old-format"), check=not_evaluated)
 case("train-out-on-an-old-format-folder",
-     lambda e: S("train", "--out", _planted(e, "train", "old-format")), 2, "--resume",
+     lambda e: S("train", "--out", _planted(e, "train", "old-format")), 2, "old format",
      "unchanged", lambda e: _planted(e, "train", "old-format"), check=not_evaluated)
 for option, value, words in (("--record-stride", "5", "--record-stride"),
                              ("--record-every", "2", "--record-every"),

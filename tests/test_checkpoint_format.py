@@ -265,7 +265,8 @@ def test_train_out_on_an_old_format_folder_is_refused_or_replaced(tmp_path, trai
     _plant(folder, "old-format", marker)
     before = tree(folder)
     assert main(["train", "--sessions", "1", *SHORT, "--out", str(folder), "--no-progress"]) == 2
-    assert "--resume" in one_line(capsys)
+    line = one_line(capsys)
+    assert str(folder / ck.LEGACY_CHECKPOINT) in line and "old format" in line, line
     assert tree(folder) == before
     assert main(["train", "--sessions", "1", *SHORT, "--out", str(folder), "--overwrite",
                  "--no-progress"]) == 0

@@ -20,7 +20,7 @@ import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, NoReturn
 
 import mujoco
 import numpy as np
@@ -496,6 +496,8 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
         equations=dict(equations or {}), models=model_files_record(models))
     model_set(settings.overrides, settings.equations, models=settings.models)  # before any file
     out = Path(out)
+    if not overwrite:
+        refuse_legacy(out)  # --resume would refuse it too: say what to do with it
     if holds_checkpoint(out) and not overwrite:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
                          f"replace it with --overwrite)", culprit=f"--out {out}")
@@ -580,18 +582,17 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     spelling is the same model); equation files by their text."""
     from ...models.files import value_text
 
-    def refuse(option: str, message: str) -> None:
+    def refuse(option: str, message: str) -> NoReturn:
         raise InputError(f"{message}; a resumed training keeps the settings it started with "
                          f"(start a new one with --out DIR)", culprit=option)
 
     for key, option, recorded, noun in (
             ("sessions", "--sessions", settings.n_sessions, "sessions per trial"),
-            ("seed", "--seed", settings.seed, "as seed"),
+            ("seed", "--seed", settings.seed, "as its seed"),
             ("trials", "--trials", settings.n_trials, "trials")):
         value = given.get(key)
         if value is not None and value != recorded:
-            refuse(option, f"that run has {recorded} {noun}, not {value}" if key != "seed"
-                   else f"that run has seed {recorded}, not {value}")
+            refuse(option, f"that run has {recorded} {noun}, not {value}")
     astro = given.get("astrocytes")
     if astro is not None and bool(astro) != settings.astrocytes:
         refuse("--no-astrocytes", "that run trained with astrocytes (recorded: astrocytes on, "
@@ -669,7 +670,7 @@ def _same_quantity(a: Any, b: Any) -> bool:
 
 
 def _check_model_file(name: str, recorded: dict[str, str] | None, given: dict[str, str],
-                      refuse: Callable[[str, str], None]) -> None:
+                      refuse: Callable[[str, str], NoReturn]) -> None:
     """``--model NAME=FILE`` against the model file the training recorded for NAME."""
     option = f"--model {name}"
     if recorded is not None and recorded["sha256"] == given["sha256"]:
