@@ -598,7 +598,7 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
         refuse("--no-astrocytes", "that run trained with astrocytes (recorded: astrocytes on, "
                                   "given: off)" if settings.astrocytes else
                "that run trained without astrocytes (recorded: off, given: on)")
-    for name, record in (given.get("models") or {}).items():
+    for name, record in model_files_record(given.get("models")).items():  # texts or records
         _check_model_file(name, settings.models.get(name), record, refuse)
     if given.get("equations"):
         known = dict(model_set(models=settings.models).items())
