@@ -1,5 +1,5 @@
 """What a training's writes cost as its files grow: ``sessions.csv`` + ``weights.npz``
-(``Trainer.write_outputs``) and ``checkpoint.pkl`` (``Trainer.write_checkpoint``) for 20 trials
+(``Trainer.write_outputs``) and ``checkpoint.npz`` (``Trainer.write_checkpoint``) for 20 trials
 after 0, 50, 200 and 400 sessions each (the paper's ablation run), on this machine's disk.
 
     python benchmarks/checkpoint_cost.py [--trials 20] [--sessions 0 50 200 400]
@@ -57,7 +57,7 @@ def measure(trials: int = 20, sessions: tuple[int, ...] = (0, 50, 200, 400),
             t2 = time.perf_counter()
             out.append({"sessions": n, "outputs_s": (t1 - t0) / repeats,
                         "checkpoint_s": (t2 - t1) / repeats,
-                        "checkpoint_bytes": (folder / "checkpoint.pkl").stat().st_size})
+                        "checkpoint_bytes": (folder / "checkpoint.npz").stat().st_size})
     return out
 
 

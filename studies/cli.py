@@ -236,14 +236,17 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--out", metavar="DIR",
                        help="output folder, new or empty (required unless --resume)")
     train.add_argument("--resume", metavar="DIR",
-                       help="continue the interrupted run in DIR from its last checkpoint (its "
-                            "figures/, evaluation/, videos and power estimates, made from the "
-                            "earlier weights, are removed)")
+                       help="continue the run in DIR with the settings it started with (an "
+                            "option given again must agree with them, values compared as "
+                            "quantities: else it is refused, naming the option); its figures/, "
+                            "evaluation/, videos and power estimates, made from the earlier "
+                            "weights, are removed; a checkpoint of astrocpg before format 2 "
+                            "(checkpoint.pkl) is refused unread")
     _add_overwrite(train)
     train.add_argument("--record-every", type=int, default=None, metavar="N",
                        help="record sessions 1, 1+N, 1+2N... and the last of each trial "
                             "(spikes, traces, robot) into DIR/recordings/ (default: none)")
-    train.add_argument("--record-stride", type=int, default=1, metavar="STEPS",
+    train.add_argument("--record-stride", type=int, default=None, metavar="STEPS",
                        help="with --record-every: physics steps (1 ms) between trace and robot "
                             "samples (default 1)")
     _add_record_options(train)
@@ -647,14 +650,19 @@ def _cmd_train(args: argparse.Namespace) -> int:
             if args.out and Path(args.out).resolve() != Path(args.resume).resolve():
                 raise InputError("--resume writes into its own folder; drop --out",
                                  culprit="--out")
+            if args.overwrite:  # never ignored: it would replace what --resume continues
+                raise InputError("replaces a training, --resume continues one: use one of them",
+                                 culprit="--overwrite")
             expect = {"sessions": args.sessions, "seed": args.seed, "trials": args.trials,
                       "astrocytes": None if args.no_astrocytes is None
                       else not args.no_astrocytes,
                       "overrides": sorted(args.overrides) or None,
                       "equations": read_equation_files(args.equations) or None,
                       "models": model_files_record(read_model_files(args.model_files)) or None}
+            # every option given must agree with the training's own (resume refuses others)
             result = resume(args.resume, progress=not args.no_progress,
-                            record_every=args.record_every, expect=expect)
+                            record_every=args.record_every, record_stride=args.record_stride,
+                            spikes=args.spikes, traces=args.traces, expect=expect)
             out = args.resume
         else:
             if not args.out:
@@ -675,7 +683,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         return 130
     for line in format_train(result):
         print(line)
-    print(f"wrote {out}/ (sessions.csv, weights.npz, checkpoint.pkl, manifest.json)")
+    print(f"wrote {out}/ (sessions.csv, weights.npz, checkpoint.npz, manifest.json)")
     return 0
 
 

@@ -545,11 +545,11 @@ case("train-resume-other-seed", lambda e: S("train", "--resume", e.copy("train")
 case("train-resume-unit-folder", lambda e: S("train", "--resume", e.copy("unit")), 2, "unit",
      "unchanged", lambda e: e.copy("unit"))
 case("train-resume-corrupt-checkpoint",
-     lambda e: S("train", "--resume", e.tampered("train", "checkpoint.pkl", "flip")), 2,
-     "checkpoint", "unchanged", lambda e: e.tampered("train", "checkpoint.pkl", "flip"))
+     lambda e: S("train", "--resume", e.tampered("train", "checkpoint.npz", "flip")), 2,
+     "checkpoint", "unchanged", lambda e: e.tampered("train", "checkpoint.npz", "flip"))
 case("train-resume-truncated-checkpoint",
-     lambda e: S("train", "--resume", e.tampered("train", "checkpoint.pkl", "truncate")), 2,
-     "checkpoint", "unchanged", lambda e: e.tampered("train", "checkpoint.pkl", "truncate"))
+     lambda e: S("train", "--resume", e.tampered("train", "checkpoint.npz", "truncate")), 2,
+     "checkpoint", "unchanged", lambda e: e.tampered("train", "checkpoint.npz", "truncate"))
 case("train-resume-empty-folder", lambda e: S("train", "--resume", e.empty()), 2,
      lambda e: str(e.empty()), "unchanged", lambda e: e.empty())
 
@@ -1162,6 +1162,148 @@ case("run-huge-motor-v-staged",
 case("unit-large-but-valid", lambda e: S("unit", "--seconds", "0.02", "--set",
                                          "IP3_star=1e40*nM", "--out", out(e)),
      0, None, "complete", out)
+
+# ---- checkpoints are data (a planted pickle runs nothing) and resume options (issue 20: 2, 8)
+class _Unpickled:
+    """Unpickling (or an eval of) what this pickles into touches EVIL_FLAG."""
+
+    def __reduce__(self):
+        return (os.system, (f"touch {EVIL_FLAG}",))
+
+
+def _evil_pickle() -> bytes:
+    import pickle
+    return pickle.dumps({"fingerprint": "x", "settings": _Unpickled()})
+
+
+def _old_format() -> bytes:
+    """astrocpg's pickled checkpoint.pkl before format 2: MAGIC + sha256(body) + body."""
+    body = _evil_pickle()
+    return b"ASTROCPG-CHECKPOINT-1\n" + hashlib.sha256(body).hexdigest().encode() + b"\n" + body
+
+
+def _npz_with_pickled_array(like: Path) -> bytes:
+    import io
+    with np.load(like) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["a0"] = np.array([_Unpickled(), None], dtype=object)
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
+
+
+def _planted(e: Env, which: str, how: str) -> Path:
+    """A copy of a training (``which="train"``) or of the study with its run made pending,
+    holding a malicious checkpoint (``how``: old-format, pickle-named-npz, npz-pickled-array)."""
+    def make() -> Path:
+        d = e.copy(which, f"{which}_{how}")
+        run = d
+        if which == "study":
+            (run,) = [p for p in (d / "runs").iterdir() if p.is_dir()]
+            status = json.loads((run / "status.json").read_text())
+            status["state"] = "stopped"  # a rerun resumes it from its checkpoint
+            (run / "status.json").write_text(json.dumps(status))
+        new, old = run / "checkpoint.npz", run / "checkpoint.pkl"
+        if how == "old-format":
+            new.unlink()
+            old.write_bytes(_old_format())
+        elif how == "pickle-named-npz":
+            new.write_bytes(_evil_pickle())
+        elif how == "npz-pickled-array":
+            new.write_bytes(_npz_with_pickled_array(new))
+        return d
+    return e._once(f"planted:{which}:{how}", make)
+
+
+def _recorded(e: Env, model: Path | None = None) -> Path:
+    """A finished 1-session training that records (every 1, stride 10, motor spikes,
+    motor_Ca); with ``model``, trained with that interlimb_synapse model file."""
+    def make() -> Path:
+        d = e.tmp / ("recorded" if model is None else "with_model")
+        extra = [] if model is None else ["--model", f"interlimb_synapse={model}"]
+        _ok(["train", "--sessions", "1", "--seed", "3", *SHORT, "--record-every", "1",
+             "--record-stride", "10", "--spikes", "motor", "--traces", "motor_Ca", *extra,
+             "--out", str(d), "--no-progress"])
+        return d
+    return e._once(f"recorded:{model}", make)
+
+
+def _builtin_interlimb_file(e: Env) -> Path:
+    from astrocpg.models import DEFAULT_MODELS
+    from astrocpg.models.files import model_to_toml
+    return e.file("builtin.toml", model_to_toml(DEFAULT_MODELS.interlimb_synapse))
+
+
+def _study_run(e: Env, how: str) -> Path:
+    (run,) = [p for p in (_planted(e, "study", how) / "runs").iterdir() if p.is_dir()]
+    return run
+
+
+AUTHORS_DELAYS = ROOT / "models" / "variants" / "interlimb_authors_delays.toml"
+for how, named in (("old-format", "checkpoint.pkl"), ("pickle-named-npz", "checkpoint.npz"),
+                   ("npz-pickled-array", "checkpoint.npz")):
+    case(f"train-resume-malicious-{how}",
+         lambda e, h=how: S("train", "--resume", _planted(e, "train", h)), 2,
+         lambda e, h=how, n=named: str(_planted(e, "train", h) / n), "unchanged",
+         lambda e, h=how: _planted(e, "train", h), check=not_evaluated)
+    case(f"study-rerun-malicious-{how}",
+         lambda e, h=how: S("study", e.file("tiny.toml", TINY_STUDY), "--out",
+                            _planted(e, "study", h), "--workers", "1", "--no-progress"), 2,
+         lambda e, h=how, n=named: str(_study_run(e, h) / n), "unchanged",
+         lambda e, h=how: _planted(e, "study", h),
+         check=not_evaluated)
+case("train-resume-old-format-says-so",
+     lambda e: S("train", "--resume", _planted(e, "train", "old-format")), 2, "old format",
+     "unchanged", lambda e: _planted(e, "train", "old-format"), check=not_evaluated)
+case("train-out-on-an-old-format-folder",
+     lambda e: S("train", "--out", _planted(e, "train", "old-format")), 2, "old format",
+     "unchanged", lambda e: _planted(e, "train", "old-format"), check=not_evaluated)
+for option, value, words in (("--record-stride", "5", "--record-stride"),
+                             ("--record-every", "2", "--record-every"),
+                             ("--spikes", "motor,astrocyte", "--spikes"),
+                             ("--traces", "astrocyte_Ca", "--traces")):
+    case(f"train-resume-{option[2:]}-differs",
+         lambda e, o=option, v=value: S("train", "--resume", _recorded(e), o, v), 2, words,
+         "unchanged", lambda e: _recorded(e))
+    case(f"train-resume-{option[2:]}-on-a-run-that-records-nothing",
+         lambda e, o=option, v=value: S("train", "--resume", e.copy("train"), o, v), 2,
+         option, "unchanged", lambda e: e.copy("train"))
+case("train-resume-record-stride-same", lambda e: S("train", "--resume", _recorded(e),
+                                                    "--record-stride", "10"), 2,
+     "already finished", "unchanged", lambda e: _recorded(e))
+case("train-record-stride-without-record-every",
+     lambda e: S("train", "--record-stride", "5", "--out", out(e)), 2, "--record-stride",
+     "absent", out)
+case("train-resume-set-other-value", lambda e: S("train", "--resume", e.copy("train"), "--set",
+                                                 "L_max=0.3*second"), 2, "--set L_max",
+     "unchanged", lambda e: e.copy("train"))
+# recorded as 0.2*second: the same quantity spelled otherwise passes (the next check speaks)
+case("train-resume-set-same-value-in-ms", lambda e: S("train", "--resume", e.copy("train"),
+                                                      "--set", "L_max=200*ms"), 2,
+     "already finished", "unchanged", lambda e: e.copy("train"))
+case("train-resume-model-file-given-to-a-built-in-run",
+     lambda e: S("train", "--resume", e.copy("train"), "--model",
+                 f"interlimb_synapse={AUTHORS_DELAYS}"), 2, "--model interlimb_synapse",
+     "unchanged", lambda e: e.copy("train"))
+case("train-resume-model-file-respelled",  # a comment added: the same model, accepted
+     lambda e: S("train", "--resume", _recorded(e, AUTHORS_DELAYS), "--model",
+                 f"interlimb_synapse={e.file('respelled.toml', '# mine' + chr(10) + AUTHORS_DELAYS.read_text())}"),
+     2, "already finished", "unchanged", lambda e: _recorded(e, AUTHORS_DELAYS))
+case("train-resume-model-file-changed",
+     lambda e: S("train", "--resume", _recorded(e, AUTHORS_DELAYS), "--model",
+                 f"interlimb_synapse={_builtin_interlimb_file(e)}"),
+     2, "--model interlimb_synapse: that run was trained with another interlimb_synapse model",
+     "unchanged", lambda e: _recorded(e, AUTHORS_DELAYS))
+case("train-resume-equations-changed",
+     lambda e: S("train", "--resume", e.copy("train"), "--equations",
+                 f"motor_neuron={e.equations('motor_neuron', lambda t: t.replace('/tau_motor', '/(2*tau_motor)'))}"),
+     2, "--equations motor_neuron", "unchanged", lambda e: e.copy("train"))
+for option, value in (("--sessions", "5"), ("--trials", "2"), ("--no-astrocytes", None),
+                      ("--overwrite", None)):
+    case(f"train-resume-{option[2:]}-differs",
+         lambda e, o=option, v=value: S("train", "--resume", e.copy("train"), o,
+                                        *([v] if v else [])), 2, option, "unchanged",
+         lambda e: e.copy("train"))
 
 
 # ---------------------------------------------------------------- running a case

@@ -276,7 +276,7 @@ def test_train_interrupted_after_sessions_resumes_to_the_same_result(sig, childr
     c = children("train", *TRAIN, "--out", out)
     # the first checkpoint comes at the first session end, after sessions.csv; later ones are
     # spaced (train.py), so the signal goes once the first is whole (renamed into place)
-    assert c.until(lambda: (out / "checkpoint.pkl").exists(), "the first checkpoint",
+    assert c.until(lambda: (out / "checkpoint.npz").exists(), "the first checkpoint",
                    poll=0.01), c.stderr
     c.signal(sig)
     code = c.finish()
@@ -290,7 +290,7 @@ def test_train_interrupted_after_sessions_resumes_to_the_same_result(sig, childr
         # what it wrote is whole and listed: the checkpoint's sessions, marked interrupted
         verify(out)
         assert manifest_status(out) == "interrupted"
-    assert (out / "checkpoint.pkl").exists()
+    assert (out / "checkpoint.npz").exists()
     resume(children, out)
     same_training(out, baseline)
     history = json.loads((out / "manifest.json").read_text())["history"]
@@ -309,11 +309,11 @@ def test_train_stopped_before_its_first_checkpoint_resumes_or_is_replaced(sig, t
     c.until(lambda: (out / "manifest.json").exists(), "the training's manifest", poll=0.001)
     c.signal(sig)
     code = c.finish()
-    if sig == signal.SIGINT and not (out / "checkpoint.pkl").exists():
+    if sig == signal.SIGINT and not (out / "checkpoint.npz").exists():
         assert code == 130, c.stderr
         assert f"--resume {out}" in one_line(c.stderr)
         assert manifest_status(out) == "interrupted"
-    if (out / "checkpoint.pkl").exists():
+    if (out / "checkpoint.npz").exists():
         pytest.skip("the first checkpoint came before the kill")
     if then == "resume":
         resume(children, out)

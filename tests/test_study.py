@@ -186,7 +186,7 @@ def test_scheduler_and_two_workers_one_killed(tmp_path: Path) -> None:
             for run in (out / "runs").glob("*"):
                 s = _status(run)
                 if s.get("state") == "running" and s.get("pid") in pids \
-                        and (run / "checkpoint.pkl").exists():
+                        and (run / "checkpoint.npz").exists():
                     return run, s
             return None
 
@@ -223,7 +223,7 @@ def test_interrupted_study_continues(tmp_path: Path, sig: int) -> None:
             runs = list((out / "runs").glob("*"))
             states = [_status(r).get("state") for r in runs]
             running = [r for r in runs if _status(r).get("state") == "running"
-                       and (r / "checkpoint.pkl").exists()]
+                       and (r / "checkpoint.npz").exists()]
             return states.count("finished") >= 1 and running
 
         _wait_for(one_finished_one_running, 240, "one run finished and one in flight")

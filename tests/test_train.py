@@ -85,7 +85,7 @@ def test_resume_after_sigkill_is_exact(tmp_path, delays):
 
     killed = tmp_path / "killed"
     p = _cli(*args, "--out", str(killed))
-    ckpt = killed / "checkpoint.pkl"
+    ckpt = killed / "checkpoint.npz"
     deadline = time.time() + 300
     while not ckpt.exists() and time.time() < deadline:
         time.sleep(0.05)
@@ -145,7 +145,7 @@ def test_corrupt_and_foreign_checkpoints(capsys, tmp_path, finished):
                          ("foreign", lambda b: b"not a checkpoint" + b)):
         folder = tmp_path / name
         shutil.copytree(finished, folder)
-        ck = folder / "checkpoint.pkl"
+        ck = folder / "checkpoint.npz"
         ck.write_bytes(mutate(ck.read_bytes()))
         before = _snapshot(folder)
         _fails(capsys, ["train", "--resume", str(folder)], "checkpoint" if name == "foreign"
@@ -158,7 +158,8 @@ def test_resume_with_other_parameters(capsys, tmp_path, finished):
     shutil.copytree(finished, folder)
     before = _snapshot(folder)
     _fails(capsys, ["train", "--resume", str(folder), "--seed", "9"], "seed")
-    _fails(capsys, ["train", "--resume", str(folder), "--set", "eta=1e-9*mV"], "model settings")
+    _fails(capsys, ["train", "--resume", str(folder), "--set", "eta=1e-9*mV"], "--set eta",
+           "not 0.001*nvolt")
     # trained under numpy: refused under Cython, before anything is built or compiled
     _fails(capsys, ["train", "--resume", str(folder), "--codegen", "cython"], "--codegen",
            "started with Brian2's numpy target")

@@ -1,8 +1,9 @@
 """Gait learning: ``n_trials`` independent trials, each training for ``n_sessions`` sessions, in
 one network. At session ends the folder gets, atomically: ``sessions.csv`` (one row per
 trial and session), ``weights.npz`` (each trial's table after each session) and
-``checkpoint.pkl`` (everything needed to continue exactly: Brian2 state and random state,
-MuJoCo states, the session loop's memory): after the first session end, then spaced so that
+``checkpoint.npz`` (everything needed to continue exactly: Brian2 state and random state,
+MuJoCo states, the session loop's memory; data only, never code:
+:mod:`astrocpg.studies.files.checkpoint`): after the first session end, then spaced so that
 writing takes at most 2 % of the wall time (:data:`CHECKPOINT_SPACING`), at the last session
 end and when the run is stopped. ``resume`` continues a killed run from its last checkpoint and
 ends with the same files as a run never interrupted.
@@ -15,13 +16,12 @@ import dataclasses
 import hashlib
 import io
 import math
-import pickle
 import os
 import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Mapping, NoReturn, Sequence
 
 import mujoco
 import numpy as np
@@ -29,10 +29,13 @@ from brian2 import Network, NetworkOperation, second
 
 from ...coupling.assembly import build_closed_loop
 from ...coupling.recorder import RecordPlan, SessionRecorder
-from ...coupling.training import SESSION_COLUMNS, Training
+from ...coupling.training import SESSION_COLUMNS, SessionMemory, Training
 from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
 from ...network import codegen_target, exclusive, interlimb_labels, run_network
+from ..files.checkpoint import (CHECKPOINT, LEGACY_CHECKPOINT, holds_checkpoint,
+                               refuse_legacy, write_checkpoint as write_checkpoint_file)
+from ..files.checkpoint import read_checkpoint as read_checkpoint_file
 from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
                             holds_results, remove_derived)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
@@ -43,14 +46,12 @@ from .resources import check_memory, estimate_bytes
 from .settings import model_files_record, model_set, number, override_items, seed_number
 from .simulate import check_selection
 
-CHECKPOINT = "checkpoint.pkl"
 # Writing the outputs and the checkpoint costs time that grows with the sessions done (20 trials
 # x 400 sessions: about 0.2 s a write, and with 20 trials a session ends about twice per
 # simulated second). So after a write the next one waits CHECKPOINT_SPACING times as long as it
 # took: at most 1 / (1 + CHECKPOINT_SPACING) of the wall time goes to writing, a small training
 # still writes at about every session end, the first session end and the last are always written.
 CHECKPOINT_SPACING = 49.0
-MAGIC = b"ASTROCPG-CHECKPOINT-1\n"
 
 
 @dataclass
@@ -217,24 +218,40 @@ class Trainer:
                          ("step_in_session", "non_alive", "ring", "ring_sum", "reward_sum",
                           "speed_sum", "pool_counts", "count_base_in", "count_base_ado",
                           "sessions_done", "done", "progress", "t_learning_start")},
-            "memory": tr.memory,
+            "memory": _memory_state(tr.memory, self.cpg.interlimb_weights().shape[1:]),
         }
         if self.recorder is not None:
             payload["record_plan"] = dataclasses.asdict(self.record)
             payload["recorder"] = self.recorder.state()
-        body = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)
-        digest = hashlib.sha256(body).hexdigest().encode() + b"\n"
-        atomic_write(self.out / CHECKPOINT, lambda f: (f.write(MAGIC), f.write(digest), f.write(body)))
+        write_checkpoint_file(self.out / CHECKPOINT, *_split(payload))
 
     def restore(self, payload: dict[str, Any]) -> None:
+        """Continue from a checkpoint's payload (:func:`read_checkpoint`). A payload that does
+        not fit this network (a tampered or foreign checkpoint whose archive is whole) is an
+        InputError naming the checkpoint, whatever part of it is off."""
         # an exact resume needs the target the training started with (_same_codegen)
         _same_codegen(payload.get("codegen", "numpy"), self.cpg.codegen)
+        try:
+            self._restore(payload)
+        except InputError:
+            raise
+        except (KeyError, ValueError, TypeError, IndexError, AttributeError) as e:
+            raise InputError(f"does not fit this training ({type(e).__name__}: "
+                             f"{str(e)[:120]})", culprit=self.out / CHECKPOINT) from None
+
+    def _restore(self, payload: dict[str, Any]) -> None:
         net = self.cpg.net
         net._stored_state["checkpoint"] = _rename_clocks(payload["brian"], net)
         net.restore("checkpoint", restore_random_state=True)
         del net._stored_state["checkpoint"]
         spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        if len(payload["mujoco"]) != len(self.bridge.data):
+            raise ValueError("another number of trials")
+        size = mujoco.mj_stateSize(self.robot, spec)
         for d, s in zip(self.bridge.data, payload["mujoco"]):
+            s = np.asarray(s, dtype=np.float64)
+            if s.shape != (size,):  # MuJoCo would read past the array's end
+                raise ValueError(f"a MuJoCo state of shape {s.shape}, not ({size},)")
             mujoco.mj_setState(self.robot, d, s, spec)
         for k, v in payload["bridge"].items():
             if k == "step_count":
@@ -243,7 +260,7 @@ class Trainer:
                 getattr(self.bridge, k)[...] = v
         for k, v in payload["training"].items():
             getattr(self.training, k)[...] = v
-        self.training.memory = payload["memory"]
+        self.training.memory = _memory_from_state(payload["memory"], self.settings.n_trials)
         if self.recorder is not None and "recorder" in payload:
             self.recorder.restore(payload["recorder"])
 
@@ -310,48 +327,111 @@ def _rename_clocks(state: dict[str, Any], net) -> dict[str, Any]:
     return out
 
 
-def read_checkpoint(path: Path) -> dict[str, Any]:
-    """Load and verify a checkpoint; a corrupt or foreign file is an ``InputError``."""
+#: The payload's entries stored in the checkpoint's readable ``meta`` (JSON); the rest is the
+#: state tree (:mod:`astrocpg.studies.files.checkpoint`).
+_META_KEYS = ("fingerprint", "settings", "codegen", "record_plan")
+
+
+def _split(payload: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    meta = {k: payload[k] for k in _META_KEYS if k in payload}
+    meta["sessions_done"] = [int(n) for n in payload["training"]["sessions_done"]]
+    return meta, {k: v for k, v in payload.items() if k not in _META_KEYS}
+
+
+def _memory_state(memory: SessionMemory, shape: tuple[int, ...]) -> dict[str, Any]:
+    """The session memory as data: each trial's tables after each session as one array, the
+    rows as one array per column (thousands of rows: a few arrays, not a JSON value each)."""
+    return {"lengths": [np.asarray(x, dtype=np.float64) for x in memory.lengths],
+            "weights": [np.stack(ws) if ws else np.zeros((0,) + tuple(shape))
+                        for ws in memory.weights],
+            "rows": _rows_state(memory.rows)}
+
+
+def _rows_state(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    keys = list(rows[0]) if rows else list(SESSION_COLUMNS)
+    if any(list(r) != keys for r in rows):  # not one table: row by row
+        return {"rows": rows}
+    columns: dict[str, Any] = {}
+    for k in keys:
+        values = [r[k] for r in rows]
+        if all(isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+               for v in values):
+            columns[k] = np.asarray(values, dtype=np.int64)
+        elif all(isinstance(v, (float, np.floating)) for v in values):
+            columns[k] = np.asarray(values, dtype=np.float64)
+        else:
+            columns[k] = values
+    return {"columns": keys, "values": columns, "n": len(rows)}
+
+
+def _rows_from_state(state: dict[str, Any]) -> list[dict[str, Any]]:
+    if "rows" in state:
+        rows = state["rows"]
+    else:
+        keys, n = state["columns"], state["n"]
+        columns = [state["values"][k] for k in keys]
+        columns = [c.tolist() if isinstance(c, np.ndarray) else list(c) for c in columns]
+        if any(len(c) != n for c in columns):
+            raise ValueError("session rows of unequal lengths")
+        rows = [dict(zip(keys, values)) for values in zip(*columns)] if keys else [{}] * n
+    if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+        raise ValueError("session rows that are not rows")
+    return rows
+
+
+def _memory_from_state(state: dict[str, Any], n_trials: int) -> SessionMemory:
+    lengths, weights = state["lengths"], state["weights"]
+    if not len(lengths) == len(weights) == n_trials:
+        raise ValueError("a session memory of another number of trials")
+    return SessionMemory(lengths=[np.asarray(x, dtype=np.float64).tolist() for x in lengths],
+                         weights=[list(np.asarray(w, dtype=np.float64)) for w in weights],
+                         rows=_rows_from_state(state["rows"]))
+
+
+def read_checkpoint(path: Path, culprit: Any = None) -> dict[str, Any]:
+    """Load and check a checkpoint (data only: :mod:`astrocpg.studies.files.checkpoint`); a
+    corrupt or foreign file, or one of the old pickled format, is an ``InputError`` naming it.
+    Returns the payload :meth:`Trainer.restore` takes."""
+    meta, state = read_checkpoint_file(path, culprit=culprit)
+    bad = InputError("is corrupt (not a training's checkpoint)", culprit=path) if culprit is None \
+        else InputError(f"{path} is corrupt (not a training's checkpoint)", culprit=culprit)
+    if not isinstance(state, dict) or not isinstance(meta.get("settings"), dict) \
+            or "fingerprint" not in meta:
+        raise bad
+    payload = dict(state) | {k: meta[k] for k in _META_KEYS if k in meta}
     try:
-        raw = path.read_bytes()
-    except OSError as e:
-        raise InputError(f"cannot read {path} ({e.strerror})", culprit=f"--resume") from None
-    if not raw.startswith(MAGIC):
-        raise InputError(f"{path} is not an astrocpg checkpoint", culprit=f"--resume")
-    rest = raw[len(MAGIC):]
-    digest, _, body = rest.partition(b"\n")
-    if hashlib.sha256(body).hexdigest().encode() != digest:
-        raise InputError(f"{path} is corrupt (checksum mismatch)", culprit=f"--resume")
-    try:
-        return pickle.loads(body)
-    except Exception:
-        raise InputError(f"{path} is corrupt (cannot be read)", culprit=f"--resume") from None
+        TrainSettings(**payload["settings"])
+        np.asarray(payload["training"]["sessions_done"], dtype=np.int64)
+    except (KeyError, TypeError, ValueError):
+        raise bad from None
+    return payload
 
 
 TRAIN_FILES = {
     "sessions.csv": "one row per trial and session: " + ", ".join(SESSION_COLUMNS),
     "weights.npz": "weights_mV (trial, session, 8, 8): each trial's inter-limb table after "
                    "each session (NaN after a trial's last); final_weights_mV; labels",
-    "checkpoint.pkl": "state to continue exactly (astrocpg train --resume DIR)",
+    CHECKPOINT: "state to continue exactly (astrocpg train --resume DIR): a NumPy archive of "
+                "plain arrays and JSON (meta, state), no code",
     "recordings/": "with --record-every: trialTT_sessionSSSS/ per recorded session (spikes, "
                    "traces, robot, manifest; astrocpg export reads it)",
 }
 
 
-def record_plan(every: int | None, stride: int = 1, spikes: tuple[str, ...] | None = None,
-                traces: tuple[str, ...] | None = None,
-                stored: dict[str, Any] | None = None) -> RecordPlan | None:
-    """The training's RecordPlan: from the options, or (resuming) the checkpoint's ``stored``."""
-    if stored is not None:
-        if every is not None and every != stored["every"]:
-            raise InputError(f"that run records every {stored['every']} sessions, not {every}",
-                             culprit="--record-every")
-        return RecordPlan.from_dict(stored)
+def record_plan(every: int | None, stride: int | None = None,
+                spikes: tuple[str, ...] | None = None,
+                traces: tuple[str, ...] | None = None) -> RecordPlan | None:
+    """The new training's RecordPlan from the options (a resumed one keeps its own:
+    :func:`check_resume_options`)."""
     if every is None:
+        if stride is not None:
+            raise InputError("a training records sessions only with --record-every N",
+                             culprit="--record-stride")
         if spikes is not None or traces is not None:
             raise InputError("a training records spikes and traces only with --record-every N",
                              culprit="--spikes/--traces")
         return None
+    stride = 1 if stride is None else stride
     if every < 1:
         raise InputError(f"must be at least 1, got {every}", culprit="--record-every")
     if stride < 1:
@@ -432,11 +512,11 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
           astrocytes: bool = True, overrides: Any = None,
           equations: dict[str, str] | None = None, models: dict[str, str] | None = None,
           record_every: int | None = None,
-          record_stride: int = 1, spikes: tuple[str, ...] | None = None,
+          record_stride: int | None = None, spikes: tuple[str, ...] | None = None,
           traces: tuple[str, ...] | None = None, overwrite: bool = False,
           progress: bool = True, inputs: Sequence[str | os.PathLike] = ()) -> Result:
     """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
-    each, writing ``out`` (sessions.csv, weights.npz, checkpoint.pkl, manifest.json) after every
+    each, writing ``out`` (sessions.csv, weights.npz, checkpoint.npz, manifest.json) after every
     session: what ``astrocpg train`` runs. ``astrocytes=False`` is the paper's ablation;
     overrides/equations as for :func:`~astrocpg.studies.experiments.run.run` (e.g.
     ``["L_max=0.5*second"]`` for short sessions). ``record_every=N`` records sessions 1, 1+N,
@@ -458,7 +538,9 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
         equations=dict(equations or {}), models=model_files_record(models))
     model_set(settings.overrides, settings.equations, models=settings.models)  # before any file
     out = Path(out)
-    if (out / CHECKPOINT).exists() and not overwrite:
+    if not overwrite:
+        refuse_legacy(out)  # --resume would refuse it too: say what to do with it
+    if holds_checkpoint(out) and not overwrite:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
                          f"replace it with --overwrite)", culprit=f"--out {out}")
     OutputFolder(out, overwrite=overwrite, inputs=inputs).check()
@@ -471,20 +553,27 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
 
 
 def resume(folder: str | Path, *, progress: bool = True, record_every: int | None = None,
+           record_stride: int | None = None, spikes: tuple[str, ...] | None = None,
+           traces: tuple[str, ...] | None = None,
            expect: dict[str, Any] | None = None) -> Result:
     """Continue the training in ``folder`` from its checkpoint (``astrocpg train --resume``)
     and end with the same files as a training never interrupted (what later commands derived
     from the earlier weights, e.g. ``evaluation/`` and ``figures/``, is removed: it would be
-    stale); ``expect`` (e.g. the options
-    given again on the command line) must agree with the stored settings. Returns the
-    training's Result, like :func:`train`."""
+    stale).
+
+    A resumed training keeps the settings it started with. Options given again (``expect``:
+    ``sessions``, ``seed``, ``trials``, ``astrocytes``, ``overrides``, ``equations``,
+    ``models``; and the recording options) must agree with them, or the resume is refused
+    with the option and both values named (:func:`check_resume_options`): none is silently
+    ignored. Returns the training's Result, like :func:`train`."""
     out = Path(folder)
+    refuse_legacy(out)
     if not (out / CHECKPOINT).exists():
         # stopped before its first checkpoint: nothing was trained, so start again from the
         # settings its manifest recorded
         manifest = read_manifest(out)
         if manifest is None or manifest.get("astrocpg_command") != "train":
-            raise InputError("holds no training (no checkpoint.pkl, no training manifest)",
+            raise InputError(f"holds no training (no {CHECKPOINT}, no training manifest)",
                              culprit=f"--resume {out}")
         stored_settings = {k: v for k, v in manifest["settings"].items() if k != "record"}
         payload = {"settings": stored_settings, "record_plan": manifest["settings"].get("record")}
@@ -498,31 +587,150 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     if payload["fingerprint"] != settings.fingerprint():
         raise InputError(f"{out / CHECKPOINT} is not consistent with its settings",
                          culprit="--resume")
-    stored = {"sessions": settings.n_sessions, "seed": settings.seed,
-              "trials": settings.n_trials, "astrocytes": settings.astrocytes,
-              "overrides": sorted(settings.overrides), "equations": settings.equations,
-              "models": settings.models}
-    for key, value in (expect or {}).items():
-        if value is not None and value != stored[key]:
-            if key in ("overrides", "equations", "models"):
-                files = (f"; model files: {', '.join(sorted(settings.models))}"
-                         if settings.models else "")
-                raise InputError(f"that run has other model settings "
-                                 f"({', '.join(settings.overrides) or 'defaults'}{files})",
-                                 culprit=f"--resume {out}")
-            raise InputError(f"that run has {key}={stored[key]}, not {value}",
-                             culprit=f"--resume {out}")
+    try:
+        stored_plan = (None if payload.get("record_plan") is None
+                       else RecordPlan.from_dict(payload["record_plan"]))
+    except (TypeError, ValueError):
+        raise InputError(f"{out / CHECKPOINT} is corrupt (its recording plan)",
+                         culprit="--resume") from None
+    check_resume_options(settings, stored_plan, dict(expect or {}) | {
+        "record_every": record_every, "record_stride": record_stride, "spikes": spikes,
+        "traces": traces})
     if not fresh:
         _same_codegen(payload.get("codegen", "numpy"), codegen_target())
     if not fresh and bool(np.all(np.asarray(payload["training"]["sessions_done"])
                                  >= settings.n_sessions)):
         raise InputError(f"the training is already finished ({settings.n_sessions} sessions per "
                          f"trial); nothing was changed", culprit=f"--resume {out}")
-    plan = record_plan(record_every, stored=payload.get("record_plan"))
-    if plan is None and record_every is not None:
-        raise InputError("that run records no sessions", culprit="--record-every")
-    return Result.from_training(_train(settings, out, plan, None if fresh else payload,
+    return Result.from_training(_train(settings, out, stored_plan, None if fresh else payload,
                                        progress, resumed=True), out)
+
+
+#: Relative difference below which two values of a parameter are the same value spelled
+#: differently (``1000*ms`` and ``1*second``; ``0.1*second`` and ``100*ms`` differ in the last
+#: bit of their SI numbers).
+SAME_VALUE_RTOL = 1e-12
+
+
+def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
+                         given: dict[str, Any]) -> None:
+    """Refuse every option given to a resume that differs from what the training recorded
+    (an InputError naming the option, the recorded value and the given one); an option given
+    with the recorded value is accepted (the run continues with it). ``given``: ``sessions``,
+    ``seed``, ``trials``, ``astrocytes`` (bool), ``models`` ({model: {"sha256", "content"}}),
+    ``equations`` ({model: text}), ``overrides`` (``NAME=VALUE`` items), ``record_every``,
+    ``record_stride``, ``spikes``, ``traces``; None: not given.
+
+    Parameter values are compared as quantities in SI (:data:`SAME_VALUE_RTOL`), not as
+    spelled; model files by what they define (a file that differs only in comments or
+    spelling is the same model); equation files by their text."""
+    from ...models.files import value_text
+
+    def refuse(option: str, message: str) -> NoReturn:
+        raise InputError(f"{message}; a resumed training keeps the settings it started with "
+                         f"(start a new one with --out DIR)", culprit=option)
+
+    for key, option, recorded, noun in (
+            ("sessions", "--sessions", settings.n_sessions, "sessions per trial"),
+            ("seed", "--seed", settings.seed, "as its seed"),
+            ("trials", "--trials", settings.n_trials, "trials")):
+        value = given.get(key)
+        if value is not None and value != recorded:
+            refuse(option, f"that run has {recorded} {noun}, not {value}")
+    astro = given.get("astrocytes")
+    if astro is not None and bool(astro) != settings.astrocytes:
+        refuse("--no-astrocytes", "that run trained with astrocytes (recorded: astrocytes on, "
+                                  "given: off)" if settings.astrocytes else
+               "that run trained without astrocytes (recorded: off, given: on)")
+    for name, record in model_files_record(given.get("models")).items():  # texts or records
+        _check_model_file(name, settings.models.get(name), record, refuse)
+    if given.get("equations"):
+        known = dict(model_set(models=settings.models).items())
+    for name, text in (given.get("equations") or {}).items():
+        if name not in known:
+            raise InputError(f"unknown model '{name}' (models: {', '.join(known)})",
+                             culprit="--equations")
+        recorded_text = settings.equations.get(name)
+        if recorded_text is None:  # the model's own equations, as trained
+            if text.strip() != known[name].code.strip():
+                refuse(f"--equations {name}", f"that run was trained with the built-in "
+                                              f"equations of {name}, not these (sha256 "
+                                              f"{_short_sha(text)})")
+        elif text.strip() != recorded_text.strip():
+            refuse(f"--equations {name}", f"that run was trained with other equations of "
+                                          f"{name} (recorded sha256 {_short_sha(recorded_text)}, "
+                                          f"given {_short_sha(text)})")
+    items = given.get("overrides") or []
+    if items:
+        recorded_models = model_set(settings.overrides, settings.equations,
+                                    models=settings.models)
+        for item in override_items(items):
+            name, value = recorded_models.parse_assignment(item)
+            was = recorded_models.parameter(name).value
+            if not _same_quantity(was, value):
+                refuse(f"--set {name}", f"that run has {name}={value_text(was)}, not "
+                                        f"{value_text(value)}")
+    every, stride = given.get("record_every"), given.get("record_stride")
+    spikes, traces = given.get("spikes"), given.get("traces")
+    if plan is None:
+        for option, value in (("--record-every", every), ("--record-stride", stride),
+                              ("--spikes", spikes), ("--traces", traces)):
+            if value is not None:
+                refuse(option, f"that run records no sessions (given {option} "
+                               f"{_option_text(value)})")
+        return
+    if every is not None and every != plan.every:
+        refuse("--record-every", f"that run records every {plan.every} sessions, not {every}")
+    if stride is not None and stride != plan.stride:
+        refuse("--record-stride", f"that run records every {plan.stride} steps, not {stride}")
+    want_spikes, want_traces = check_selection(spikes, traces)
+    if spikes is not None and set(want_spikes) != set(plan.spikes):
+        refuse("--spikes", f"that run records the spikes of {_option_text(plan.spikes)}, "
+                           f"not {_option_text(want_spikes)}")
+    if traces is not None and set(want_traces) != set(plan.traces):
+        refuse("--traces", f"that run records the traces {_option_text(plan.traces)}, "
+                           f"not {_option_text(want_traces)}")
+
+
+def _option_text(value: Any) -> str:
+    if isinstance(value, (tuple, list)):
+        return ",".join(map(str, value)) or "none"
+    return str(value)
+
+
+def _short_sha(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def _same_quantity(a: Any, b: Any) -> bool:
+    """Same dimensions and the same SI numbers (to :data:`SAME_VALUE_RTOL`)."""
+    from brian2 import get_dimensions
+
+    if get_dimensions(a) != get_dimensions(b):
+        return False
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return x.shape == y.shape and bool(np.all(
+        (x == y) | np.isclose(x, y, rtol=SAME_VALUE_RTOL, atol=0.0)))
+
+
+def _check_model_file(name: str, recorded: dict[str, str] | None, given: dict[str, str],
+                      refuse: Callable[[str, str], NoReturn]) -> None:
+    """``--model NAME=FILE`` against the model file the training recorded for NAME."""
+    option = f"--model {name}"
+    if recorded is not None and recorded["sha256"] == given["sha256"]:
+        return
+    # the same model spelled otherwise (comments, order, number spelling) is the same model;
+    # a file given for a model the run did not replace must define the built-in one
+    given_json = model_set(models={name: given["content"]}, option="--model").to_json()[name]
+    recorded_json = (model_set() if recorded is None
+                     else model_set(models={name: recorded["content"]})).to_json()[name]
+    if given_json == recorded_json:
+        return
+    if recorded is None:
+        refuse(option, f"that run was trained with the built-in {name} model, not this model "
+                       f"file (sha256 {given['sha256'][:12]})")
+    refuse(option, f"that run was trained with another {name} model file (recorded sha256 "
+                   f"{recorded['sha256'][:12]}, given {given['sha256'][:12]})")
 
 
 @exclusive  # the whole training in one hold: Brian2 is not thread-safe (network/runlock.py)

@@ -28,7 +28,7 @@ def load_weights(path: str | Path, trial: int | None = None, *,
         if (p / MANIFEST).is_file():  # a training's: the tables are what its manifest lists
             verify(p, culprit=where, strict=False, only=(WEIGHTS,))
         try:
-            with np.load(p / WEIGHTS) as z:
+            with np.load(p / WEIGHTS, allow_pickle=False) as z:
                 w = np.asarray(z["final_weights_mV"], dtype=float)
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error):
             raise InputError(f"{WEIGHTS} is corrupt or truncated", culprit=where) from None

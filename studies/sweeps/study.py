@@ -36,9 +36,13 @@ step: a seed's trajectory depends on the batching, its statistics over seeds do 
 valid, trajectories.
 
 Each run lives in ``OUT/runs/<run id>/`` as an ordinary training folder (``sessions.csv``,
-``weights.npz``, ``checkpoint.pkl``, ``manifest.json``) plus ``status.json``. A run whose
+``weights.npz``, ``checkpoint.npz``, ``manifest.json``) plus ``status.json``. A run whose
 status is ``finished`` is never run again; any other run resumes from its checkpoint, so
-repeating the command after a crash, a killed worker or Ctrl-C continues where it stopped.
+repeating the command after a crash, a killed worker or Ctrl-C continues where it stopped. A
+checkpoint is data, never code (:mod:`astrocpg.studies.files.checkpoint`): before any worker
+starts, the checkpoints of the runs to resume are checked, and one that is not a checkpoint of
+this format (an old pickled ``checkpoint.pkl`` included, which is never loaded) refuses the
+study, naming the file.
 """
 
 from __future__ import annotations
@@ -73,6 +77,7 @@ from ..experiments.settings import MAX_SEED, model_files_record, model_set, read
 from ..experiments.simulate import STEP, check_duration
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
+from ..files.checkpoint import refuse_legacy
 from ..files.folder import (FolderLock, check_output_path, check_replaceable,
                             clean_stale_temporaries, clear_folder, holds_results)
 from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
@@ -588,8 +593,9 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
         _write_status(out, status)
         settings = spec.train_settings()
         payload = None
+        refuse_legacy(out)  # an old pickled checkpoint is never loaded
         if (out / CHECKPOINT).exists():
-            payload = read_checkpoint(out / CHECKPOINT)
+            payload = read_checkpoint(out / CHECKPOINT, culprit=out)
             if payload["fingerprint"] != settings.fingerprint():
                 raise InputError("its checkpoint belongs to other settings", culprit=out)
         models = model_set(settings.overrides, {}, models=settings.models)
@@ -629,7 +635,7 @@ def _write_gaits(out: Path, trainer: Trainer) -> None:
     """``gait.csv``: each trial's gait with its final tables, learning off (a short run)."""
     from ..experiments.trained import GAIT_COLUMNS, final_gaits
 
-    with np.load(out / WEIGHTS) as z:  # written by this process a moment ago
+    with np.load(out / WEIGHTS, allow_pickle=False) as z:  # written by this process a moment ago
         tables = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3
     rows = final_gaits(trainer.models, tables)
     lines = ["trial," + ",".join(GAIT_COLUMNS)]
@@ -689,6 +695,22 @@ def _check_folder(study: Study, out: Path) -> None:
         if fp is not None and fp != run.fingerprint():
             raise InputError(f"run '{run.run_id}' there has other settings than "
                              f"in {study.path.name} (use a new --out)", culprit=f"--out {out}")
+
+
+def _check_checkpoints(pending: Sequence[RunSpec], folders: dict[str, Path]) -> None:
+    """Before any worker starts: each run to resume holds no checkpoint or a whole one of this
+    format and of its settings (read and checked as a worker will); else the study is refused
+    naming the file (an InputError: exit 2), rather than each worker failing its run. The
+    workers read checkpoints as data only all the same (a file changed after this check fails
+    its run, recorded in failures.csv, and runs no code)."""
+    for r in pending:
+        folder = folders[r.run_id]
+        refuse_legacy(folder)
+        if (folder / CHECKPOINT).exists() or (folder / CHECKPOINT).is_symlink():
+            payload = read_checkpoint(folder / CHECKPOINT)
+            if payload["fingerprint"] != r.train_settings().fingerprint():
+                raise InputError("belongs to other settings than its run in the study file "
+                                 "(use a new --out)", culprit=folder / CHECKPOINT)
 
 
 def _save_index(study: Study, out: Path) -> None:
@@ -781,6 +803,7 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                  culprit=f"study {study.name} (runs of {largest} trials)")
     folders = {r.run_id: out / RUNS / r.run_id for r in study.runs}
     pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") != "finished"]
+    _check_checkpoints(pending, folders)
     total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
     n_done_before = len(study.runs) - len(pending)
     settings = {"study": str(study.path), "study_text": study.text, "workers": workers,
@@ -903,7 +926,7 @@ def _study_files() -> dict[str, str]:
                   "stopped), worker (address), worker_name, host, pid, started and ended (Unix "
                   "seconds, wall clock), duration_s, started_utc",
         RUNS + "/<run id>/": "one training folder per run (sessions.csv, weights.npz, "
-                             "checkpoint.pkl, manifest.json, status.json)",
+                             "checkpoint.npz, manifest.json, status.json)",
     }
 
 
