@@ -574,7 +574,7 @@ def test_a_resumed_training_removes_what_was_derived_from_its_earlier_weights(ch
                                                                               tmp_path):
     out = tmp_path / "train"
     c = children("train", *TRAIN, "--out", out)
-    c.until(lambda: (out / "checkpoint.pkl").exists(), "the first checkpoint", poll=0.005)
+    c.until(lambda: (out / "checkpoint.npz").exists(), "the first checkpoint", poll=0.005)
     c.signal(signal.SIGINT)
     if c.finish() == 0:
         pytest.skip("the training finished before the signal")

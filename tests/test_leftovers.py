@@ -96,7 +96,7 @@ def test_verify_and_inventory_skip_what_a_killed_plot_or_video_left(tmp_path):
 def test_remove_derived_removes_exactly_what_later_commands_write(tmp_path):
     d = tmp_path / "train"
     d.mkdir()
-    own = ["sessions.csv", "weights.npz", "checkpoint.pkl", "recordings/", "notes.txt",
+    own = ["sessions.csv", "weights.npz", "checkpoint.npz", "recordings/", "notes.txt",
            "figures.txt", "video_final.mp4"]
     derived = ["figures/", "report/", "evaluation/", "evaluation.parts/", "video_trial00.mp4",
                "power_trial0.json"]
