@@ -65,6 +65,9 @@ def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str,
 def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, str]]:
     """``{model: {"sha256": ..., "content": ...}}`` of model files' texts, for manifests."""
     from ...models.files import file_sha256
+    if models is not None and not isinstance(models, Mapping):
+        raise InputError(f"expected a mapping {{model name: model file text}}, got "
+                         f"{type(models).__name__}", culprit="models")
     out = {}
     for name, item in (models or {}).items():
         if isinstance(item, Mapping) and isinstance(item.get("content"), str):
@@ -86,6 +89,11 @@ def model_set(overrides: Overrides | None = None,
     from ...models import INTERFACES, Model
     from ...models.files import check_interface, file_sha256, model_from_toml
 
+    for given, what in ((models, "models"), (equations, "equations")):
+        if given is not None and not isinstance(given, Mapping):
+            value = "model file text" if what == "models" else "equation text"
+            raise InputError(f"expected a mapping {{model name: {value}}}, got "
+                             f"{type(given).__name__}", culprit=what)
     files = models
     models = base
     known = dict(models.items())
