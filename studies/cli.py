@@ -756,6 +756,7 @@ def _cmd_models(args: argparse.Namespace) -> int:
 
 def _cmd_robot(args: argparse.Namespace) -> int:
     from ..coupling.robot import A1Parameters, export_xml
+    from .files.folder import refuse_in_use
     from .files.outputs import atomic_path
 
     path = Path(args.path)
@@ -768,6 +769,7 @@ def _cmd_robot(args: argparse.Namespace) -> int:
         raise InputError("is a folder; name the file to write", culprit=f"robot export {path}")
     if path.exists() and not args.overwrite:
         raise InputError("exists; --overwrite replaces it", culprit=f"robot export {path}")
+    refuse_in_use(path, culprit=f"robot export {path}")
     atomic_path(path, lambda tmp: export_xml(tmp, A1Parameters()))
     print(f"wrote {path}")
     return 0

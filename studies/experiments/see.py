@@ -15,7 +15,7 @@ import numpy as np
 
 from ...errors import EnvironmentFault, InputError, one_line
 from ..figures.traces import FORMATS, recorded_span, save_figures, trace_figures
-from ..files.folder import OutputFolder
+from ..files.folder import OutputFolder, refuse_in_use
 from ..files.outputs import write_manifest
 from ..files.result import Result, load
 from .trained import FIGURES, plot_training
@@ -209,6 +209,7 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
         raise InputError(f"folder '{path.parent}' does not exist", culprit=f"--out {path}")
     if out is not None and path.exists() and not overwrite:
         raise InputError("exists; --overwrite replaces it", culprit=f"--out {path}")
+    refuse_in_use(path, culprit=f"--out {path}" if out is not None else str(folder))
     n_frames = frame_count(rob["t"], fps, speed)
     if n_frames > MAX_FRAMES:  # before a frame index of that length is built
         raise InputError(f"{n_frames:.3g} frames ({_span(rob['t'])} s recorded x fps {fps:g} / "

@@ -34,7 +34,7 @@ from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
 from ...network import codegen_target, interlimb_labels, run_network
 from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
-                            holds_results)
+                            holds_results, refuse_in_use)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..files.result import Result
@@ -435,6 +435,9 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     given again on the command line) must agree with the stored settings. Returns the
     training's Result, like :func:`train`."""
     out = Path(folder)
+    # a training (or a study's run) that another process is training now: its files are in
+    # flux and its lock is that process's, whatever they say
+    refuse_in_use(out, culprit=f"--resume {out}")
     if not (out / CHECKPOINT).exists():
         # stopped before its first checkpoint: nothing was trained, so start again from the
         # settings its manifest recorded
