@@ -948,6 +948,9 @@ case("study-failed-run-one-line",
                  "--workers", "1", "--no-progress"),
      1, "failures.csv", "none", out, check=failures_named)
 # unbounded work refused up front
+case("study-evaluate-repeats-beyond-memory",
+     lambda e: S("study", e.study(study_text() + "[evaluate]\nrepeats = 1000000000\n"),
+                 "--out", out(e)), 2, "[evaluate]", "absent", out)
 case("video-fps-1e9", lambda e: S("video", e.copy("run"), "--fps", "1e9"), 2, "--fps",
      "unchanged", lambda e: e.copy("run"))
 case("video-speed-tiny", lambda e: S("video", e.copy("run"), "--speed", "1e-9"), 2, "--speed",

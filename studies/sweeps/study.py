@@ -381,6 +381,11 @@ def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
                          f"swept values that differ only in punctuation)", culprit=where)
     evaluate = _evaluate_table(doc.get("evaluate"), p, where)
     if evaluate is not None:
+        # one evaluation network holds a run's trials x repeats: refused now, not after the runs
+        trials = max(r.n_trials for r in runs) * evaluate["repeats"]
+        check_memory(estimate_bytes(trials=trials, seconds=evaluate["seconds"], robot_stride=1),
+                     culprit=f"{where} [evaluate] seconds = {evaluate['seconds']:g} x "
+                             f"{trials} trials (repeats x seeds per run)")
         for c in evaluate["conditions"]:
             if c not in {r.condition for r in runs}:
                 raise InputError(f"[evaluate] conditions: no condition '{c}' in the study",
