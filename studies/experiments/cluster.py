@@ -19,6 +19,11 @@ from ...errors import InputError
 MAX_WORKERS_PER_CORE = 4
 
 
+def cores() -> int:
+    """This machine's cores (``os.cpu_count()``, at least 1): what bounds a local cluster."""
+    return os.cpu_count() or 1
+
+
 def check_workers(workers: int | None, culprit: str = "--workers") -> int | None:
     """``workers`` for a local cluster: at least 1 and at most :data:`MAX_WORKERS_PER_CORE`
     per core of this machine (InputError naming ``culprit``), or None (one per core)."""
@@ -26,11 +31,11 @@ def check_workers(workers: int | None, culprit: str = "--workers") -> int | None
         return None
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise InputError(f"must be at least 1, got {workers}", culprit=culprit)
-    cores = os.cpu_count() or 1
-    if workers > MAX_WORKERS_PER_CORE * cores:
-        raise InputError(f"{workers} worker processes on {cores} core(s) is more than "
+    n = cores()
+    if workers > MAX_WORKERS_PER_CORE * n:
+        raise InputError(f"{workers} worker processes on {n} core(s) is more than "
                          f"{MAX_WORKERS_PER_CORE} per core (at most "
-                         f"{MAX_WORKERS_PER_CORE * cores} here; each worker trains on one core)",
+                         f"{MAX_WORKERS_PER_CORE * n} here; each worker trains on one core)",
                          culprit=f"{culprit} {workers}")
     return workers
 
