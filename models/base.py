@@ -531,13 +531,12 @@ def _equation_error(e: BaseException) -> str:
     "Parsing failed:" then the line, a caret and pyparsing's reason on lines of their own."""
     cause = e.__cause__
     line, col = getattr(cause, "line", None), getattr(cause, "col", None)
-    if isinstance(line, str) and isinstance(col, int):
-        reason = getattr(cause, "msg", None) or str(cause).split("  (at char")[0]
-        found = str(cause).split("  (at char")[0]
+    if isinstance(line, str) and isinstance(col, int):  # a pyparsing ParseException
+        reason = str(cause).split("  (at char")[0].strip() or "cannot be read"
+        at = line[col - 1:col + 19].strip() or "the end"
         return (f"cannot parse line {getattr(cause, 'lineno', '?')}, column {col}: "
-                f"'{line.strip()}' ({found if found else reason}; at "
-                f"'{line[col - 1:col + 19].strip() or 'the end'}')")
-    text = " ".join(str(e).split())
+                f"'{line.strip()}' ({reason}; at '{at}')")
+    text = " ".join(str(e).split())  # every line, not only the first
     return text or type(e).__name__
 
 

@@ -669,6 +669,9 @@ def _cmd_study(args: argparse.Namespace) -> int:
         bad_input = bool(errors) and all(e.startswith("InputError") for e in errors.values())
         retry = ("fix the input and rerun the same command" if bad_input
                  else "rerun the same command to retry them")
+        print(f"not finished: {', '.join(res['failed'])}"
+              f"{' (errors in ' + res['failures'] + ')' if res.get('failures') else ''}; "
+              f"{retry}")
         sys.stderr.write(one_line(
             f"astrocpg: study {study.name}: {len(res['failed'])} of {len(study.runs)} run(s) "
             f"not finished ({', '.join(res['failed'][:5])}"

@@ -105,3 +105,24 @@ def test_describe_refuses_wrong_arguments_naming_them(kw, culprit):
     with pytest.raises(ac.InputError) as e:
         ac.describe("astrocyte", **kw)
     assert culprit in str(e.value)
+
+
+@pytest.mark.parametrize("call, culprit", [
+    (lambda: ac.run(**CHEAP, out=3), "--out"), (lambda: ac.unit(**CHEAP, out=["o"]), "--out"),
+    (lambda: ac.run(**CHEAP, robot=3), "robot"), (lambda: ac.load(3), "folder"),
+    (lambda: ac.plot(None), "folder"), (lambda: ac.video(7), "folder"),
+    (lambda: ac.resume(3), "--resume"), (lambda: ac.train(out=3, sessions=1), "--out"),
+    (lambda: ac.run(**CHEAP, overrides=3), "overrides"),
+    (lambda: ac.run(**CHEAP, overrides=[("tau_motor", "9*ms")]), "overrides"),
+], ids=["run-out", "unit-out", "run-robot", "load", "plot", "video", "resume", "train-out",
+        "overrides-number", "overrides-pairs"])
+def test_a_path_or_override_of_the_wrong_type_is_an_input_error_naming_it(call, culprit):
+    with pytest.raises(ac.InputError) as e:
+        call()
+    assert culprit in str(e.value), str(e.value)
+
+
+def test_overrides_as_one_text_or_a_mapping():
+    a = ac.run(**CHEAP, overrides="tau_motor=9*ms", traces="none")
+    b = ac.run(**CHEAP, overrides={"tau_motor": "9*ms"}, traces="none")
+    assert np.array_equal(a.spike_times("motor"), b.spike_times("motor"))

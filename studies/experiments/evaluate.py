@@ -37,7 +37,7 @@ from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
 from ..analysis.gait import trial_gait
-from ..files.folder import OutputFolder, verify
+from ..files.folder import OutputFolder, as_path, verify
 from ..files.outputs import atomic_write, write_manifest
 from ..files.weights import load_weights
 from .resources import check_memory, estimate_bytes
@@ -316,7 +316,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     runs do; otherwise here, one after the other. Every finished cell is kept in
     ``<out>.parts/`` until the folder is written, so an interrupted evaluation, started again
     with the same arguments, runs only the cells it had not finished."""
-    folder = Path(folder)
+    folder = as_path(folder, "folder")
     seconds = number(seconds, "--seconds", positive=True)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
     seed = seed_number(seed)

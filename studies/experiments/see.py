@@ -15,7 +15,7 @@ import numpy as np
 
 from ...errors import EnvironmentFault, InputError, one_line
 from ..figures.traces import FORMATS, recorded_span, save_figures, trace_figures
-from ..files.folder import OutputFolder, refuse_in_use
+from ..files.folder import OutputFolder, as_path, refuse_in_use
 from ..files.outputs import write_manifest
 from ..files.result import Result, load
 from .trained import FIGURES, plot_training
@@ -56,7 +56,7 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     if fmt not in FORMATS:
         raise InputError(f"unknown format (formats: {', '.join(FORMATS)})",
                          culprit=f"--format {fmt}")
-    folder = Path(folder)
+    folder = as_path(folder, "folder")
     result = load(folder)
     if result.kind == "train":
         return plot_training(folder, trial=trial, seconds=seconds, out=out,
@@ -188,7 +188,7 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     from ...coupling.render import Replay, frame_count, frame_samples
     from ..files.outputs import atomic_path
 
-    folder = Path(folder)
+    folder = as_path(folder, "folder")
     for name, value in (("--fps", fps), ("--speed", speed)):
         if isinstance(value, bool) or not isinstance(value, (int, float)) \
                 or not np.isfinite(value) or value <= 0:

@@ -4,7 +4,7 @@ checks of the numbers every experiment takes (durations, counts, sampling)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 from ...errors import InputError
 from ...models import DEFAULT_MODELS, ModelSet
@@ -22,7 +22,15 @@ def override_items(overrides: Overrides | None) -> list[str]:
         return [f"{k}={_value_text(v)}" for k, v in overrides.items()]
     if isinstance(overrides, str):
         return [overrides]
-    return [str(o) for o in overrides]
+    if isinstance(overrides, (bytes, bytearray)) or not isinstance(overrides, Iterable):
+        raise InputError(f"expected NAME=VALUE texts or a mapping {{name: value}}, got "
+                         f"{type(overrides).__name__}", culprit="overrides")
+    items = list(overrides)
+    for item in items:
+        if not isinstance(item, str):
+            raise InputError(f"expected NAME=VALUE texts (e.g. \"tau_motor=9*ms\"), got "
+                             f"{item!r}", culprit="overrides")
+    return items
 
 
 def _value_text(value: Any) -> str:

@@ -34,7 +34,7 @@ from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
 from ...network import codegen_target, interlimb_labels, run_network
 from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
-                            holds_results, refuse_in_use)
+                            as_path, holds_results, refuse_in_use)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..files.result import Result
@@ -415,7 +415,7 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
         astrocytes=bool(astrocytes), overrides=override_items(overrides),
         equations=dict(equations or {}), models=model_files_record(models))
     model_set(settings.overrides, settings.equations, models=settings.models)  # before any file
-    out = Path(out)
+    out = as_path(out, "--out")
     if (out / CHECKPOINT).exists() and not overwrite:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
                          f"replace it with --overwrite)", culprit=f"--out {out}")
@@ -434,7 +434,7 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     and end with the same files as a training never interrupted; ``expect`` (e.g. the options
     given again on the command line) must agree with the stored settings. Returns the
     training's Result, like :func:`train`."""
-    out = Path(folder)
+    out = as_path(folder, "--resume")
     # a training (or a study's run) that another process is training now: its files are in
     # flux and its lock is that process's, whatever they say
     refuse_in_use(out, culprit=f"--resume {out}")

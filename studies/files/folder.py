@@ -64,6 +64,15 @@ def _now() -> str:
     return time.strftime("%Y-%m-%dT%H:%M:%S%z")
 
 
+def as_path(value: Any, culprit: str) -> Path:
+    """A path argument of the API as a Path: text or an os.PathLike; anything else (a number,
+    a list, None) is an InputError naming ``culprit`` instead of a TypeError from inside."""
+    if isinstance(value, (str, os.PathLike)) and not isinstance(value, bytes):
+        return Path(value)
+    raise InputError(f"expected a path (text or a pathlib.Path), got {type(value).__name__}",
+                     culprit=culprit)
+
+
 # ---------------------------------------------------------------- temporaries
 def temp_prefix(stem: str, kind: str = "tmp") -> str:
     """``.<stem>.<kind>-<pid>-``: the start of a hidden temporary's name, for ``tempfile``.
@@ -221,7 +230,7 @@ class OutputFolder:
 
     def __init__(self, target: str | os.PathLike, *, overwrite: bool = False,
                  culprit: str | None = "--out") -> None:
-        self.shown = Path(target)
+        self.shown = as_path(target, culprit or "out")
         path = os.path.abspath(os.fspath(target))
         if os.path.islink(path):  # write where the link points, and keep the link
             path = os.path.realpath(path)
@@ -762,7 +771,7 @@ class FolderLock:
         self.release()
 
 
-__all__ = ["OutputFolder", "FolderLock", "holder_of", "refuse_in_use", "inventory", "verify",
+__all__ = ["OutputFolder", "FolderLock", "as_path", "holder_of", "refuse_in_use", "inventory", "verify",
            "append_history",
            "clean_stale_temporaries", "temp_prefix", "parse_temp_name", "pid_alive", "exchange",
            "MANIFEST", "LOCK_NAME", "OWNER_NAME", "UNLISTED", "DERIVED"]
