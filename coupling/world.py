@@ -206,5 +206,6 @@ def add_disturbances(bridge, models: ModelSet) -> None:
     bridge.add_hook("before_physics", "world", disturb, order=ORDER_WORLD)
 
 
-__all__ = ["World", "ORDER_WORLD", "MIN_TERRAIN_RESOLUTION", "terrain_grid", "heightfield", "world_model", "apply_world",
+__all__ = ["World", "ORDER_WORLD", "MIN_TERRAIN_RESOLUTION", "terrain_grid", "heightfield",
+           "world_model", "apply_world",
            "add_disturbances"]

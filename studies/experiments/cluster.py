@@ -181,4 +181,5 @@ def run_on_cluster(client: Any, fn: Callable[..., Any], items: Sequence[tuple[st
             f.release()
 
 
-__all__ = ["MAX_WORKERS_PER_CORE", "check_scheduler", "check_workers", "connect_cluster", "run_on_cluster"]
+__all__ = ["MAX_WORKERS_PER_CORE", "check_scheduler", "check_workers", "connect_cluster", "cores",
+           "run_on_cluster"]

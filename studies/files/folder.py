@@ -771,7 +771,8 @@ class FolderLock:
         self.release()
 
 
-__all__ = ["OutputFolder", "FolderLock", "as_path", "holder_of", "refuse_in_use", "inventory", "verify",
+__all__ = ["OutputFolder", "FolderLock", "as_path", "holder_of", "refuse_in_use", "inventory",
+           "verify",
            "append_history",
            "clean_stale_temporaries", "temp_prefix", "parse_temp_name", "pid_alive", "exchange",
            "MANIFEST", "LOCK_NAME", "OWNER_NAME", "UNLISTED", "DERIVED"]
