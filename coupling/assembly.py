@@ -18,10 +18,10 @@ from brian2 import second
 
 from ..errors import InputError
 from ..models import ModelSet
-from ..network import CPG, LEGS, build_cpg, check_runs, run_network
+from ..network import CPG, LEGS, build_cpg, check_runs, limb_stages, run_network
 from .bridge import Bridge
 from .robot import A1Parameters, RobotLayout
-from .world import add_disturbances, world_model
+from .world import World, add_disturbances, world_model
 
 
 @dataclass
@@ -43,6 +43,16 @@ class ClosedLoop:
         :class:`~astrocpg.errors.Diverged` itself (:func:`~astrocpg.network.run_network`)."""
         kwargs.setdefault("namespace", {})
         run_network(self.cpg.net, seconds * second, **kwargs)
+
+
+def check_models(models: ModelSet, robot_params: A1Parameters | None = None) -> None:
+    """What building the closed loop of ``models`` would refuse, found without building it
+    (milliseconds): the world's values and its terrain's grid, and the inter-limb delays (they
+    must order the limbs in stages, :func:`~astrocpg.network.limb_stages`). A study checks
+    every point with it before any run starts. InputError naming the parameter."""
+    params = robot_params if robot_params is not None else A1Parameters()
+    World.from_models(models)
+    limb_stages(models, LEGS, params.timestep * second)
 
 
 def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
@@ -83,4 +93,4 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
     return ClosedLoop(cpg=cpg, robot=model, robot_layout=layout, bridge=bridge, models=models)
 
 
-__all__ = ["ClosedLoop", "build_closed_loop"]
+__all__ = ["ClosedLoop", "build_closed_loop", "check_models"]

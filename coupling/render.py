@@ -155,17 +155,26 @@ class Replay:
         self.close()
 
 
+def frame_count(t: np.ndarray, fps: float, speed: float = 1.0) -> float:
+    """How many frames :func:`frame_samples` makes of the samples at times ``t`` (a float: it
+    may be far too many to make, e.g. ``fps=1e9``)."""
+    t = np.asarray(t, dtype=float)
+    if len(t) == 0:
+        return 0.0
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    duration = float(t[-1] - t[0]) + step  # each sample stands for one stride
+    return max(1.0, float(np.round(duration * fps / speed)))
+
+
 def frame_samples(t: np.ndarray, fps: float, speed: float = 1.0) -> np.ndarray:
     """Sample index of each video frame: frame j shows simulated time t0 + j*speed/fps (the
     nearest sample at or before it); as many frames as the recording's duration fills."""
     t = np.asarray(t, dtype=float)
     if len(t) == 0:
         return np.zeros(0, dtype=np.intp)
-    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    duration = float(t[-1] - t[0]) + step  # each sample stands for one stride
-    n = max(1, int(round(duration * fps / speed)))
+    n = int(frame_count(t, fps, speed))
     times = t[0] + np.arange(n) * speed / fps
     return np.clip(np.searchsorted(t, times + 1e-9, side="right") - 1, 0, len(t) - 1)
 
 
-__all__ = ["Replay", "choose_gl", "frame_samples", "BACKENDS"]
+__all__ = ["Replay", "choose_gl", "frame_count", "frame_samples", "BACKENDS"]

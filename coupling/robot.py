@@ -250,6 +250,9 @@ def export_xml(path: str | os.PathLike, params: A1Parameters = A1Parameters()) -
 def load_robot(path: str | os.PathLike) -> mujoco.MjModel:
     """Load a user MJCF that has the A1's joints, motors and a free trunk; one-line errors."""
     quiet_mujoco_log()
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"expected the path of an MJCF file, got {type(path).__name__}",
+                         culprit="robot")
     p = Path(path)
     if not p.is_file():
         raise InputError("no such file", culprit=f"--robot {p}")

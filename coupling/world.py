@@ -59,6 +59,15 @@ class World:
         if not abs(values["slope"]) < math.pi / 2:
             raise InputError(f"must lie within (-pi/2, pi/2) rad, got {values['slope']:g}",
                              culprit="world.slope")
+        if values["terrain_height"] > 0:  # the heightfield's grid, refused before it is made
+            res, nx, ny = terrain_grid(values["terrain_length"])
+            if res < MIN_TERRAIN_RESOLUTION:
+                raise InputError(
+                    f"a correlation length of {values['terrain_length']:g} m needs a "
+                    f"heightfield grid of {res:.3g} m ({nx} x {ny} = {nx * ny:.3g} cells); the "
+                    f"finest grid is {MIN_TERRAIN_RESOLUTION * 100:g} cm, so terrain_length "
+                    f"must be at least {4 * MIN_TERRAIN_RESOLUTION:g} m",
+                    culprit="world.terrain_length")
         return cls(**values)
 
     @property
@@ -67,14 +76,27 @@ class World:
         return self.push_force != 0.0 or self.torque_noise != 0.0
 
 
+#: The finest heightfield grid (m): 4001 x 1001 cells over the terrain's 40 m x 10 m, a
+#: terrain_length of 4 cm. A shorter correlation length would need a finer grid (the cells grow
+#: as 1/length^2: 1 mm, a thousand times more) and is refused before anything is built.
+MIN_TERRAIN_RESOLUTION = 0.01
+
+
+def terrain_grid(length: float) -> tuple[float, int, int]:
+    """(resolution m, columns along x, rows along y) of the heightfield for a correlation
+    length ``length`` (m): 5 cm, finer for short lengths (4 cells per length)."""
+    res = min(TERRAIN_RESOLUTION, length / 4)
+    nx = int(round((TERRAIN_X[1] - TERRAIN_X[0]) / res)) + 1 if res > 0 else 0
+    ny = int(round((TERRAIN_Y[1] - TERRAIN_Y[0]) / res)) + 1 if res > 0 else 0
+    return res, nx, ny
+
+
 def heightfield(world: World) -> np.ndarray:
     """Ground heights (rows along y, columns along x; m) of the rough terrain: white noise from
     ``terrain_seed`` filtered by a Gaussian kernel so that the heights' correlation falls to 1/e
     at ``terrain_length``, zero mean, RMS ``terrain_height``, flattened smoothly to 0 within
     ``TERRAIN_FLAT_RADIUS`` of the start so that the robot is not dropped onto a bump."""
-    res = min(TERRAIN_RESOLUTION, world.terrain_length / 4)
-    nx = int(round((TERRAIN_X[1] - TERRAIN_X[0]) / res)) + 1
-    ny = int(round((TERRAIN_Y[1] - TERRAIN_Y[0]) / res)) + 1
+    res, nx, ny = terrain_grid(world.terrain_length)
     white = np.random.default_rng(world.terrain_seed).standard_normal((ny, nx))
     # kernel exp(-2 r^2 / l^2) in space -> correlation exp(-r^2 / l^2)
     s = world.terrain_length / 2.0
@@ -185,5 +207,6 @@ def add_disturbances(bridge, models: ModelSet) -> None:
     bridge.add_hook("before_physics", "world", disturb, order=ORDER_WORLD)
 
 
-__all__ = ["World", "ORDER_WORLD", "heightfield", "world_model", "apply_world",
+__all__ = ["World", "ORDER_WORLD", "MIN_TERRAIN_RESOLUTION", "terrain_grid", "heightfield",
+           "world_model", "apply_world",
            "add_disturbances"]

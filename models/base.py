@@ -280,6 +280,8 @@ class Model:
             if not isinstance(value, str):
                 raise InputError(f"must be a code string, got {type(value).__name__}",
                                  culprit=f"{self.name}.{role}")
+            if role != self.code_field and self.kind != "expression":
+                _refuse_attribute_access(value, f"{self.name}.{role}")
         self._validate()
         # one name check for every model: a parameter named dt, ms, exp, pi or like one of
         # the model's own variables would never be the value the code reads
@@ -533,6 +535,42 @@ class WorldModel(Model):
                          culprit=self.name)
 
 
+def _refuse_attribute_access(code: str, culprit: str) -> None:
+    """Brian2's statements and conditions (threshold, reset, on_pre, ...) name variables and
+    functions directly; ``a.b`` or ``exp.exp(x)`` got as far as Brian2's code generation,
+    which failed with "'Attribute' object has no attribute 'id'". Refused here, naming the
+    field and the text. Code that is not Python (Brian2's own syntax) is left to Brian2."""
+    import ast
+
+    for part in code.replace(";", "\n").splitlines():
+        part = part.split("#", 1)[0].strip()
+        if not part:
+            continue
+        try:
+            tree = ast.parse(part)
+        except (SyntaxError, ValueError, RecursionError, MemoryError):
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute):
+                raise InputError(f"'{part}': '.{node.attr}' (attribute access) is not part of "
+                                 f"Brian2's code strings; name variables and functions "
+                                 f"directly, e.g. exp(x)", culprit=culprit)
+
+
+def _equation_error(e: BaseException) -> str:
+    """Brian2's parse error in one line with the text it stopped at: its message is
+    "Parsing failed:" then the line, a caret and pyparsing's reason on lines of their own."""
+    cause = e.__cause__
+    line, col = getattr(cause, "line", None), getattr(cause, "col", None)
+    if isinstance(line, str) and isinstance(col, int):  # a pyparsing ParseException
+        reason = str(cause).split("  (at char")[0].strip() or "cannot be read"
+        at = line[col - 1:col + 19].strip() or "the end"
+        return (f"cannot parse line {getattr(cause, 'lineno', '?')}, column {col}: "
+                f"'{line.strip()}' ({reason}; at '{at}')")
+    text = " ".join(str(e).split())  # every line, not only the first
+    return text or type(e).__name__
+
+
 def _parse_equations(owner: str, text: str, role: str = "equations") -> Equations:
     if not isinstance(text, str):
         raise InputError(f"must be a code string, got {type(text).__name__}",
@@ -540,9 +578,8 @@ def _parse_equations(owner: str, text: str, role: str = "equations") -> Equation
     try:
         return Equations(text)
     except Exception as e:  # Brian2 raises EquationError / SyntaxError / ValueError
-        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        raise InputError(f"equation string is invalid: {first}", culprit=f"{owner}.{role}") \
-            from None
+        raise InputError(f"equation string is invalid: {_equation_error(e)}",
+                         culprit=f"{owner}.{role}") from None
 
 
 def brian_error_line(err: BaseException) -> str:

@@ -19,9 +19,11 @@ manifest.json) and a training resumes only under the target it started with.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 from pathlib import Path
+from typing import Iterator
 
 import brian2
 
@@ -67,6 +69,43 @@ def _cache_is_empty() -> bool:
         return True
 
 
+@contextlib.contextmanager
+def _compiler_output_hidden() -> Iterator[None]:
+    """Brian2's test compilation runs the C compiler, whose messages (a broken compiler's
+    errors) go straight to file descriptor 2, and logs its failure in eight lines: both are
+    kept out of the terminal (the one line is ours, below). Brian2's log records are muted
+    too, for callers that have not muted them (the command line mutes all logging)."""
+    import logging
+
+    brian_log = logging.getLogger("brian2")
+    level = brian_log.level
+    brian_log.setLevel(logging.CRITICAL + 1)
+    saved = None
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, 2)
+        finally:
+            os.close(devnull)
+    except (OSError, ValueError):  # no usable descriptor 2: nothing to hide
+        if saved is not None:
+            os.close(saved)
+            saved = None
+    try:
+        yield
+    finally:
+        if saved is not None:
+            try:
+                sys.stderr.flush()
+            except (OSError, ValueError):
+                pass
+            os.dup2(saved, 2)
+            os.close(saved)
+        brian_log.setLevel(level)
+
+
 def use_codegen(value: str | None = None) -> str:
     """Set Brian2's target for the objects built from now on (``codegen_target(value)``) and
     return it. Cython needs the Cython package and a working C compiler: without them this is
@@ -76,7 +115,9 @@ def use_codegen(value: str | None = None) -> str:
         from brian2.codegen.runtime.cython_rt import CythonCodeObject
 
         cold = _cache_is_empty()  # before Brian2's test compilation adds a module to it
-        if not CythonCodeObject.is_available():
+        with _compiler_output_hidden():
+            available = CythonCodeObject.is_available()
+        if not available:
             raise EnvironmentFault(
                 "the Cython target needs the Cython package and a C compiler that Brian2 can "
                 "use (pip install cython; a compiler such as gcc); numpy needs neither",

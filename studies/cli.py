@@ -507,10 +507,23 @@ def _main(argv: Sequence[str] | None) -> int:
         sys.stdout.write(listing)
         return 0
     _survive_any_bytes()
-    warnings.filterwarnings("ignore", module="brian2")
-    # Brian2 logs a second line on Ctrl-C ("Simulation stop requested"): we say "interrupted"
-    logging.getLogger("brian2").addFilter(
-        lambda record: "stop requested" not in record.getMessage())
+    # One line, always: a command reports through its result or its one error line, so no
+    # library's warning (numpy's "input contained no data", Brian2's, Dask's) or log record
+    # (Brian2's console log, its "Simulation stop requested" on Ctrl-C) reaches stderr. Both
+    # are restored when the command ends (main() runs in-process in tests and notebooks).
+    quiet = warnings.catch_warnings()
+    quiet.__enter__()
+    warnings.simplefilter("ignore")
+    logging_was = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        return _run_command(args)
+    finally:
+        logging.disable(logging_was)
+        quiet.__exit__(None, None, None)
+
+
+def _run_command(args: argparse.Namespace) -> int:
     # only the main thread may set handlers (main() called in another thread: none of ours)
     in_main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _sigterm) if in_main else None
@@ -548,6 +561,10 @@ def _main(argv: Sequence[str] | None) -> int:
         sys.stderr.write("astrocpg: environment: out of memory\n")
         return 1
     except Exception as e:  # a bug of ours: still one line, the traceback on request
+        fault = _environment_fault(e)
+        if fault is not None:  # a library refusing the environment it was given
+            sys.stderr.write(f"astrocpg: environment: {fault.line}\n")
+            return fault.exit_code
         if os.environ.get("ASTROCPG_DEBUG"):
             raise
         sys.stderr.write(f"astrocpg: internal error: {type(e).__name__}: {one_line(str(e), 300)} "
@@ -591,6 +608,32 @@ def _interrupted(e: BaseException) -> bool:
         seen.add(id(err))
         err = err.__context__
     return False
+
+
+#: Environment variables that libraries read when imported and refuse with an exception of
+#: their own (MuJoCo: "invalid value for environment variable MUJOCO_GL: bogus" from
+#: ``import mujoco``; "Failed to import OpenGL backend (MUJOCO_GL='egl')"): such an error is
+#: the environment's, not a bug of astrocpg.
+LIBRARY_ENVIRONMENT = ("MUJOCO_GL", "PYOPENGL_PLATFORM")
+
+
+def _environment_fault(e: BaseException) -> EnvironmentFault | None:
+    """The EnvironmentFault naming the variable when ``e`` (or an error it came from) is a
+    library refusing one of :data:`LIBRARY_ENVIRONMENT`; else None."""
+    seen: set[int] = set()
+    err: BaseException | None = e
+    while err is not None and id(err) not in seen:
+        seen.add(id(err))
+        text = str(err)
+        for name in LIBRARY_ENVIRONMENT:
+            if name in text:
+                value = os.environ.get(name)
+                shown = f"{name}={value}" if value is not None else name
+                return EnvironmentFault(f"{type(err).__name__}: {one_line(text, 300)} (set it "
+                                        f"to a value the library accepts, or unset it)",
+                                        culprit=shown)
+        err = err.__cause__ or err.__context__
+    return None
 
 
 def _kind(e: AstrocpgError) -> str:
@@ -731,7 +774,7 @@ def _cmd_video(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from .sweeps.study import FAILURES, RESULTS, load_study, prepare_study, run_study
+    from .sweeps.study import RESULTS, load_study, prepare_study, run_study
 
     study = load_study(args.file)
     out = Path(args.out) if args.out else Path("out") / study.name
@@ -760,8 +803,23 @@ def _cmd_study(args: argparse.Namespace) -> int:
     if res.get("evaluation"):
         print(f"evaluated in other worlds: {res['evaluation']}/ (evaluation.csv, summary.csv)")
     if res["failed"]:
-        print(f"not finished: {', '.join(res['failed'])} (errors in {out / FAILURES}); "
-              f"rerun the same command to retry them")
+        # one line on stderr, like every failure: which runs, the first error, where the rest
+        # is (only a file that exists), and whether a rerun can help
+        errors = res.get("errors") or {}
+        first = next(iter(errors.items()), None)
+        where = f"; errors in {res['failures']}" if res.get("failures") else ""
+        bad_input = bool(errors) and all(e.startswith("InputError") for e in errors.values())
+        retry = ("fix the input and rerun the same command" if bad_input
+                 else "rerun the same command to retry them")
+        print(f"not finished: {', '.join(res['failed'])}"
+              f"{' (errors in ' + res['failures'] + ')' if res.get('failures') else ''}; "
+              f"{retry}")
+        sys.stderr.write(one_line(
+            f"astrocpg: study {study.name}: {len(res['failed'])} of {len(study.runs)} run(s) "
+            f"not finished ({', '.join(res['failed'][:5])}"
+            f"{', ...' if len(res['failed']) > 5 else ''})"
+            + (f"; {first[0]}: {one_line(first[1], 200)}" if first else "")
+            + f"{where}; {retry}", 900) + "\n")
         return 1
     return 0
 
@@ -774,6 +832,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
     smooth = number(args.smooth, "--smooth", integer=True, minimum=1)
     written = report(Path(args.dir), last=last, smooth=smooth, out=args.out,
                      overwrite=args.overwrite)
+    if written.get("no_data"):  # a partial study: the groups left out are named, not dropped
+        sys.stderr.write(one_line(f"astrocpg: note: no data yet for {len(written['no_data'])} "
+                                  f"group(s) of {args.dir}: {'; '.join(written['no_data'])}",
+                                  900) + "\n")
     print(written["text"])
     print(f"wrote {', '.join(str(p) for p in written['files'])}")
     return 0
@@ -840,6 +902,7 @@ def _cmd_models(args: argparse.Namespace) -> int:
 
 def _cmd_robot(args: argparse.Namespace) -> int:
     from ..coupling.robot import A1Parameters, export_xml
+    from .files.folder import refuse_in_use
     from .files.outputs import atomic_path
 
     path = Path(args.path)
@@ -852,6 +915,7 @@ def _cmd_robot(args: argparse.Namespace) -> int:
         raise InputError("is a folder; name the file to write", culprit=f"robot export {path}")
     if path.exists() and not args.overwrite:
         raise InputError("exists; --overwrite replaces it", culprit=f"robot export {path}")
+    refuse_in_use(path, culprit=f"robot export {path}")
     atomic_path(path, lambda tmp: export_xml(tmp, A1Parameters()))
     print(f"wrote {path}")
     return 0

@@ -1305,6 +1305,181 @@ for option, value in (("--sessions", "5"), ("--trials", "2"), ("--no-astrocytes"
                                         *([v] if v else [])), 2, option, "unchanged",
          lambda e: e.copy("train"))
 
+# ---- study integrity, bounds on work, one line always (studyint: issue 20, classes 7, 9, 10)
+_HOLDERS: list[subprocess.Popen] = []
+
+
+def _kill_holders() -> None:
+    while _HOLDERS:
+        p = _HOLDERS.pop()
+        p.kill()
+        p.wait()
+
+
+import atexit as _atexit  # noqa: E402
+
+_atexit.register(_kill_holders)
+
+
+def held_study(e: Env) -> Path:
+    """A copy of the tiny study as while it runs: another process holds its folder (the study's
+    process) and its run folder (the worker training it)."""
+    def make() -> Path:
+        d = e.copy("study", "study_held")
+        run = d / "runs" / "astro__seed1"
+        code = ("import time\nfrom astrocpg.studies.files.folder import FolderLock\n"
+                f"a = FolderLock({str(d)!r}).acquire()\n"
+                f"b = FolderLock({str(run)!r}, inside={str(d)!r}).acquire()\n"
+                "print('held', flush=True)\ntime.sleep(300)\n")
+        p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+        _HOLDERS.append(p)
+        assert p.stdout is not None and p.stdout.readline().strip() == "held"
+        return d
+    return e._once("held_study", make)
+
+
+def released(e: Env) -> None:
+    _kill_holders()
+
+
+def held_run(e: Env) -> Path:
+    return held_study(e) / "runs" / "astro__seed1"
+
+
+def fake_server(greeting: bytes | None) -> str:
+    """tcp://127.0.0.1:PORT of a server that greets each connection with ``greeting`` (None:
+    says nothing), e.g. an HTTP server's answer where a Dask scheduler was expected."""
+    import socket
+    import threading
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+
+    def serve() -> None:
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            if greeting is not None:
+                try:
+                    conn.sendall(greeting)
+                except OSError:
+                    pass
+            threading.Timer(10.0, conn.close).start()
+
+    threading.Thread(target=serve, daemon=True).start()
+    return f"tcp://127.0.0.1:{srv.getsockname()[1]}"
+
+
+def failures_named(e: Env) -> None:
+    """A failed study run: failures.csv exists (the one line points to it)."""
+    assert (out(e) / "failures.csv").is_file()
+
+
+DELAY_STUDY = (study_text(batch=1) + '[sweep.axes]\ndelay_FR_FL = ["1*ms", "0*ms"]\n')
+TERRAIN_STUDY = (study_text(batch=1) + 'terrain_height = "0.01*meter"\n'
+                 '[sweep.axes]\nterrain_length = ["0.5*meter", "0.001*meter"]\n')
+FINE_WORLDS = '[worlds.rough]\nterrain_height = "0.01*meter"\nterrain_length = "0.001*meter"\n'
+TOO_MANY_WORKERS = str(4 * (os.cpu_count() or 1) + 1)
+EXIT_BASE = 'r_IP3 = "1e306*umolar/second"\n'  # a study run that diverges: it fails
+
+# a study's run folders are its workers' while they train, the study folder its own
+case("study-held-run-train-resume", lambda e: S("train", "--resume", held_run(e)), 2,
+     "in use", "unchanged", held_study, check=released)
+case("study-held-run-out-overwrite", lambda e: S("run", "--out", held_run(e), "--overwrite"), 2,
+     "in use", "unchanged", held_study, check=released)
+case("study-held-runs-folder-overwrite",
+     lambda e: S("run", "--out", held_study(e) / "runs", "--overwrite"), 2, "lies inside",
+     "unchanged", held_study, check=released)
+case("study-held-new-subfolder", lambda e: S("unit", "--out", held_study(e) / "runs" / "mine"),
+     2, "lies inside", "unchanged", held_study, check=released)
+case("study-held-train-into-subfolder",
+     lambda e: S("train", "--out", held_study(e) / "runs" / "mine"), 2, "lies inside",
+     "unchanged", held_study, check=released)
+case("study-held-plot-run", lambda e: S("plot", held_run(e)), 2, "in use", "unchanged",
+     held_study, check=released)
+case("study-held-power-run", lambda e: S("power", held_run(e)), 2, "in use", "unchanged",
+     held_study, check=released)
+case("study-held-report", lambda e: S("report", held_study(e)), 2, "in use", "unchanged",
+     held_study, check=released)
+case("study-held-evaluate", lambda e: S("evaluate", held_study(e), "--seconds", "0.05",
+                                        "--no-progress"), 2, "in use", "unchanged",
+     held_study, check=released)
+case("study-held-rerun", lambda e: S("study", e.study(TINY_STUDY), "--out", held_study(e),
+                                     "--workers", "1", "--no-progress"), 2, "in use",
+     "unchanged", held_study, check=released)
+case("study-held-export-into", lambda e: S("export", e.copy("run"), "--out",
+                                           held_study(e) / "x.nwb"), 2, "in use", "unchanged",
+     held_study, check=released)
+# every point's model settings before any run: named with the point and the parameter
+case("study-point-invalid-delay-table", lambda e: S("study", e.study(DELAY_STUDY), "--out",
+                                                    out(e), "--workers", "1"),
+     2, "delay_FR_FL=0*ms", "absent", out)
+case("study-point-terrain-grid-too-fine", lambda e: S("study", e.study(TERRAIN_STUDY), "--out",
+                                                      out(e), "--workers", "1"),
+     2, "terrain_length", "absent", out)
+case("study-failed-run-one-line",
+     lambda e: S("study", e.study(study_text(batch=1) + EXIT_BASE), "--out", out(e),
+                 "--workers", "1", "--no-progress"),
+     1, "failures.csv", "none", out, check=failures_named)
+# unbounded work refused up front
+case("study-evaluate-repeats-beyond-memory",
+     lambda e: S("study", e.study(study_text() + "[evaluate]\nrepeats = 1000000000\n"),
+                 "--out", out(e)), 2, "[evaluate]", "absent", out)
+case("video-fps-1e9", lambda e: S("video", e.copy("run"), "--fps", "1e9"), 2, "--fps",
+     "unchanged", lambda e: e.copy("run"))
+case("video-speed-tiny", lambda e: S("video", e.copy("run"), "--speed", "1e-9"), 2, "--speed",
+     "unchanged", lambda e: e.copy("run"))
+case("run-terrain-grid-too-fine", lambda e: S("run", "--set", "terrain_height=0.01*meter",
+                                              "--set", "terrain_length=1e-4*meter", "--out",
+                                              out(e)), 2, "world.terrain_length", "absent", out)
+case("evaluate-world-terrain-grid-too-fine",
+     lambda e: S("evaluate", e.copy("train"), "--worlds", e.file("w.toml", FINE_WORLDS),
+                 "--seconds", "0.05", "--no-progress", "--out", out(e)),
+     2, "terrain_length", "absent", out)
+case("study-workers-beyond-the-cores", lambda e: S("study", e.study(study_text()), "--workers",
+                                                   TOO_MANY_WORKERS, "--out", out(e)),
+     2, "--workers", "absent", out)
+case("evaluate-workers-beyond-the-cores",
+     lambda e: S("evaluate", e.copy("train"), "--workers", TOO_MANY_WORKERS, "--out", out(e)),
+     2, "--workers", "absent", out)
+case("study-scheduler-silent", lambda e: S("study", e.study(study_text()), "--scheduler",
+                                           fake_server(None), "--out", out(e)),
+     2, "--scheduler", "absent", out)
+case("study-scheduler-speaks-http",
+     lambda e: S("study", e.study(study_text()), "--scheduler",
+                 fake_server(b"HTTP/1.1 400 Bad Request\r\n\r\n"), "--out", out(e)),
+     2, "not a Dask scheduler", "absent", out)
+case("study-scheduler-malformed", lambda e: S("study", e.study(study_text()), "--scheduler",
+                                              "nonsense", "--out", out(e)),
+     2, "--scheduler nonsense", "absent", out)
+# one line, always
+case("run-weights-empty-csv", lambda e: S("run", "--weights", e.file("empty.csv", ""), "--out",
+                                          out(e)), 2, "empty.csv", "absent", out)
+case("unit-model-attribute-in-reset",
+     lambda e: S("unit", "--model", "motor_neuron=" + str(e.file(
+         "mn.toml", _dumped("motor_neuron").replace(
+             'reset = "v = v_motor_rest; Ca += r_Ca"',
+             'reset = "v = v_motor_rest; Ca += exp.exp(1)*r_Ca"'))), "--out", out(e)),
+     2, "motor_neuron.reset", "absent", out)
+case("unit-equations-parse-error-keeps-the-text",
+     lambda e: S("unit", "--equations", "motor_neuron=" + str(e.file(
+         "eq.txt", "dv/dt = -v/(9*ms) : volt (unknown\n")), "--out", out(e)),
+     2, "column 26", "absent", out)
+case("video-disk-full", lambda e: S("video", e.copy("run"), "--size", "640", "480", "--fps",
+                                    "1000", "--speed", "0.05", "--out",
+                                    e.tmp / "small" / "v.mp4"), 1, "No space left", "absent",
+     lambda e: e.tmp / "small" / "v.mp4", subprocess={"tmpfs": "small", "size": "4k"},
+     check=no_temporaries_beside(lambda e: e.tmp / "small" / "v.mp4"))
+
+
+def _dumped(model: str) -> str:
+    from astrocpg.models import DEFAULT_MODELS
+    from astrocpg.models.files import model_to_toml
+    return model_to_toml(dict(DEFAULT_MODELS.items())[model])
+
 
 # ---------------------------------------------------------------- running a case
 def sha_tree(root: Path) -> dict[str, str]:

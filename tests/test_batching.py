@@ -95,7 +95,17 @@ def stored_cost(tmp_path, monkeypatch):
     return cost
 
 
-def test_a_study_chooses_its_batch_and_the_folder_keeps_it(tmp_path, stored_cost) -> None:
+@pytest.fixture
+def sixteen_cores(monkeypatch) -> None:
+    """A machine of 16 cores for --workers 16 (a local cluster has at most 4 workers per
+    core: check_workers)."""
+    from astrocpg.studies.experiments import cluster
+
+    monkeypatch.setattr(cluster, "cores", lambda: 16)
+
+
+def test_a_study_chooses_its_batch_and_the_folder_keeps_it(tmp_path, stored_cost,
+                                                           sixteen_cores) -> None:
     p = tmp_path / "auto.toml"
     p.write_text(AUTO.format(seeds=32))
     study = load_study(p)
@@ -131,7 +141,7 @@ def test_an_older_folder_without_a_recorded_batch_keeps_its_runs(tmp_path, store
     assert resolve_batch(load_study(p), out, workers=16, progress=False).batch == 2
 
 
-def test_a_fixed_batch_is_left_alone(tmp_path, stored_cost) -> None:
+def test_a_fixed_batch_is_left_alone(tmp_path, stored_cost, sixteen_cores) -> None:
     p = tmp_path / "fixed.toml"
     p.write_text(AUTO.format(seeds=6).replace('batch = "auto"', "batch = 3"))
     study = load_study(p)

@@ -25,6 +25,7 @@ import os
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+from ...errors import InputError
 from ..files.export import export as export_folder
 from ..files.result import Result, Trace, load
 from .run import run
@@ -54,6 +55,25 @@ def export(folder: str | os.PathLike, format: str = "nwb",
     (names as "Last, First") and ``institution`` are recorded in the file. Read the NWB file
     with ``pynwb.NWBHDF5IO(path, "r").read()``; the cell of each trace column is in
     ``processing["misc"]["astrocyte_trace_columns"]`` / ``["motor_trace_columns"]``."""
+    if isinstance(folder, Result):  # a result written to a folder: that folder
+        if folder.folder is None:
+            raise InputError("this Result was not written to a folder (run it with out=...); "
+                             "export reads a folder", culprit="folder")
+        folder = folder.folder
+    if not isinstance(folder, (str, os.PathLike)):
+        raise InputError(f"expected a folder (a path or a Result with one), got "
+                         f"{type(folder).__name__}", culprit="folder")
+    if not isinstance(format, str):
+        raise InputError(f"expected 'nwb' or 'npz', got {format!r}", culprit="format")
+    if out is not None and not isinstance(out, (str, os.PathLike)):
+        raise InputError(f"expected a file path, got {type(out).__name__}", culprit="out")
+    if isinstance(experimenter, str):  # one name, not its characters
+        experimenter = (experimenter,)
+    elif not all(isinstance(x, str) for x in experimenter or ()):
+        raise InputError("expected names as text ('Last, First')", culprit="experimenter")
+    if institution is not None and not isinstance(institution, str):
+        raise InputError(f"expected text, got {type(institution).__name__}",
+                         culprit="institution")
     return export_folder(Path(folder), format, None if out is None else Path(out),
                          overwrite=overwrite, experimenter=experimenter,
                          institution=institution)

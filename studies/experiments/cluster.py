@@ -13,34 +13,106 @@ from typing import Any, Callable, Sequence
 from ...errors import InputError
 
 
+#: A local cluster has at most this many worker processes per core: each trains one run at a
+#: time on one core, so more only share the cores (and each holds its own Brian2 and MuJoCo),
+#: while starting hundreds takes minutes.
+MAX_WORKERS_PER_CORE = 4
+
+
+def cores() -> int:
+    """This machine's cores (``os.cpu_count()``, at least 1): what bounds a local cluster."""
+    return os.cpu_count() or 1
+
+
+def check_workers(workers: int | None, culprit: str = "--workers") -> int | None:
+    """``workers`` for a local cluster: at least 1 and at most :data:`MAX_WORKERS_PER_CORE`
+    per core of this machine (InputError naming ``culprit``), or None (one per core)."""
+    if workers is None:
+        return None
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError(f"must be at least 1, got {workers}", culprit=culprit)
+    n = cores()
+    if workers > MAX_WORKERS_PER_CORE * n:
+        raise InputError(f"{workers} worker processes on {n} core(s) is more than "
+                         f"{MAX_WORKERS_PER_CORE} per core (at most "
+                         f"{MAX_WORKERS_PER_CORE * n} here; each worker trains on one core)",
+                         culprit=f"{culprit} {workers}")
+    return workers
+
+
 def connect_cluster(workers: int | None, scheduler: str | None):
-    """(client, local cluster or None): a running scheduler, or a local cluster."""
+    """(client, local cluster or None): a running scheduler, or a local cluster (of
+    ``workers`` processes, :func:`check_workers`)."""
     from distributed import Client, LocalCluster
 
     if scheduler:
-        _reachable(scheduler)
+        check_scheduler(scheduler)
         try:
             return Client(scheduler, timeout="10s"), None
         except Exception as e:  # OSError / TimeoutError / ValueError for a bad address
             first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
             raise InputError(f"cannot connect ({first})", culprit=f"--scheduler {scheduler}") \
                 from None
-    n = workers or os.cpu_count() or 1
+    n = check_workers(workers) or os.cpu_count() or 1
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                            dashboard_address=":0", silence_logs=logging.ERROR)
     return Client(cluster), cluster
 
 
-def _reachable(scheduler: str) -> None:
-    """A closed port is refused at once (Dask's client would wait out its whole timeout)."""
-    m = re.fullmatch(r"(?:tcp://)?\[?([^\]/]+?)\]?:(\d+)/?", scheduler.strip())
-    if not m:
-        return  # other protocols and forms: Dask's client says what is wrong
+#: Seconds the probe of ``--scheduler`` waits to connect, and then for the scheduler to greet.
+PROBE_TIMEOUT = 5.0
+#: A Dask comm's first message starts with its header's length (8 bytes, little-endian): a
+#: handshake is a few hundred bytes. Anything longer is not a Dask scheduler (an HTTP server,
+#: e.g. the dashboard on 8787, answers "HTTP/1.1", read as 3.5e18 bytes: "Unable to allocate
+#: 3.07 EiB").
+MAX_GREETING = 1 << 20
+
+
+def check_scheduler(scheduler: str) -> None:
+    """Refuse in a few seconds, with one line naming ``--scheduler``, an address where no Dask
+    scheduler answers: a malformed address, a closed port or an unreachable host (instead of
+    Dask's client waiting out its whole timeout), or a server that speaks something else (an
+    HTTP server such as the dashboard, SSH). ``tcp://`` addresses are probed; other protocols
+    (tls://, ucx://, inproc://) are left to Dask's client."""
+    culprit = f"--scheduler {scheduler}"
+    if not isinstance(scheduler, str) or not scheduler.strip():
+        raise InputError("needs an address such as tcp://127.0.0.1:8786", culprit=culprit)
+    text = scheduler.strip()
+    if "://" in text and not text.startswith("tcp://"):
+        return  # other protocols: Dask's client says what is wrong
+    m = re.fullmatch(r"(?:tcp://)?\[?([^\]/]+?)\]?:(\d+)/?", text)
+    if not m or not 0 < int(m.group(2)) < 65536:
+        raise InputError("is not an address of the form tcp://HOST:PORT (e.g. "
+                         "tcp://127.0.0.1:8786)", culprit=culprit)
     try:
-        socket.create_connection((m.group(1), int(m.group(2))), timeout=3).close()
+        sock = socket.create_connection((m.group(1), int(m.group(2))), timeout=PROBE_TIMEOUT)
     except OSError as e:
-        raise InputError(f"cannot connect ({e.strerror or type(e).__name__})",
-                         culprit=f"--scheduler {scheduler}") from None
+        reason = e.strerror or ("timed out" if isinstance(e, TimeoutError)
+                                else type(e).__name__)
+        raise InputError(f"cannot connect ({reason})", culprit=culprit) from None
+    try:
+        sock.settimeout(PROBE_TIMEOUT)
+        head = b""
+        try:
+            while len(head) < 8:
+                chunk = sock.recv(8 - len(head))
+                if not chunk:
+                    break
+                head += chunk
+        except OSError:  # silent (a scheduler greets at once): decided below
+            pass
+    finally:
+        sock.close()
+    hint = ("a scheduler's address is printed when it starts, by default on port 8786 "
+            "(8787 is its dashboard)")
+    if len(head) < 8:  # a Dask scheduler greets every connection at once
+        raise InputError("the server there does not answer like a Dask scheduler (no greeting "
+                         f"within {PROBE_TIMEOUT:g} s); {hint}", culprit=culprit)
+    size = int.from_bytes(head, "little")
+    if size > MAX_GREETING:
+        spoken = head.split(b"/")[0].split(b"-")[0].decode("ascii", "replace")
+        what = f" (it speaks {spoken})" if spoken.isalpha() else ""
+        raise InputError(f"is not a Dask scheduler{what}; {hint}", culprit=culprit)
 
 
 class _ImportBrian2:
@@ -109,4 +181,5 @@ def run_on_cluster(client: Any, fn: Callable[..., Any], items: Sequence[tuple[st
             f.release()
 
 
-__all__ = ["connect_cluster", "run_on_cluster"]
+__all__ = ["MAX_WORKERS_PER_CORE", "check_scheduler", "check_workers", "connect_cluster", "cores",
+           "run_on_cluster"]

@@ -33,12 +33,13 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from .cluster import check_scheduler, check_workers
 from ...errors import EnvironmentFault, InputError
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
 from ..analysis.fall import first_fall
 from ..analysis.gait import trial_gait
-from ..files.folder import OutputFolder, verify
+from ..files.folder import OutputFolder, as_path, verify
 from ..files.outputs import atomic_write, write_manifest
 from ..files.weights import load_weights
 from .resources import check_memory, estimate_bytes
@@ -332,13 +333,17 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     runs do; otherwise here, one after the other. Every finished cell is kept in
     ``<out>.parts/`` until the folder is written, so an interrupted evaluation, started again
     with the same arguments, runs only the cells it had not finished."""
-    folder = Path(folder)
+    folder = as_path(folder, "folder")
     seconds = number(seconds, "--seconds", positive=True)
     check_duration(seconds, STEP)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
     seed = seed_number(seed)
-    if workers is not None and workers < 1:
+    if scheduler is None:
+        check_workers(workers)
+    elif workers is not None and workers < 1:
         raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
+    else:
+        check_scheduler(scheduler)
     target = Path(out) if out is not None else folder / "evaluation"
     # what it reads (the training or study, a worlds file) is never replaced nor written into
     # but at folder/evaluation
@@ -358,6 +363,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
         verify(c["folder"], strict=False)
         plans.append((c, load_weights(c["folder"], culprit=""), trained_models(c["settings"])))
     world_set = read_worlds(worlds, plans[0][2])
+    _check_worlds(plans, world_set, worlds)
     n_max = max(len(t) for _, t, _ in plans) * repeats
     check_memory(estimate_bytes(trials=n_max, seconds=seconds, dt=STEP, robot_stride=1),
                  culprit=f"--seconds {seconds:g} x {n_max} trials")
@@ -409,6 +415,26 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
                        results={"status": "finished", "rows": len(rows)})
     parts.remove()
     return {"rows": rows, "summary": summary, "out": target, "figures": sorted(figures)}
+
+
+def _check_worlds(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],
+                  world_set: "WorldSet", source: Any) -> None:
+    """Every world as each (distinct) controller's models meet it, checked as a build would
+    check it (terrain grid, values; :func:`~astrocpg.coupling.assembly.check_models`) before
+    any cell runs: a bad world stops the evaluation at once, not after the others ran."""
+    from ...coupling.assembly import check_models
+
+    seen: set[str] = set()
+    for c, _, models in plans:
+        key = json.dumps(c["settings"], sort_keys=True, default=str)
+        if key in seen:
+            continue
+        seen.add(key)
+        for name, world in world_set.worlds.items():
+            try:
+                check_models(in_world(models, world))
+            except InputError as e:
+                raise InputError(f"world '{name}': {e}", culprit=f"--worlds {source}") from None
 
 
 def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],

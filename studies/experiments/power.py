@@ -167,9 +167,12 @@ def power(folder: Path, *, trial: int = 0, sessions: int = 10, progress: bool = 
           argv: list[str] | None = None) -> tuple[Path, dict[str, Any]]:
     """:func:`measure`, then ``power_trial<K>.json`` in ``folder`` (with package versions);
     returns its path and the figures."""
+    from ..files.folder import refuse_in_use
     from ..files.outputs import package_versions, save_json
 
-    res = measure(Path(folder), trial=trial, sessions=sessions, progress=progress)
     path = Path(folder) / f"power_trial{trial}.json"
+    refuse_in_use(path, culprit=str(folder))  # a training or study run that is running
+    res = measure(Path(folder), trial=trial, sessions=sessions, progress=progress)
+    refuse_in_use(path, culprit=str(folder))
     save_json(path, res | {"package_versions": package_versions(), "argv": argv or []})
     return path, res

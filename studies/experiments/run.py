@@ -85,13 +85,19 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     models = model_set(overrides, equations, models=models)
     if weights is None:
         table = None
-    elif isinstance(weights, np.ndarray):
-        table = np.asarray(weights, dtype=float)
-        if table.shape[-2:] != (8, 8) or not np.all(np.isfinite(table)):
+    elif isinstance(weights, (str, os.PathLike)):
+        table = load_weights(weights, trial)
+    else:  # an array, or nested lists of numbers: tables in volt
+        try:
+            table = np.asarray(weights, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"expected a file, a training folder or 8x8 tables of numbers in "
+                             f"volt, got {type(weights).__name__}", culprit="weights") from None
+        if table.ndim not in (2, 3) or table.shape[-2:] != (8, 8) \
+                or not np.all(np.isfinite(table)):
             raise InputError(f"expected finite 8x8 tables in volt, got shape {table.shape}",
                              culprit="weights")
-    else:
-        table = load_weights(weights, trial)
+        weights = table
     if table is not None and table.ndim == 3 and table.shape[0] != trials:
         raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
                          culprit=f"--weights {weights if not isinstance(weights, np.ndarray) else ''}")

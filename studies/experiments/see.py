@@ -3,16 +3,21 @@ DIR`` (the recorded robot replayed in MuJoCo's offscreen renderer, as MP4)."""
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
+import sys
+import tempfile
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
-from ...errors import InputError, did_you_mean
+from ...errors import EnvironmentFault, InputError, did_you_mean, one_line
 from ..figures.traces import (FIGURE_FUNCTIONS, FORMATS, recorded_span, save_figures,
                               trace_figures)
-from ..files.folder import OutputFolder, check_output_path, check_replaceable
+from ..files.folder import (OutputFolder, as_path, check_output_path, check_replaceable,
+                            refuse_in_use)
 from ..files.outputs import write_manifest
 from ..files.result import Result, load
 from .progress import Bar
@@ -57,7 +62,7 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
         raise InputError(f"unknown format{did_you_mean(fmt, FORMATS)} (formats: "
                          f"{', '.join(FORMATS)})",
                          culprit=f"--format {fmt}")
-    folder = Path(folder)
+    folder = as_path(folder, "folder")
     result = load(folder)
     if result.kind == "train":
         return plot_training(folder, trial=trial, seconds=seconds, out=out,
@@ -120,6 +125,50 @@ def _replayed(folder: Path, trial: int) -> tuple[Result, int]:
     return result, trial
 
 
+#: Bounds of a video, checked before anything is rendered: H.264 players show at most a few
+#: hundred frames per second, and 100,000 frames (55 minutes at 30 fps) render for hours.
+MAX_FPS = 1000
+MAX_FRAMES = 100_000
+
+
+def _span(t: Any) -> str:
+    t = np.asarray(t, dtype=float)
+    return f"{float(t[-1] - t[0]):.3g}" if len(t) else "0"
+
+
+@contextlib.contextmanager
+def _stderr_into(fd: int) -> Iterator[None]:
+    """File descriptor 2 points to ``fd`` for the block (a child process started in it keeps
+    that stderr); Python's own ``sys.stderr`` is flushed first."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        os.dup2(fd, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _ffmpeg_fault(err: BaseException, log: Any, path: Path) -> BaseException:
+    """The failure of ffmpeg (or of the pipe to it) as one line: ffmpeg's last message, e.g.
+    "No space left on device" (then an OSError ENOSPC naming ``path``, like any full disk)."""
+    try:
+        log.seek(0)
+        said = log.read().decode("utf-8", "replace")
+    except OSError:
+        said = ""
+    lines = [x.strip() for x in said.splitlines() if x.strip()]
+    text = " ".join([*lines[-2:], *([] if lines else [str(err).strip().splitlines()[0]
+                                                       if str(err).strip() else ""])])
+    if "No space left" in said or getattr(err, "errno", None) == errno.ENOSPC:
+        return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), os.fspath(path))
+    if getattr(err, "errno", None) == errno.EFBIG or "File too large" in said:
+        return OSError(errno.EFBIG, os.strerror(errno.EFBIG), os.fspath(path))
+    return EnvironmentFault(f"ffmpeg could not write the video: "
+                            f"{one_line(text, 300) or type(err).__name__}", culprit=str(path))
+
+
 def _size(size: Any) -> tuple[int, int]:
     try:
         w, h = (int(x) for x in size)
@@ -146,13 +195,16 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     "seconds"}."""
     import imageio.v2 as imageio
 
-    from ...coupling.render import Replay, frame_samples
+    from ...coupling.render import Replay, frame_count, frame_samples
     from ..files.outputs import atomic_path
 
-    folder = Path(folder)
+    folder = as_path(folder, "folder")
     for name, value in (("--fps", fps), ("--speed", speed)):
-        if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not np.isfinite(value) or value <= 0:
             raise InputError("must be a positive number", culprit=f"{name} {value}")
+    if fps > MAX_FPS:
+        raise InputError(f"must be at most {MAX_FPS} frames per second", culprit=f"--fps {fps}")
     width, height = _size(size)
     result, b = _replayed(folder, trial)
     rob = result.robot
@@ -172,6 +224,12 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     if out is not None and path.exists() and not overwrite:
         raise InputError("exists; --overwrite replaces it", culprit=f"--out {path}")
     check_replaceable(path, culprit=f"--out {path}")
+    refuse_in_use(path, culprit=f"--out {path}" if out is not None else str(folder))
+    n_frames = frame_count(rob["t"], fps, speed)
+    if n_frames > MAX_FRAMES:  # before a frame index of that length is built
+        raise InputError(f"{n_frames:.3g} frames ({_span(rob['t'])} s recorded x fps {fps:g} / "
+                         f"speed {speed:g}) is more than {MAX_FRAMES}; lower --fps or raise "
+                         f"--speed", culprit=f"--fps {fps:g} --speed {speed:g}")
     samples = frame_samples(rob["t"], fps, speed)
     model, layout = _robot_model(result)
 
@@ -185,21 +243,37 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
 
     def write(tmp: Path) -> None:
         bar = Bar(total=len(samples), unit="frame", desc="rendering", disable=not progress)
-        with Replay(model, layout, rob["joint_angles"][b], rob["torso_position"][b],
-                    rob["torso_quaternion"][b], width=width, height=height) as replay:
+        # ffmpeg writes its errors (a full disk, ...) to the stderr it inherits: into this
+        # file instead, and from there into our one line
+        log = tempfile.TemporaryFile()
+        with log, Replay(model, layout, rob["joint_angles"][b], rob["torso_position"][b],
+                         rob["torso_quaternion"][b], width=width, height=height) as replay:
             writer = imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264",
                                         pixelformat="yuv420p", macro_block_size=2, quality=7,
                                         ffmpeg_log_level="error")
             try:
-                # the bar counts frames written, here: a count kept by the frame generator
-                # (after its yield) missed the last frame, which zip never resumes it for
-                for k, frame in zip(samples, replay.frames(samples)):
-                    if strip is not None:
-                        frame = np.concatenate([frame, strip.draw(int(k))], axis=0)
-                    writer.append_data(frame)
-                    bar.update(1)
+                try:
+                    started = False
+                    # the bar counts frames written, here: a count kept by the frame generator
+                    # (after its yield) missed the last frame, which zip never resumes it for
+                    for k, frame in zip(samples, replay.frames(samples)):
+                        if strip is not None:
+                            frame = np.concatenate([frame, strip.draw(int(k))], axis=0)
+                        if not started:  # the first frame starts ffmpeg: its stderr is the log
+                            with _stderr_into(log.fileno()):
+                                writer.append_data(frame)
+                            started = True
+                        else:
+                            writer.append_data(frame)
+                        bar.update(1)
+                    writer.close()
+                except (OSError, RuntimeError) as e:
+                    try:
+                        writer.close()
+                    except Exception:  # noqa: BLE001 - already failing: the first error counts
+                        pass
+                    raise _ffmpeg_fault(e, log, path) from None
             finally:
-                writer.close()
                 bar.close()
 
     atomic_path(path, write)

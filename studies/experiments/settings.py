@@ -4,7 +4,7 @@ checks of the numbers every experiment takes (durations, counts, sampling)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 from ...errors import InputError, did_you_mean
 from ...models import DEFAULT_MODELS, ModelSet
@@ -22,7 +22,15 @@ def override_items(overrides: Overrides | None) -> list[str]:
         return [f"{k}={_value_text(v)}" for k, v in overrides.items()]
     if isinstance(overrides, str):
         return [overrides]
-    return [str(o) for o in overrides]
+    if isinstance(overrides, (bytes, bytearray)) or not isinstance(overrides, Iterable):
+        raise InputError(f"expected NAME=VALUE texts or a mapping {{name: value}}, got "
+                         f"{type(overrides).__name__}", culprit="overrides")
+    items = list(overrides)
+    for item in items:
+        if not isinstance(item, str):
+            raise InputError(f"expected NAME=VALUE texts (e.g. \"tau_motor=9*ms\"), got "
+                             f"{item!r}", culprit="overrides")
+    return items
 
 
 def _value_text(value: Any) -> str:
@@ -85,6 +93,9 @@ def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str,
 def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, str]]:
     """``{model: {"sha256": ..., "content": ...}}`` of model files' texts, for manifests."""
     from ...models.files import file_sha256
+    if models is not None and not isinstance(models, Mapping):
+        raise InputError(f"expected a mapping {{model name: model file text}}, got "
+                         f"{type(models).__name__}", culprit="models")
     out = {}
     for name, item in (models or {}).items():
         if isinstance(item, Mapping) and isinstance(item.get("content"), str):
@@ -107,6 +118,11 @@ def model_set(overrides: Overrides | None = None,
     from ...models.files import (check_interface, check_parameters_used, file_sha256,
                                  model_from_toml)
 
+    for given, what in ((models, "models"), (equations, "equations")):
+        if given is not None and not isinstance(given, Mapping):
+            value = "model file text" if what == "models" else "equation text"
+            raise InputError(f"expected a mapping {{model name: {value}}}, got "
+                             f"{type(given).__name__}", culprit=what)
     files = models
     models = base
     known = dict(models.items())

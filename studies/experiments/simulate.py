@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from collections.abc import Iterable
 from typing import Any
 
 import mujoco
@@ -39,11 +40,30 @@ class SimulationResult:
     monitors: dict[str, Any] = field(default_factory=dict)  # the Brian2 monitors, by name
 
 
+def names_list(value: Any, culprit: str) -> tuple[str, ...]:
+    """Names from a list (tuple, set...) of texts or one text of names separated by commas
+    (never read one character at a time); InputError naming ``culprit`` for anything else."""
+    if isinstance(value, str):
+        text = value.strip()
+        return () if text in ("", "none") else tuple(x.strip() for x in text.split(","))
+    if isinstance(value, (bytes, bytearray)) or not isinstance(value, Iterable):
+        raise InputError(f"expected names (a list of texts, or one text of names separated by "
+                         f"commas), got {type(value).__name__}", culprit=culprit)
+    names = tuple(value)
+    for name in names:
+        if not isinstance(name, str):
+            raise InputError(f"expected names as text, got {name!r} ({type(name).__name__})",
+                             culprit=culprit)
+    return names
+
+
 def check_selection(spikes: tuple[str, ...] | None,
                     traces: tuple[str, ...] | None) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """Validate which populations' spikes and which traces to record (None: all)."""
-    spikes = POPULATIONS if spikes is None else tuple(spikes)
-    traces = TRACES if traces is None else tuple(traces)
+    """Validate which populations' spikes and which traces to record (None: all). Each is a
+    list of names or one text of names separated by commas (``"motor"``, ``"motor,astrocyte"``;
+    ``"none"`` or ``""``: nothing), as the command line takes them."""
+    spikes = POPULATIONS if spikes is None else names_list(spikes, "--spikes")
+    traces = TRACES if traces is None else names_list(traces, "--traces")
     for name in spikes:
         if name not in POPULATIONS:
             raise InputError(f"unknown population '{name}'{did_you_mean(name, POPULATIONS)} "

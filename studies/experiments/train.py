@@ -37,7 +37,7 @@ from ..files.checkpoint import (CHECKPOINT, LEGACY_CHECKPOINT, holds_checkpoint,
                                refuse_legacy, write_checkpoint as write_checkpoint_file)
 from ..files.checkpoint import read_checkpoint as read_checkpoint_file
 from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
-                            holds_results, remove_derived)
+                            as_path, holds_results, refuse_in_use, remove_derived)
 from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..files.result import Result
@@ -537,7 +537,7 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
         astrocytes=bool(astrocytes), overrides=override_items(overrides),
         equations=dict(equations or {}), models=model_files_record(models))
     model_set(settings.overrides, settings.equations, models=settings.models)  # before any file
-    out = Path(out)
+    out = as_path(out, "--out")
     if not overwrite:
         refuse_legacy(out)  # --resume would refuse it too: say what to do with it
     if holds_checkpoint(out) and not overwrite:
@@ -566,7 +566,10 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     ``models``; and the recording options) must agree with them, or the resume is refused
     with the option and both values named (:func:`check_resume_options`): none is silently
     ignored. Returns the training's Result, like :func:`train`."""
-    out = Path(folder)
+    out = as_path(folder, "--resume")
+    # a training (or a study's run) that another process is training now: its files are in
+    # flux and its lock is that process's, whatever they say
+    refuse_in_use(out, culprit=f"--resume {out}")
     refuse_legacy(out)
     if not (out / CHECKPOINT).exists():
         # stopped before its first checkpoint: nothing was trained, so start again from the

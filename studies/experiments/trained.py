@@ -13,7 +13,7 @@ from ...errors import InputError
 from ..analysis.gait import (gait_label, leg_phases, phase_matrix, trial_gait,
                              weight_structure)
 from ..analysis.fall import fall_words, first_fall
-from ..files.folder import OutputFolder
+from ..files.folder import OutputFolder, as_path
 from ..files.outputs import write_manifest
 from .progress import Bar
 from .run import replay
@@ -90,7 +90,7 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     from ..figures.traces import FIGURE_FUNCTIONS, save_figures, trace_figures
     from ..files.result import load
 
-    folder = Path(folder)
+    folder = as_path(folder, "folder")
     # the default folder belongs to this command: replaced whole on every plot
     target = Path(out) if out is not None else folder / FIGURES
     OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]).check()

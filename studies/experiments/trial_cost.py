@@ -17,6 +17,7 @@ shape of costs (the choice depends only on the ratio ``fixed / per_trial``).
 from __future__ import annotations
 
 import json
+import math
 import os
 import platform
 import sys
@@ -26,6 +27,7 @@ from dataclasses import asdict, dataclass
 from datetime import datetime, timezone
 from importlib import metadata
 from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 
@@ -90,15 +92,63 @@ def machine_key(codegen: str) -> str:
                      f"python={platform.python_version()}", f"codegen={codegen}", *versions])
 
 
-def stored_trial_cost(codegen: str) -> TrialCost | None:
-    """The cost measured earlier on this machine for ``codegen``, or None."""
+def _positive(value: Any, *, zero: bool = False) -> bool:
+    """A finite number above 0 (or at least 0 with ``zero``), not a bool."""
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value) and (value >= 0 if zero else value > 0))
+
+
+def _entry_problem(entry: Any) -> str | None:
+    """Why a stored cost cannot be used (a hand-edited or corrupt cache: NaN, 0, negative,
+    infinite or missing values would project a study at "0 s" or fail), or None."""
+    if not isinstance(entry, dict):
+        return "its entry for this machine is not a table"
+    fields = {"fixed", "per_trial", "measured", "codegen", "key", "when"}
+    if set(entry) != fields:
+        return f"its entry for this machine needs exactly {', '.join(sorted(fields))}"
+    if not _positive(entry["fixed"], zero=True):
+        return f"fixed = {entry['fixed']!r} is not a finite number >= 0"
+    if not _positive(entry["per_trial"]):
+        return f"per_trial = {entry['per_trial']!r} is not a finite number > 0"
+    measured = entry["measured"]
+    if not isinstance(measured, dict) or len(measured) < 2:
+        return "measured must map two or more batch sizes to their costs"
+    for k, v in measured.items():
+        if not (isinstance(k, str) and k.isdigit() and int(k) >= 1) or not _positive(v):
+            return f"measured {k!r}: {v!r} is not a batch size with a finite cost > 0"
+    if not all(isinstance(entry[k], str) for k in ("codegen", "key", "when")):
+        return "codegen, key and when must be text"
+    return None
+
+
+def stored_trial_cost(codegen: str, *, note: Callable[[str], None] | None = None
+                      ) -> TrialCost | None:
+    """The cost measured earlier on this machine for ``codegen``, or None: none stored, or
+    the stored one unusable (not finite, zero or negative, malformed), which ``note`` is told
+    in one line naming the file (it is then measured again and stored over)."""
+    path = cache_dir() / COST_FILE
     try:
-        table = json.loads((cache_dir() / COST_FILE).read_text(encoding="utf-8"))
-        entry = table[machine_key(codegen)]
-        entry["measured"] = {int(k): float(v) for k, v in entry["measured"].items()}
-        return TrialCost(**entry)
-    except (OSError, ValueError, KeyError, TypeError):
+        table = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
         return None
+    except (OSError, ValueError) as e:
+        if note is not None:
+            note(f"ignoring {path} ({type(e).__name__}: not readable JSON); measuring again")
+        return None
+    if not isinstance(table, dict):
+        if note is not None:
+            note(f"ignoring {path} (not a JSON object); measuring again")
+        return None
+    entry = table.get(machine_key(codegen))
+    if entry is None:
+        return None
+    problem = _entry_problem(entry)
+    if problem is not None:
+        if note is not None:
+            note(f"ignoring the cost stored in {path} ({problem}); measuring again")
+        return None
+    entry = dict(entry, measured={int(k): float(v) for k, v in entry["measured"].items()})
+    return TrialCost(**entry)
 
 
 def store_trial_cost(cost: TrialCost) -> Path | None:
@@ -159,12 +209,16 @@ def _measure(target: str, sizes: tuple[int, ...], seconds: float, progress: bool
     return TrialCost.fit(measured, codegen=target, key=machine_key(target))
 
 
+def _note(text: str) -> None:
+    sys.stderr.write(f"astrocpg: note: {text}\n")
+
+
 def trial_cost(codegen: str | None = None, *, progress: bool = True) -> TrialCost:
     """The stored cost for this machine and target, measured (and stored) if there is none."""
     from ...network.codegen import codegen_target
 
     target = codegen_target(codegen)
-    cost = stored_trial_cost(target)
+    cost = stored_trial_cost(target, note=_note)
     if cost is None:
         cost = measure_trial_cost(target, progress=progress)
         store_trial_cost(cost)

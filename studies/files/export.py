@@ -72,7 +72,8 @@ import numpy as np
 
 from ...errors import InputError, did_you_mean
 from ...network.recordable import TRACE_SOURCES
-from .folder import check_output_path, check_replaceable, clean_stale_temporaries, verify
+from .folder import (check_output_path, check_replaceable, clean_stale_temporaries,
+                     refuse_in_use, verify)
 from .outputs import atomic_path, save_npz
 
 TRACE_MEANING = {
@@ -533,6 +534,7 @@ def export(folder: Path, fmt: str, out: Path | None = None, *, overwrite: bool =
     check_replaceable(path, culprit=shown)
     if not path.parent.is_dir():
         raise InputError(f"folder '{path.parent}' does not exist", culprit=shown)
+    refuse_in_use(path, culprit=shown)  # never into a folder a running train or study holds
     clean_stale_temporaries(path.parent)  # what a killed export left
     write = export_nwb if fmt == "nwb" else export_npz
     return write(folder, path, experimenter=experimenter, institution=institution)

@@ -15,8 +15,6 @@
   the same folder stops with one line naming the holder.
 * :func:`clean_stale_temporaries` -- hidden temporaries (folders and files) whose name carries
   the pid of a process that no longer exists are removed on the next start.
-* :func:`append_history` -- ``train --resume`` appends to the manifest's history instead of
-  replacing the original command line and creation time.
 
 Temporary names (one scheme for folders and files, made by :func:`temp_prefix`)::
 
@@ -72,6 +70,15 @@ _TEMP_RE = re.compile(r"^\.(?P<name>.+)\.(?P<kind>partial|replaced|tmp)-(?P<pid>
 
 def _now() -> str:
     return time.strftime("%Y-%m-%dT%H:%M:%S%z")
+
+
+def as_path(value: Any, culprit: str) -> Path:
+    """A path argument of the API as a Path: text or an os.PathLike; anything else (a number,
+    a list, None) is an InputError naming ``culprit`` instead of a TypeError from inside."""
+    if isinstance(value, (str, os.PathLike)) and not isinstance(value, bytes):
+        return Path(value)
+    raise InputError(f"expected a path (text or a pathlib.Path), got {type(value).__name__}",
+                     culprit=culprit)
 
 
 # ---------------------------------------------------------------- temporaries
@@ -373,7 +380,7 @@ class OutputFolder:
     def __init__(self, target: str | os.PathLike, *, overwrite: bool = False,
                  culprit: str | None = "--out",
                  inputs: Iterable[str | os.PathLike | None] = ()) -> None:
-        self.shown = Path(target)
+        self.shown = as_path(target, culprit or "out")
         #: what the command reads: the target may not be one, hold one, or lie inside one but
         #: at a derived place (:func:`check_output_path`)
         self.inputs = [p for p in inputs if p is not None]
@@ -432,6 +439,7 @@ class OutputFolder:
 
     def _check_target(self) -> None:
         t = self.target
+        refuse_in_use(t, culprit=self._who)  # another process's folder: say so first
         check_output_path(t, self.inputs, culprit=self._who)
         if not os.path.lexists(t):
             return
@@ -596,7 +604,8 @@ def _files(root: Path) -> Iterator[tuple[str, Path]]:
         for f in sorted(x for x in filenames if parse_temp_name(x) is None):
             path = Path(dirpath, f)
             rel = path.relative_to(root).as_posix()
-            if rel not in UNLISTED:
+            # a lock is never a result, at any depth (a study's worker locks its run folder)
+            if rel not in UNLISTED and f not in (LOCK_NAME, OWNER_NAME):
                 yield rel, path
 
 
@@ -756,6 +765,71 @@ def holds_results(folder: str | os.PathLike) -> bool:
 
 
 # ---------------------------------------------------------------- the lock
+#: Folders this process holds a :class:`FolderLock` on (real paths -> how many locks): its own
+#: writes into them (and below them) are never refused by :func:`refuse_in_use`.
+_HELD: dict[str, int] = {}
+
+
+def _locked_by_another(lock: Path) -> bool:
+    """Does a process hold the ``flock`` of the lock file ``lock``? A shared non-blocking
+    probe: it fails exactly while some process holds the exclusive lock (a killed holder's
+    lock is gone with it). A lock file that cannot be opened tells nothing: False."""
+    import fcntl
+
+    try:
+        fd = os.open(lock, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:
+        return False
+    else:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return False
+    finally:
+        os.close(fd)
+
+
+def holder_of(path: str | os.PathLike, *, stop: str | os.PathLike | None = None) -> Path | None:
+    """The folder at or above ``path`` that another process holds with a :class:`FolderLock`
+    (a running train or study, or a study's worker training one of its runs), or None.
+
+    Walks up from ``path``; the first folder with a live lock decides: held by this process
+    (its own writes) -> None, held by another -> that folder. ``stop``: a folder whose holder
+    has allowed this (a study's worker locks a run folder inside the study's folder): the walk
+    ends there."""
+    p = Path(os.path.abspath(os.fspath(path)))
+    end = None if stop is None else os.path.realpath(os.fspath(stop))
+    for d in (p, *p.parents):
+        real = os.path.realpath(d)
+        if end is not None and real == end:
+            return None
+        if not os.path.lexists(d / LOCK_NAME):
+            continue
+        if _HELD.get(real):
+            return None
+        if _locked_by_another(d / LOCK_NAME):
+            return d
+    return None
+
+
+def refuse_in_use(path: str | os.PathLike, *, culprit: str,
+                  stop: str | os.PathLike | None = None) -> None:
+    """InputError when ``path`` is, or lies inside, a folder another astrocpg process is using
+    (:func:`holder_of`): nothing may write into a training or a study while it runs, nor into
+    one of a study's runs while its worker trains it."""
+    held = holder_of(path, stop=stop)
+    if held is None:
+        return
+    lock = FolderLock(held)
+    here = Path(os.path.abspath(os.fspath(path))) == held
+    what = "is" if here else f"lies inside {held}, which is"
+    raise InputError(f"{what} {lock._in_use().removeprefix('is ')}", culprit=culprit)
+
+
 class FolderLock:
     """``with FolderLock(folder, culprit="--out"):`` -- this process owns ``folder`` while the
     block runs (train, study). A non-blocking exclusive lock (filelock; ``flock`` on Unix) on
@@ -764,11 +838,15 @@ class FolderLock:
     of a killed process does not block (the kernel drops it). Released, and both files removed,
     on exit. The folder must exist."""
 
-    def __init__(self, folder: str | os.PathLike, *, culprit: str | None = None) -> None:
+    def __init__(self, folder: str | os.PathLike, *, culprit: str | None = None,
+                 inside: str | os.PathLike | None = None) -> None:
         self.folder = Path(folder)
         self.culprit = culprit
+        # the folder above whose holder lets this one be locked (a study's, for its runs)
+        self.inside = inside
         self._lock: Any = None  # a filelock.BaseFileLock while held
         self._mine: dict[Path, os.stat_result] = {}
+        self._real: str | None = None
 
     @property
     def _who(self) -> str:
@@ -796,6 +874,9 @@ class FolderLock:
         if not self.folder.is_dir():
             raise InputError("no such folder" if not os.path.lexists(self.folder)
                              else "is not a folder", culprit=self._who)
+        # a folder inside one another process holds (a study's run folder while the study
+        # runs) is that process's: refused as the folder itself would be
+        refuse_in_use(self.folder, culprit=self._who, stop=self.inside)
         import filelock  # here: its import takes ~0.1 s of every command's start-up
 
         lock = filelock.FileLock(os.fspath(self.path), timeout=0)
@@ -806,6 +887,8 @@ class FolderLock:
         except OSError as e:
             raise EnvironmentFault.from_os_error(e, self.path, "cannot lock the folder") from None
         self._lock = lock
+        self._real = os.path.realpath(self.folder)
+        _HELD[self._real] = _HELD.get(self._real, 0) + 1
         try:
             self._mine[self.path] = os.stat(self.path)
             self._write_owner()
@@ -856,6 +939,13 @@ class FolderLock:
         finally:
             self._mine.clear()
             lock, self._lock = self._lock, None
+            if self._real is not None:
+                left = _HELD.get(self._real, 1) - 1
+                if left > 0:
+                    _HELD[self._real] = left
+                else:
+                    _HELD.pop(self._real, None)
+                self._real = None
             lock.release()
 
     def __enter__(self) -> "FolderLock":
@@ -865,7 +955,8 @@ class FolderLock:
         self.release()
 
 
-__all__ = ["OutputFolder", "FolderLock", "check_output_path", "check_replaceable",
-           "is_astrocpg_output", "inventory", "verify", "append_history",
-           "clean_stale_temporaries", "remove_derived", "temp_prefix", "temp_suffix", "parse_temp_name", "pid_alive", "exchange",
+__all__ = ["OutputFolder", "FolderLock", "as_path", "holder_of", "refuse_in_use",
+           "check_output_path", "check_replaceable", "is_astrocpg_output", "inventory",
+           "verify", "clean_stale_temporaries", "remove_derived",
+           "temp_prefix", "temp_suffix", "parse_temp_name", "pid_alive", "exchange",
            "MANIFEST", "LOCK_NAME", "OWNER_NAME", "UNLISTED", "DERIVED"]

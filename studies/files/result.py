@@ -29,7 +29,7 @@ import numpy as np
 from ...errors import InputError, did_you_mean
 from ...network.layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
 from ...network.recordable import POPULATIONS, TRACE_SOURCES
-from .folder import MANIFEST, verify
+from .folder import MANIFEST, as_path, verify
 
 #: what each ``astrocpg_command`` of a manifest loads as
 KINDS = {"unit": "unit", "run": "run", "train": "train", "study-run": "train",
@@ -460,7 +460,7 @@ def load(folder: str | os.PathLike) -> Result:
     recorded training session (``TRAINING/recordings/trialTT_sessionSSSS``) back into a
     :class:`Result`. A folder that is not an astrocpg output folder, or whose files are missing,
     changed or corrupt: InputError naming the folder."""
-    folder = Path(folder)
+    folder = as_path(folder, "folder")
     manifest = _check_folder(folder)
     command = manifest.get("astrocpg_command")
     kind = KINDS.get(command)

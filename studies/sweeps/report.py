@@ -184,6 +184,7 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     fig = Figure(figsize=(8, 8))
     axes = fig.subplots(3, 1, sharex=True)
     rows: list[dict[str, Any]] = []
+    empty: list[dict[str, Any]] = []  # groups without a finished session (a partial study)
     per_seed: list[dict[str, Any]] = []  # one row per (condition, point, seed)
     for k, ((condition, point), members) in enumerate(groups.items()):
         label = _group_label(members[0]["spec"])
@@ -202,7 +203,11 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
                 w_max = _model_values(m["spec"])[0]
                 for trial, w in enumerate(m["weights"]):
                     structure[m["spec"]["seed"] + trial] = weight_structure(w, w_max)
-        if not series:
+        if not series:  # no run of the group has finished a session: said, not dropped
+            empty.append({"group": label, "condition": condition, **dict(zip(swept, point)),
+                          "seeds": 0,
+                          "runs_finished": f"{states.count('finished')}/{len(states)}",
+                          "states": ", ".join(sorted(set(states)))})
             continue
         n = max(int(s["session"].max()) for s in series.values())
         color = f"C{k}"
@@ -272,12 +277,15 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     for file, f in figures.items():
         f.savefig(dest / file, dpi=110)
         files.append(dest / file)
-    atomic_write(dest / "final_figures.csv", lambda f: f.write(_csv(rows).encode()))
+    table_rows = rows + [{k: v for k, v in e.items() if k != "states"} for e in empty]
+    atomic_write(dest / "final_figures.csv", lambda f: f.write(_csv(table_rows).encode()))
     files.append(dest / "final_figures.csv")
     described = dict(shows)
     described["final_figures.csv"] = (f"per group (condition and sweep point): the final figures "
                                       f"of each seed (mean over its last sessions, --last "
-                                      f"{last}), mean and std across seeds")
+                                      f"{last}), mean and std across seeds"
+                                      + ("; a group with no data yet has seeds 0 and no figures"
+                                         if empty else ""))
     if tests:
         atomic_write(dest / TESTS, lambda f: f.write(_csv(tests).encode()))
         files.append(dest / TESTS)
@@ -287,11 +295,12 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     described["report.md"] = ("this page: the final figures, the tests between conditions, "
                               "the files written")
     text = _markdown(name, rows, tests, per_seed, study_sessions, last, swept, measures,
-                     described)
+                     described, empty)
     atomic_write(dest / "report.md", lambda f: f.write(text.encode()))
     files.append(dest / "report.md")
     return {"files": files, "rows": rows, "text": text, "figures": figures, "tests": tests,
-            "per_seed": per_seed, "described": described}
+            "per_seed": per_seed, "described": described,
+            "no_data": [e["group"] for e in empty]}
 
 
 def _sweep_figures(name: str, swept: list[str], runs: list[dict[str, Any]],
@@ -438,7 +447,8 @@ FORMATS = {"speed": ".3f", "final_x": ".2f", "length": ".2f", "reward": ".3f", "
 
 def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]],
               per_seed: list[dict[str, Any]], study_sessions: list[int], last: int,
-              swept: list[str], measures: list[Measure], described: dict[str, str]) -> str:
+              swept: list[str], measures: list[Measure], described: dict[str, str],
+              empty: list[dict[str, Any]] = ()) -> str:
     trained = [o["sessions"] for o in per_seed]
     used = [o["last_sessions"] for o in per_seed]
     planned = _span(min(study_sessions), max(study_sessions))
@@ -466,6 +476,11 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
             f"{_span(r['last_sessions_min'], r['last_sessions_max'])} | "
             + " | ".join(_pm(r, m.key, FORMATS[m.key]) for m in MEASURES + WEIGHT_MEASURES)
             + " |")
+    if empty:
+        lines += ["", f"**No data yet** for {len(empty)} group(s) (no run of theirs has "
+                      f"finished a session; not in the table, the curves or the tests): "
+                  + "; ".join(f"{e['group']} (runs finished {e['runs_finished']}, states: "
+                              f"{e['states']})" for e in empty) + "."]
     if tests:
         lines += ["", "## Conditions compared", "",
                   "Per seed one value (its final figure); difference = first condition minus "

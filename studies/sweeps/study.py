@@ -65,12 +65,14 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ...coupling.assembly import check_models
 from ...coupling.recorder import RecordPlan
 from ...coupling.training import SESSION_COLUMNS, session_steps
 from ...errors import EnvironmentFault, InputError, did_you_mean
 from ...models import DEFAULT_MODELS
 from ...network import exclusive
-from ..experiments.cluster import connect_cluster, run_on_cluster
+from ..experiments.cluster import (check_scheduler, check_workers, connect_cluster,
+                                   run_on_cluster)
 from ..experiments.resources import (available_memory, check_memory, estimate_bytes,
                                      estimate_wall_seconds)
 from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
@@ -379,6 +381,12 @@ def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
                 session_steps(run_models, STEP)  # whole steps, before anything runs
             except InputError as e:
                 raise InputError(f"{e}", culprit=cw) from None
+            try:  # what a run's build would refuse (delays, world): now, not in every run
+                check_models(run_models)
+            except InputError as e:
+                at = ", ".join(f"{k}={v}" for k, v in point.items())
+                raise InputError(f"{'point ' + at + ': ' if at else ''}{e}", culprit=cw) \
+                    from None
             session_s = float(np.asarray(run_models.progress.parameters["L_max"].value))
             tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
             for first, n in groups:
@@ -395,6 +403,11 @@ def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
                          f"swept values that differ only in punctuation)", culprit=where)
     evaluate = _evaluate_table(doc.get("evaluate"), p, where)
     if evaluate is not None:
+        # one evaluation network holds a run's trials x repeats: refused now, not after the runs
+        trials = max(r.n_trials for r in runs) * evaluate["repeats"]
+        check_memory(estimate_bytes(trials=trials, seconds=evaluate["seconds"], robot_stride=1),
+                     culprit=f"{where} [evaluate] seconds = {evaluate['seconds']:g} x "
+                             f"{trials} trials (repeats x seeds per run)")
         for c in evaluate["conditions"]:
             if c not in {r.condition for r in runs}:
                 raise InputError(f"[evaluate] conditions: no condition '{c}' in the study",
@@ -573,6 +586,21 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
     warnings.filterwarnings("ignore", module="brian2")
 
     out = prepare_output_dir(folder)
+    # the run folder is this worker's while it trains (inside the study's folder, which the
+    # study's process holds): `train --resume` or `run --out ... --overwrite` on it is refused
+    lock = FolderLock(out, culprit=f"run folder {out}", inside=out.parent.parent)
+    try:
+        lock.acquire()
+    except InputError as e:  # another process holds it: write nothing into it
+        return {"run_id": spec.run_id, "state": "failed", "error": f"InputError: {e}",
+                "not_written": True}
+    try:
+        return _execute_run_locked(spec, out)
+    finally:
+        lock.release()
+
+
+def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
     status = read_status(out)
     if status.get("state") == "finished":
         return status
@@ -743,8 +771,12 @@ def prepare_study(study: Study, out: Path, *, workers: int | None = None,
                   progress: bool = True) -> Study:
     """The checks of :func:`run_study` that need no cluster, and ``batch = "auto"`` chosen
     (:func:`resolve_batch`): the study as it will run. Writes nothing."""
-    if workers is not None and workers < 1:
+    if scheduler is None:  # a local cluster of that many processes: bounded by the cores
+        check_workers(workers)
+    elif workers is not None and workers < 1:
         raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
+    if scheduler is not None:  # a short probe now, not a long wait (or a strange error) later
+        check_scheduler(scheduler)
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputError("exists and is not a folder", culprit=f"--out {out}")
@@ -809,6 +841,7 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     settings = {"study": str(study.path), "study_text": study.text, "workers": workers,
                 "scheduler": scheduler, "batch": study.batch, "batch_choice": study.batch_choice}
     cluster = connect_cluster(workers, scheduler) if pending else None
+    unwritten: dict[str, str] = {}
     try:
         prepare_output_dir(out)
         _save_index(study, out)
@@ -816,19 +849,20 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                        settings=settings,
                        models_json={}, files=_study_files(), results={"status": "running"})
         if pending:
-            _dispatch(study, pending, folders, cluster[0], progress, total_sessions,
-                      n_done_before, tqdm)
+            unwritten = _dispatch(study, pending, folders, cluster[0], progress,
+                                  total_sessions, n_done_before, tqdm)
     finally:
         if cluster is not None:
             cluster[0].close()
             if cluster[1] is not None:
                 cluster[1].close()
-    states = {r.run_id: read_status(folders[r.run_id]).get("state", "not run")
+    states = {r.run_id: "failed" if r.run_id in unwritten
+              else read_status(folders[r.run_id]).get("state", "not run")
               for r in study.runs}
     table = write_results(study, out)
     write_timeline(study, out)
     failed = [r for r in study.runs if states[r.run_id] != "finished"]
-    _write_failures(out, failed, folders)
+    errors = _write_failures(out, failed, folders, unwritten)
     counts = {s: list(states.values()).count(s) for s in sorted(set(states.values()))}
     evaluated = None
     if study.evaluate is not None and not failed:
@@ -847,13 +881,17 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                    results={"status": "finished" if not failed else "incomplete",
                             "runs": counts, "rows": table, "evaluation": evaluated})
     return {"counts": counts, "failed": [r.run_id for r in failed], "rows": table,
-            "evaluation": evaluated}
+            "evaluation": evaluated, "errors": errors,
+            "failures": str(out / FAILURES) if (out / FAILURES).is_file() else None}
 
 
 def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_before,
-              tqdm) -> None:
+              tqdm) -> dict[str, str]:
     """Run ``pending`` on the cluster, longest first, one run per free worker thread
-    (:func:`run_on_cluster`), with the study's progress bar."""
+    (:func:`run_on_cluster`), with the study's progress bar. Returns the errors of runs that
+    could not write their status (their folder was held by another process): {run_id:
+    error}."""
+    unwritten: dict[str, str] = {}
     waiting = sorted(pending, key=lambda r: r.estimated_seconds(), reverse=True)
     by_id = {r.run_id: r for r in waiting}
     counts = {"failed": 0, "finished": 0}
@@ -866,7 +904,7 @@ def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_
 
     def ended(run_id: str, future: Any) -> None:
         counts["finished"] += 1
-        if not _collect(future, by_id[run_id], folders[run_id]):
+        if not _collect(future, by_id[run_id], folders[run_id], unwritten):
             counts["failed"] += 1
 
     def tick(running: int) -> None:
@@ -880,14 +918,19 @@ def _dispatch(study, pending, folders, client, progress, total_sessions, n_done_
                        [(r.run_id, (r, str(folders[r.run_id]))) for r in waiting], ended, tick)
     finally:
         bar.close()
+    return unwritten
 
 
-def _collect(future: Any, spec: RunSpec, folder: Path) -> bool:
+def _collect(future: Any, spec: RunSpec, folder: Path, unwritten: dict[str, str]) -> bool:
     """True when the run of ``future`` finished; a run that failed on its worker has said so in
     its status.json; one that could not run (e.g. KilledWorker after repeated worker deaths, or
-    a cancelled task) is recorded as failed here."""
+    a cancelled task) is recorded as failed here; one whose folder another process held wrote
+    nothing there: its error goes into ``unwritten``."""
     if future.status == "finished":
-        return future.result().get("state") == "finished"
+        status = future.result()
+        if status.get("not_written"):
+            unwritten[spec.run_id] = str(status.get("error", ""))
+        return status.get("state") == "finished"
     if future.status == "error":
         exc = future.exception()
         error = f"{type(exc).__name__}: {exc}"
@@ -900,19 +943,32 @@ def _collect(future: Any, spec: RunSpec, folder: Path) -> bool:
     return False
 
 
-def _write_failures(out: Path, failed: list[RunSpec], folders: dict[str, Path]) -> None:
+def _write_failures(out: Path, failed: list[RunSpec], folders: dict[str, Path],
+                    unwritten: dict[str, str] | None = None) -> dict[str, str]:
+    """``failures.csv``: the runs that did not finish and their errors (removed when none);
+    returns {run_id: error}. ``unwritten``: errors of runs whose folder another process held
+    (their status.json is not theirs to tell)."""
     path = out / FAILURES
+    unwritten = unwritten or {}
     if not failed:
         if path.exists():
             path.unlink()
-        return
+        return {}
     lines = ["run_id,state,attempts,error"]
+    errors: dict[str, str] = {}
     for r in failed:
         s = read_status(folders[r.run_id])
-        err = str(s.get("error", "")).replace('"', "'").replace("\n", " ")
-        lines.append(f'{r.run_id},{s.get("state", "not run")},{s.get("attempts", 0)},"{err}"')
+        if r.run_id in unwritten:
+            s = {"state": "failed", "attempts": s.get("attempts", 0),
+                 "error": unwritten[r.run_id]}
+        state = s.get("state", "not run")
+        err = str(s.get("error", "") or ("not run" if state == "not run" else state))
+        errors[r.run_id] = " ".join(err.split())
+        err = err.replace('"', "'").replace("\n", " ")
+        lines.append(f'{r.run_id},{state},{s.get("attempts", 0)},"{err}"')
     data = ("\n".join(lines) + "\n").encode()
     atomic_write(path, lambda f: f.write(data))
+    return errors
 
 
 def _study_files() -> dict[str, str]:

@@ -1,0 +1,128 @@
+"""The Python API's arguments (``import astrocpg as ac``): a wrong type is an InputError naming
+the argument, never a TypeError or AttributeError from inside; a text where a list of names is
+expected is one name (or names separated by commas), never read one character at a time."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import astrocpg as ac
+
+CHEAP = {"seconds": 0.02, "progress": False}
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory) -> "ac.Result":
+    out = tmp_path_factory.mktemp("api") / "run"
+    return ac.run(**CHEAP, seed=3, out=out)
+
+
+@pytest.mark.parametrize("spikes", ["motor", " motor ", ["motor"], ("motor",)])
+def test_spikes_as_one_name_or_a_list(spikes):
+    r = ac.run(**CHEAP, spikes=spikes, traces="none")
+    assert set(r.spikes) == {"motor"}, sorted(r.spikes)
+
+
+def test_spikes_and_traces_as_text_of_names():
+    r = ac.run(**CHEAP, spikes="motor,astrocyte", traces="astrocyte_Ca")
+    assert set(r.spikes) == {"motor", "astrocyte"}
+    assert set(r.traces) == {"astrocyte_Ca"}
+
+
+@pytest.mark.parametrize("kw, culprit", [
+    ({"spikes": 3}, "--spikes"), ({"spikes": ["motor", 3]}, "--spikes"),
+    ({"spikes": b"motor"}, "--spikes"), ({"traces": 1.5}, "--traces"),
+    ({"spikes": "m"}, "'m'"), ({"traces": "motor_K"}, "motor_K"),
+    ({"weights": [[1.0, 2.0]]}, "weights"), ({"weights": object()}, "weights"),
+    ({"weights": [["a"] * 8] * 8}, "weights"), ({"weights": np.full((8, 8), np.nan)}, "weights"),
+    ({"equations": "dv/dt = 0 : volt"}, "equations"), ({"models": ["astrocyte"]}, "models"),
+    ({"models": "astrocyte.toml"}, "models"),
+], ids=lambda v: repr(v) if isinstance(v, dict) else None)
+def test_a_wrong_argument_is_an_input_error_naming_it(kw, culprit):
+    with pytest.raises(ac.InputError) as e:
+        ac.run(**CHEAP, **kw)
+    assert culprit in str(e.value), str(e.value)
+
+
+@pytest.mark.parametrize("weights", [np.zeros((8, 8)).tolist(),
+                                     [np.zeros(8).tolist() for _ in range(8)],
+                                     tuple(tuple(row) for row in np.zeros((8, 8)))])
+def test_weights_as_nested_lists_in_volt(weights):
+    r = ac.run(**CHEAP, weights=weights)
+    assert r.n_trials == 1
+
+
+def test_weights_as_lists_equal_weights_as_an_array():
+    table = np.zeros((8, 8))
+    table[0, 2] = table[4, 6] = 0.5e-3  # across limbs (same-limb blocks stay zero)
+    a = ac.run(**CHEAP, seed=2, weights=table, traces="none")
+    b = ac.run(**CHEAP, seed=2, weights=table.tolist(), traces="none")
+    assert np.array_equal(a.spike_times("motor"), b.spike_times("motor"))
+
+
+def test_unit_takes_names_as_text():
+    r = ac.unit(seconds=0.02, progress=False, spikes="motor", traces="none")
+    assert set(r.spikes) == {"motor"}
+
+
+def test_export_takes_a_written_result(written, tmp_path):
+    path = ac.export(written, "npz", out=tmp_path / "r.npz")
+    assert Path(path).is_file()
+    with np.load(path) as z:
+        assert any(k.startswith("spikes_motor") for k in z.files)
+
+
+def test_export_takes_one_experimenter_as_text(written, tmp_path):
+    import json
+
+    path = ac.export(written, "npz", out=tmp_path / "r.npz", experimenter="Doe, Jane")
+    with np.load(path) as z:
+        meta = json.loads(str(z["metadata_json"]))
+    assert meta["experimenter"] == ["Doe, Jane"]
+
+
+@pytest.mark.parametrize("call, culprit", [
+    (lambda w, t: ac.export(ac.run(**CHEAP)), "folder"),  # a Result never written
+    (lambda w, t: ac.export(3), "folder"),
+    (lambda w, t: ac.export(w, 7), "format"),
+    (lambda w, t: ac.export(w, "npz", out=5), "out"),
+    (lambda w, t: ac.export(w, "npz", out=t / "x.npz", experimenter=[1]), "experimenter"),
+    (lambda w, t: ac.export(w, "npz", out=t / "x.npz", institution=3), "institution"),
+])
+def test_export_refuses_wrong_arguments_naming_them(written, tmp_path, call, culprit):
+    with pytest.raises(ac.InputError) as e:
+        call(written, tmp_path)
+    assert culprit in str(e.value), str(e.value)
+    assert not (tmp_path / "x.npz").exists()
+
+
+@pytest.mark.parametrize("kw, culprit", [({"equations": "text"}, "equations"),
+                                         ({"models": ["astrocyte"]}, "models")])
+def test_describe_refuses_wrong_arguments_naming_them(kw, culprit):
+    with pytest.raises(ac.InputError) as e:
+        ac.describe("astrocyte", **kw)
+    assert culprit in str(e.value)
+
+
+@pytest.mark.parametrize("call, culprit", [
+    (lambda: ac.run(**CHEAP, out=3), "--out"), (lambda: ac.unit(**CHEAP, out=["o"]), "--out"),
+    (lambda: ac.run(**CHEAP, robot=3), "robot"), (lambda: ac.load(3), "folder"),
+    (lambda: ac.plot(None), "folder"), (lambda: ac.video(7), "folder"),
+    (lambda: ac.resume(3), "--resume"), (lambda: ac.train(out=3, sessions=1), "--out"),
+    (lambda: ac.run(**CHEAP, overrides=3), "overrides"),
+    (lambda: ac.run(**CHEAP, overrides=[("tau_motor", "9*ms")]), "overrides"),
+], ids=["run-out", "unit-out", "run-robot", "load", "plot", "video", "resume", "train-out",
+        "overrides-number", "overrides-pairs"])
+def test_a_path_or_override_of_the_wrong_type_is_an_input_error_naming_it(call, culprit):
+    with pytest.raises(ac.InputError) as e:
+        call()
+    assert culprit in str(e.value), str(e.value)
+
+
+def test_overrides_as_one_text_or_a_mapping():
+    a = ac.run(**CHEAP, overrides="tau_motor=9*ms", traces="none")
+    b = ac.run(**CHEAP, overrides={"tau_motor": "9*ms"}, traces="none")
+    assert np.array_equal(a.spike_times("motor"), b.spike_times("motor"))
