@@ -93,7 +93,7 @@ class EnvironmentFault(AstrocpgError):
 
 class Diverged(AstrocpgError):
     """The simulation left the numbers: a state variable NaN, inf or beyond 1e50 in SI units
-    (Brian2's bound of a valid state: :mod:`astrocpg.network.divergence`), or a MuJoCo
+    (Brian2's bound of a valid state: :data:`astrocpg.network.divergence.LIMIT`), or a MuJoCo
     instability warning. ``what`` names the population and variable (or the warning), ``t`` the time in s,
     ``trial`` the trial (None when unknown)."""
 

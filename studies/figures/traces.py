@@ -337,6 +337,7 @@ def gait_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[s
     return {"gait_diagram": fig}
 
 
+#: The figure makers :func:`trace_figures` calls in turn, each for what the recording holds.
 FIGURE_FUNCTIONS = (raster_figures, activity_figures, motor_calcium_figures, astrocyte_figures,
                     joint_figures, torso_figures, gait_figures)
 

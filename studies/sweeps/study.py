@@ -39,7 +39,7 @@ Each run lives in ``OUT/runs/<run id>/`` as an ordinary training folder (``sessi
 ``weights.npz``, ``checkpoint.npz``, ``manifest.json``) plus ``status.json``. A run whose
 status is ``finished`` is never run again; any other run resumes from its checkpoint, so
 repeating the command after a crash, a killed worker or Ctrl-C continues where it stopped. A
-checkpoint is data, never code (:mod:`astrocpg.studies.files.checkpoint`): before any worker
+checkpoint is data, never code (:func:`~astrocpg.studies.files.checkpoint.read_checkpoint`): before any worker
 starts, the checkpoints of the runs to resume are checked, and one that is not a checkpoint of
 this format (an old pickled ``checkpoint.pkl`` included, which is never loaded) refuses the
 study, naming the file.
