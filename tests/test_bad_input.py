@@ -41,6 +41,7 @@ import pytest
 
 from astrocpg.studies.cli import main
 from astrocpg.studies.files.folder import parse_temp_name, verify
+from tiny_study import tiny_study
 
 SHORT = ["--set", "L_max=0.2*second", "--set", "L_non_alive=0.1*second"]
 ROOT = Path(__file__).resolve().parents[1]
@@ -74,18 +75,7 @@ def fx(tmp_path_factory) -> dict[str, Path]:
     return out
 
 
-TINY_STUDY = """
-[study]
-name = "tiny"
-sessions = 2
-seeds = { first = 1, count = 1 }
-batch = 1
-[base]
-L_max = "0.2*second"
-L_non_alive = "0.1*second"
-[conditions.astro]
-astrocytes = true
-"""
+TINY_STUDY = tiny_study("tiny", sessions=2)
 
 
 # ---------------------------------------------------------------- the environment of a case

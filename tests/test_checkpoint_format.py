@@ -32,6 +32,7 @@ import pytest
 
 from astrocpg.studies.cli import main
 from astrocpg.studies.files import checkpoint as ck
+from tiny_study import tiny_study
 
 SHORT = ["--set", "L_max=0.2*second", "--set", "L_non_alive=0.1*second"]
 OLD_MAGIC = b"ASTROCPG-CHECKPOINT-1\n"  # astrocpg's pickled checkpoint.pkl, before format 2
@@ -368,18 +369,7 @@ def test_a_damaged_or_tampered_checkpoint_is_refused_in_one_line(tmp_path, train
 
 
 # ---------------------------------------------------------------- a study's run folder
-STUDY = """
-[study]
-name = "evil"
-sessions = 2
-seeds = { first = 1, count = 1 }
-batch = 1
-[base]
-L_max = "0.2*second"
-L_non_alive = "0.1*second"
-[conditions.astro]
-astrocytes = true
-"""
+STUDY = tiny_study("evil", sessions=2)
 
 
 @pytest.fixture(scope="module")

@@ -27,20 +27,10 @@ import pytest
 
 from astrocpg.studies.cli import main
 from astrocpg.studies.files.folder import verify
+from tiny_study import tiny_study
 
 SHORT = ["--set", "L_max=0.2*second", "--set", "L_non_alive=0.1*second"]
-STUDY = """
-[study]
-name = "rule"
-sessions = 1
-seeds = { first = 1, count = 1 }
-batch = 1
-[base]
-L_max = "0.2*second"
-L_non_alive = "0.1*second"
-[conditions.astro]
-astrocytes = true
-"""
+STUDY = tiny_study("rule", sessions=1)
 USER_FILES = {"thesis.tex": "my thesis\n", "data/raw.csv": "1,2,3\n", ".hidden": "secret\n"}
 
 

@@ -20,19 +20,9 @@ import numpy as np
 import pytest
 
 from astrocpg.studies.cli import main
+from tiny_study import tiny_study
 
-SHORT_STUDY = """
-[study]
-name = "partial"
-sessions = 1
-seeds = { first = 1, count = 1 }
-batch = 1
-[base]
-L_max = "0.2*second"
-L_non_alive = "0.1*second"
-[conditions.astro]
-astrocytes = true
-"""
+SHORT_STUDY = tiny_study("partial", sessions=1)
 
 
 def lines_of(err: str) -> list[str]:
