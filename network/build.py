@@ -8,11 +8,12 @@ decides which element connects to which, and schedules the few objects whose ord
 
 from __future__ import annotations
 
+import contextlib
 import math
 import re
 import warnings
 from dataclasses import dataclass, field
-from typing import Any, Iterable
+from typing import Any, Iterable, Iterator
 
 import brian2
 import numpy as np
@@ -25,6 +26,7 @@ from ..models.base import BrianModel, NeuronModel, SynapseModel, brian_error_lin
 from ..models.names import why_reserved
 from .codegen import DEFAULT as DEFAULT_CODEGEN
 from .codegen import initial_target, use_codegen
+from . import populations
 from .divergence import MODEL_OF, InvalidState, StateScan, leave_to_the_scan, model_of
 from .delays import limb_stages
 from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
@@ -78,6 +80,8 @@ class CPG:
     synapse_kinds: dict[str, tuple[Synapses, ...]] = field(default_factory=dict)
     #: per inter-limb object: its (row, col) pairs of the per-trial table
     interlimb_pairs_of: dict[str, np.ndarray] = field(default_factory=dict)
+    #: every population's group but the motor neurons', by name (rows added to the table too)
+    groups: dict[str, NeuronGroup] = field(default_factory=dict)
     _arrays: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
     _scan: StateScan | None = None
 
@@ -104,8 +108,8 @@ class CPG:
         for g in self.motor_groups:
             if g.name == name:
                 return g
-        if name in ("interneuron", "astrocyte", "pool", "torque"):
-            return getattr(self, name)
+        if name in self.groups:
+            return self.groups[name]
         raise KeyError(f"no Brian2 object named {name!r} in this network")
 
     def array(self, group: str, variable: str) -> np.ndarray:
@@ -125,8 +129,8 @@ class CPG:
 
     def parts(self, population: str) -> list[Part]:
         """The Brian2 objects holding ``population`` (``motor``, ``interneuron``, ``astrocyte``,
-        ``pool``, ``torque`` or a synapse kind such as ``interlimb``), with the files' number of
-        each element."""
+        ``pool``, ``torque``, a population added to the table, or a synapse kind such as
+        ``interlimb``), with the files' number of each element."""
         L = self.layout
         if population == "motor":
             if len(self.motor_groups) == 1:
@@ -135,10 +139,8 @@ class CPG:
                     for s, g in enumerate(self.motor_groups)]
         if population == "pool":
             return [Part(self.pool, L.pool_number if L.staged else None, L.pools_per_trial)]
-        per_trial = {"interneuron": L.interneurons_per_trial,
-                     "astrocyte": L.thigh_pools_per_trial, "torque": L.joints_per_trial}
-        if population in per_trial:
-            return [Part(getattr(self, population), None, per_trial[population])]
+        if population in self.groups:
+            return [Part(self.groups[population], None, L.cells_per_trial(population))]
         if population in self.synapse_kinds:
             return [Part(s, None, max(1, len(s) // self.n_trials))
                     for s in self.synapse_kinds[population]]
@@ -193,8 +195,7 @@ class CPG:
 
     def _state_entries(self) -> list[tuple[str, str, np.ndarray, np.ndarray, bool]]:
         parts = [p for kind in self.synapse_kinds for p in self.parts(kind)]
-        parts += [p for name in ("pool", "astrocyte", "torque", "interneuron", "motor")
-                  for p in self.parts(name)]
+        parts += [p for name in self._scan_order() for p in self.parts(name)]
         entries = []
         for part in parts:
             obj = part.obj
@@ -208,6 +209,11 @@ class CPG:
                 entries.append((part.name, var, arr, None if shared else part.trials(),
                                 "constant" not in eq.flags))
         return entries
+
+    def _scan_order(self) -> list[str]:
+        """The populations of this network, upstream first (the table's ``scan_rank``)."""
+        built = [r for r in populations.table() if r.name in self.groups or r.name == "motor"]
+        return [r.name for r in sorted(built, key=lambda r: r.scan_rank)]
 
     @property
     def scan(self) -> StateScan:
@@ -230,7 +236,7 @@ class CPG:
         """Reset one trial's state to the start of a session: every state variable of the
         groups not in ``keep`` (astrocytes keep theirs: docs/model.md) and every dynamic variable of the
         inter-limb synapses except the weights. Array writes only (no code generation)."""
-        for name in ("motor", "interneuron", "astrocyte", "pool", "torque", "interlimb"):
+        for name in ("motor", *self.groups, "interlimb"):
             if name in keep or (name == "interlimb" and name not in self.synapse_kinds):
                 continue
             for part in self.parts(name):
@@ -274,10 +280,8 @@ class CPG:
             return -1e4  # Brian2's "never spiked"
         if var == "not_refractory":
             return True
-        model = {"motor": self.models.motor_neuron, "interneuron": self.models.interneuron,
-                 "astrocyte": self.models.astrocyte, "pool": self.models.pool,
-                 "torque": self.models.torque,
-                 "interlimb": self.models.interlimb_synapse}[group]
+        model = (self.models.interlimb_synapse if group == "interlimb"
+                 else populations.row(group).model_in(self.models))
         value = model.initial_values.get(var, 0.0)
         if isinstance(value, str):
             raise InputError("a session reset needs a number, not an expression",
@@ -310,6 +314,254 @@ def trial_seeds(seed: int, n_trials: int) -> list[int]:
     return [int(seed) + b for b in range(n_trials)]
 
 
+@contextlib.contextmanager
+def _blame(culprit: str) -> Iterator[None]:
+    """Turn any error of Brian2 inside the block into one InputError line naming ``culprit``
+    (a model, or "network wiring"); an InputError passes as it is."""
+    try:
+        yield
+    except InputError:
+        raise
+    except Exception as e:
+        raise InputError(f"{brian_error_line(e)}", culprit=culprit) from None
+
+
+@dataclass
+class Wiring:
+    """What one :func:`build_cpg` builds, step by step: the layout, the models, the groups by
+    population (``groups``; the motor neurons are ``motors``, one group per stage of limbs) and
+    the synapse objects (``synapses`` by name, ``kinds`` by kind). An added population's wiring
+    step (:class:`~astrocpg.network.populations.Population` ``wire``) receives it and connects
+    its group with :meth:`synapses` and :meth:`add`."""
+
+    layout: Layout
+    models: ModelSet
+    dt: Any
+    codeobj_class: Any
+    stages: tuple[tuple[int, ...], ...]
+    objects: list[Any] = field(default_factory=list)
+    groups: dict[str, NeuronGroup] = field(default_factory=dict)
+    motors: list[NeuronGroup] = field(default_factory=list)
+    motor_number: list[np.ndarray] = field(default_factory=list)
+    stage_pools: list[Any] = field(default_factory=list)
+    syn: dict[str, Synapses] = field(default_factory=dict)
+    kinds: dict[str, list[Synapses]] = field(default_factory=dict)
+    learning: list[Any] = field(default_factory=list)
+    pairs: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.intp))
+    pairs_of: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def n_stages(self) -> int:
+        return len(self.stages)
+
+    def suffix(self, stage: int) -> str:
+        """The name suffix of a stage's objects: none with one stage, else its limbs."""
+        legs = self.layout.legs
+        return "" if self.n_stages == 1 else "_" + "_".join(legs[i] for i in self.stages[stage])
+
+    def stage_start(self, stage: int) -> int:
+        """The first pool of the stage's pools in the pool group (0 with one stage)."""
+        return self.layout.stage_pool_range(stage)[0] if self.n_stages > 1 else 0
+
+    def group(self, model: NeuronModel, n: int, name: str) -> NeuronGroup:
+        """A NeuronGroup of ``n`` cells of ``model``, added to the network."""
+        with _blame(model.name):
+            # model.method is a scheme's registered name (e.g. "input_then_decay")
+            g = NeuronGroup(
+                n, model.equations, threshold=model.threshold, reset=model.reset,
+                refractory=model.refractory if model.refractory else False,
+                method=model.method, namespace=model.parameters.namespace(), name=name,
+                dt=self.dt, codeobj_class=self.codeobj_class,
+            )
+            for var, value in model.initial_values.items():
+                setattr(g, var, value)
+        check_parameters_reach(g, model)
+        self.objects.append(g)
+        return g
+
+    def synapses(self, model: SynapseModel, source: Any, target: Any, name: str, i: Any,
+                 j: Any) -> Synapses:
+        """Synapses of ``model`` from cells ``i`` of ``source`` to cells ``j`` of ``target``,
+        added to the network (not to a kind: :meth:`add`)."""
+        with _blame(model.name):
+            s = Synapses(source, target, model=model.model, on_pre=model.on_pre,
+                         method=model.method, namespace=model.parameters.namespace(),
+                         name=name, dt=self.dt, codeobj_class=self.codeobj_class)
+            s.connect(i=np.asarray(i, dtype=np.int32), j=np.asarray(j, dtype=np.int32))
+            for var, value in model.initial_values.items():
+                setattr(s, var, value)
+            if model.weight:
+                s.w = model.weight
+        check_parameters_reach(s, model)
+        self.objects.append(s)
+        return s
+
+    def add(self, kind: str, s: Synapses) -> Synapses:
+        """File synapse object ``s`` under its name and its ``kind`` (CPG.parts(kind))."""
+        self.syn[s.name] = s
+        self.kinds.setdefault(kind, []).append(s)
+        return s
+
+
+def _build_groups(w: Wiring) -> None:
+    """One group per population of the table, in its order (the motor neurons: one per stage
+    of limbs); then each stage's pools, one contiguous block of the pool group."""
+    L, B = w.layout, w.layout.n_trials
+    for row in populations.table():
+        model = row.model_in(w.models)
+        if row.name == "motor":
+            w.motors = [w.group(model, B * len(m) * len(POOLS) * L.pool_size,
+                                "motor" + w.suffix(s)) for s, m in enumerate(w.stages)]
+            # the trial-major motor-neuron number of each neuron of each stage's group
+            w.motor_number = [np.arange(B * L.motor_per_trial)] if w.n_stages == 1 else \
+                [L.stage_motor_index(s) for s in range(w.n_stages)]
+        else:
+            w.groups[row.name] = w.group(model, B * L.cells_per_trial(row.name), row.name)
+    pool = w.groups["pool"]
+    w.stage_pools = [pool] if w.n_stages == 1 else \
+        [pool[slice(*L.stage_pool_range(s))] for s in range(w.n_stages)]
+
+
+def _place_motor_neurons(w: Wiring, seed: int) -> None:
+    """Anatomy: neuron positions in the unit cube, drawn per trial from the trial's own seed."""
+    L = w.layout
+    positions = np.concatenate([
+        np.random.default_rng(s).uniform(0.0, 1.0, size=(L.motor_per_trial, 3))
+        for s in trial_seeds(seed, L.n_trials)
+    ])
+    for motor, number in zip(w.motors, w.motor_number):
+        _require(motor, "x_position", "y_position", "z_position")
+        motor.x_position = positions[number, 0]
+        motor.y_position = positions[number, 1]
+        motor.z_position = positions[number, 2]
+
+
+def _link_pool_variables(w: Wiring) -> None:
+    """Pool-level inputs reach every neuron of the pool; the astrocytes and the torque traces
+    read their pools' counts; each torque trace gets its joint's current."""
+    L, B = w.layout, w.layout.n_trials
+    pool, astrocyte, torque = w.groups["pool"], w.groups["astrocyte"], w.groups["torque"]
+    pool_of_motor = L.pool_of_motor_neuron
+    with _blame("network wiring"):
+        # every linked variable of the motor neuron model is a pool variable of the same name
+        for motor, number in zip(w.motors, w.motor_number):
+            for var, eq in motor.equations.items():
+                if "linked" in eq.flags:
+                    if var not in pool.variables:
+                        raise InputError(f"linked variable '{var}' is not a variable "
+                                         f"of the pool model", culprit="motor_neuron")
+                    setattr(motor, var, linked_var(pool, var, index=pool_of_motor[number]))
+        _require(pool, "n")
+        _require(astrocyte, "n_pool")
+        _require(torque, "n_extensor", "n_flexor", "I_joint")
+        astrocyte.n_pool = linked_var(pool, "n", index=L.pool_of_astrocyte)
+        joints = [(b, leg, jt) for b in range(B) for leg in range(L.n_legs)
+                  for jt in ("thigh", "calf")]
+        torque.n_extensor = linked_var(
+            pool, "n", index=np.array([L.pool(b, leg, f"{jt}_extensor") for b, leg, jt in joints]))
+        torque.n_flexor = linked_var(
+            pool, "n", index=np.array([L.pool(b, leg, f"{jt}_flexor") for b, leg, jt in joints]))
+        tp = w.models.torque.parameters
+        # the value (with its unit) of I_thigh or I_calf, joint by joint
+        torque.I_joint = brian2.Quantity([
+            tp["I_thigh"].value if jt == "thigh" else tp["I_calf"].value
+            for _, _, jt in joints])
+
+
+def _wire_pool_activity(w: Wiring) -> None:
+    """Each motor neuron's spikes counted by its pool, stage by stage."""
+    pool_of_motor = w.layout.pool_of_motor_neuron
+    for s, motor in enumerate(w.motors):
+        w.add("pool_activity", w.synapses(
+            w.models.pool_activity, motor, w.stage_pools[s], "pool_activity" + w.suffix(s),
+            np.arange(len(motor)), pool_of_motor[w.motor_number[s]] - w.stage_start(s)))
+
+
+def _wire_intra_pool(w: Wiring) -> None:
+    """Intra-pool: all ordered pairs of distinct neurons of a pool."""
+    n = w.layout.pool_size
+    a, b_ = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    off = a != b_
+    base_i, base_j = a[off], b_[off]
+    for s, motor in enumerate(w.motors):
+        starts = np.arange(len(motor) // n) * n
+        w.add("intra_pool", w.synapses(w.models.intra_pool_synapse, motor, motor,
+                                       "intra_pool" + w.suffix(s),
+                                       (starts[:, None] + base_i).ravel(),
+                                       (starts[:, None] + base_j).ravel()))
+
+
+def _wire_interneurons(w: Wiring) -> None:
+    """Interneurons: each driven by every neuron of one pool, inhibiting every neuron of
+    another (:data:`~astrocpg.network.layout.INTERNEURONS`)."""
+    L, interneuron = w.layout, w.groups["interneuron"]
+    pre_i, pre_j, post_i, post_j = [], [], [], []
+    for b in range(L.n_trials):
+        for leg in range(L.n_legs):
+            for name, _, source, target in INTERNEURONS:
+                k = L.interneuron(b, leg, name)
+                src = L.motor_neurons(b, leg, source)
+                tgt = L.motor_neurons(b, leg, target)
+                pre_i.append(src); pre_j.append(np.full(len(src), k))
+                post_i.append(np.full(len(tgt), k)); post_j.append(tgt)
+    src_stage, src_local = L.motor_local(np.concatenate(pre_i))
+    tgt_stage, tgt_local = L.motor_local(np.concatenate(post_j))
+    pre_j_, post_i_ = np.concatenate(pre_j), np.concatenate(post_i)
+    for s, motor in enumerate(w.motors):
+        here, there = src_stage == s, tgt_stage == s
+        w.add("pool_to_interneuron", w.synapses(
+            w.models.pool_to_interneuron, motor, interneuron,
+            "pool_to_interneuron" + w.suffix(s), src_local[here], pre_j_[here]))
+        w.add("interneuron_to_pool", w.synapses(
+            w.models.interneuron_to_pool, interneuron, motor,
+            "interneuron_to_pool" + w.suffix(s), post_i_[there], tgt_local[there]))
+
+
+def _wire_interlimb(w: Wiring) -> None:
+    """Inter-limb: thigh pool x -> thigh pool y of another limb, one weight per pair and trial;
+    one object per stage of target limbs, each reading its target pool's astrocyte."""
+    L, B = w.layout, w.layout.n_trials
+    pool, astrocyte = w.groups["pool"], w.groups["astrocyte"]
+    model = w.models.interlimb_synapse
+    n_thigh = L.thigh_pools_per_trial
+    w.pairs = pairs = np.argwhere(~same_limb_mask(L))  # (row, col) in the per-trial table
+    if not len(pairs):
+        return
+
+    def thigh_pool(b: int, x: np.ndarray) -> np.ndarray:
+        return np.array([L.pool(b, int(t) // 2, THIGH_POOLS[int(t) % 2]) for t in x],
+                        dtype=np.intp)
+
+    for s in range(w.n_stages):
+        these = pairs[np.isin(pairs[:, 1] // len(THIGH_POOLS), w.stages[s])]
+        start = w.stage_start(s)
+        name = "interlimb" + w.suffix(s)
+        inter = w.add("interlimb", w.synapses(
+            model, pool, w.stage_pools[s], name,
+            np.concatenate([thigh_pool(b, these[:, 0]) for b in range(B)]),
+            np.concatenate([thigh_pool(b, these[:, 1]) - start for b in range(B)])))
+        w.pairs_of[name] = these
+        with _blame("interlimb_synapse"):
+            # the astrocyte of each synapse's target pool (the table's column)
+            if "astrocyte_index" in inter.variables:
+                inter.astrocyte_index = np.concatenate([b * n_thigh + these[:, 1]
+                                                        for b in range(B)])
+            for var, eq in inter.equations.items():
+                if "linked" in eq.flags:
+                    setattr(inter, var, linked_var(astrocyte, var, index="astrocyte_index"))
+            if getattr(inter, "state_updater", None) is not None:  # STDP: after the counts
+                inter.state_updater.when, inter.state_updater.order = "after_thresholds", 2
+            if model.on_step:  # after the robot moved, reward known
+                w.learning.append(inter.run_regularly(
+                    model.on_step, dt=w.dt, when="end", order=10,
+                    name="interlimb_learning" + w.suffix(s)))
+
+
+#: The built-in wiring steps, in the order they run (the order of the objects, and so of
+#: Brian2's random draws for their initial values, is part of the seeded behaviour).
+WIRING_STEPS = (_wire_pool_activity, _wire_intra_pool, _wire_interneurons, _wire_interlimb)
+
+
 @exclusive  # Brian2's global seed and objects: one build or run at a time (runlock.py)
 def build_cpg(
     models: ModelSet = DEFAULT_MODELS,
@@ -321,7 +573,9 @@ def build_cpg(
     interlimb_weights: np.ndarray | None = None,
     codegen: str | None = None,
 ) -> CPG:
-    """Build ``n_trials`` independent copies of the CPG.
+    """Build ``n_trials`` independent copies of the CPG: one group per row of the population
+    table (:mod:`astrocpg.network.populations`, rows added with ``register`` included), then
+    the wiring steps (:data:`WIRING_STEPS`, then each added row's ``wire``).
 
     Order within one step (Brian2 schedule): motor neurons, interneurons and astrocytes integrate
     (``groups``), spike (``thresholds``), synapses deliver (``synapses``), neurons reset. Right
@@ -350,202 +604,29 @@ def build_cpg(
     codeobj_class = brian2.CythonCodeObject if codegen == "cython" else brian2.NumpyCodeObject
     brian2.seed(int(seed))
 
-    objects: list[Any] = []
+    w = Wiring(layout=layout, models=models, dt=dt, codeobj_class=codeobj_class,
+               stages=layout.limb_stages)
+    _build_groups(w)
+    _place_motor_neurons(w, seed)
+    _link_pool_variables(w)
+    for step in WIRING_STEPS:
+        step(w)
+    for row in populations.added():
+        with _blame(f"population {row.name}"):
+            row.wire(w)  # type: ignore[misc]
+    w.objects.extend(w.learning)
 
-    def group(model: NeuronModel, n: int, name: str) -> NeuronGroup:
-        try:
-            # model.method is a scheme's registered name (e.g. "input_then_decay")
-            g = NeuronGroup(
-                n, model.equations, threshold=model.threshold, reset=model.reset,
-                refractory=model.refractory if model.refractory else False,
-                method=model.method, namespace=model.parameters.namespace(), name=name, dt=dt,
-                codeobj_class=codeobj_class,
-            )
-            for var, value in model.initial_values.items():
-                setattr(g, var, value)
-        except InputError:
-            raise
-        except Exception as e:
-            raise InputError(f"{brian_error_line(e)}", culprit=model.name) from None
-        check_parameters_reach(g, model)
-        objects.append(g)
-        return g
-
-    def synapses(model: SynapseModel, source, target, name: str, i, j) -> Synapses:
-        try:
-            s = Synapses(source, target, model=model.model, on_pre=model.on_pre,
-                         method=model.method, namespace=model.parameters.namespace(), name=name,
-                         dt=dt, codeobj_class=codeobj_class)
-            s.connect(i=np.asarray(i, dtype=np.int32), j=np.asarray(j, dtype=np.int32))
-            for var, value in model.initial_values.items():
-                setattr(s, var, value)
-            if model.weight:
-                s.w = model.weight
-        except InputError:
-            raise
-        except Exception as e:
-            raise InputError(f"{brian_error_line(e)}", culprit=model.name) from None
-        check_parameters_reach(s, model)
-        objects.append(s)
-        return s
-
-    B, L = layout.n_trials, layout
-    S = len(stages)
-
-    def suffix(stage: int) -> str:
-        """The name suffix of a stage's objects: none with one stage, else its limbs."""
-        return "" if S == 1 else "_" + "_".join(legs[i] for i in stages[stage])
-
-    per_stage_motor = [B * len(m) * len(POOLS) * L.pool_size for m in stages]
-    motors = [group(models.motor_neuron, per_stage_motor[s], "motor" + suffix(s))
-              for s in range(S)]
-    # the trial-major motor-neuron number of each neuron of each stage's group
-    motor_number = [np.arange(B * L.motor_per_trial)] if S == 1 else \
-        [L.stage_motor_index(s) for s in range(S)]
-    interneuron = group(models.interneuron, B * L.interneurons_per_trial, "interneuron")
-    astrocyte = group(models.astrocyte, B * L.thigh_pools_per_trial, "astrocyte")
-    pool = group(models.pool, B * L.pools_per_trial, "pool")
-    torque = group(models.torque, B * L.joints_per_trial, "torque")
-    # each stage's pools, one contiguous block of the pool group (the whole group with one stage)
-    stage_pools = [pool] if S == 1 else [pool[slice(*L.stage_pool_range(s))] for s in range(S)]
-
-    # Anatomy: neuron positions in the unit cube, drawn per trial from the trial's own seed.
-    positions = np.concatenate([
-        np.random.default_rng(s).uniform(0.0, 1.0, size=(L.motor_per_trial, 3))
-        for s in trial_seeds(seed, B)
-    ])
-    for motor, number in zip(motors, motor_number):
-        _require(motor, "x_position", "y_position", "z_position")
-        motor.x_position = positions[number, 0]
-        motor.y_position = positions[number, 1]
-        motor.z_position = positions[number, 2]
-
-    # Pool-level inputs reach every neuron of the pool.
-    pool_of_motor = L.pool_of_motor_neuron
-    try:
-        # every linked variable of the motor neuron model is a pool variable of the same name
-        for motor, number in zip(motors, motor_number):
-            for var, eq in motor.equations.items():
-                if "linked" in eq.flags:
-                    if var not in pool.variables:
-                        raise InputError(f"linked variable '{var}' is not a variable "
-                                         f"of the pool model", culprit=f"motor_neuron")
-                    setattr(motor, var, linked_var(pool, var, index=pool_of_motor[number]))
-        _require(pool, "n")
-        _require(astrocyte, "n_pool")
-        _require(torque, "n_extensor", "n_flexor", "I_joint")
-        astrocyte.n_pool = linked_var(pool, "n", index=L.pool_of_astrocyte)
-        joints = [(b, leg, jt) for b in range(B) for leg in range(L.n_legs)
-                  for jt in ("thigh", "calf")]
-        torque.n_extensor = linked_var(
-            pool, "n", index=np.array([L.pool(b, leg, f"{jt}_extensor") for b, leg, jt in joints]))
-        torque.n_flexor = linked_var(
-            pool, "n", index=np.array([L.pool(b, leg, f"{jt}_flexor") for b, leg, jt in joints]))
-        tp = models.torque.parameters
-        # the value (with its unit) of I_thigh or I_calf, joint by joint
-        torque.I_joint = brian2.Quantity([
-            tp["I_thigh"].value if jt == "thigh" else tp["I_calf"].value
-            for _, _, jt in joints])
-    except InputError:
-        raise
-    except Exception as e:
-        raise InputError(f"{brian_error_line(e)}", culprit=f"network wiring") from None
-
-    syn: dict[str, Synapses] = {}
-    kinds: dict[str, list[Synapses]] = {}
-
-    def add(kind: str, s: Synapses) -> Synapses:
-        syn[s.name] = s
-        kinds.setdefault(kind, []).append(s)
-        return s
-
-    for s, motor in enumerate(motors):
-        start = L.stage_pool_range(s)[0] if S > 1 else 0
-        add("pool_activity", synapses(
-            models.pool_activity, motor, stage_pools[s], "pool_activity" + suffix(s),
-            np.arange(len(motor)), pool_of_motor[motor_number[s]] - start))
-
-    # Intra-pool: all ordered pairs of distinct neurons of a pool.
-    a, b_ = np.meshgrid(np.arange(L.pool_size), np.arange(L.pool_size), indexing="ij")
-    off = a != b_
-    base_i, base_j = a[off], b_[off]
-    for s, motor in enumerate(motors):
-        starts = np.arange(len(motor) // L.pool_size) * L.pool_size
-        add("intra_pool", synapses(models.intra_pool_synapse, motor, motor,
-                                      "intra_pool" + suffix(s),
-                                      (starts[:, None] + base_i).ravel(),
-                                      (starts[:, None] + base_j).ravel()))
-
-    # Interneurons: each driven by every neuron of one pool, inhibiting every neuron of another.
-    pre_i, pre_j, post_i, post_j = [], [], [], []
-    for b in range(B):
-        for leg in range(L.n_legs):
-            for name, _, source, target in INTERNEURONS:
-                k = L.interneuron(b, leg, name)
-                src = L.motor_neurons(b, leg, source)
-                tgt = L.motor_neurons(b, leg, target)
-                pre_i.append(src); pre_j.append(np.full(len(src), k))
-                post_i.append(np.full(len(tgt), k)); post_j.append(tgt)
-    src_stage, src_local = L.motor_local(np.concatenate(pre_i))
-    tgt_stage, tgt_local = L.motor_local(np.concatenate(post_j))
-    pre_j_, post_i_ = np.concatenate(pre_j), np.concatenate(post_i)
-    for s, motor in enumerate(motors):
-        here, there = src_stage == s, tgt_stage == s
-        add("pool_to_interneuron", synapses(
-            models.pool_to_interneuron, motor, interneuron, "pool_to_interneuron" + suffix(s),
-            src_local[here], pre_j_[here]))
-        add("interneuron_to_pool", synapses(
-            models.interneuron_to_pool, interneuron, motor, "interneuron_to_pool" + suffix(s),
-            post_i_[there], tgt_local[there]))
-
-    # Inter-limb: thigh pool x -> thigh pool y of another limb, one weight per pair and trial;
-    # one object per stage of target limbs.
-    n_thigh = L.thigh_pools_per_trial
-    mask = same_limb_mask(L)
-    pairs = np.argwhere(~mask)  # (row, col) in the per-trial table
-    pairs_of: dict[str, np.ndarray] = {}
-    learning = []
-    if len(pairs):
-        def thigh_pool(b: int, x: np.ndarray) -> np.ndarray:
-            return np.array([L.pool(b, int(t) // 2, THIGH_POOLS[int(t) % 2]) for t in x],
-                            dtype=np.intp)
-        for s in range(S):
-            these = pairs[np.isin(pairs[:, 1] // len(THIGH_POOLS), stages[s])]
-            start = L.stage_pool_range(s)[0] if S > 1 else 0
-            name = "interlimb" + suffix(s)
-            inter = add("interlimb", synapses(
-                models.interlimb_synapse, pool, stage_pools[s], name,
-                np.concatenate([thigh_pool(b, these[:, 0]) for b in range(B)]),
-                np.concatenate([thigh_pool(b, these[:, 1]) - start for b in range(B)])))
-            pairs_of[name] = these
-            try:
-                # the astrocyte of each synapse's target pool (the table's column)
-                if "astrocyte_index" in inter.variables:
-                    inter.astrocyte_index = np.concatenate([b * n_thigh + these[:, 1]
-                                                            for b in range(B)])
-                for var, eq in inter.equations.items():
-                    if "linked" in eq.flags:
-                        setattr(inter, var, linked_var(astrocyte, var, index="astrocyte_index"))
-                if getattr(inter, "state_updater", None) is not None:  # STDP: after the counts
-                    inter.state_updater.when, inter.state_updater.order = "after_thresholds", 2
-                if models.interlimb_synapse.on_step:  # after the robot moved, reward known
-                    learning.append(inter.run_regularly(
-                        models.interlimb_synapse.on_step, dt=dt, when="end", order=10,
-                        name="interlimb_learning" + suffix(s)))
-            except InputError:
-                raise
-            except Exception as e:
-                raise InputError(f"{brian_error_line(e)}", culprit=f"interlimb_synapse") from None
-    objects.extend(learning)
-
-    _schedule(motors, kinds, pool, torque, interneuron, astrocyte)
+    g = w.groups
+    _schedule(w.motors, w.kinds, g["pool"], g["torque"], g["interneuron"], g["astrocyte"])
     # the divergence scan decides for these, in one line (Brian2's check: a raw warning)
-    leave_to_the_scan([*objects, *stage_pools])
-    net = Network(*objects)
+    leave_to_the_scan([*w.objects, *w.stage_pools])
+    net = Network(*w.objects)
     cpg = CPG(layout=layout, models=models, seed=int(seed), dt=dt, net=net,
-              motor_groups=tuple(motors), interneuron=interneuron, astrocyte=astrocyte,
-              pool=pool, torque=torque, synapses=syn, interlimb_pairs=pairs, codegen=codegen,
-              synapse_kinds={k: tuple(v) for k, v in kinds.items()}, interlimb_pairs_of=pairs_of)
+              motor_groups=tuple(w.motors), interneuron=g["interneuron"],
+              astrocyte=g["astrocyte"], pool=g["pool"], torque=g["torque"], synapses=w.syn,
+              interlimb_pairs=w.pairs, codegen=codegen,
+              synapse_kinds={k: tuple(v) for k, v in w.kinds.items()},
+              interlimb_pairs_of=w.pairs_of, groups=dict(g))
     if interlimb_weights is not None:
         cpg.set_interlimb_weights(interlimb_weights)
     return cpg
@@ -619,6 +700,8 @@ def built_in_models(models: ModelSet) -> bool:
     """Is every Brian2 model of the CPG the built-in one (the same object as in
     ``DEFAULT_MODELS``)? Such a network needs no :func:`check_runs`: the test suite builds and
     runs it, and a check would generate all its code twice (about 0.4 s of every command)."""
+    if populations.added():  # a population added to the table: its model is not the suite's
+        return False
     return all(getattr(models, name) is getattr(DEFAULT_MODELS, name)
                for name in dict.fromkeys(MODEL_OF.values()))
 

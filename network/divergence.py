@@ -42,6 +42,7 @@ import brian2
 import numpy as np
 
 from ..errors import Diverged
+from .populations import BUILT_IN, PROJECTIONS, model_of_object
 from .runlock import exclusive
 
 #: Beyond this magnitude (SI units) a state value is invalid: Brian2's own bound
@@ -68,20 +69,20 @@ def _screen_vector(arr: np.ndarray) -> np.ndarray:
     return np.full(arr.size, scale, dtype=arr.dtype)
 
 
-#: The model each Brian2 object of the network is built from (object name -> model name).
-MODEL_OF = {"motor": "motor_neuron", "interneuron": "interneuron", "astrocyte": "astrocyte",
-            "pool": "pool", "torque": "torque", "pool_activity": "pool_activity",
-            "intra_pool": "intra_pool_synapse", "pool_to_interneuron": "pool_to_interneuron",
-            "interneuron_to_pool": "interneuron_to_pool", "interlimb": "interlimb_synapse"}
+#: The model each Brian2 object of the built-in network is built from (object name -> model
+#: name), read from the population table (:mod:`astrocpg.network.populations`).
+MODEL_OF = {**{p.name: p.model_name for p in BUILT_IN}, **PROJECTIONS}
 
 
 def model_of(name: str) -> str | None:
     """The model a Brian2 object of the network (or one of its code objects) is built from,
     by its name: ``interlimb_FR`` (a stage's object) and ``motor_stateupdater`` start with the
-    name of their kind. None for a name of no model."""
-    for obj in sorted(MODEL_OF, key=len, reverse=True):  # pool_activity before pool
+    name of their kind (rows added to the population table included). None for a name of no
+    model."""
+    table = model_of_object()
+    for obj in sorted(table, key=len, reverse=True):  # pool_activity before pool
         if name.startswith(obj):
-            return MODEL_OF[obj]
+            return table[obj]
     return None
 
 

@@ -21,24 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# The order of the authors' loop over the limbs; the inter-limb synapse model names its delays
-# with the same names (models.interlimb_synapse.LIMBS: this module imports no Brian2, so that
-# `describe` can print cached text without it; tests/test_delays.py checks the two agree).
-LEGS: tuple[str, ...] = ("FR", "FL", "RR", "RL")
-POOLS: tuple[str, ...] = ("thigh_flexor", "thigh_extensor", "calf_flexor", "calf_extensor")
-THIGH_POOLS: tuple[str, ...] = ("thigh_flexor", "thigh_extensor")
-JOINTS_DRIVEN: tuple[str, ...] = ("thigh", "calf")
-
-# The six interneurons of a locomotion unit: (name, kind, source pool, target pool) (docs/model.md,
-# "Wiring of one limb").
-INTERNEURONS: tuple[tuple[str, str, str, str], ...] = (
-    ("thigh_flexor_to_extensor", "V1/V2b", "thigh_flexor", "thigh_extensor"),
-    ("thigh_extensor_to_flexor", "V1/V2b", "thigh_extensor", "thigh_flexor"),
-    ("calf_flexor_to_extensor", "V1/V2b", "calf_flexor", "calf_extensor"),
-    ("calf_extensor_to_flexor", "V1/V2b", "calf_extensor", "calf_flexor"),
-    ("thigh_extensor_to_calf_flexor", "IIN", "thigh_extensor", "calf_flexor"),
-    ("thigh_flexor_to_calf_extensor", "IIN", "thigh_flexor", "calf_extensor"),
-)
+# The names of the limbs, pools, joints and interneurons live in the population table
+# (populations.py), which this layout reads for every population's cells.
+from . import populations as _table
+from .populations import INTERNEURONS, JOINTS_DRIVEN, LEGS, POOLS, THIGH_POOLS
 
 
 def interlimb_labels(legs: tuple[str, ...] = LEGS) -> list[str]:
@@ -128,6 +114,8 @@ class Layout:
             "interneurons_per_trial": self.interneurons_per_trial,
             "astrocyte_index": "trial*thigh_pools_per_trial + leg*2 + (0 flexor, 1 extensor)",
             "thigh_pools": list(THIGH_POOLS),
+            # every population's cell labels in one limb (the export's and Result's cells)
+            "cells_per_leg": {p.name: list(p.labels(self.pool_size)) for p in _table.table()},
         }
 
     @classmethod
@@ -137,6 +125,10 @@ class Layout:
                    legs=tuple(data.get("legs", LEGS)))
 
     # ---- sizes per trial
+    def cells_per_trial(self, population: str) -> int:
+        """How many cells of ``population`` (a row of the population table) one trial has."""
+        return self.n_legs * len(_table.row(population).labels(self.pool_size))
+
     @property
     def pools_per_trial(self) -> int:
         return self.n_legs * len(POOLS)

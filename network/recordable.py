@@ -1,16 +1,18 @@
 """What can be recorded from a built CPG: spikes per population, and traces of state variables
-(with the unit they are stored in)."""
+(with the unit they are stored in). Both are read from the population table
+(:mod:`astrocpg.network.populations`): the constants are the built-in rows; the functions follow
+rows added with :func:`~astrocpg.network.populations.register` (use them where an added
+population must be recordable)."""
 
-POPULATIONS = ("motor", "interneuron", "astrocyte")  # astrocyte "spikes": adenosine releases
+from .populations import BUILT_IN, spike_populations, trace_sources
 
-TRACES = ("motor_Ca", "astrocyte_Ca", "astrocyte_IP3", "astrocyte_AG", "astrocyte_ADO")
+#: populations whose spikes are recordable (built-in rows; astrocyte "spikes": adenosine releases)
+POPULATIONS: tuple[str, ...] = tuple(p.name for p in BUILT_IN if p.spikes)
 
-# trace -> (group, variable, factor from Brian2's SI value to the stored unit, stored unit)
-TRACE_SOURCES = {
-    "motor_Ca": ("motor", "Ca", 1.0, "a.u."),
-    # concentrations in uM (Brian2 keeps mol/m^3 = mM internally)
-    "astrocyte_Ca": ("astrocyte", "Ca", 1e3, "uM"),
-    "astrocyte_IP3": ("astrocyte", "IP3", 1e3, "uM"),
-    "astrocyte_AG": ("astrocyte", "AG", 1.0, "a.u."),
-    "astrocyte_ADO": ("astrocyte", "ADO", 1.0, "a.u."),
-}
+#: trace -> (group, variable, factor from Brian2's SI value to the stored unit, stored unit)
+TRACE_SOURCES: dict[str, tuple[str, str, float, str]] = {
+    t: (p.name, s.variable, s.factor, s.unit) for p in BUILT_IN for t, s in p.traces.items()}
+
+TRACES: tuple[str, ...] = tuple(TRACE_SOURCES)
+
+__all__ = ["POPULATIONS", "TRACES", "TRACE_SOURCES", "spike_populations", "trace_sources"]
