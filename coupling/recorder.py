@@ -19,7 +19,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..network import CPG
-from ..network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
+from ..network.recordable import POPULATIONS, TRACES, spike_populations, trace_sources
 from .bridge import ORDER_MEASURE, Bridge
 
 
@@ -45,10 +45,10 @@ class RecordPlan:
         if self.stride < 1:
             raise ValueError(f"RecordPlan.stride must be at least 1, got {self.stride}")
         for p in self.spikes:
-            if p not in POPULATIONS:
+            if p not in spike_populations():
                 raise ValueError(f"RecordPlan.spikes: unknown population '{p}'")
         for t in self.traces:
-            if t not in TRACES:
+            if t not in trace_sources():
                 raise ValueError(f"RecordPlan.traces: unknown trace '{t}'")
 
     @classmethod
@@ -77,7 +77,7 @@ class SessionRecorder:
         self._lastspike = {p: cpg.table(p, "lastspike") for p in plan.spikes}
         self._traces = {}
         for name in plan.traces:
-            group, var, scale, _ = TRACE_SOURCES[name]
+            group, var, scale, _ = trace_sources()[name]
             self._traces[name] = (cpg.table(group, var), scale)
         self._clock = cpg.clock
         self.session = np.zeros(B, dtype=np.int64)  # the session being recorded, 0 = none

@@ -21,7 +21,7 @@ from ...models import ModelSet
 from ...models.values import whole_steps
 from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, exclusive,
                         network_time, run_network)
-from ...network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
+from ...network.recordable import POPULATIONS, TRACES, spike_populations, trace_sources
 from .progress import time_bar
 
 
@@ -61,7 +61,9 @@ def check_selection(spikes: tuple[str, ...] | None,
                     traces: tuple[str, ...] | None) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """Validate which populations' spikes and which traces to record (None: all). Each is a
     list of names or one text of names separated by commas (``"motor"``, ``"motor,astrocyte"``;
-    ``"none"`` or ``""``: nothing), as the command line takes them."""
+    ``"none"`` or ``""``: nothing), as the command line takes them. The names are the
+    population table's (:mod:`astrocpg.network.populations`), added rows included."""
+    POPULATIONS, TRACES = spike_populations(), tuple(trace_sources())
     spikes = POPULATIONS if spikes is None else names_list(spikes, "--spikes")
     traces = TRACES if traces is None else names_list(traces, "--traces")
     for name in spikes:
@@ -89,7 +91,7 @@ def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
     if record_traces:
         per_group: dict[str, list[str]] = {}
         for name in traces:
-            group, var, _, _ = TRACE_SOURCES[name]
+            group, var, _, _ = trace_sources()[name]
             per_group.setdefault(group, []).append(var)
         for group, variables in per_group.items():
             ms = tuple(StateMonitor(part.obj, variables, record=True, dt=trace_dt,
@@ -108,7 +110,7 @@ def _with_numbers(cpg: CPG, population: str, monitors: Any) -> list[tuple[Any, A
 def _collect(cpg: CPG, mons: dict[str, Any]) -> tuple[dict, dict]:
     """Spikes (t, files' index) and traces (t, values in the files' column order)."""
     spikes = {}
-    for p in POPULATIONS:
+    for p in spike_populations():
         if p not in mons:
             continue
         ts, idx = [], []
@@ -122,8 +124,7 @@ def _collect(cpg: CPG, mons: dict[str, Any]) -> tuple[dict, dict]:
             t, i = t[order], i[order]
         spikes[p] = (t, i)
     traces = {}
-    for name in TRACES:
-        group, var, scale, _ = TRACE_SOURCES[name]
+    for name, (group, var, scale, _) in trace_sources().items():
         if f"{group}_state" not in mons:
             continue
         ms = _with_numbers(cpg, group, mons[f"{group}_state"])

@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ...network.layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS
-from ...network.recordable import TRACE_SOURCES
+from ...network.recordable import TRACE_SOURCES, spike_populations
 from ..analysis.gait import leg_phases
 from ..analysis.rhythm import pool_activity
 from .plots import POOL_COLOURS, mark_fall
@@ -55,15 +55,18 @@ def _legs(result: Any) -> tuple[str, ...]:
 # ---------------------------------------------------------------- spikes
 def raster_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[str, Figure]:
     """rasters: one panel per recorded population (motor neurons coloured by pool,
-    interneurons, astrocytes' adenosine releases)."""
-    pops = [p for p in ("motor", "interneuron", "astrocyte") if p in result.spikes]
+    interneurons, astrocytes' adenosine releases, then any population added to the table,
+    cells by limb)."""
+    known = spike_populations()
+    pops = [p for p in known if p in result.spikes]
     if not pops:
         return {}
     L, (t0, t1) = result.layout, window
     heights = {"motor": 4, "interneuron": 2, "astrocyte": 1.2}
-    fig = _figure((11, 2.2 + 1.3 * sum(heights[p] for p in pops)))
-    axes = np.atleast_1d(fig.subplots(len(pops), 1, sharex=True,
-                                      gridspec_kw={"height_ratios": [heights[p] for p in pops]}))
+    fig = _figure((11, 2.2 + 1.3 * sum(heights.get(p, 2) for p in pops)))
+    axes = np.atleast_1d(fig.subplots(
+        len(pops), 1, sharex=True, gridspec_kw={"height_ratios": [heights.get(p, 2)
+                                                                  for p in pops]}))
     for ax, pop in zip(axes, pops):
         t, i = (np.asarray(a) for a in result.spikes[pop])
         keep = (t >= t0) & (t < t1)
@@ -91,6 +94,14 @@ def raster_figures(result: Any, trial: int, window: tuple[float, float]) -> dict
                           _legs(result))
             ax.set_ylim(-0.5, L.interneurons_per_trial - 0.5)
             ax.set_ylabel("interneuron (leg)")
+        elif pop != "astrocyte":  # an added population: its cells, limb by limb
+            n = L.cells_per_trial(pop)
+            base = trial * n
+            sel = (i >= base) & (i < base + n)
+            ax.plot(t[sel], i[sel] - base, "|", ms=3, color="tab:purple")
+            ax.set_yticks([(k + 0.5) * n / L.n_legs for k in range(L.n_legs)], _legs(result))
+            ax.set_ylim(-0.5, n - 0.5)
+            ax.set_ylabel(f"{pop} (leg)")
         else:
             base = trial * L.thigh_pools_per_trial
             sel = (i >= base) & (i < base + L.thigh_pools_per_trial)

@@ -71,18 +71,14 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError, did_you_mean
-from ...network.recordable import TRACE_SOURCES
+from ...network import populations as _table
+from ...network.recordable import trace_sources
 from .folder import (check_output_path, check_replaceable, clean_stale_temporaries,
                      refuse_in_use, verify)
 from .outputs import atomic_path, save_npz
 
-TRACE_MEANING = {
-    "motor_Ca": "motor-neuron Ca2+ (dimensionless, drives the K+ adaptation current)",
-    "astrocyte_Ca": "astrocyte cytosolic Ca2+ (Li-Rinzel)",
-    "astrocyte_IP3": "astrocyte IP3",
-    "astrocyte_AG": "2-AG (endocannabinoid) at the astrocyte (dimensionless)",
-    "astrocyte_ADO": "adenosine released by the astrocyte (dimensionless)",
-}
+#: what each built-in trace holds (the population table's; an added row's: trace_meaning)
+TRACE_MEANING = {t: src.meaning for p in _table.BUILT_IN for t, src in p.traces.items()}
 # the unit of each robot.npz array (None: labels or flags, no unit)
 ROBOT_UNITS: dict[str, str | None] = {
     "t": "s", "joint_angles": "rad", "torques": "N*m", "torso_position": "m",
@@ -97,7 +93,7 @@ ROBOT_SERIES = (("joint_angles", "joint angles"),
 # a stored trace unit -> (NWB unit, conversion): NWB wants SI or "dimensionless", and keeps the
 # stored values with a factor to the unit (data * conversion); the traces' "a.u." are
 # dimensionless model variables (": 1" in their equations)
-NWB_UNITS = {"uM": ("mol/m^3", 1e-3), "a.u.": ("dimensionless", 1.0)}
+NWB_UNITS = {"uM": ("mol/m^3", 1e-3), "mV": ("volts", 1e-3), "a.u.": ("dimensionless", 1.0)}
 
 TIME_CONVENTION = (
     "Times are seconds from session_start_time, the start of the simulation (t = 0). A sample "
@@ -149,6 +145,10 @@ def unit_rows(manifest: dict[str, Any]) -> dict[str, list[dict[str, Any]]]:
     per_leg = {"motor": [p for p in lay["pools"] for _ in range(lay["pool_size"])],
                "interneuron": list(lay["interneurons"]),
                "astrocyte": list(lay["thigh_pools"])}
+    # the population table's other recordable rows (added populations), as the layout lists them
+    for pop, cells in (lay.get("cells_per_leg") or {}).items():
+        if pop not in per_leg and _recordable(pop):
+            per_leg[pop] = list(cells)
     rows: dict[str, list[dict[str, Any]]] = {}
     for pop, cells in per_leg.items():
         rows[pop] = [{"trial": b, "limb": leg, "pool": cell}
@@ -156,6 +156,24 @@ def unit_rows(manifest: dict[str, Any]) -> dict[str, list[dict[str, Any]]]:
         for k, row in enumerate(rows[pop]):
             row["neuron_index"] = k
     return rows
+
+
+def _recordable(population: str) -> bool:
+    """Can ``population`` have spikes or traces? (A population the table does not know, from a
+    folder written with a row this process has not registered, is taken as recordable.)"""
+    try:
+        row = _table.row(population)
+    except KeyError:
+        return True
+    return row.spikes or bool(row.traces)
+
+
+def _cell_noun(population: str) -> str:
+    """What one cell of ``population`` is called in the export (``motor_neuron``)."""
+    try:
+        return _table.row(population).cell_noun or population
+    except KeyError:
+        return population
 
 
 def _spike_trains(times: np.ndarray, indices: np.ndarray, n: int) -> list[np.ndarray]:
@@ -344,31 +362,45 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
     column_rows: dict[str, list[tuple[Any, int, int]]] = {"astrocyte": [], "motor": []}
     dims = {"motor": (len(lay["legs"]), len(lay["pools"]) * lay["pool_size"]),
             "astrocyte": (1, len(lay["legs"]) * len(lay["thigh_pools"]))}
+    sources = trace_sources()
+    for name in data.get("traces", {}):  # traces of an added population: its own cell table
+        pop = sources[name][0] if name in sources else None
+        if pop is not None and pop not in cells and pop in populations:
+            row = _table.row(pop)
+            noun = _cell_noun(pop)
+            cells[pop] = _cell_table(f"{noun}s", f"one row per {noun.replace('_', ' ')}",
+                                     populations[pop], row.label_meaning or "pool")
+            column_rows[pop] = []
+            per_leg = len(populations[pop]) // (lay["n_trials"] * len(lay["legs"]))
+            dims[pop] = ((len(lay["legs"]), per_leg) if row.trace_series_per_leg
+                         else (1, len(lay["legs"]) * per_leg))
     for name, values in sorted(data.get("traces", {}).items()):
         if name.endswith("_t"):
             continue
         t = data["traces"][f"{name}_t"]
         if len(t) == 0:  # nothing was sampled (a run that diverged at once)
             continue
-        population = name.split("_")[0]
-        unit, conversion = NWB_UNITS.get(TRACE_SOURCES[name][3], (TRACE_SOURCES[name][3], 1.0))
+        population = sources[name][0]
+        unit, conversion = NWB_UNITS.get(sources[name][3], (sources[name][3], 1.0))
         # one series per trial and limb (motor) or per trial (astrocytes): time stays the
         # longest dimension, and a series is one limb's or one trial's cells
         n_parts, width = dims[population]
+        by_leg = _table.row(population).trace_series_per_leg
         for part in range(values.shape[1] // width):
             b, limb = divmod(part, n_parts)
             cols = slice(part * width, (part + 1) * width)
-            suffix = f"trial{b}_{lay['legs'][limb]}" if population == "motor" else f"trial{b}"
+            suffix = f"trial{b}_{lay['legs'][limb]}" if by_leg else f"trial{b}"
             series = TimeSeries(
                 name=f"{name}_{suffix}", data=values[:, cols], unit=unit,
                 conversion=conversion, comments=SAMPLE_COMMENT, **_sampling(t, dt),
-                description=(f"{TRACE_MEANING.get(name, name)}; one column per cell, the cell "
+                description=(f"{_table.trace_meaning(name)}; one column per cell, the cell "
                              f"of each column in processing/misc/{population}_trace_columns"))
             nwb.add_acquisition(series)
             column_rows[population] += [(series, k, cols.start + k) for k in range(width)]
     for pop, table in cells.items():
         module.add(table)
-    for pop, cell in (("astrocyte", "astrocyte"), ("motor", "motor_neuron")):
+    for pop in cells:
+        cell = _cell_noun(pop)
         if column_rows[pop]:
             module.add(_column_table(f"{pop}_trace_columns",
                                      f"the {cell.replace('_', ' ')} of each column of the "
@@ -461,7 +493,7 @@ def _npz_unit(name: str) -> str | None:
         trace = name[len("trace_"):]
         if trace.endswith("_t"):
             return "s"
-        unit = TRACE_SOURCES[trace][3]
+        unit = trace_sources()[trace][3]
         return "dimensionless" if unit == "a.u." else unit
     return ROBOT_UNITS[name[len("robot_"):]]
 

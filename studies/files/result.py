@@ -27,28 +27,25 @@ from typing import Any, Mapping
 import numpy as np
 
 from ...errors import InputError, did_you_mean
-from ...network.layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
-from ...network.recordable import POPULATIONS, TRACE_SOURCES
+from ...network import populations as _table
+from ...network.layout import LEGS, Layout
+from ...network.recordable import spike_populations, trace_sources
 from .folder import MANIFEST, as_path, verify
 
 #: what each ``astrocpg_command`` of a manifest loads as
 KINDS = {"unit": "unit", "run": "run", "train": "train", "study-run": "train",
          "train-session": "train-session"}
 
-# the cells of one trial of each population, in index order: what the pool/column is called
-_CELLS_PER_LEG = {
-    "motor": lambda L: [(pool, k) for pool in POOLS for k in range(L.pool_size)],
-    "interneuron": lambda L: [(name, 0) for name, *_ in INTERNEURONS],
-    "astrocyte": lambda L: [(pool, 0) for pool in THIGH_POOLS],
-}
-_POOL_NAMES = {"motor": POOLS, "interneuron": tuple(n for n, *_ in INTERNEURONS),
-               "astrocyte": THIGH_POOLS}
-
-
 def _cells(layout: Layout, population: str) -> list[tuple[str, str, int]]:
-    """(leg, pool or interneuron, k within the pool) of each cell of one trial, in index order."""
-    per_leg = _CELLS_PER_LEG[population](layout)
+    """(leg, pool or interneuron, k within the pool) of each cell of one trial, in index order
+    (the population table's cells of one limb, limb after limb)."""
+    per_leg = _table.row(population).cells(layout.pool_size)
     return [(leg, pool, k) for leg in layout.legs for pool, k in per_leg]
+
+
+def _pool_names(population: str, pool_size: int) -> tuple[str, ...]:
+    """The labels (pools, interneurons ...) of one limb's cells, each once."""
+    return tuple(dict.fromkeys(_table.row(population).labels(pool_size)))
 
 
 def _choices(values: Any) -> str:
@@ -59,7 +56,7 @@ def _quantity(values: np.ndarray, unit_text: str) -> Any:
     """``values`` (stored in ``unit_text``: "uM", "a.u.", "s") as a Brian2 Quantity."""
     import brian2
 
-    units = {"uM": brian2.umolar, "s": brian2.second, "a.u.": None}
+    units = {"uM": brian2.umolar, "s": brian2.second, "mV": brian2.mV, "a.u.": None}
     unit = units.get(unit_text)
     arr = np.asarray(values, dtype=np.float64)
     return brian2.Quantity(arr) if unit is None else arr * unit
@@ -218,6 +215,7 @@ class Result:
         return self.layout.n_trials
 
     def _population(self, population: str) -> str:
+        POPULATIONS = spike_populations()
         if population not in POPULATIONS:
             raise InputError(f"unknown population{did_you_mean(population, POPULATIONS)} "
                              f"(populations: {_choices(POPULATIONS)})",
@@ -231,7 +229,8 @@ class Result:
     def neurons(self, population: str, trial: int | None = 0, leg: str | None = None,
                 pool: str | None = None, neuron: int | None = None) -> np.ndarray:
         """Indices (in the population) of the cells :meth:`spike_times` selects."""
-        if population not in _CELLS_PER_LEG:
+        POPULATIONS = spike_populations()
+        if population not in POPULATIONS:
             raise InputError(f"unknown population{did_you_mean(population, POPULATIONS)} "
                              f"(populations: {_choices(POPULATIONS)})",
                              culprit=f"population={population!r}")
@@ -243,7 +242,7 @@ class Result:
         if leg is not None and leg not in L.legs:
             raise InputError(f"unknown leg{did_you_mean(leg, L.legs)} (legs: {_choices(L.legs)})",
                              culprit=f"leg={leg!r}")
-        names = _POOL_NAMES[population]
+        names = _pool_names(population, L.pool_size)
         if pool is not None and pool not in names:
             what = "interneurons" if population == "interneuron" else "pools"
             raise InputError(f"not a {population} pool ({what}: {_choices(names)})",
@@ -299,6 +298,7 @@ class Result:
         """A recorded trace as a :class:`Trace` (time in second, values with their unit, the
         columns mapped to trial/leg/pool): "motor_Ca" (a.u.), "astrocyte_Ca" and
         "astrocyte_IP3" (uM), "astrocyte_AG" and "astrocyte_ADO" (a.u.)."""
+        TRACE_SOURCES = trace_sources()
         if name not in TRACE_SOURCES:
             raise InputError(f"unknown trace{did_you_mean(name, TRACE_SOURCES)} (traces: "
                              f"{_choices(TRACE_SOURCES)})",
@@ -364,7 +364,7 @@ class Result:
         if self.traces:
             lines.append("  traces: " + ", ".join(
                 f"{n} {np.shape(v)[0]}x{np.shape(v)[1] if np.ndim(v) > 1 else 1} "
-                f"{TRACE_SOURCES[n][3] if n in TRACE_SOURCES else ''}"
+                f"{trace_sources()[n][3] if n in trace_sources() else ''}"
                 for n, (_, v) in self.traces.items()) + "  -> trace(name)")
         if self.robot:
             lines.append("  robot: " + ", ".join(self.robot))
@@ -486,10 +486,10 @@ def load(folder: str | os.PathLike) -> Result:
                       sessions=sessions, weights=w["weights_mV"])
     layout = _layout(manifest, folder)
     spikes_npz = _npz(folder, "spikes.npz") if (folder / "spikes.npz").exists() else {}
-    spikes = {p: (spikes_npz[f"{p}_times"], spikes_npz[f"{p}_indices"]) for p in POPULATIONS
+    spikes = {p: (spikes_npz[f"{p}_times"], spikes_npz[f"{p}_indices"]) for p in spike_populations()
               if f"{p}_times" in spikes_npz and f"{p}_indices" in spikes_npz}
     traces_npz = _npz(folder, "traces.npz") if (folder / "traces.npz").exists() else {}
-    traces = {n: (traces_npz[f"{n}_t"], traces_npz[n]) for n in TRACE_SOURCES
+    traces = {n: (traces_npz[f"{n}_t"], traces_npz[n]) for n in trace_sources()
               if n in traces_npz and f"{n}_t" in traces_npz}
     robot = _npz(folder, "robot.npz") if (folder / "robot.npz").exists() else None
     settings = manifest.get("settings") or {}
