@@ -114,6 +114,17 @@ def test_recorded_exported_plotted(renshaw, tmp_path):
     paths = ac.plot(folder, out=tmp_path / "figures", progress=False)
     assert any(p.name.startswith("rasters") for p in paths)
 
+    # a process that has not registered the row reads the folder's built-in populations
+    populations.unregister("renshaw")
+    plain = ac.load(folder)
+    assert "renshaw" not in plain.spikes and "motor" in plain.spikes
+    with pynwb.NWBHDF5IO(str(ac.export(folder, "nwb", out=tmp_path / "plain.nwb")), "r") as io:
+        nwb = io.read()
+        assert "renshaw_v_trial0" not in nwb.acquisition
+        assert "motor_Ca_trial0_FR" in nwb.acquisition
+    ac.export(folder, "npz", out=tmp_path / "plain.npz")
+    assert ac.plot(folder, out=tmp_path / "plain_figures", progress=False)
+
 
 def test_register_refuses_a_taken_name():
     row = renshaw_row()

@@ -378,8 +378,8 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
         if name.endswith("_t"):
             continue
         t = data["traces"][f"{name}_t"]
-        if len(t) == 0:  # nothing was sampled (a run that diverged at once)
-            continue
+        if len(t) == 0 or name not in sources:  # nothing sampled (diverged at once), or the
+            continue  # trace of a population added to the table in another process only
         population = sources[name][0]
         unit, conversion = NWB_UNITS.get(sources[name][3], (sources[name][3], 1.0))
         # one series per trial and limb (motor) or per trial (astrocytes): time stays the
@@ -493,6 +493,8 @@ def _npz_unit(name: str) -> str | None:
         trace = name[len("trace_"):]
         if trace.endswith("_t"):
             return "s"
+        if trace not in trace_sources():  # a population added in another process only
+            return None
         unit = trace_sources()[trace][3]
         return "dimensionless" if unit == "a.u." else unit
     return ROBOT_UNITS[name[len("robot_"):]]
