@@ -135,11 +135,11 @@ class Layout:
 
     @property
     def motor_per_trial(self) -> int:
-        return self.pools_per_trial * self.pool_size
+        return self.pools_per_trial * self.pool_size  # the table's motor row: pool_size per pool
 
     @property
     def interneurons_per_trial(self) -> int:
-        return self.n_legs * len(INTERNEURONS)
+        return self.cells_per_trial("interneuron")
 
     @property
     def thigh_pools_per_trial(self) -> int:
@@ -147,7 +147,7 @@ class Layout:
 
     @property
     def joints_per_trial(self) -> int:
-        return self.n_legs * len(JOINTS_DRIVEN)
+        return self.cells_per_trial("torque")
 
     # ---- global indices
     def pool(self, trial: int, leg: int, pool: str) -> int:

@@ -137,3 +137,24 @@ def test_register_refuses_a_taken_name():
         populations.register(populations.Population(name="x", model=row.model,
                                                     cells_per_leg=row.cells_per_leg))
     assert populations.names() == tuple(p.name for p in populations.BUILT_IN)
+
+
+def test_built_in_rows_are_the_former_lists():
+    """The views read from the table are the lists the modules held before it."""
+    from astrocpg.network.divergence import MODEL_OF
+    from astrocpg.network.layout import Layout
+    from astrocpg.network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
+
+    assert POPULATIONS == ("motor", "interneuron", "astrocyte")
+    assert TRACES == ("motor_Ca", "astrocyte_Ca", "astrocyte_IP3", "astrocyte_AG",
+                      "astrocyte_ADO")
+    assert TRACE_SOURCES["astrocyte_Ca"] == ("astrocyte", "Ca", 1e3, "uM")
+    assert MODEL_OF == {
+        "motor": "motor_neuron", "interneuron": "interneuron", "astrocyte": "astrocyte",
+        "pool": "pool", "torque": "torque", "pool_activity": "pool_activity",
+        "intra_pool": "intra_pool_synapse", "pool_to_interneuron": "pool_to_interneuron",
+        "interneuron_to_pool": "interneuron_to_pool", "interlimb": "interlimb_synapse"}
+    L = Layout(n_trials=3, pool_size=5)
+    assert [L.cells_per_trial(p) for p in ("motor", "interneuron", "astrocyte", "pool",
+                                           "torque")] == [80, 24, 8, 16, 8]
+    assert L.interneurons_per_trial == 24 and L.joints_per_trial == 8
