@@ -587,12 +587,10 @@ def _run_command(args: argparse.Namespace) -> int:
 def _choose_codegen(value: str) -> None:
     """--codegen: checked, then set for this process and (through the environment, which they
     inherit) a study's local Dask workers."""
-    import brian2
-
-    from ..network.codegen import ENV, codegen_target
+    from ..network.codegen import ENV, choose_target
 
     try:
-        os.environ[ENV] = brian2.prefs.codegen.target = codegen_target(value)
+        os.environ[ENV] = choose_target(value)
     except InputError as e:
         raise InputError(e.message, culprit="--codegen") from None
 
