@@ -899,23 +899,9 @@ def _cmd_models(args: argparse.Namespace) -> int:
 
 
 def _cmd_robot(args: argparse.Namespace) -> int:
-    from ..coupling.robot import A1Parameters, export_xml
-    from .files.folder import refuse_in_use
-    from .files.outputs import atomic_path
+    from .experiments.api import robot
 
-    path = Path(args.path)
-    if path.suffix.lower() != ".xml":
-        raise InputError("the file name must end in .xml", culprit=f"robot export {path}")
-    if not path.parent.exists():
-        raise InputError(f"folder '{path.parent}' does not exist",
-                         culprit=f"robot export {path}")
-    if path.is_dir():
-        raise InputError("is a folder; name the file to write", culprit=f"robot export {path}")
-    if path.exists() and not args.overwrite:
-        raise InputError("exists; --overwrite replaces it", culprit=f"robot export {path}")
-    refuse_in_use(path, culprit=f"robot export {path}")
-    atomic_path(path, lambda tmp: export_xml(tmp, A1Parameters()))
-    print(f"wrote {path}")
+    print(f"wrote {robot(args.path, overwrite=args.overwrite)}")
     return 0
 
 
