@@ -1,4 +1,10 @@
-"""Wiring: builds the populations and synapses of the CPG from ``astrocpg.models``."""
+"""Wiring: the CPG's populations and synapses built from ``astrocpg.models`` for ``n_trials``
+independent copies (``build``: :func:`build_cpg`, :class:`CPG`), their index layout (legs,
+pools, interneurons: ``layout``, ``parts``), the stages of limbs that 0 ms inter-limb delays
+make (``delays``), the traces a run can record (``recordable``), the divergence scan of the
+state (``divergence``), Brian2's code-generation target (``codegen``), and the run lock that
+lets one build-and-run use Brian2 at a time in a process and applies the framework's Brian2
+settings only while it does (``runlock``, ``brian_prefs``). Nothing here is biophysics."""
 
 from .build import CPG, build_cpg, built_in_models, check_runs, same_limb_mask, trial_seeds
 from .codegen import codegen_target, use_codegen
