@@ -11,8 +11,11 @@ The Python API (what the ``astrocpg`` commands call)::
     same = ac.load("out/unit")                    # any output folder -> Result
     ac.plot("out/unit"); ac.video("out/run")      # its figures; the robot replayed as MP4
 
-``unit``, ``run``, ``train``, ``resume``, ``load``, ``describe``, ``export``, ``plot``,
-``video``, ``Result`` and ``Trace`` are imported on first use, so ``import astrocpg`` (and ``astrocpg --help``) does not
+Every ``astrocpg`` command has its function, its options as keyword arguments: ``unit``,
+``run``, ``train`` (and ``resume``), ``gait``, ``evaluate``, ``power``, ``study``, ``report``,
+``plot``, ``video``, ``export``, ``describe``, ``list_models`` and ``dump_model``
+(``astrocpg models list/dump``), ``robot``; with ``load``, ``Result``
+and ``Trace`` they are imported on first use, so ``import astrocpg`` (and ``astrocpg --help``) does not
 load Brian2. See docs/tutorial.ipynb.
 
 Sub-packages:
@@ -35,8 +38,9 @@ _quiet_brian.install()
 
 # public name -> module that defines it (imported on first access)
 _API = {name: "astrocpg.studies.experiments.api"
-        for name in ("unit", "run", "train", "resume", "load", "describe", "export", "Result",
-                     "Trace")}
+        for name in ("unit", "run", "train", "resume", "load", "describe", "export", "gait",
+                     "evaluate", "power", "list_models", "dump_model", "robot", "Result", "Trace")}
+_API.update({name: "astrocpg.studies.sweeps.api" for name in ("study", "report")})
 _API.update({name: "astrocpg.studies.experiments.see" for name in ("plot", "video")})
 _API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFault", "Diverged")})
 

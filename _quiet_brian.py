@@ -71,9 +71,11 @@ def remove_stale(folder: str | None = None) -> list[str]:
     return removed
 
 
-def close_debug_files() -> None:
-    """Close and delete the debug log and script copy Brian2 opened at import, and switch
-    file logging off for the rest of the process."""
+def close_debug_files(switch_off: bool = True) -> None:
+    """Close and delete the debug log and script copy Brian2 opened at import. ``switch_off``
+    (Brian2 imported by astrocpg): its file-logging preferences say so too. Where the user
+    imported Brian2 before astrocpg, their preferences are theirs and stay as they are
+    (Brian2 reads them at import only)."""
     import logging
 
     import brian2
@@ -92,8 +94,9 @@ def close_debug_files() -> None:
                 os.remove(p)
             except OSError:
                 pass
-    brian2.prefs.logging.file_log = False
-    brian2.prefs.logging.save_script = False
+    if switch_off:
+        brian2.prefs.logging.file_log = False
+        brian2.prefs.logging.save_script = False
 
 
 def mend_interrupt_handler() -> None:

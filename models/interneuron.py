@@ -17,10 +17,12 @@ dv/dt = (v_interneuron_rest - v)/tau_interneuron : volt  # membrane potential
 THRESHOLD = "rand() < 0.5*(1 + tanh((v - v_interneuron_th)/S_interneuron_spike))"
 RESET = "v = v_interneuron_rest"
 
-# Refractory in the step of the spike and the next refractory_interneuron (authors' counter: set at the
-# spike, checked before it counts down). With the 1 ms step the neuron can fire again after
-# refractory + 1 ms; this reading reproduces docs/model.md's figures (period 0.52 s, 27/25 Hz), while
-# Brian2's plain refractory=refractory_interneuron gives a 0.44 s period and 28.6 Hz.
+# Refractory in the step of the spike and the next refractory_interneuron steps (the authors'
+# counter: set at the spike, checked before it counts down), read as the motor neuron's is
+# (models/motor_neuron.py). With Table I's 3 ms and the 1 ms step an interneuron can fire again
+# 4 ms after a spike (at most 250 Hz), where Brian2's plain refractory=refractory_interneuron
+# would allow 3 ms (333 Hz). One rule for both neuron kinds; docs/model.md's figures (among them
+# the six interneurons of a unit, 160 Hz together) were measured with it.
 REFRACTORY = "timestep(t - lastspike, dt) <= timestep(refractory_interneuron, dt)"
 
 PARAMETERS = ParameterTable("interneuron", [

@@ -9,9 +9,7 @@ decides which element connects to which, and schedules the few objects whose ord
 from __future__ import annotations
 
 import contextlib
-import math
 import re
-import warnings
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Iterator
 
@@ -25,7 +23,7 @@ from ..models import DEFAULT_MODELS, ModelSet
 from ..models.base import BrianModel, NeuronModel, SynapseModel, brian_error_line
 from ..models.names import why_reserved
 from .codegen import DEFAULT as DEFAULT_CODEGEN
-from .codegen import initial_target, use_codegen
+from .codegen import use_codegen
 from . import populations
 from .divergence import MODEL_OF, InvalidState, StateScan, leave_to_the_scan, model_of
 from .delays import limb_stages
@@ -33,24 +31,14 @@ from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
 from .parts import Part, TrialTable
 from .runlock import exclusive
 
-brian2.prefs.codegen.target = initial_target()  # --codegen / $ASTROCPG_CODEGEN: see codegen.py
-brian2.prefs.codegen.loop_invariant_optimisations = True
-# Brian2 logs a debug file for every exception it sees; our errors are user-facing.
-brian2.prefs.logging.delete_log_on_exit = True
-
-
+# Brian2's settings (target, warning filters) are applied only while the framework builds and
+# runs, by RUN_LOCK (brian_prefs.py), never at import: a user's own Brian2 models are untouched.
 # Brian2 opened its debug log and script copy at import; if it was imported before astrocpg
 # (so astrocpg._quiet_brian did not wrap that import), close and delete them now. Our errors
 # are one line naming the culprit; no process should leave Brian2's files behind. Its Ctrl-C
 # handler is mended the same way (a process started with SIGINT ignored).
-close_debug_files()
+close_debug_files(switch_off=False)
 mend_interrupt_handler()
-# A network that failed validation is dropped on purpose; don't warn about its objects.
-brian2.BrianLogger.suppress_name("unused_brian_object")
-# An invalid state (NaN, inf, beyond 1e50) is reported once, in one line, by the divergence check
-# (CPG.first_invalid, errors.Diverged); numpy's floating-point warnings from Brian2's generated code (exec'd source,
-# module "<string>") would only repeat it on stderr, several lines per step.
-warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"<string>$")
 
 
 @dataclass

@@ -34,6 +34,11 @@ DEFAULT = "numpy"
 ENV = "ASTROCPG_CODEGEN"
 
 _said_cold = False  # the first-build note is printed once per process
+# The target the framework's runs use, chosen by the last use_codegen (None: initial_target()).
+# It is the framework's, not Brian2's global preference: RUN_LOCK (runlock.py) applies it to
+# brian2.prefs only while a build or run of the framework holds the lock, and restores the
+# user's value after.
+_chosen: str | None = None
 
 
 def codegen_target(value: str | None = None) -> str:
@@ -48,10 +53,18 @@ def codegen_target(value: str | None = None) -> str:
 
 
 def initial_target() -> str:
-    """Brian2's target when astrocpg loads it: $ASTROCPG_CODEGEN if valid, else numpy (an
-    invalid value is reported by the first :func:`use_codegen`, i.e. the first network built)."""
+    """The framework's target before any :func:`use_codegen`: $ASTROCPG_CODEGEN if valid, else
+    numpy (an invalid value is reported by the first :func:`use_codegen`, i.e. the first network
+    built)."""
     value = os.environ.get(ENV, "").strip()
     return value if value in TARGETS else DEFAULT
+
+
+def framework_target() -> str:
+    """The target of the framework's builds and runs in this process: the last
+    :func:`use_codegen`'s, else :func:`initial_target`. Brian2's own ``prefs.codegen.target``
+    holds it only inside :data:`~astrocpg.network.RUN_LOCK`; outside, it is the user's."""
+    return _chosen or initial_target()
 
 
 def cache_dir() -> Path:
@@ -107,8 +120,9 @@ def _compiler_output_hidden() -> Iterator[None]:
 
 
 def use_codegen(value: str | None = None) -> str:
-    """Set Brian2's target for the objects built from now on (``codegen_target(value)``) and
-    return it. Cython needs the Cython package and a working C compiler: without them this is
+    """Choose the framework's target for the networks built from now on
+    (``codegen_target(value)``, see :func:`framework_target`) and return it; Brian2's global
+    preference is set only inside the framework's runs (:data:`~astrocpg.network.RUN_LOCK`). Cython needs the Cython package and a working C compiler: without them this is
     an :class:`EnvironmentFault`, never a silent fall-back to numpy."""
     target = codegen_target(value)
     if target == "cython":
@@ -127,9 +141,27 @@ def use_codegen(value: str | None = None) -> str:
             _said_cold = True
             sys.stderr.write(f"astrocpg: Brian2 compiles the network with Cython on first use "
                              f"(several minutes, once); the modules are cached in {cache_dir()}\n")
-    brian2.prefs.codegen.target = target
+    return choose_target(target)
+
+
+def choose_target(value: str | None = None) -> str:
+    """Record ``codegen_target(value)`` as the framework's target (:func:`framework_target`)
+    without checking that it can compile (:func:`use_codegen` does, at the first build), and
+    return it. Inside a build or run of the framework it applies at once."""
+    global _chosen
+    target = codegen_target(value)
+    _chosen = target
+    if _applied() and brian2.prefs.codegen.target != target:
+        brian2.prefs.codegen.target = target  # chosen inside a build: its own objects use it
     return target
 
 
+def _applied() -> bool:
+    """Does the framework's session (RUN_LOCK, runlock.py) hold Brian2's preferences now?"""
+    from . import brian_prefs
+
+    return brian_prefs.active()
+
+
 __all__ = ["TARGETS", "DEFAULT", "ENV", "codegen_target", "use_codegen", "initial_target",
-           "cache_dir"]
+           "framework_target", "choose_target", "cache_dir"]

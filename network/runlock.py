@@ -18,6 +18,11 @@ itself holds it around the whole, as the entries do::
         cpg = build_cpg(seed=3)
         run_network(cpg.net, 1 * second, namespace={})
 
+Holding the lock is also what applies the framework's Brian2 settings (its code-generation
+target, :mod:`astrocpg.network.brian_prefs`): the outermost acquisition saves the user's values
+and applies the framework's, the matching release puts the user's back. A user's own Brian2
+objects built or run outside the lock see their own settings only.
+
 Taking the lock in the main thread also installs Brian2's Ctrl-C handler where Brian2 was first
 imported in another thread (which could not install it).
 """
@@ -29,9 +34,50 @@ import threading
 from typing import Callable, TypeVar
 
 from .._quiet_brian import install_interrupt_handler
+from . import brian_prefs
+from .codegen import framework_target
+
+
+class RunLock:
+    """A reentrant lock whose holder has the framework's Brian2 settings applied
+    (:mod:`~astrocpg.network.brian_prefs`), from the outermost acquisition to its release.
+    Used as ``threading.RLock``: ``with``, :meth:`acquire`, :meth:`release`."""
+
+    def __init__(self) -> None:
+        self._lock = threading.RLock()
+        self._depth = 0  # acquisitions of the holding thread (only it changes the count)
+
+    def acquire(self, blocking: bool = True, timeout: float = -1) -> bool:
+        """Acquire (reentrant); the outermost acquisition applies the framework's settings."""
+        if not self._lock.acquire(blocking, timeout):
+            return False
+        if self._depth == 0:
+            try:
+                brian_prefs.enter(framework_target())
+            except BaseException:
+                self._lock.release()
+                raise
+        self._depth += 1
+        return True
+
+    def release(self) -> None:
+        """Release; the outermost release puts the user's Brian2 settings back."""
+        self._depth -= 1
+        try:
+            if self._depth == 0:
+                brian_prefs.leave()
+        finally:
+            self._lock.release()
+
+    def __enter__(self) -> bool:
+        return self.acquire()
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
 
 #: Held by the thread that builds or runs a Brian2 network of the framework (reentrant).
-RUN_LOCK = threading.RLock()
+RUN_LOCK = RunLock()
 
 F = TypeVar("F", bound=Callable)
 

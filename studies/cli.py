@@ -587,12 +587,10 @@ def _run_command(args: argparse.Namespace) -> int:
 def _choose_codegen(value: str) -> None:
     """--codegen: checked, then set for this process and (through the environment, which they
     inherit) a study's local Dask workers."""
-    import brian2
-
-    from ..network.codegen import ENV, codegen_target
+    from ..network.codegen import ENV, choose_target
 
     try:
-        os.environ[ENV] = brian2.prefs.codegen.target = codegen_target(value)
+        os.environ[ENV] = choose_target(value)
     except InputError as e:
         raise InputError(e.message, culprit="--codegen") from None
 
@@ -901,23 +899,9 @@ def _cmd_models(args: argparse.Namespace) -> int:
 
 
 def _cmd_robot(args: argparse.Namespace) -> int:
-    from ..coupling.robot import A1Parameters, export_xml
-    from .files.folder import refuse_in_use
-    from .files.outputs import atomic_path
+    from .experiments.api import robot
 
-    path = Path(args.path)
-    if path.suffix.lower() != ".xml":
-        raise InputError("the file name must end in .xml", culprit=f"robot export {path}")
-    if not path.parent.exists():
-        raise InputError(f"folder '{path.parent}' does not exist",
-                         culprit=f"robot export {path}")
-    if path.is_dir():
-        raise InputError("is a folder; name the file to write", culprit=f"robot export {path}")
-    if path.exists() and not args.overwrite:
-        raise InputError("exists; --overwrite replaces it", culprit=f"robot export {path}")
-    refuse_in_use(path, culprit=f"robot export {path}")
-    atomic_path(path, lambda tmp: export_xml(tmp, A1Parameters()))
-    print(f"wrote {path}")
+    print(f"wrote {robot(args.path, overwrite=args.overwrite)}")
     return 0
 
 

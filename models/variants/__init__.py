@@ -1,1 +1,4 @@
-"""Model files (TOML) shipped as examples: variants with the interface of a built-in model."""
+"""Model files (TOML, no code) shipped as examples, each a variant with the interface of a
+built-in model, used with ``--model MODEL=FILE`` (``ac.run(models={...})``): other astrocyte
+models (Li-Rinzel, G-ChI), the authors' inter-limb delays, an alive test by height, and study
+files that compare them. Read one with ``importlib.resources.files("astrocpg.models.variants")``."""

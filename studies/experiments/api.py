@@ -7,6 +7,20 @@
     ac.load("out/run")                           # any output folder -> Result
     ac.describe("astrocyte")                     # equations and parameter table (markdown)
     ac.export("out/run", "nwb")                  # out/run.nwb: NWB (or npz) file of a folder
+    ac.gait("out/astro")                         # the trained gait, one line per trial
+    ac.evaluate("out/astro")                     # trained controllers in other worlds
+    ac.power("out/astro")                        # SNN vs RL power estimate -> (path, figures)
+    ac.list_models(); ac.dump_model("astrocyte")  # the model set; one model as TOML text
+    ac.robot("a1.xml")                           # the project's A1 as an MJCF file
+    ac.study("quick"); ac.report("out/quick")    # a parameter study; its report
+
+Each command of ``astrocpg`` has its function here (``astrocpg models list`` and ``models dump
+NAME`` are ``ac.list_models()`` and ``ac.dump_model(NAME)``, ``astrocpg robot export PATH`` is ``ac.robot(PATH)``; ``study`` and
+``report`` live in :mod:`astrocpg.studies.sweeps.api`), with the command's options as keyword
+arguments named like them (``--no-progress``: ``progress=False``; ``--set``: ``overrides``;
+``--model``: ``models``; ``--condition``: ``conditions``; ``plot --format``: ``fmt``).
+``--codegen`` is the process's choice, not a keyword: set ``ASTROCPG_CODEGEN`` in the
+environment (see :mod:`astrocpg.network.codegen`).
 
 Every function takes the settings of its command (seconds, seed, trials, ``overrides`` with
 units, ``equations``, weights, robot, what to record) as keyword arguments; bad input raises
@@ -26,6 +40,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from ...errors import InputError
+from ...models import ModelSet
 from ..files.export import export as export_folder
 from ..files.result import Result, Trace, load
 from .run import run
@@ -79,4 +94,119 @@ def export(folder: str | os.PathLike, format: str = "nwb",
                          institution=institution)
 
 
-__all__ = ["unit", "run", "train", "resume", "load", "describe", "export", "Result", "Trace"]
+def _path(value: Any, culprit: str) -> Path:
+    """``value`` as a path (a Result written to a folder: its folder), else an InputError
+    naming the argument."""
+    if isinstance(value, Result):
+        if value.folder is None:
+            raise InputError("this Result was not written to a folder (run it with out=...)",
+                             culprit=culprit)
+        value = value.folder
+    if not isinstance(value, (str, os.PathLike)):
+        raise InputError(f"expected a path, got {type(value).__name__}", culprit=culprit)
+    return Path(value)
+
+
+def gait(folder: str | os.PathLike, *, seconds: float = 10.0, seed: int = 1,
+         progress: bool = True) -> list[str]:
+    """Run each trial's trained weights of the training in ``folder`` for ``seconds`` (seed
+    ``seed``) and name its gait: one line per trial (leg phases relative to FR, the gait label,
+    speed, upright share, a fall, the weight structure), as ``astrocpg gait`` prints them."""
+    from .settings import number, seed_number
+    from .trained import describe_gait
+
+    return describe_gait(_path(folder, "folder"), seconds=number(seconds, "seconds",
+                                                                   positive=True),
+                         seed=seed_number(seed, "seed"), progress=progress)
+
+
+def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustness",
+             seconds: float = 10.0, repeats: int = 2, seed: int = 1,
+             conditions: Sequence[str] | None = None, out: str | os.PathLike | None = None,
+             overwrite: bool = False, progress: bool = True, workers: int | None = None,
+             scheduler: str | None = None) -> dict[str, Any]:
+    """The trained controllers under ``folder`` (a training, or a study's finished runs of
+    ``conditions``), learning off, in each world of ``worlds`` (a worlds file, or
+    "robustness"), ``repeats`` times each: what ``astrocpg evaluate`` does. Writes ``out``
+    (default ``folder/evaluation``); returns its rows, summary and ``out``."""
+    from .evaluate import evaluate as evaluate_folder
+
+    if isinstance(conditions, str):  # one condition, not its characters
+        conditions = [conditions]
+    if conditions is not None and not all(isinstance(c, str) for c in conditions):
+        raise InputError("expected condition names as text", culprit="conditions")
+    if not isinstance(worlds, (str, os.PathLike)):
+        raise InputError(f"expected a worlds file or 'robustness', got "
+                         f"{type(worlds).__name__}", culprit="worlds")
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise InputError(f"expected an address as text, got {type(scheduler).__name__}",
+                         culprit="scheduler")
+    return evaluate_folder(_path(folder, "folder"), worlds=worlds, seconds=seconds,
+                           repeats=repeats, seed=seed, conditions=conditions,
+                           out=None if out is None else _path(out, "out"), overwrite=overwrite,
+                           progress=progress, workers=workers, scheduler=scheduler)
+
+
+def power(folder: str | os.PathLike, *, trial: int = 0, sessions: int = 10,
+          progress: bool = True) -> tuple[Path, dict[str, Any]]:
+    """The SNN vs RL power estimate of trial ``trial``'s trained controller in ``folder``,
+    measured over ``sessions`` sessions and written to ``folder/power_trial<K>.json``: what
+    ``astrocpg power`` does. Returns that file's path and the figures."""
+    from .power import power as measure_power
+    from .settings import number
+
+    return measure_power(_path(folder, "folder"),
+                         trial=number(trial, "trial", integer=True, minimum=0),
+                         sessions=number(sessions, "sessions", integer=True, minimum=1),
+                         progress=progress)
+
+
+def list_models(*, overrides: Overrides | None = None,
+                equations: Mapping[str, str] | None = None,
+                models: Mapping[str, Any] | None = None) -> ModelSet:
+    """The models, as one :class:`~astrocpg.models.ModelSet` (``.items()``: each model's name
+    and model, its kind and parameters), with ``overrides``, replaced ``equations`` and model
+    files ``models`` applied: what ``astrocpg models list`` lists. (Not ``ac.models``: that is
+    the package :mod:`astrocpg.models`.)"""
+    return model_set(overrides, equations, models=models)
+
+
+def dump_model(name: str, *, overrides: Overrides | None = None,
+               equations: Mapping[str, str] | None = None,
+               models: Mapping[str, Any] | None = None) -> str:
+    """Model ``name`` as a model file (TOML text), with ``overrides``, replaced ``equations``
+    and model files ``models`` applied: what ``astrocpg models dump NAME`` prints."""
+    from ...errors import did_you_mean
+    from ...models.files import model_to_toml
+
+    known = dict(list_models(overrides=overrides, equations=equations, models=models).items())
+    if not isinstance(name, str) or name not in known:
+        raise InputError(f"unknown model{did_you_mean(str(name), known)} (models: "
+                         f"{', '.join(known)})", culprit="name")
+    return model_to_toml(known[name])
+
+
+def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
+    """Write the project's A1 model as an MJCF file at ``path`` (ending in .xml; an existing
+    file only with ``overwrite``) and return it: what ``astrocpg robot export PATH`` does."""
+    from ...coupling.robot import A1Parameters, export_xml
+    from ..files.folder import refuse_in_use
+    from ..files.outputs import atomic_path
+
+    target = _path(path, "path")
+    if target.suffix.lower() != ".xml":
+        raise InputError("the file name must end in .xml", culprit=f"robot export {target}")
+    if not target.parent.exists():
+        raise InputError(f"folder '{target.parent}' does not exist",
+                         culprit=f"robot export {target}")
+    if target.is_dir():
+        raise InputError("is a folder; name the file to write", culprit=f"robot export {target}")
+    if target.exists() and not overwrite:
+        raise InputError("exists; --overwrite replaces it", culprit=f"robot export {target}")
+    refuse_in_use(target, culprit=f"robot export {target}")
+    atomic_path(target, lambda tmp: export_xml(tmp, A1Parameters()))
+    return target
+
+
+__all__ = ["unit", "run", "train", "resume", "load", "describe", "export", "gait", "evaluate",
+           "power", "list_models", "dump_model", "robot", "Result", "Trace"]

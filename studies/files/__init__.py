@@ -1,2 +1,3 @@
-"""Output folders: manifests with parameters, seed and versions; atomic writes; reading weights
-and folders back; export to NWB and npz."""
+"""Output folders: manifests with parameters, seed and versions; atomic writes and folder locks;
+reading weights and folders back (``result``: :class:`~astrocpg.studies.files.result.Result`,
+what ``ac.load`` returns); export to NWB and npz."""

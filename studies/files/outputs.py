@@ -32,8 +32,11 @@ def brian2_target() -> str | None:
     """Brian2's code-generation target in this process (numpy or cython: the same model and
     noise, rounded by numpy or by C), or None where Brian2 was never loaded (nothing was
     simulated)."""
-    brian2 = sys.modules.get("brian2")
-    return None if brian2 is None else str(brian2.prefs.codegen.target)
+    if "brian2" not in sys.modules:
+        return None
+    from ...network.codegen import framework_target  # the framework's, not the user's pref
+
+    return framework_target()
 
 
 def package_versions() -> dict[str, str]:

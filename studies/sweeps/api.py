@@ -1,0 +1,56 @@
+"""The Python API of the parameter studies, ``ac.study`` and ``ac.report``: what ``astrocpg
+study`` and ``astrocpg report`` do, with their options as keyword arguments (see
+:mod:`astrocpg.studies.experiments.api` for the others)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from ...errors import InputError
+from ..experiments.settings import number
+
+
+def _path(value: Any, culprit: str) -> Path:
+    if not isinstance(value, (str, os.PathLike)):
+        raise InputError(f"expected a path, got {type(value).__name__}", culprit=culprit)
+    return Path(value)
+
+
+def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
+          workers: int | None = None, scheduler: str | None = None, overwrite: bool = False,
+          progress: bool = True) -> dict[str, Any]:
+    """Run the parameter study ``file`` (a study file, or a built-in study's name: quick,
+    ablation) on Dask into ``out`` (default ``out/<study name>``; a second call continues it),
+    on a local cluster of ``workers`` processes or the running ``scheduler``: what ``astrocpg
+    study`` does. Returns the counts of runs by status, the rows of the results table, the
+    runs not finished (``failed``) and their errors."""
+    from .study import load_study, prepare_study, run_study
+
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise InputError(f"expected an address as text, got {type(scheduler).__name__}",
+                         culprit="scheduler")
+    loaded = load_study(_path(file, "file"))
+    folder = Path("out") / loaded.name if out is None else _path(out, "out")
+    loaded = prepare_study(loaded, folder, workers=workers, scheduler=scheduler,
+                           overwrite=overwrite, progress=progress)
+    return run_study(loaded, folder, workers=workers, scheduler=scheduler, progress=progress,
+                     overwrite=overwrite)
+
+
+def report(folder: str | os.PathLike, *, smooth: int = 1, last: int = 50,
+           out: str | os.PathLike | None = None, overwrite: bool = False) -> dict[str, Any]:
+    """The report of the study in ``folder`` (Fig. 3c curves, each seed's trailing mean over
+    ``smooth`` sessions; final figures averaged over the ``last`` sessions) into ``out``
+    (default ``folder/report``, replaced whole): what ``astrocpg report`` does. Returns the
+    files written, the rows, the text and the figures."""
+    from .report import report as write_report
+
+    return write_report(_path(folder, "folder"),
+                        last=number(last, "last", integer=True, minimum=1),
+                        smooth=number(smooth, "smooth", integer=True, minimum=1),
+                        out=None if out is None else _path(out, "out"), overwrite=overwrite)
+
+
+__all__ = ["study", "report"]
