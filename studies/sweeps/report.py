@@ -39,7 +39,8 @@ from ..experiments.settings import model_set
 from ..files.folder import OutputFolder, verify
 from ..figures.sweep import Axis, Measure, measure_heatmap, measure_vs_value
 from ..files.outputs import atomic_write, write_manifest
-from .study import GAITS, RUNS, STUDY_INDEX, read_status
+from .execute import read_status
+from .layout import GAITS, RUNS, STUDY_INDEX
 
 CURVES = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
           ("length_s", "session length (s)"))
