@@ -126,6 +126,9 @@ def _slug(text: str) -> str:
 
 
 def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
+    """The :class:`Study` of the TOML ``text`` read from ``p``, every key checked in the order
+    the file is read (the first mistake is the one reported); ``batch_given``: seeds per run,
+    instead of the file's ``batch``."""
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -150,6 +153,35 @@ def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
     if not isinstance(n_sessions, int) or isinstance(n_sessions, bool) or n_sessions < 1:
         raise InputError(f"[study] sessions must be a positive integer, "
                          f"got {n_sessions!r}", culprit=where)
+    seeds = _seeds(head, where)
+    batch_setting, batch = _batch(head, seeds, n_sessions, batch_given, where)
+    record = _record_table(head.get("record"), where)
+    slots = {name for name, _ in DEFAULT_MODELS.items()}
+    base_files, models, base = _base(doc, p, slots, where)
+    names, axes, axis_files, points = _sweep(doc, p, slots, base_files, models, len(seeds),
+                                             where)
+    runs = _runs(doc, slots, base_files, models, base, axes, axis_files, points,
+                 _Runs(seeds=seeds, batch=batch, n_sessions=n_sessions, record=record), where)
+    evaluate = _evaluate_table(doc.get("evaluate"), p, where)
+    if evaluate is not None:
+        # one evaluation network holds a run's trials x repeats: refused now, not after the runs
+        trials = max(r.n_trials for r in runs) * evaluate["repeats"]
+        check_memory(estimate_bytes(trials=trials, seconds=evaluate["seconds"], robot_stride=1),
+                     culprit=f"{where} [evaluate] seconds = {evaluate['seconds']:g} x "
+                             f"{trials} trials (repeats x seeds per run)")
+        for c in evaluate["conditions"]:
+            if c not in {r.condition for r in runs}:
+                raise InputError(f"[evaluate] conditions: no condition '{c}' in the study",
+                                 culprit=where)
+    return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
+                 n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs,
+                 evaluate=evaluate, batch_setting=batch_setting,
+                 batch_choice=None if batch_setting != "auto" or batch_given is None
+                 else {"batch": batch_given, "reason": "given by the caller"})
+
+
+def _seeds(head: dict[str, Any], where: str) -> list[int]:
+    """``[study] seeds``: ``{ first = K, count = N }`` or a list of integers, sorted."""
     seeds_doc = head.get("seeds", {"first": 1, "count": 1})
     if isinstance(seeds_doc, dict):
         first, count = seeds_doc.get("first", 1), seeds_doc.get("count", 1)
@@ -175,6 +207,14 @@ def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
     if max(seeds) > MAX_SEED:
         raise InputError(f"[study] seeds must be at most {MAX_SEED} (2**32 - 1), got "
                          f"{max(seeds)}", culprit=where)
+    return seeds
+
+
+def _batch(head: dict[str, Any], seeds: list[int], n_sessions: int, batch_given: int | None,
+           where: str) -> tuple[int | str, int]:
+    """``[study] batch`` as written (a positive integer or "auto") and the seeds per run it
+    gives now (``batch_given`` instead, when given); a run that cannot fit in memory is
+    refused."""
     batch_setting = head.get("batch", len(seeds))
     if batch_setting != "auto" and (not isinstance(batch_setting, int)
                                     or isinstance(batch_setting, bool) or batch_setting < 1):
@@ -189,9 +229,12 @@ def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
                                     sessions=n_sessions),
                      culprit=f"{where} [study] batch = {min(batch, len(seeds))} seeds per run "
                              f"of {n_sessions} sessions")
+    return batch_setting, batch
 
-    record = _record_table(head.get("record"), where)
-    slots = {name for name, _ in DEFAULT_MODELS.items()}
+
+def _base(doc: dict[str, Any], p: Path, slots: set[str], where: str):
+    """``[models]`` and ``[base]``: the model files of every run, their model set and the
+    overrides of every run (``NAME=VALUE`` texts, each checked)."""
     models_doc = doc.get("models", {})
     if not isinstance(models_doc, dict):
         raise InputError("[models] must map model names to model files", culprit=where)
@@ -204,7 +247,14 @@ def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
     models = model_set(models=base_files, option=f"{where} [models]")
     base = [_check_override(models, k, _value_text(k, v, f"{where} [base]"), f"{where} [base]")
             for k, v in doc.get("base", {}).items()]
+    return base_files, models, base
 
+
+def _sweep(doc: dict[str, Any], p: Path, slots: set[str], base_files: dict[str, Any], models,
+           n_seeds: int, where: str):
+    """``[sweep]``: the swept names, their values (an axis named by a model lists model files,
+    each read and checked), the files of those axes and the points (every combination, or
+    element by element), refused beyond :data:`MAX_SEEDS` trainings before any is built."""
     sweep_doc = doc.get("sweep", {})
     bad = set(sweep_doc) - {"mode", "axes"}
     if bad:
@@ -239,10 +289,10 @@ def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
     n_points = math.prod(len(v) for v in axes.values()) if mode == "grid" \
         else min((len(v) for v in axes.values()), default=1)
     n_conditions = len(doc["conditions"]) if isinstance(doc.get("conditions"), dict) else 1
-    trainings = n_points * max(n_conditions, 1) * len(seeds)
+    trainings = n_points * max(n_conditions, 1) * n_seeds
     if trainings > MAX_SEEDS:  # before building (and checking) a million runs
         raise InputError(f"{trainings} trainings ({n_points} sweep point(s) x {n_conditions} "
-                         f"condition(s) x {len(seeds)} seed(s)) is more than {MAX_SEEDS}",
+                         f"condition(s) x {n_seeds} seed(s)) is more than {MAX_SEEDS}",
                          culprit=where)
     if not names:
         points: list[dict[str, str]] = [{}]
@@ -250,12 +300,31 @@ def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
         points = [dict(zip(names, combo)) for combo in itertools.product(*axes.values())]
     else:
         points = [dict(zip(names, combo)) for combo in zip(*axes.values())]
+    return names, axes, axis_files, points
 
+
+@dataclass(frozen=True)
+class _Runs:
+    """What every run of a study shares: its seeds, the seeds per run, sessions, recording."""
+
+    seeds: list[int]
+    batch: int
+    n_sessions: int
+    record: dict[str, Any] | None
+
+
+def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], models,
+          base: list[str], axes: dict[str, list[str]],
+          axis_files: dict[tuple[str, str], dict[str, str]], points: list[dict[str, str]],
+          shared: _Runs, where: str) -> list[RunSpec]:
+    """``[conditions]``: one run per condition, sweep point and group of consecutive seeds,
+    each point's models and overrides checked as its run's build would check them; two runs
+    sharing a folder are refused."""
     conditions = doc.get("conditions", {"default": {"astrocytes": True}})
     if not isinstance(conditions, dict) or not conditions:
         raise InputError("[conditions] must name at least one condition", culprit=where)
     runs: list[RunSpec] = []
-    groups = consecutive_groups(seeds, batch)
+    groups = consecutive_groups(shared.seeds, shared.batch)
     for cname, cond in conditions.items():
         cw = f"{where} [conditions.{cname}]"
         if not isinstance(cond, dict):
@@ -306,30 +375,15 @@ def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
                 seeds_tag = f"seed{first}" if n == 1 else f"seeds{first}-{first + n - 1}"
                 run_id = "__".join(x for x in (_slug(cname), tag, seeds_tag) if x)
                 runs.append(RunSpec(run_id=run_id, condition=cname, point=dict(point),
-                                    seed=first, n_trials=n, n_sessions=n_sessions,
-                                    astrocytes=astro, overrides=overrides, record=record,
+                                    seed=first, n_trials=n, n_sessions=shared.n_sessions,
+                                    astrocytes=astro, overrides=overrides, record=shared.record,
                                     models=files, session_s=session_s))
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):
         dup = next(i for i in ids if ids.count(i) > 1)
         raise InputError(f"two runs would share the folder '{dup}' (condition names or "
                          f"swept values that differ only in punctuation)", culprit=where)
-    evaluate = _evaluate_table(doc.get("evaluate"), p, where)
-    if evaluate is not None:
-        # one evaluation network holds a run's trials x repeats: refused now, not after the runs
-        trials = max(r.n_trials for r in runs) * evaluate["repeats"]
-        check_memory(estimate_bytes(trials=trials, seconds=evaluate["seconds"], robot_stride=1),
-                     culprit=f"{where} [evaluate] seconds = {evaluate['seconds']:g} x "
-                             f"{trials} trials (repeats x seeds per run)")
-        for c in evaluate["conditions"]:
-            if c not in {r.condition for r in runs}:
-                raise InputError(f"[evaluate] conditions: no condition '{c}' in the study",
-                                 culprit=where)
-    return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
-                 n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs,
-                 evaluate=evaluate, batch_setting=batch_setting,
-                 batch_choice=None if batch_setting != "auto" or batch_given is None
-                 else {"batch": batch_given, "reason": "given by the caller"})
+    return runs
 
 
 def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]:
