@@ -43,7 +43,7 @@ import study_utilisation as utilisation_benchmark  # noqa: E402
 
 from astrocpg.studies.experiments.trial_cost import measure_trial_cost  # noqa: E402
 from astrocpg.studies.sweeps.batching import choose_batch, longest_first_makespan  # noqa: E402
-from astrocpg.studies.sweeps.study import _consecutive_groups  # noqa: E402
+from astrocpg.studies.sweeps.study import consecutive_groups  # noqa: E402
 
 UNEQUAL = """
 [study]
@@ -103,7 +103,7 @@ def projected_ablation(targets: list[str], workers: int, run_with_s: float,
                      f"s at {at_20[target]:.3f} s per simulated s)")
         cost = measure_trial_cost(target, progress=False)
         groups = [(seeds, run_with_s), (seeds, run_without_s)]
-        auto = choose_batch(groups, workers=workers, cost=cost, split=_consecutive_groups)
+        auto = choose_batch(groups, workers=workers, cost=cost, split=consecutive_groups)
         lines.append(f"{'':>7}  batch auto chooses {auto['batch']} per run ({auto['runs']} runs), "
                      f"from {cost.fixed:.3f} s + {cost.per_trial:.4f} s per trial per simulated "
                      f"s (CPU, at {', '.join(map(str, cost.measured))} trials)")

@@ -37,14 +37,18 @@ bound of 1e10: MuJoCo resets such a robot itself, so the counters are read the s
 and NaN/inf in the robot state and torques; every ``check_every`` steps, and once after a run,
 every state variable of the CPG (:meth:`CPG.first_invalid`). Run the network with
 :func:`astrocpg.network.run_network` to get the ``Diverged`` out of ``Network.run``.
+
+The bridge is a thin composition (like FlyGym's ``Simulation`` of a ``Fly`` in an
+``Arena``): :class:`~astrocpg.coupling.robots.Robots` holds the batched MuJoCo state and steps
+it, :class:`~astrocpg.coupling.senses.Senses` reads the senses and the reward from it,
+:class:`~astrocpg.coupling.robot_recording.Recording` records it; the bridge itself holds the
+hip PI, the hooks, the divergence checks and the step that calls them in order.
 """
 
 from __future__ import annotations
 
-import math
-import dataclasses
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Callable
 
 import brian2
 import mujoco
@@ -52,28 +56,19 @@ import numpy as np
 
 from ..errors import Diverged
 from ..models import ModelSet
-from ..network import CPG, LEGS, POOLS, invalid
-from .robot import RobotLayout, reset
+from ..network import CPG, LEGS
+from .robot import RobotLayout
+from .robot_recording import Recording
+from .robots import INSTABILITY_WARNINGS, Robots  # noqa: F401  (INSTABILITY_WARNINGS: its old home)
+from .senses import Senses
 
 _THIGH, _CALF = 1, 2  # joint order within a leg: hip, thigh, calf
-_FLEXOR, _EXTENSOR = POOLS.index("thigh_flexor"), POOLS.index("thigh_extensor")
 
 STAGES = ("before_physics", "after_physics", "diverged")
 ORDER_MEASURE = 10  # reads the step's state before the session loop may reset a trial
 ORDER_TRAINING = 20  # the session loop (training.Training)
 ORDER_RECORDING = 30  # Bridge.start_recording
 ORDER_PROGRESS = 100  # the on_step callback
-
-# MuJoCo's instability warnings: the robot's numbers left the finite range (MuJoCo resets the
-# data on bad qpos, qvel and qacc; a bad ctrl is set to zero)
-INSTABILITY_WARNINGS = {
-    int(mujoco.mjtWarning.mjWARN_BADQACC): ("mjWARN_BADQACC", "bad qacc (acceleration)", "dof"),
-    int(mujoco.mjtWarning.mjWARN_BADQPOS): ("mjWARN_BADQPOS", "bad qpos (position)", "qpos"),
-    int(mujoco.mjtWarning.mjWARN_BADQVEL): ("mjWARN_BADQVEL", "bad qvel (velocity)", "dof"),
-    int(mujoco.mjtWarning.mjWARN_BADCTRL): ("mjWARN_BADCTRL", "bad ctrl (NaN/inf or huge "
-                                            "torque)", "actuator"),
-}
-_QACC, _QPOS, _QVEL, _CTRL = INSTABILITY_WARNINGS
 
 
 @dataclass(frozen=True)
@@ -87,45 +82,6 @@ class Hook:
     order: float = 0
 
 
-@dataclass
-class Recording:
-    """Robot-side traces of every trial, sampled every ``stride`` steps (time axis ``t``)."""
-
-    stride: int
-    t: np.ndarray
-    joint_angles: np.ndarray  # (trials, samples, 4 legs, 3 joints) rad
-    torques: np.ndarray  # (trials, samples, 4, 3) N m, as applied
-    torso_position: np.ndarray  # (trials, samples, 3) m, world
-    torso_velocity: np.ndarray  # (trials, samples, 3) m/s, world
-    reward: np.ndarray  # (trials, samples)
-    alive: np.ndarray  # (trials, samples) bool
-    foot_force: np.ndarray  # (trials, samples, 4) N, foot touch sensors (NaN if the model has none)
-    torso_quaternion: np.ndarray  # (trials, samples, 4) torso orientation (w, x, y, z), world
-
-    def truncated(self, n_steps: int) -> "Recording":
-        """The samples of the first ``n_steps`` steps only (a run that ended early)."""
-        n = min(len(self.t), (n_steps + self.stride - 1) // self.stride)
-        return dataclasses.replace(self, **{f.name: getattr(self, f.name)[..., :n]
-                                            if f.name == "t" else getattr(self, f.name)[:, :n]
-                                            for f in dataclasses.fields(self)
-                                            if f.name != "stride"})
-
-    @classmethod
-    def allocate(cls, n_trials: int, n_steps: int, stride: int, dt: float) -> "Recording":
-        n = (n_steps + stride - 1) // stride
-        return cls(
-            stride=stride,
-            t=(np.arange(n) * stride + 1) * dt,
-            joint_angles=np.zeros((n_trials, n, 4, 3)),
-            torques=np.zeros((n_trials, n, 4, 3)),
-            torso_position=np.zeros((n_trials, n, 3)),
-            torso_velocity=np.zeros((n_trials, n, 3)),
-            reward=np.zeros((n_trials, n)),
-            alive=np.zeros((n_trials, n), dtype=bool),
-            foot_force=np.full((n_trials, n, 4), np.nan),
-            torso_quaternion=np.tile([1.0, 0.0, 0.0, 0.0], (n_trials, n, 1)),
-        )
-
 
 class Bridge:
     """Couples ``cpg`` (n_trials copies) to ``n_trials`` MjData of one robot model.
@@ -137,6 +93,10 @@ class Bridge:
         order :data:`ORDER_PROGRESS`).
     check_every: steps between two checks of the CPG's state (NaN, inf or beyond 1e50; 0: never;
         the robot is checked every step).
+
+    robots: the batched MuJoCo state (:class:`~astrocpg.coupling.robots.Robots`); ``data``,
+    ``qpos``, ``qvel`` and ``ctrl`` are its arrays. senses: what is read from it each step
+    (:class:`~astrocpg.coupling.senses.Senses`); ``reward`` and ``alive`` are its arrays.
     """
 
     def __init__(
@@ -157,7 +117,10 @@ class Bridge:
             raise ValueError("the closed loop needs all four legs in the CPG")
         self.cpg, self.model, self.layout, self.models = cpg, model, layout, models
         B = self.n_trials = cpg.n_trials
-        self.data = [mujoco.MjData(model) for _ in range(B)]
+        robots = self.robots = Robots(model, layout, B)
+        # the robots' arrays under the names callers read (the same objects, not copies)
+        self.data, self.qpos, self.qvel, self.ctrl = (robots.data, robots.qpos, robots.qvel,
+                                                      robots.ctrl)
         self.step_count = 0  # physics steps done (hooks of a step see it counted)
         # step_count at each trial's last reset: the start of its session
         self.session_start = np.zeros(B, dtype=np.int64)
@@ -169,56 +132,18 @@ class Bridge:
         self._hooks: dict[str, Hook] = {}
         self._run: dict[str, tuple[Callable[..., None], ...]] = {s: () for s in STAGES}
 
-        # cached raw views into the Brian2 state (numpy target: live arrays; with the limbs in
-        # stages, buffers in trial-major order that _sense copies into the pool group)
-        self._speed_table = cpg.table("pool", "torso_speed")
-        self._limit_table = cpg.table("pool", "limit_inhibition")
-        self._torso_speed = self._speed_table.values.reshape(B, 4, len(POOLS))
-        self._limit = self._limit_table.values.reshape(B, 4, len(POOLS))
         self._h = cpg.array("torque", "h").reshape(B, 4, 2)  # (trial, leg, thigh/calf)
-
-        # model-side constants, as plain floats
-        margin = float(np.asarray(models.pool.parameters["limit_margin"].value))
-        ranges = layout.joint_range  # (4, 3, 2) from the robot model
-        self._flexor_limit = ranges[:, _THIGH, 0] + margin  # inhibit flexor below this
-        self._extensor_limit = ranges[:, _THIGH, 1] - margin  # inhibit extensor above this
+        senses = self.senses = Senses(cpg, robots, models)
+        self.reward, self.alive = senses.reward, senses.alive  # its arrays, not copies
+        self._sense = senses.sense  # bound once: the step calls it
+        # the hips' PI controller (model-side constants, as plain floats)
         hip = models.hip_controller.parameters
         target = float(np.asarray(hip["hip_target"].value))
         # outward: +target for left legs (y > 0), -target for right legs
         self._hip_target = np.array([target if leg[1] == "L" else -target for leg in LEGS])
         self._hip_torque = models.hip_controller.compile()
-        self._reward = models.reward.compile()
-        self._alive = models.alive.compile()
-        self._alive_inputs = tuple(models.alive.inputs)  # a model file may read fewer
-        self.dt = float(cpg.dt)
-
-        # batched robot state, refreshed after every physics step; qpos, qvel and ctrl are views
-        # of one buffer, so one reduction checks them all for NaN/inf
-        nq, nv, nu = model.nq, model.nv, model.nu
-        self._robot_state = np.zeros((B, nq + nv + nu))
-        self.qpos = self._robot_state[:, :nq]
-        self.qvel = self._robot_state[:, nq:nq + nv]
-        self.ctrl = self._robot_state[:, nq + nv:]
-        self._robot_sum = self._robot_state.reshape(-1).sum
         self.hip_integral = np.zeros((B, 4))
-        self.reward = np.zeros(B)
-        self.alive = np.ones(B, dtype=bool)
-        self._qa = layout.qpos_adr  # (4, 3)
-        self._ctrl_lo = model.actuator_ctrlrange[layout.actuator, 0]
-        self._ctrl_hi = model.actuator_ctrlrange[layout.actuator, 1]
-        self._act = layout.actuator  # (4, 3)
-        fq, fv = self._fq, self._fv = int(layout.free_qpos_adr), int(layout.free_dof_adr)
-        # torso state: read-only views, live after every step
-        self._torso = {
-            "position": self.qpos[:, fq:fq + 3], "quaternion": self.qpos[:, fq + 3:fq + 7],
-            "velocity": self.qvel[:, fv:fv + 3], "forward": self.qvel[:, fv],
-            "angular": self.qvel[:, fv + 3:fv + 6],
-        }
-        for view in self._torso.values():
-            view.flags.writeable = False
-        # per trial, cached once: MjData, its ctrl, qpos, qvel views and warning counters
-        self._mj = [(d, d.ctrl, d.qpos, d.qvel, memoryview(d.warning.number))
-                    for d in self.data]
+        self.dt = float(cpg.dt)
         self.reset_all()
         if on_step is not None:
             self.add_hook("after_physics", "progress", lambda: on_step(self.step_count),
@@ -262,55 +187,48 @@ class Bridge:
     @property
     def actuators(self) -> np.ndarray:
         """(4, 3) index into :attr:`ctrl` of each leg's hip, thigh and calf motor."""
-        return self._act
+        return self.robots.act
 
     # ---- torso state (world frame unless noted), after the last physics step
     @property
     def torso_position(self) -> np.ndarray:
         """(trials, 3) m: the torso's (free joint's) position."""
-        return self._torso["position"]
+        return self.robots.torso["position"]
 
     @property
     def torso_velocity(self) -> np.ndarray:
         """(trials, 3) m/s: the torso's linear velocity."""
-        return self._torso["velocity"]
+        return self.robots.torso["velocity"]
 
     @property
     def torso_quaternion(self) -> np.ndarray:
         """(trials, 4): the torso's orientation, (w, x, y, z)."""
-        return self._torso["quaternion"]
+        return self.robots.torso["quaternion"]
 
     @property
     def forward_velocity(self) -> np.ndarray:
         """(trials,) m/s: the torso's velocity along the world x axis (forward at reset)."""
-        return self._torso["forward"]
+        return self.robots.torso["forward"]
 
     @property
     def torso_angular_velocity(self) -> np.ndarray:
         """(trials, 3) rad/s: the torso's angular velocity in the torso frame (= gyro)."""
-        return self._torso["angular"]
+        return self.robots.torso["angular"]
 
     # ---- state
     def reset_trial(self, b: int) -> None:
         """Reset one trial's robot and the bridge's per-trial state (hip integrator)."""
-        reset(self.model, self.data[b], self.layout)
+        self.robots.reset(b)
         self.hip_integral[b] = 0.0
         self.session_start[b] = self.step_count
-        self._read(b)
         self._sense()
 
     def reset_all(self) -> None:
         for b in range(self.n_trials):
-            reset(self.model, self.data[b], self.layout)
-            self._read(b)
+            self.robots.reset(b)
         self.hip_integral[:] = 0.0
         self.session_start[:] = self.step_count
         self._sense()
-
-    def _read(self, b: int) -> None:
-        d = self.data[b]
-        self.qpos[b] = d.qpos
-        self.qvel[b] = d.qvel
 
     # ---- the step
     def operation(self, when: str = "end") -> brian2.NetworkOperation:
@@ -320,8 +238,9 @@ class Bridge:
     def step(self) -> None:
         """One 1 ms step: torques, ``before_physics`` hooks, physics of every trial, divergence
         checks, senses and reward, ``after_physics`` hooks."""
-        qa, act = self._qa, self._act
-        q = self.qpos[:, qa]  # (B, 4, 3) angles after the previous physics step
+        robots = self.robots
+        act = robots.act
+        q = self.qpos[:, robots.qa]  # (B, 4, 3) angles after the previous physics step
         # 1. torques: traces to thigh and calf, PI to hips
         hip_error = q[:, :, 0] - self._hip_target
         self.hip_integral += hip_error * self.dt
@@ -332,14 +251,9 @@ class Bridge:
         for fn in self._run["before_physics"]:
             fn()
         # 2. physics; MuJoCo's instability warnings are read the step they happen
-        model, qpos, qvel = self.model, self.qpos, self.qvel
-        for b, (d, d_ctrl, d_qpos, d_qvel, _) in enumerate(self._mj):
-            d_ctrl[:] = ctrl[b]
-            mujoco.mj_step(model, d)
-            qpos[b] = d_qpos
-            qvel[b] = d_qvel
+        robots.physics()
         self.step_count += 1
-        if self._robot_unstable():
+        if robots.unstable():
             self._robot_diverged()
         if self.check_every:
             self._until_check -= 1
@@ -373,12 +287,9 @@ class Bridge:
         raise error
 
     def _robot_unstable(self) -> bool:
-        """Every step: did MuJoCo warn of instability in any trial, or is there NaN/inf in qpos,
-        qvel or ctrl (the sum of their one buffer is not finite)? A few us at 16 trials."""
-        for _, _, _, _, warn in self._mj:
-            if warn[_QACC] or warn[_QPOS] or warn[_QVEL] or warn[_CTRL]:
-                return True
-        return not math.isfinite(self._robot_sum())
+        """Every step: did MuJoCo warn of instability in any trial, or is there NaN/inf in the
+        robot's state (``Robots.unstable``)?"""
+        return self.robots.unstable()
 
     def _robot_diverged(self) -> None:
         """A MuJoCo instability warning or NaN/inf in qpos, qvel or ctrl this step: report the
@@ -386,65 +297,17 @@ class Bridge:
         warning, else the robot's non-finite value."""
         t = self.t
         self.check_cpg(t)
-        for b, (d, _, _, _, warn) in enumerate(self._mj):
-            for k, (name, what, index) in INSTABILITY_WARNINGS.items():
-                if warn[k]:
-                    info = int(d.warning.lastinfo[k])
-                    self.diverge(Diverged(
-                        f"MuJoCo reported {what} at {index} {info} in trial {b} at "
-                        f"t = {t:.3f} s (MuJoCo resets such a robot; the run stops)",
-                        culprit=f"MuJoCo {name}", t=t, trial=b))
-        bad = np.argwhere(invalid(self._robot_state))
-        if not len(bad):  # a sum of huge valid values overflowed: nothing to report
-            return
-        b, k = (int(x) for x in bad[0])
-        nq, nv = self.model.nq, self.model.nv
-        which, i = (("qpos", k) if k < nq else ("qvel", k - nq) if k < nq + nv
-                    else ("ctrl", k - nq - nv))
-        self.diverge(Diverged(f"{self._robot_state[b, k]} in {which}[{i}] of trial {b} at "
-                              f"t = {t:.3f} s", culprit=f"robot {which}", t=t, trial=b))
-
-    def _sense(self) -> None:
-        fq = self._fq
-        v = self._torso["velocity"]  # free joint: linear velocity in the world frame
-        omega = self._torso["angular"]  # angular velocity in the torso frame (= gyro)
-        speed = np.sqrt(np.einsum("ij,ij->i", v, v))
-        self._torso_speed[:] = speed[:, None, None]
-        thigh = self.qpos[:, self._qa[:, _THIGH]]  # (B, 4)
-        self._limit[:, :, _FLEXOR] = thigh < self._flexor_limit
-        self._limit[:, :, _EXTENSOR] = thigh > self._extensor_limit
-        self._speed_table.write()
-        self._limit_table.write()
-        self.reward[:] = self._reward(vel_x=v[:, 0], omega_roll=omega[:, 0],
-                                      omega_pitch=omega[:, 1], omega_yaw=omega[:, 2])
-        # alive: z component of the torso's z axis in the world frame, from the quaternion,
-        # and the height of the torso's centre above the ground (z = 0)
-        qx, qy = self.qpos[:, fq + 4], self.qpos[:, fq + 5]
-        senses = {"torso_z_up": 1.0 - 2.0 * (qx * qx + qy * qy),
-                  "torso_height": self.qpos[:, fq + 2]}
-        self.alive[:] = self._alive(**{k: senses[k] for k in self._alive_inputs})
+        error = self.robots.instability(t)
+        if error is not None:  # None: a sum of huge valid values overflowed, nothing to report
+            self.diverge(error)
 
     def robot_sample(self, trials: int | slice = slice(None)) -> tuple[np.ndarray, ...]:
         """Joint angles (leg, joint) rad, applied torques (leg, joint) N m, torso position and
         linear velocity (xyz, world) of ``trials`` after this step's physics."""
-        return (self.qpos[trials, self._qa],
-                # as applied: MuJoCo clamps ctrl to the motors' ctrlrange
-                np.clip(self.ctrl[trials, self._act], self._ctrl_lo, self._ctrl_hi),
-                self.torso_position[trials], self.torso_velocity[trials])
+        return self.robots.sample(trials)
 
     def _record(self) -> None:
-        rec = self.recording
-        k, r = divmod(self.step_count - 1, rec.stride)  # sample of the step just done
-        if r or k >= len(rec.t):
-            return
-        (rec.joint_angles[:, k], rec.torques[:, k], rec.torso_position[:, k],
-         rec.torso_velocity[:, k]) = self.robot_sample()
-        rec.torso_quaternion[:, k] = self.torso_quaternion
-        rec.reward[:, k] = self.reward
-        rec.alive[:, k] = self.alive
-        if self.layout.touch_adr is not None:
-            for b, d in enumerate(self.data):
-                rec.foot_force[b, k] = d.sensordata[self.layout.touch_adr]
+        self.recording.take(self.step_count, self.robots, self.senses)
 
     def start_recording(self, n_steps: int, stride: int = 1) -> Recording:
         """Record the robot every ``stride`` steps for the next ``n_steps`` steps of the bridge

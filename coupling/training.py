@@ -26,7 +26,7 @@ from brian2 import SpikeMonitor
 
 from ..errors import Diverged, InputError
 from ..models import ModelSet
-from ..models.values import whole_steps
+from ..models.units import whole_steps
 from ..network import CPG, POOLS
 from .bridge import ORDER_TRAINING, Bridge
 
@@ -55,7 +55,7 @@ def session_steps(models: ModelSet, dt: float) -> tuple[int, int, int, int]:
     non-upright steps that end one ``L_non_alive``, sessions remembered ``session_memory``,
     steps of the reward's window ``reward_window``). Durations run as whole steps, so one
     that is not a whole number of ``dt`` steps is refused (it would be rounded while the
-    manifest records it as set; :func:`astrocpg.models.values.whole_steps`)."""
+    manifest records it as set; :func:`astrocpg.models.units.whole_steps`)."""
     pp = models.progress.parameters
     max_steps = whole_steps(_si(pp["L_max"].value), dt, culprit="progress.L_max")
     non_alive = whole_steps(_si(pp["L_non_alive"].value), dt, culprit="progress.L_non_alive")

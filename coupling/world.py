@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..models import ModelSet
-from ..models.values import whole_steps
+from ..models.units import whole_steps
 from ..models.world import (TERRAIN_FLAT_RADIUS, TERRAIN_RESOLUTION, TERRAIN_THICKNESS,
                             TERRAIN_X, TERRAIN_Y)
 from .robot import A1Parameters, build_spec

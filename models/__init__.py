@@ -17,7 +17,7 @@ import brian2
 import numpy as np
 
 from ..errors import InputError, did_you_mean
-from .values import example_value, parse_value, unit_spelling
+from .units import example_value, parse_value, unit_spelling
 from .alive import ALIVE
 from .astrocyte import ASTROCYTE
 from .energy import RL_POWER, SNN_POWER
@@ -121,7 +121,7 @@ class ModelSet:
     def parse_assignment(self, text: str) -> tuple[str, Any]:
         """Parse ``NAME=VALUE`` (e.g. ``tau_motor=9*ms``, ``A_random=0.3``,
         ``C_K_chan=8 volt/second``). The value is parsed (numbers, Brian2 unit names and
-        arithmetic on them: :func:`astrocpg.models.values.parse_value`), never evaluated."""
+        arithmetic on them: :func:`astrocpg.models.units.parse_value`), never evaluated."""
         name, sep, expr = (s.strip() for s in text.partition("="))
         if not sep or not name:
             raise InputError("expected NAME=VALUE", culprit=f"--set '{text}'")

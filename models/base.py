@@ -32,7 +32,8 @@ from brian2.units.fundamentalunits import (
 from ..errors import InputError, did_you_mean
 from .integration import method_name, registered_methods
 from .names import check_parameter_names
-from .values import compile_expression, example_value, unit_spelling
+from .expressions import compile_expression
+from .units import example_value, unit_spelling
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -510,7 +511,7 @@ class ExpressionModel(Model):
     def compile(self) -> Callable[..., Any]:
         """A numpy function of the inputs (keywords), with parameters bound as plain SI
         floats: the expression is parsed against a whitelist and compiled, never evaluated as
-        text (:func:`astrocpg.models.values.compile_expression`)."""
+        text (:func:`astrocpg.models.expressions.compile_expression`)."""
         # plain SI floats: the inputs arrive in SI (m/s, rad, rad/s)
         consts = {n: float(np.asarray(p.value)) for n, p in self.parameters.items()}
         return compile_expression(self.expression, owner=self.name, inputs=self.inputs,

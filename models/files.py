@@ -9,7 +9,7 @@ strings (``equations``, ``threshold``, ``reset``, ``refractory`` of a neuron; ``
 
     tau_extra = { value = "2*second", symbol = "\\\\tau_x", meaning = "...", positive = true }
 
-Values are parsed (:func:`~astrocpg.models.values.parse_value`), never evaluated. A file may
+Values are parsed (:func:`~astrocpg.models.units.parse_value`), never evaluated. A file may
 declare new parameters and new state variables; it must keep the model's *interface*: the names
 the network reads or sets (:data:`astrocpg.models.INTERFACES`).
 """
@@ -28,7 +28,7 @@ from brian2 import Quantity
 
 from ..errors import InputError
 from .base import BrianModel, Model, Parameter, ParameterTable, model_kinds
-from .values import parse_value, unit_spelling
+from .units import parse_value, unit_spelling
 
 
 def file_sha256(text: str) -> str:

@@ -37,7 +37,8 @@ def why_reserved(name: str) -> str | None:
     reads), or None when it can."""
     from brian2 import Equations
 
-    from .values import FUNCTIONS, UNITS
+    from .expressions import FUNCTIONS
+    from .units import UNITS
 
     if not isinstance(name, str) or not name.isidentifier():
         return f"a parameter's name must be an identifier, got {name!r}"

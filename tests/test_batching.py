@@ -11,7 +11,7 @@ import pytest
 from astrocpg.errors import InputError
 from astrocpg.studies.experiments import trial_cost as tc
 from astrocpg.studies.sweeps.batching import choose_batch, longest_first_makespan
-from astrocpg.studies.sweeps.study import (_consecutive_groups, load_study, prepare_study,
+from astrocpg.studies.sweeps.study import (consecutive_groups, load_study, prepare_study,
                                            resolve_batch)
 
 # the shape measured on the 2-core machine (numpy): 1.76 s per simulated s for 1 trial,
@@ -46,7 +46,7 @@ def test_longest_first_is_what_the_dispatcher_does() -> None:
 
 def test_the_ablation_on_two_cores_keeps_one_run_per_condition() -> None:
     """2 conditions x 20 seeds on 2 workers: splitting a condition only adds fixed costs."""
-    c = choose_batch(_groups(2, 20), workers=2, cost=COST, split=_consecutive_groups)
+    c = choose_batch(_groups(2, 20), workers=2, cost=COST, split=consecutive_groups)
     assert c["batch"] == 20 and c["runs"] == 2
     assert c["projected_s"] == pytest.approx(4000 * (1.64 + 0.126 * 20))
     assert min(c["candidates"].values()) == pytest.approx(c["projected_s"], abs=0.1)
@@ -55,7 +55,7 @@ def test_the_ablation_on_two_cores_keeps_one_run_per_condition() -> None:
 def test_sixteen_workers_get_a_run_each() -> None:
     """The issue's 16-core case: 2 conditions x 32 seeds. One run per condition would leave 14
     workers idle; 4 seeds per run gives every worker one run."""
-    c = choose_batch(_groups(2, 32), workers=16, cost=COST, split=_consecutive_groups)
+    c = choose_batch(_groups(2, 32), workers=16, cost=COST, split=consecutive_groups)
     assert c["batch"] == 4 and c["runs"] == 16
     one_per_condition = c["candidates"][32]
     assert c["projected_s"] < 0.5 * one_per_condition
@@ -64,16 +64,16 @@ def test_sixteen_workers_get_a_run_each() -> None:
 def test_a_cost_without_fixed_part_spreads_the_work_evenly() -> None:
     flat = tc.TrialCost(fixed=0.0, per_trial=1.0, measured={}, codegen="numpy", key="k",
                         when="now")
-    c = choose_batch(_groups(3, 20), workers=2, cost=flat, split=_consecutive_groups)
+    c = choose_batch(_groups(3, 20), workers=2, cost=flat, split=consecutive_groups)
     # 60 trials on 2 workers: 30 each is the best any split can do
     assert c["projected_s"] == pytest.approx(30 * 4000.0)
 
 
 def test_memory_limits_the_batch() -> None:
-    c = choose_batch(_groups(2, 20), workers=2, cost=COST, split=_consecutive_groups,
+    c = choose_batch(_groups(2, 20), workers=2, cost=COST, split=consecutive_groups,
                      fits=lambda n: n <= 7)
     assert c["batch"] <= 7
-    assert choose_batch(_groups(2, 20), workers=2, cost=COST, split=_consecutive_groups,
+    assert choose_batch(_groups(2, 20), workers=2, cost=COST, split=consecutive_groups,
                         fits=lambda n: False)["batch"] is None
 
 

@@ -192,6 +192,7 @@ def test_a_worker_writes_nothing_into_a_run_folder_another_process_holds(tiny_st
 
 def test_a_worker_holds_its_run_folder_while_it_trains(tiny_study, tmp_path, monkeypatch):
     from astrocpg.studies.files import folder as folder_module
+    from astrocpg.studies.sweeps import execute as execute_module
     from astrocpg.studies.sweeps import study as study_module
 
     study = tmp_path / "mine"
@@ -205,7 +206,7 @@ def test_a_worker_holds_its_run_folder_while_it_trains(tiny_study, tmp_path, mon
         seen["locked"] = folder_module._locked_by_another(Path(out) / folder_module.LOCK_NAME)
         return {"state": "finished"}
 
-    monkeypatch.setattr(study_module, "_execute_run_locked", inside)
+    monkeypatch.setattr(execute_module, "_execute_run_locked", inside)
     spec = study_module.RunSpec(**json.loads((study / "study.json").read_text())
                                 ["specs"]["astro__seed1"])
     assert study_module.execute_run(spec, str(run))["state"] == "finished"

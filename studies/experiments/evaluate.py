@@ -384,6 +384,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     columns[columns.index("world") + 1:columns.index("world") + 1] = list(
         grid_values(world_set, ""))
     from ..figures.gait_map import gait_map_figures, world_bars
+    from ..figures.save import save_figure
 
     figures = {}
     if len(world_set.axes) == 2:
@@ -401,7 +402,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
         (tmp / EVALUATION).write_text(_csv(rows, tuple(columns)))
         (tmp / SUMMARY).write_text(_csv(summary, tuple(summary[0]) if summary else ()))
         for name, fig in figures.items():
-            fig.savefig(tmp / name, dpi=120)
+            save_figure(fig, tmp / name)
         write_manifest(tmp, command="evaluate", seed=seed, settings=settings,
                        models_json=plans[0][2].to_json(),
                        files={EVALUATION: "one row per trained controller x world x repeat",

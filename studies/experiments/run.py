@@ -290,9 +290,10 @@ def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str,
     files["robot.npz"] = ROBOT_FILE
     if figure and "motor" in result.spikes:
         from ..figures import plots
+        from ..figures.save import save_figure
 
-        plots.plot_thigh_extensor_activity(out / "thigh_extensor_activity.png", result.spikes,
-                                           result.cpg.layout)
+        save_figure(plots.plot_thigh_extensor_activity(result.spikes, result.cpg.layout),
+                    out / "thigh_extensor_activity.png")
         files["thigh_extensor_activity.png"] = "thigh-extensor activity of the 4 limbs (trial 0)"
     write_manifest(out, command="run", seed=int(settings.get("seed", 1)), settings=settings,
                    models_json=result.extra["models"].to_json(), files=files,

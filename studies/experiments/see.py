@@ -14,8 +14,8 @@ from typing import Any, Iterator
 import numpy as np
 
 from ...errors import EnvironmentFault, InputError, did_you_mean, one_line
-from ..figures.traces import (FIGURE_FUNCTIONS, FORMATS, recorded_span, save_figures,
-                              trace_figures)
+from ..figures.save import FORMATS, save_figures
+from ..figures.traces import FIGURE_FUNCTIONS, recorded_span, trace_figures
 from ..files.folder import (OutputFolder, as_path, check_output_path, check_replaceable,
                             refuse_in_use)
 from ..files.outputs import write_manifest

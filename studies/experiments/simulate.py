@@ -18,7 +18,7 @@ from ...coupling.bridge import ORDER_MEASURE, Recording
 from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError, did_you_mean
 from ...models import ModelSet
-from ...models.values import whole_steps
+from ...models.units import whole_steps
 from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, exclusive,
                         network_time, run_network)
 from ...network.recordable import POPULATIONS, TRACES, spike_populations, trace_sources

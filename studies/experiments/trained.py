@@ -87,7 +87,8 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     session (``train --record-every``) if any, in ``recording_trialTT_sessionSSSS/``; into
     ``out`` (default ``folder/figures``, which each plot replaces whole); returns the paths."""
     from ..figures import plots
-    from ..figures.traces import FIGURE_FUNCTIONS, save_figures, trace_figures
+    from ..figures.save import save_figure, save_figures
+    from ..figures.traces import FIGURE_FUNCTIONS, trace_figures
     from ..files.result import load
 
     folder = as_path(folder, "folder")
@@ -111,17 +112,17 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     bar = Bar(total=len(names) + (len(FIGURE_FUNCTIONS) if recorded else 0), unit="step",
               desc="plot", disable=not progress)
     with bar, OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]) as tmp:
-        plots.plot_weights(tmp / names[0], weights[b] * 1e3, trial=b)
+        save_figure(plots.plot_weights(weights[b] * 1e3, trial=b), tmp / names[0])
         bar.update(1)
-        plots.plot_training_curves(tmp / names[1], folder / "sessions.csv")
+        save_figure(plots.plot_training_curves(folder / "sessions.csv"), tmp / names[1])
         bar.update(1)
-        plots.plot_thigh_extensor_activity(tmp / names[2], result.spikes, result.cpg.layout,
-                                           trial=b, window=window)
+        save_figure(plots.plot_thigh_extensor_activity(result.spikes, result.cpg.layout,
+                                                       trial=b, window=window), tmp / names[2])
         bar.update(1)
         t, i = result.spikes["motor"]
         g = leg_phases(t, i, result.cpg.layout, b, min(1.0, seconds / 5), seconds)
-        plots.plot_gait(tmp / names[3], result.robot, b, phase_matrix(g["phases"]), g,
-                        window=window)
+        save_figure(plots.plot_gait(result.robot, b, phase_matrix(g["phases"]), g,
+                                    window=window), tmp / names[3])
         bar.update(1)
         if recorded:
             session = recorded[-1]

@@ -115,11 +115,12 @@ def rhythm_per_trial(result: SimulationResult, seconds: float) -> list[dict[str,
 def write_unit_folder(out: Path, result: SimulationResult, settings: Mapping[str, Any]) -> None:
     """spikes.npz, traces.npz, unit.png (when spikes were recorded) and manifest.json."""
     from ..figures import plots
+    from ..figures.save import save_figure
 
     L = result.cpg.layout
     files = save_spikes_and_traces(out, result.spikes, result.traces)
     if {"motor", "interneuron"} <= set(result.spikes):
-        plots.plot_unit(out / "unit.png", result.spikes, L)
+        save_figure(plots.plot_unit(result.spikes, L), out / "unit.png")
         files["unit.png"] = ("raster of the motor neurons and interneurons, and pool activity "
                              "(trial 0)")
     write_manifest(out, command="unit", seed=int(settings.get("seed", 1)), settings=settings,

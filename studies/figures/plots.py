@@ -1,4 +1,5 @@
-"""Figures of a unit or a closed-loop run (matplotlib, written as PNG)."""
+"""Figures of a unit or a closed-loop run: each function draws one and returns the matplotlib
+``Figure``; :func:`~astrocpg.studies.figures.save.save_figure` writes it (the one saver)."""
 
 from __future__ import annotations
 
@@ -41,8 +42,8 @@ def mark_fall(axes: Any, t: Any, alive: Any) -> str:
     return f"robot {fall_words(fall)}; shaded: not upright"
 
 
-def plot_unit(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
-              window: tuple[float, float] | None = None, dt: float = 1e-3) -> None:
+def plot_unit(spikes: dict, layout: Layout, *, trial: int = 0,
+              window: tuple[float, float] | None = None, dt: float = 1e-3) -> Figure:
     """Raster of one unit's 80 motor neurons and 6 interneurons, and each pool's activity
     (neurons spiking per step, as in the paper's Fig. 1c)."""
     t, i = spikes["motor"]
@@ -69,12 +70,12 @@ def plot_unit(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
     ax_a.set_xlabel("time (s)")
     ax_r.set_title("Locomotion unit, open loop")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    return fig
 
 
-def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, trial: int = 0,
+def plot_thigh_extensor_activity(spikes: dict, layout: Layout, *, trial: int = 0,
                                  window: tuple[float, float] | None = None,
-                                 smooth: float = 0.01, dt: float = 1e-3) -> None:
+                                 smooth: float = 0.01, dt: float = 1e-3) -> Figure:
     """Thigh-extensor activity of the four limbs (the paper's Fig. 3b style)."""
     t, i = spikes["motor"]
     t_end = float(t.max()) if len(t) else 1.0
@@ -98,10 +99,10 @@ def plot_thigh_extensor_activity(path: Path, spikes: dict, layout: Layout, *, tr
     # fixed margins (room for the two-line labels): tight_layout measured every tick label and
     # took about a third of a second, on the path of every `astrocpg run`
     fig.subplots_adjust(left=0.12, right=0.98, bottom=0.08, top=0.94, hspace=0.12)
-    fig.savefig(path, dpi=110)
+    return fig
 
 
-def plot_weights(path: Path, table_mV: np.ndarray, *, trial: int = 0) -> None:
+def plot_weights(table_mV: np.ndarray, *, trial: int = 0) -> Figure:
     """The 8x8 inter-limb table as a diverging heatmap (the paper's Fig. 3a)."""
     from ...network import interlimb_labels
 
@@ -120,10 +121,10 @@ def plot_weights(path: Path, table_mV: np.ndarray, *, trial: int = 0) -> None:
     fig.colorbar(im, ax=ax, label="weight (mV)")
     ax.set_title(f"Inter-limb weights (trial {trial})")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    return fig
 
 
-def plot_training_curves(path: Path, sessions_csv: Path) -> None:
+def plot_training_curves(sessions_csv: Path) -> Figure:
     """Mean reward, final x and session length per session: mean +- std over trials (Fig. 3c)."""
     import csv
 
@@ -145,11 +146,11 @@ def plot_training_curves(path: Path, sessions_csv: Path) -> None:
     axes[-1].set_xlabel("session")
     axes[0].set_title(f"Training ({len(trials)} trial(s), mean +- std)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    return fig
 
 
-def plot_gait(path: Path, recording, trial: int, phases: np.ndarray, gait: dict,
-              window: tuple[float, float]) -> None:
+def plot_gait(recording, trial: int, phases: np.ndarray, gait: dict,
+              window: tuple[float, float]) -> Figure:
     """Gait diagram (stance = foot contact, or thigh-extensor bursts without touch sensors)
     and the inter-limb phase matrix."""
     fig, (ax, axm) = _subplots(1, 2, figsize=(11, 3.6), gridspec_kw={"width_ratios": [3, 1]})
@@ -184,4 +185,4 @@ def plot_gait(path: Path, recording, trial: int, phases: np.ndarray, gait: dict,
     axm.set_title("phase of column vs row")
     fig.colorbar(im, ax=axm, fraction=0.046)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    return fig

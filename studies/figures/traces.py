@@ -19,6 +19,7 @@ from ...network.recordable import TRACE_SOURCES, spike_populations
 from ..analysis.gait import leg_phases
 from ..analysis.rhythm import pool_activity
 from .plots import POOL_COLOURS, mark_fall
+from .save import FORMATS, save_figures  # noqa: F401  (drawn here, written there)
 
 JOINT_COLOURS = {"hip": "tab:green", "thigh": "tab:blue", "calf": "tab:purple"}
 ASTRO_ROWS = (("astrocyte_Ca", "Ca²⁺"), ("astrocyte_IP3", "IP3"), ("astrocyte_AG", "2-AG"),
@@ -366,27 +367,6 @@ def trace_figures(result: Any, trial: int = 0,
         if on_part is not None:
             on_part()
     return figs
-
-
-FORMATS = ("png", "pdf", "svg")
-
-
-def save_figures(figures: dict[str, Figure], folder: Any, fmt: str = "png", *,
-                 on_saved: Callable[[], None] | None = None) -> list[Any]:
-    """Write each figure as ``folder/<name>.<fmt>``; returns the paths. ``on_saved`` is called
-    after each figure (a progress bar's step)."""
-    from pathlib import Path
-
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name, fig in figures.items():
-        path = folder / f"{name}.{fmt}"
-        fig.savefig(path, dpi=110, format=fmt)
-        paths.append(path)
-        if on_saved is not None:
-            on_saved()
-    return paths
 
 
 __all__ = ["trace_figures", "save_figures", "FORMATS", "recorded_span", "FIGURE_FUNCTIONS", "raster_figures",

@@ -37,9 +37,11 @@ from ..analysis.compare import compare
 from ..analysis.gait import weight_structure
 from ..experiments.settings import model_set
 from ..files.folder import OutputFolder, verify
+from ..figures.save import save_figure
 from ..figures.sweep import Axis, Measure, measure_heatmap, measure_vs_value
 from ..files.outputs import atomic_write, write_manifest
-from .study import GAITS, RUNS, STUDY_INDEX, read_status
+from .execute import read_status
+from .layout import GAITS, RUNS, STUDY_INDEX
 
 CURVES = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
           ("length_s", "session length (s)"))
@@ -275,7 +277,7 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
 
     files = []
     for file, f in figures.items():
-        f.savefig(dest / file, dpi=110)
+        save_figure(f, dest / file)
         files.append(dest / file)
     table_rows = rows + [{k: v for k, v in e.items() if k != "states"} for e in empty]
     atomic_write(dest / "final_figures.csv", lambda f: f.write(_csv(table_rows).encode()))

@@ -1,0 +1,74 @@
+"""The robot's side of a run, recorded: :class:`Recording` holds every trial's joints, torques,
+torso, reward, alive and foot forces, sampled every ``stride`` steps, and :meth:`Recording.take`
+fills one sample from the robots and the senses (the bridge's ``recording`` hook, started by
+:meth:`~astrocpg.coupling.bridge.Bridge.start_recording`). The network's spikes and traces are
+recorded by Brian2 monitors (``astrocpg.network``), a training's sessions by
+``coupling/recorder.py``: this one reads MuJoCo, which Brian2's monitors cannot.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .robots import Robots
+    from .senses import Senses
+
+
+@dataclass
+class Recording:
+    """Robot-side traces of every trial, sampled every ``stride`` steps (time axis ``t``)."""
+
+    stride: int
+    t: np.ndarray
+    joint_angles: np.ndarray  # (trials, samples, 4 legs, 3 joints) rad
+    torques: np.ndarray  # (trials, samples, 4, 3) N m, as applied
+    torso_position: np.ndarray  # (trials, samples, 3) m, world
+    torso_velocity: np.ndarray  # (trials, samples, 3) m/s, world
+    reward: np.ndarray  # (trials, samples)
+    alive: np.ndarray  # (trials, samples) bool
+    foot_force: np.ndarray  # (trials, samples, 4) N, foot touch sensors (NaN if the model has none)
+    torso_quaternion: np.ndarray  # (trials, samples, 4) torso orientation (w, x, y, z), world
+
+    def truncated(self, n_steps: int) -> "Recording":
+        """The samples of the first ``n_steps`` steps only (a run that ended early)."""
+        n = min(len(self.t), (n_steps + self.stride - 1) // self.stride)
+        return dataclasses.replace(self, **{f.name: getattr(self, f.name)[..., :n]
+                                            if f.name == "t" else getattr(self, f.name)[:, :n]
+                                            for f in dataclasses.fields(self)
+                                            if f.name != "stride"})
+
+    @classmethod
+    def allocate(cls, n_trials: int, n_steps: int, stride: int, dt: float) -> "Recording":
+        n = (n_steps + stride - 1) // stride
+        return cls(
+            stride=stride,
+            t=(np.arange(n) * stride + 1) * dt,
+            joint_angles=np.zeros((n_trials, n, 4, 3)),
+            torques=np.zeros((n_trials, n, 4, 3)),
+            torso_position=np.zeros((n_trials, n, 3)),
+            torso_velocity=np.zeros((n_trials, n, 3)),
+            reward=np.zeros((n_trials, n)),
+            alive=np.zeros((n_trials, n), dtype=bool),
+            foot_force=np.full((n_trials, n, 4), np.nan),
+            torso_quaternion=np.tile([1.0, 0.0, 0.0, 0.0], (n_trials, n, 1)),
+        )
+
+    def take(self, step_count: int, robots: "Robots", senses: "Senses") -> None:
+        """The sample of the step just done (``step_count`` steps counted), if it is one."""
+        k, r = divmod(step_count - 1, self.stride)  # sample of the step just done
+        if r or k >= len(self.t):
+            return
+        (self.joint_angles[:, k], self.torques[:, k], self.torso_position[:, k],
+         self.torso_velocity[:, k]) = robots.sample()
+        self.torso_quaternion[:, k] = robots.torso["quaternion"]
+        self.reward[:, k] = senses.reward
+        self.alive[:, k] = senses.alive
+        touch = robots.layout.touch_adr
+        if touch is not None:
+            for b, d in enumerate(robots.data):
+                self.foot_force[b, k] = d.sensordata[touch]

@@ -1,0 +1,69 @@
+"""What the CPG and the learning read from the robots after every physics step.
+
+:class:`Senses` turns the batched robot state (:class:`~astrocpg.coupling.robots.Robots`) into
+the senses of the network and the learning: the torso's speed (the pools' background drive),
+the limit-position inhibition of the thigh pools (a thigh angle within ``limit_margin`` of its
+joint's range), the reward (the ``reward`` model) and the alive indicator (the ``alive``
+model). Every constant comes from the models and the robot model; the arrays it writes are the
+network's own (numpy target: live arrays; with the limbs in stages, buffers copied into the
+pool group by the tables' ``write``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..models import ModelSet
+from ..network import CPG, POOLS
+from .robots import Robots
+
+_THIGH = 1  # joint order within a leg: hip, thigh, calf
+_FLEXOR, _EXTENSOR = POOLS.index("thigh_flexor"), POOLS.index("thigh_extensor")
+
+
+class Senses:
+    """The senses of ``cpg`` (torso speed, limit inhibition) and the ``reward`` and ``alive``
+    (trials,) arrays, computed from ``robots`` by :meth:`sense`."""
+
+    def __init__(self, cpg: CPG, robots: Robots, models: ModelSet) -> None:
+        B = robots.n_trials
+        self._qpos, self._qa, self._fq = robots.qpos, robots.qa, robots.fq
+        self._velocity, self._angular = robots.torso["velocity"], robots.torso["angular"]
+        # cached raw views into the Brian2 state (numpy target: live arrays; with the limbs in
+        # stages, buffers in trial-major order that sense copies into the pool group)
+        self._speed_table = cpg.table("pool", "torso_speed")
+        self._limit_table = cpg.table("pool", "limit_inhibition")
+        self._torso_speed = self._speed_table.values.reshape(B, 4, len(POOLS))
+        self._limit = self._limit_table.values.reshape(B, 4, len(POOLS))
+        # model-side constants, as plain floats
+        margin = float(np.asarray(models.pool.parameters["limit_margin"].value))
+        ranges = robots.layout.joint_range  # (4, 3, 2) from the robot model
+        self._flexor_limit = ranges[:, _THIGH, 0] + margin  # inhibit flexor below this
+        self._extensor_limit = ranges[:, _THIGH, 1] - margin  # inhibit extensor above this
+        self._reward = models.reward.compile()
+        self._alive = models.alive.compile()
+        self._alive_inputs = tuple(models.alive.inputs)  # a model file may read fewer
+        self.reward = np.zeros(B)
+        self.alive = np.ones(B, dtype=bool)
+
+    def sense(self) -> None:
+        """Read the robots' state after a physics step (or a reset) into the senses."""
+        fq = self._fq
+        v = self._velocity  # free joint: linear velocity in the world frame
+        omega = self._angular  # angular velocity in the torso frame (= gyro)
+        speed = np.sqrt(np.einsum("ij,ij->i", v, v))
+        self._torso_speed[:] = speed[:, None, None]
+        qpos = self._qpos
+        thigh = qpos[:, self._qa[:, _THIGH]]  # (B, 4)
+        self._limit[:, :, _FLEXOR] = thigh < self._flexor_limit
+        self._limit[:, :, _EXTENSOR] = thigh > self._extensor_limit
+        self._speed_table.write()
+        self._limit_table.write()
+        self.reward[:] = self._reward(vel_x=v[:, 0], omega_roll=omega[:, 0],
+                                      omega_pitch=omega[:, 1], omega_yaw=omega[:, 2])
+        # alive: z component of the torso's z axis in the world frame, from the quaternion,
+        # and the height of the torso's centre above the ground (z = 0)
+        qx, qy = qpos[:, fq + 4], qpos[:, fq + 5]
+        senses = {"torso_z_up": 1.0 - 2.0 * (qx * qx + qy * qy),
+                  "torso_height": qpos[:, fq + 2]}
+        self.alive[:] = self._alive(**{k: senses[k] for k in self._alive_inputs})

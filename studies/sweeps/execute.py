@@ -1,0 +1,253 @@
+"""A study's runs executed: one run trained on a Dask worker (:func:`execute_run`, which never
+raises for the run's own failure: its status says), the pending runs dispatched on the
+cluster longest first with the study's progress bar, and the runs that did not finish written
+to ``failures.csv``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import sys
+import time
+import traceback
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ...errors import InputError
+from ...network import exclusive
+from ..experiments.cluster import run_on_cluster
+from ..experiments.settings import model_set
+from ..experiments.train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
+from ..files.checkpoint import refuse_legacy
+from ..files.folder import FolderLock
+from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
+from ..files.weights import WEIGHTS
+from .layout import FAILURES, GAITS, STATUS, run_files
+from .study_file import RunSpec
+
+
+# ---------------------------------------------------------------- one run (on a worker)
+
+def read_status(folder: Path) -> dict[str, Any]:
+    try:
+        return json.loads((folder / STATUS).read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _write_status(folder: Path, status: dict[str, Any]) -> None:
+    save_json(folder / STATUS, status)
+
+
+@exclusive  # a worker's tasks are threads: one Brian2 training at a time (network/runlock.py)
+def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
+    """Train one run in ``folder`` (resuming from its checkpoint if there is one).
+
+    Runs on a Dask worker. Never raises for a failure of the run itself: the error and its
+    traceback go into ``status.json`` and the returned dict, so one failed run does not stop
+    the study. Returns the final status.
+    """
+    import warnings
+
+    warnings.filterwarnings("ignore", module="brian2")
+
+    out = prepare_output_dir(folder)
+    # the run folder is this worker's while it trains (inside the study's folder, which the
+    # study's process holds): `train --resume` or `run --out ... --overwrite` on it is refused
+    lock = FolderLock(out, culprit=f"run folder {out}", inside=out.parent.parent)
+    try:
+        lock.acquire()
+    except InputError as e:  # another process holds it: write nothing into it
+        return {"run_id": spec.run_id, "state": "failed", "error": f"InputError: {e}",
+                "not_written": True}
+    try:
+        return _execute_run_locked(spec, out)
+    finally:
+        lock.release()
+
+
+def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
+    status = read_status(out)
+    if status.get("state") == "finished":
+        return status
+    worker, worker_name = _this_worker()
+    status.update({
+        "run_id": spec.run_id, "state": "running", "attempts": status.get("attempts", 0) + 1,
+        "host": socket.gethostname(), "pid": os.getpid(), "worker": worker,
+        "worker_name": worker_name, "started": time.time(), "spec": asdict(spec),
+    })
+    status.pop("error", None)
+    status.pop("finished", None)
+    # every attempt keeps its own line (the timeline of the study): a killed attempt stays
+    # without an end
+    status["history"] = status.get("history", []) + [
+        {k: status[k] for k in ("attempts", "worker", "worker_name", "host", "pid", "started")}]
+    t0 = time.perf_counter()
+    try:
+        _write_status(out, status)
+        settings = spec.train_settings()
+        payload = None
+        refuse_legacy(out)  # an old pickled checkpoint is never loaded
+        if (out / CHECKPOINT).exists():
+            payload = read_checkpoint(out / CHECKPOINT, culprit=out)
+            if payload["fingerprint"] != settings.fingerprint():
+                raise InputError("its checkpoint belongs to other settings", culprit=out)
+        models = model_set(settings.overrides, {}, models=settings.models)
+        trainer = Trainer(models, settings, out, progress=False, record=spec.record_plan())
+        if payload is not None:
+            trainer.restore(payload)
+        status["sessions_at_start"] = int(trainer.training.sessions_done.sum())
+        _write_status(out, status)
+        write_manifest(out, command="study-run", seed=spec.seed, settings=asdict(spec),
+                       models_json=trainer.models.to_json(), files=run_files(),
+                       results={"status": "running"})
+        wall = trainer.run()
+        _write_gaits(out, trainer)
+        status.update({"state": "finished", "finished": time.time(),
+                       "wall_seconds": status.get("wall_seconds", 0.0) + time.perf_counter() - t0})
+        _end_attempt(status)
+        _write_status(out, status)
+        # last: the manifest's inventory lists the run's files as they stay (status included)
+        write_manifest(out, command="study-run", seed=spec.seed, settings=asdict(spec),
+                       models_json=trainer.models.to_json(), files=run_files(),
+                       results={"status": "finished", "wall_seconds_last_attempt": wall})
+        return status
+    except TrainingStopped as e:
+        status.update({"state": "stopped", "error": str(e), "finished": time.time()})
+    except Exception as e:  # recorded, not raised: the other runs go on
+        status.update({"state": "failed", "error": f"{type(e).__name__}: {e}",
+                       "traceback": traceback.format_exc(), "finished": time.time()})
+    _end_attempt(status)
+    _write_status(out, status)
+    return status
+
+
+def _write_gaits(out: Path, trainer: Trainer) -> None:
+    """``gait.csv``: each trial's gait with its final tables, learning off (a short run)."""
+    from ..experiments.trained import GAIT_COLUMNS, final_gaits
+
+    with np.load(out / WEIGHTS, allow_pickle=False) as z:  # written by this process a moment ago
+        tables = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3
+    rows = final_gaits(trainer.models, tables)
+    lines = ["trial," + ",".join(GAIT_COLUMNS)]
+    for b, row in enumerate(rows):
+        lines.append(f"{b}," + ",".join(str(row[c]) for c in GAIT_COLUMNS))
+    data = ("\n".join(lines) + "\n").encode()
+    atomic_write(out / GAITS, lambda f: f.write(data))
+
+
+def _this_worker() -> tuple[str, str]:
+    """(address, name) of the Dask worker running this task; empty outside a worker."""
+    try:
+        from distributed import get_worker
+
+        w = get_worker()
+        return str(w.address), str(w.name)
+    except (ImportError, ValueError):
+        return "", ""
+
+
+def _end_attempt(status: dict[str, Any]) -> None:
+    last = status["history"][-1]
+    last.update({"state": status["state"], "ended": status["finished"],
+                 "duration_s": status["finished"] - last["started"]})
+
+
+# ---------------------------------------------------------------- the runs on the cluster
+def _sessions_done(folder: Path) -> int:
+    try:
+        with open(folder / "sessions.csv", "rb") as f:
+            return max(0, sum(1 for _ in f) - 1)
+    except OSError:
+        return 0
+
+
+def dispatch(study, pending, folders, client, progress, total_sessions, n_done_before,
+              tqdm) -> dict[str, str]:
+    """Run ``pending`` on the cluster, longest first, one run per free worker thread
+    (:func:`run_on_cluster`), with the study's progress bar. Returns the errors of runs that
+    could not write their status (their folder was held by another process): {run_id:
+    error}."""
+    unwritten: dict[str, str] = {}
+    waiting = sorted(pending, key=lambda r: r.estimated_seconds(), reverse=True)
+    by_id = {r.run_id: r for r in waiting}
+    counts = {"failed": 0, "finished": 0}
+    done_sessions = sum(_sessions_done(f) for f in folders.values())
+    bar = tqdm(total=total_sessions, initial=done_sessions, unit="session",
+               desc=f"study {study.name}", disable=not progress, dynamic_ncols=True,
+               smoothing=0.05,
+               # a log file (not a terminal) gets a line every 30 s, not every second
+               mininterval=0.5 if sys.stderr.isatty() else 30.0)
+
+    def ended(run_id: str, future: Any) -> None:
+        counts["finished"] += 1
+        if not _collect(future, by_id[run_id], folders[run_id], unwritten):
+            counts["failed"] += 1
+
+    def tick(running: int) -> None:
+        now = sum(_sessions_done(f) for f in folders.values())
+        bar.update(max(0, now - bar.n))
+        bar.set_postfix_str(f"runs done {n_done_before + counts['finished'] - counts['failed']}/"
+                            f"{len(study.runs)}, running {running}, failed {counts['failed']}")
+
+    try:
+        run_on_cluster(client, execute_run,
+                       [(r.run_id, (r, str(folders[r.run_id]))) for r in waiting], ended, tick)
+    finally:
+        bar.close()
+    return unwritten
+
+
+def _collect(future: Any, spec: RunSpec, folder: Path, unwritten: dict[str, str]) -> bool:
+    """True when the run of ``future`` finished; a run that failed on its worker has said so in
+    its status.json; one that could not run (e.g. KilledWorker after repeated worker deaths, or
+    a cancelled task) is recorded as failed here; one whose folder another process held wrote
+    nothing there: its error goes into ``unwritten``."""
+    if future.status == "finished":
+        status = future.result()
+        if status.get("not_written"):
+            unwritten[spec.run_id] = str(status.get("error", ""))
+        return status.get("state") == "finished"
+    if future.status == "error":
+        exc = future.exception()
+        error = f"{type(exc).__name__}: {exc}"
+    else:
+        error = f"the task was {future.status}"
+    prepare_output_dir(folder)
+    status = read_status(folder)
+    status.update({"run_id": spec.run_id, "state": "failed", "error": error})
+    _write_status(folder, status)
+    return False
+
+
+def write_failures(out: Path, failed: list[RunSpec], folders: dict[str, Path],
+                    unwritten: dict[str, str] | None = None) -> dict[str, str]:
+    """``failures.csv``: the runs that did not finish and their errors (removed when none);
+    returns {run_id: error}. ``unwritten``: errors of runs whose folder another process held
+    (their status.json is not theirs to tell)."""
+    path = out / FAILURES
+    unwritten = unwritten or {}
+    if not failed:
+        if path.exists():
+            path.unlink()
+        return {}
+    lines = ["run_id,state,attempts,error"]
+    errors: dict[str, str] = {}
+    for r in failed:
+        s = read_status(folders[r.run_id])
+        if r.run_id in unwritten:
+            s = {"state": "failed", "attempts": s.get("attempts", 0),
+                 "error": unwritten[r.run_id]}
+        state = s.get("state", "not run")
+        err = str(s.get("error", "") or ("not run" if state == "not run" else state))
+        errors[r.run_id] = " ".join(err.split())
+        err = err.replace('"', "'").replace("\n", " ")
+        lines.append(f'{r.run_id},{state},{s.get("attempts", 0)},"{err}"')
+    data = ("\n".join(lines) + "\n").encode()
+    atomic_write(path, lambda f: f.write(data))
+    return errors
