@@ -178,12 +178,11 @@ class Bridge:
         self._h = cpg.array("torque", "h").reshape(B, 4, 2)  # (trial, leg, thigh/calf)
 
         # model-side constants, as plain floats
-        margin = float(np.asarray(models.pool.parameters["limit_margin"].value))
+        margin = models.value("limit_margin")
         ranges = layout.joint_range  # (4, 3, 2) from the robot model
         self._flexor_limit = ranges[:, _THIGH, 0] + margin  # inhibit flexor below this
         self._extensor_limit = ranges[:, _THIGH, 1] - margin  # inhibit extensor above this
-        hip = models.hip_controller.parameters
-        target = float(np.asarray(hip["hip_target"].value))
+        target = models.value("hip_target")
         # outward: +target for left legs (y > 0), -target for right legs
         self._hip_target = np.array([target if leg[1] == "L" else -target for leg in LEGS])
         self._hip_torque = models.hip_controller.compile()

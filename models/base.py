@@ -228,6 +228,36 @@ def _value_from_json(data: Any, culprit: str) -> Any:
     return Quantity(si, dim=get_or_create_dimension(**{k: float(v) for k, v in dims.items()}))
 
 
+# ---- what a model and the framework agree on
+
+@dataclass(frozen=True)
+class Interface:
+    """What the framework may touch on a model slot, declared once in the model's module as
+    ``INTERFACE`` (NESTML style: the model states what it offers and what it lets the
+    framework read). It is the single list the framework reads from: a model file for the slot
+    is refused unless it declares every ``variables`` and ``parameters`` name
+    (:func:`astrocpg.models.files.check_interface`), and
+    :meth:`astrocpg.models.ModelSet.value` refuses a parameter not listed in ``parameters``.
+
+    variables: state variables the network reads or sets on the model's group (Brian2 models).
+    inputs: what the network gives an expression model (a file may use no others, and need not
+        use all of them).
+    parameters: parameters the framework reads by name (``ModelSet.value``) or sets by name
+        (the astrocyte ablation, the frozen weights of ``astrocpg power``).
+    """
+
+    variables: tuple[str, ...] = ()
+    inputs: tuple[str, ...] = ()
+    parameters: tuple[str, ...] = ()
+
+    def __iter__(self):
+        """Every name of the interface: variables, inputs, then parameters."""
+        return iter(self.variables + self.inputs + self.parameters)
+
+    def __bool__(self) -> bool:
+        return bool(self.variables or self.inputs or self.parameters)
+
+
 # ---- the model contract
 
 _KINDS: dict[str, type["Model"]] = {}
@@ -599,6 +629,7 @@ def brian_error_line(err: BaseException) -> str:
 
 
 __all__ = [
+    "Interface",
     "Parameter",
     "ParameterTable",
     "Model",

@@ -176,9 +176,8 @@ def _per_trial(values: Any, fmt: str = "d") -> str:
 def _weight_bounds(models: Any) -> tuple[float, float] | None:
     """(w_min, w_max) in volt of the inter-limb synapse, if its model has them."""
     try:
-        p = models.interlimb_synapse.parameters
-        return float(np.asarray(p["w_min"].value)), float(np.asarray(p["w_max"].value))
-    except (AttributeError, KeyError, TypeError):
+        return models.value("w_min"), models.value("w_max")
+    except (AttributeError, KeyError, TypeError, InputError):
         return None
 
 

@@ -272,7 +272,7 @@ class Trainer:
         simulation ended first: Brian2 turns Ctrl-C into a request to stop the run. A
         divergence raises :class:`~astrocpg.errors.Diverged` itself (outputs written, the
         diverged session's row last; the checkpoint stays as last written)."""
-        L_max = float(np.asarray(self.models.progress.parameters["L_max"].value))
+        L_max = self.models.value("L_max")
         left = (self.settings.n_sessions - self.training.sessions_done.min()) * L_max
         t0 = time.perf_counter()
         self.bar = tqdm(total=self.settings.n_sessions * self.settings.n_trials,
@@ -792,7 +792,7 @@ def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
                        history=True)
         raise
     rows = trainer.training.memory.rows
-    L_max = float(np.asarray(trainer.models.progress.parameters["L_max"].value))
+    L_max = trainer.models.value("L_max")
     summary = train_summary(rows, settings.n_trials, L_max)
     trainer.summary = summary
     write_manifest(out, **manifest,

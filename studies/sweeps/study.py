@@ -387,7 +387,7 @@ def _parse_study(text: str, p: Path, batch_given: int | None) -> Study:
                 at = ", ".join(f"{k}={v}" for k, v in point.items())
                 raise InputError(f"{'point ' + at + ': ' if at else ''}{e}", culprit=cw) \
                     from None
-            session_s = float(np.asarray(run_models.progress.parameters["L_max"].value))
+            session_s = run_models.value("L_max")
             tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
             for first, n in groups:
                 seeds_tag = f"seed{first}" if n == 1 else f"seeds{first}-{first + n - 1}"
