@@ -29,7 +29,8 @@ from ..files.folder import verify
 from ..files.weights import load_weights
 from .progress import Bar as tqdm  # warnings wait until the bar closes
 from .resources import check_memory, estimate_bytes
-from .settings import model_set, number
+from ...models.compose import model_set
+from .settings import number
 
 # The paper's figures, shown next to ours (not used in any computation).
 PAPER = {

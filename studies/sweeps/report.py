@@ -35,7 +35,7 @@ from ...errors import InputError
 from ...models import DEFAULT_MODELS
 from ..analysis.compare import compare
 from ..analysis.gait import weight_structure
-from ..experiments.settings import model_set
+from ...models.compose import model_set
 from ..files.folder import OutputFolder, verify
 from ..figures.sweep import Axis, Measure, measure_heatmap, measure_vs_value
 from ..files.outputs import atomic_write, write_manifest

@@ -75,7 +75,8 @@ from ..experiments.cluster import (check_scheduler, check_workers, connect_clust
                                    run_on_cluster)
 from ..experiments.resources import (available_memory, check_memory, estimate_bytes,
                                      estimate_wall_seconds)
-from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
+from ...models.compose import model_files_record, model_set, read_model_files
+from ..experiments.settings import MAX_SEED
 from ..experiments.simulate import STEP, check_duration
 from ..experiments.train import (CHECKPOINT, TRAIN_FILES, Trainer, TrainingStopped, TrainSettings,
                                  read_checkpoint)
