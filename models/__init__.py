@@ -131,7 +131,7 @@ class ModelSet:
         interface is what a model file is checked against, so a read outside it could fail
         late, or read a parameter a file was free to drop."""
         owner = self.owner_of(name)
-        declared = INTERFACES.get(owner, Interface()).parameters
+        declared = INTERFACES.get(owner, Interface()).readable()
         if name not in declared:
             raise InputError(f"is not in the {owner} model's interface (parameters the "
                              f"framework reads: {', '.join(declared) or 'none'}): declare it in "

@@ -244,18 +244,25 @@ class Interface:
         use all of them).
     parameters: parameters the framework reads by name (``ModelSet.value``) or sets by name
         (the astrocyte ablation, the frozen weights of ``astrocpg power``).
+    optional: parameters the framework reads when the model declares them, and does without
+        otherwise (the inter-limb delays: a pair of legs without one takes one step).
     """
 
     variables: tuple[str, ...] = ()
     inputs: tuple[str, ...] = ()
     parameters: tuple[str, ...] = ()
+    optional: tuple[str, ...] = ()
 
     def __iter__(self):
-        """Every name of the interface: variables, inputs, then parameters."""
+        """Every required name of the interface: variables, inputs, then parameters."""
         return iter(self.variables + self.inputs + self.parameters)
 
+    def readable(self) -> tuple[str, ...]:
+        """The parameters :meth:`astrocpg.models.ModelSet.value` may read."""
+        return self.parameters + self.optional
+
     def __bool__(self) -> bool:
-        return bool(self.variables or self.inputs or self.parameters)
+        return bool(self.variables or self.inputs or self.parameters or self.optional)
 
 
 # ---- the model contract

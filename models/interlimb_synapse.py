@@ -71,11 +71,13 @@ PARAMETERS = ParameterTable("interlimb_synapse", [
 ])
 
 INTERFACE = Interface(variables=("w",),
-                      parameters=("w_min", "w_max", "eta", "eta_ADO", "astrocyte_regulation"))
+                      parameters=("w_min", "w_max", "eta", "eta_ADO", "astrocyte_regulation"),
+                      optional=tuple(f"delay_{source}_{target}" for source in LIMBS
+                                     for target in LIMBS if source != target))
 """What the network reads or sets: the weight ``w`` (tables in and out); the bounds the
-reports draw, the learning rates ``astrocpg power`` sets to zero, the ablation's switch. The
-``delay_X_Y`` parameters are optional (a pair without one: one step) and read by
-:func:`astrocpg.network.delays.delay_steps`."""
+reports draw, the learning rates ``astrocpg power`` sets to zero, the ablation's switch; and,
+optional, the ``delay_X_Y`` parameters (a pair without one: one step) that
+:func:`astrocpg.network.delays.delay_steps` reads."""
 
 INTERLIMB_SYNAPSE = SynapseModel(
     name="interlimb_synapse", model=MODEL, on_step=ON_STEP, parameters=PARAMETERS,

@@ -6,7 +6,7 @@ checked against at load.
 The doors (and why each is allowed):
 
 - ``models.value("NAME")``: the read. It returns a float in SI units and refuses, at run time
-  too, a name its model's interface does not list.
+  too, a name its model's interface does not list (required or optional parameters).
 - ``models.with_values({"NAME": ...})`` and ``models.with_zeros("NAME", ...)``: the writes the
   framework makes by name (the astrocytes' ablation, the frozen weights of ``power``); a
   literal name there must be in the interface as well.
@@ -42,12 +42,6 @@ NOT_PARAMETER_READS: dict[tuple[str, str], str] = {
         "an old manifest's recorded parameter table (JSON text, not a model set)",
     ("studies/sweeps/study.py", "astrocyte_regulation"):
         "names, in a conflict message, the parameter 'astrocytes = false' sets",
-}
-
-#: Modules that read a model's parameter table by a computed name, and why.
-TABLE_READERS: dict[str, str] = {
-    "network/delays.py": "the optional delay_X_Y parameters, one per pair of legs: a pair "
-                         "without one takes one step, so they cannot be a required interface",
 }
 
 PARAMETER_NAMES = {p: owner for owner, m in DEFAULT_MODELS.items() for p in m.parameters}
@@ -96,8 +90,7 @@ def findings(root: Path = ROOT) -> list[str]:
         for node in ast.walk(tree):
             where = f"{rel}:{getattr(node, 'lineno', '?')}"
             if isinstance(node, ast.Subscript) and _is_parameters(node.value, bound):
-                if rel not in TABLE_READERS:
-                    out.append(f"{where}: indexes a parameter table ({ast.unparse(node)})")
+                out.append(f"{where}: indexes a parameter table ({ast.unparse(node)})")
             elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
                   and node.func.attr in ("parameter", "get") and node.args
                   and isinstance(node.args[0], ast.Constant)
@@ -111,7 +104,7 @@ def findings(root: Path = ROOT) -> list[str]:
                 if door is None:
                     if (rel, name) not in NOT_PARAMETER_READS:
                         out.append(f"{where}: names parameter {name!r} outside a door")
-                elif name not in (INTERFACES[owner].parameters if owner in INTERFACES else ()):
+                elif name not in (INTERFACES[owner].readable() if owner in INTERFACES else ()):
                     out.append(f"{where}: {door}({name!r}) but {name} is not in the {owner} "
                                f"model's interface")
     return out
@@ -126,7 +119,6 @@ def test_every_exception_is_still_needed():
     constants = {(rel, node.value) for rel, tree in _modules(ROOT) for node in ast.walk(tree)
                  if isinstance(node, ast.Constant) and isinstance(node.value, str)}
     assert [k for k in NOT_PARAMETER_READS if k not in constants] == []
-    assert all((ROOT / rel).is_file() for rel in TABLE_READERS)
 
 
 def test_the_scan_finds_each_kind_of_read(tmp_path):
