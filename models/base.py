@@ -257,6 +257,15 @@ class Interface:
         """Every required name of the interface: variables, inputs, then parameters."""
         return iter(self.variables + self.inputs + self.parameters)
 
+    def __str__(self) -> str:
+        """One line for ``astrocpg models list``: ``variables: ...; parameters: ...``."""
+        parts = [f"{label}: {', '.join(names)}" for label, names in (
+            ("variables", self.variables), ("inputs", self.inputs),
+            ("parameters", self.parameters)) if names]
+        if self.optional:
+            parts.append(f"optional: {len(self.optional)} ({self.optional[0]}, ...)")
+        return "; ".join(parts) or "-"
+
     def readable(self) -> tuple[str, ...]:
         """The parameters :meth:`astrocpg.models.ModelSet.value` may read."""
         return self.parameters + self.optional

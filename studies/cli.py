@@ -888,10 +888,8 @@ def _cmd_models(args: argparse.Namespace) -> int:
     known = dict(models.items())
     if args.models_command == "list":
         for name, model in known.items():
-            interface = INTERFACES.get(name, ())
-            label = "inputs" if model.kind == "expression" else "interface"
             print(f"{name:20s} {model.kind:10s} {len(model.parameters):3d} parameters  "
-                  f"{label}: {', '.join(interface) or '-'}")
+                  f"{INTERFACES.get(name) or '-'}")
         return 0
     if args.name not in known:
         raise InputError(f"unknown model{did_you_mean(args.name, known)} (models: "
