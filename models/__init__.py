@@ -55,14 +55,17 @@ class ModelSet:
     Compose one with :func:`astrocpg.models.compose.model_set` (model files, equation texts,
     ``NAME=VALUE`` overrides), once per command, and hand it down.
 
-    **The one door for reading a parameter by name** is :meth:`value`: ``models.value("L_max")``
-    is the value as a float in SI units (seconds here), and only a parameter its model's
-    :data:`INTERFACES` entry lists may be read so, so every model file is checked at load
-    against everything the framework will read from it. Code outside ``models/`` never indexes
-    ``.parameters[...]`` nor converts values itself (``tests/test_model_doors.py`` checks it).
-    The framework sets parameters by name only with :meth:`with_values` (or
-    :meth:`with_zeros`), also with names of the interface. Whole tables (a Brian2 group's
-    namespace, the printed and exported tables) are read through the models themselves.
+    **The one door for reading a parameter by name** is
+    :meth:`~astrocpg.models.ModelSet.value`: ``models.value("L_max")`` is the value as a float
+    in SI units (seconds here), and only a parameter its model's
+    :data:`~astrocpg.models.INTERFACES` entry lists may be read so, so every model file is
+    checked at load against everything the framework will read from it. Code outside
+    ``models/`` never indexes ``.parameters[...]`` nor converts values itself
+    (``tests/test_model_doors.py`` checks it). The framework sets parameters by name only with
+    :meth:`~astrocpg.models.ModelSet.with_values` (or
+    :meth:`~astrocpg.models.ModelSet.with_zeros`), also with names of the interface. Whole
+    tables (a Brian2 group's namespace, the printed and exported tables) are read through the
+    models themselves.
     """
 
     motor_neuron: NeuronModel = MOTOR_NEURON
@@ -122,14 +125,14 @@ class ModelSet:
     def parameter(self, name: str) -> Parameter:
         """The declared parameter ``name`` (value with unit, symbol, meaning), whatever model
         owns it: for names a user gives (``--set``, a worlds file's ``scale``). The framework
-        reads its own names with :meth:`value`."""
+        reads its own names with :meth:`~astrocpg.models.ModelSet.value`."""
         return getattr(self, self.owner_of(name)).parameters[name]
 
     def value(self, name: str) -> float:
         """The value of parameter ``name`` as a float in SI units (``value("L_max")`` -> 10.0,
-        seconds). Refuses a name its model's interface (:data:`INTERFACES`) does not list: the
-        interface is what a model file is checked against, so a read outside it could fail
-        late, or read a parameter a file was free to drop."""
+        seconds). Refuses a name its model's interface (:data:`~astrocpg.models.INTERFACES`) does
+        not list: the interface is what a model file is checked against, so a read outside it
+        could fail late, or read a parameter a file was free to drop."""
         owner = self.owner_of(name)
         declared = INTERFACES.get(owner, Interface()).readable()
         if name not in declared:
@@ -214,9 +217,10 @@ INTERFACES: dict[str, Interface] = {
 }
 """Each model slot's :class:`~astrocpg.models.base.Interface`, declared in the model's module
 as ``INTERFACE``: the variables the network reads or sets on its group, the inputs it gives an
-expression model, and the parameters the framework reads (:meth:`ModelSet.value`) or sets by
+expression model, and the parameters the framework reads
+(:meth:`~astrocpg.models.ModelSet.value`) or sets by
 name. A model file for the slot must declare all its variables and parameters and may use no
-other inputs (:func:`astrocpg.models.files.check_interface`). Slots without an entry (the
+other inputs (``astrocpg.models.files.check_interface``). Slots without an entry (the
 synapses the network only builds) offer nothing the framework reads by name."""
 
 __all__ = [

@@ -236,7 +236,7 @@ class Interface:
     ``INTERFACE`` (NESTML style: the model states what it offers and what it lets the
     framework read). It is the single list the framework reads from: a model file for the slot
     is refused unless it declares every ``variables`` and ``parameters`` name
-    (:func:`astrocpg.models.files.check_interface`), and
+    (``astrocpg.models.files.check_interface``), and
     :meth:`astrocpg.models.ModelSet.value` refuses a parameter not listed in ``parameters``.
 
     variables: state variables the network reads or sets on the model's group (Brian2 models).
