@@ -61,7 +61,7 @@ def delay_models(delays: str):
     """The model set of a ``--delays`` choice."""
     if delays == "default":
         return DEFAULT_MODELS
-    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.models.compose import model_set
     return model_set(models={"interlimb_synapse": AUTHORS.read_text()})
 
 

@@ -137,8 +137,7 @@ class Bridge:
         self.reward, self.alive = senses.reward, senses.alive  # its arrays, not copies
         self._sense = senses.sense  # bound once: the step calls it
         # the hips' PI controller (model-side constants, as plain floats)
-        hip = models.hip_controller.parameters
-        target = float(np.asarray(hip["hip_target"].value))
+        target = models.value("hip_target")
         # outward: +target for left legs (y > 0), -target for right legs
         self._hip_target = np.array([target if leg[1] == "L" else -target for leg in LEGS])
         self._hip_torque = models.hip_controller.compile()

@@ -36,7 +36,7 @@ class Senses:
         self._torso_speed = self._speed_table.values.reshape(B, 4, len(POOLS))
         self._limit = self._limit_table.values.reshape(B, 4, len(POOLS))
         # model-side constants, as plain floats
-        margin = float(np.asarray(models.pool.parameters["limit_margin"].value))
+        margin = models.value("limit_margin")
         ranges = robots.layout.joint_range  # (4, 3, 2) from the robot model
         self._flexor_limit = ranges[:, _THIGH, 0] + margin  # inhibit flexor below this
         self._extensor_limit = ranges[:, _THIGH, 1] - margin  # inhibit extensor above this

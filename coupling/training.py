@@ -37,10 +37,6 @@ SESSION_COLUMNS = (
 )
 
 
-def _si(value: Any) -> float:
-    return float(np.asarray(value))
-
-
 @dataclass
 class SessionMemory:
     """What a trial carries from session to session (all of it goes into checkpoints)."""
@@ -56,14 +52,13 @@ def session_steps(models: ModelSet, dt: float) -> tuple[int, int, int, int]:
     steps of the reward's window ``reward_window``). Durations run as whole steps, so one
     that is not a whole number of ``dt`` steps is refused (it would be rounded while the
     manifest records it as set; :func:`astrocpg.models.units.whole_steps`)."""
-    pp = models.progress.parameters
-    max_steps = whole_steps(_si(pp["L_max"].value), dt, culprit="progress.L_max")
-    non_alive = whole_steps(_si(pp["L_non_alive"].value), dt, culprit="progress.L_non_alive")
-    memory = _si(pp["session_memory"].value)
+    max_steps = whole_steps(models.value("L_max"), dt, culprit="progress.L_max")
+    non_alive = whole_steps(models.value("L_non_alive"), dt, culprit="progress.L_non_alive")
+    memory = models.value("session_memory")
     if not (memory >= 1 and float(memory).is_integer()):  # int(2.5) would keep 2
         raise InputError(f"must be a whole number of sessions, at least 1, got {memory:g}",
                          culprit="progress.session_memory")
-    window = whole_steps(_si(models.reward.parameters["reward_window"].value), dt,
+    window = whole_steps(models.value("reward_window"), dt,
                          culprit="reward.reward_window")
     return max_steps, non_alive, int(memory), window
 
@@ -78,7 +73,6 @@ class Training:
         self.on_session = on_session
         B = self.n_trials = cpg.n_trials
         dt = self.dt = bridge.dt
-        pp = models.progress.parameters
         (self.max_steps, self.non_alive_limit, self.memory_size,
          self.window) = session_steps(models, dt)
         self._progress_fn = models.progress.compile()

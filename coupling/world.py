@@ -9,7 +9,8 @@ world costs nothing per step and leaves the robot's trajectory exactly as withou
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+import dataclasses
+from dataclasses import dataclass, field, fields
 
 import mujoco
 import numpy as np
@@ -23,21 +24,23 @@ from .robot import A1Parameters, build_spec
 
 ORDER_WORLD = 5  # before_physics: the push and the torque noise act on this step's torques
 
+_NON_NEGATIVE = {"non_negative": True}  # a World field that must not be negative
+
 
 @dataclass(frozen=True, kw_only=True)
 class World:
     """The world parameters as plain SI floats (see ``astrocpg.models.world``)."""
 
     slope: float
-    terrain_height: float
+    terrain_height: float = field(metadata=_NON_NEGATIVE)
     terrain_length: float
     terrain_seed: int
     friction: float
-    payload: float
+    payload: float = field(metadata=_NON_NEGATIVE)
     push_force: float
-    push_time: float
+    push_time: float = field(metadata=_NON_NEGATIVE)
     push_duration: float
-    torque_noise: float
+    torque_noise: float = field(metadata=_NON_NEGATIVE)
 
     @classmethod
     def from_models(cls, models: ModelSet) -> "World":
@@ -46,29 +49,30 @@ class World:
             if f.name not in p:  # a world model file must declare every world parameter
                 raise InputError("is missing from the world model (astrocpg models dump world "
                                  "shows them all)", culprit=f"world.{f.name}")
-        values = {f.name: float(np.asarray(p[f.name].value)) for f in fields(cls)}
-        seed = values["terrain_seed"]
+        # every world parameter through the door (the world's interface lists them all)
+        raw = cls(**{f.name: models.value(f.name) for f in fields(cls)})
+        seed = raw.terrain_seed
         if seed != int(seed) or seed < 0:
             raise InputError(f"must be a non-negative integer, got {seed:g}",
                              culprit="world.terrain_seed")
-        values["terrain_seed"] = int(seed)
-        for name in ("terrain_height", "payload", "torque_noise", "push_time"):
-            if values[name] < 0:
-                raise InputError(f"must not be negative, got {values[name]:g}",
-                                 culprit=f"world.{name}")
-        if not abs(values["slope"]) < math.pi / 2:
-            raise InputError(f"must lie within (-pi/2, pi/2) rad, got {values['slope']:g}",
+        world = dataclasses.replace(raw, terrain_seed=int(seed))
+        for f in fields(cls):
+            if f.metadata.get("non_negative") and getattr(world, f.name) < 0:
+                raise InputError(f"must not be negative, got {getattr(world, f.name):g}",
+                                 culprit=f"world.{f.name}")
+        if not abs(world.slope) < math.pi / 2:
+            raise InputError(f"must lie within (-pi/2, pi/2) rad, got {world.slope:g}",
                              culprit="world.slope")
-        if values["terrain_height"] > 0:  # the heightfield's grid, refused before it is made
-            res, nx, ny = terrain_grid(values["terrain_length"])
+        if world.terrain_height > 0:  # the heightfield's grid, refused before it is made
+            res, nx, ny = terrain_grid(world.terrain_length)
             if res < MIN_TERRAIN_RESOLUTION:
                 raise InputError(
-                    f"a correlation length of {values['terrain_length']:g} m needs a "
+                    f"a correlation length of {world.terrain_length:g} m needs a "
                     f"heightfield grid of {res:.3g} m ({nx} x {ny} = {nx * ny:.3g} cells); the "
                     f"finest grid is {MIN_TERRAIN_RESOLUTION * 100:g} cm, so terrain_length "
                     f"must be at least {4 * MIN_TERRAIN_RESOLUTION:g} m",
                     culprit="world.terrain_length")
-        return cls(**values)
+        return world
 
     @property
     def disturbed(self) -> bool:

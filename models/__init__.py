@@ -24,6 +24,7 @@ from .energy import RL_POWER, SNN_POWER
 from .base import (
     BrianModel,
     ExpressionModel,
+    Interface,
     Model,
     NeuronModel,
     Parameter,
@@ -50,6 +51,21 @@ class ModelSet:
     """Every model the CPG, its astrocytes and its coupling are built from (defaults: the paper
     plus the facts it leaves out, docs/model.md). Parameter names are unique across the set, so
     ``--set NAME=VALUE`` is unambiguous.
+
+    Compose one with :func:`astrocpg.models.compose.model_set` (model files, equation texts,
+    ``NAME=VALUE`` overrides), once per command, and hand it down.
+
+    **The one door for reading a parameter by name** is
+    :meth:`~astrocpg.models.ModelSet.value`: ``models.value("L_max")`` is the value as a float
+    in SI units (seconds here), and only a parameter its model's
+    :data:`~astrocpg.models.INTERFACES` entry lists may be read so, so every model file is
+    checked at load against everything the framework will read from it. Code outside
+    ``models/`` never indexes ``.parameters[...]`` nor converts values itself
+    (``tests/test_model_doors.py`` checks it). The framework sets parameters by name only with
+    :meth:`~astrocpg.models.ModelSet.with_values` (or
+    :meth:`~astrocpg.models.ModelSet.with_zeros`), also with names of the interface. Whole
+    tables (a Brian2 group's namespace, the printed and exported tables) are read through the
+    models themselves.
     """
 
     motor_neuron: NeuronModel = MOTOR_NEURON
@@ -107,7 +123,30 @@ class ModelSet:
                          culprit=parameter)
 
     def parameter(self, name: str) -> Parameter:
+        """The declared parameter ``name`` (value with unit, symbol, meaning), whatever model
+        owns it: for names a user gives (``--set``, a worlds file's ``scale``). The framework
+        reads its own names with :meth:`~astrocpg.models.ModelSet.value`."""
         return getattr(self, self.owner_of(name)).parameters[name]
+
+    def value(self, name: str) -> float:
+        """The value of parameter ``name`` as a float in SI units (``value("L_max")`` -> 10.0,
+        seconds). Refuses a name its model's interface (:data:`~astrocpg.models.INTERFACES`) does
+        not list: the interface is what a model file is checked against, so a read outside it
+        could fail late, or read a parameter a file was free to drop."""
+        owner = self.owner_of(name)
+        declared = INTERFACES.get(owner, Interface()).readable()
+        if name not in declared:
+            raise InputError(f"is not in the {owner} model's interface (parameters the "
+                             f"framework reads: {', '.join(declared) or 'none'}): declare it in "
+                             f"the model's INTERFACE before reading it", culprit=f"{owner}.{name}")
+        return float(np.asarray(self.parameter(name).value))
+
+    def with_zeros(self, *names: str) -> "ModelSet":
+        """A copy with these parameters set to zero, each in its own unit (e.g. the learning
+        rates, so that weights stay fixed). Names must be in their model's interface."""
+        for name in names:
+            self.value(name)  # in the interface
+        return self.with_values({name: 0 * self.parameter(name).value for name in names})
 
     def with_values(self, values: Mapping[str, Any]) -> "ModelSet":
         """A copy with parameter values replaced by name (units must match)."""
@@ -165,23 +204,27 @@ DEFAULT_MODELS = ModelSet()
 
 from . import astrocyte as _astrocyte, interlimb_synapse as _interlimb  # noqa: E402
 from . import motor_neuron as _motor, pool as _pool, torque as _torque  # noqa: E402
-from . import world as _world  # noqa: E402
-from . import alive as _alive  # noqa: E402
+from . import world as _world, alive as _alive, reward as _reward  # noqa: E402
+from . import hip_controller as _hip, session as _session, energy as _energy  # noqa: E402
 
-INTERFACES: dict[str, tuple[str, ...]] = {
+INTERFACES: dict[str, Interface] = {
     "motor_neuron": _motor.INTERFACE, "astrocyte": _astrocyte.INTERFACE, "pool": _pool.INTERFACE,
     "torque": _torque.INTERFACE, "interlimb_synapse": _interlimb.INTERFACE,
-    "world": _world.INTERFACE,
-    **{name: tuple(model.inputs) for name, model in DEFAULT_MODELS.items()
-       if isinstance(model, ExpressionModel)},
-    "alive": _alive.SENSES,
+    "world": _world.INTERFACE, "alive": _alive.INTERFACE, "reward": _reward.INTERFACE,
+    "hip_controller": _hip.INTERFACE, "progress": _session.PROGRESS_INTERFACE,
+    "learning_start": _session.LEARNING_START_INTERFACE,
+    "snn_power": _energy.SNN_POWER_INTERFACE, "rl_power": _energy.RL_POWER_INTERFACE,
 }
-"""Each model's interface: the names the network reads or sets on its group (a model file must
-declare them), or, for an expression model, the inputs the network gives (a file may use no
-others). Declared in each model's module as ``INTERFACE``."""
+"""Each model slot's :class:`~astrocpg.models.base.Interface`, declared in the model's module
+as ``INTERFACE``: the variables the network reads or sets on its group, the inputs it gives an
+expression model, and the parameters the framework reads
+(:meth:`~astrocpg.models.ModelSet.value`) or sets by
+name. A model file for the slot must declare all its variables and parameters and may use no
+other inputs (``astrocpg.models.files.check_interface``). Slots without an entry (the
+synapses the network only builds) offer nothing the framework reads by name."""
 
 __all__ = [
-    "ModelSet", "DEFAULT_MODELS", "INTERFACES", "Model", "BrianModel", "NeuronModel",
+    "ModelSet", "DEFAULT_MODELS", "INTERFACES", "Interface", "Model", "BrianModel", "NeuronModel",
     "SynapseModel", "ExpressionModel", "WorldModel", "Parameter", "ParameterTable",
     "INPUT_THEN_DECAY", "register_method", "registered_methods",
 ]

@@ -7,7 +7,7 @@ a level torso still counts as alive. A model file may also read ``torso_height``
 of the torso's centre above the ground plane (m); ``models/variants/alive_height.toml`` is the
 paper's indicator with a height bound added."""
 
-from .base import ExpressionModel, Parameter, ParameterTable
+from .base import ExpressionModel, Interface, Parameter, ParameterTable
 
 EXPRESSION = "torso_z_up >= Thres_z_alive"
 
@@ -19,6 +19,9 @@ PARAMETERS = ParameterTable("alive", [
 SENSES: tuple[str, ...] = ("torso_z_up", "torso_height")
 """What the robot offers an alive model: ``torso_z_up`` (1) and ``torso_height`` (m). A model
 file may read any of them; the built-in indicator reads the first."""
+
+INTERFACE = Interface(inputs=SENSES)
+"""The senses the robot gives an alive model (it reads no alive parameter by name)."""
 
 ALIVE = ExpressionModel(name="alive", expression=EXPRESSION, inputs=("torso_z_up",),
                         parameters=PARAMETERS, description=__doc__)

@@ -9,7 +9,7 @@ released by the astrocyte's own pool
 
 from brian2 import second, umolar
 
-from .base import NeuronModel, Parameter, ParameterTable
+from .base import Interface, NeuronModel, Parameter, ParameterTable
 
 EQUATIONS = """
 dCa/dt = J_chan + J_leak - J_pump : mmolar  # cytosolic [Ca2+]
@@ -77,7 +77,7 @@ PARAMETERS = ParameterTable("astrocyte", [
               meaning="adenosine release refractory period", positive=True),
 ])
 
-INTERFACE = ("n_pool", "ADO", "Ca", "IP3", "AG")
+INTERFACE = Interface(variables=("n_pool", "ADO", "Ca", "IP3", "AG"))
 """What the network reads or sets: ``n_pool`` (linked to the pool's spike count), ``ADO``
 (linked into the inter-limb synapse), ``Ca``, ``IP3``, ``AG`` (recorded traces)."""
 

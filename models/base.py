@@ -229,6 +229,52 @@ def _value_from_json(data: Any, culprit: str) -> Any:
     return Quantity(si, dim=get_or_create_dimension(**{k: float(v) for k, v in dims.items()}))
 
 
+# ---- what a model and the framework agree on
+
+@dataclass(frozen=True)
+class Interface:
+    """What the framework may touch on a model slot, declared once in the model's module as
+    ``INTERFACE`` (NESTML style: the model states what it offers and what it lets the
+    framework read). It is the single list the framework reads from: a model file for the slot
+    is refused unless it declares every ``variables`` and ``parameters`` name
+    (``astrocpg.models.files.check_interface``), and
+    :meth:`astrocpg.models.ModelSet.value` refuses a parameter not listed in ``parameters``.
+
+    variables: state variables the network reads or sets on the model's group (Brian2 models).
+    inputs: what the network gives an expression model (a file may use no others, and need not
+        use all of them).
+    parameters: parameters the framework reads by name (``ModelSet.value``) or sets by name
+        (the astrocyte ablation, the frozen weights of ``astrocpg power``).
+    optional: parameters the framework reads when the model declares them, and does without
+        otherwise (the inter-limb delays: a pair of legs without one takes one step).
+    """
+
+    variables: tuple[str, ...] = ()
+    inputs: tuple[str, ...] = ()
+    parameters: tuple[str, ...] = ()
+    optional: tuple[str, ...] = ()
+
+    def __iter__(self):
+        """Every required name of the interface: variables, inputs, then parameters."""
+        return iter(self.variables + self.inputs + self.parameters)
+
+    def __str__(self) -> str:
+        """One line for ``astrocpg models list``: ``variables: ...; parameters: ...``."""
+        parts = [f"{label}: {', '.join(names)}" for label, names in (
+            ("variables", self.variables), ("inputs", self.inputs),
+            ("parameters", self.parameters)) if names]
+        if self.optional:
+            parts.append(f"optional: {len(self.optional)} ({self.optional[0]}, ...)")
+        return "; ".join(parts) or "-"
+
+    def readable(self) -> tuple[str, ...]:
+        """The parameters :meth:`astrocpg.models.ModelSet.value` may read."""
+        return self.parameters + self.optional
+
+    def __bool__(self) -> bool:
+        return bool(self.variables or self.inputs or self.parameters or self.optional)
+
+
 # ---- the model contract
 
 _KINDS: dict[str, type["Model"]] = {}
@@ -600,6 +646,7 @@ def brian_error_line(err: BaseException) -> str:
 
 
 __all__ = [
+    "Interface",
     "Parameter",
     "ParameterTable",
     "Model",

@@ -11,7 +11,7 @@ control frequency. Energies per operation: 45 nm CMOS (Han et al. 2015).
 from brian2 import Hz
 from brian2.units.allunits import joule
 
-from .base import ExpressionModel, Parameter, ParameterTable
+from .base import ExpressionModel, Interface, Parameter, ParameterTable
 
 pJ = 1e-12 * joule
 
@@ -54,3 +54,10 @@ RL_POWER = ExpressionModel(
     description="RL policy power: one MULT and one ADD per weight per inference, "
                 "epsilon_ADD from snn_power.",
 )
+
+SNN_POWER_INTERFACE = Interface(inputs=SNN_POWER.inputs, parameters=("epsilon_ADD",))
+"""What ``astrocpg power`` gives (events and rates) and reads (``epsilon_ADD``, which it gives
+the RL policy's model)."""
+
+RL_POWER_INTERFACE = Interface(inputs=RL_POWER.inputs)
+"""What ``astrocpg power`` gives the RL policy's model."""

@@ -27,7 +27,7 @@ import numpy as np
 from brian2 import Quantity
 
 from ..errors import InputError
-from .base import BrianModel, Model, Parameter, ParameterTable, model_kinds
+from .base import BrianModel, Interface, Model, Parameter, ParameterTable, model_kinds
 from .units import parse_value, unit_spelling
 
 
@@ -257,19 +257,24 @@ def model_from_toml(text: str, *, culprit: str, default: Model | None = None) ->
         raise InputError(f"incomplete model: {e}", culprit=culprit) from None
 
 
-def check_interface(model: Model, interface: tuple[str, ...], *, culprit: str) -> None:
-    """Refuse a model that lacks a name the network reads or sets (``interface``)."""
-    if not interface or not isinstance(model, BrianModel):
-        if interface and hasattr(model, "inputs"):
-            extra = [i for i in model.inputs if i not in interface]
-            if extra:
-                raise InputError(f"uses inputs {extra} the network does not give (inputs: "
-                                 f"{', '.join(interface)})", culprit=culprit)
+def check_interface(model: Model, interface: Interface | None, *, culprit: str) -> None:
+    """Refuse a model that does not honour its slot's ``interface``
+    (:data:`astrocpg.models.INTERFACES`): one that lacks a variable the network reads or sets
+    or a parameter the framework reads by name, or uses an input the network does not give.
+    One line naming the first missing names."""
+    if not interface:
         return
-    names = set(model.brian_equations().names)
-    missing = [n for n in interface if n not in names]
+    inputs = getattr(model, "inputs", None)
+    if inputs is not None:
+        extra = [i for i in inputs if i not in interface.inputs]
+        if extra:
+            raise InputError(f"uses inputs {extra} the network does not give (inputs: "
+                             f"{', '.join(interface.inputs)})", culprit=culprit)
+    names = set(model.brian_equations().names) if isinstance(model, BrianModel) else set()
+    missing = [n for n in interface.variables if n not in names]
+    missing += [n for n in interface.parameters if n not in model.parameters]
     if missing:
-        raise InputError(f"lacks {', '.join(missing)}, which the network reads or sets "
+        raise InputError(f"lacks {', '.join(missing)}, which the framework reads or sets "
                          f"(interface: {', '.join(interface)})", culprit=culprit)
 
 

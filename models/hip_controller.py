@@ -7,7 +7,7 @@ from brian2 import meter, second
 from brian2.units.allunits import radian
 from brian2.units.allunits import newton
 
-from .base import ExpressionModel, Parameter, ParameterTable
+from .base import ExpressionModel, Interface, Parameter, ParameterTable
 
 EXPRESSION = "-K_P*error - K_I*error_integral"
 
@@ -24,3 +24,6 @@ HIP_CONTROLLER = ExpressionModel(
     name="hip_controller", expression=EXPRESSION, inputs=("error", "error_integral"),
     parameters=PARAMETERS, description=__doc__,
 )
+
+INTERFACE = Interface(inputs=("error", "error_integral"), parameters=("hip_target",))
+"""What the bridge gives (the hip's error and its integral) and reads (the hips' target)."""

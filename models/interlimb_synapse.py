@@ -22,7 +22,7 @@ pairs to 0 ms. The limbs then integrate one after another within a step (see
 
 from brian2 import mV, ms, second
 
-from .base import Parameter, ParameterTable, SynapseModel
+from .base import Interface, Parameter, ParameterTable, SynapseModel
 
 MODEL = """
 w : volt  # inter-limb weight w[x, y], learnt (ON_STEP)
@@ -70,8 +70,14 @@ PARAMETERS = ParameterTable("interlimb_synapse", [
     for source in LIMBS for target in LIMBS if source != target
 ])
 
-INTERFACE = ("w",)
-"""What the network reads or sets: the weight ``w`` (tables in and out)."""
+INTERFACE = Interface(variables=("w",),
+                      parameters=("w_min", "w_max", "eta", "eta_ADO", "astrocyte_regulation"),
+                      optional=tuple(f"delay_{source}_{target}" for source in LIMBS
+                                     for target in LIMBS if source != target))
+"""What the network reads or sets: the weight ``w`` (tables in and out); the bounds the
+reports draw, the learning rates ``astrocpg power`` sets to zero, the ablation's switch; and,
+optional, the ``delay_X_Y`` parameters (a pair without one: one step) that
+:func:`astrocpg.network.delays.delay_steps` reads."""
 
 INTERLIMB_SYNAPSE = SynapseModel(
     name="interlimb_synapse", model=MODEL, on_step=ON_STEP, parameters=PARAMETERS,

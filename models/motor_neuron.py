@@ -8,7 +8,7 @@ not refractory; the K+ current acts on every neuron (docs/model.md, "Discretisat
 
 from brian2 import Hz, meter, ms, mV, second
 
-from .base import NeuronModel, Parameter, ParameterTable
+from .base import Interface, NeuronModel, Parameter, ParameterTable
 
 EQUATIONS = """
 dv/dt = (v_motor_rest - v)/tau_motor + int(not_refractory)*I_input - C_K_chan*K_open : volt  # membrane potential
@@ -67,7 +67,7 @@ PARAMETERS = ParameterTable("motor_neuron", [
               meaning="amplitude of the uniform noise on the background stimulation"),
 ])
 
-INTERFACE = ("x_position", "y_position", "z_position", "Ca")
+INTERFACE = Interface(variables=("x_position", "y_position", "z_position", "Ca"))
 """What the network sets (positions) or records (``Ca``); its linked variables must be pool
 variables of the same name (checked when the network is built)."""
 

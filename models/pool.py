@@ -15,7 +15,7 @@ authors' code in effect used 0: docs/model.md).
 from brian2 import second
 from brian2.units.allunits import radian
 
-from .base import NeuronModel, Parameter, ParameterTable, SynapseModel
+from .base import Interface, NeuronModel, Parameter, ParameterTable, SynapseModel
 
 EQUATIONS = """
 n : 1  # spike count of the pool in this step (pool_activity)
@@ -38,9 +38,12 @@ PARAMETERS = ParameterTable("pool", [
               meaning="inhibition region next to a thigh joint limit (paper 0.05 rad)"),
 ])
 
-INTERFACE = ("n", "torso_speed", "limit_inhibition", "I_interlimb", "reward", "reward_mean",
-             "progress", "learning")
-"""What the network, the robot bridge and the learning rule read or set on a pool."""
+INTERFACE = Interface(
+    variables=("n", "torso_speed", "limit_inhibition", "I_interlimb", "reward", "reward_mean",
+               "progress", "learning"),
+    parameters=("pool_size", "limit_margin"))
+"""What the network, the robot bridge and the learning rule read or set on a pool (and the
+pool's size and the joint-limit margin, which the network and the bridge read)."""
 
 POOL = NeuronModel(name="pool", equations=EQUATIONS, parameters=PARAMETERS,
                    method="input_then_decay", description=__doc__)

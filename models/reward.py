@@ -7,7 +7,7 @@ coefficients are negative, so the angular rates are penalties
 from brian2 import meter, second
 from brian2.units.allunits import radian
 
-from .base import ExpressionModel, Parameter, ParameterTable
+from .base import ExpressionModel, Interface, Parameter, ParameterTable
 
 EXPRESSION = (
     "alpha_vel_x*vel_x + alpha_omega_roll*abs(omega_roll)"
@@ -33,3 +33,8 @@ REWARD = ExpressionModel(
     inputs=("vel_x", "omega_roll", "omega_pitch", "omega_yaw"),
     parameters=PARAMETERS, description=__doc__,
 )
+
+INTERFACE = Interface(inputs=("vel_x", "omega_roll", "omega_pitch", "omega_yaw"),
+                      parameters=("reward_window",))
+"""What the bridge gives (the torso's velocities) and the session loop reads (the window of the
+reward's sliding mean)."""

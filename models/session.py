@@ -8,7 +8,7 @@ yet run count as 0):
 
 from brian2 import second
 
-from .base import ExpressionModel, Parameter, ParameterTable
+from .base import ExpressionModel, Interface, Parameter, ParameterTable
 
 PROGRESS = ExpressionModel(
     name="progress",
@@ -43,3 +43,11 @@ LEARNING_START = ExpressionModel(
     ]),
     description="Start of the learning period within a session.",
 )
+
+PROGRESS_INTERFACE = Interface(inputs=("mean_length",),
+                               parameters=("L_max", "L_non_alive", "session_memory"))
+"""What the session loop gives (the mean session length) and reads (the session bounds and
+how many sessions it remembers)."""
+
+LEARNING_START_INTERFACE = Interface(inputs=("mean_length",))
+"""What the session loop gives a learning-start model."""

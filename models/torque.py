@@ -6,7 +6,7 @@ equation, and Table I. ``n_extensor``/``n_flexor`` are the pools' spike counts i
 from brian2 import meter, second
 from brian2.units.allunits import newton
 
-from .base import NeuronModel, Parameter, ParameterTable
+from .base import Interface, NeuronModel, Parameter, ParameterTable
 
 EQUATIONS = """
 dh/dt = -h/tau_h + I_joint*(n_extensor - n_flexor)/dt : newton*meter  # motor torque of the joint
@@ -24,8 +24,10 @@ PARAMETERS = ParameterTable("torque", [
               meaning="torque increment per spike, calf joint"),
 ])
 
-INTERFACE = ("h", "I_joint", "n_extensor", "n_flexor")
-"""What the network sets (``I_joint``, the linked spike counts) or reads (``h``, the torque)."""
+INTERFACE = Interface(variables=("h", "I_joint", "n_extensor", "n_flexor"),
+                      parameters=("I_thigh", "I_calf"))
+"""What the network sets (``I_joint``, the linked spike counts) or reads (``h``, the torque;
+``I_thigh``/``I_calf``, the torque per spike it gives each joint's ``I_joint``)."""
 
 TORQUE = NeuronModel(
     name="torque",

@@ -17,7 +17,7 @@ from brian2 import kilogram, meter, second
 from brian2.units.allunits import newton
 from brian2.units.allunits import radian
 
-from .base import Parameter, ParameterTable, WorldModel
+from .base import Interface, Parameter, ParameterTable, WorldModel
 
 PARAMETERS = ParameterTable("world", [
     Parameter(name="slope", value=0.0*radian, symbol=r"\alpha",
@@ -43,7 +43,7 @@ PARAMETERS = ParameterTable("world", [
               meaning="relative Gaussian noise on every motor torque, drawn per step"),
 ])
 
-INTERFACE = tuple(PARAMETERS)
+INTERFACE = Interface(parameters=tuple(PARAMETERS))
 """Every world parameter is read by the coupling (``astrocpg.coupling.world``)."""
 
 WORLD = WorldModel(name="world", parameters=PARAMETERS, description=__doc__)

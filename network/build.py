@@ -449,11 +449,9 @@ def _link_pool_variables(w: Wiring) -> None:
             pool, "n", index=np.array([L.pool(b, leg, f"{jt}_extensor") for b, leg, jt in joints]))
         torque.n_flexor = linked_var(
             pool, "n", index=np.array([L.pool(b, leg, f"{jt}_flexor") for b, leg, jt in joints]))
-        tp = w.models.torque.parameters
-        # the value (with its unit) of I_thigh or I_calf, joint by joint
-        torque.I_joint = brian2.Quantity([
-            tp["I_thigh"].value if jt == "thigh" else tp["I_calf"].value
-            for _, _, jt in joints])
+        # I_thigh or I_calf (SI, newton*meter), joint by joint
+        per_joint = {"thigh": w.models.value("I_thigh"), "calf": w.models.value("I_calf")}
+        torque.I_joint_ = np.array([per_joint[jt] for _, _, jt in joints])
 
 
 def _wire_pool_activity(w: Wiring) -> None:
@@ -582,7 +580,7 @@ def build_cpg(
                              culprit="build_cpg")
     if int(n_trials) < 1:
         raise InputError(f"n_trials must be at least 1, got {n_trials}", culprit="build_cpg")
-    pool_size = int(np.asarray(models.pool.parameters["pool_size"].value))
+    pool_size = int(models.value("pool_size"))
     stages = limb_stages(models, legs, dt)  # 0 ms inter-limb delays: limbs one after another
     layout = Layout(n_trials=int(n_trials), pool_size=pool_size, legs=legs,
                     stages=stages if len(stages) > 1 else None)

@@ -37,11 +37,11 @@ def delay_steps(models: ModelSet, legs: Sequence[str], dt: Any) -> dict[tuple[st
         if name not in params:
             out[a, b] = 1
             continue
-        value = params[name].value
-        seconds = float(np.asarray(value))
+        seconds = models.value(name)
         if not np.isfinite(seconds) or not (abs(seconds) <= 1e-12 * step
                                             or abs(seconds - step) <= 1e-9 * step):
-            raise InputError(f"must be 0 ms or one step ({step * 1e3:g} ms), got {value}",
+            raise InputError(f"must be 0 ms or one step ({step * 1e3:g} ms), got "
+                             f"{seconds * 1e3:g} ms",
                              culprit=f"interlimb_synapse.{name}")
         out[a, b] = 0 if abs(seconds) <= 1e-12 * step else 1
     return out

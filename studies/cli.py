@@ -640,7 +640,7 @@ def _kind(e: AstrocpgError) -> str:
 
 # ---------------------------------------------------------------- commands
 def _models(args: argparse.Namespace) -> dict[str, Any]:
-    from .experiments.settings import read_equation_files, read_model_files
+    from ..models.compose import read_equation_files, read_model_files
     return {"overrides": list(args.overrides), "equations": read_equation_files(args.equations),
             "models": read_model_files(getattr(args, "model_files", []))}
 
@@ -683,7 +683,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
-    from .experiments.settings import model_files_record, read_equation_files, read_model_files
+    from ..models.compose import model_files_record, read_equation_files, read_model_files
     from .experiments.train import TrainingStopped, format_train, resume, train
 
     try:
@@ -880,16 +880,14 @@ def _cmd_describe(args: argparse.Namespace) -> int:
 def _cmd_models(args: argparse.Namespace) -> int:
     from ..models import INTERFACES
     from ..models.files import model_to_toml
-    from .experiments.settings import model_set
+    from ..models.compose import model_set
 
     models = model_set(**_models(args)) if args.models_command == "dump" else model_set()
     known = dict(models.items())
     if args.models_command == "list":
         for name, model in known.items():
-            interface = INTERFACES.get(name, ())
-            label = "inputs" if model.kind == "expression" else "interface"
             print(f"{name:20s} {model.kind:10s} {len(model.parameters):3d} parameters  "
-                  f"{label}: {', '.join(interface) or '-'}")
+                  f"{INTERFACES.get(name) or '-'}")
         return 0
     if args.name not in known:
         raise InputError(f"unknown model{did_you_mean(args.name, known)} (models: "

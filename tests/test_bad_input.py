@@ -1463,6 +1463,25 @@ case("video-disk-full", lambda e: S("video", e.copy("run"), "--size", "640", "48
                                     e.tmp / "small" / "v.mp4"), 1, "No space left", "absent",
      lambda e: e.tmp / "small" / "v.mp4", subprocess={"tmpfs": "small", "size": "4k"},
      check=no_temporaries_beside(lambda e: e.tmp / "small" / "v.mp4"))
+# ---- one door into the models: a model file must declare what the framework reads from it
+case("run-model-file-renames-a-parameter-the-network-reads",
+     lambda e: S("run", "--model", "torque=" + str(e.file(
+         "renamed.toml", _dumped("torque").replace("I_thigh = {", "I_hip = {"))),
+                 "--out", out(e)),
+     2, "renamed.toml): lacks I_thigh, which the framework reads", "absent", out)
+# (before: refused only when the network was built, as "torque.I_thigh: unknown parameter")
+case("run-model-file-lacks-a-parameter-the-network-reads",
+     lambda e: S("run", "--model", "torque=" + str(e.file(
+         "dropped.toml", "".join(line for line in _dumped("torque").splitlines(True)
+                                 if not line.startswith("I_thigh =")))), "--out", out(e)),
+     2, "dropped.toml): lacks I_thigh, which the framework reads", "absent", out)
+case("study-model-file-lacks-a-parameter-the-network-reads",
+     lambda e: S("study", e.study(study_text() + '[models]\ntorque = "calf.toml"\n')
+                 if e.file("calf.toml", "".join(line for line in
+                                                _dumped("torque").splitlines(True)
+                                                if not line.startswith("I_calf =")))
+                 else None, "--out", out(e)),
+     2, "calf.toml): lacks I_calf, which the framework reads", "absent", out)
 
 
 def _dumped(model: str) -> str:

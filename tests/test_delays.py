@@ -19,7 +19,7 @@ from astrocpg.network.build import build_cpg
 from astrocpg.network.delays import limb_stages
 from astrocpg.network.layout import LEGS, THIGH_POOLS
 from astrocpg.studies.cli import main
-from astrocpg.studies.experiments.settings import model_set
+from astrocpg.models.compose import model_set
 
 VARIANTS = Path(__file__).resolve().parents[1] / "models" / "variants"
 AUTHORS = VARIANTS / "interlimb_authors_delays.toml"

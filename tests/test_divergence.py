@@ -142,7 +142,7 @@ def test_training_keeps_the_diverged_session(check_every, found_at, last_length)
 def test_trainer_writes_the_diverged_row(tmp_path):
     import csv
 
-    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.models.compose import model_set
     from astrocpg.studies.experiments.train import Trainer, TrainSettings
 
     settings = TrainSettings(n_sessions=5, seed=1, n_trials=1, astrocytes=True,

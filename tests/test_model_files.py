@@ -231,7 +231,7 @@ VARIANTS = Path(__file__).resolve().parents[1] / "models" / "variants"
 def test_shipped_variants(capsys):
     """models/variants: the Li-Rinzel file is the built-in astrocyte; the G-ChI astrocyte has
     the same interface; the study compares them."""
-    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.models.compose import model_set
     from astrocpg.studies.sweeps.study import load_study
 
     li_rinzel = (VARIANTS / "li_rinzel_astrocyte.toml").read_text()
@@ -251,7 +251,7 @@ def test_the_gait_map_study_sweeps_a_parameter_its_model_file_declares(tmp_path)
     """docs/beyond/gait_map_trained.toml: 5 x 5 points over the drive and torque_gain, a
     parameter of torque_gain.toml; at torque_gain = 1 that file runs exactly as the built-in
     torque trace."""
-    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.models.compose import model_set
     from astrocpg.studies.sweeps.study import load_study
 
     runs = load_study(BEYOND / "gait_map_trained.toml").runs

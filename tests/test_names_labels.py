@@ -223,7 +223,7 @@ def test_the_recorded_values_are_the_values_the_built_network_reads():
     value (what a manifest records), and Brian2 resolves the name to the namespace."""
     from astrocpg.network import build_cpg
     from astrocpg.network.divergence import model_of
-    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.models.compose import model_set
 
     models = model_set(["tau_motor=9*ms", "tau_IP3=6*second", "w_max=0.04*mV"])
     cpg = build_cpg(models, seed=1)

@@ -9,7 +9,7 @@ import numpy as np
 from brian2 import SpikeMonitor, StateMonitor
 
 from astrocpg.coupling.recorder import RecordPlan
-from astrocpg.studies.experiments.settings import model_set as models_from
+from astrocpg.models.compose import model_set as models_from
 from astrocpg.studies.experiments.train import Trainer, TrainSettings
 
 

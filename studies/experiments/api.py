@@ -44,7 +44,7 @@ from ...models import ModelSet
 from ..files.export import export as export_folder
 from ..files.result import Result, Trace, load
 from .run import run
-from .settings import Overrides, model_set
+from ...models.compose import Overrides, model_set
 from .train import resume, train
 from .unit import unit
 

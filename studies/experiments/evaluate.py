@@ -44,7 +44,7 @@ from ..files.outputs import atomic_write, write_manifest
 from ..files.weights import load_weights
 from .resources import check_memory, estimate_bytes
 from .run import trained_models, training_settings
-from .settings import model_set, number, seed_number
+from .settings import number, seed_number
 from .simulate import STEP, check_duration, simulate_closed_loop
 
 BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}

@@ -29,7 +29,8 @@ from ..files.folder import verify
 from ..files.weights import load_weights
 from .progress import Bar as tqdm  # warnings wait until the bar closes
 from .resources import check_memory, estimate_bytes
-from .settings import model_set, number
+from ...models.compose import model_set
+from .settings import number
 
 # The paper's figures, shown next to ours (not used in any computation).
 PAPER = {
@@ -82,16 +83,14 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
                          culprit=f"power {folder}")
     models = model_set(settings.get("overrides", []), settings.get("equations", {}),
                        models=settings.get("models"))
-    syn = models.interlimb_synapse.parameters
     # weights fixed: a measurement, not training (zero in each rate's own unit)
-    values: dict[str, Any] = {"eta": 0 * syn["eta"].value, "eta_ADO": 0 * syn["eta_ADO"].value}
+    models = models.with_zeros("eta", "eta_ADO")
     if not settings.get("astrocytes", True):
-        values["astrocyte_regulation"] = 0.0
-    models = models.with_values(values)
+        models = models.with_values({"astrocyte_regulation": 0.0})
     seed = int(manifest.get("seed", settings.get("seed", 1))) + trial
     loop = build_closed_loop(models, n_trials=1, seed=seed, weights=weights)
     cpg, bridge = loop.cpg, loop.bridge
-    L_max = float(np.asarray(models.progress.parameters["L_max"].value))
+    L_max = models.value("L_max")
     bar = tqdm(total=sessions, unit="session", desc="power", disable=not progress)
     limit = cpg.array("pool", "limit_inhibition")
     counted = {"limit": 0.0}
@@ -131,7 +130,7 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
     ops = synaptic_events_per_spike(cpg)
     snn = float(models.snn_power.compile()(
         **{f"ops_{k}": v for k, v in ops.items()}, **{f"f_{k}": v for k, v in rates.items()}))
-    eps_add = float(np.asarray(models.snn_power.parameters["epsilon_ADD"].value))
+    eps_add = models.value("epsilon_ADD")
     rl = float(models.rl_power.compile()(epsilon_ADD=eps_add))
     # for comparison only: our rates with the paper's count of events per spike
     snn_paper_ops = float(models.snn_power.compile()(

@@ -20,8 +20,8 @@ from ..files.folder import OutputFolder, verify
 from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
 from ..files.result import Result
 from ..files.weights import load_weights
-from .settings import (Overrides, model_files_record, model_set, number, override_items,
-                       seed_number)
+from ...models.compose import Overrides, model_files_record, model_set, override_items
+from .settings import number, seed_number
 from .resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        firing_rates, simulate_closed_loop)
@@ -176,9 +176,8 @@ def _per_trial(values: Any, fmt: str = "d") -> str:
 def _weight_bounds(models: Any) -> tuple[float, float] | None:
     """(w_min, w_max) in volt of the inter-limb synapse, if its model has them."""
     try:
-        p = models.interlimb_synapse.parameters
-        return float(np.asarray(p["w_min"].value)), float(np.asarray(p["w_max"].value))
-    except (AttributeError, KeyError, TypeError):
+        return models.value("w_min"), models.value("w_max")
+    except (AttributeError, KeyError, TypeError, InputError):
         return None
 
 

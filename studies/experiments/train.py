@@ -43,7 +43,8 @@ from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_
 from ..files.result import Result
 from .progress import Bar as tqdm  # warnings wait until the bar closes
 from .resources import check_memory, estimate_bytes
-from .settings import model_files_record, model_set, number, override_items, seed_number
+from ...models.compose import model_files_record, model_set, override_items
+from .settings import number, seed_number
 from .simulate import check_selection
 
 # Writing the outputs and the checkpoint costs time that grows with the sessions done (20 trials
@@ -272,7 +273,7 @@ class Trainer:
         simulation ended first: Brian2 turns Ctrl-C into a request to stop the run. A
         divergence raises :class:`~astrocpg.errors.Diverged` itself (outputs written, the
         diverged session's row last; the checkpoint stays as last written)."""
-        L_max = float(np.asarray(self.models.progress.parameters["L_max"].value))
+        L_max = self.models.value("L_max")
         left = (self.settings.n_sessions - self.training.sessions_done.min()) * L_max
         t0 = time.perf_counter()
         self.bar = tqdm(total=self.settings.n_sessions * self.settings.n_trials,
@@ -536,7 +537,8 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
         seed=seed_number(seed, trials=n_trials), n_trials=n_trials,
         astrocytes=bool(astrocytes), overrides=override_items(overrides),
         equations=dict(equations or {}), models=model_files_record(models))
-    model_set(settings.overrides, settings.equations, models=settings.models)  # before any file
+    # composed once, before any file is touched, and handed to the training
+    models = model_set(settings.overrides, settings.equations, models=settings.models)
     out = as_path(out, "--out")
     if not overwrite:
         refuse_legacy(out)  # --resume would refuse it too: say what to do with it
@@ -549,7 +551,7 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
                                 sessions=settings.n_sessions),
                  culprit=f"--sessions {settings.n_sessions} x --trials {settings.n_trials}")
     return Result.from_training(_train(settings, out, plan, None, progress, replace=overwrite,
-                                       new=True), out)
+                                       new=True, models=models), out)
 
 
 def resume(folder: str | Path, *, progress: bool = True, record_every: int | None = None,
@@ -739,11 +741,14 @@ def _check_model_file(name: str, recorded: dict[str, str] | None, given: dict[st
 @exclusive  # the whole training in one hold: Brian2 is not thread-safe (network/runlock.py)
 def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            payload: dict[str, Any] | None, progress: bool, replace: bool = False,
-           new: bool = False, resumed: bool = False) -> "Trainer":
+           new: bool = False, resumed: bool = False,
+           models: ModelSet | None = None) -> "Trainer":
     """Build, own ``out`` (a lock: one process per training folder), train, write. ``resumed``:
     the training continues, so what later commands derived from its earlier weights (figures/,
-    evaluation/, videos, power estimates) is removed first (:func:`remove_derived`)."""
-    models = model_set(settings.overrides, settings.equations, models=settings.models)
+    evaluation/, videos, power estimates) is removed first (:func:`remove_derived`).
+    ``models``: the set composed from ``settings`` when the caller has it already."""
+    if models is None:
+        models = model_set(settings.overrides, settings.equations, models=settings.models)
     trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -792,7 +797,7 @@ def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
                        history=True)
         raise
     rows = trainer.training.memory.rows
-    L_max = float(np.asarray(trainer.models.progress.parameters["L_max"].value))
+    L_max = trainer.models.value("L_max")
     summary = train_summary(rows, settings.n_trials, L_max)
     trainer.summary = summary
     write_manifest(out, **manifest,

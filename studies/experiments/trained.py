@@ -25,7 +25,7 @@ def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
     to FR, the gait label, speed, upright share, the fall if the robot fell (when, in simulated
     s) and the weight structure."""
     result, weights = replay(folder, seconds=seconds, seed=seed, progress=progress)
-    w_max = float(np.asarray(result.cpg.models.interlimb_synapse.parameters["w_max"].value))
+    w_max = result.cpg.models.value("w_max")
     t, i = result.spikes["motor"]
     rec = result.robot
     lines = []

@@ -17,8 +17,8 @@ from ..analysis.rhythm import rhythm_summary
 from ..files.folder import OutputFolder
 from ..files.outputs import save_spikes_and_traces, write_manifest
 from ..files.result import Result
-from .settings import (Overrides, model_files_record, model_set, number, override_items,
-                       seed_number)
+from ...models.compose import Overrides, model_files_record, model_set, override_items
+from .settings import number, seed_number
 from .resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        simulate_unit)

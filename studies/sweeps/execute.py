@@ -21,7 +21,7 @@ import numpy as np
 from ...errors import InputError
 from ...network import exclusive
 from ..experiments.cluster import run_on_cluster
-from ..experiments.settings import model_set
+from ...models.compose import model_set
 from ..experiments.train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
 from ..files.checkpoint import refuse_legacy
 from ..files.folder import FolderLock

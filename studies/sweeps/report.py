@@ -35,7 +35,7 @@ from ...errors import InputError
 from ...models import DEFAULT_MODELS
 from ..analysis.compare import compare
 from ..analysis.gait import weight_structure
-from ..experiments.settings import model_set
+from ...models.compose import model_set
 from ..files.folder import OutputFolder, verify
 from ..figures.save import save_figure
 from ..figures.sweep import Axis, Measure, measure_heatmap, measure_vs_value
@@ -96,8 +96,7 @@ def _group_label(spec: dict[str, Any]) -> str:
 def _model_values(spec: dict[str, Any]) -> tuple[float, float]:
     """w_max (volt) and L_max (s) of a run, from its overrides."""
     models = model_set(list(spec["overrides"]), {}, models=spec.get("models") or None)
-    return (float(np.asarray(models.interlimb_synapse.parameters["w_max"].value)),
-            float(np.asarray(models.progress.parameters["L_max"].value)))
+    return models.value("w_max"), models.value("L_max")
 
 
 def moving_mean(table: np.ndarray, width: int) -> np.ndarray:

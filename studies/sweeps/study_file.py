@@ -24,7 +24,8 @@ from ...coupling.training import session_steps
 from ...errors import InputError, did_you_mean
 from ...models import DEFAULT_MODELS
 from ..experiments.resources import check_memory, estimate_bytes, estimate_wall_seconds
-from ..experiments.settings import MAX_SEED, model_files_record, model_set, read_model_files
+from ...models.compose import model_files_record, model_set, read_model_files
+from ..experiments.settings import MAX_SEED
 from ..experiments.simulate import STEP, check_duration
 from ..experiments.train import TrainSettings
 
@@ -369,7 +370,7 @@ def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], mode
                 at = ", ".join(f"{k}={v}" for k, v in point.items())
                 raise InputError(f"{'point ' + at + ': ' if at else ''}{e}", culprit=cw) \
                     from None
-            session_s = float(np.asarray(run_models.progress.parameters["L_max"].value))
+            session_s = run_models.value("L_max")
             tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
             for first, n in groups:
                 seeds_tag = f"seed{first}" if n == 1 else f"seeds{first}-{first + n - 1}"

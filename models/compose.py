@@ -1,0 +1,171 @@
+"""Model composition: the one place a :class:`~astrocpg.models.ModelSet` is made from what a
+user gives: whole model files (``--model NAME=FILE``, TOML), equation texts (``--equations
+MODEL=FILE``) and ``NAME=VALUE`` overrides (``--set``), each checked against its slot's
+interface (:data:`astrocpg.models.INTERFACES`), plus the record of the model files used
+(:func:`model_files_record`, for manifests). Commands compose a set once with
+:func:`model_set` and hand it down; they read its values with
+:meth:`~astrocpg.models.ModelSet.value`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Iterable, Mapping, Sequence
+
+from ..errors import InputError, did_you_mean
+from . import DEFAULT_MODELS, ModelSet
+
+Overrides = Mapping[str, Any] | Sequence[str]
+
+
+def override_items(overrides: Overrides | None) -> list[str]:
+    """``NAME=VALUE`` strings from a list of them or a mapping ``{name: value}`` (a value may
+    be a quantity, ``9*ms``, or its text, ``"9*ms"``)."""
+    if not overrides:
+        return []
+    if isinstance(overrides, Mapping):
+        return [f"{k}={_value_text(v)}" for k, v in overrides.items()]
+    if isinstance(overrides, str):
+        return [overrides]
+    if isinstance(overrides, (bytes, bytearray)) or not isinstance(overrides, Iterable):
+        raise InputError(f"expected NAME=VALUE texts or a mapping {{name: value}}, got "
+                         f"{type(overrides).__name__}", culprit="overrides")
+    items = list(overrides)
+    for item in items:
+        if not isinstance(item, str):
+            raise InputError(f"expected NAME=VALUE texts (e.g. \"tau_motor=9*ms\"), got "
+                             f"{item!r}", culprit="overrides")
+    return items
+
+
+def _value_text(value: Any) -> str:
+    if isinstance(value, str):
+        return value
+    # a Brian2 quantity prints as "9. ms": a spelling the value parser reads back
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def read_equation_files(items: Sequence[str], option: str = "--equations") -> dict[str, str]:
+    """``MODEL=FILE`` items -> {model: text}; a file that cannot be read, is binary or not
+    UTF-8 is an InputError naming the option and the file."""
+    out: dict[str, str] = {}
+    for item in items:
+        name, sep, file = item.partition("=")
+        if not sep or not name or not file:
+            raise InputError("expected MODEL=FILE", culprit=f"{option} '{item}'")
+        try:
+            raw = Path(file).read_bytes()
+        except OSError as e:
+            raise InputError(f"cannot read '{file}' ({e.strerror})",
+                             culprit=f"{option} {name}") from None
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            raise InputError(f"'{file}' is not UTF-8 text", culprit=f"{option} {name}") from None
+        if "\x00" in text:
+            raise InputError(f"'{file}' is a binary file, not an equation string",
+                             culprit=f"{option} {name}")
+        out[name] = text
+    return out
+
+
+def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str, str]:
+    """``MODEL=FILE`` items of model files (TOML) -> {model: text}, checked as
+    :func:`read_equation_files` checks files, and each file read once as a model so that a
+    mistake within it (a reserved or shadowing parameter name, a field of the wrong TOML type,
+    a missing interface variable) names the file: ``--model astrocyte (a.toml): ...``. What
+    involves other models (a parameter another model declares) is checked by
+    :func:`model_set`."""
+    from . import INTERFACES
+    from .files import check_interface, check_parameters_used, model_from_toml
+
+    texts = read_equation_files(items, option=option)
+    slots = dict(DEFAULT_MODELS.items())
+    for item in items:
+        name, _, file = item.partition("=")
+        if name in slots:
+            where = f"{option} {name} ({file})"
+            model = model_from_toml(texts[name], culprit=where, default=slots[name])
+            check_interface(model, INTERFACES.get(name, ()), culprit=where)
+            try:  # a parameter another model declares
+                DEFAULT_MODELS.replace(**{name: model})
+            except InputError as e:
+                raise InputError(e.line, culprit=where) from None
+            check_parameters_used(model, slots[name], culprit=where)
+    return texts
+
+
+def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, str]]:
+    """``{model: {"sha256": ..., "content": ...}}`` of model files' texts, for manifests."""
+    from .files import file_sha256
+    if models is not None and not isinstance(models, Mapping):
+        raise InputError(f"expected a mapping {{model name: model file text}}, got "
+                         f"{type(models).__name__}", culprit="models")
+    out = {}
+    for name, item in (models or {}).items():
+        if isinstance(item, Mapping) and isinstance(item.get("content"), str):
+            item = item["content"]
+        if isinstance(item, str):
+            out[name] = {"sha256": file_sha256(item), "content": item}
+    return out
+
+
+def model_set(overrides: Overrides | None = None,
+              equations: Mapping[str, str] | None = None,
+              base: ModelSet = DEFAULT_MODELS,
+              models: Mapping[str, Any] | None = None, option: str = "--model") -> ModelSet:
+    """The model set with whole models swapped in (``models``: ``{slot: model file text}`` or
+    ``{slot: Model}``; a file may declare new parameters and variables but must keep the slot's
+    interface), equation texts swapped in (``{model: text}``) and parameter values overridden
+    (``NAME=VALUE`` items or ``{name: value}``), validated. Errors about a model file name
+    ``<option> <model>``."""
+    from . import INTERFACES, Model
+    from .files import (check_interface, check_parameters_used, file_sha256,
+                                 model_from_toml)
+
+    for given, what in ((models, "models"), (equations, "equations")):
+        if given is not None and not isinstance(given, Mapping):
+            value = "model file text" if what == "models" else "equation text"
+            raise InputError(f"expected a mapping {{model name: {value}}}, got "
+                             f"{type(given).__name__}", culprit=what)
+    files = models
+    models = base
+    known = dict(models.items())
+    for name, item in (files or {}).items():
+        culprit = f"{option} {name}"
+        if name not in known:
+            raise InputError(f"unknown model{did_you_mean(name, known)} (models: "
+                             f"{', '.join(known)})", culprit=culprit)
+        if isinstance(item, Mapping):  # a manifest's record: {"sha256", "content"}
+            text = item.get("content")
+            if not isinstance(text, str):
+                raise InputError("a model file record needs its content", culprit=culprit)
+            if "sha256" in item and item["sha256"] != file_sha256(text):
+                raise InputError("the recorded content does not match its sha256",
+                                 culprit=culprit)
+            item = text
+        model = item if isinstance(item, Model) else model_from_toml(
+            str(item), culprit=culprit, default=known[name])
+        if model.kind != known[name].kind:
+            raise InputError(f"is a {model.kind} model; {name} is a {known[name].kind} model",
+                             culprit=culprit)
+        check_interface(model, INTERFACES.get(name, ()), culprit=culprit)
+        check_parameters_used(model, getattr(DEFAULT_MODELS, name), culprit=culprit)
+        try:
+            models = models.replace(**{name: model})
+        except InputError as e:
+            raise InputError(e.line, culprit=culprit) from None
+    known = dict(models.items())
+    for name, text in (equations or {}).items():
+        model = known.get(name)
+        if model is None:
+            raise InputError(f"unknown model '{name}'{did_you_mean(name, known)} (models: "
+                             f"{', '.join(known)})", culprit="--equations")
+        model = model.with_code(text)
+        check_interface(model, INTERFACES.get(name, ()), culprit=f"--equations {name}")
+        models = models.replace(**{name: model})
+    values = dict(models.parse_assignment(item) for item in override_items(overrides))
+    return models.with_values(values) if values else models
+
+
+__all__ = ["Overrides", "override_items", "read_equation_files", "read_model_files",
+           "model_files_record", "model_set"]
