@@ -221,7 +221,8 @@ def test_train_records_the_file_and_power_and_resume_use_it(capsys, tmp_path):
     other.write_text(_dump(capsys, "astrocyte"))
     assert main(["train", "--resume", str(out), "--model",
                  f"astrocyte={other}"]) == 2
-    assert "model files: astrocyte" in capsys.readouterr().err
+    assert "--model astrocyte: that run was trained with another astrocyte model file" in \
+        capsys.readouterr().err
     assert main(["power", str(out), "--sessions", "1", "--no-progress"]) == 0
 
 
