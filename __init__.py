@@ -41,7 +41,7 @@ _API = {name: "astrocpg.studies.experiments.api"
         for name in ("unit", "run", "train", "resume", "load", "describe", "export", "gait",
                      "evaluate", "power", "list_models", "dump_model", "robot", "Result", "Trace")}
 _API.update({name: "astrocpg.studies.sweeps.api" for name in ("study", "report")})
-_API.update({name: "astrocpg.studies.experiments.see" for name in ("plot", "video")})
+_API.update({name: "astrocpg.studies.experiments.view" for name in ("plot", "video")})
 _API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFault", "Diverged")})
 
 __all__ = sorted(_API)

@@ -41,7 +41,7 @@ from .intra_pool_synapse import INTRA_POOL_SYNAPSE
 from .motor_neuron import MOTOR_NEURON
 from .pool import POOL, POOL_ACTIVITY
 from .reward import REWARD
-from .session import LEARNING_START, PROGRESS
+from .progress import LEARNING_START, PROGRESS
 from .torque import TORQUE
 from .world import WORLD
 
@@ -205,7 +205,7 @@ DEFAULT_MODELS = ModelSet()
 from . import astrocyte as _astrocyte, interlimb_synapse as _interlimb  # noqa: E402
 from . import motor_neuron as _motor, pool as _pool, torque as _torque  # noqa: E402
 from . import world as _world, alive as _alive, reward as _reward  # noqa: E402
-from . import hip_controller as _hip, session as _session, energy as _energy  # noqa: E402
+from . import hip_controller as _hip, progress as _session, energy as _energy  # noqa: E402
 
 INTERFACES: dict[str, Interface] = {
     "motor_neuron": _motor.INTERFACE, "astrocyte": _astrocyte.INTERFACE, "pool": _pool.INTERFACE,

@@ -15,7 +15,7 @@ from .delays import delay_steps, limb_stages
 from .divergence import (LIMIT, DivergenceCheck, InvalidState, NonFinite, StateScan,
                          find_diverged, invalid, network_time, run_network)
 from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout, interlimb_labels
-from .parts import Part, TrialTable
+from .trial_tables import Part, TrialTable
 from .runlock import RUN_LOCK, exclusive
 
 __all__ = ["populations", "CPG", "build_cpg", "built_in_models", "check_runs", "same_limb_mask", "trial_seeds",

@@ -28,7 +28,7 @@ from . import populations
 from .divergence import MODEL_OF, InvalidState, StateScan, leave_to_the_scan, model_of
 from .delays import limb_stages
 from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
-from .parts import Part, TrialTable
+from .trial_tables import Part, TrialTable
 from .runlock import exclusive
 
 # Brian2's settings (target, warning filters) are applied only while the framework builds and

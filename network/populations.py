@@ -1,5 +1,5 @@
 """The population table: one row per population of the CPG, from which the index layout, the
-CPG's groups, the divergence scan, what can be recorded, :class:`~astrocpg.studies.files.result.Result`'s
+CPG's groups, the divergence scan, what can be recorded, :class:`~astrocpg.studies.outputs.result.Result`'s
 cells and the NWB export read.
 
 A row (:class:`Population`) says which model the population is built from (a slot of the

@@ -1,4 +1,5 @@
-"""What is done with the model: experiments, sweeps over them, their analysis, figures and files.
+"""What is done with the model: experiments, sweeps over them, their analysis, figures and
+output folders.
 
 Sub-packages, each importing only those below it (checked by import-linter, see pyproject.toml):
 
@@ -7,5 +8,6 @@ Sub-packages, each importing only those below it (checked by import-linter, see 
   experiments  one unit, one closed-loop run, one training, the power estimate (the Python API)
   figures      plots of results, rendered equations and parameter tables
   analysis     rhythm, gait and statistics of spikes and sessions (numpy in, numbers out)
-  files        output folders: manifests, atomic writes, locks, loading, NWB/npz export
+  outputs      output folders: manifests, atomic writes, locks, checkpoints, loading (Result),
+               NWB/npz export
 """

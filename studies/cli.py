@@ -742,7 +742,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _cmd_gait(args: argparse.Namespace) -> int:
-    from .experiments.trained import describe_gait
+    from .experiments.trained_controller import describe_gait
 
     for line in describe_gait(args.dir, seconds=args.seconds, seed=args.seed,
                               progress=not args.no_progress):
@@ -751,7 +751,7 @@ def _cmd_gait(args: argparse.Namespace) -> int:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
-    from .experiments.see import plot
+    from .experiments.view import plot
 
     written = plot(args.dir, trial=args.trial, window=args.window, fmt=args.format,
                    seconds=args.seconds, out=args.out, overwrite=args.overwrite,
@@ -761,7 +761,7 @@ def _cmd_plot(args: argparse.Namespace) -> int:
 
 
 def _cmd_video(args: argparse.Namespace) -> int:
-    from .experiments.see import video
+    from .experiments.view import video
 
     res = video(args.dir, trial=args.trial, fps=args.fps, speed=args.speed, size=args.size,
                 out=args.out, overwrite=args.overwrite, progress=not args.no_progress,

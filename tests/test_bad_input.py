@@ -40,7 +40,7 @@ import numpy as np
 import pytest
 
 from astrocpg.studies.cli import main
-from astrocpg.studies.files.folder import parse_temp_name, verify
+from astrocpg.studies.outputs.folder import parse_temp_name, verify
 from tiny_study import tiny_study
 
 SHORT = ["--set", "L_max=0.2*second", "--set", "L_non_alive=0.1*second"]
@@ -836,7 +836,7 @@ case("plot-misspelt-format", lambda e: S("plot", e.copy("run"), "--format", "pnj
 case("models-alone", lambda e: ["models"], 0, None, "none")
 case("robot-alone", lambda e: ["robot"], 0, None, "none")
 
-# ---- overwrite: what --out may replace (one rule, studies/files/folder.py check_output_path
+# ---- overwrite: what --out may replace (one rule, studies/outputs/folder.py check_output_path
 # and check_replaceable): never a folder of the user's own files, the command's input (nor a
 # folder holding it, nor a place inside it but figures/, report/, ...), nor the current folder
 for cmd in (UNIT, RUN, "train"):
@@ -1317,7 +1317,7 @@ def held_study(e: Env) -> Path:
     def make() -> Path:
         d = e.copy("study", "study_held")
         run = d / "runs" / "astro__seed1"
-        code = ("import time\nfrom astrocpg.studies.files.folder import FolderLock\n"
+        code = ("import time\nfrom astrocpg.studies.outputs.folder import FolderLock\n"
                 f"a = FolderLock({str(d)!r}).acquire()\n"
                 f"b = FolderLock({str(run)!r}, inside={str(d)!r}).acquire()\n"
                 "print('held', flush=True)\ntime.sleep(300)\n")

@@ -1,7 +1,7 @@
 """A checkpoint is data, never code (issue 20, class 2), and a resume honours or refuses every
 option given again, never ignores one (class 8).
 
-* the codec (:mod:`astrocpg.studies.files.checkpoint`) stores every kind of value a training's
+* the codec (:mod:`astrocpg.studies.outputs.checkpoint`) stores every kind of value a training's
   state is made of (Brian2's stored state with its random state, tuples, dicts with any keys,
   NumPy scalars, object arrays, bytes) as arrays and JSON and reads it back exactly, and
   refuses to store anything else (no pickle fall-back);
@@ -31,7 +31,7 @@ import numpy as np
 import pytest
 
 from astrocpg.studies.cli import main
-from astrocpg.studies.files import checkpoint as ck
+from astrocpg.studies.outputs import checkpoint as ck
 from tiny_study import tiny_study
 
 SHORT = ["--set", "L_max=0.2*second", "--set", "L_non_alive=0.1*second"]

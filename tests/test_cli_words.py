@@ -283,7 +283,7 @@ def test_a_run_summary_names_the_fall(runs) -> None:
 
 def test_robot_figures_of_a_fallen_robot_say_so(runs) -> None:
     from astrocpg.studies.figures.traces import trace_figures
-    from astrocpg.studies.files.result import load
+    from astrocpg.studies.outputs.result import load
 
     figures = trace_figures(load(runs["fallen"][0]), 0)
     for name in ("gait_diagram", "joints", "torso_path"):

@@ -24,11 +24,11 @@ EXAMPLES = ["tutorial", "examples/fig3c", "examples/model_file", "examples/nwb_e
 API_OBJECTS = [
     "astrocpg.studies.experiments.unit.unit", "astrocpg.studies.experiments.run.run",
     "astrocpg.studies.experiments.train.train", "astrocpg.studies.experiments.train.resume",
-    "astrocpg.studies.files.result.load", "astrocpg.studies.files.result.Result",
-    "astrocpg.studies.files.result.Result.spike_times", "astrocpg.studies.files.result.Result.trace",
-    "astrocpg.studies.files.result.Trace", "astrocpg.studies.experiments.api.describe",
-    "astrocpg.studies.experiments.api.export", "astrocpg.studies.experiments.see.plot",
-    "astrocpg.studies.experiments.see.video", "astrocpg.errors.InputError",
+    "astrocpg.studies.outputs.result.load", "astrocpg.studies.outputs.result.Result",
+    "astrocpg.studies.outputs.result.Result.spike_times", "astrocpg.studies.outputs.result.Result.trace",
+    "astrocpg.studies.outputs.result.Trace", "astrocpg.studies.experiments.api.describe",
+    "astrocpg.studies.experiments.api.export", "astrocpg.studies.experiments.view.plot",
+    "astrocpg.studies.experiments.view.video", "astrocpg.errors.InputError",
     "astrocpg.models.ModelSet",
 ]
 

@@ -152,7 +152,7 @@ def _counting(monkeypatch, fail_at: int | None = None) -> list[str]:
 @pytest.mark.slow
 def test_an_interrupted_evaluation_runs_only_the_cells_it_had_not_finished(
         trained, tmp_path, monkeypatch):
-    from astrocpg.studies.files.folder import verify
+    from astrocpg.studies.outputs.folder import verify
 
     train, worlds = trained
     whole = tmp_path / "whole"
@@ -195,7 +195,7 @@ def test_other_settings_do_not_reuse_the_cells(trained, tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_evaluate_on_dask_gives_the_rows_of_the_serial_run(trained, tmp_path):
-    from astrocpg.studies.files.folder import verify
+    from astrocpg.studies.outputs.folder import verify
 
     train, worlds = trained
     here, dask = tmp_path / "here", train / "evaluation"

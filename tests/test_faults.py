@@ -27,7 +27,7 @@ from typing import Callable
 
 import pytest
 
-from astrocpg.studies.files.folder import LOCK_NAME, OWNER_NAME, parse_temp_name, verify
+from astrocpg.studies.outputs.folder import LOCK_NAME, OWNER_NAME, parse_temp_name, verify
 
 CLI = [sys.executable, "-m", "astrocpg.studies.cli"]
 # a short training: sessions of at most 0.3 s, 2 trials

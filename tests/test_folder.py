@@ -1,5 +1,5 @@
 """Result folders: whole or nothing, listed in the manifest, owned while in use, and no stray
-temporaries (studies/files/folder.py). Fast: no Brian2, a few short child processes."""
+temporaries (studies/outputs/folder.py). Fast: no Brian2, a few short child processes."""
 
 from __future__ import annotations
 
@@ -19,8 +19,8 @@ from pathlib import Path
 import pytest
 
 from astrocpg.errors import EnvironmentFault, InputError
-from astrocpg.studies.files import folder as F
-from astrocpg.studies.files.folder import (FolderLock, OutputFolder,
+from astrocpg.studies.outputs import folder as F
+from astrocpg.studies.outputs.folder import (FolderLock, OutputFolder,
                                            clean_stale_temporaries, inventory, parse_temp_name,
                                            temp_prefix, verify)
 
@@ -28,7 +28,7 @@ CHILD_HEADER = textwrap.dedent("""\
     import os, signal, sys, time
     from pathlib import Path
     from astrocpg.errors import AstrocpgError
-    from astrocpg.studies.files.folder import FolderLock, OutputFolder
+    from astrocpg.studies.outputs.folder import FolderLock, OutputFolder
     """)
 
 
@@ -429,7 +429,7 @@ def test_parent_that_is_a_file_is_one_line(tmp_path, below):
 
 # ---------------------------------------------------------------- history
 def test_manifest_history_keeps_the_original_command(tmp_path, monkeypatch):
-    from astrocpg.studies.files import outputs
+    from astrocpg.studies.outputs import outputs
 
     common = dict(command="train", seed=1, settings={}, models_json={}, files={})
     monkeypatch.setattr(sys, "argv", ["astrocpg", "train", "--out", "out/t"])

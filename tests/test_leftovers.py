@@ -1,7 +1,7 @@
 """Leftovers (fast, no simulation): hidden temporaries' names fit in 255 bytes however long the
 target's name, what a killed writer leaves is not part of a folder, a resumed training's
 derived outputs go, and a delay table that cannot be integrated says which pairs would make it
-one (``studies/files/folder.py``, ``network/delays.py``)."""
+one (``studies/outputs/folder.py``, ``network/delays.py``)."""
 
 from __future__ import annotations
 
@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 
 from astrocpg.errors import InputError
-from astrocpg.studies.files.folder import (DERIVED, NAME_MAX, OutputFolder,
+from astrocpg.studies.outputs.folder import (DERIVED, NAME_MAX, OutputFolder,
                                            clean_stale_temporaries, inventory, parse_temp_name,
                                            remove_derived, temp_prefix, temp_suffix, verify)
-from astrocpg.studies.files.outputs import atomic_path
+from astrocpg.studies.outputs.writing import atomic_path
 
 STEMS = ["run", "r" * 200, "r" * 235, "r" * 250, "r" * 255, "\u00e9" * 127, "a.b" * 80,
          "x" * 240 + ".npz"]

@@ -37,8 +37,8 @@ SKIPPED = {"models", "tests", "docs", "build", "dist", ".git"}
 #: (module, name) -> why a string constant that spells a parameter's name is not a read of it.
 NOT_PARAMETER_READS: dict[tuple[str, str], str] = {
     ("network/layout.py", "pool_size"): "a key of the layout's JSON (Layout.to_json/from_json)",
-    ("studies/files/export.py", "pool_size"): "a key of the manifest's layout JSON",
-    ("studies/files/result.py", "pool_size"):
+    ("studies/outputs/export.py", "pool_size"): "a key of the manifest's layout JSON",
+    ("studies/outputs/result.py", "pool_size"):
         "an old manifest's recorded parameter table (JSON text, not a model set)",
     ("studies/sweeps/study.py", "astrocyte_regulation"):
         "names, in a conflict message, the parameter 'astrocytes = false' sets",

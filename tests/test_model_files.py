@@ -75,7 +75,7 @@ def test_new_parameter_and_term_act_in_run(capsys, tmp_path):
     assert main([*common, "--model", f"astrocyte={f}", "--set", "tau_extra=1e6*second",
                  "--out", str(tmp_path / "off")]) == 0
     capsys.readouterr()
-    from astrocpg.studies.files.result import load
+    from astrocpg.studies.outputs.result import load
     base, new, off = (load(tmp_path / n) for n in ("base", "new", "off"))
     ag = {k: np.asarray(r.traces["astrocyte_AG"][1], dtype=float) for k, r in
           (("base", base), ("new", new), ("off", off))}

@@ -319,7 +319,7 @@ def _diverged_manifest() -> dict:
 
 
 def test_export_metadata_carries_the_status_and_the_simulated_time():
-    from astrocpg.studies.files.export import _duration_text, _metadata
+    from astrocpg.studies.outputs.export import _duration_text, _metadata
     m = _diverged_manifest()
     meta = _metadata(m)
     assert meta["status"] == "diverged" and meta["simulated_seconds"] == 0.37

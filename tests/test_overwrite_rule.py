@@ -1,4 +1,4 @@
-"""The one rule of ``--out`` and ``--overwrite`` (``studies/files/folder.py``:
+"""The one rule of ``--out`` and ``--overwrite`` (``studies/outputs/folder.py``:
 ``check_output_path`` / ``check_replaceable``), as a property over every command with ``--out``.
 
 For each command and each place a careless ``--out ... --overwrite`` can point at -- a folder of
@@ -26,7 +26,7 @@ from typing import Callable
 import pytest
 
 from astrocpg.studies.cli import main
-from astrocpg.studies.files.folder import verify
+from astrocpg.studies.outputs.folder import verify
 from tiny_study import tiny_study
 
 SHORT = ["--set", "L_max=0.2*second", "--set", "L_non_alive=0.1*second"]

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from astrocpg.coupling.training import SESSION_COLUMNS
-from astrocpg.studies.experiments.trained import GAIT_COLUMNS
-from astrocpg.studies.files.outputs import write_manifest
+from astrocpg.studies.experiments.trained_controller import GAIT_COLUMNS
+from astrocpg.studies.outputs.writing import write_manifest
 from astrocpg.studies.sweeps.report import report
 from astrocpg.studies.sweeps.study import _save_index, load_study
 

@@ -10,8 +10,8 @@ import pytest
 
 from astrocpg.studies.cli import main
 from astrocpg.studies.figures.traces import trace_figures
-from astrocpg.studies.files.folder import MANIFEST, inventory
-from astrocpg.studies.files.result import load
+from astrocpg.studies.outputs.folder import MANIFEST, inventory
+from astrocpg.studies.outputs.result import load
 
 RUN_FIGURES = {"rasters", "pool_activity", "motor_calcium", "joints", "torso_path",
                "gait_diagram"} | {f"astrocyte_{leg}_thigh_{p}" for leg in ("FR", "FL", "RR", "RL")

@@ -159,7 +159,7 @@ def test_a_whole_study_reports_without_a_note(tiny_study, tmp_path, capsys):
 
 
 def _hold(folder: Path, inside: Path | None = None) -> subprocess.Popen:
-    code = ("import time\nfrom astrocpg.studies.files.folder import FolderLock\n"
+    code = ("import time\nfrom astrocpg.studies.outputs.folder import FolderLock\n"
             f"lock = FolderLock({str(folder)!r}, inside={str(inside) if inside else None!r})"
             ".acquire()\nprint('held', flush=True)\ntime.sleep(120)\n")
     p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
@@ -191,7 +191,7 @@ def test_a_worker_writes_nothing_into_a_run_folder_another_process_holds(tiny_st
 
 
 def test_a_worker_holds_its_run_folder_while_it_trains(tiny_study, tmp_path, monkeypatch):
-    from astrocpg.studies.files import folder as folder_module
+    from astrocpg.studies.outputs import folder as folder_module
     from astrocpg.studies.sweeps import execute as execute_module
     from astrocpg.studies.sweeps import study as study_module
 

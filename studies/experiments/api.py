@@ -41,8 +41,8 @@ from typing import Any, Mapping, Sequence
 
 from ...errors import InputError
 from ...models import ModelSet
-from ..files.export import export as export_folder
-from ..files.result import Result, Trace, load
+from ..outputs.export import export as export_folder
+from ..outputs.result import Result, Trace, load
 from .run import run
 from ...models.compose import Overrides, model_set
 from .train import resume, train
@@ -113,7 +113,7 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, seed: int = 1,
     ``seed``) and name its gait: one line per trial (leg phases relative to FR, the gait label,
     speed, upright share, a fall, the weight structure), as ``astrocpg gait`` prints them."""
     from .settings import number, seed_number
-    from .trained import describe_gait
+    from .trained_controller import describe_gait
 
     return describe_gait(_path(folder, "folder"), seconds=number(seconds, "seconds",
                                                                    positive=True),
@@ -190,8 +190,8 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
     """Write the project's A1 model as an MJCF file at ``path`` (ending in .xml; an existing
     file only with ``overwrite``) and return it: what ``astrocpg robot export PATH`` does."""
     from ...coupling.robot import A1Parameters, export_xml
-    from ..files.folder import refuse_in_use
-    from ..files.outputs import atomic_path
+    from ..outputs.folder import refuse_in_use
+    from ..outputs.writing import atomic_path
 
     target = _path(path, "path")
     if target.suffix.lower() != ".xml":

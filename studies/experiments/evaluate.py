@@ -39,9 +39,9 @@ from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
 from ..analysis.fall import first_fall
 from ..analysis.gait import trial_gait
-from ..files.folder import OutputFolder, as_path, verify
-from ..files.outputs import atomic_write, write_manifest
-from ..files.weights import load_weights
+from ..outputs.folder import OutputFolder, as_path, verify
+from ..outputs.writing import atomic_write, write_manifest
+from ..outputs.weights import load_weights
 from .resources import check_memory, estimate_bytes
 from .run import trained_models, training_settings
 from .settings import number, seed_number

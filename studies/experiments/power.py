@@ -25,8 +25,8 @@ from ...coupling.bridge import ORDER_MEASURE
 from ...coupling.training import Training
 from ...errors import InputError
 from ...network import exclusive
-from ..files.folder import verify
-from ..files.weights import load_weights
+from ..outputs.folder import verify
+from ..outputs.weights import load_weights
 from .progress import Bar as tqdm  # warnings wait until the bar closes
 from .resources import check_memory, estimate_bytes
 from ...models.compose import model_set
@@ -166,8 +166,8 @@ def power(folder: Path, *, trial: int = 0, sessions: int = 10, progress: bool = 
           argv: list[str] | None = None) -> tuple[Path, dict[str, Any]]:
     """:func:`measure`, then ``power_trial<K>.json`` in ``folder`` (with package versions);
     returns its path and the figures."""
-    from ..files.folder import refuse_in_use
-    from ..files.outputs import package_versions, save_json
+    from ..outputs.folder import refuse_in_use
+    from ..outputs.writing import package_versions, save_json
 
     path = Path(folder) / f"power_trial{trial}.json"
     refuse_in_use(path, culprit=str(folder))  # a training or study run that is running

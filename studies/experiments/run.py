@@ -16,10 +16,10 @@ import numpy as np
 from ...errors import Diverged, InputError
 from ...models import ModelSet
 from ..analysis.fall import fall_words, falls
-from ..files.folder import OutputFolder, verify
-from ..files.outputs import file_sha256, save_npz, save_spikes_and_traces, write_manifest
-from ..files.result import Result
-from ..files.weights import load_weights
+from ..outputs.folder import OutputFolder, verify
+from ..outputs.writing import file_sha256, save_npz, save_spikes_and_traces, write_manifest
+from ..outputs.result import Result
+from ..outputs.weights import load_weights
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from .settings import number, seed_number
 from .resources import check_memory, estimate_bytes
@@ -55,9 +55,9 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     draw ``thigh_extensor_activity.png`` there (about a second; ``astrocpg plot OUT`` draws it
     and the other figures at any time later). inputs: other files the caller read (e.g. model
     files): ``out`` may not be or hold one, nor ``weights`` and ``robot`` (see
-    :func:`~astrocpg.studies.files.folder.check_output_path`).
+    :func:`~astrocpg.studies.outputs.folder.check_output_path`).
 
-    Returns a :class:`~astrocpg.studies.files.result.Result` of kind "run": spikes, traces, the
+    Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "run": spikes, traces, the
     robot's arrays (``result.robot``) and ``summary`` (distance_m, mean_forward_speed_m_per_s,
     upright_share, rate_per_neuron_Hz per trial)."""
     from brian2 import ms

@@ -3,7 +3,7 @@ one network. At session ends the folder gets, atomically: ``sessions.csv`` (one 
 trial and session), ``weights.npz`` (each trial's table after each session) and
 ``checkpoint.npz`` (everything needed to continue exactly: Brian2 state and random state,
 MuJoCo states, the session loop's memory; data only, never code:
-:mod:`astrocpg.studies.files.checkpoint`): after the first session end, then spaced so that
+:mod:`astrocpg.studies.outputs.checkpoint`): after the first session end, then spaced so that
 writing takes at most 2 % of the wall time (:data:`CHECKPOINT_SPACING`), at the last session
 end and when the run is stopped. ``resume`` continues a killed run from its last checkpoint and
 ends with the same files as a run never interrupted.
@@ -33,14 +33,14 @@ from ...coupling.training import SESSION_COLUMNS, SessionMemory, Training
 from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
 from ...network import codegen_target, exclusive, interlimb_labels, run_network
-from ..files.checkpoint import (CHECKPOINT, LEGACY_CHECKPOINT, holds_checkpoint,
+from ..outputs.checkpoint import (CHECKPOINT, LEGACY_CHECKPOINT, holds_checkpoint,
                                refuse_legacy, write_checkpoint as write_checkpoint_file)
-from ..files.checkpoint import read_checkpoint as read_checkpoint_file
-from ..files.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
+from ..outputs.checkpoint import read_checkpoint as read_checkpoint_file
+from ..outputs.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
                             as_path, holds_results, refuse_in_use, remove_derived)
-from ..files.outputs import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
+from ..outputs.writing import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
-from ..files.result import Result
+from ..outputs.result import Result
 from .progress import Bar as tqdm  # warnings wait until the bar closes
 from .resources import check_memory, estimate_bytes
 from ...models.compose import model_files_record, model_set, override_items
@@ -329,7 +329,7 @@ def _rename_clocks(state: dict[str, Any], net) -> dict[str, Any]:
 
 
 #: The payload's entries stored in the checkpoint's readable ``meta`` (JSON); the rest is the
-#: state tree (:mod:`astrocpg.studies.files.checkpoint`).
+#: state tree (:mod:`astrocpg.studies.outputs.checkpoint`).
 _META_KEYS = ("fingerprint", "settings", "codegen", "record_plan")
 
 
@@ -390,7 +390,7 @@ def _memory_from_state(state: dict[str, Any], n_trials: int) -> SessionMemory:
 
 
 def read_checkpoint(path: Path, culprit: Any = None) -> dict[str, Any]:
-    """Load and check a checkpoint (data only: :mod:`astrocpg.studies.files.checkpoint`); a
+    """Load and check a checkpoint (data only: :mod:`astrocpg.studies.outputs.checkpoint`); a
     corrupt or foreign file, or one of the old pickled format, is an ``InputError`` naming it.
     Returns the payload :meth:`Trainer.restore` takes."""
     meta, state = read_checkpoint_file(path, culprit=culprit)
@@ -526,7 +526,7 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
     output folder that is none of ``inputs`` (files the caller read, e.g. model files) and
     holds none of them.
 
-    Returns a :class:`~astrocpg.studies.files.result.Result` of kind "train", read back from
+    Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "train", read back from
     ``out`` (``sessions`` DataFrame, ``weights`` (trial, session, 8, 8) mV, ``recording(trial,
     session)``), with the live ``network`` and ``trainer`` (the :class:`Trainer`:
     ``trainer.training.memory.rows``, ``trainer.cpg``). Raises TrainingStopped if interrupted

@@ -14,9 +14,9 @@ import numpy as np
 
 from ...errors import Diverged
 from ..analysis.rhythm import rhythm_summary
-from ..files.folder import OutputFolder
-from ..files.outputs import save_spikes_and_traces, write_manifest
-from ..files.result import Result
+from ..outputs.folder import OutputFolder
+from ..outputs.writing import save_spikes_and_traces, write_manifest
+from ..outputs.result import Result
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from .settings import number, seed_number
 from .resources import check_memory, estimate_bytes
@@ -45,7 +45,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     ``inputs``, the files the caller read, e.g. model files). progress: a progress bar for long
     runs.
 
-    Returns a :class:`~astrocpg.studies.files.result.Result` of kind "unit"; its
+    Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "unit"; its
     ``summary["rhythm"]`` holds each trial's period, phases and rates. Bad input: InputError
     naming the culprit, before anything is simulated or written."""
     from brian2 import ms

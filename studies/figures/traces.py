@@ -2,7 +2,7 @@
 (no new simulation): rasters, pool activity, motor-neuron Ca2+, each astrocyte's state, joint
 angles and torques, the torso's path and the gait diagram.
 
-Every function takes a loaded :class:`~astrocpg.studies.files.result.Result`, a trial and a
+Every function takes a loaded :class:`~astrocpg.studies.outputs.result.Result`, a trial and a
 time window (s), and returns ``{name: Figure}`` (matplotlib Figures outside pyplot, empty when
 the result holds nothing to draw); :func:`trace_figures` collects them all.
 """

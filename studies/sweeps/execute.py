@@ -23,10 +23,10 @@ from ...network import exclusive
 from ..experiments.cluster import run_on_cluster
 from ...models.compose import model_set
 from ..experiments.train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
-from ..files.checkpoint import refuse_legacy
-from ..files.folder import FolderLock
-from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
-from ..files.weights import WEIGHTS
+from ..outputs.checkpoint import refuse_legacy
+from ..outputs.folder import FolderLock
+from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write_manifest
+from ..outputs.weights import WEIGHTS
 from .layout import FAILURES, GAITS, STATUS, run_files
 from .study_file import RunSpec
 
@@ -129,7 +129,7 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
 
 def _write_gaits(out: Path, trainer: Trainer) -> None:
     """``gait.csv``: each trial's gait with its final tables, learning off (a short run)."""
-    from ..experiments.trained import GAIT_COLUMNS, final_gaits
+    from ..experiments.trained_controller import GAIT_COLUMNS, final_gaits
 
     with np.load(out / WEIGHTS, allow_pickle=False) as z:  # written by this process a moment ago
         tables = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3

@@ -36,10 +36,10 @@ from ...models import DEFAULT_MODELS
 from ..analysis.compare import compare
 from ..analysis.gait import weight_structure
 from ...models.compose import model_set
-from ..files.folder import OutputFolder, verify
+from ..outputs.folder import OutputFolder, verify
 from ..figures.save import save_figure
 from ..figures.sweep import Axis, Measure, measure_heatmap, measure_vs_value
-from ..files.outputs import atomic_write, write_manifest
+from ..outputs.writing import atomic_write, write_manifest
 from .execute import read_status
 from .layout import GAITS, RUNS, STUDY_INDEX
 

@@ -39,7 +39,7 @@ Each run lives in ``OUT/runs/<run id>/`` as an ordinary training folder (``sessi
 ``weights.npz``, ``checkpoint.npz``, ``manifest.json``) plus ``status.json``. A run whose
 status is ``finished`` is never run again; any other run resumes from its checkpoint, so
 repeating the command after a crash, a killed worker or Ctrl-C continues where it stopped. A
-checkpoint is data, never code (:func:`~astrocpg.studies.files.checkpoint.read_checkpoint`): before any worker
+checkpoint is data, never code (:func:`~astrocpg.studies.outputs.checkpoint.read_checkpoint`): before any worker
 starts, the checkpoints of the runs to resume are checked, and one that is not a checkpoint of
 this format (an old pickled ``checkpoint.pkl`` included, which is never loaded) refuses the
 study, naming the file.
@@ -64,10 +64,10 @@ from ...errors import EnvironmentFault, InputError
 from ..experiments.cluster import check_scheduler, check_workers, connect_cluster
 from ..experiments.resources import available_memory, check_memory, estimate_bytes
 from ..experiments.train import CHECKPOINT, read_checkpoint
-from ..files.checkpoint import refuse_legacy
-from ..files.folder import (FolderLock, check_output_path, check_replaceable,
+from ..outputs.checkpoint import refuse_legacy
+from ..outputs.folder import (FolderLock, check_output_path, check_replaceable,
                             clean_stale_temporaries, clear_folder, holds_results)
-from ..files.outputs import atomic_write, prepare_output_dir, save_json, write_manifest
+from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write_manifest
 # the study's rooms, re-exported: `from astrocpg.studies.sweeps.study import ...` keeps working
 from .execute import dispatch, execute_run, read_status, write_failures  # noqa: F401
 from .layout import (FAILURES, GAITS, RESULTS, RUNS, STATUS, STUDY_COPY,  # noqa: F401

@@ -13,8 +13,8 @@ from ...errors import InputError
 from ..analysis.gait import (gait_label, leg_phases, phase_matrix, trial_gait,
                              weight_structure)
 from ..analysis.fall import fall_words, first_fall
-from ..files.folder import OutputFolder, as_path
-from ..files.outputs import write_manifest
+from ..outputs.folder import OutputFolder, as_path
+from ..outputs.writing import write_manifest
 from .progress import Bar
 from .run import replay
 
@@ -89,7 +89,7 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     from ..figures import plots
     from ..figures.save import save_figure, save_figures
     from ..figures.traces import FIGURE_FUNCTIONS, trace_figures
-    from ..files.result import load
+    from ..outputs.result import load
 
     folder = as_path(folder, "folder")
     # the default folder belongs to this command: replaced whole on every plot

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import EnvironmentFault, InputError
-from .outputs import atomic_write
+from .writing import atomic_write
 
 CHECKPOINT = "checkpoint.npz"
 #: The pickled checkpoint of earlier versions: refused, never read.

@@ -16,12 +16,12 @@ import numpy as np
 from ...errors import EnvironmentFault, InputError, did_you_mean, one_line
 from ..figures.save import FORMATS, save_figures
 from ..figures.traces import FIGURE_FUNCTIONS, recorded_span, trace_figures
-from ..files.folder import (OutputFolder, as_path, check_output_path, check_replaceable,
+from ..outputs.folder import (OutputFolder, as_path, check_output_path, check_replaceable,
                             refuse_in_use)
-from ..files.outputs import write_manifest
-from ..files.result import Result, load
+from ..outputs.writing import write_manifest
+from ..outputs.result import Result, load
 from .progress import Bar
-from .trained import FIGURES, plot_training
+from .trained_controller import FIGURES, plot_training
 
 
 def _check_trial(result: Result, trial: int) -> None:
@@ -196,7 +196,7 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     import imageio.v2 as imageio
 
     from ...coupling.render import Replay, frame_count, frame_samples
-    from ..files.outputs import atomic_path
+    from ..outputs.writing import atomic_path
 
     folder = as_path(folder, "folder")
     for name, value in (("--fps", fps), ("--speed", speed)):

@@ -75,7 +75,7 @@ from ...network import populations as _table
 from ...network.recordable import trace_sources
 from .folder import (check_output_path, check_replaceable, clean_stale_temporaries,
                      refuse_in_use, verify)
-from .outputs import atomic_path, save_npz
+from .writing import atomic_path, save_npz
 
 #: what each built-in trace holds (the population table's; an added row's: trace_meaning)
 TRACE_MEANING = {t: src.meaning for p in _table.BUILT_IN for t, src in p.traces.items()}

@@ -401,7 +401,7 @@ def _read_manifest(folder: Path) -> dict[str, Any] | None:
 
 def _check_folder(folder: Path) -> dict[str, Any]:
     """The folder's manifest, once its files are checked: against the manifest's inventory
-    (sizes and sha256, :func:`~astrocpg.studies.files.folder.verify`); a folder written before
+    (sizes and sha256, :func:`~astrocpg.studies.outputs.folder.verify`); a folder written before
     manifests had an inventory: every file its ``files`` names is there."""
     if not folder.is_dir():
         raise InputError("no such folder" if not folder.exists() else "is not a folder",
