@@ -429,7 +429,7 @@ def test_parent_that_is_a_file_is_one_line(tmp_path, below):
 
 # ---------------------------------------------------------------- history
 def test_manifest_history_keeps_the_original_command(tmp_path, monkeypatch):
-    from astrocpg.studies.outputs import outputs
+    from astrocpg.studies.outputs import writing as outputs
 
     common = dict(command="train", seed=1, settings={}, models_json={}, files={})
     monkeypatch.setattr(sys, "argv", ["astrocpg", "train", "--out", "out/t"])
