@@ -9,6 +9,13 @@ physics, before the session loop may end the session) its spikes are read off th
 torques and torso position and velocity are copied into buffers allocated at the session's
 start. When the session ends, the buffers go to ``on_recorded`` (which writes them). The state
 of sessions in progress is part of training checkpoints, so a resumed training records the same.
+
+Why not Brian2's monitors (which a run uses, ``studies/experiments/simulate.add_monitors``):
+a monitor records every trial of the network for the whole run, while the trials of a training
+are in different sessions at any step and only chosen sessions of each trial are kept; their
+memory would grow with the whole training. So a run records with monitors (the network) and
+:mod:`astrocpg.coupling.robot_recording` (the robot, which monitors cannot read), a training
+with this recorder.
 """
 
 from __future__ import annotations
