@@ -123,9 +123,16 @@ class _ImportBrian2:
     name = "astrocpg-import-brian2"
 
     def setup(self, worker: Any) -> None:
+        import signal
+
         import brian2  # noqa: F401
 
         from ..experiments import train  # noqa: F401
+
+        # Ctrl-C reaches the whole process group: the study's own process stops the cluster
+        # and says "interrupted" once; a worker that also took it printed Brian2's "stop
+        # requested" and its event loop's KeyboardInterrupt traceback
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     def teardown(self, worker: Any) -> None:
         pass
