@@ -54,8 +54,20 @@ def connect_cluster(workers: int | None, scheduler: str | None):
             raise InputError(f"cannot connect ({first})", culprit=f"--scheduler {scheduler}") \
                 from None
     n = check_workers(workers) or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                           dashboard_address=":0", silence_logs=logging.ERROR)
+    # worker processes started with SIGINT ignored keep ignoring it (Python installs its
+    # KeyboardInterrupt handler only where SIGINT is not ignored): Ctrl-C stops the study in
+    # this process, which closes the cluster; the workers print nothing of their own
+    import signal
+    import threading
+
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if in_main else None
+    try:
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=":0", silence_logs=logging.ERROR)
+    finally:
+        if in_main:
+            signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
 
 
