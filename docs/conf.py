@@ -68,9 +68,10 @@ nb_merge_streams = True
 nb_render_markdown_format = "myst"   # Markdown outputs (the model's parameter tables) as MyST
 
 # One kernel for every notebook: this very interpreter, with matplotlib's inline backend (so
-# figures land on the page even when MPLBACKEND=Agg is set for the tests), found first on
-# JUPYTER_PATH whatever other "python3" kernels this machine has.
-_KERNEL = "astrocpg-docs"
+# figures land on the page even when MPLBACKEND=Agg is set for the tests). The pages name no
+# kernel, so Jupyter starts its default, "python3": this one, found first on JUPYTER_PATH
+# whatever other "python3" kernels this machine has.
+_KERNEL = "python3"
 _kernels = Path(tempfile.mkdtemp(prefix="astrocpg-docs-jupyter-"))
 (_kernels / "kernels" / _KERNEL).mkdir(parents=True)
 (_kernels / "kernels" / _KERNEL / "kernel.json").write_text(json.dumps({
@@ -83,7 +84,6 @@ _kernels = Path(tempfile.mkdtemp(prefix="astrocpg-docs-jupyter-"))
             "ASTROCPG_DOCS": str(DOCS)}}))
 os.environ["JUPYTER_PATH"] = os.pathsep.join(
     [str(_kernels)] + [p for p in os.environ.get("JUPYTER_PATH", "").split(os.pathsep) if p])
-nb_kernel_rgx_aliases = {".*": _KERNEL}
 
 # --- the API reference -----------------------------------------------------------------------
 autosummary_generate = False          # the pages hold the autodoc directives themselves
