@@ -22,6 +22,7 @@ import numpy as np
 from ..errors import InputError
 # the value parser's limits and wording, shared so both refuse alike
 from .units import MAX_EXPONENT, NODE_MEANING, OPERATOR_TEXT, is_plain, short_text
+from .units import literal_number as _literal
 
 # ------------------------------------------------------------------------------------------
 # compile_expression
@@ -128,17 +129,6 @@ class _ExpressionChecker:
         if not _mentions_name(node.left) and _literal(node.left) is None:
             raise self.refuse("the base of '**' must be a number, an input or a parameter "
                               "(write 1024 rather than (2**10))")
-
-
-def _literal(node: ast.AST) -> float | int | None:
-    """The number of a literal such as ``3``, ``-0.5`` or ``+2``; None for anything else."""
-    sign = 1
-    while isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.UAdd, ast.USub)):
-        sign = -sign if isinstance(node.op, ast.USub) else sign
-        node = node.operand
-    if isinstance(node, ast.Constant) and is_plain(node.value):
-        return sign * node.value
-    return None
 
 
 def _mentions_name(node: ast.AST) -> bool:

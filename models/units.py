@@ -222,6 +222,17 @@ def is_plain(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+def literal_number(node: ast.AST) -> float | int | None:
+    """The number of a literal such as ``3``, ``-0.5`` or ``+2``; None for anything else."""
+    sign = 1
+    while isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.UAdd, ast.USub)):
+        sign = -sign if isinstance(node.op, ast.USub) else sign
+        node = node.operand
+    if isinstance(node, ast.Constant) and is_plain(node.value):
+        return sign * node.value
+    return None
+
+
 def _dims_text(value: Any) -> str:
     try:
         return unit_spelling(value)
@@ -389,14 +400,7 @@ def _factors(unit_name: str) -> dict[str, float] | None:
         return None
     factors: dict[str, float] = {}
 
-    def number(node: ast.AST) -> float | None:
-        sign = 1
-        while isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
-            sign = -sign if isinstance(node.op, ast.USub) else sign
-            node = node.operand
-        if isinstance(node, ast.Constant) and is_plain(node.value):
-            return sign * node.value
-        return None
+    number = literal_number
 
     def walk(node: ast.AST, power: float) -> bool:
         if isinstance(node, ast.Name) and node.id in UNITS:

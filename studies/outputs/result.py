@@ -48,6 +48,17 @@ def _pool_names(population: str, pool_size: int) -> tuple[str, ...]:
     return tuple(dict.fromkeys(_table.row(population).labels(pool_size)))
 
 
+def _known_and_recorded(kind: str, name: str, known: Any, recorded: Any, culprit: str) -> None:
+    """InputError naming ``culprit`` unless ``name`` is a known ``kind`` (with a suggestion
+    otherwise) that this result recorded."""
+    if name not in known:
+        raise InputError(f"unknown {kind}{did_you_mean(name, list(known))} ({kind}s: "
+                         f"{_choices(known)})", culprit=culprit)
+    if name not in recorded:
+        raise InputError(f"was not recorded in this result (recorded: "
+                         f"{_choices(recorded) or 'none'})", culprit=culprit)
+
+
 def _choices(values: Any) -> str:
     return ", ".join(str(v) for v in values)
 
@@ -214,16 +225,9 @@ class Result:
         """How many independent trials (copies of the network) it holds."""
         return self.layout.n_trials
 
-    def _population(self, population: str) -> str:
-        POPULATIONS = spike_populations()
-        if population not in POPULATIONS:
-            raise InputError(f"unknown population{did_you_mean(population, POPULATIONS)} "
-                             f"(populations: {_choices(POPULATIONS)})",
-                             culprit=f"population={population!r}")
-        if population not in self.spikes:
-            raise InputError(f"was not recorded in this result (recorded: "
-                             f"{_choices(self.spikes) or 'none'})",
-                             culprit=f"population={population!r}")
+    def _population(self, population: str) -> None:
+        _known_and_recorded("population", population, spike_populations(), self.spikes,
+                            f"population={population!r}")
         return population
 
     def neurons(self, population: str, trial: int | None = 0, leg: str | None = None,
@@ -299,13 +303,7 @@ class Result:
         columns mapped to trial/leg/pool): "motor_Ca" (a.u.), "astrocyte_Ca" and
         "astrocyte_IP3" (uM), "astrocyte_AG" and "astrocyte_ADO" (a.u.)."""
         TRACE_SOURCES = trace_sources()
-        if name not in TRACE_SOURCES:
-            raise InputError(f"unknown trace{did_you_mean(name, TRACE_SOURCES)} (traces: "
-                             f"{_choices(TRACE_SOURCES)})",
-                             culprit=f"trace {name!r}")
-        if name not in self.traces:
-            raise InputError(f"was not recorded in this result (recorded: "
-                             f"{_choices(self.traces) or 'none'})", culprit=f"trace {name!r}")
+        _known_and_recorded("trace", name, TRACE_SOURCES, self.traces, f"trace {name!r}")
         group, _, _, unit = TRACE_SOURCES[name]
         t, values = self.traces[name]
         values = np.asarray(values)
