@@ -21,6 +21,21 @@ _THIGH = 1  # joint order within a leg: hip, thigh, calf
 _FLEXOR, _EXTENSOR = POOLS.index("thigh_flexor"), POOLS.index("thigh_extensor")
 
 
+def _torso_z_up(qpos: np.ndarray, fq: int) -> np.ndarray:
+    """The z component of the torso's z axis in the world frame, from its quaternion."""
+    qx, qy = qpos[:, fq + 4], qpos[:, fq + 5]
+    return 1.0 - 2.0 * (qx * qx + qy * qy)
+
+
+def _torso_height(qpos: np.ndarray, fq: int) -> np.ndarray:
+    """The height of the torso's centre above the ground plane (z = 0), m."""
+    return qpos[:, fq + 2]
+
+
+#: What the robot offers an alive model, by the input names of models/alive.SENSES.
+ALIVE_SENSES = {"torso_z_up": _torso_z_up, "torso_height": _torso_height}
+
+
 class Senses:
     """The senses of ``cpg`` (torso speed, limit inhibition) and the ``reward`` and ``alive``
     (trials,) arrays, computed from ``robots`` by :meth:`sense`."""
@@ -42,7 +57,9 @@ class Senses:
         self._extensor_limit = ranges[:, _THIGH, 1] - margin  # inhibit extensor above this
         self._reward = models.reward.compile()
         self._alive = models.alive.compile()
-        self._alive_inputs = tuple(models.alive.inputs)  # a model file may read fewer
+        # the senses the alive model reads (its interface, models/alive.SENSES, lists those
+        # it may: a model file naming another is refused when it is loaded)
+        self._alive_senses = tuple((k, ALIVE_SENSES[k]) for k in models.alive.inputs)
         self.reward = np.zeros(B)
         self.alive = np.ones(B, dtype=bool)
 
@@ -61,9 +78,5 @@ class Senses:
         self._limit_table.write()
         self.reward[:] = self._reward(vel_x=v[:, 0], omega_roll=omega[:, 0],
                                       omega_pitch=omega[:, 1], omega_yaw=omega[:, 2])
-        # alive: z component of the torso's z axis in the world frame, from the quaternion,
-        # and the height of the torso's centre above the ground (z = 0)
-        qx, qy = qpos[:, fq + 4], qpos[:, fq + 5]
-        senses = {"torso_z_up": 1.0 - 2.0 * (qx * qx + qy * qy),
-                  "torso_height": qpos[:, fq + 2]}
-        self.alive[:] = self._alive(**{k: senses[k] for k in self._alive_inputs})
+        # alive: only the senses its model reads are computed
+        self.alive[:] = self._alive(**{k: f(qpos, fq) for k, f in self._alive_senses})

@@ -444,3 +444,10 @@ def test_a_manifest_model_entry_with_a_text_flag_is_refused():
     entry["parameters"]["tau_IP3"]["positive"] = "false"
     with pytest.raises(InputError, match="'positive' must be true or false"):
         Model.from_json(entry)
+
+
+def test_the_robot_offers_every_sense_an_alive_model_may_read():
+    from astrocpg.coupling.senses import ALIVE_SENSES
+    from astrocpg.models import alive
+
+    assert set(ALIVE_SENSES) == set(alive.SENSES)
