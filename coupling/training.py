@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
-from brian2 import SpikeMonitor
+from brian2 import NetworkOperation, SpikeMonitor
 
 from ..errors import Diverged, InputError
 from ..models import ModelSet
@@ -44,6 +44,22 @@ class SessionMemory:
     lengths: list[list[float]]
     weights: list[list[np.ndarray]]  # per trial, the 8x8 table (volt) after each session
     rows: list[dict[str, Any]] = field(default_factory=list)
+    #: per trial, what each session started from (:class:`SessionStart`), the session in
+    #: progress included: enough to replay any session alone
+    starts: list[list["SessionStart"]] = field(default_factory=list)
+
+
+@dataclass
+class SessionStart:
+    """What one session of one trial starts from, besides the seed and the reset values: the
+    network step of its first step (the noise streams' step), its Progress and
+    t_learning_start, and the state a reset leaves (astrocytes, inter-limb weights:
+    :meth:`~astrocpg.network.CPG.persistent_state`)."""
+
+    step: int
+    progress: float
+    t_learning_start: float
+    state: dict[str, np.ndarray]
 
 
 def session_steps(models: ModelSet, dt: float) -> tuple[int, int, int, int]:
@@ -110,13 +126,21 @@ class Training:
         self.progress = np.zeros(B)
         self.t_learning_start = np.zeros(B)
         self.memory = SessionMemory(lengths=[[] for _ in range(B)],
-                                    weights=[[] for _ in range(B)])
+                                    weights=[[] for _ in range(B)],
+                                    starts=[[] for _ in range(B)])
         self._arange = np.arange(B)
         self._start_x = bridge.layout.reset_qpos[bridge.layout.free_qpos_adr]
         self._forward = bridge.forward_velocity
         self._counted_step = -1  # the bridge's step_count when step() last ran
         for b in range(B):
             self._plan_session(b)
+            self._remember_start(b)  # session 1 starts from the network as built
+        # sessions that begin at the next step: their start is taken at the end of this one,
+        # after the weight update (order 10) and before a checkpoint (order 20)
+        self._starting = np.zeros(B, dtype=bool)
+        self._any_starting = False
+        cpg.net.add(NetworkOperation(self._take_starts, dt=cpg.dt, when="end", order=15,
+                                     name="session_starts"))
         bridge.add_hook("after_physics", "training", self.step, order=ORDER_TRAINING)
         bridge.add_hook("diverged", "training_diverged", self._diverged, order=ORDER_TRAINING)
 
@@ -158,6 +182,34 @@ class Training:
         self._progress_arr[b, :] = self.progress[b]
         self._progress_table.write()
 
+    def _remember_start(self, b: int) -> None:
+        self.memory.starts[b].append(SessionStart(
+            step=int(self.bridge.step_count), progress=float(self.progress[b]),
+            t_learning_start=float(self.t_learning_start[b]),
+            state=self.cpg.persistent_state(b)))
+
+    def _take_starts(self) -> None:
+        if not self._any_starting:
+            return
+        for b in np.flatnonzero(self._starting):
+            self._remember_start(int(b))
+        self._starting[:] = False
+        self._any_starting = False
+
+    def begin_at(self, b: int, start: SessionStart) -> None:
+        """Start trial ``b``'s first session from ``start`` (a session recorded by another
+        training), before the run: its Progress, t_learning_start, the state a reset leaves
+        and the noise of its steps. The network's clock starts at 0, so the noise is shifted
+        by ``start.step`` and the spike times by as many seconds."""
+        self.progress[b] = start.progress
+        self.t_learning_start[b] = start.t_learning_start
+        self._progress_table.read()
+        self._progress_arr[b, :] = start.progress
+        self._progress_table.write()
+        self.cpg.set_persistent_state(b, start.state, shift_s=start.step * self.dt)
+        self.cpg.start_noise_at(start.step)
+        self.memory.starts[b] = [start]
+
     def _finish(self, b: int) -> None:
         # a session's end is a cheap moment to look at the whole CPG state
         self.bridge.check_cpg()
@@ -176,6 +228,8 @@ class Training:
         self.speed_sum[b] = 0.0
         self.pool_counts[b] = 0
         self._plan_session(b)
+        if not self.done[b]:
+            self._starting[b] = self._any_starting = True
         if self.on_session is not None:
             self.on_session(self, b)
 

@@ -27,6 +27,7 @@ from .codegen import use_codegen
 from . import populations
 from .divergence import MODEL_OF, InvalidState, StateScan, leave_to_the_scan, model_of
 from .delays import limb_stages
+from .noise import Rewriter, trial_major
 from .layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS, Layout
 from .trial_tables import Part, TrialTable
 from .runlock import exclusive
@@ -70,8 +71,16 @@ class CPG:
     interlimb_pairs_of: dict[str, np.ndarray] = field(default_factory=dict)
     #: every population's group but the motor neurons', by name (rows added to the table too)
     groups: dict[str, NeuronGroup] = field(default_factory=dict)
+    #: added to Brian2's step in every draw of the network (:meth:`start_noise_at`)
+    noise_offset: np.ndarray = field(default_factory=lambda: np.zeros(1, dtype=np.int64))
     _arrays: dict[tuple[str, str], np.ndarray] = field(default_factory=dict)
     _scan: StateScan | None = None
+
+    def start_noise_at(self, step: int) -> None:
+        """Draw the noise of Brian2's step ``k`` from step ``step + k`` of each trial's streams
+        (:mod:`astrocpg.network.noise`): a replay of a session that started at ``step`` of a
+        training gets that session's noise. Set before the run; 0 by default."""
+        self.noise_offset[0] = int(step)
 
     @property
     def n_trials(self) -> int:
@@ -232,6 +241,50 @@ class CPG:
                 for var, arr in self._reset_arrays(part.name, part.obj):
                     arr[where] = self._initial(name, var)
 
+    def persistent_state(self, trial: int,
+                         keep: tuple[str, ...] = ("astrocyte",)) -> dict[str, np.ndarray]:
+        """What a session reset (:meth:`reset_trial`) leaves of ``trial``'s state: every
+        dynamic variable of the kept populations and of the inter-limb synapses (their
+        weights), as ``{"population.variable": values}`` in the files' order. With the seed,
+        the step and the reset values, it is all a session starts from (a replay)."""
+        out: dict[str, list[np.ndarray]] = {}
+        for name, part in self._persistent_parts(keep):
+            where = self._trial_slices(part)[trial]
+            for var, arr in self._persistent_arrays(part.name, part.obj):
+                out.setdefault(f"{name}.{var}", []).append(np.array(arr[where], dtype=float))
+        return {k: np.concatenate(v) for k, v in out.items()}
+
+    def set_persistent_state(self, trial: int, state: dict[str, np.ndarray],
+                             shift_s: float = 0.0,
+                             keep: tuple[str, ...] = ("astrocyte",)) -> None:
+        """Set what :meth:`persistent_state` gave (``shift_s``: subtracted from the spike
+        times ``lastspike``, for a network whose clock starts that much later)."""
+        taken: dict[str, int] = {}
+        for name, part in self._persistent_parts(keep):
+            where = self._trial_slices(part)[trial]
+            for var, arr in self._persistent_arrays(part.name, part.obj):
+                key = f"{name}.{var}"
+                if key not in state:
+                    raise InputError(f"the recorded state lacks {key}",
+                                     culprit="session start")
+                n = len(arr[where])
+                values = np.asarray(state[key], dtype=float)[taken.get(key, 0):][:n]
+                if len(values) != n:
+                    raise InputError(f"{key} holds {len(state[key])} values, not those of "
+                                     f"this network", culprit="session start")
+                taken[key] = taken.get(key, 0) + n
+                arr[where] = values - shift_s if var == "lastspike" else values
+
+    def _persistent_parts(self, keep: tuple[str, ...]) -> list[tuple[str, Part]]:
+        names = [*keep, *(("interlimb",) if "interlimb" in self.synapse_kinds else ())]
+        return [(name, part) for name in names for part in self.parts(name)]
+
+    def _persistent_arrays(self, name: str, obj: Any) -> list[tuple[str, np.ndarray]]:
+        out = list(self._reset_arrays(name, obj))
+        if "w" in obj.variables and all(v != "w" for v, _ in out):
+            out.append(("w", self.array(name, "w")))
+        return out
+
     def _trial_slices(self, part: Part) -> list[Any]:
         """Per trial, the elements of ``part`` in it: a slice where they are contiguous."""
         key = ("trials", part.name)
@@ -295,10 +348,9 @@ def same_limb_mask(layout: Layout) -> np.ndarray:
 
 
 def trial_seeds(seed: int, n_trials: int) -> list[int]:
-    """Trial ``b`` of a batch started with ``seed`` draws its connectivity from ``seed + b``, so
-    a trial's network does not depend on the batch it runs in. Its noise does: Brian2 draws it
-    for all trials from one generator seeded with ``seed``
-    (docs/reproducibility.md, "Seeds and batches")."""
+    """Trial ``b`` of a batch started with ``seed`` has the seed ``seed + b``: its connectivity
+    and every draw of its noise (:mod:`astrocpg.network.noise`) come from it, so a trial is the
+    same whatever batch it runs in (docs/reproducibility.md, "Seeds and batches")."""
     return [int(seed) + b for b in range(n_trials)]
 
 
@@ -337,6 +389,12 @@ class Wiring:
     learning: list[Any] = field(default_factory=list)
     pairs: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.intp))
     pairs_of: dict[str, np.ndarray] = field(default_factory=dict)
+    #: the seed of each trial (:func:`trial_seeds`): the key of its noise streams
+    seeds: list[int] = field(default_factory=list)
+    #: added to Brian2's step in every draw (a replay starts its noise at a recorded step)
+    noise_offset: np.ndarray = field(default_factory=lambda: np.zeros(1, dtype=np.int64))
+    #: per synapse object: its on_step code with the draws rewritten (:meth:`synapses`)
+    on_step: dict[str, str | None] = field(default_factory=dict)
 
     @property
     def n_stages(self) -> int:
@@ -351,35 +409,70 @@ class Wiring:
         """The first pool of the stage's pools in the pool group (0 with one stage)."""
         return self.layout.stage_pool_range(stage)[0] if self.n_stages > 1 else 0
 
-    def group(self, model: NeuronModel, n: int, name: str) -> NeuronGroup:
-        """A NeuronGroup of ``n`` cells of ``model``, added to the network."""
+    def group(self, model: NeuronModel, n: int, name: str, *, population: str | None = None,
+              numbers: np.ndarray | None = None,
+              cells_per_trial: int | None = None) -> NeuronGroup:
+        """A NeuronGroup of ``n`` cells of ``model``, added to the network. By default its cells
+        are ``n / n_trials`` per trial, trial-major; a group holding a part of a population
+        (one stage's motor neurons) gives the ``population``, the trial-major ``numbers`` of
+        its cells and the population's ``cells_per_trial``. Each draw of its code comes from
+        its cell's own stream (:mod:`astrocpg.network.noise`)."""
+        if numbers is None:
+            numbers, cells_per_trial = np.arange(n), n // self.layout.n_trials
+        draws = Rewriter(population or name)
+        code = {role: draws(getattr(model, role)) for role in
+                ("equations", "threshold", "reset", "refractory")}
+        initial = {var: draws(value) for var, value in model.initial_values.items()}
+        namespace = model.parameters.namespace() | self._draws(draws, numbers, cells_per_trial)
         with _blame(model.name):
             # model.method is a scheme's registered name (e.g. "input_then_decay")
             g = NeuronGroup(
-                n, model.equations, threshold=model.threshold, reset=model.reset,
-                refractory=model.refractory if model.refractory else False,
-                method=model.method, namespace=model.parameters.namespace(), name=name,
+                n, code["equations"], threshold=code["threshold"], reset=code["reset"],
+                refractory=code["refractory"] if code["refractory"] else False,
+                method=model.method, namespace=namespace, name=name,
                 dt=self.dt, codeobj_class=self.codeobj_class,
             )
-            for var, value in model.initial_values.items():
+            for var, value in initial.items():
                 setattr(g, var, value)
         check_parameters_reach(g, model)
         self.objects.append(g)
         return g
 
+    def _draws(self, draws: Rewriter, numbers: np.ndarray,
+               cells_per_trial: int | None) -> dict[str, Any]:
+        """The draw functions of an object's rewritten code, by name (none without draws)."""
+        if not draws.sites:
+            return {}
+        B = self.layout.n_trials
+        if not cells_per_trial or (len(numbers) and int(numbers.max()) >= cells_per_trial * B):
+            raise InputError("its elements do not split evenly into the trials, so its draws "
+                             "(rand, randn) have no stream per trial", culprit="network wiring")
+        seed, cell = trial_major(numbers, cells_per_trial, self.seeds)
+        return draws.bind(seed, cell, cells_per_trial, self.noise_offset).functions
+
     def synapses(self, model: SynapseModel, source: Any, target: Any, name: str, i: Any,
                  j: Any) -> Synapses:
         """Synapses of ``model`` from cells ``i`` of ``source`` to cells ``j`` of ``target``,
-        added to the network (not to a kind: :meth:`add`)."""
+        added to the network (not to a kind: :meth:`add`). The pairs are given trial by trial,
+        the same number per trial; the draws of its code are numbered by synapse within its
+        trial (:mod:`astrocpg.network.noise`)."""
+        draws = Rewriter(name)
+        code = {role: draws(getattr(model, role)) for role in ("model", "on_pre", "on_step")}
+        initial = {var: draws(value) for var, value in model.initial_values.items()}
+        weight = draws(model.weight)
+        n, B = len(i), self.layout.n_trials
+        namespace = model.parameters.namespace() | self._draws(
+            draws, np.arange(n), n // B if n % B == 0 else None)
+        self.on_step[name] = code["on_step"]
         with _blame(model.name):
-            s = Synapses(source, target, model=model.model, on_pre=model.on_pre,
-                         method=model.method, namespace=model.parameters.namespace(),
+            s = Synapses(source, target, model=code["model"], on_pre=code["on_pre"],
+                         method=model.method, namespace=namespace,
                          name=name, dt=self.dt, codeobj_class=self.codeobj_class)
             s.connect(i=np.asarray(i, dtype=np.int32), j=np.asarray(j, dtype=np.int32))
-            for var, value in model.initial_values.items():
+            for var, value in initial.items():
                 setattr(s, var, value)
-            if model.weight:
-                s.w = model.weight
+            if weight:
+                s.w = weight
         check_parameters_reach(s, model)
         self.objects.append(s)
         return s
@@ -398,11 +491,13 @@ def _build_groups(w: Wiring) -> None:
     for row in populations.table():
         model = row.model_in(w.models)
         if row.name == "motor":
-            w.motors = [w.group(model, B * len(m) * len(POOLS) * L.pool_size,
-                                "motor" + w.suffix(s)) for s, m in enumerate(w.stages)]
             # the trial-major motor-neuron number of each neuron of each stage's group
             w.motor_number = [np.arange(B * L.motor_per_trial)] if w.n_stages == 1 else \
                 [L.stage_motor_index(s) for s in range(w.n_stages)]
+            w.motors = [w.group(model, B * len(m) * len(POOLS) * L.pool_size,
+                                "motor" + w.suffix(s), population="motor",
+                                numbers=w.motor_number[s], cells_per_trial=L.motor_per_trial)
+                        for s, m in enumerate(w.stages)]
         else:
             w.groups[row.name] = w.group(model, B * L.cells_per_trial(row.name), row.name)
     pool = w.groups["pool"]
@@ -537,9 +632,9 @@ def _wire_interlimb(w: Wiring) -> None:
                     setattr(inter, var, linked_var(astrocyte, var, index="astrocyte_index"))
             if getattr(inter, "state_updater", None) is not None:  # STDP: after the counts
                 inter.state_updater.when, inter.state_updater.order = "after_thresholds", 2
-            if model.on_step:  # after the robot moved, reward known
+            if w.on_step.get(name):  # after the robot moved, reward known
                 w.learning.append(inter.run_regularly(
-                    model.on_step, dt=w.dt, when="end", order=10,
+                    w.on_step[name], dt=w.dt, when="end", order=10,
                     name="interlimb_learning" + w.suffix(s)))
 
 
@@ -588,10 +683,12 @@ def build_cpg(
     # is pinned to it, so a later change of Brian2's preference does not move this network.
     codegen = use_codegen(codegen)
     codeobj_class = brian2.CythonCodeObject if codegen == "cython" else brian2.NumpyCodeObject
+    # The network's draws do not use Brian2's generator (noise.py); seeded all the same for
+    # code that a user's own wiring step adds without going through Wiring.
     brian2.seed(int(seed))
 
     w = Wiring(layout=layout, models=models, dt=dt, codeobj_class=codeobj_class,
-               stages=layout.limb_stages)
+               stages=layout.limb_stages, seeds=trial_seeds(seed, layout.n_trials))
     _build_groups(w)
     _place_motor_neurons(w, seed)
     _link_pool_variables(w)
@@ -612,7 +709,7 @@ def build_cpg(
               astrocyte=g["astrocyte"], pool=g["pool"], torque=g["torque"], synapses=w.syn,
               interlimb_pairs=w.pairs, codegen=codegen,
               synapse_kinds={k: tuple(v) for k, v in w.kinds.items()},
-              interlimb_pairs_of=w.pairs_of, groups=dict(g))
+              interlimb_pairs_of=w.pairs_of, groups=dict(g), noise_offset=w.noise_offset)
     if interlimb_weights is not None:
         cpg.set_interlimb_weights(interlimb_weights)
     return cpg

@@ -208,6 +208,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--trial", type=int, default=None,
                      help="with --weights DIR: use that trial's table for every trial "
                           "(default: trial k's table for trial k)")
+    run.add_argument("--session", type=int, default=None, metavar="N",
+                     help="with --weights DIR (a training) and --trial T: replay session N of "
+                          "trial T exactly, learning on, from what the training recorded of "
+                          "its start (the same final x as in its sessions.csv)")
     run.add_argument("--robot", metavar="XML",
                      help="an MJCF file with the A1's joint and actuator names (default: the "
                           "project's A1, as 'astrocpg robot export' writes it)")
@@ -671,6 +675,9 @@ def _cmd_unit(args: argparse.Namespace) -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     from .experiments.run import format_run, run
 
+    if args.session is not None:
+        return _cmd_replay(args)
+
     result = run(seconds=args.seconds, seed=args.seed, trials=args.trials, weights=args.weights,
                  trial=args.trial, robot=args.robot, trace_dt=args.trace_dt,
                  robot_stride=args.robot_stride, spikes=args.spikes, traces=args.traces,
@@ -679,6 +686,34 @@ def _cmd_run(args: argparse.Namespace) -> int:
                  **_models(args))
     print("\n".join(format_run(result, args.seed)))
     print(f"wrote {args.out}/" + ("" if args.figure else f" (figures: astrocpg plot {args.out})"))
+    return 0
+
+
+#: run options a replay takes from the training instead, with their defaults
+_REPLAY_FIXED = {"seconds": 10.0, "seed": 1, "trials": 1, "overrides": [], "equations": [],
+                 "model_files": [], "robot": None, "robot_stride": 1, "figure": False}
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from .experiments.replay import format_replay, replay
+    from ..models.units import whole_steps
+
+    if args.weights is None:
+        raise InputError("replays a session of a training: give the training folder with "
+                         "--weights DIR", culprit="--session")
+    for name, default in _REPLAY_FIXED.items():
+        if getattr(args, name) != default:
+            option = "--" + {"overrides": "set", "model_files": "model"}.get(
+                name, name).replace("_", "-")
+            raise InputError("a replay takes the training's own (the session's length, seed, "
+                             "models and robot); drop it", culprit=option)
+    stride = whole_steps(args.trace_dt * 1e-3, 1e-3, culprit="--trace-dt")
+    result = replay(args.weights, trial=0 if args.trial is None else args.trial,
+                    session=args.session, out=args.out, record_stride=stride,
+                    spikes=args.spikes, traces=args.traces, overwrite=args.overwrite,
+                    progress=not args.no_progress, inputs=_input_files(args))
+    print("\n".join(format_replay(result)))
+    print(f"wrote {args.out}/ (the session: {args.out}/recordings/trial00_session0001/)")
     return 0
 
 

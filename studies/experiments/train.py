@@ -29,7 +29,7 @@ from brian2 import Network, NetworkOperation, second
 
 from ...coupling.assembly import build_closed_loop
 from ...coupling.recorder import RecordPlan, SessionRecorder
-from ...coupling.training import SESSION_COLUMNS, SessionMemory, Training
+from ...coupling.training import SESSION_COLUMNS, SessionMemory, SessionStart, Training
 from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
 from ...network import codegen_target, exclusive, interlimb_labels, run_network
@@ -191,6 +191,7 @@ class Trainer:
             "final_weights_mV": self.cpg.interlimb_weights() * 1e3,
             "labels": np.array(interlimb_labels()),
         })
+        save_npz(self.out / SESSION_STARTS, session_starts_arrays(mem.starts))
 
     def write_checkpoint(self) -> None:
         net = self.cpg.net
@@ -339,13 +340,62 @@ def _split(payload: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
     return meta, {k: v for k, v in payload.items() if k not in _META_KEYS}
 
 
+#: Each session's start (step, Progress, t_learning_start, the state a reset leaves) per trial:
+#: what a replay of one session reads (:func:`astrocpg.studies.experiments.replay.replay`).
+SESSION_STARTS = "session_starts.npz"
+
+
+def session_starts_arrays(starts: list[list[SessionStart]]) -> dict[str, np.ndarray]:
+    """The session starts as (trial, session, ...) arrays: ``step`` (-1 where none), ``progress``
+    and ``t_learning_start`` (NaN where none) and ``state.<population>.<variable>`` (trial,
+    session, element), session 1 first."""
+    n_trials, n = len(starts), max((len(x) for x in starts), default=0)
+    out: dict[str, np.ndarray] = {
+        "step": np.full((n_trials, n), -1, dtype=np.int64),
+        "progress": np.full((n_trials, n), np.nan),
+        "t_learning_start": np.full((n_trials, n), np.nan)}
+    for b, trial in enumerate(starts):
+        for k, x in enumerate(trial):
+            out["step"][b, k] = x.step
+            out["progress"][b, k] = x.progress
+            out["t_learning_start"][b, k] = x.t_learning_start
+            for key, v in x.state.items():
+                name = f"state.{key}"
+                if name not in out:
+                    out[name] = np.full((n_trials, n, len(v)), np.nan)
+                out[name][b, k] = v
+    return out
+
+
 def _memory_state(memory: SessionMemory, shape: tuple[int, ...]) -> dict[str, Any]:
     """The session memory as data: each trial's tables after each session as one array, the
     rows as one array per column (thousands of rows: a few arrays, not a JSON value each)."""
     return {"lengths": [np.asarray(x, dtype=np.float64) for x in memory.lengths],
             "weights": [np.stack(ws) if ws else np.zeros((0,) + tuple(shape))
                         for ws in memory.weights],
-            "rows": _rows_state(memory.rows)}
+            "rows": _rows_state(memory.rows),
+            "starts": [_starts_state(st) for st in memory.starts]}
+
+
+def _starts_state(starts: list[SessionStart]) -> dict[str, Any]:
+    """One trial's session starts as one array per field (one row per session)."""
+    keys = list(starts[0].state) if starts else []
+    return {"step": np.asarray([x.step for x in starts], dtype=np.int64),
+            "progress": np.asarray([x.progress for x in starts], dtype=np.float64),
+            "t_learning_start": np.asarray([x.t_learning_start for x in starts],
+                                           dtype=np.float64),
+            "state": {k: np.stack([x.state[k] for x in starts]) for k in keys}}
+
+
+def _starts_from_state(state: dict[str, Any]) -> list[SessionStart]:
+    steps = np.asarray(state["step"], dtype=np.int64)
+    values = {k: np.asarray(v, dtype=np.float64) for k, v in state["state"].items()}
+    if any(len(v) != len(steps) for v in values.values()):
+        raise ValueError("session starts of unequal lengths")
+    return [SessionStart(step=int(steps[i]), progress=float(state["progress"][i]),
+                         t_learning_start=float(state["t_learning_start"][i]),
+                         state={k: v[i] for k, v in values.items()})
+            for i in range(len(steps))]
 
 
 def _rows_state(rows: list[dict[str, Any]]) -> dict[str, Any]:
@@ -384,9 +434,14 @@ def _memory_from_state(state: dict[str, Any], n_trials: int) -> SessionMemory:
     lengths, weights = state["lengths"], state["weights"]
     if not len(lengths) == len(weights) == n_trials:
         raise ValueError("a session memory of another number of trials")
+    starts = state.get("starts")  # none in checkpoints written before session starts were kept
+    if starts is not None and len(starts) != n_trials:
+        raise ValueError("session starts of another number of trials")
     return SessionMemory(lengths=[np.asarray(x, dtype=np.float64).tolist() for x in lengths],
                          weights=[list(np.asarray(w, dtype=np.float64)) for w in weights],
-                         rows=_rows_from_state(state["rows"]))
+                         rows=_rows_from_state(state["rows"]),
+                         starts=[_starts_from_state(x) for x in starts] if starts is not None
+                         else [[] for _ in range(n_trials)])
 
 
 def read_checkpoint(path: Path, culprit: Any = None) -> dict[str, Any]:
@@ -412,6 +467,10 @@ TRAIN_FILES = {
     "sessions.csv": "one row per trial and session: " + ", ".join(SESSION_COLUMNS),
     "weights.npz": "weights_mV (trial, session, 8, 8): each trial's inter-limb table after "
                    "each session (NaN after a trial's last); final_weights_mV; labels",
+    SESSION_STARTS: "per trial and session (session 1 first): step (the network step of its "
+                    "first step), progress, t_learning_start and state.<population>.<variable> "
+                    "(what a session reset leaves: astrocytes, inter-limb weights in SI), what "
+                    "a replay of one session reads",
     CHECKPOINT: "state to continue exactly (astrocpg train --resume DIR): a NumPy archive of "
                 "plain arrays and JSON (meta, state), no code",
     "recordings/": "with --record-every: trialTT_sessionSSSS/ per recorded session (spikes, "
@@ -580,7 +639,8 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
         if manifest is None or manifest.get("astrocpg_command") != "train":
             raise InputError(f"holds no training (no {CHECKPOINT}, no training manifest)",
                              culprit=f"--resume {out}")
-        stored_settings = {k: v for k, v in manifest["settings"].items() if k != "record"}
+        stored_settings = {k: v for k, v in manifest["settings"].items()
+                           if k not in ("record", "replay_of")}
         payload = {"settings": stored_settings, "record_plan": manifest["settings"].get("record")}
         settings = TrainSettings(**stored_settings)
         payload["fingerprint"] = settings.fingerprint()
@@ -742,14 +802,19 @@ def _check_model_file(name: str, recorded: dict[str, str] | None, given: dict[st
 def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            payload: dict[str, Any] | None, progress: bool, replace: bool = False,
            new: bool = False, resumed: bool = False,
-           models: ModelSet | None = None) -> "Trainer":
+           models: ModelSet | None = None,
+           start: tuple[SessionStart, dict[str, Any]] | None = None) -> "Trainer":
     """Build, own ``out`` (a lock: one process per training folder), train, write. ``resumed``:
     the training continues, so what later commands derived from its earlier weights (figures/,
     evaluation/, videos, power estimates) is removed first (:func:`remove_derived`).
-    ``models``: the set composed from ``settings`` when the caller has it already."""
+    ``models``: the set composed from ``settings`` when the caller has it already. ``start``:
+    a one-trial training that replays a recorded session (its start, and what the manifest
+    records of where it comes from: :mod:`astrocpg.studies.experiments.replay`)."""
     if models is None:
         models = model_set(settings.overrides, settings.equations, models=settings.models)
     trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
+    if start is not None:
+        trainer.training.begin_at(0, start[0])
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
@@ -763,16 +828,19 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
         clean_stale_temporaries(out)
         if resumed:  # made from the weights this run is about to change: stale from now on
             remove_derived(out)
-        return _train_locked(trainer, settings, out, plan, payload)
+        return _train_locked(trainer, settings, out, plan, payload,
+                             replay_of=None if start is None else start[1])
 
 
 def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
-                  plan: RecordPlan | None, payload: dict[str, Any] | None) -> "Trainer":
+                  plan: RecordPlan | None, payload: dict[str, Any] | None,
+                  replay_of: dict[str, Any] | None = None) -> "Trainer":
     if payload is not None:
         trainer.restore(payload)
     record_json = None if plan is None else dataclasses.asdict(plan)
+    extra = {} if replay_of is None else {"replay_of": replay_of}
     manifest = dict(command="train", seed=settings.seed,
-                    settings=settings.__dict__ | {"record": record_json},
+                    settings=settings.__dict__ | {"record": record_json} | extra,
                     models_json=trainer.models.to_json(), files=TRAIN_FILES)
 
     def progress_manifest() -> None:  # the inventory follows every checkpoint

@@ -59,7 +59,8 @@ def final_gaits(models, tables: np.ndarray, *, seconds: float = 5.0,
     """The gait of each trained table (volt, (trials, 8, 8)) with learning off: one run of
     ``seconds`` for all of them, leg phases relative to FR and their locking over its second
     half, the gait label and the mean forward speed; one dict of :data:`GAIT_COLUMNS` per
-    trial."""
+    trial. Table ``b`` runs with seed ``seed + b`` (give a training's seed: each table on the
+    network and noise it trained with)."""
     from .simulate import simulate_closed_loop
 
     result = simulate_closed_loop(models, seconds=seconds, seed=seed, n_trials=len(tables),

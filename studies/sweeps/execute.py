@@ -128,12 +128,14 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
 
 
 def _write_gaits(out: Path, trainer: Trainer) -> None:
-    """``gait.csv``: each trial's gait with its final tables, learning off (a short run)."""
+    """``gait.csv``: each trial's gait with its final tables, learning off (a short run), each
+    on its own network and noise (the seed it trained with), so that a seed's row does not
+    depend on the batch it trained in."""
     from ..experiments.trained_controller import GAIT_COLUMNS, final_gaits
 
     with np.load(out / WEIGHTS, allow_pickle=False) as z:  # written by this process a moment ago
         tables = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3
-    rows = final_gaits(trainer.models, tables)
+    rows = final_gaits(trainer.models, tables, seed=trainer.settings.seed)
     lines = ["trial," + ",".join(GAIT_COLUMNS)]
     for b, row in enumerate(rows):
         lines.append(f"{b}," + ",".join(str(row[c]) for c in GAIT_COLUMNS))

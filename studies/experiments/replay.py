@@ -1,0 +1,137 @@
+"""Replay one session of one trial of a training, alone and exactly.
+
+A session starts from the trial's seed (its network and noise streams), the reset values, and
+what a reset leaves: the astrocytes' state and the inter-limb weights, with the session's
+Progress, t_learning_start and the network step of its first step. A training writes these
+for every session (``session_starts.npz``); :func:`replay` builds a one-trial training with
+the trial's seed, starts its single session from them, and records it. With the same Brian2
+target the replayed session is the recorded one, step for step: the same spikes, the same
+robot, the same final x as the row of ``sessions.csv``.
+
+``astrocpg run --weights TRAINING --trial T --session N`` runs it from the command line.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from ...coupling.training import SessionStart
+from ...errors import InputError
+from ...network.codegen import framework_target
+from ..outputs.folder import OutputFolder, as_path, refuse_in_use
+from ..outputs.result import Result
+from ..outputs.writing import read_manifest
+from .train import SESSION_STARTS, TrainSettings, _train, record_plan
+from ...models.compose import model_set
+
+
+def recorded_start(folder: Path, trial: int, session: int) -> SessionStart:
+    """Session ``session`` (1-based) of trial ``trial`` as the training in ``folder`` recorded
+    its start, or an InputError naming what is missing."""
+    path = folder / SESSION_STARTS
+    if not path.is_file():
+        raise InputError(f"holds no {SESSION_STARTS}: it was trained before astrocpg kept "
+                         f"each session's start, so its sessions cannot be replayed "
+                         f"(train it again)", culprit=f"--weights {folder}")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+        steps = arrays["step"]
+    except (OSError, ValueError, KeyError) as e:
+        raise InputError(f"{SESSION_STARTS} cannot be read ({type(e).__name__})",
+                         culprit=f"--weights {folder}") from None
+    n_trials = steps.shape[0]
+    if not 0 <= trial < n_trials:
+        raise InputError(f"the training has trials 0..{n_trials - 1}, not {trial}",
+                         culprit="--trial")
+    known = int((steps[trial] >= 0).sum())
+    if not 1 <= session <= known:
+        raise InputError(f"trial {trial} has sessions 1..{known} recorded, not {session}",
+                         culprit="--session")
+    k = session - 1
+    return SessionStart(step=int(steps[trial, k]),
+                        progress=float(arrays["progress"][trial, k]),
+                        t_learning_start=float(arrays["t_learning_start"][trial, k]),
+                        state={name[len("state."):]: arrays[name][trial, k]
+                               for name in arrays if name.startswith("state.")})
+
+
+def recorded_row(folder: Path, trial: int, session: int) -> dict[str, str] | None:
+    """The row of ``sessions.csv`` for (trial, session), as written (text), or None while that
+    session was still running when the training stopped."""
+    try:
+        with open(folder / "sessions.csv", newline="") as f:
+            for row in csv.DictReader(f):
+                if row.get("trial") == str(trial) and row.get("session") == str(session):
+                    return row
+    except OSError:
+        return None
+    return None
+
+
+def replay(training: str | os.PathLike, *, trial: int = 0, session: int = 1,
+           out: str | os.PathLike, record_stride: int = 1,
+           spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
+           overwrite: bool = False, progress: bool = True,
+           inputs: Sequence[str | os.PathLike] = ()) -> Result:
+    """Replay session ``session`` (1-based) of trial ``trial`` of the training in ``training``
+    alone, with learning on, writing ``out``: a one-session training folder whose
+    ``recordings/trial00_session0001/`` holds the session's spikes, traces and robot, and
+    whose manifest's ``settings.replay_of`` names the training, trial, session and step.
+    Needs the Brian2 target the training ran with.
+
+    Returns the replay's Result (kind "train"); ``result.summary["replay"]`` gives the
+    recorded and the replayed final x (``sessions.csv``'s text, 9 significant digits) and
+    whether they are the same."""
+    folder = as_path(training, "--weights")
+    refuse_in_use(folder, culprit=f"--weights {folder}")
+    manifest = read_manifest(folder)
+    if manifest is None or manifest.get("astrocpg_command") != "train":
+        raise InputError("is not a training folder (no training manifest)",
+                         culprit=f"--weights {folder}")
+    trial, session = int(trial), int(session)
+    start = recorded_start(folder, trial, session)
+    started = manifest.get("codegen", "numpy")
+    if framework_target() != started:
+        raise InputError(f"the training ran on the {started} target; a replay is exact only "
+                         f"on it (add --codegen {started})", culprit="--codegen")
+    stored = {k: v for k, v in manifest["settings"].items() if k not in ("record", "replay_of")}
+    recorded = TrainSettings(**stored)
+    settings = TrainSettings(n_sessions=1, seed=recorded.seed + trial, n_trials=1,
+                             astrocytes=recorded.astrocytes, overrides=recorded.overrides,
+                             equations=recorded.equations, models=recorded.models)
+    models = model_set(settings.overrides, settings.equations, models=settings.models)
+    out_path = as_path(out, "--out")
+    OutputFolder(out_path, overwrite=overwrite, inputs=[*inputs, folder]).check()
+    plan = record_plan(1, record_stride, spikes, traces)
+    row = recorded_row(folder, trial, session)
+    origin = {"training": str(folder), "trial": trial, "session": session,
+              "step": start.step, "seed": settings.seed,
+              "recorded_final_x_m": None if row is None else row["final_x_m"]}
+    trainer = _train(settings, out_path, plan, None, progress, replace=overwrite, new=True,
+                     models=models, start=(start, origin))
+    result = Result.from_training(trainer, out_path)
+    replayed = f"{trainer.training.memory.rows[0]['final_x_m']:.9g}"
+    result.summary["replay"] = origin | {
+        "replayed_final_x_m": replayed,
+        "same": None if row is None else row["final_x_m"] == replayed}
+    return result
+
+
+def format_replay(result: Result) -> list[str]:
+    """What the command line prints after a replay."""
+    r = result.summary["replay"]
+    head = (f"session {r['session']} of trial {r['trial']} of {r['training']} (seed "
+            f"{r['seed']}, from step {r['step']}): final x {r['replayed_final_x_m']} m")
+    if r["recorded_final_x_m"] is None:
+        return [head + " (the training had not finished that session)"]
+    verdict = "the same" if r["same"] else "DIFFERENT"
+    return [head + f"; recorded {r['recorded_final_x_m']} m: {verdict}"]
+
+
+__all__ = ["replay", "recorded_start", "recorded_row", "format_replay"]
