@@ -12,7 +12,8 @@ The Python API (what the ``astrocpg`` commands call)::
     ac.plot("out/unit"); ac.video("out/run")      # its figures; the robot replayed as MP4
 
 Every ``astrocpg`` command has its function, its options as keyword arguments: ``unit``,
-``run``, ``train`` (and ``resume``), ``gait``, ``evaluate``, ``power``, ``study``, ``report``,
+``run``, ``train`` (and ``resume``, and ``replay_session``: one session of a training run
+again alone), ``gait``, ``evaluate``, ``power``, ``study``, ``report``,
 ``plot``, ``video``, ``export``, ``describe``, ``list_models`` and ``dump_model``
 (``astrocpg models list/dump``), ``robot``; with ``load``, ``Result``
 and ``Trace`` they are imported on first use, so ``import astrocpg`` (and ``astrocpg --help``) does not
@@ -42,6 +43,7 @@ _API = {name: "astrocpg.studies.experiments.api"
                      "evaluate", "power", "list_models", "dump_model", "robot", "Result", "Trace")}
 _API.update({name: "astrocpg.studies.sweeps.api" for name in ("study", "report")})
 _API.update({name: "astrocpg.studies.experiments.view" for name in ("plot", "video")})
+_API["replay_session"] = "astrocpg.studies.experiments.replay"
 _API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFault", "Diverged")})
 
 __all__ = sorted(_API)

@@ -20,6 +20,8 @@ from ..models import ModelSet
 from ..models.units import whole_steps
 from ..models.world import (TERRAIN_FLAT_RADIUS, TERRAIN_RESOLUTION, TERRAIN_THICKNESS,
                             TERRAIN_X, TERRAIN_Y)
+from ..network.build import trial_seeds
+from ..network.noise import TrialNormals
 from .robot import A1Parameters, build_spec
 
 ORDER_WORLD = 5  # before_physics: the push and the torque noise act on this step's torques
@@ -195,8 +197,12 @@ def add_disturbances(bridge, models: ModelSet) -> None:
     forces = [d.xfrc_applied[trunk] for d in bridge.data]  # views into each MjData
     on_step = whole_steps(world.push_time, dt, culprit="world.push_time", minimum=0)
     off_step = on_step + whole_steps(world.push_duration, dt, culprit="world.push_duration")
-    noise = np.random.default_rng([bridge.cpg.seed, 0x77]) if world.torque_noise else None
+    # one stream per trial and actuator (network/noise.py): a trial's torque noise does not
+    # depend on its batch, and a replayed session gets its own (the network's step offset)
+    cpg = bridge.cpg
     act = bridge.actuators.ravel()
+    noise = (TrialNormals("torque_noise", trial_seeds(cpg.seed, B), len(act), cpg.noise_offset)
+             if world.torque_noise else None)
     push, sigma, ctrl = world.push_force, world.torque_noise, bridge.ctrl
 
     def disturb() -> None:
@@ -206,7 +212,8 @@ def add_disturbances(bridge, models: ModelSet) -> None:
             for b in range(B):
                 forces[b][1] = push if on[b] else 0.0
         if noise is not None:
-            ctrl[:, act] *= 1.0 + sigma * noise.standard_normal((B, len(act)))
+            # the step being taken: bridge.step_count counts the steps done before it
+            ctrl[:, act] *= 1.0 + sigma * noise.draw(bridge.step_count)
 
     bridge.add_hook("before_physics", "world", disturb, order=ORDER_WORLD)
 

@@ -26,6 +26,11 @@ SPECIAL_NAMES = frozenset({
 })
 
 
+#: The framework rewrites the k-th ``rand()``/``randn()`` of a model's code into a call of its
+#: own counter-based draw, named with one of these prefixes (astrocpg.network.noise).
+DRAW_PREFIXES = ("rand_stream_", "randn_stream_")
+
+
 def _brian_tables() -> tuple[Mapping[str, Any], Mapping[str, Any], Mapping[str, Any]]:
     from brian2.core.functions import DEFAULT_CONSTANTS, DEFAULT_FUNCTIONS
     from brian2.core.namespace import DEFAULT_UNITS
@@ -46,6 +51,9 @@ def why_reserved(name: str) -> str | None:
         return f"'{name}' is a Python keyword"
     if name.startswith("_"):
         return f"'{name}' starts with an underscore (Brian2 keeps those for its own variables)"
+    if name.startswith(DRAW_PREFIXES):
+        return (f"'{name}' is a name astrocpg gives the draws of rand() and randn() in a "
+                f"model's code")
     units, functions, constants = _brian_tables()
     if name in SPECIAL_NAMES or name.startswith("xi_"):
         return (f"'{name}' is one of Brian2's special names (t, dt, i, j, N, xi, lastspike, "
@@ -83,4 +91,4 @@ def check_parameter_names(owner: str, parameters: Iterable[str],
                              culprit=f"{owner}.{name}")
 
 
-__all__ = ["why_reserved", "check_parameter_names", "SPECIAL_NAMES"]
+__all__ = ["why_reserved", "check_parameter_names", "SPECIAL_NAMES", "DRAW_PREFIXES"]

@@ -10,8 +10,9 @@ edited equation compiles its own modules once.
 
 The target is chosen per process: ``--codegen cython`` on the command line, or the environment
 variable ``ASTROCPG_CODEGEN`` (which a study's local Dask workers inherit). Both targets draw
-the noise from the same generator in the same order (Cython from a buffer that numpy fills),
-so a seed gives the same trajectory up to floating-point rounding
+the same counter-based noise, bit for bit (:mod:`astrocpg.network.noise`: NumPy's Philox in
+blocks on numpy, the same Philox in C on Cython), so a seed gives the same trajectory up to
+floating-point rounding
 (``python benchmarks/codegen_agreement.py`` compares the two). C's and numpy's rounding can
 still part after long training, so every output records its target (``codegen`` in
 manifest.json) and a training resumes only under the target it started with.

@@ -34,15 +34,16 @@ import numpy as np
 from brian2 import Function
 from brian2.codegen.runtime.numpy_rt.numpy_rt import LazyArange
 
+from ..models.names import DRAW_PREFIXES
+
 #: Steps of draws NumPy generates per trial and site in one call (the cost of a call, a few
 #: microseconds, is shared by this many steps; a block of 320 cells takes 160 KiB).
 BLOCK_STEPS = 64
 _TO_UNIT = 1.0 / 9007199254740992.0  # 2**-53
 _MASK64 = (1 << 64) - 1
-#: What the framework writes for the k-th rand() / randn() of an object's code.
-RAND_NAME, RANDN_NAME = "rand_stream_{}", "randn_stream_{}"
-#: Names a model may not give a parameter or variable: the framework's draw functions.
-RESERVED_PREFIXES = ("rand_stream_", "randn_stream_")
+#: What the framework writes for the k-th rand() / randn() of an object's code (a model may
+#: not give a parameter such a name: :data:`astrocpg.models.names.DRAW_PREFIXES`).
+RAND_NAME, RANDN_NAME = (prefix + "{}" for prefix in DRAW_PREFIXES)
 _CALL = re.compile(r"\b(randn|rand)\s*\(\s*\)")
 #: How the next networks draw: "streams" (the framework's, always outside measurements),
 #: "brian" (Brian2's own generator, for comparison) or "constant" (rand() is 0.5 and randn()
@@ -120,8 +121,8 @@ cdef uint64_t {name}_key = 0
 cdef uint64_t {name}_words[4]
 cdef double {name}_word(int64_t step, size_t _idx):
     global {name}_block, {name}_key
-    cdef uint64_t key = <uint64_t>_namespace{p}seed[_idx]
-    cdef int64_t cell = _namespace{p}cell[_idx]
+    cdef uint64_t key = <uint64_t>_namespace{p}elements[2 * _idx]
+    cdef int64_t cell = _namespace{p}elements[2 * _idx + 1]
     cdef uint64_t block = <uint64_t>((step + _namespace{p}offset[0]) * {width} + (cell >> 2) + 1)
     if block != {name}_block or key != {name}_key or block == 0:
         astrocpg_philox4x64_10(block, key, {site}ULL, {name}_words)
@@ -195,8 +196,12 @@ class SiteStream:
         return buffer.reshape(-1)[where + k * 4 * self.width]  # type: ignore[union-attr]
 
     def namespace(self) -> dict[str, np.ndarray]:
+        """The arrays the Cython code reads: (seed, cell) of each element, interleaved (one
+        buffer to acquire per call of the code object), and the step offset."""
         p = f"_ns_{self.name}_"
-        return {p + "seed": self.seed, p + "cell": self.cell, p + "offset": self.offset}
+        elements = np.ascontiguousarray(np.stack([self.seed, self.cell], axis=1).ravel(),
+                                        dtype=np.int64)
+        return {p + "elements": elements, p + "offset": self.offset}
 
 
 def _uniform_function(name: str, streams: list[SiteStream]) -> Function:
@@ -294,6 +299,26 @@ class Rewriter:
         return out
 
 
+class TrialNormals:
+    """Standard normal draws outside Brian2's code, one stream per trial and element, drawn
+    like a ``randn()`` of population ``population`` (e.g. the coupling's torque noise):
+    ``draw(step)`` gives the (trials, cells_per_trial) draws of ``step``."""
+
+    def __init__(self, population: str, seeds: list[int], cells_per_trial: int,
+                 offset: np.ndarray) -> None:
+        n = len(seeds) * cells_per_trial
+        seed, cell = trial_major(np.arange(n), cells_per_trial, seeds)
+        self._a, self._b = (SiteStream(name=population, site=site_id(population, 0, second),
+                                       seed=seed, cell=cell, cells_per_trial=cells_per_trial,
+                                       offset=offset) for second in (False, True))
+        self._all = np.arange(n)
+        self.shape = (len(seeds), cells_per_trial)
+
+    def draw(self, step: int) -> np.ndarray:
+        u1, u2 = self._a.uniform(step, self._all), self._b.uniform(step, self._all)
+        return (np.sqrt(-2.0 * np.log1p(-u1)) * np.cos(2.0 * np.pi * u2)).reshape(self.shape)
+
+
 def trial_major(numbers: np.ndarray, cells_per_trial: int,
                 seeds: list[int]) -> tuple[np.ndarray, np.ndarray]:
     """(seed, cell) of each element of an object whose element ``e`` is the trial-major
@@ -303,4 +328,4 @@ def trial_major(numbers: np.ndarray, cells_per_trial: int,
 
 
 __all__ = ["site_id", "philox4x64_10", "uniform_reference", "Rewriter", "ObjectDraws",
-           "SiteStream", "BLOCK_STEPS", "RESERVED_PREFIXES", "trial_major"]
+           "SiteStream", "TrialNormals", "BLOCK_STEPS", "trial_major"]

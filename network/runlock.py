@@ -1,10 +1,11 @@
 """One Brian2 simulation at a time per process: the run lock.
 
-Brian2 is not thread-safe. Its random generator (seeded by :func:`~astrocpg.network.build_cpg`,
-drawn from by every step's noise), its device, its preferences and the flags of the running
-network are process-wide. Two runs in two threads of one process interleaved their draws: both
-returned, each with spikes that matched neither the other nor ``astrocpg run`` with the same
-seed. So every entry of the framework that builds and runs a network holds :data:`RUN_LOCK` from
+Brian2 is not thread-safe. Its device, its preferences, its random generator and the flags of
+the running network are process-wide (the network's own noise is counter-based and per
+trial, :mod:`astrocpg.network.noise`, but a build still seeds Brian2's generator for any code
+that uses it). Two runs in two threads of one process, when the noise still came from Brian2's
+generator, interleaved their draws: both returned, each with spikes that matched neither the
+other nor ``astrocpg run`` with the same seed. So every entry of the framework that builds and runs a network holds :data:`RUN_LOCK` from
 the build to its last step (:func:`exclusive`); a second thread waits for the first to finish,
 then gets exactly the result it would have got alone (the command line's, for the same
 settings). Processes do not share it: the workers of a study are processes.

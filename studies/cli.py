@@ -689,29 +689,26 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
-#: run options a replay takes from the training instead, with their defaults
-_REPLAY_FIXED = {"seconds": 10.0, "seed": 1, "trials": 1, "overrides": [], "equations": [],
-                 "model_files": [], "robot": None, "robot_stride": 1, "figure": False}
-
-
 def _cmd_replay(args: argparse.Namespace) -> int:
-    from .experiments.replay import format_replay, replay
     from ..models.units import whole_steps
+    from .experiments.replay import format_replay, replay_session
+    from .experiments.run import REPLAY_FIXED
 
     if args.weights is None:
         raise InputError("replays a session of a training: give the training folder with "
                          "--weights DIR", culprit="--session")
-    for name, default in _REPLAY_FIXED.items():
-        if getattr(args, name) != default:
-            option = "--" + {"overrides": "set", "model_files": "model"}.get(
+    for name, default in REPLAY_FIXED.items():
+        value = getattr(args, {"models": "model_files"}.get(name, name))
+        if value != default and not (default is None and not value):
+            option = "--" + {"overrides": "set", "models": "model"}.get(
                 name, name).replace("_", "-")
             raise InputError("a replay takes the training's own (the session's length, seed, "
                              "models and robot); drop it", culprit=option)
     stride = whole_steps(args.trace_dt * 1e-3, 1e-3, culprit="--trace-dt")
-    result = replay(args.weights, trial=0 if args.trial is None else args.trial,
-                    session=args.session, out=args.out, record_stride=stride,
-                    spikes=args.spikes, traces=args.traces, overwrite=args.overwrite,
-                    progress=not args.no_progress, inputs=_input_files(args))
+    result = replay_session(args.weights, trial=0 if args.trial is None else args.trial,
+                            session=args.session, out=args.out, record_stride=stride,
+                            spikes=args.spikes, traces=args.traces, overwrite=args.overwrite,
+                            progress=not args.no_progress, inputs=_input_files(args))
     print("\n".join(format_replay(result)))
     print(f"wrote {args.out}/ (the session: {args.out}/recordings/trial00_session0001/)")
     return 0

@@ -3,7 +3,7 @@
 A session starts from the trial's seed (its network and noise streams), the reset values, and
 what a reset leaves: the astrocytes' state and the inter-limb weights, with the session's
 Progress, t_learning_start and the network step of its first step. A training writes these
-for every session (``session_starts.npz``); :func:`replay` builds a one-trial training with
+for every session (``session_starts.npz``); :func:`replay_session` builds a one-trial training with
 the trial's seed, starts its single session from them, and records it. With the same Brian2
 target the replayed session is the recorded one, step for step: the same spikes, the same
 robot, the same final x as the row of ``sessions.csv``.
@@ -74,7 +74,7 @@ def recorded_row(folder: Path, trial: int, session: int) -> dict[str, str] | Non
     return None
 
 
-def replay(training: str | os.PathLike, *, trial: int = 0, session: int = 1,
+def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int = 1,
            out: str | os.PathLike, record_stride: int = 1,
            spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
            overwrite: bool = False, progress: bool = True,
@@ -134,4 +134,4 @@ def format_replay(result: Result) -> list[str]:
     return [head + f"; recorded {r['recorded_final_x_m']} m: {verdict}"]
 
 
-__all__ = ["replay", "recorded_start", "recorded_row", "format_replay"]
+__all__ = ["replay_session", "recorded_start", "recorded_row", "format_replay"]

@@ -40,7 +40,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
         out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
         figure: bool = False, settings: Mapping[str, Any] | None = None,
-        inputs: Sequence[str | os.PathLike] = ()) -> Result:
+        inputs: Sequence[str | os.PathLike] = (), session: int | None = None) -> Result:
     """Run the CPG driving ``trials`` A1 robots in MuJoCo for ``seconds`` (seeds seed,
     seed+1, ...): the closed loop, what ``astrocpg run`` runs.
 
@@ -55,12 +55,18 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     draw ``thigh_extensor_activity.png`` there (about a second; ``astrocpg plot OUT`` draws it
     and the other figures at any time later). inputs: other files the caller read (e.g. model
     files): ``out`` may not be or hold one, nor ``weights`` and ``robot`` (see
-    :func:`~astrocpg.studies.outputs.folder.check_output_path`).
+    :func:`~astrocpg.studies.outputs.folder.check_output_path`). session: with ``weights`` a
+    training folder, replay that session (1-based) of trial ``trial`` (default 0) exactly,
+    learning on (:func:`~astrocpg.studies.experiments.replay.replay_session`, which returns a
+    Result of kind "train"; ``out`` is required, and the run's own settings are the training's).
 
     Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "run": spikes, traces, the
     robot's arrays (``result.robot``) and ``summary`` (distance_m, mean_forward_speed_m_per_s,
     upright_share, rate_per_neuron_Hz per trial)."""
     from brian2 import ms
+
+    if session is not None:
+        return _replay(locals())
 
     from ...coupling.robot import A1Parameters, RobotLayout, load_robot
     from ...coupling.world import world_model
@@ -297,6 +303,32 @@ def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str,
     write_manifest(out, command="run", seed=int(settings.get("seed", 1)), settings=settings,
                    models_json=result.extra["models"].to_json(), files=files,
                    results=run_results(result))
+
+
+#: run settings a replay takes from the training, with their defaults
+REPLAY_FIXED = {"seconds": 10.0, "seed": 1, "trials": 1, "overrides": None, "equations": None,
+                "models": None, "robot": None, "robot_stride": 1, "figure": False}
+
+
+def _replay(given: dict[str, Any]) -> Result:
+    """:func:`run` with ``session``: the replay of a training's session."""
+    from ...models.units import whole_steps
+    from .replay import replay_session
+
+    for name, default in REPLAY_FIXED.items():
+        value = given[name]
+        if value != default and not (default is None and not value):
+            raise InputError("a replay takes the training's own (the session's length, seed, "
+                             "models and robot); leave it out", culprit=name)
+    weights = given["weights"]
+    if not isinstance(weights, (str, os.PathLike)) or given["out"] is None:
+        raise InputError("replays a session of a training: give the training folder as "
+                         "weights and an out folder", culprit="session")
+    stride = whole_steps(float(given["trace_dt"]) * 1e-3, 1e-3, culprit="trace_dt")
+    return replay_session(weights, trial=given["trial"] or 0, session=given["session"],
+                          out=given["out"], record_stride=stride, spikes=given["spikes"],
+                          traces=given["traces"], overwrite=given["overwrite"],
+                          progress=given["progress"], inputs=given["inputs"])
 
 
 def run_results(result: SimulationResult) -> dict[str, Any]:

@@ -1,6 +1,7 @@
 """Gait learning: ``n_trials`` independent trials, each training for ``n_sessions`` sessions, in
 one network. At session ends the folder gets, atomically: ``sessions.csv`` (one row per
-trial and session), ``weights.npz`` (each trial's table after each session) and
+trial and session), ``weights.npz`` (each trial's table after each session),
+``session_starts.npz`` (what each session started from: a replay reads it) and
 ``checkpoint.npz`` (everything needed to continue exactly: Brian2 state and random state,
 MuJoCo states, the session loop's memory; data only, never code:
 :mod:`astrocpg.studies.outputs.checkpoint`): after the first session end, then spaced so that
@@ -341,7 +342,7 @@ def _split(payload: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
 
 
 #: Each session's start (step, Progress, t_learning_start, the state a reset leaves) per trial:
-#: what a replay of one session reads (:func:`astrocpg.studies.experiments.replay.replay`).
+#: what a replay of one session reads (:func:`astrocpg.studies.experiments.replay.replay_session`).
 SESSION_STARTS = "session_starts.npz"
 
 

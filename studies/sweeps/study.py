@@ -28,12 +28,10 @@ A study file::
     set = { }                         # overrides of this condition only
 
 Every (condition, sweep point) is trained for every seed. Consecutive seeds of one point run as
-one *run*: ``batch`` trials in one network. Trial ``b`` of a run that starts at seed ``s`` has
-the network (connectivity, neuron positions) of seed ``s + b`` whatever the batch, but its noise
-comes from the run's one Brian2 generator, which draws for every trial of the run at each
-step: a seed's trajectory depends on the batching, its statistics over seeds do not
-(docs/reproducibility.md, "Seeds and batches"). Changing ``batch`` gives other, equally
-valid, trajectories.
+one *run*: ``batch`` trials in one network. Trial ``b`` of a run that starts at seed ``s`` is
+seed ``s + b`` alone: its network and every draw of its noise come from that seed
+(:mod:`astrocpg.network.noise`), so a seed's trajectory and rows do not depend on ``batch``
+(docs/reproducibility.md, "Seeds and batches"); ``batch`` changes only the wall time.
 
 Each run lives in ``OUT/runs/<run id>/`` as an ordinary training folder (``sessions.csv``,
 ``weights.npz``, ``checkpoint.npz``, ``manifest.json``) plus ``status.json``. A run whose

@@ -1,0 +1,222 @@
+"""One seed, one trajectory: the network's noise is counter-based (astrocpg.network.noise), so a
+trial is the same whatever batch, study layout or Brian2 target it runs in, and a training's
+session can be replayed alone."""
+
+from __future__ import annotations
+
+import csv
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import astrocpg as ac
+from astrocpg.errors import InputError
+from astrocpg.network import noise
+from astrocpg.studies.experiments.replay import replay_session as replay
+
+CLI = [sys.executable, "-m", "astrocpg.studies.cli"]
+MASK = (1 << 64) - 1
+
+
+# ---- the generator
+@pytest.mark.parametrize("counter, key, words", [
+    # Random123's known-answer vectors of Philox4x64-10
+    ((0, 0, 0, 0), (0, 0),
+     "16554d9eca36314c db20fe9d672d0fdc d7e772cee186176b 7e68b68aec7ba23b"),
+    ((MASK,) * 4, (MASK, MASK),
+     "87b092c3013fe90b 438c3c67be8d0224 9cc7d7c69cd777b6 a09caebf594f0ba0"),
+    ((0x243F6A8885A308D3, 0x13198A2E03707344, 0xA4093822299F31D0, 0x082EFA98EC4E6C89),
+     (0x452821E638D01377, 0xBE5466CF34E90C6C),
+     "a528f45403e61d95 38c72dbd566e9788 a5a1610e72fd18b5 57bd43b5e52b7fe6"),
+])
+def test_philox_reference_gives_the_published_vectors(counter, key, words) -> None:
+    assert " ".join(f"{w:016x}" for w in noise.philox4x64_10(counter, key)) == words
+
+
+def test_numpy_blocks_are_the_definition() -> None:
+    """The numpy implementation (NumPy's Philox in blocks of steps) gives the defined draw of
+    every element, across block boundaries and for any subset of elements."""
+    per, seeds = 10, [7, 8, 2**40 + 3]
+    seed, cell = noise.trial_major(np.arange(per * len(seeds)), per, seeds)
+    site = noise.site_id("pop", 1)
+    stream = noise.SiteStream(name="x", site=site, seed=seed, cell=cell, cells_per_trial=per,
+                              offset=np.zeros(1, dtype=np.int64))
+    for step in (0, 1, noise.BLOCK_STEPS - 1, noise.BLOCK_STEPS, 5 * noise.BLOCK_STEPS + 3):
+        got = stream.uniform(step, np.arange(len(seed)))
+        want = [noise.uniform_reference(int(s), site, per, int(c), step)
+                for s, c in zip(seed, cell)]
+        assert got.tolist() == want
+    some = np.array([29, 3, 11])
+    assert stream.uniform(7, some).tolist() == [
+        noise.uniform_reference(int(seed[e]), site, per, int(cell[e]), 7) for e in some]
+    stream.offset[0] = 100  # a replay's shift: Brian2's step 7 draws step 107
+    assert stream.uniform(7, some).tolist() == [
+        noise.uniform_reference(int(seed[e]), site, per, int(cell[e]), 107) for e in some]
+
+
+def test_sites_depend_on_the_population_and_position_only() -> None:
+    assert noise.site_id("motor", 0) == noise.site_id("motor", 0)
+    ids = {noise.site_id(p, k, s) for p in ("motor", "interneuron") for k in range(3)
+           for s in (False, True)}
+    assert len(ids) == 12
+    draws = noise.Rewriter("motor")
+    code = draws("x = 2*rand() - 1 : 1 (constant over dt)\ny = randn( ) : 1")
+    assert "rand()" not in code and "randn" not in code.replace("randn_stream_1", "")
+    assert [(k, n) for k, n, _ in draws.sites] == [("rand", "rand_stream_0"),
+                                                  ("randn", "randn_stream_1")]
+
+
+def test_a_parameter_may_not_take_a_draws_name() -> None:
+    from astrocpg.models.names import why_reserved
+    assert "draws" in why_reserved("rand_stream_0")
+    assert why_reserved("random_amplitude") is None
+
+
+# ---- one seed, one trajectory
+def _trial(result, b: int) -> dict[str, object]:
+    """Trial ``b``'s spikes (indices within the trial), traces and robot arrays."""
+    L, n = result.layout, result.n_trials
+    per = {"motor": L.motor_per_trial, "interneuron": L.interneurons_per_trial,
+           "astrocyte": L.thigh_pools_per_trial}
+    out: dict[str, object] = {}
+    for pop, (t, i) in result.spikes.items():
+        keep = (i >= b * per[pop]) & (i < (b + 1) * per[pop])
+        out[f"spikes {pop}"] = (t[keep].tolist(), (i[keep] - b * per[pop]).tolist())
+    for name, (t, values) in result.traces.items():
+        width = values.shape[1] // n
+        out[f"trace {name}"] = np.asarray(values[:, b * width:(b + 1) * width]).tobytes()
+    for name, values in (result.robot or {}).items():
+        if isinstance(values, np.ndarray) and values.ndim >= 2 and values.shape[0] == n:
+            out[f"robot {name}"] = np.asarray(values[b]).tobytes()
+    return out
+
+
+def _same_trial(alone, batch, b: int) -> None:
+    a, c = _trial(alone, 0), _trial(batch, b)
+    assert a.keys() == c.keys()
+    differ = [k for k in a if a[k] != c[k]]
+    assert not differ, f"trial {b} of the batch differs from its seed alone in {differ}"
+
+
+@pytest.mark.parametrize("command", ["unit", "run"])
+def test_seed_alone_equals_its_trial_in_a_batch(command: str) -> None:
+    fn = getattr(ac, command)
+    alone = fn(seconds=0.3, seed=3, progress=False)
+    batch = fn(seconds=0.3, seed=1, trials=3, progress=False)
+    _same_trial(alone, batch, 2)
+    assert _trial(batch, 0) != _trial(batch, 1)  # the trials' noise differs
+
+
+def test_a_model_files_own_draws_are_per_trial_too() -> None:
+    """rand() and randn() a user writes (equations, initial values) are mapped like the
+    built-in ones."""
+    from astrocpg.models import DEFAULT_MODELS
+    text = DEFAULT_MODELS.motor_neuron.equations.replace(
+        "noise = 2*rand() - 1 : 1 (constant over dt)",
+        "noise = 0.5*randn() + 0.2*(2*rand() - 1) : 1 (constant over dt)")
+    assert text != DEFAULT_MODELS.motor_neuron.equations
+    alone = ac.unit(seconds=0.2, seed=5, equations={"motor_neuron": text}, progress=False)
+    batch = ac.unit(seconds=0.2, seed=4, trials=2, equations={"motor_neuron": text},
+                    progress=False)
+    _same_trial(alone, batch, 1)
+
+
+def _rows(path: Path) -> dict[tuple[str, str, str], dict[str, str]]:
+    with path.open(newline="") as f:
+        return {(r["condition"], r["seed"], r["session"]):
+                {k: v for k, v in r.items() if k not in ("run_id", "trial")}
+                for r in csv.DictReader(f)}
+
+
+def test_a_studys_rows_do_not_depend_on_its_batch(tmp_path: Path) -> None:
+    rows = {}
+    for batch in (1, 3):
+        study = tmp_path / f"b{batch}.toml"
+        study.write_text(f"""
+[study]
+name = "b{batch}"
+sessions = 2
+seeds = {{ first = 1, count = 3 }}
+batch = {batch}
+[base]
+L_max = "0.3*second"
+L_non_alive = "0.1*second"
+[conditions.astro]
+astrocytes = true
+""")
+        subprocess.run([*CLI, "study", str(study), "--out", str(tmp_path / f"s{batch}"),
+                        "--workers", "1", "--no-progress"], check=True,
+                       stdout=subprocess.DEVNULL)
+        rows[batch] = _rows(tmp_path / f"s{batch}" / "results.csv")
+    assert len(rows[1]) == 6 and rows[1] == rows[3]
+
+
+# ---- replay
+def test_a_replayed_session_ends_where_the_training_recorded(tmp_path: Path) -> None:
+    training = tmp_path / "t"
+    t = ac.train(out=training, sessions=4, trials=2, seed=5, progress=False,
+                 overrides=["L_max=1*second", "L_non_alive=0.2*second"])
+    assert np.nanmax(np.abs(t.weights[:, 1:])) > 0  # learning acted before the later sessions
+    starts = np.load(training / "session_starts.npz")
+    assert starts["step"].shape == (2, 4) and starts["step"][1, 0] == 0
+    for trial, session in ((1, 4), (0, 3)):
+        r = replay(training, trial=trial, session=session, out=tmp_path / f"r{trial}{session}",
+                   progress=False)
+        info = r.summary["replay"]
+        assert info["same"], info
+        assert info["recorded_final_x_m"] == info["replayed_final_x_m"]
+    # the command line, and what it refuses
+    done = subprocess.run([*CLI, "run", "--weights", str(training), "--trial", "1",
+                           "--session", "2", "--out", str(tmp_path / "cli"), "--no-progress"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "the same" in done.stdout
+    assert (tmp_path / "cli" / "recordings" / "trial00_session0001" / "robot.npz").is_file()
+    with pytest.raises(InputError, match="sessions 1..4"):
+        replay(training, trial=1, session=5, out=tmp_path / "x", progress=False)
+    bad = subprocess.run([*CLI, "run", "--weights", str(training), "--session", "1",
+                          "--seconds", "3", "--out", str(tmp_path / "y")],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "--seconds" in bad.stderr and not (tmp_path / "y").exists()
+
+
+def test_session_starts_survive_the_checkpoint(tmp_path: Path) -> None:
+    """What a resume reads back holds every session start the training wrote."""
+    from astrocpg.studies.experiments.train import _memory_from_state, read_checkpoint
+    training = tmp_path / "t"
+    ac.train(out=training, sessions=2, trials=2, seed=2, progress=False,
+             overrides=["L_max=0.5*second", "L_non_alive=0.2*second"])
+    memory = _memory_from_state(read_checkpoint(training / "checkpoint.npz")["memory"], 2)
+    files = np.load(training / "session_starts.npz")
+    for b in range(2):
+        assert [s.step for s in memory.starts[b]] == files["step"][b].tolist()
+        for k, start in enumerate(memory.starts[b]):
+            for key, values in start.state.items():
+                assert np.array_equal(values, files[f"state.{key}"][b, k])
+
+
+# ---- Cython
+@pytest.mark.slow
+def test_cython_seed_alone_equals_its_trial_and_agrees_with_numpy() -> None:
+    """Cython: seed 3 alone is trial 2 of a batch of 3; numpy and Cython give the same spikes
+    and joint angles within 1e-9 rad over 3 s."""
+    from astrocpg.network import use_codegen
+    try:
+        use_codegen("cython")
+        alone = ac.run(seconds=3, seed=3, progress=False)
+        batch = ac.run(seconds=3, seed=1, trials=3, progress=False)
+        unit_alone = ac.unit(seconds=1, seed=3, progress=False)
+        unit_batch = ac.unit(seconds=1, seed=1, trials=3, progress=False)
+    finally:
+        use_codegen("numpy")
+    assert alone.manifest["codegen"] == "cython"
+    _same_trial(alone, batch, 2)
+    _same_trial(unit_alone, unit_batch, 2)
+    numpy_run = ac.run(seconds=3, seed=3, progress=False)
+    for pop, (t, i) in numpy_run.spikes.items():
+        assert np.array_equal(t, alone.spikes[pop][0]) and np.array_equal(i, alone.spikes[pop][1])
+    dq = np.max(np.abs(numpy_run.robot["joint_angles"] - alone.robot["joint_angles"]))
+    assert dq < 1e-9
