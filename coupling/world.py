@@ -201,7 +201,7 @@ def add_disturbances(bridge, models: ModelSet) -> None:
     # depend on its batch, and a replayed session gets its own (the network's step offset)
     cpg = bridge.cpg
     act = bridge.actuators.ravel()
-    noise = (TrialNormals("torque_noise", trial_seeds(cpg.seed, B), len(act), cpg.noise_offset)
+    noise = (TrialNormals("torque_disturbance", trial_seeds(cpg.seed, B), len(act), cpg.noise_offset)
              if world.torque_noise else None)
     push, sigma, ctrl = world.push_force, world.torque_noise, bridge.ctrl
 

@@ -17,9 +17,9 @@ name and the draw's position (:func:`site_id`); the 64-bit word ``u`` becomes th
 position and a second site). Philox4x64-10 is the counter-based generator of Salmon et al.
 (2011), the one NumPy ships as ``numpy.random.Philox``.
 
-Both Brian2 targets give the same uniform bits: numpy fills blocks of :data:`BLOCK_STEPS` steps
+Both Brian2 targets give the same uniform bits: numpy fills blocks of ``BLOCK_STEPS`` steps
 per trial with NumPy's own Philox (C speed, one call per trial, site and block), Cython computes
-the same words in C (:data:`PHILOX_C`). ``randn()`` goes through ``log`` and ``cos``, whose
+the same words in C (``PHILOX_C``). ``randn()`` goes through ``log`` and ``cos``, whose
 last bit may differ between NumPy's and the C library's implementations.
 """
 
@@ -156,8 +156,11 @@ class SiteStream:
         # element -> its position in the block (trials, BLOCK_STEPS, 4*width) at step 0
         self._flat = (trial.astype(np.int64) * BLOCK_STEPS * 4 * self.width
                       + self.cell).astype(np.intp)
-        self._identity = (4 * self.width == self.cells_per_trial and np.array_equal(
-            trial.astype(np.int64) * self.cells_per_trial + self.cell, np.arange(len(trial))))
+        # every cell of every trial, in trial-major order: a step's draws are a block's row
+        self._identity = (4 * self.width == self.cells_per_trial
+                          and len(trial) == len(seeds) * self.cells_per_trial
+                          and np.array_equal(trial.astype(np.int64) * self.cells_per_trial
+                                             + self.cell, np.arange(len(trial))))
         self._bitgen = np.random.Philox(key=[0, 0])
         self._state = self._bitgen.state
 

@@ -262,8 +262,9 @@ def build_parser() -> argparse.ArgumentParser:
                       help="simulated time of the run with the trained weights, in s, a "
                            "whole number of 1 ms steps (default 10 s; the gait is read from its "
                            "second half)")
-    gait.add_argument("--seed", type=int, default=1,
-                      help="seed of the run's noise (default 1)")
+    gait.add_argument("--seed", type=int, default=None,
+                      help="seed of trial 0 of the run, trial k with seed K+k (default: the "
+                           "training's own, each table on the network it trained with)")
     _add_no_progress(gait)
     _add_codegen_option(gait)
 

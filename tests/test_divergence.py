@@ -42,7 +42,7 @@ def _diverges(seconds: float = 0.5, **kw) -> Diverged:
 def test_a_parameter_that_blows_up_the_network(values, culprit, t_max):
     e = _diverges(models=DEFAULT_MODELS.with_values(values), n_trials=2, seed=1)
     assert e.culprit.startswith(culprit), e.line
-    assert e.trial == 0 and e.t <= t_max
+    assert e.trial in (0, 1) and e.t <= t_max  # the trial whose spikes overflowed first
     assert f"trial {e.trial}" in e.message
 
 

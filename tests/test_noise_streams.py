@@ -110,6 +110,17 @@ def test_seed_alone_equals_its_trial_in_a_batch(command: str) -> None:
     assert _trial(batch, 0) != _trial(batch, 1)  # the trials' noise differs
 
 
+def test_limbs_in_stages_draw_like_one_group() -> None:
+    """With 0 ms inter-limb delays the motor neurons are split into one group per stage of
+    limbs; a neuron's draws are still those of its trial and cell."""
+    preset = (Path(__file__).resolve().parents[1] / "models" / "variants"
+              / "interlimb_authors_delays.toml").read_text()
+    models = {"interlimb_synapse": preset}
+    alone = ac.run(seconds=0.2, seed=3, models=models, progress=False)
+    batch = ac.run(seconds=0.2, seed=1, trials=3, models=models, progress=False)
+    _same_trial(alone, batch, 2)
+
+
 def test_a_model_files_own_draws_are_per_trial_too() -> None:
     """rand() and randn() a user writes (equations, initial values) are mapped like the
     built-in ones."""

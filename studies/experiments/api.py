@@ -107,17 +107,19 @@ def _path(value: Any, culprit: str) -> Path:
     return Path(value)
 
 
-def gait(folder: str | os.PathLike, *, seconds: float = 10.0, seed: int = 1,
+def gait(folder: str | os.PathLike, *, seconds: float = 10.0, seed: int | None = None,
          progress: bool = True) -> list[str]:
-    """Run each trial's trained weights of the training in ``folder`` for ``seconds`` (seed
-    ``seed``) and name its gait: one line per trial (leg phases relative to FR, the gait label,
-    speed, upright share, a fall, the weight structure), as ``astrocpg gait`` prints them."""
+    """Run each trial's trained weights of the training in ``folder`` for ``seconds`` (trial
+    ``b`` with seed ``seed + b``; by default the training's own seed) and name its gait: one
+    line per trial (leg phases relative to FR, the gait label, speed, upright share, a fall,
+    the weight structure), as ``astrocpg gait`` prints them."""
     from .settings import number, seed_number
     from .trained_controller import describe_gait
 
     return describe_gait(_path(folder, "folder"), seconds=number(seconds, "seconds",
                                                                    positive=True),
-                         seed=seed_number(seed, "seed"), progress=progress)
+                         seed=None if seed is None else seed_number(seed, "seed"),
+                         progress=progress)
 
 
 def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustness",

@@ -26,7 +26,7 @@ from ...network.codegen import framework_target
 from ..outputs.folder import OutputFolder, as_path, refuse_in_use
 from ..outputs.result import Result
 from ..outputs.writing import read_manifest
-from .train import SESSION_STARTS, TrainSettings, _train, record_plan
+from .train import SESSION_STARTS, TrainSettings, record_plan, train_from_start
 from ...models.compose import model_set
 
 
@@ -113,8 +113,8 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
     origin = {"training": str(folder), "trial": trial, "session": session,
               "step": start.step, "seed": settings.seed,
               "recorded_final_x_m": None if row is None else row["final_x_m"]}
-    trainer = _train(settings, out_path, plan, None, progress, replace=overwrite, new=True,
-                     models=models, start=(start, origin))
+    trainer = train_from_start(settings, out_path, plan, start, origin, models=models,
+                               progress=progress, overwrite=overwrite)
     result = Result.from_training(trainer, out_path)
     replayed = f"{trainer.training.memory.rows[0]['final_x_m']:.9g}"
     result.summary["replay"] = origin | {

@@ -400,12 +400,16 @@ def trained_models(settings: Mapping[str, Any]) -> ModelSet:
     return models
 
 
-def replay(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
+def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None,
            progress: bool = True) -> tuple[SimulationResult, np.ndarray]:
     """The trained tables of every trial of the training in ``folder``, run for ``seconds``
-    with the training's models (one batch); returns the result and the tables (volt)."""
+    with the training's models (one batch, learning off); trial ``b`` with seed ``seed + b``,
+    by default the training's own seed, so that each table runs on the network and noise it
+    trained with. Returns the result and the tables (volt)."""
     seconds = number(seconds, "--seconds", positive=True)
     check_duration(seconds, STEP)
+    if seed is None:
+        seed = training_settings(folder).get("seed", 1)
     seed = seed_number(seed)
     verify(folder, strict=False)  # its files are what its manifest lists
     weights = load_weights(folder, culprit="")

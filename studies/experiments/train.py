@@ -799,6 +799,16 @@ def _check_model_file(name: str, recorded: dict[str, str] | None, given: dict[st
                    f"{recorded['sha256'][:12]}, given {given['sha256'][:12]})")
 
 
+def train_from_start(settings: TrainSettings, out: Path, plan: RecordPlan | None,
+                     start: SessionStart, origin: dict[str, Any], *, models: ModelSet,
+                     progress: bool = True, overwrite: bool = False) -> "Trainer":
+    """A new one-trial training of ``settings`` into ``out`` whose first session starts from
+    ``start`` (a session another training recorded); ``origin`` is what its manifest records
+    of where that session comes from (``settings.replay_of``)."""
+    return _train(settings, out, plan, None, progress, replace=overwrite, new=True,
+                  models=models, start=(start, origin))
+
+
 @exclusive  # the whole training in one hold: Brian2 is not thread-safe (network/runlock.py)
 def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            payload: dict[str, Any] | None, progress: bool, replace: bool = False,

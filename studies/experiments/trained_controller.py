@@ -19,7 +19,7 @@ from .progress import Bar
 from .run import replay
 
 
-def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int = 1,
+def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None,
                   progress: bool = True) -> list[str]:
     """Run every trial's trained table for ``seconds``; one line per trial: leg phases relative
     to FR, the gait label, speed, upright share, the fall if the robot fell (when, in simulated
@@ -103,7 +103,7 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
         raise InputError(f"starts after the {seconds:g} s run with the trained weights "
                          f"(--seconds)", culprit=f"--window {window[0]:g} {window[1]:g}")
     recorded = sorted(s for b, s in training.recordings if b == trial)
-    result, weights = replay(folder, seconds=seconds, seed=1, progress=progress)
+    result, weights = replay(folder, seconds=seconds, progress=progress)
     b = trial
     names = [f"{n}.{fmt}" for n in ("weights", "training", "thigh_extensor_activity", "gait")]
     window = (window[0], min(window[1], seconds)) if window is not None \
