@@ -1,6 +1,6 @@
 """Counter-based noise: every ``rand()`` and ``randn()`` of the network is a pure function of
-(the trial's seed, the element's index within its trial and population, the time step, the
-draw's position in the model's code).
+(the trial's seed, the element's index within its trial and population (a synapse: within its
+trial and object), the time step, the draw's position in the model's code).
 
 Brian2's own ``rand()`` draws from one Mersenne Twister per process, for every neuron of every
 trial at each step, so a trial's noise depended on the batch it ran in. Here each model's code
@@ -28,7 +28,7 @@ from __future__ import annotations
 import hashlib
 import re
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 from brian2 import Function
@@ -45,10 +45,9 @@ _MASK64 = (1 << 64) - 1
 #: not give a parameter such a name: :data:`astrocpg.models.names.DRAW_PREFIXES`).
 RAND_NAME, RANDN_NAME = (prefix + "{}" for prefix in DRAW_PREFIXES)
 _CALL = re.compile(r"\b(randn|rand)\s*\(\s*\)")
-#: How the next networks draw: "streams" (the framework's, always outside measurements),
-#: "brian" (Brian2's own generator, for comparison) or "constant" (rand() is 0.5 and randn()
-#: 0: no noise at all). Only ``benchmarks/noise_cost.py`` changes it, to measure what the
-#: draws cost within a step.
+#: How the next networks draw: "streams" (the framework's, always outside measurements) or
+#: "brian" (Brian2's own generator, what astrocpg drew from before the streams). Only
+#: ``benchmarks/noise_cost.py`` changes it, to compare what the two cost within a step.
 DRAWS = "streams"
 
 
@@ -270,8 +269,6 @@ class Rewriter:
         """``code`` with its draws rewritten (non-strings and strings without draws as given)."""
         if not isinstance(code, str) or "rand" not in code or DRAWS == "brian":
             return code
-        if DRAWS == "constant":
-            return _CALL.sub(lambda m: "0.0" if m.group(1) == "randn" else "0.5", code)
 
         def one(match: re.Match) -> str:
             kind = match.group(1)

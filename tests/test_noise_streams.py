@@ -144,13 +144,13 @@ def _rows(path: Path) -> dict[tuple[str, str, str], dict[str, str]]:
 
 def test_a_studys_rows_do_not_depend_on_its_batch(tmp_path: Path) -> None:
     rows = {}
-    for batch in (1, 3):
+    for batch in (1, 4):
         study = tmp_path / f"b{batch}.toml"
         study.write_text(f"""
 [study]
 name = "b{batch}"
 sessions = 2
-seeds = {{ first = 1, count = 3 }}
+seeds = {{ first = 1, count = 4 }}
 batch = {batch}
 [base]
 L_max = "0.3*second"
@@ -162,7 +162,14 @@ astrocytes = true
                         "--workers", "1", "--no-progress"], check=True,
                        stdout=subprocess.DEVNULL)
         rows[batch] = _rows(tmp_path / f"s{batch}" / "results.csv")
-    assert len(rows[1]) == 6 and rows[1] == rows[3]
+    assert len(rows[1]) == 8 and rows[1] == rows[4]
+    # a seed's session replayed from either study's run
+    for folder, trial in ((tmp_path / "s4" / "runs" / "astro__seeds1-4", 2),
+                          (tmp_path / "s1" / "runs" / "astro__seed3", 0)):
+        info = replay(folder, trial=trial, session=2, out=tmp_path / f"r{folder.name}",
+                      progress=False).summary["replay"]
+        assert info["same"] and info["seed"] == 3, info
+        assert info["replayed_final_x_m"] == rows[1][("astro", "3", "2")]["final_x_m"]
 
 
 # ---- replay
@@ -211,19 +218,21 @@ def test_session_starts_survive_the_checkpoint(tmp_path: Path) -> None:
 
 # ---- Cython
 @pytest.mark.slow
-def test_cython_seed_alone_equals_its_trial_and_agrees_with_numpy() -> None:
+def test_cython_seed_alone_equals_its_trial_and_agrees_with_numpy(tmp_path: Path,
+                                                                  monkeypatch) -> None:
     """Cython: seed 3 alone is trial 2 of a batch of 3; numpy and Cython give the same spikes
     and joint angles within 1e-9 rad over 3 s."""
     from astrocpg.network import use_codegen
+    monkeypatch.setenv("ASTROCPG_CODEGEN", "cython")  # the API's --codegen
     try:
-        use_codegen("cython")
-        alone = ac.run(seconds=3, seed=3, progress=False)
+        alone = ac.run(seconds=3, seed=3, progress=False, out=tmp_path / "alone")
         batch = ac.run(seconds=3, seed=1, trials=3, progress=False)
         unit_alone = ac.unit(seconds=1, seed=3, progress=False)
         unit_batch = ac.unit(seconds=1, seed=1, trials=3, progress=False)
     finally:
+        monkeypatch.delenv("ASTROCPG_CODEGEN")
         use_codegen("numpy")
-    assert alone.manifest["codegen"] == "cython"
+    assert ac.load(tmp_path / "alone").manifest["codegen"] == "cython"
     _same_trial(alone, batch, 2)
     _same_trial(unit_alone, unit_batch, 2)
     numpy_run = ac.run(seconds=3, seed=3, progress=False)

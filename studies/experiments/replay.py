@@ -16,7 +16,7 @@ from __future__ import annotations
 import csv
 import os
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -80,7 +80,7 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
            overwrite: bool = False, progress: bool = True,
            inputs: Sequence[str | os.PathLike] = ()) -> Result:
     """Replay session ``session`` (1-based) of trial ``trial`` of the training in ``training``
-    alone, with learning on, writing ``out``: a one-session training folder whose
+    (a training folder, or a study's ``runs/<run id>/``) alone, with learning on, writing ``out``: a one-session training folder whose
     ``recordings/trial00_session0001/`` holds the session's spikes, traces and robot, and
     whose manifest's ``settings.replay_of`` names the training, trial, session and step.
     Needs the Brian2 target the training ran with.
@@ -91,20 +91,22 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
     folder = as_path(training, "--weights")
     refuse_in_use(folder, culprit=f"--weights {folder}")
     manifest = read_manifest(folder)
-    if manifest is None or manifest.get("astrocpg_command") != "train":
-        raise InputError("is not a training folder (no training manifest)",
-                         culprit=f"--weights {folder}")
+    if manifest is None or manifest.get("astrocpg_command") not in ("train", "study-run"):
+        raise InputError("is neither a training folder nor a study's run (no training "
+                         "manifest)", culprit=f"--weights {folder}")
     trial, session = int(trial), int(session)
     start = recorded_start(folder, trial, session)
     started = manifest.get("codegen", "numpy")
     if framework_target() != started:
         raise InputError(f"the training ran on the {started} target; a replay is exact only "
                          f"on it (add --codegen {started})", culprit="--codegen")
-    stored = {k: v for k, v in manifest["settings"].items() if k not in ("record", "replay_of")}
-    recorded = TrainSettings(**stored)
-    settings = TrainSettings(n_sessions=1, seed=recorded.seed + trial, n_trials=1,
-                             astrocytes=recorded.astrocytes, overrides=recorded.overrides,
-                             equations=recorded.equations, models=recorded.models)
+    # a training's settings, or a study run's (the same keys, equations aside)
+    recorded = manifest["settings"]
+    settings = TrainSettings(n_sessions=1, seed=int(recorded["seed"]) + trial, n_trials=1,
+                             astrocytes=bool(recorded.get("astrocytes", True)),
+                             overrides=list(recorded.get("overrides") or []),
+                             equations=dict(recorded.get("equations") or {}),
+                             models=dict(recorded.get("models") or {}))
     models = model_set(settings.overrides, settings.equations, models=settings.models)
     out_path = as_path(out, "--out")
     OutputFolder(out_path, overwrite=overwrite, inputs=[*inputs, folder]).check()
