@@ -6,7 +6,10 @@ L_non_alive (not necessarily consecutive) non-upright; then that trial alone is 
 traces, torque traces, STDP signals, hip integrator, physics; astrocytes and weights persist),
 and its Progress and t_learning_start are set from the mean length of its last sessions.
 Per step, this writes the trial's reward, its sliding mean and the learning flag where the
-inter-limb synapses read them. Constants come from ``models`` (reward, progress, learning_start,
+inter-limb synapses read them. At each session's start it remembers what the session starts
+from besides the seed and the reset values (:class:`SessionStart`: the step, Progress,
+t_learning_start, the astrocytes' state and the inter-limb weights), so that any session can
+be replayed alone (:meth:`Training.begin_at`). Constants come from ``models`` (reward, progress, learning_start,
 alive).
 
 Divergence: the session loop is the bridge's ``training`` hook (order ``ORDER_TRAINING``, after
