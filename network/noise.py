@@ -222,12 +222,17 @@ cdef double {name}(int64_t step, size_t _idx):
     return f
 
 
+def box_muller(u1: np.ndarray, u2: np.ndarray) -> np.ndarray:
+    """Standard normals from two uniforms in [0, 1) (the C code of ``randn()`` is the same)."""
+    return np.sqrt(-2.0 * np.log1p(-u1)) * np.cos(2.0 * np.pi * u2)
+
+
 def _normal_function(name: str, streams: list[SiteStream]) -> Function:
     a, b = streams
 
     def normal(step: Any, idx: Any) -> np.ndarray:
         u1, u2 = a.uniform(step, idx), b.uniform(step, idx)
-        return np.sqrt(-2.0 * np.log1p(-u1)) * np.cos(2.0 * np.pi * u2)
+        return box_muller(u1, u2)
 
     f = Function(pyfunc=lambda step: 0.0, arg_units=[1], return_unit=1,
                  arg_types=["integer"], return_type="float", stateless=False,
@@ -316,7 +321,7 @@ class TrialNormals:
 
     def draw(self, step: int) -> np.ndarray:
         u1, u2 = self._a.uniform(step, self._all), self._b.uniform(step, self._all)
-        return (np.sqrt(-2.0 * np.log1p(-u1)) * np.cos(2.0 * np.pi * u2)).reshape(self.shape)
+        return box_muller(u1, u2).reshape(self.shape)
 
 
 def trial_major(numbers: np.ndarray, cells_per_trial: int,
