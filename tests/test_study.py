@@ -212,7 +212,9 @@ def test_scheduler_and_two_workers_one_killed(tmp_path: Path) -> None:
 def test_interrupted_study_continues(tmp_path: Path, sig: int) -> None:
     """Interrupt a study (Ctrl-C, or SIGKILL of the whole process group), run the same command
     again: finished runs are not redone, the run in flight resumes, the table is complete."""
-    study_file = _tiny(tmp_path, sessions=5)
+    # 30 sessions: a run must outlast the few seconds the cluster takes to close, or the
+    # run in flight may end before it is stopped and nothing is left to resume
+    study_file = _tiny(tmp_path, sessions=30)
     out = tmp_path / "out"
     cmd = [str(BIN / "astrocpg"), "study", str(study_file), "--out", str(out), "--workers", "1",
            "--no-progress"]
