@@ -385,6 +385,8 @@ class Model:
             value = getattr(self, f.name)
             if f.name == "initial_values":
                 value = {var: _value_to_json(v) for var, v in value.items()}
+            elif f.name == "senses":
+                value = {var: b.to_json() for var, b in value.items()}
             elif isinstance(value, tuple):
                 value = list(value)
             out[f.name] = value
@@ -489,6 +491,9 @@ class NeuronModel(BrianModel):
     equations: the Brian2 equation string.
     threshold, reset: Brian2 spike condition and reset statements, or None.
     refractory: a parameter name (or expression) for the refractory period, or None.
+    senses: robot senses the coupling writes into variables of the equations after every
+        physics step, variable -> sense name or ``{sense, only}``
+        (:mod:`astrocpg.models.senses`: the senses, their units, ``only``).
     """
 
     kind: ClassVar[str] = "neuron"
@@ -500,6 +505,11 @@ class NeuronModel(BrianModel):
     threshold: str | None = None
     reset: str | None = None
     refractory: str | None = None
+    senses: Mapping[str, Any] = field(default_factory=dict)
+
+    def _validate(self) -> None:
+        super()._validate()
+        object.__setattr__(self, "senses", _sense_bindings(self))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -616,6 +626,39 @@ def _equation_error(e: BaseException) -> str:
                 f"'{line.strip()}' ({reason}; at '{at}')")
     text = " ".join(str(e).split())  # every line, not only the first
     return text or type(e).__name__
+
+
+def _sense_bindings(model: "NeuronModel") -> dict[str, Any]:
+    """The model's ``senses`` checked against its equations: each bound variable is a plain
+    variable of the equations (no ``d/dt``, no flag: the coupling writes it every step) in the
+    sense's unit, and each sense is one the robot offers (:data:`ROBOT_SENSES`)."""
+    from brian2.equations.equations import PARAMETER
+
+    from .senses import ROBOT_SENSES, parse_binding
+
+    if not isinstance(model.senses, Mapping):
+        raise InputError('must map variables to robot senses (variable = "sense")',
+                         culprit=f"{model.name}.senses")
+    if not model.senses:
+        return {}
+    equations = model.brian_equations()
+    out = {}
+    for var, entry in model.senses.items():
+        culprit = f"{model.name}.senses.{var}"
+        binding = parse_binding(entry, culprit)
+        sense = ROBOT_SENSES[binding.sense]
+        if var not in equations.names:
+            raise InputError(f"is not a variable of the equations: declare it as "
+                             f"'{var} : {sense.unit_text}'", culprit=culprit)
+        eq = equations[var]
+        if eq.type != PARAMETER or eq.flags:
+            raise InputError(f"must be a plain variable ('{var} : {sense.unit_text}', no d/dt, "
+                             f"no flag): the coupling writes it every step", culprit=culprit)
+        if eq.dim != get_dimensions(sense.unit):
+            raise InputError(f"is declared in {unit_spelling(eq.dim)}, but the sense "
+                             f"'{binding.sense}' is in {sense.unit_text}", culprit=culprit)
+        out[var] = binding
+    return out
 
 
 def _parse_equations(owner: str, text: str, role: str = "equations") -> Equations:

@@ -4,7 +4,8 @@ NAME=FILE`` reads one back).
 A file holds ``name``, ``kind`` (neuron, synapse, expression), ``description``, the model's code
 strings (``equations``, ``threshold``, ``reset``, ``refractory`` of a neuron; ``model``,
 ``on_pre``, ``weight``, ``on_step`` of a synapse; ``expression`` and ``inputs`` of an expression),
-``method``, an ``[initial_values]`` table (``VAR = { value = "0.16*umolar" }`` or ``{ expression
+``method``, a ``[senses]`` table of a neuron model (robot senses bound to variables:
+:mod:`astrocpg.models.senses`), an ``[initial_values]`` table (``VAR = { value = "0.16*umolar" }`` or ``{ expression
 = "rand()" }``) and a ``[parameters]`` table, one inline table per parameter::
 
     tau_extra = { value = "2*second", symbol = "\\\\tau_x", meaning = "...", positive = true }
@@ -115,6 +116,13 @@ def model_to_toml(model: Model) -> str:
             key = "expression" if isinstance(value, str) else "value"
             text = value if isinstance(value, str) else value_text(value)
             lines.append(f"{var} = {{ {key} = {_toml_string(text)} }}")
+    senses = getattr(model, "senses", None)
+    if senses:
+        lines += ["", "[senses]"]
+        for var, binding in senses.items():
+            only = ", ".join(_toml_string(x) for x in binding.only)
+            lines.append(f"{var} = {_toml_string(binding.sense)}" if not binding.only else
+                         f"{var} = {{ sense = {_toml_string(binding.sense)}, only = [{only}] }}")
     lines += ["", "[parameters]"]
     for p in model.parameters.values():
         entry = (f"value = {_toml_string(value_text(p.value))}, "
@@ -239,6 +247,11 @@ def model_from_toml(text: str, *, culprit: str, default: Model | None = None) ->
                 else:
                     out[var] = _text_value(entry, vwhere)
             value = out
+        elif key == "senses":
+            if not isinstance(value, Mapping):
+                raise InputError('must be a table of bindings (variable = "sense" or '
+                                 '{ sense = "...", only = [...] })', culprit=where)
+            value = dict(value)
         elif key == "inputs":
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
                 raise InputError("must be a list of input names (text)", culprit=where)

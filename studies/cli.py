@@ -380,7 +380,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_overwrite(exp)
 
     desc = sub.add_parser("describe", help="a model's equations (sympy) and parameter table")
-    desc.add_argument("model", nargs="?", help="one model (default: all)")
+    desc.add_argument("model", nargs="?", help="one model (default: all), or 'senses': the "
+                      "robot senses a neuron model may bind")
     desc.add_argument("--format", default="markdown", help="markdown or latex (default markdown)")
     desc.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
                       help="describe MODEL with the equation string of FILE")

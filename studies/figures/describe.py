@@ -1,5 +1,6 @@
 """``astrocpg describe [MODEL]``: each model's equations, rendered by sympy with the paper's
 symbols, and its parameter table, as Markdown or LaTeX, to check a model against a paper.
+``astrocpg describe senses`` lists the robot senses a neuron model may bind.
 
 Equations come from the model's own Brian2 strings (so an edited model is described as it is);
 a statement sympy cannot render (e.g. Brian2's ``timestep`` function) is shown as code.
@@ -77,6 +78,10 @@ def model_lines(model: Any) -> list[dict[str, str]]:
                 latex = None
             rows.append({"kind": "equation" if latex else "variable", "latex": latex,
                          "code": code})
+    for var, binding in (getattr(model, "senses", None) or {}).items():
+        only = f" (only {', '.join(binding.only)})" if binding.only else ""
+        rows.append({"kind": "sense", "latex": None,
+                     "code": f"{var} <- robot sense {binding.sense}{only}"})
     expression = getattr(model, "expression", None)
     if expression:
         rhs = _latex(expression, names)
@@ -108,8 +113,8 @@ def _models(name: str | None, models: ModelSet) -> list[tuple[str, Any]]:
     found = [(n, m) for n, m in items if n == name]
     if not found:
         names = [n for n, _ in items]
-        raise InputError(f"unknown model '{name}'{did_you_mean(name, names)} "
-                         f"(models: {', '.join(names)})", culprit=f"describe")
+        raise InputError(f"unknown model '{name}'{did_you_mean(name, names + ['senses'])} "
+                         f"(models: {', '.join(names)}; or 'senses')", culprit="describe")
     return found
 
 
@@ -118,6 +123,13 @@ def describe(name: str | None = None, fmt: str = "markdown",
     """Markdown or LaTeX text describing one model or all of them."""
     if fmt not in ("markdown", "latex"):
         raise InputError(f"--format must be markdown or latex, got '{fmt}'")
+    if name == "senses":  # not a model: what a neuron model may bind (models/senses.py)
+        from ...models.senses import describe_senses
+        text = describe_senses()
+        if fmt == "markdown":
+            return ("## Robot senses a neuron model may read (its [senses] table)\n\n```\n"
+                    + text + "\n```\n")
+        return "\\begin{verbatim}\n" + text + "\n\\end{verbatim}\n"
     parts = []
     for model_name, model in _models(name, models):
         desc = (model.description or "").strip()
