@@ -1,0 +1,219 @@
+"""The analyses of docs/beyond that ``astrocpg report`` does not draw, from studies'
+``results.csv`` (or ``.csv.gz``):
+
+    # Fig. 3c on two grounds, side by side (mean +- std across seeds, trailing mean of 10)
+    python docs/beyond/analyse.py fig3c docs/ablation/streams/results.csv.gz \
+        docs/beyond/rough_ablation/results.csv.gz --titles "flat ground" "rough terrain 2 cm" \
+        --out docs/beyond/rough_ablation/fig3c_flat_rough.png
+
+    # each seed against itself: a study's condition against another's, seed by seed
+    python docs/beyond/analyse.py paired docs/ablation/streams/results.csv.gz:astrocytes \
+        docs/beyond/load_afferent/results.csv.gz:flat --sessions 150 --last 20
+
+    # the rows two studies share are the same numbers (a seed trained in another batch)
+    python docs/beyond/analyse.py same docs/ablation/streams/results.csv.gz:astrocytes \
+        docs/beyond/drive_sweep/results.csv.gz:astrocytes --where I_background_0=1380-mV-second
+
+Per seed, over its sessions 1..S (``--sessions``; default all): the mean over the last N
+sessions (``--last``) of the forward speed, the final x and the session length; the share of
+those N sessions that ran the full L_max (the robot did not fall); the falls over all S sessions
+(sessions that ended before L_max); and the session at which the trailing mean of 10 session
+lengths first reached 90 % of L_max ("learnt by"). ``paired`` prints each measure's mean for
+both sides, the mean of the per-seed differences ± their std, the paired t-test's p and the
+Wilcoxon signed-rank test's p (both two-sided, scipy).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import gzip
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+L_MAX = 10.0  # the paper's maximum session length (s): a session shorter than it ended in a fall
+LEARNT = 0.9  # "learnt by": trailing mean of 10 session lengths >= 0.9 L_max
+
+
+def read_rows(spec: str) -> tuple[list[dict[str, str]], str | None]:
+    """``PATH[:CONDITION]`` -> (rows of that condition, condition)."""
+    path, _, condition = spec.partition(":")
+    opener = gzip.open if path.endswith(".gz") else open
+    with opener(path, "rt", newline="") as f:
+        rows = list(csv.DictReader(f))
+    if condition:
+        rows = [r for r in rows if r["condition"] == condition]
+        if not rows:
+            sys.exit(f"analyse.py: no rows of condition {condition!r} in {path}")
+    return rows, condition or None
+
+
+def _where(rows: list[dict[str, str]], where: list[str]) -> list[dict[str, str]]:
+    for w in where:
+        key, _, value = w.partition("=")
+        rows = [r for r in rows if key in r["run_id"] and f"{key}={value}" in r["run_id"]]
+    return rows
+
+
+def per_seed(rows: list[dict[str, str]], sessions: int | None) -> dict[int, np.ndarray]:
+    """seed -> (session, [length, final_x, speed, reward]) for sessions 1..sessions."""
+    out: dict[int, dict[int, list[float]]] = {}
+    for r in rows:
+        s = int(r["session"])
+        if sessions is None or s <= sessions:
+            out.setdefault(int(r["seed"]), {})[s] = [
+                float(r["length_s"]), float(r["final_x_m"]),
+                float(r["mean_forward_speed_m_per_s"]), float(r["mean_reward"])]
+    return {seed: np.array([v[s] for s in sorted(v)]) for seed, v in sorted(out.items())}
+
+
+MEASURES = ("speed (m/s)", "final x (m)", "session length (s)", "full-length share",
+            "falls", "learnt by (session)")
+
+
+def measures(series: np.ndarray, last: int) -> list[float]:
+    tail = series[-last:]
+    length = series[:, 0]
+    trailing = np.convolve(length, np.ones(10) / 10, mode="valid")
+    reached = np.flatnonzero(trailing >= LEARNT * L_MAX)
+    return [float(tail[:, 2].mean()), float(tail[:, 1].mean()), float(tail[:, 0].mean()),
+            float(np.mean(tail[:, 0] >= L_MAX - 1e-9)), float(np.sum(length < L_MAX - 1e-9)),
+            float(reached[0] + 10) if len(reached) else math.nan]
+
+
+def paired(a_spec: str, b_spec: str, sessions: int | None, last: int) -> str:
+    from scipy import stats
+
+    a_rows, _ = read_rows(a_spec)
+    b_rows, _ = read_rows(b_spec)
+    a, b = per_seed(a_rows, sessions), per_seed(b_rows, sessions)
+    seeds = sorted(set(a) & set(b))
+    n_a = {len(a[s]) for s in seeds} | {len(b[s]) for s in seeds}
+    if len(n_a) != 1:
+        sys.exit(f"analyse.py: the seeds do not all have the same sessions ({sorted(n_a)})")
+    S = n_a.pop()
+    ma = np.array([measures(a[s], last) for s in seeds])
+    mb = np.array([measures(b[s], last) for s in seeds])
+    lines = [f"{len(seeds)} seeds ({seeds[0]}-{seeds[-1]}), sessions 1-{S}, last {last} sessions; "
+             f"A = {a_spec}, B = {b_spec}", "",
+             "| measure | A: mean ± std | B: mean ± std | B − A per seed: mean ± std | paired t p "
+             "| Wilcoxon p |", "|---|---|---|---|---|---|"]
+    for k, name in enumerate(MEASURES):
+        x, y = ma[:, k], mb[:, k]
+        ok = ~(np.isnan(x) | np.isnan(y))
+        d = y[ok] - x[ok]
+        if ok.sum() >= 2 and np.any(d != 0):
+            t_p = stats.ttest_rel(y[ok], x[ok]).pvalue
+            w_p = stats.wilcoxon(y[ok], x[ok]).pvalue
+            ps = f"{t_p:.3g} | {w_p:.3g}"
+        else:
+            ps = "– | –"
+        never = ""
+        if name.startswith("learnt"):
+            never = f" (never: A {int(np.isnan(x).sum())}, B {int(np.isnan(y).sum())})"
+        lines.append(f"| {name}{never} | {np.nanmean(x):.3f} ± {np.nanstd(x):.3f} | "
+                     f"{np.nanmean(y):.3f} ± {np.nanstd(y):.3f} | "
+                     f"{d.mean() if len(d) else math.nan:.3f} ± "
+                     f"{d.std() if len(d) else math.nan:.3f} | {ps} |")
+    return "\n".join(lines) + "\n"
+
+
+COLUMNS = ("length_s", "final_x_m", "mean_reward", "mean_forward_speed_m_per_s",
+           "spikes_thigh_motor", "spikes_calf_motor", "spikes_interneuron",
+           "adenosine_releases", "progress", "t_learning_start_s", "diverged")
+
+
+def same(a_spec: str, b_spec: str, where: list[str]) -> str:
+    """How many of the (seed, session) rows both hold differ in any column."""
+    a_rows, _ = read_rows(a_spec)
+    b_rows, _ = read_rows(b_spec)
+    b_rows = _where(b_rows, where)
+    a = {(r["seed"], r["session"]): r for r in a_rows}
+    shared = [(k, r) for k in [(r["seed"], r["session"]) for r in b_rows] for r in [a.get(k)]
+              if r is not None]
+    b = {(r["seed"], r["session"]): r for r in b_rows}
+    differ = [k for k, r in shared if any(r[c] != b[k][c] for c in COLUMNS)]
+    seeds = sorted({int(k[0]) for k, _ in shared})
+    text = (f"{len(shared)} rows shared (seeds {seeds[0]}-{seeds[-1]}, "
+            f"{len(COLUMNS)} columns each); {len(differ)} differ")
+    if differ:
+        text += f"; first: seed {differ[0][0]} session {differ[0][1]}"
+    return text + "\n"
+
+
+def fig3c(specs: list[str], titles: list[str], out: Path, smooth: int) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
+              ("length_s", "session length (s)"))
+    fig, axes = plt.subplots(len(panels), len(specs), figsize=(5.2 * len(specs), 8.5),
+                             sharex=True, sharey="row", squeeze=False)
+    for col, (spec, title) in enumerate(zip(specs, titles)):
+        rows, _ = read_rows(spec)
+        for condition, colour in (("astrocytes", "tab:red"), ("no_astrocytes", "tab:blue")):
+            cond = [r for r in rows if r["condition"] == condition]
+            if not cond:
+                continue
+            seeds = sorted({r["seed"] for r in cond})
+            for row, (column, label) in enumerate(panels):
+                table: dict[str, dict[int, float]] = {}
+                for r in cond:
+                    table.setdefault(r["seed"], {})[int(r["session"])] = float(r[column])
+                S = min(len(v) for v in table.values())
+                values = np.array([[table[s][k] for k in range(1, S + 1)] for s in seeds])
+                kernel = np.ones(smooth) / smooth
+                values = np.array([np.convolve(v, kernel, mode="valid") for v in values])
+                x = np.arange(smooth, S + 1)
+                m, sd = values.mean(axis=0), values.std(axis=0)
+                ax = axes[row, col]
+                ax.plot(x, m, color=colour,
+                        label=f"{condition.replace('_', ' ')} ({len(seeds)} seeds)")
+                ax.fill_between(x, m - sd, m + sd, color=colour, alpha=0.2, lw=0)
+                ax.set_ylabel(label)
+        axes[0, col].set_title(title)
+        axes[-1, col].set_xlabel("session")
+        axes[0, col].legend(loc="lower right", fontsize=8)
+    fig.suptitle(f"Fig. 3c on two grounds: mean ± std across seeds, trailing mean of {smooth} "
+                 "sessions", fontsize=10)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="what", required=True)
+    f = sub.add_parser("fig3c")
+    f.add_argument("results", nargs="+")
+    f.add_argument("--titles", nargs="+", required=True)
+    f.add_argument("--out", type=Path, required=True)
+    f.add_argument("--smooth", type=int, default=10)
+    p = sub.add_parser("paired")
+    p.add_argument("a")
+    p.add_argument("b")
+    p.add_argument("--sessions", type=int)
+    p.add_argument("--last", type=int, default=20)
+    s = sub.add_parser("same")
+    s.add_argument("a")
+    s.add_argument("b")
+    s.add_argument("--where", action="append", default=[])
+    args = ap.parse_args(argv)
+    if args.what == "fig3c":
+        if len(args.titles) != len(args.results):
+            ap.error("one title per results file")
+        fig3c(args.results, args.titles, args.out, args.smooth)
+        print(f"wrote {args.out}")
+    elif args.what == "paired":
+        sys.stdout.write(paired(args.a, args.b, args.sessions, args.last))
+    else:
+        sys.stdout.write(same(args.a, args.b, args.where))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
