@@ -12,7 +12,16 @@
 
     # the rows two studies share are the same numbers (a seed trained in another batch)
     python docs/beyond/analyse.py same docs/ablation/streams/results.csv.gz:astrocytes \
-        docs/beyond/drive_sweep/results.csv.gz:astrocytes --where I_background_0=1380-mV-second
+        docs/beyond/load_afferent/results.csv.gz:flat
+
+    # astrocpg evaluate's runs, controller by controller, with 95 % confidence intervals
+    python docs/beyond/analyse.py worlds docs/beyond/robustness/evaluation.csv
+
+``worlds`` averages each controller's repeats first (the repeats of one controller are not
+independent samples of the condition), then gives per condition and world the mean over
+controllers of the falls, the forward speed and the trot with a 95 % bootstrap interval
+(10 000 resamples of the controllers, fixed seed), and the difference between the two
+conditions with its bootstrap interval and the Mann-Whitney U test's two-sided p.
 
 Per seed, over its sessions 1..S (``--sessions``; default all): the mean over the last N
 sessions (``--last``) of the forward speed, the final x and the session length; the share of
@@ -144,6 +153,58 @@ def same(a_spec: str, b_spec: str, where: list[str]) -> str:
     return text + "\n"
 
 
+def worlds(path: str) -> str:
+    from scipy import stats
+
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    rng = np.random.default_rng(1)
+    # condition -> world -> controller -> [fell, speed, trot] per repeat
+    table: dict[str, dict[str, dict[str, list[list[float]]]]] = {}
+    for r in rows:
+        table.setdefault(r["condition"], {}).setdefault(r["world"], {}).setdefault(
+            f'{r["source"]}:{r["seed"]}', []).append(
+            [float(r["fell"]), float(r["mean_speed_m_per_s"]), float(r["gait"] == "trot")])
+    conditions = list(table)
+    world_names = list(dict.fromkeys(w for c in conditions for w in table[c]))
+
+    def per_controller(c: str, w: str) -> np.ndarray:
+        return np.array([np.mean(v, axis=0) for v in table[c][w].values()])
+
+    def ci(x: np.ndarray) -> tuple[float, float]:
+        means = x[rng.integers(0, len(x), (10000, len(x)))].mean(axis=1)
+        return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+    labels = ("falls (share of runs)", "speed (m/s)", "trot (share of runs)")
+    n = {c: len(next(iter(table[c].values()))) for c in conditions}
+    reps = {c: len(next(iter(next(iter(table[c].values())).values()))) for c in conditions}
+    lines = [f"Controllers: {', '.join(f'{c} {n[c]} ({reps[c]} repeats each)' for c in conditions)}."
+             f" Mean over controllers [95 % bootstrap interval].", ""]
+    for k, label in enumerate(labels):
+        head = " | ".join(c.replace("_", " ") for c in conditions)
+        lines += [f"**{label}**", "", f"| world | {head} | difference (first − second) | "
+                  "Mann-Whitney p |", "|---|" + "---|" * (len(conditions) + 2)]
+        for w in world_names:
+            cells, values = [], []
+            for c in conditions:
+                x = per_controller(c, w)[:, k]
+                lo, hi = ci(x)
+                cells.append(f"{x.mean():.2f} [{lo:.2f}, {hi:.2f}]")
+                values.append(x)
+            if len(values) == 2:
+                a, b = values
+                diffs = (a[rng.integers(0, len(a), (10000, len(a)))].mean(axis=1)
+                         - b[rng.integers(0, len(b), (10000, len(b)))].mean(axis=1))
+                d = f"{a.mean() - b.mean():+.2f} [{np.percentile(diffs, 2.5):+.2f}, " \
+                    f"{np.percentile(diffs, 97.5):+.2f}]"
+                p = (stats.mannwhitneyu(a, b).pvalue if np.any(a != a[0]) or np.any(b != b[0])
+                     or a[0] != b[0] else 1.0)
+                cells += [d, f"{p:.2g}"]
+            lines.append(f"| {w} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
 def fig3c(specs: list[str], titles: list[str], out: Path, smooth: int) -> None:
     import matplotlib
     matplotlib.use("Agg")
@@ -202,6 +263,8 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("a")
     s.add_argument("b")
     s.add_argument("--where", action="append", default=[])
+    w = sub.add_parser("worlds")
+    w.add_argument("evaluation")
     args = ap.parse_args(argv)
     if args.what == "fig3c":
         if len(args.titles) != len(args.results):
@@ -210,6 +273,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {args.out}")
     elif args.what == "paired":
         sys.stdout.write(paired(args.a, args.b, args.sessions, args.last))
+    elif args.what == "worlds":
+        sys.stdout.write(worlds(args.evaluation))
     else:
         sys.stdout.write(same(args.a, args.b, args.where))
     return 0
