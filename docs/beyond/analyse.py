@@ -14,6 +14,12 @@
     python docs/beyond/analyse.py same docs/ablation/streams/results.csv.gz:astrocytes \
         docs/beyond/load_afferent/results.csv.gz:flat
 
+    # the same seeds in two studies, drawn over each other (one column per ground)
+    python docs/beyond/analyse.py overlay --sessions 150 \
+        --column "flat ground" docs/ablation/streams/results.csv.gz:astrocytes "without" \
+            docs/beyond/load_afferent/results.csv.gz:flat "with the load afferent" \
+        --out docs/beyond/load_afferent/fig3c_load_afferent.png
+
     # astrocpg evaluate's runs, controller by controller, with 95 % confidence intervals
     python docs/beyond/analyse.py worlds docs/beyond/robustness/evaluation.csv
 
@@ -205,26 +211,27 @@ def worlds(path: str) -> str:
     return "\n".join(lines)
 
 
-def fig3c(specs: list[str], titles: list[str], out: Path, smooth: int) -> None:
+PANELS = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
+          ("length_s", "session length (s)"))
+
+
+def _draw(columns: list[tuple[str, list[tuple[list[dict[str, str]], str, str]]]], out: Path,
+          smooth: int, sessions: int | None, title: str) -> None:
+    """Columns of (title, [(rows, label, colour)]): Fig. 3c's three panels per column."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
-              ("length_s", "session length (s)"))
-    fig, axes = plt.subplots(len(panels), len(specs), figsize=(5.2 * len(specs), 8.5),
+    fig, axes = plt.subplots(len(PANELS), len(columns), figsize=(5.2 * len(columns), 8.5),
                              sharex=True, sharey="row", squeeze=False)
-    for col, (spec, title) in enumerate(zip(specs, titles)):
-        rows, _ = read_rows(spec)
-        for condition, colour in (("astrocytes", "tab:red"), ("no_astrocytes", "tab:blue")):
-            cond = [r for r in rows if r["condition"] == condition]
-            if not cond:
-                continue
-            seeds = sorted({r["seed"] for r in cond})
-            for row, (column, label) in enumerate(panels):
+    for col, (column_title, series) in enumerate(columns):
+        for rows, label, colour in series:
+            seeds = sorted({r["seed"] for r in rows}, key=int)
+            for row, (column, ylabel) in enumerate(PANELS):
                 table: dict[str, dict[int, float]] = {}
-                for r in cond:
-                    table.setdefault(r["seed"], {})[int(r["session"])] = float(r[column])
+                for r in rows:
+                    if sessions is None or int(r["session"]) <= sessions:
+                        table.setdefault(r["seed"], {})[int(r["session"])] = float(r[column])
                 S = min(len(v) for v in table.values())
                 values = np.array([[table[s][k] for k in range(1, S + 1)] for s in seeds])
                 kernel = np.ones(smooth) / smooth
@@ -232,18 +239,42 @@ def fig3c(specs: list[str], titles: list[str], out: Path, smooth: int) -> None:
                 x = np.arange(smooth, S + 1)
                 m, sd = values.mean(axis=0), values.std(axis=0)
                 ax = axes[row, col]
-                ax.plot(x, m, color=colour,
-                        label=f"{condition.replace('_', ' ')} ({len(seeds)} seeds)")
+                ax.plot(x, m, color=colour, label=f"{label} ({len(seeds)} seeds)")
                 ax.fill_between(x, m - sd, m + sd, color=colour, alpha=0.2, lw=0)
-                ax.set_ylabel(label)
-        axes[0, col].set_title(title)
+                ax.set_ylabel(ylabel)
+        axes[0, col].set_title(column_title)
         axes[-1, col].set_xlabel("session")
         axes[0, col].legend(loc="lower right", fontsize=8)
-    fig.suptitle(f"Fig. 3c on two grounds: mean ± std across seeds, trailing mean of {smooth} "
-                 "sessions", fontsize=10)
+    fig.suptitle(f"{title}: mean ± std across seeds, trailing mean of {smooth} sessions",
+                 fontsize=10)
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
+
+
+def fig3c(specs: list[str], titles: list[str], out: Path, smooth: int) -> None:
+    """One column per study: its astrocyte and no-astrocyte conditions."""
+    columns = []
+    for spec, title in zip(specs, titles):
+        rows, _ = read_rows(spec)
+        columns.append((title, [
+            ([r for r in rows if r["condition"] == c], c.replace("_", " "), colour)
+            for c, colour in (("astrocytes", "tab:red"), ("no_astrocytes", "tab:blue"))
+            if any(r["condition"] == c for r in rows)]))
+    _draw(columns, out, smooth, None, "Fig. 3c on two grounds")
+
+
+def overlay(columns_spec: list[list[str]], out: Path, smooth: int, sessions: int | None) -> None:
+    """Columns of TITLE SPEC LABEL [SPEC LABEL ...]: the conditions named, one colour each."""
+    colours = ("tab:red", "tab:green", "tab:blue", "tab:orange")
+    columns = []
+    for spec in columns_spec:
+        title, pairs = spec[0], spec[1:]
+        if not pairs or len(pairs) % 2:
+            sys.exit("analyse.py: --column TITLE SPEC LABEL [SPEC LABEL ...]")
+        columns.append((title, [(read_rows(pairs[k])[0], pairs[k + 1], colours[k // 2])
+                                for k in range(0, len(pairs), 2)]))
+    _draw(columns, out, smooth, sessions, "Each seed with and without")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -263,6 +294,11 @@ def main(argv: list[str] | None = None) -> int:
     s.add_argument("a")
     s.add_argument("b")
     s.add_argument("--where", action="append", default=[])
+    o = sub.add_parser("overlay")
+    o.add_argument("--column", nargs="+", action="append", required=True)
+    o.add_argument("--out", type=Path, required=True)
+    o.add_argument("--smooth", type=int, default=10)
+    o.add_argument("--sessions", type=int)
     w = sub.add_parser("worlds")
     w.add_argument("evaluation")
     args = ap.parse_args(argv)
@@ -273,6 +309,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {args.out}")
     elif args.what == "paired":
         sys.stdout.write(paired(args.a, args.b, args.sessions, args.last))
+    elif args.what == "overlay":
+        overlay(args.column, args.out, args.smooth, args.sessions)
+        print(f"wrote {args.out}")
     elif args.what == "worlds":
         sys.stdout.write(worlds(args.evaluation))
     else:
