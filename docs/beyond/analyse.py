@@ -53,12 +53,33 @@ L_MAX = 10.0  # the paper's maximum session length (s): a session shorter than i
 LEARNT = 0.9  # "learnt by": trailing mean of 10 session lengths >= 0.9 L_max
 
 
+def _study_rows(folder: Path) -> list[dict[str, str]]:
+    """The rows of a study folder that has not finished (no results.csv yet): each run's
+    sessions.csv, with its condition, run id and seed (the run's first seed + trial)."""
+    import json
+
+    rows = []
+    for run in sorted((folder / "runs").iterdir()):
+        spec = json.loads((run / "status.json").read_text())["spec"]
+        if not (run / "sessions.csv").exists():
+            continue
+        with open(run / "sessions.csv", newline="") as f:
+            for r in csv.DictReader(f):
+                rows.append({**r, "run_id": run.name, "condition": spec["condition"],
+                             "seed": str(int(spec["seed"]) + int(r["trial"]))})
+    return rows
+
+
 def read_rows(spec: str) -> tuple[list[dict[str, str]], str | None]:
-    """``PATH[:CONDITION]`` -> (rows of that condition, condition)."""
+    """``PATH[:CONDITION]`` -> (rows of that condition, condition). PATH is a study's
+    results.csv (or .csv.gz), or a study folder still running (its runs' sessions)."""
     path, _, condition = spec.partition(":")
-    opener = gzip.open if path.endswith(".gz") else open
-    with opener(path, "rt", newline="") as f:
-        rows = list(csv.DictReader(f))
+    if Path(path).is_dir():
+        rows = _study_rows(Path(path))
+    else:
+        opener = gzip.open if path.endswith(".gz") else open
+        with opener(path, "rt", newline="") as f:
+            rows = list(csv.DictReader(f))
     if condition:
         rows = [r for r in rows if r["condition"] == condition]
         if not rows:
@@ -106,6 +127,9 @@ def paired(a_spec: str, b_spec: str, sessions: int | None, last: int) -> str:
     b_rows, _ = read_rows(b_spec)
     a, b = per_seed(a_rows, sessions), per_seed(b_rows, sessions)
     seeds = sorted(set(a) & set(b))
+    common = min(min(len(a[s]), len(b[s])) for s in seeds)  # a study still running: its
+    a = {s: a[s][:common] for s in seeds}                    # sessions every seed has done
+    b = {s: b[s][:common] for s in seeds}
     n_a = {len(a[s]) for s in seeds} | {len(b[s]) for s in seeds}
     if len(n_a) != 1:
         sys.exit(f"analyse.py: the seeds do not all have the same sessions ({sorted(n_a)})")
