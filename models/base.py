@@ -386,6 +386,8 @@ class Model:
             if f.name == "initial_values":
                 value = {var: _value_to_json(v) for var, v in value.items()}
             elif f.name == "senses":
+                if not value:  # no sense bound: the entry as before the field existed
+                    continue
                 value = {var: b.to_json() for var, b in value.items()}
             elif isinstance(value, tuple):
                 value = list(value)

@@ -20,6 +20,9 @@
             docs/beyond/load_afferent/results.csv.gz:flat "with the load afferent" \
         --out docs/beyond/load_afferent/fig3c_load_afferent.png
 
+    # the rows of a study folder as they stand (finished or not), as one table
+    python docs/beyond/analyse.py rows out/load_afferent --out docs/beyond/load_afferent/rows.csv.gz
+
     # astrocpg evaluate's runs, controller by controller, with 95 % confidence intervals
     python docs/beyond/analyse.py worlds docs/beyond/robustness/evaluation.csv
 
@@ -323,6 +326,9 @@ def main(argv: list[str] | None = None) -> int:
     o.add_argument("--out", type=Path, required=True)
     o.add_argument("--smooth", type=int, default=10)
     o.add_argument("--sessions", type=int)
+    r = sub.add_parser("rows")
+    r.add_argument("study", type=Path)
+    r.add_argument("--out", type=Path, required=True)
     w = sub.add_parser("worlds")
     w.add_argument("evaluation")
     args = ap.parse_args(argv)
@@ -336,6 +342,13 @@ def main(argv: list[str] | None = None) -> int:
     elif args.what == "overlay":
         overlay(args.column, args.out, args.smooth, args.sessions)
         print(f"wrote {args.out}")
+    elif args.what == "rows":  # a study's rows as they stand, as one csv.gz
+        rows = _study_rows(args.study)
+        with gzip.open(args.out, "wt", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        print(f"wrote {args.out} ({len(rows)} rows)")
     elif args.what == "worlds":
         sys.stdout.write(worlds(args.evaluation))
     else:
