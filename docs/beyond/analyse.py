@@ -20,6 +20,10 @@
             docs/beyond/load_afferent/results.csv.gz:flat "with the load afferent" \
         --out docs/beyond/load_afferent/fig3c_load_afferent.png
 
+    # per run of each study, the measures over the sessions all its seeds have done
+    python docs/beyond/analyse.py table docs/ablation/streams/results.csv.gz:astrocytes \
+        docs/beyond/drive_sweep/rows.csv.gz --sessions 120 --seeds 1-8
+
     # the rows of a study folder as they stand (finished or not), as one table
     python docs/beyond/analyse.py rows out/load_afferent --out docs/beyond/load_afferent/rows.csv.gz
 
@@ -160,6 +164,34 @@ def paired(a_spec: str, b_spec: str, sessions: int | None, last: int) -> str:
                      f"{np.nanmean(y):.3f} ± {np.nanstd(y):.3f} | "
                      f"{d.mean() if len(d) else math.nan:.3f} ± "
                      f"{d.std() if len(d) else math.nan:.3f} | {ps} |")
+    return "\n".join(lines) + "\n"
+
+
+def table(specs: list[str], sessions: int | None, last: int, seeds: str | None) -> str:
+    """Per run (a condition and sweep point) of each study: the measures of :func:`measures`,
+    mean ± std over its seeds, over the sessions all its seeds have done (at most
+    ``sessions``)."""
+    keep = None
+    if seeds:
+        lo, _, hi = seeds.partition("-")
+        keep = set(range(int(lo), int(hi or lo) + 1))
+    lines = ["| run | seeds | sessions | " + " | ".join(MEASURES) + " |",
+             "|---|---|---|" + "---|" * len(MEASURES)]
+    for spec in specs:
+        rows, _ = read_rows(spec)
+        for run_id in dict.fromkeys(r["run_id"] for r in rows):
+            series = per_seed([r for r in rows if r["run_id"] == run_id], sessions)
+            if keep is not None:
+                series = {s: v for s, v in series.items() if s in keep}
+            S = min(len(v) for v in series.values())
+            m = np.array([measures(v[:S], last) for v in series.values()])
+            cells = []
+            for k, name in enumerate(MEASURES):
+                x = m[:, k]
+                never = f" ({int(np.isnan(x).sum())} never)" if np.isnan(x).any() else ""
+                cells.append(f"{np.nanmean(x):.2f} ± {np.nanstd(x):.2f}{never}"
+                             if not np.isnan(x).all() else "never")
+            lines.append(f"| {run_id} | {len(series)} | 1–{S} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -326,6 +358,11 @@ def main(argv: list[str] | None = None) -> int:
     o.add_argument("--out", type=Path, required=True)
     o.add_argument("--smooth", type=int, default=10)
     o.add_argument("--sessions", type=int)
+    t = sub.add_parser("table")
+    t.add_argument("results", nargs="+")
+    t.add_argument("--sessions", type=int)
+    t.add_argument("--last", type=int, default=20)
+    t.add_argument("--seeds", help="FIRST-LAST: only these seeds")
     r = sub.add_parser("rows")
     r.add_argument("study", type=Path)
     r.add_argument("--out", type=Path, required=True)
@@ -342,6 +379,8 @@ def main(argv: list[str] | None = None) -> int:
     elif args.what == "overlay":
         overlay(args.column, args.out, args.smooth, args.sessions)
         print(f"wrote {args.out}")
+    elif args.what == "table":
+        sys.stdout.write(table(args.results, args.sessions, args.last, args.seeds))
     elif args.what == "rows":  # a study's rows as they stand, as one csv.gz
         rows = _study_rows(args.study)
         with gzip.open(args.out, "wt", newline="") as f:
