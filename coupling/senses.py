@@ -100,6 +100,9 @@ SENSE_READERS: dict[str, Callable[[Robots, np.ndarray], None]] = {
     "torso_height": _height, "torso_z_up": _z_up,
 }
 
+#: The senses read from the feet's touch sensors (a robot model may lack them).
+NEEDS_TOUCH = frozenset({"foot_force", "foot_contact"})
+
 
 class _BoundSense:
     """One model variable bound to a robot sense: writes the sense's buffer into the cells of
@@ -139,7 +142,7 @@ def bind_senses(cpg: CPG, robots: Robots, models: ModelSet
         for var, binding in (getattr(model, "senses", None) or {}).items():
             culprit = f"{model.name}.senses.{var}"
             sense = ROBOT_SENSES[binding.sense]
-            if binding.sense in ("foot_force", "foot_contact") and robots.layout.touch_adr is None:
+            if binding.sense in NEEDS_TOUCH and robots.layout.touch_adr is None:
                 raise InputError(f"the robot model has no foot touch sensors "
                                  f"({', '.join(f'{leg}_foot_touch' for leg in LEGS)}), which "
                                  f"the sense '{binding.sense}' reads", culprit=culprit)
@@ -187,8 +190,9 @@ class Senses:
         self._alive_senses = tuple((k, ALIVE_SENSES[k]) for k in models.alive.inputs)
         self.reward = np.zeros(B)
         self.alive = np.ones(B, dtype=bool)
-        # robot senses bound by the neuron models (none by default)
         self._robots = robots
+        self._speed = np.zeros(B)
+        # robot senses bound by the neuron models (none by default)
         self._bound_readers, self._bound_writers = bind_senses(cpg, robots, models)
 
     def sense(self) -> None:
@@ -196,8 +200,8 @@ class Senses:
         fq = self._fq
         v = self._velocity  # free joint: linear velocity in the world frame
         omega = self._angular  # angular velocity in the torso frame (= gyro)
-        speed = np.sqrt(np.einsum("ij,ij->i", v, v))
-        self._torso_speed[:] = speed[:, None, None]
+        _torso_speed(self._robots, self._speed)  # the one definition, also a bindable sense
+        self._torso_speed[:] = self._speed[:, None, None]
         qpos = self._qpos
         thigh = qpos[:, self._qa[:, _THIGH]]  # (B, 4)
         self._limit[:, :, _FLEXOR] = thigh < self._flexor_limit

@@ -10,10 +10,6 @@
     python docs/beyond/analyse.py paired docs/ablation/streams/results.csv.gz:astrocytes \
         docs/beyond/load_afferent/results.csv.gz:flat --sessions 150 --last 20
 
-    # the rows two studies share are the same numbers (a seed trained in another batch)
-    python docs/beyond/analyse.py same docs/ablation/streams/results.csv.gz:astrocytes \
-        docs/beyond/load_afferent/results.csv.gz:flat
-
     # the same seeds in two studies, drawn over each other (one column per ground)
     python docs/beyond/analyse.py overlay --sessions 150 \
         --column "flat ground" docs/ablation/streams/results.csv.gz:astrocytes "without" \
@@ -70,10 +66,15 @@ def _study_rows(folder: Path) -> list[dict[str, str]]:
         spec = json.loads((run / "status.json").read_text())["spec"]
         if not (run / "sessions.csv").exists():
             continue
+        gaits = {}  # a finished run's final gait per trial (gait.csv)
+        if (run / "gait.csv").exists():
+            with open(run / "gait.csv", newline="") as f:
+                gaits = {r["trial"]: r["final_gait"] for r in csv.DictReader(f)}
         with open(run / "sessions.csv", newline="") as f:
             for r in csv.DictReader(f):
                 rows.append({**r, "run_id": run.name, "condition": spec["condition"],
-                             "seed": str(int(spec["seed"]) + int(r["trial"]))})
+                             "seed": str(int(spec["seed"]) + int(r["trial"])),
+                             "final_gait": gaits.get(r["trial"], "")})
     return rows
 
 
@@ -92,13 +93,6 @@ def read_rows(spec: str) -> tuple[list[dict[str, str]], str | None]:
         if not rows:
             sys.exit(f"analyse.py: no rows of condition {condition!r} in {path}")
     return rows, condition or None
-
-
-def _where(rows: list[dict[str, str]], where: list[str]) -> list[dict[str, str]]:
-    for w in where:
-        key, _, value = w.partition("=")
-        rows = [r for r in rows if key in r["run_id"] and f"{key}={value}" in r["run_id"]]
-    return rows
 
 
 def per_seed(rows: list[dict[str, str]], sessions: int | None) -> dict[int, np.ndarray]:
@@ -170,13 +164,14 @@ def paired(a_spec: str, b_spec: str, sessions: int | None, last: int) -> str:
 def table(specs: list[str], sessions: int | None, last: int, seeds: str | None) -> str:
     """Per run (a condition and sweep point) of each study: the measures of :func:`measures`,
     mean ± std over its seeds, over the sessions all its seeds have done (at most
-    ``sessions``)."""
+    ``sessions``), and the count of each final gait (a 5 s run of each seed's final table;
+    "–" where the run has not finished)."""
     keep = None
     if seeds:
         lo, _, hi = seeds.partition("-")
         keep = set(range(int(lo), int(hi or lo) + 1))
-    lines = ["| run | seeds | sessions | " + " | ".join(MEASURES) + " |",
-             "|---|---|---|" + "---|" * len(MEASURES)]
+    lines = ["| run | seeds | sessions | " + " | ".join(MEASURES) + " | final gait |",
+             "|---|---|---|" + "---|" * (len(MEASURES) + 1)]
     for spec in specs:
         rows, _ = read_rows(spec)
         for run_id in dict.fromkeys(r["run_id"] for r in rows):
@@ -191,83 +186,15 @@ def table(specs: list[str], sessions: int | None, last: int, seeds: str | None) 
                 never = f" ({int(np.isnan(x).sum())} never)" if np.isnan(x).any() else ""
                 cells.append(f"{np.nanmean(x):.2f} ± {np.nanstd(x):.2f}{never}"
                              if not np.isnan(x).all() else "never")
+            gait = {r["seed"]: r.get("final_gait", "") for r in rows if r["run_id"] == run_id}
+            counts: dict[str, int] = {}
+            for seed, label in gait.items():
+                if keep is None or int(seed) in keep:
+                    counts[label or "–"] = counts.get(label or "–", 0) + 1
+            cells.append(", ".join(f"{k} {v}" for k, v in sorted(counts.items(),
+                                                                  key=lambda kv: -kv[1])))
             lines.append(f"| {run_id} | {len(series)} | 1–{S} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
-
-
-COLUMNS = ("length_s", "final_x_m", "mean_reward", "mean_forward_speed_m_per_s",
-           "spikes_thigh_motor", "spikes_calf_motor", "spikes_interneuron",
-           "adenosine_releases", "progress", "t_learning_start_s", "diverged")
-
-
-def same(a_spec: str, b_spec: str, where: list[str]) -> str:
-    """How many of the (seed, session) rows both hold differ in any column."""
-    a_rows, _ = read_rows(a_spec)
-    b_rows, _ = read_rows(b_spec)
-    b_rows = _where(b_rows, where)
-    a = {(r["seed"], r["session"]): r for r in a_rows}
-    shared = [(k, r) for k in [(r["seed"], r["session"]) for r in b_rows] for r in [a.get(k)]
-              if r is not None]
-    b = {(r["seed"], r["session"]): r for r in b_rows}
-    differ = [k for k, r in shared if any(r[c] != b[k][c] for c in COLUMNS)]
-    seeds = sorted({int(k[0]) for k, _ in shared})
-    text = (f"{len(shared)} rows shared (seeds {seeds[0]}-{seeds[-1]}, "
-            f"{len(COLUMNS)} columns each); {len(differ)} differ")
-    if differ:
-        text += f"; first: seed {differ[0][0]} session {differ[0][1]}"
-    return text + "\n"
-
-
-def worlds(path: str) -> str:
-    from scipy import stats
-
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    rng = np.random.default_rng(1)
-    # condition -> world -> controller -> [fell, speed, trot] per repeat
-    table: dict[str, dict[str, dict[str, list[list[float]]]]] = {}
-    for r in rows:
-        table.setdefault(r["condition"], {}).setdefault(r["world"], {}).setdefault(
-            f'{r["source"]}:{r["seed"]}', []).append(
-            [float(r["fell"]), float(r["mean_speed_m_per_s"]), float(r["gait"] == "trot")])
-    conditions = list(table)
-    world_names = list(dict.fromkeys(w for c in conditions for w in table[c]))
-
-    def per_controller(c: str, w: str) -> np.ndarray:
-        return np.array([np.mean(v, axis=0) for v in table[c][w].values()])
-
-    def ci(x: np.ndarray) -> tuple[float, float]:
-        means = x[rng.integers(0, len(x), (10000, len(x)))].mean(axis=1)
-        return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
-
-    labels = ("falls (share of runs)", "speed (m/s)", "trot (share of runs)")
-    n = {c: len(next(iter(table[c].values()))) for c in conditions}
-    reps = {c: len(next(iter(next(iter(table[c].values())).values()))) for c in conditions}
-    lines = [f"Controllers: {', '.join(f'{c} {n[c]} ({reps[c]} repeats each)' for c in conditions)}."
-             f" Mean over controllers [95 % bootstrap interval].", ""]
-    for k, label in enumerate(labels):
-        head = " | ".join(c.replace("_", " ") for c in conditions)
-        lines += [f"**{label}**", "", f"| world | {head} | difference (first − second) | "
-                  "Mann-Whitney p |", "|---|" + "---|" * (len(conditions) + 2)]
-        for w in world_names:
-            cells, values = [], []
-            for c in conditions:
-                x = per_controller(c, w)[:, k]
-                lo, hi = ci(x)
-                cells.append(f"{x.mean():.2f} [{lo:.2f}, {hi:.2f}]")
-                values.append(x)
-            if len(values) == 2:
-                a, b = values
-                diffs = (a[rng.integers(0, len(a), (10000, len(a)))].mean(axis=1)
-                         - b[rng.integers(0, len(b), (10000, len(b)))].mean(axis=1))
-                d = f"{a.mean() - b.mean():+.2f} [{np.percentile(diffs, 2.5):+.2f}, " \
-                    f"{np.percentile(diffs, 97.5):+.2f}]"
-                p = (stats.mannwhitneyu(a, b).pvalue if np.any(a != a[0]) or np.any(b != b[0])
-                     or a[0] != b[0] else 1.0)
-                cells += [d, f"{p:.2g}"]
-            lines.append(f"| {w} | " + " | ".join(cells) + " |")
-        lines.append("")
-    return "\n".join(lines)
 
 
 PANELS = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
@@ -349,10 +276,6 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("b")
     p.add_argument("--sessions", type=int)
     p.add_argument("--last", type=int, default=20)
-    s = sub.add_parser("same")
-    s.add_argument("a")
-    s.add_argument("b")
-    s.add_argument("--where", action="append", default=[])
     o = sub.add_parser("overlay")
     o.add_argument("--column", nargs="+", action="append", required=True)
     o.add_argument("--out", type=Path, required=True)
@@ -390,8 +313,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {args.out} ({len(rows)} rows)")
     elif args.what == "worlds":
         sys.stdout.write(worlds(args.evaluation))
-    else:
-        sys.stdout.write(same(args.a, args.b, args.where))
     return 0
 
 
