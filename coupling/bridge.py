@@ -231,7 +231,8 @@ class Bridge:
 
     # ---- the step
     def operation(self, when: str = "end") -> brian2.NetworkOperation:
-        return brian2.NetworkOperation(self.step, dt=self.cpg.dt, when=when, order=0,
+        # on the network's own clock: one clock keeps Brian2 in its single-clock loop
+        return brian2.NetworkOperation(self.step, clock=self.cpg.clock, when=when, order=0,
                                        name="bridge")
 
     def step(self) -> None:

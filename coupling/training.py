@@ -142,7 +142,7 @@ class Training:
         # after the weight update (order 10) and before a checkpoint (order 20)
         self._starting = np.zeros(B, dtype=bool)
         self._any_starting = False
-        cpg.net.add(NetworkOperation(self._take_starts, dt=cpg.dt, when="end", order=15,
+        cpg.net.add(NetworkOperation(self._take_starts, clock=cpg.clock, when="end", order=15,
                                      name="session_starts"))
         bridge.add_hook("after_physics", "training", self.step, order=ORDER_TRAINING)
         bridge.add_hook("diverged", "training_diverged", self._diverged, order=ORDER_TRAINING)

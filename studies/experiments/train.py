@@ -107,7 +107,7 @@ class Trainer:
                 max_steps=self.training.max_steps,
                 step_in_session=self.training.step_in_session, on_recorded=self._write_recording)
         # after the weight update of the step (interlimb_learning, order 10)
-        self.cpg.net.add(NetworkOperation(self._maybe_checkpoint, dt=self.cpg.dt, when="end",
+        self.cpg.net.add(NetworkOperation(self._maybe_checkpoint, clock=self.cpg.clock, when="end",
                                           order=20, name="checkpoint"))
         self._pending = False
         self._next_checkpoint = -math.inf  # time.monotonic() from when the next write may come
@@ -323,10 +323,21 @@ def _rename_clocks(state: dict[str, Any], net) -> dict[str, Any]:
 
     current = {_CLOCK.sub(r"\1", obj.clock.name): obj.clock.name
                for obj in _get_all_objects(net.objects)}
-    out = {}
+    out, stored = {}, []
     for key, value in state.items():
         m = _CLOCK.match(key)
-        out[current.get(m.group(1), key) if m else key] = value
+        if not m:
+            out[key] = value
+            continue
+        stored.append(value)
+        if m.group(1) in current:
+            out[current[m.group(1)]] = value
+    # a checkpoint written when every object had its own clock, resumed by a network whose
+    # objects share one (cpg_clock): the clocks stepped together, so any of them has its time
+    # (and the clocks the network no longer has are left out: Brian2 refuses unknown names)
+    for name in current.values():
+        if name not in out and stored:
+            out[name] = stored[0]
     return out
 
 
