@@ -45,6 +45,10 @@ _MASK64 = (1 << 64) - 1
 #: not give a parameter such a name: :data:`astrocpg.models.names.DRAW_PREFIXES`).
 RAND_NAME, RANDN_NAME = (prefix + "{}" for prefix in DRAW_PREFIXES)
 _CALL = re.compile(r"\b(randn|rand)\s*\(\s*\)")
+#: A whole condition "rand() < p" whose p holds no draw, comparison or logical operator (so
+#: that it is the comparison's whole right side): rewritten into one Bernoulli call
+_BERNOULLI = re.compile(r"^\s*rand\s*\(\s*\)\s*<\s*((?:(?!\brandn?\b|\band\b|\bor\b|\bnot\b)"
+                        r"[^<>=!\n:])+)$")
 #: How the next networks draw: "streams" (the framework's, always outside measurements) or
 #: "brian" (Brian2's own generator, what astrocpg drew from before the streams). Only
 #: ``benchmarks/noise_cost.py`` changes it, to compare what the two cost within a step.
@@ -222,6 +226,34 @@ cdef double {name}(int64_t step, size_t _idx):
     return f
 
 
+def _bernoulli_function(name: str, streams: list[SiteStream]) -> Function:
+    """``rand() < p`` as one call: the same uniform, but C draws it only where ``p`` leaves the
+    comparison open (a uniform in [0, 1) is below any p >= 1 and below no p <= 0, NaN
+    included), so the result is that of the comparison, bit for bit, at a fraction of the
+    draws (a threshold far from its transition). Numpy draws for every element as before."""
+    s = streams[0]
+
+    def numpy_bernoulli(step: Any, p: Any, idx: Any) -> np.ndarray:
+        return s.uniform(step, idx) < p
+
+    f = Function(pyfunc=lambda step, p: False, arg_units=[1, 1], return_unit=bool,
+                 arg_types=["integer", "float"], return_type="boolean", stateless=False,
+                 auto_vectorise=True)
+    f.implementations.add_implementation("numpy", numpy_bernoulli, name=name)
+    code = _cython_uniform(name, s.site, s.width) + f'''
+cdef bint {name}(int64_t step, double p, size_t _idx):
+    if p >= 1.0:
+        return True
+    if not p > 0.0:
+        return False
+    return {name}_word(step, _idx) < p
+'''
+    f.implementations.add_implementation("cython", code=code, name=name,
+                                         namespace=s.namespace(),
+                                         dependencies={"_astrocpg_philox": _philox_dependency})
+    return f
+
+
 def box_muller(u1: np.ndarray, u2: np.ndarray) -> np.ndarray:
     """Standard normals from two uniforms in [0, 1) (the C code of ``randn()`` is the same)."""
     return np.sqrt(-2.0 * np.log1p(-u1)) * np.cos(2.0 * np.pi * u2)
@@ -274,6 +306,12 @@ class Rewriter:
         """``code`` with its draws rewritten (non-strings and strings without draws as given)."""
         if not isinstance(code, str) or "rand" not in code or DRAWS == "brian":
             return code
+        whole = _BERNOULLI.match(code)
+        if whole:  # "rand() < p" (a stochastic threshold): one call that may skip the draw
+            position = len(self.sites)
+            name = RAND_NAME.format(position)
+            self.sites.append(("bernoulli", name, position))
+            return f"{name}(t_in_timesteps, {whole.group(1).strip()})"
 
         def one(match: re.Match) -> str:
             kind = match.group(1)
@@ -299,6 +337,8 @@ class Rewriter:
                                   offset=offset)
             if kind == "rand":
                 out.functions[name] = _uniform_function(name, [stream(False)])
+            elif kind == "bernoulli":
+                out.functions[name] = _bernoulli_function(name, [stream(False)])
             else:
                 out.functions[name] = _normal_function(name, [stream(False), stream(True)])
         return out

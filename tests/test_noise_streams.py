@@ -240,3 +240,40 @@ def test_cython_seed_alone_equals_its_trial_and_agrees_with_numpy(tmp_path: Path
         assert np.array_equal(t, alone.spikes[pop][0]) and np.array_equal(i, alone.spikes[pop][1])
     dq = np.max(np.abs(numpy_run.robot["joint_angles"] - alone.robot["joint_angles"]))
     assert dq < 1e-9
+
+
+# ---- a stochastic threshold drawn only where its probability is open
+def test_a_threshold_rand_below_p_is_one_bernoulli_call_of_the_same_stream() -> None:
+    draws = noise.Rewriter("motor")
+    code = draws("rand() < 0.5*(1 + tanh((v - v_th)/S))")
+    assert code == "rand_stream_0(t_in_timesteps, 0.5*(1 + tanh((v - v_th)/S)))"
+    assert [(k, n, p) for k, n, p in draws.sites] == [("bernoulli", "rand_stream_0", 0)]
+    # anything else is left to the plain draw: a conjunction, a second draw, a reversed test
+    for text in ("rand() < p and v > 0*mV", "rand() < rand()", "p > rand()",
+                 "(rand() < p)"):
+        other = noise.Rewriter("motor")
+        other(text)
+        assert all(k != "bernoulli" for k, _, _ in other.sites), text
+
+
+@pytest.mark.parametrize("codegen", ["numpy", pytest.param("cython", marks=pytest.mark.slow)])
+def test_the_bernoulli_threshold_spikes_exactly_as_the_comparison(codegen, monkeypatch) -> None:
+    """The motor threshold as one Bernoulli call (C skips the draw where p is 0 or 1) against
+    the same comparison written so that it stays a plain draw: the same site, the same
+    stream, so the same spikes, step for step."""
+    from astrocpg.models import DEFAULT_MODELS
+    from astrocpg.models.files import model_to_toml
+    from astrocpg.models.motor_neuron import THRESHOLD
+    monkeypatch.setenv("ASTROCPG_CODEGEN", codegen)  # the unit's Brian2 target
+    text = model_to_toml(DEFAULT_MODELS.motor_neuron)
+    assert THRESHOLD.startswith("rand() <")
+    plain = text.replace(THRESHOLD, f"({THRESHOLD})")
+    assert plain != text
+    runs = [ac.unit(seconds=0.5, seed=3, trials=2, progress=False, traces="none",
+                    models=None if m is None else {"motor_neuron": m})
+            for m in (None, plain)]
+    a, b = (r.spikes["motor"] for r in runs)
+    assert len(a[0]) > 100
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
+
