@@ -45,16 +45,24 @@ class Recording:
     @classmethod
     def allocate(cls, n_trials: int, n_steps: int, stride: int, dt: float) -> "Recording":
         n = (n_steps + stride - 1) // stride
+
+        def full(shape: tuple[int, ...], value: float | bool, dtype: type = float) -> np.ndarray:
+            # written through now: the run's memory is taken at its start, not page by page
+            # inside the step
+            a = np.empty(shape, dtype=dtype)
+            a[...] = value
+            return a
+
         return cls(
             stride=stride,
             t=(np.arange(n) * stride + 1) * dt,
-            joint_angles=np.zeros((n_trials, n, 4, 3)),
-            torques=np.zeros((n_trials, n, 4, 3)),
-            torso_position=np.zeros((n_trials, n, 3)),
-            torso_velocity=np.zeros((n_trials, n, 3)),
-            reward=np.zeros((n_trials, n)),
-            alive=np.zeros((n_trials, n), dtype=bool),
-            foot_force=np.full((n_trials, n, 4), np.nan),
+            joint_angles=full((n_trials, n, 4, 3), 0.0),
+            torques=full((n_trials, n, 4, 3), 0.0),
+            torso_position=full((n_trials, n, 3), 0.0),
+            torso_velocity=full((n_trials, n, 3), 0.0),
+            reward=full((n_trials, n), 0.0),
+            alive=full((n_trials, n), False, bool),
+            foot_force=full((n_trials, n, 4), np.nan),
             torso_quaternion=np.tile([1.0, 0.0, 0.0, 0.0], (n_trials, n, 1)),
         )
 
@@ -68,7 +76,8 @@ class Recording:
         self.torso_quaternion[:, k] = robots.torso["quaternion"]
         self.reward[:, k] = senses.reward
         self.alive[:, k] = senses.alive
-        touch = robots.layout.touch_adr
+        touch = robots.touch_views()
         if touch is not None:
-            for b, d in enumerate(robots.data):
-                self.foot_force[b, k] = d.sensordata[touch]
+            force = self.foot_force[:, k]
+            for b, sensed in enumerate(touch):
+                force[b] = sensed

@@ -71,6 +71,21 @@ class Robots:
         # per trial, cached once: MjData, its ctrl, qpos, qvel views and warning counters
         self._mj = [(d, d.ctrl, d.qpos, d.qvel, memoryview(d.warning.number))
                     for d in self.data]
+        self._touch: list[np.ndarray] | None = None  # touch_views(), made at first use
+
+    def touch_views(self) -> list[np.ndarray] | None:
+        """Per trial, its feet's touch sensors (4,) in MjData's sensordata: live views where
+        the four are contiguous (the built-in A1), else None when the robot has none."""
+        touch = self.layout.touch_adr
+        if touch is None:
+            return None
+        if self._touch is None:
+            a = int(touch[0])
+            if np.array_equal(touch, np.arange(a, a + len(touch))):
+                self._touch = [d.sensordata[a:a + len(touch)] for d in self.data]
+            else:  # scattered addresses: a copy each call (user robots)
+                return [d.sensordata[touch] for d in self.data]
+        return self._touch
 
     def reset(self, b: int) -> None:
         """Reset trial ``b``'s robot to its start pose and read its state."""

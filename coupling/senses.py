@@ -61,9 +61,8 @@ def _joint_velocity(j: int) -> Callable[[Robots, np.ndarray], None]:
 
 def _foot_force(robots: Robots, out: np.ndarray) -> None:
     # the feet's touch sensors, computed by mj_step (the robot model must have them)
-    touch = robots.layout.touch_adr
-    for b, d in enumerate(robots.data):
-        np.take(d.sensordata, touch, out=out[b])
+    for b, sensed in enumerate(robots.touch_views()):
+        out[b] = sensed
 
 
 def _foot_contact(robots: Robots, out: np.ndarray) -> None:

@@ -174,6 +174,9 @@ def _add_simulation_options(p: argparse.ArgumentParser, seconds: float) -> None:
     p.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",
                    help="sampling interval of the Ca2+/IP3/2-AG/adenosine traces in ms, a "
                         "whole number of 1 ms steps (default 1 ms)")
+    p.add_argument("--trace-dtype", default="float32", choices=("float32", "float64"),
+                   help="what the traces are kept as: float32 (default, 7 significant digits, "
+                        "half the memory) or float64 (Brian2's full resolution)")
 
 
 def _add_overwrite(p: argparse.ArgumentParser) -> None:
@@ -665,7 +668,8 @@ def _cmd_unit(args: argparse.Namespace) -> int:
     from .experiments.unit import format_rhythm, unit
 
     result = unit(seconds=args.seconds, seed=args.seed, trials=args.trials,
-                  trace_dt=args.trace_dt, spikes=args.spikes, traces=args.traces, out=args.out,
+                  trace_dt=args.trace_dt, trace_dtype=args.trace_dtype, spikes=args.spikes,
+                  traces=args.traces, out=args.out,
                   overwrite=args.overwrite, progress=not args.no_progress,
                   settings=_settings(args), inputs=_input_files(args), **_models(args))
     for b, s in enumerate(result.summary["rhythm"]):
@@ -682,7 +686,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     result = run(seconds=args.seconds, seed=args.seed, trials=args.trials, weights=args.weights,
                  trial=args.trial, robot=args.robot, trace_dt=args.trace_dt,
-                 robot_stride=args.robot_stride, spikes=args.spikes, traces=args.traces,
+                 trace_dtype=args.trace_dtype, robot_stride=args.robot_stride, spikes=args.spikes, traces=args.traces,
                  out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
                  figure=args.figure, settings=_settings(args), inputs=_input_files(args),
                  **_models(args))

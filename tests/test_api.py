@@ -86,10 +86,12 @@ def test_load_gives_the_same_result(in_process, run_folder):
     assert loaded.manifest["astrocpg_command"] == "run"
     assert in_process.manifest["settings"]["seed"] == 3
     # live objects only in the process that made the result
-    from brian2 import Network, SpikeMonitor, StateMonitor
+    from brian2 import Network, SpikeMonitor
+
+    from astrocpg.network.recording import TraceRecorder
     assert isinstance(in_process.network, Network)
     assert isinstance(in_process.monitors["motor"], SpikeMonitor)
-    assert isinstance(in_process.monitors["astrocyte_state"], StateMonitor)
+    assert isinstance(in_process.monitors["traces"], TraceRecorder)
     assert len(in_process.monitors["motor"].t) == len(in_process.spikes["motor"][0])
     assert loaded.network is None and loaded.monitors is None
     assert loaded.models == in_process.models  # rebuilt from the manifest

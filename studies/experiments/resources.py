@@ -12,7 +12,8 @@ from ...errors import InputError
 # state per trial; with its MjData, bridge arrays and code-object buffers we count 1 MB.
 BYTES_PER_TRIAL = 1_000_000
 # What the recorders keep per trial and simulated second at their densest (1 ms sampling):
-# spikes ~9,000/s x 12 B; motor Ca2+ 320 columns and astrocyte traces 4 x 8 columns x 8 B;
+# spikes ~9,000/s x 12 B; motor Ca2+ 320 columns and astrocyte traces 4 x 8 columns, each value
+# float32 (4 B) or float64 (network/recording.py: arrays of the run's size, allocated once);
 # the robot's ~40 float64 per step.
 SPIKE_BYTES_PER_TRIAL_S = 9_000 * 12
 TRACE_COLUMNS_PER_TRIAL = {"motor_Ca": 320, "astrocyte_Ca": 8, "astrocyte_IP3": 8,
@@ -48,14 +49,15 @@ def available_memory() -> int:
 
 def estimate_bytes(*, trials: int, seconds: float, dt: float = 1e-3, trace_dt: float = 1e-3,
                    robot_stride: int | None = None, traces: tuple[str, ...] = (),
-                   spikes: bool = True, sessions: int = 0) -> int:
+                   spikes: bool = True, sessions: int = 0, trace_bytes: int = 4) -> int:
     """Bytes a simulation of ``trials`` for ``seconds`` holds at its end (state + records),
-    or a training of ``sessions`` sessions per trial (its rows and tables)."""
+    or a training of ``sessions`` sessions per trial (its rows and tables). ``trace_bytes``:
+    per trace value (4: float32, the default; 8: float64)."""
     steps = seconds / dt
     per_trial = float(BYTES_PER_TRIAL) + float(SESSION_BYTES_PER_TRIAL) * sessions
     if spikes:
         per_trial += SPIKE_BYTES_PER_TRIAL_S * seconds
-    per_trial += sum(TRACE_COLUMNS_PER_TRIAL.get(t, 8) for t in traces) * 8 * seconds / trace_dt
+    per_trial += sum(TRACE_COLUMNS_PER_TRIAL.get(t, 8) for t in traces) * trace_bytes * seconds / trace_dt
     if robot_stride:
         per_trial += ROBOT_FLOATS_PER_STEP * 8 * steps / robot_stride
     return int(per_trial * trials)

@@ -24,6 +24,7 @@ from ...models.compose import Overrides, model_files_record, model_set, override
 from .settings import number, seed_number
 from .resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
+                       check_trace_dtype,
                        firing_rates, simulate_closed_loop)
 
 ROBOT_FILE = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t, leg, joint) "
@@ -36,7 +37,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
         models: Mapping[str, Any] | None = None,
         weights: str | Path | np.ndarray | None = None, trial: int | None = None,
-        robot: str | Path | None = None, trace_dt: float = 1.0, robot_stride: int = 1,
+        robot: str | Path | None = None, trace_dt: float = 1.0, trace_dtype: str = "float32",
+        robot_stride: int = 1,
         spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
         out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
         figure: bool = False, settings: Mapping[str, Any] | None = None,
@@ -50,7 +52,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     weights: an 8x8 table in mV as a file (.npy/.npz/.json/.csv) or a training folder (its final
     tables; ``trial`` picks one), or an array in volt of shape (8, 8) or (trials, 8, 8); default
     zero. robot: an MJCF file with the A1's joint and actuator names (default: the project's
-    A1). trace_dt in ms; robot_stride in physics steps. spikes / traces: which populations and
+    A1). trace_dt in ms; trace_dtype: the traces kept as float32 (default) or float64 (full
+    resolution); robot_stride in physics steps. spikes / traces: which populations and
     traces to record (None: all). out: writes the folder ``astrocpg run`` writes. figure: also
     draw ``thigh_extensor_activity.png`` there (about a second; ``astrocpg plot OUT`` draws it
     and the other figures at any time later). inputs: other files the caller read (e.g. model
@@ -77,6 +80,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
     check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
     robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
+    trace_dtype = check_trace_dtype(trace_dtype)
     check_duration(seconds, STEP)
     # what the run reads: --out may not replace it (nor hold it)
     inputs = [*inputs, *([weights] if isinstance(weights, (str, os.PathLike)) else []),
@@ -85,7 +89,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
     pops, names = check_selection(spikes, traces)
     check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
-                                traces=names, spikes=bool(pops), robot_stride=robot_stride),
+                                traces=names, spikes=bool(pops), robot_stride=robot_stride,
+                                trace_bytes=np.dtype(trace_dtype).itemsize),
                  culprit=f"--seconds {seconds:g} x --trials {trials}")
     files = model_files_record(models)
     models = model_set(overrides, equations, models=models)
@@ -116,7 +121,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     layout = RobotLayout.from_model(model, params)
     settings = dict(settings or {}) or {
         "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-        "robot_stride": robot_stride, "overrides": override_items(overrides),
+        "trace_dtype": trace_dtype, "robot_stride": robot_stride, "overrides": override_items(overrides),
         "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
         "weights": None if weights is None or isinstance(weights, np.ndarray)
         else str(weights), "trial": trial, "robot": None if robot is None else str(robot),
@@ -130,7 +135,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         result = simulate_closed_loop(models, model, layout, seconds=seconds, seed=seed,
                                       n_trials=trials, weights=table, trace_dt=trace_dt * ms,
                                       robot_stride=robot_stride, spikes=spikes, traces=traces,
-                                      progress=progress)
+                                      progress=progress, trace_dtype=trace_dtype)
     except Diverged as e:  # the folder keeps what ran, and says it diverged
         if out is not None and getattr(e, "result", None) is not None:
             _summarise(e.result, models, start_x, robot_info, table, e)
@@ -307,7 +312,8 @@ def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str,
 
 #: run settings a replay takes from the training, with their defaults
 REPLAY_FIXED = {"seconds": 10.0, "seed": 1, "trials": 1, "overrides": None, "equations": None,
-                "models": None, "robot": None, "robot_stride": 1, "figure": False}
+                "models": None, "robot": None, "robot_stride": 1, "figure": False,
+                "trace_dtype": "float32"}
 
 
 def _replay(given: dict[str, Any]) -> Result:

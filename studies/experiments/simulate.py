@@ -11,7 +11,7 @@ from typing import Any
 
 import mujoco
 import numpy as np
-from brian2 import NetworkOperation, SpikeMonitor, StateMonitor, ms, second
+from brian2 import NetworkOperation, SpikeMonitor, ms, second
 
 from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import ORDER_MEASURE, Recording
@@ -22,6 +22,7 @@ from ...models.units import whole_steps
 from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, exclusive,
                         network_time, run_network)
 from ...network.recordable import POPULATIONS, TRACES, spike_populations, trace_sources
+from ...network.recording import TRACE_DTYPES, TraceRecorder
 from .progress import time_bar
 
 
@@ -79,25 +80,26 @@ def check_selection(spikes: tuple[str, ...] | None,
 
 
 def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
-              spikes: tuple[str, ...] = POPULATIONS,
-              traces: tuple[str, ...] = TRACES) -> dict[str, Any]:
-    """Spike monitors of ``spikes`` and state monitors (every ``trace_dt``) of ``traces``,
-    added to the network; returns them by population / ``<group>_state``: a monitor, or a tuple
-    of them, one per stage, where the limbs integrate in stages (:meth:`CPG.parts`)."""
+                 spikes: tuple[str, ...] = POPULATIONS,
+                 traces: tuple[str, ...] = TRACES, *, n_steps: int | None = None,
+                 trace_dtype: str = "float32") -> dict[str, Any]:
+    """Spike monitors of ``spikes`` (Brian2's, by population: a monitor, or a tuple of them,
+    one per stage, where the limbs integrate in stages: :meth:`CPG.parts`) and, under
+    ``"traces"``, a :class:`~astrocpg.network.recording.TraceRecorder` of ``traces`` sampled
+    every ``trace_dt`` for the next ``n_steps`` steps (default: 10 simulated s), kept as
+    ``trace_dtype``; all added to the network."""
     mons: dict[str, Any] = {}
     for p in spikes:
         ms = tuple(SpikeMonitor(part.obj, name=f"spikes_{part.name}") for part in cpg.parts(p))
         mons[p] = ms[0] if len(ms) == 1 else ms
-    if record_traces:
-        per_group: dict[str, list[str]] = {}
-        for name in traces:
-            group, var, _, _ = trace_sources()[name]
-            per_group.setdefault(group, []).append(var)
-        for group, variables in per_group.items():
-            ms = tuple(StateMonitor(part.obj, variables, record=True, dt=trace_dt,
-                                    name=f"trace_{part.name}") for part in cpg.parts(group))
-            mons[f"{group}_state"] = ms[0] if len(ms) == 1 else ms
     cpg.net.add(*(m for ms in mons.values() for m in (ms if isinstance(ms, tuple) else (ms,))))
+    if record_traces and traces:
+        stride = int(round(float(trace_dt) / float(cpg.dt)))
+        steps = int(round(10.0 / float(cpg.dt))) if n_steps is None else int(n_steps)
+        recorder = TraceRecorder(cpg, tuple(traces), stride=stride, n_steps=steps,
+                                 dtype=trace_dtype)
+        cpg.net.add(recorder.operation())
+        mons["traces"] = recorder
     return mons
 
 
@@ -123,24 +125,7 @@ def _collect(cpg: CPG, mons: dict[str, Any]) -> tuple[dict, dict]:
             order = np.argsort(t, kind="stable")
             t, i = t[order], i[order]
         spikes[p] = (t, i)
-    traces = {}
-    for name, (group, var, scale, _) in trace_sources().items():
-        if f"{group}_state" not in mons:
-            continue
-        ms = _with_numbers(cpg, group, mons[f"{group}_state"])
-        if var not in ms[0][0].record_variables:
-            continue
-        with np.errstate(over="ignore", invalid="ignore"):  # a diverged trace: inf, as is
-            parts = [(np.asarray(getattr(m, f"{var}_")[:].T * scale, dtype=np.float32), number)
-                     for m, number in ms]
-        if len(parts) == 1 and parts[0][1] is None:
-            values = parts[0][0]
-        else:
-            values = np.zeros((parts[0][0].shape[0], sum(v.shape[1] for v, _ in parts)),
-                              dtype=np.float32)
-            for v, number in parts:
-                values[:, number] = v
-        traces[name] = (np.asarray(ms[0][0].t_[:]), values)
+    traces = mons["traces"].collected() if "traces" in mons else {}
     return spikes, traces
 
 
@@ -186,13 +171,14 @@ class _Progress:
 def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int = 1,
                   trace_dt: Any = 1 * ms, record_traces: bool = True,
                   spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
-                  progress: bool = True) -> SimulationResult:
+                  progress: bool = True, trace_dtype: str = "float32") -> SimulationResult:
     """One locomotion unit (the FR limb's CPG) open loop: no robot, torso speed 0, no
     limit-position inhibition (the paper's Fig. 1c). ``n_trials`` units with seeds seed..."""
     check_duration(seconds)
     cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=("FR",))
     check_runs(cpg)
-    mons = add_monitors(cpg, trace_dt, record_traces, *check_selection(spikes, traces))
+    mons = add_monitors(cpg, trace_dt, record_traces, *check_selection(spikes, traces),
+                        n_steps=check_duration(seconds), trace_dtype=trace_dtype)
     bar = _Progress(seconds, "unit", progress and seconds > 3)
     steps = [0]
 
@@ -223,7 +209,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
                          robot_stride: int = 1, record_traces: bool = True,
                          record_spikes: bool = True, spikes: tuple[str, ...] | None = None,
                          traces: tuple[str, ...] | None = None,
-                         progress: bool = True) -> SimulationResult:
+                         progress: bool = True, trace_dtype: str = "float32") -> SimulationResult:
     """The whole CPG driving ``n_trials`` robots (default: the project's A1) for ``seconds``,
     inter-limb weights fixed (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero)."""
     check_duration(seconds)
@@ -237,7 +223,8 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
     limit = LimitCount(cpg)
     bridge.add_hook("after_physics", "limit_count", limit, order=ORDER_MEASURE)
     selection = check_selection(spikes, traces)
-    mons = add_monitors(cpg, trace_dt, record_traces, *selection) if record_spikes else {}
+    mons = add_monitors(cpg, trace_dt, record_traces, *selection, n_steps=n_steps,
+                        trace_dtype=trace_dtype) if record_spikes else {}
     t0 = time.perf_counter()
     try:
         wall = _run(cpg, seconds, bar)
@@ -321,6 +308,14 @@ def check_trace_dt(trace_dt_ms: float, dt: float = STEP, culprit: str = "--trace
     """A trace sampling interval (ms) is a whole number of steps: samples are taken at steps,
     and labelled with the sampling times. Returns the steps between samples."""
     return whole_steps(trace_dt_ms, dt * 1e3, culprit=culprit, unit="ms")
+
+
+def check_trace_dtype(dtype: Any, culprit: str = "--trace-dtype") -> str:
+    """What the traces are kept as: "float32" or "float64" (InputError otherwise)."""
+    if dtype not in TRACE_DTYPES:
+        raise InputError(f"must be one of {', '.join(TRACE_DTYPES)}, got {dtype!r}",
+                         culprit=culprit)
+    return str(dtype)
 
 
 def firing_rates(result: SimulationResult) -> dict[str, Any]:

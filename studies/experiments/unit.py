@@ -21,13 +21,15 @@ from ...models.compose import Overrides, model_files_record, model_set, override
 from .settings import number, seed_number
 from .resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
+                       check_trace_dtype,
                        simulate_unit)
 
 
 def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
          models: Mapping[str, Any] | None = None,
-         trace_dt: float = 1.0, spikes: tuple[str, ...] | None = None,
+         trace_dt: float = 1.0, trace_dtype: str = "float32",
+         spikes: tuple[str, ...] | None = None,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
          overwrite: bool = False, progress: bool = True,
          settings: Mapping[str, Any] | None = None,
@@ -38,7 +40,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     overrides: parameter values with units, ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
     equations: ``{model: equation text}`` (e.g. ``{"astrocyte": text}``) replacing a model's
     Brian2 equation string. models: ``{model: model file text}`` replacing whole models.
-    trace_dt: sampling of the traces in ms. spikes / traces: which
+    trace_dt: sampling of the traces in ms; trace_dtype: kept as float32 (default) or float64
+    (full resolution). spikes / traces: which
     populations and traces to record (None: all). out: writes the folder ``astrocpg unit``
     writes, whole or nothing (``settings`` goes into its manifest; a folder that holds files is
     refused unless ``overwrite``, which replaces only an astrocpg output folder that is none of
@@ -55,25 +58,27 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     seed = seed_number(seed, trials=trials)
     trace_dt = number(trace_dt, "--trace-dt", positive=True)
     check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
+    trace_dtype = check_trace_dtype(trace_dtype)
     check_duration(seconds, STEP)
     if out is not None:
         OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
     pops, names = check_selection(spikes, traces)
     check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
-                                traces=names, spikes=bool(pops)),
+                                traces=names, spikes=bool(pops),
+                                trace_bytes=np.dtype(trace_dtype).itemsize),
                  culprit=f"--seconds {seconds:g} x --trials {trials}")
     files = model_files_record(models)
     models = model_set(overrides, equations, models=models)
     settings = dict(settings or {}) or {
         "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-        "overrides": override_items(overrides), "equations": dict(equations or {}),
+        "trace_dtype": trace_dtype, "overrides": override_items(overrides), "equations": dict(equations or {}),
         "spikes": spikes, "traces": traces}
     if files:
         settings["models"] = files  # each model file's content and sha256
     try:
         result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
                                trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
-                               progress=progress)
+                               progress=progress, trace_dtype=trace_dtype)
     except Diverged as e:  # the folder keeps what ran, and says it diverged
         partial = getattr(e, "result", None)
         if out is not None and partial is not None:

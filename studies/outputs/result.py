@@ -7,7 +7,7 @@ and a recorded training session, made in this process or loaded from an output f
     >>> ca = r.trace("astrocyte_Ca")                  # ca.t (second), ca.values (umolar)
     >>> ca.column(trial=0, leg="FR", pool="thigh_extensor")
     >>> r.robot["torso_position"]                     # (trial, t, xyz) m
-    >>> r.network, r.monitors                         # live Brian2 objects (this process only)
+    >>> r.network, r.monitors                         # live objects (this process only)
 
 Indices follow the manifest's ``results.layout`` (:class:`astrocpg.network.Layout`): a motor
 neuron is ``trial*motor_per_trial + (leg*4 + pool)*pool_size + k``, an interneuron

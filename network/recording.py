@@ -1,0 +1,87 @@
+"""Traces of a run, recorded into arrays allocated once for the whole run.
+
+A Brian2 ``StateMonitor`` keeps float64 samples in arrays that grow by doubling as the run
+goes, so a run held up to twice its traces' size in float64, most of it the motor neurons'
+[Ca2+]: about 7 MiB per trial per simulated second. :class:`TraceRecorder` samples the same
+variables at the same point of the step (Brian2's ``start`` slot: the state after the previous
+step, labelled with the step's start time, as a ``StateMonitor`` labels it) into arrays of the
+run's final size, converted to the stored unit (:mod:`astrocpg.network.recordable`) in float64
+and then kept as ``dtype``: float32 by default (7 significant digits: 0.0001 of a [Ca2+] of 10),
+float64 for full resolution. With float32 a default run keeps about 1.8 MiB per trial per
+simulated second (``studies.experiments.resources`` counts it before a run starts).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import brian2
+import numpy as np
+
+from .populations import trace_sources
+
+#: What a trace may be kept as: float32 (default) or float64 (Brian2's own resolution).
+TRACE_DTYPES = ("float32", "float64")
+
+
+class TraceRecorder:
+    """Samples ``traces`` of ``cpg`` every ``stride`` steps for ``n_steps`` steps from the
+    network's time at construction; :meth:`operation` is the ``NetworkOperation`` to add.
+
+    values[name]: (samples, columns) in the files' column order (trial-major), in the trace's
+    stored unit; :meth:`collected` gives ``{name: (t, values)}`` of the samples taken."""
+
+    def __init__(self, cpg: Any, traces: tuple[str, ...], *, stride: int, n_steps: int,
+                 dtype: str = "float32") -> None:
+        if dtype not in TRACE_DTYPES:
+            raise ValueError(f"trace dtype must be one of {', '.join(TRACE_DTYPES)}, "
+                             f"got {dtype!r}")
+        self.cpg, self.stride, self.dtype = cpg, int(stride), np.dtype(dtype)
+        self.n_samples = (int(n_steps) + self.stride - 1) // self.stride
+        self._timestep = cpg.clock.variables["timestep"].get_value()  # live (1,) array
+        self.first_step = int(self._timestep[0])
+        self._next = self.first_step
+        self.samples = 0
+        self.dt = float(cpg.dt)
+        self.sources: dict[str, tuple[Any, np.ndarray, float]] = {}
+        self.values: dict[str, np.ndarray] = {}
+        for name in traces:
+            group, var, scale, _ = trace_sources()[name]
+            table = cpg.table(group, var)
+            # the table's values as one flat view, cached (read() refreshes it in place)
+            self.sources[name] = (table, table.values.reshape(-1), float(scale))
+            # written through once here: the memory is taken now, not page by page in the run
+            self.values[name] = np.empty((self.n_samples, table.values.size), dtype=self.dtype)
+            self.values[name].fill(0)
+
+    def operation(self) -> brian2.NetworkOperation:
+        """At the start of every step, on the network's clock (one clock: Brian2's single-clock
+        loop)."""
+        return brian2.NetworkOperation(self.sample, clock=self.cpg.clock, when="start",
+                                       order=0, name="trace_recorder")
+
+    def sample(self) -> None:
+        if self._timestep[0] != self._next or self.samples >= self.n_samples:
+            return
+        k = self.samples
+        for name, (table, flat, scale) in self.sources.items():
+            table.read()
+            # the stored unit computed in float64 (as before), rounded once to the dtype
+            np.multiply(flat, scale, out=self.values[name][k], casting="unsafe")
+        self.samples = k + 1
+        self._next += self.stride
+
+    def times(self) -> np.ndarray:
+        """Sampling times (s): the start of each sampled step."""
+        return (self.first_step + np.arange(self.samples) * self.stride) * self.dt
+
+    def collected(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """``{trace: (t, values)}`` of the samples taken so far (views, not copies)."""
+        t = self.times()
+        return {name: (t, v[:self.samples]) for name, v in self.values.items()}
+
+    def nbytes(self) -> int:
+        return sum(v.nbytes for v in self.values.values())
+
+
+__all__ = ["TraceRecorder", "TRACE_DTYPES"]

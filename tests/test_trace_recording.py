@@ -1,0 +1,121 @@
+"""The traces a run records: the same data Brian2's StateMonitor records (float32 by default,
+float64 on request), at the same sampling times, in the files' column order, for one stage of
+limbs and for limbs in stages; and a default run's memory per trial per simulated second."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from brian2 import StateMonitor, ms
+
+from astrocpg.coupling.assembly import build_closed_loop
+from astrocpg.errors import InputError
+from astrocpg.models import DEFAULT_MODELS
+from astrocpg.models.compose import model_set
+from astrocpg.network.recordable import trace_sources
+from astrocpg.studies.experiments.resources import estimate_bytes
+from astrocpg.studies.experiments.simulate import _collect, add_monitors
+
+AUTHORS_DELAYS = (Path(__file__).resolve().parents[1] / "models" / "variants"
+                  / "interlimb_authors_delays.toml")
+
+
+def _brian_reference(cpg, trace_dt):
+    """Brian2 StateMonitors of every trace, read as astrocpg read them before its own recorder:
+    in the stored unit, columns in the files' order."""
+    monitors = {}
+    for name, (group, var, scale, _) in trace_sources().items():
+        parts = [(StateMonitor(p.obj, var, record=True, dt=trace_dt), p.number)
+                 for p in cpg.parts(group)]
+        cpg.net.add(*(m for m, _ in parts))
+        monitors[name] = (parts, var, scale)
+
+    def read():
+        out = {}
+        for name, (parts, var, scale) in monitors.items():
+            pieces = [(getattr(m, var + "_")[:].T * scale, number) for m, number in parts]
+            if len(pieces) == 1 and pieces[0][1] is None:
+                values = pieces[0][0]
+            else:
+                values = np.zeros((pieces[0][0].shape[0], sum(v.shape[1] for v, _ in pieces)))
+                for v, number in pieces:
+                    values[:, number] = v
+            out[name] = (np.asarray(parts[0][0].t_[:]), values)
+        return out
+    return read
+
+
+@pytest.mark.parametrize("delays", ["default", "authors"])
+@pytest.mark.parametrize("trace_dt_ms", [1, 3])
+def test_default_traces_are_brian2s_data_as_float32_and_float64_is_exact(delays, trace_dt_ms):
+    models = (DEFAULT_MODELS if delays == "default"
+              else model_set(models={"interlimb_synapse": AUTHORS_DELAYS.read_text()}))
+    seconds = 0.25
+    recorded = {}
+    for dtype in ("float32", "float64"):
+        loop = build_closed_loop(models, n_trials=2, seed=4)
+        cpg = loop.cpg
+        steps = int(round(seconds / float(cpg.dt)))
+        mons = add_monitors(cpg, trace_dt_ms * ms, True, n_steps=steps, trace_dtype=dtype)
+        reference = _brian_reference(cpg, trace_dt_ms * ms)
+        loop.run(seconds)
+        _, traces = _collect(cpg, mons)
+        recorded[dtype] = (traces, reference())
+    traces32, ref = recorded["float32"]
+    traces64, ref64 = recorded["float64"]
+    assert set(traces32) == set(trace_sources())
+    for name, (t, values) in traces32.items():
+        t_ref, v_ref = ref[name]
+        assert values.dtype == np.float32
+        assert values.shape == v_ref.shape == (-(-250 // trace_dt_ms), values.shape[1])
+        np.testing.assert_array_equal(t, t_ref, err_msg=name)
+        # what a run wrote before: Brian2's float64, in the stored unit, then float32
+        np.testing.assert_array_equal(values, v_ref.astype(np.float32), err_msg=name)
+        t64, v64 = traces64[name]
+        assert v64.dtype == np.float64
+        np.testing.assert_array_equal(v64, ref64[name][1], err_msg=name)
+        np.testing.assert_array_equal(t64, ref64[name][0], err_msg=name)
+    # the same run twice: the float32 traces are the float64 ones rounded
+    np.testing.assert_array_equal(traces32["motor_Ca"][1],
+                                  traces64["motor_Ca"][1].astype(np.float32))
+
+
+def test_run_keeps_float64_on_request_and_refuses_other_dtypes(tmp_path):
+    import astrocpg as ac
+
+    r32 = ac.run(seconds=0.05, seed=2, progress=False)
+    r64 = ac.run(seconds=0.05, seed=2, progress=False, trace_dtype="float64",
+                 out=tmp_path / "run64")
+    assert r32.traces["motor_Ca"][1].dtype == np.float32
+    assert r64.traces["motor_Ca"][1].dtype == np.float64
+    np.testing.assert_array_equal(r32.traces["motor_Ca"][1],
+                                  r64.traces["motor_Ca"][1].astype(np.float32))
+    assert r64.manifest["settings"]["trace_dtype"] == "float64"
+    with np.load(tmp_path / "run64" / "traces.npz") as saved:
+        assert saved["motor_Ca"].dtype == np.float64
+    with pytest.raises(InputError, match="float32, float64") as e:
+        ac.run(seconds=0.05, trace_dtype="float16", progress=False)
+    assert e.value.culprit == "--trace-dtype"
+
+
+def test_a_default_run_keeps_at_most_2_mib_per_trial_per_simulated_second():
+    """What the recorders of a default run (every trace at 1 ms, spikes, the robot every step)
+    allocate, measured on their arrays, against the estimate a run is refused by."""
+    import astrocpg as ac
+
+    seconds, trials = 1.0, 2
+    r = ac.run(seconds=seconds, trials=trials, seed=1, progress=False)
+    sim = r.simulation
+    traces = sim.monitors["traces"].nbytes()
+    spikes = sum(m.t_[:].nbytes + m.i_[:].nbytes for k, m in sim.monitors.items()
+                 if k != "traces")
+    robot = sum(np.asarray(getattr(sim.robot, f)).nbytes for f in
+                ("joint_angles", "torques", "torso_position", "torso_velocity", "reward",
+                 "alive", "foot_force", "torso_quaternion"))
+    per_trial_second = (traces + spikes + robot) / trials / seconds
+    assert per_trial_second <= 2 * 2**20, per_trial_second / 2**20
+    estimate = estimate_bytes(trials=trials, seconds=seconds, traces=tuple(trace_sources()),
+                              robot_stride=1)
+    assert estimate >= traces + spikes + robot  # the estimate a run is refused by covers it
