@@ -1,26 +1,33 @@
-"""Issue 13's figures side by side, in one run: a trial-step's cost against MuJoCo's step,
-start-up against the import, a study's worker utilisation, and the paper's ablation projected
-on this machine.
+"""The project's speed and memory figures side by side, in one run: a trial-step's cost
+against MuJoCo's step, what recording adds, start-up against the import, a study's worker
+utilisation, the training's writes and the paper's ablation projected on this machine.
 
     python benchmarks/all.py [--seconds 3] [--codegen numpy cython] [--workers 2]
+                             [--markdown docs/benchmarks.md]
 
-- **Trial-step**: the closed loop at 1 and 20 trials (``speed.py``), each against MuJoCo's own
-  step of the same robot timed in the same process (goal: 1.5 x at 16-20 trials).
+- **Trial-step**: the closed loop at 1 and 20 trials (``speed.py``: steady state, MuJoCo's step
+  timed alone for 1 s inside the same run), each point ``--speed-repeats`` times, interleaved;
+  medians, and the spread of the ratio between repeats. Goals at 20 trials: 1.5 x MuJoCo's
+  step on Cython, 2.5 x on numpy.
+- **Recording**: ``astrocpg run``'s default recording against none at 20 trials, and its peak
+  memory per trial per simulated second (``recording_cost.py``; goals 15 % and 2 MiB).
 - **Start-up**: ``run --seconds 0.1`` and ``describe`` against ``import brian2, mujoco``
   (``startup.py``; goals 1.3 x and 0.5 s), medians of interleaved repeats.
 - **Utilisation**: a study of 6 runs of unequal length on 2 workers; the seconds a worker was
   free while a run waited (goal: none beyond the hand-over).
 - **Training writes**: outputs and checkpoint of 20 trials after 0 to 400 sessions
   (``checkpoint_cost.py``), and what writing them at every session end would add per simulated
-  second (trainings now space them: at most 2 % of the wall time).
+  second (trainings space them: at most 2 % of the wall time).
 - **Projected ablation** (2 conditions x 20 seeds x 400 sessions, one run of 20 seeds per
-  condition): each run's simulated time (its slowest trial's sessions: 3713 s with astrocytes and
-  2675 s without in the measured run of ``docs/ablation/cython_2cores``, from
-  ``python docs/ablation/gaits.py OUT/results.csv``) times the wall seconds
-  per simulated second measured above at 20 trials, the runs scheduled longest first on
-  ``--workers``. That measured run took 55 min 14 s against 53.5 min projected from the sitting's
-  0.865 s (two runs side by side are a few % slower than one alone). Then the batch that
-  ``batch = "auto"`` chooses with the cost per trial measured now (``trial_cost.py``).
+  condition): each run's simulated time (its slowest trial's sessions: 3673 s with astrocytes
+  and 2660 s without in ``docs/ablation/streams``, from ``python docs/ablation/gaits.py
+  OUT/results.csv``) times the CPU seconds per simulated second measured above at 20 trials,
+  the runs scheduled longest first on ``--workers`` (two runs side by side are a few % slower
+  than one alone). Then the batch that ``batch = "auto"`` chooses with the cost per trial
+  measured now (``trial_cost.py``).
+
+``--markdown FILE`` also writes the tables, the machine, the date and the command as a page;
+the manual's performance page includes ``docs/benchmarks.md``, made this way.
 """
 
 from __future__ import annotations
@@ -37,6 +44,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import checkpoint_cost  # noqa: E402
+import recording_cost  # noqa: E402
 import speed  # noqa: E402
 import startup  # noqa: E402
 import study_utilisation as utilisation_benchmark  # noqa: E402
@@ -58,19 +66,58 @@ set = { L_max = "0.5*second" }
 """
 
 
-def trial_steps(seconds: float, targets: list[str], at_20: dict[str, float]) -> list[str]:
-    """The closed loop at 1 and 20 trials per target; ``at_20`` gets each target's wall s per
-    simulated s at 20 trials (for the projected ablation)."""
+def trial_steps(seconds: float, targets: list[str], at_20: dict[str, float],
+                repeats: int = 3) -> list[str]:
+    """The closed loop at 1 and 20 trials per target (``speed.py``: steady state, MuJoCo's step
+    timed for 1 s inside the same run), ``repeats`` times interleaved, medians and the spread of
+    the ratio; ``at_20`` gets each target's CPU s per simulated s at 20 trials (for the
+    projected ablation)."""
+    import numpy as np
+
+    points = [(n, target) for n in (1, 20) for target in targets]
+    rs: dict[tuple[int, str], list[dict[str, float]]] = {p: [] for p in points}
+    for _ in range(repeats):
+        for n, target in points:
+            rs[(n, target)].append(speed.measure(n, seconds, False, 10, False, target))
     lines = [f"{'target':>7} {'trials':>6} {'s/sim s':>8} {'per trial':>10} "
-             f"{'trial-step us':>14} {'mj_step us':>11} {'x mj_step':>10}"]
-    for n in (1, 20):
-        for target in targets:
-            r = speed.measure(n, seconds, False, 10, False, target)
-            if n == 20:
-                at_20[target] = r["wall_per_sim_s"]
-            lines.append(f"{target:>7} {n:>6} {r['wall_per_sim_s']:>8.3f} "
-                         f"{r['wall_per_trial']:>10.3f} {r['trial_step_us']:>14.1f} "
-                         f"{r['mj_step_us']:>11.1f} {r['x_mj_step']:>10.2f}")
+             f"{'trial-step us':>14} {'mj_step us':>11} {'x mj_step':>10} {'goal':>5} "
+             f"{'spread':>7}"]
+    for (n, target), runs in rs.items():
+        med = {k: float(np.median([r[k] for r in runs])) for k in runs[0] if k != "codegen"}
+        if n == 20:
+            at_20[target] = med["cpu_per_sim_s"]
+        xs = [r["x_mj_step"] for r in runs]
+        goal = {"cython": "1.5", "numpy": "2.5"}[target] if n == 20 else ""
+        lines.append(f"{target:>7} {n:>6} {med['cpu_per_sim_s']:>8.3f} "
+                     f"{med['wall_per_trial']:>10.4f} {med['trial_step_us']:>14.1f} "
+                     f"{med['mj_step_us']:>11.1f} {med['x_mj_step']:>10.2f} {goal:>5} "
+                     f"{100 * (max(xs) / min(xs) - 1):>6.1f}%")
+    return lines
+
+
+def recording(seconds: float, targets: list[str]) -> list[str]:
+    """What ``astrocpg run``'s default recording adds to a 20-trial step, and its memory per
+    trial per simulated second (``recording_cost.py``)."""
+    import numpy as np
+
+    lines = []
+    for target in targets:
+        off = [speed.measure(20, seconds, False, codegen=target)["trial_step_us"]
+               for _ in range(2)]
+        on = [speed.measure(20, seconds, True, codegen=target)["trial_step_us"]
+              for _ in range(2)]
+        a, b = float(np.median(off)), float(np.median(on))
+        lines.append(f"{target:>7}: {a:.1f} us per trial-step without recording, {b:.1f} with: "
+                     f"{100 * (b / a - 1):.1f}% (goal at most 15%)")
+    MiB = 2.0 ** 20
+    bare = recording_cost.peak_memory(2.0, 20, False)
+    for dtype in ("float32", "float64"):
+        rec = recording_cost.peak_memory(2.0, 20, True, dtype)
+        per = (rec["peak"] - bare["peak"]) / 20 / 2.0 / MiB
+        held = rec["held"] / 20 / 2.0 / MiB
+        lines.append(f"traces as {dtype}: {per:.2f} MiB peak memory per trial per simulated s "
+                     f"(20 trials, 2 s), {held:.2f} MiB in the recorders' arrays"
+                     + (" (goal at most 2 MiB)" if dtype == "float32" else ""))
     return lines
 
 
@@ -119,32 +166,56 @@ def main() -> None:
     ap.add_argument("--session-with", type=float, default=9.64,
                     help="mean session length with astrocytes, s (docs/results.md, the ablation; for the "
                          "training writes)")
-    ap.add_argument("--run-with", type=float, default=3713.0,
+    ap.add_argument("--run-with", type=float, default=3673.0,
                     help="simulated s of the ablation's run with astrocytes (its slowest "
-                         "trial's sessions, docs/ablation/cython_2cores)")
-    ap.add_argument("--run-without", type=float, default=2675.0,
+                         "trial's sessions, docs/ablation/streams/gaits.md)")
+    ap.add_argument("--run-without", type=float, default=2660.0,
                     help="simulated s of the run without astrocytes")
+    ap.add_argument("--speed-repeats", type=int, default=3,
+                    help="repeats of each trial-step point (medians; the spread of the ratio)")
+    ap.add_argument("--markdown", default=None, metavar="FILE",
+                    help="also write the tables as a Markdown page (the manual includes "
+                         "docs/benchmarks.md)")
     args = ap.parse_args()
     at_20: dict[str, float] = {}
     sections = [
-        ("trial-step against MuJoCo's step (goal 1.5 x at 20 trials)",
-         lambda: trial_steps(args.seconds, args.codegen, at_20)),
+        ("trial-step against MuJoCo's step (goals at 20 trials: 1.5 x Cython, 2.5 x numpy)",
+         lambda: trial_steps(args.seconds, args.codegen, at_20, args.speed_repeats)),
+        ("recording (astrocpg run's default: every spike and trace, the robot every step)",
+         lambda: recording(args.seconds, args.codegen)),
         ("start-up (goals: run 0.1 s <= 1.3 x the import; describe < 0.5 s)",
          lambda: start_up(args.repeats)),
         ("study utilisation", study_utilisation),
         ("training writes (20 trials; before: at every session end; now at most 2% of the wall)",
          lambda: checkpoint_cost.lines(20, (0, 200, 400), args.session_with)),
-        ("the ablation projected (2 x 20 seeds x 400 sessions; goal 60 min on 2 cores)",
+        ("the ablation projected (2 x 20 seeds x 400 sessions; goal 30 min on 2 cores)",
          lambda: projected_ablation(args.codegen, args.workers, args.run_with,
                                     args.run_without, at_20)),
     ]
-    print(f"astrocpg benchmarks, {os.cpu_count()} cores, Python {sys.version.split()[0]}")
+    import platform
+
+    command = "python benchmarks/all.py " + " ".join(sys.argv[1:])
+    head = (f"{time.strftime('%Y-%m-%d')}, {platform.processor() or platform.machine()}, "
+            f"{os.cpu_count()} cores, Python {sys.version.split()[0]}, "
+            f"{_versions()}")
+    print(f"astrocpg benchmarks: {head}")
+    page = [f"Measured {head}, with `{command.strip()}`.", ""]
     for title, run in sections:
         t0 = time.time()
         lines = run()
         print(f"\n{title} [{time.time() - t0:.0f} s]")
         for line in lines:
             print(f"  {line}", flush=True)
+        page += [f"**{title}** ({time.time() - t0:.0f} s)", "", "```text", *lines, "```", ""]
+    if args.markdown:
+        Path(args.markdown).write_text("\n".join(page))
+        print(f"\nwrote {args.markdown}")
+
+
+def _versions() -> str:
+    from importlib.metadata import version
+
+    return ", ".join(f"{p} {version(p)}" for p in ("brian2", "mujoco", "numpy"))
 
 
 if __name__ == "__main__":

@@ -1,23 +1,31 @@
-"""Wall seconds per simulated second of the closed loop (CPG + A1, fixed weights), numpy target,
-one core, for 1, 4 and 16 trials batched in one network.
+"""A trial-step of the closed loop (CPG + A1, fixed weights) against MuJoCo's own step of the
+same robot, one process, one core, steady state.
 
-    python benchmarks/speed.py [--seconds 5] [--trials 1 4 16] [--record] [--check-every N]
-                               [--codegen numpy cython]
+    python benchmarks/speed.py [--trials 1 20] [--codegen numpy cython] [--seconds 5]
+                               [--mj-seconds 1] [--repeats 1] [--record] [--check-every N]
+                               [--delays default authors] [--check-cost]
+                               [--authors-command "CMD" --authors-seconds S]
 
-Targets (issue 2): <= 1.2 s per simulated second for one trial, <= 0.2 s per trial at 16.
-Start-up (import, build, code generation, first step) is reported apart: it is paid once per run.
-Pin to one core with ``taskset -c 0`` for a one-core figure; the script also reports CPU time.
-``--check-every 0`` turns the bridge's CPG divergence check off (the robot's is always on), to
-measure what the check costs: ``--check-every 10 0`` measures both, interleaved. On a loaded
-machine the difference drowns in noise; ``--check-cost`` also times the divergence checks
-themselves in the same process (the robot's every step, the CPG's every N steps) and gives them
-as a share of the loop's CPU time per step. ``--codegen numpy cython`` measures each trial count
-under both Brian2 targets (Cython's first build compiles for minutes; later ones load the
-cache). Each point also times MuJoCo's own step of the same robot in the same process, and
-gives a trial-step's cost as a multiple of it (issue 13's goal: 1.5 x at 16-20 trials).
-``--delays default authors`` measures each point with the built-in inter-limb delays (1 ms, one
-stage) and with the authors' preset (``models/variants/interlimb_authors_delays.toml``: the limbs
-integrate in four stages, each with its own motor-neuron group and synapses), interleaved.
+How it measures (so that the ratio holds on a machine whose speed drifts): one ``Network.run``
+per point, after a 0.1 s warm-up. Every ``--every`` steps a hook inside the run stops the loop's
+clock and times ``mj_step`` alone on a copy of one trial's state (the trials in turn), then
+starts the loop's clock again; the loop's CPU time is the sum of the stretches between these
+marks, so it leaves out ``Network.run``'s fixed cost per call and the timing itself. MuJoCo is
+timed for ``--mj-seconds`` (at least 1 s) in all, spread evenly over the run. ``x mj_step`` is a
+trial-step's CPU time (the loop's per step divided by the trials) over ``mj_step``'s. Goals:
+1.5 x on Cython and 2.5 x on numpy at 20 trials.
+
+``--repeats N`` measures every point N times (a new network each time, the points interleaved)
+and prints the median and the spread of each column. Start-up (import, build, code generation,
+first step) is reported apart: it is paid once per run. ``--record`` turns on what ``astrocpg
+run`` records by default. ``--check-every 0`` turns the bridge's CPG divergence check off;
+``--check-cost`` also times the divergence checks alone, as a share of the loop.
+``--delays default authors`` measures each point with the built-in inter-limb delays (1 ms) and
+with the authors' preset (``models/variants/interlimb_authors_delays.toml``).
+
+``--authors-command`` runs a command that simulates ``--authors-seconds`` of one trial of the
+authors' code (which astrocpg does not ship), parsed as a shell would split it (not run by a
+shell), and times its CPU; the last table then gives both speeds side by side.
 """
 
 from __future__ import annotations
@@ -38,19 +46,47 @@ from astrocpg.models import DEFAULT_MODELS  # noqa: E402
 from astrocpg.studies.experiments.simulate import add_monitors  # noqa: E402
 
 
-def mj_step_us(model, data, steps: int = 3000) -> float:
-    """MuJoCo's step of this robot alone (us, wall), from a copy of a trial's state."""
-    import mujoco
+class Interleaved:
+    """A bridge hook (last of its stage) that, every ``every`` steps, closes a stretch of the
+    loop's CPU and wall time and times ``mj_step`` alone for ``mj_steps`` steps on a copy of
+    one trial's state (the trials in turn). Stretches start at the first mark, so the run's
+    fixed cost before its first steps is left out."""
 
-    d = mujoco.MjData(model)
-    spec = mujoco.mjtState.mjSTATE_INTEGRATION
-    state = np.empty(mujoco.mj_stateSize(model, spec))
-    mujoco.mj_getState(model, data, state, spec)
-    mujoco.mj_setState(model, d, state, spec)
-    t = time.perf_counter()
-    for _ in range(steps):
-        mujoco.mj_step(model, d)
-    return (time.perf_counter() - t) / steps * 1e6
+    def __init__(self, bridge, every: int, mj_steps: int) -> None:
+        import mujoco
+
+        self.bridge, self.every, self.mj_steps = bridge, int(every), int(mj_steps)
+        self.model = bridge.model
+        self.scratch = mujoco.MjData(self.model)
+        self.spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        self.state = np.empty(mujoco.mj_stateSize(self.model, self.spec))
+        self.loop_cpu = self.loop_wall = self.mj_cpu = 0.0
+        self.loop_steps = self.mj_total = self.marks = 0
+        self._cpu = self._wall = None
+        self._at = 0
+
+    def __call__(self) -> None:
+        n = self.bridge.step_count
+        if n % self.every:
+            return
+        import mujoco
+
+        cpu, wall = time.process_time(), time.perf_counter()
+        if self._cpu is not None:
+            self.loop_cpu += cpu - self._cpu
+            self.loop_wall += wall - self._wall
+            self.loop_steps += n - self._at
+        b = self.marks % self.bridge.n_trials
+        self.marks += 1
+        mujoco.mj_getState(self.model, self.bridge.data[b], self.state, self.spec)
+        mujoco.mj_setState(self.model, self.scratch, self.state, self.spec)
+        step, model, d = mujoco.mj_step, self.model, self.scratch
+        c0 = time.process_time()
+        for _ in range(self.mj_steps):
+            step(model, d)
+        self.mj_cpu += time.process_time() - c0
+        self.mj_total += self.mj_steps
+        self._at, self._cpu, self._wall = n, time.process_time(), time.perf_counter()
 
 
 AUTHORS = Path(__file__).resolve().parents[1] / "models" / "variants" \
@@ -67,28 +103,39 @@ def delay_models(delays: str):
 
 def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
             check_cost: bool = False, codegen: str = "numpy",
-            delays: str = "default") -> dict[str, float]:
+            delays: str = "default", mj_seconds: float = 1.0, every: int = 100,
+            mj_step_guess_us: float = 15.0) -> dict[str, float]:
+    """One point: the loop's steady-state cost per trial-step and MuJoCo's step, interleaved
+    in one run (:class:`Interleaved`)."""
     t_start = time.perf_counter()
-    loop = build_closed_loop(delay_models(delays), n_trials=n_trials, seed=1, check_every=check_every,
-                             codegen=codegen)
+    loop = build_closed_loop(delay_models(delays), n_trials=n_trials, seed=1,
+                             check_every=check_every, codegen=codegen)
     cpg = loop.cpg
-    if record:
-        loop.bridge.start_recording(int(seconds * 1000) + 200, 1)
-        add_monitors(cpg, 1 * ms, True)
+    if record:  # what `astrocpg run` records by default: the robot, every spike and trace
+        n = int(round((seconds + 0.1) / float(cpg.dt)))
+        loop.bridge.start_recording(n, 1)
+        add_monitors(cpg, 1 * ms, True, n_steps=n)
     loop.run(0.1)  # code generation and first steps
     startup = time.perf_counter() - t_start
-    w0, c0 = time.perf_counter(), time.process_time()
+    steps = int(round(seconds / float(cpg.dt)))
+    marks = max(1, steps // every)
+    # MuJoCo timed for mj_seconds in all (at least), spread over the marks
+    timer = Interleaved(loop.bridge, every,
+                        max(200, int(mj_seconds * 1e6 / mj_step_guess_us / marks) + 1))
+    loop.bridge.add_hook("after_physics", "benchmark", timer, order=1e9)
     loop.run(seconds)
-    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-    mj = mj_step_us(loop.bridge.model, loop.bridge.data[0])
-    per_trial_step_us = wall / seconds / n_trials * 1e3  # 1 ms steps: s per sim s -> us per step
-    out = {"trials": n_trials, "codegen": codegen, "mj_step_us": mj,
+    loop.bridge.remove_hook("benchmark")
+    mj = timer.mj_cpu / timer.mj_total * 1e6
+    cpu_step = timer.loop_cpu / timer.loop_steps  # s per step
+    per_trial_step_us = cpu_step / n_trials * 1e6
+    sim = float(cpg.dt)
+    out = {"trials": n_trials, "codegen": codegen, "mj_step_us": mj, "mj_seconds": timer.mj_cpu,
            "trial_step_us": per_trial_step_us, "x_mj_step": per_trial_step_us / mj,
-           "wall_per_sim_s": wall / seconds,
-           "cpu_per_sim_s": cpu / seconds, "wall_per_trial": wall / seconds / n_trials,
+           "wall_per_sim_s": timer.loop_wall / timer.loop_steps / sim,
+           "cpu_per_sim_s": cpu_step / sim, "wall_per_trial": cpu_step / sim / n_trials,
            "startup_s": startup, "check_every": check_every}
     if check_cost:
-        out.update(_check_cost(loop, cpu / (seconds / float(cpg.dt))))
+        out.update(_check_cost(loop, cpu_step))
     return out
 
 
@@ -112,42 +159,117 @@ def _check_cost(loop, cpu_per_step: float, calls: int = 3000) -> dict[str, float
             "cpg_check_us": cpg_check * 1e6, "check_share": share, "every": every}
 
 
+def authors_speed(command: str, seconds: float) -> float:
+    """CPU seconds per simulated second of the authors' code: ``command`` (split as a shell
+    would, run without one) must simulate ``seconds`` of one trial."""
+    import resource
+    import shlex
+    import subprocess
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run(shlex.split(command), check=True, stdout=subprocess.DEVNULL)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return cpu / seconds
+
+
+COLUMNS = ("CPU s/sim s", "per trial", "wall s/sim s", "trial-step us", "mj_step us",
+           "x mj_step", "start-up s")
+KEYS = ("cpu_per_sim_s", "wall_per_trial", "wall_per_sim_s", "trial_step_us", "mj_step_us",
+        "x_mj_step", "startup_s")
+
+
+def _row(label: str, values: list[str]) -> str:
+    return f"{label:<32}" + "".join(f"{v:>14}" for v in values)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seconds", type=float, default=5.0)
-    ap.add_argument("--trials", type=int, nargs="+", default=[1, 4, 16])
+    ap.add_argument("--seconds", type=float, default=5.0, help="simulated s per point")
+    ap.add_argument("--trials", type=int, nargs="+", default=[1, 20])
+    ap.add_argument("--codegen", nargs="+", default=["numpy", "cython"],
+                    choices=["numpy", "cython"], help="Brian2 targets, interleaved per point")
+    ap.add_argument("--mj-seconds", type=float, default=1.0,
+                    help="CPU seconds of mj_step timed alone per point (at least 1)")
+    ap.add_argument("--every", type=int, default=100,
+                    help="steps between two timings of mj_step inside the run")
+    ap.add_argument("--repeats", type=int, default=1,
+                    help="measure every point this many times (medians and spread)")
     ap.add_argument("--record", action="store_true",
-                    help="also record spikes, Ca2+/astrocyte traces and the robot every step")
+                    help="also record spikes, traces and the robot, as `astrocpg run` does")
     ap.add_argument("--check-every", type=int, nargs="+", default=[10], metavar="N",
-                    help="steps between CPG divergence checks (0: off); several values are "
-                         "measured one after the other for each trial count")
+                    help="steps between CPG divergence checks (0: off)")
     ap.add_argument("--check-cost", action="store_true",
                     help="also time the divergence checks alone, as a share of the loop")
-    ap.add_argument("--codegen", nargs="+", default=["numpy"], choices=["numpy", "cython"],
-                    help="Brian2 targets to measure, interleaved per trial count")
     ap.add_argument("--delays", nargs="+", default=["default"], choices=["default", "authors"],
-                    help="inter-limb delays: built in (1 ms) and/or the authors' preset, "
-                         "interleaved per trial count")
+                    help="inter-limb delays: built in (1 ms) and/or the authors' preset")
+    ap.add_argument("--authors-command", default=None, metavar="CMD",
+                    help="a command that runs --authors-seconds of the authors' code, one trial")
+    ap.add_argument("--authors-seconds", type=float, default=None)
     args = ap.parse_args()
-    print(f"closed loop, {args.seconds:g} simulated s per point, "
-          f"recording {'on' if args.record else 'off'}")
-    print(f"{'delays':>8} {'target':>7} {'trials':>6} {'check':>6} {'wall s/sim s':>13} {'per trial':>10} "
-          f"{'CPU s/sim s':>12} {'start-up s':>11} {'trial-step us':>14} {'mj_step us':>11} "
-          f"{'x mj_step':>10}")
-    for n in args.trials:
-        for every in args.check_every:
-            for target, delays in [(t, d) for t in args.codegen for d in args.delays]:
-                r = measure(n, args.seconds, args.record, every, args.check_cost, target, delays)
-                check = str(every) if every else "off"
-                print(f"{delays:>8} {target:>7} {r['trials']:>6} {check:>6} {r['wall_per_sim_s']:>13.3f} "
-                      f"{r['wall_per_trial']:>10.3f} {r['cpu_per_sim_s']:>12.3f} "
-                      f"{r['startup_s']:>11.1f} {r['trial_step_us']:>14.1f} "
-                      f"{r['mj_step_us']:>11.1f} {r['x_mj_step']:>10.2f}", flush=True)
+    if args.mj_seconds < 1.0:
+        ap.error("--mj-seconds must be at least 1 (a shorter timing of mj_step drifts)")
+    if (args.authors_command is None) != (args.authors_seconds is None):
+        ap.error("--authors-command and --authors-seconds go together")
+    import platform
+
+    print(f"closed loop, {args.seconds:g} simulated s per point, mj_step timed "
+          f"{args.mj_seconds:g} s per point, recording {'on' if args.record else 'off'}; "
+          f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, affinity "
+          f"{len(os.sched_getaffinity(0))}, {time.strftime('%Y-%m-%d')}")
+    print(_row("point", list(COLUMNS)))
+    points = [(n, every, target, delays) for n in args.trials for every in args.check_every
+              for target in args.codegen for delays in args.delays]
+    results: dict[tuple, list[dict[str, float]]] = {p: [] for p in points}
+    for _ in range(args.repeats):
+        for point in points:
+            n, every, target, delays = point
+            r = measure(n, args.seconds, args.record, every, args.check_cost, target, delays,
+                        mj_seconds=args.mj_seconds, every=args.every)
+            results[point].append(r)
+            print(_row(_label(point, args), [f"{r[k]:.3f}" if k.endswith("s") and "us" not in k
+                                             else f"{r[k]:.2f}" for k in KEYS]), flush=True)
             if args.check_cost:
                 print(f"{'':>6} divergence checks: robot {r['robot_check_us']:.2f} us every "
                       f"step, CPG {r['cpg_check_us']:.1f} us every {r['every']} steps, loop "
                       f"{r['loop_us']:.0f} us CPU per step: {100 * r['check_share']:.2f}% "
                       f"of the loop", flush=True)
+    authors = None
+    if args.authors_command:
+        authors = authors_speed(args.authors_command, args.authors_seconds)
+    print()
+    print("side by side (medians" + (f" of {args.repeats} repeats; spread = max/min - 1"
+                                     if args.repeats > 1 else "") + "):")
+    head = ["trial-step us", "mj_step us", "x mj_step", "goal x", "s/sim s/trial"]
+    if args.repeats > 1:
+        head.append("spread x")
+    if authors is not None:
+        head.append("x authors")
+    print(_row("point", head))
+    for point, rs in results.items():
+        med = {k: float(np.median([r[k] for r in rs])) for k in KEYS}
+        goal = {"cython": 1.5, "numpy": 2.5}[point[2]] if point[0] >= 16 else None
+        cells = [f"{med['trial_step_us']:.1f}", f"{med['mj_step_us']:.1f}",
+                 f"{med['x_mj_step']:.2f}", "" if goal is None else f"{goal:.1f}",
+                 f"{med['wall_per_trial']:.4f}"]
+        if args.repeats > 1:
+            xs = [r["x_mj_step"] for r in rs]
+            cells.append(f"{100 * (max(xs) / min(xs) - 1):.1f}%")
+        if authors is not None:
+            cells.append(f"{authors / med['wall_per_trial']:.1f}")
+        print(_row(_label(point, args), cells))
+    if authors is not None:
+        print(f"authors' code: {authors:.3f} CPU s per simulated s (one trial)")
+
+
+def _label(point: tuple, args: argparse.Namespace) -> str:
+    n, every, target, delays = point
+    label = f"{target} {n} trial{'s' if n > 1 else ''}"
+    if len(args.check_every) > 1:
+        label += f" check {every or 'off'}"
+    if len(args.delays) > 1:
+        label += f" {delays} delays"
+    return label
 
 
 if __name__ == "__main__":
