@@ -11,8 +11,10 @@ per point, after a 0.1 s warm-up. Every ``--every`` steps a hook inside the run 
 clock and times ``mj_step`` alone on a copy of one trial's state (the trials in turn), then
 starts the loop's clock again; the loop's CPU time is the sum of the stretches between these
 marks, so it leaves out ``Network.run``'s fixed cost per call and the timing itself. MuJoCo is
-timed for ``--mj-seconds`` (at least 1 s) in all, spread evenly over the run. ``x mj_step`` is a
-trial-step's CPU time (the loop's per step divided by the trials) over ``mj_step``'s. Goals:
+timed for ``--mj-seconds`` (at least 1 s) in all, spread evenly over the run. Both figures are
+medians over their stretches (a burst of other work on the machine lands in a few of them).
+``x mj_step`` is a trial-step's CPU time (the loop's per step divided by the trials) over
+``mj_step``'s. Goals:
 1.5 x on Cython and 2.5 x on numpy at 20 trials.
 
 ``--repeats N`` measures every point N times (a new network each time, the points interleaved)
@@ -62,6 +64,10 @@ class Interleaved:
         self.state = np.empty(mujoco.mj_stateSize(self.model, self.spec))
         self.loop_cpu = self.loop_wall = self.mj_cpu = 0.0
         self.loop_steps = self.mj_total = self.marks = 0
+        # per stretch: CPU s per step of the loop, and of mj_step alone (medians: a burst of
+        # another process's work on the machine lands in a few stretches, not in the median)
+        self.loop_chunks: list[float] = []
+        self.mj_chunks: list[float] = []
         self._cpu = self._wall = None
         self._at = 0
 
@@ -76,6 +82,7 @@ class Interleaved:
             self.loop_cpu += cpu - self._cpu
             self.loop_wall += wall - self._wall
             self.loop_steps += n - self._at
+            self.loop_chunks.append((cpu - self._cpu) / (n - self._at))
         b = self.marks % self.bridge.n_trials
         self.marks += 1
         mujoco.mj_getState(self.model, self.bridge.data[b], self.state, self.spec)
@@ -84,7 +91,9 @@ class Interleaved:
         c0 = time.process_time()
         for _ in range(self.mj_steps):
             step(model, d)
-        self.mj_cpu += time.process_time() - c0
+        spent = time.process_time() - c0
+        self.mj_cpu += spent
+        self.mj_chunks.append(spent / self.mj_steps)
         self.mj_total += self.mj_steps
         self._at, self._cpu, self._wall = n, time.process_time(), time.perf_counter()
 
@@ -125,8 +134,8 @@ def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
     loop.bridge.add_hook("after_physics", "benchmark", timer, order=1e9)
     loop.run(seconds)
     loop.bridge.remove_hook("benchmark")
-    mj = timer.mj_cpu / timer.mj_total * 1e6
-    cpu_step = timer.loop_cpu / timer.loop_steps  # s per step
+    mj = float(np.median(timer.mj_chunks)) * 1e6
+    cpu_step = float(np.median(timer.loop_chunks))  # s per step
     per_trial_step_us = cpu_step / n_trials * 1e6
     sim = float(cpg.dt)
     out = {"trials": n_trials, "codegen": codegen, "mj_step_us": mj, "mj_seconds": timer.mj_cpu,
