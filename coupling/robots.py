@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import Diverged
 from ..network import invalid
+from .compiled import step_all
 from .robot import RobotLayout, reset
 
 # MuJoCo's instability warnings: the robot's numbers left the finite range (MuJoCo resets the
@@ -72,6 +73,10 @@ class Robots:
         self._mj = [(d, d.ctrl, d.qpos, d.qvel, memoryview(d.warning.number))
                     for d in self.data]
         self._touch: list[np.ndarray] | None = None  # touch_views(), made at first use
+        # every trial's step in one call of compiled code where it can be built (compiled.py);
+        # the same MuJoCo calls and copies as the loop in physics(), so the same results
+        self._compiled = step_all(model, self.data, self.state)
+        self._warned = 0  # the compiled step's report of instability warnings
 
     def touch_views(self) -> list[np.ndarray] | None:
         """Per trial, its feet's touch sensors (4,) in MjData's sensordata: live views where
@@ -96,6 +101,9 @@ class Robots:
 
     def physics(self) -> None:
         """One physics step of every trial with its row of :attr:`ctrl`; the new state read."""
+        if self._compiled is not None:
+            self._warned = self._compiled()
+            return
         model, ctrl, qpos, qvel = self.model, self.ctrl, self.qpos, self.qvel
         for b, (d, d_ctrl, d_qpos, d_qvel, _) in enumerate(self._mj):
             d_ctrl[:] = ctrl[b]
@@ -106,9 +114,13 @@ class Robots:
     def unstable(self) -> bool:
         """Every step: did MuJoCo warn of instability in any trial, or is there NaN/inf in qpos,
         qvel or ctrl (the sum of their one buffer is not finite)? A few us at 16 trials."""
-        for _, _, _, _, warn in self._mj:
-            if warn[_QACC] or warn[_QPOS] or warn[_QVEL] or warn[_CTRL]:
+        if self._compiled is not None:
+            if self._warned:
                 return True
+        else:
+            for _, _, _, _, warn in self._mj:
+                if warn[_QACC] or warn[_QPOS] or warn[_QVEL] or warn[_CTRL]:
+                    return True
         return not math.isfinite(self._state_sum())
 
     def instability(self, t: float) -> Diverged | None:

@@ -1,0 +1,132 @@
+"""Every trial's physics step in one call of compiled code.
+
+Stepping ``n`` robots from Python costs, per trial and step, a call into MuJoCo's bindings and
+three array copies (the motors' torques in, the joint state out): about 2 us each, 40 us of a
+20-trial step. :func:`step_all` makes the same calls of MuJoCo's C library (copy the torques into
+``ctrl``, ``mj_step``, copy ``qpos`` and ``qvel`` out) in one C loop over the trials, so the
+results are the same, bit for bit.
+
+The loop is compiled once per MuJoCo version with the C compiler Python was built with,
+against the headers and the library that ship with the ``mujoco`` package, and kept in
+``~/.cache/astrocpg`` (``$ASTROCPG_CACHE``). Without a C compiler, or with
+``ASTROCPG_COMPILED_PHYSICS=0``, the robots are stepped from Python as before.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import logging
+import os
+import subprocess
+import sysconfig
+import tempfile
+from pathlib import Path
+from typing import Any, Callable
+
+import mujoco
+import numpy as np
+
+log = logging.getLogger("astrocpg.compiled")
+
+SOURCE = r"""
+#include <string.h>
+#include <mujoco/mujoco.h>
+
+/* One physics step of trials 0..n-1. Row b of `state` holds qpos, qvel and ctrl of trial b
+   (row doubles apart): its ctrl goes to MuJoCo, mj_step runs, qpos and qvel come back.
+   Returns 1 if a trial has an instability warning (bad qacc, qpos, qvel or ctrl), else 0. */
+int astrocpg_step_all(const mjModel* m, mjData** d, int n, double* state, int row) {
+    int nq = m->nq, nv = m->nv, nu = m->nu, warned = 0;
+    for (int b = 0; b < n; b++) {
+        double* r = state + (size_t)b * row;
+        mjData* x = d[b];
+        memcpy(x->ctrl, r + nq + nv, sizeof(mjtNum) * nu);
+        mj_step(m, x);
+        memcpy(r, x->qpos, sizeof(mjtNum) * nq);
+        memcpy(r + nq, x->qvel, sizeof(mjtNum) * nv);
+        if (x->warning[mjWARN_BADQACC].number || x->warning[mjWARN_BADQPOS].number
+            || x->warning[mjWARN_BADQVEL].number || x->warning[mjWARN_BADCTRL].number)
+            warned = 1;
+    }
+    return warned;
+}
+"""
+
+_LIBRARY: Any = None  # the loaded library, False once building it failed
+
+
+def _cache_dir() -> Path:
+    return Path(os.environ.get("ASTROCPG_CACHE", Path.home() / ".cache" / "astrocpg"))
+
+
+def _mujoco_library() -> tuple[Path, Path]:
+    """The ``mujoco`` package's C library and its include folder."""
+    root = Path(mujoco.__file__).resolve().parent
+    libs = sorted(root.glob("libmujoco.so*")) + sorted(root.glob("libmujoco*.dylib"))
+    if not libs or not (root / "include" / "mujoco" / "mujoco.h").is_file():
+        raise FileNotFoundError(f"no libmujoco and headers in {root}")
+    return libs[0], root / "include"
+
+
+def _build() -> ctypes.CDLL:
+    library, include = _mujoco_library()
+    key = hashlib.sha256(f"{SOURCE}{mujoco.__version__}{library}".encode()).hexdigest()[:16]
+    target = _cache_dir() / f"physics_{key}{sysconfig.get_config_var('SHLIB_SUFFIX') or '.so'}"
+    if not target.is_file():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        cc = (sysconfig.get_config_var("CC") or "cc").split()
+        with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
+            src, out = Path(tmp) / "physics.c", Path(tmp) / target.name
+            src.write_text(SOURCE)
+            subprocess.run([*cc, "-O2", "-shared", "-fPIC", f"-I{include}", "-o", str(out),
+                            str(src), str(library), f"-Wl,-rpath,{library.parent}"],
+                           check=True, capture_output=True, timeout=120)
+            os.replace(out, target)  # whole or not at all, whoever builds it at the same time
+    lib = ctypes.CDLL(str(target))
+    fn = lib.astrocpg_step_all
+    fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p,
+                   ctypes.c_int]
+    fn.restype = ctypes.c_int
+    return lib
+
+
+def library() -> ctypes.CDLL | None:
+    """The compiled loop, built at first use; None where it cannot be built or is turned off
+    (``ASTROCPG_COMPILED_PHYSICS=0``)."""
+    global _LIBRARY
+    if os.environ.get("ASTROCPG_COMPILED_PHYSICS", "1") == "0":
+        return None
+    if _LIBRARY is None:
+        try:
+            _LIBRARY = _build()
+        except (OSError, subprocess.SubprocessError, FileNotFoundError) as e:
+            log.debug("compiled physics unavailable, stepping from Python: %s", e)
+            _LIBRARY = False
+    return _LIBRARY or None
+
+
+def step_all(model: mujoco.MjModel, data: list[mujoco.MjData],
+             state: np.ndarray) -> Callable[[], int] | None:
+    """A function that steps every MjData of ``data`` once with its row of ``state`` (qpos,
+    qvel, ctrl; C-contiguous float64) and returns 1 if MuJoCo warned of instability; None
+    where the compiled loop is not available."""
+    lib = library()
+    if lib is None or state.dtype != np.float64 or not state.flags.c_contiguous:
+        return None
+    pointers = np.array([d._address for d in data], dtype=np.uintp)
+    fn = lib.astrocpg_step_all
+    args = (ctypes.c_void_p(model._address), ctypes.c_void_p(pointers.ctypes.data),
+            ctypes.c_int(len(data)), ctypes.c_void_p(state.ctypes.data),
+            ctypes.c_int(state.shape[1]))
+    # the objects the pointers point into stay alive as long as the function does
+    keep = (model, data, state, pointers)
+
+    def step() -> int:
+        return fn(*args)
+
+    step.keep = keep  # type: ignore[attr-defined]
+    return step
+
+
+__all__ = ["step_all", "library", "SOURCE"]
