@@ -95,6 +95,18 @@ def trial_steps(seconds: float, targets: list[str], at_20: dict[str, float],
     return lines
 
 
+def authors(command: str | None, seconds: float | None, at_20: dict[str, float]) -> list[str]:
+    """The authors' code beside astrocpg, where a command to run it is given."""
+    if not command:
+        return ["authors' code: not measured (give --authors-command and --authors-seconds)"]
+    if seconds is None:
+        raise SystemExit("--authors-command needs --authors-seconds")
+    theirs = speed.authors_speed(command, seconds)
+    return [f"authors' code: {theirs:.3f} CPU s per simulated s (one trial); astrocpg per "
+            f"trial at 20 trials: " + ", ".join(f"{t} {theirs / (v / 20):.1f} x faster"
+                                                for t, v in at_20.items())]
+
+
 def recording(seconds: float, targets: list[str]) -> list[str]:
     """What ``astrocpg run``'s default recording adds to a 20-trial step, and its memory per
     trial per simulated second (``recording_cost.py``)."""
@@ -173,6 +185,10 @@ def main() -> None:
                     help="simulated s of the run without astrocytes")
     ap.add_argument("--speed-repeats", type=int, default=3,
                     help="repeats of each trial-step point (medians; the spread of the ratio)")
+    ap.add_argument("--authors-command", default=None, metavar="CMD",
+                    help="a command that runs --authors-seconds of the authors' code (one "
+                         "trial), timed beside astrocpg (their code is not shipped)")
+    ap.add_argument("--authors-seconds", type=float, default=None)
     ap.add_argument("--markdown", default=None, metavar="FILE",
                     help="also write the tables as a Markdown page (the manual includes "
                          "docs/benchmarks.md)")
@@ -180,7 +196,8 @@ def main() -> None:
     at_20: dict[str, float] = {}
     sections = [
         ("trial-step against MuJoCo's step (goals at 20 trials: 1.5 x Cython, 2.5 x numpy)",
-         lambda: trial_steps(args.seconds, args.codegen, at_20, args.speed_repeats)),
+         lambda: trial_steps(args.seconds, args.codegen, at_20, args.speed_repeats)
+         + authors(args.authors_command, args.authors_seconds, at_20)),
         ("recording (astrocpg run's default: every spike and trace, the robot every step)",
          lambda: recording(args.seconds, args.codegen)),
         ("start-up (goals: run 0.1 s <= 1.3 x the import; describe < 0.5 s)",

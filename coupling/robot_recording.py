@@ -2,8 +2,10 @@
 torso, reward, alive and foot forces, sampled every ``stride`` steps, and :meth:`Recording.take`
 fills one sample from the robots and the senses (the bridge's ``recording`` hook, started by
 :meth:`~astrocpg.coupling.bridge.Bridge.start_recording`). The network's spikes and traces are
-recorded by Brian2 monitors (``astrocpg.network``), a training's sessions by
-``coupling/recorder.py``: this one reads MuJoCo, which Brian2's monitors cannot.
+recorded by Brian2's spike monitors and :class:`~astrocpg.network.recording.TraceRecorder`, a
+training's sessions by ``coupling/recorder.py``: this one reads MuJoCo. Its arrays are
+allocated and written through once at the start, so the run's memory is taken then and not
+page by page inside the step.
 """
 
 from __future__ import annotations

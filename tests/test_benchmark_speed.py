@@ -1,0 +1,45 @@
+"""benchmarks/speed.py's measurement: the loop's stretches and MuJoCo's timings interleave in
+one run, and the timing itself is left out of the loop's figure."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def speed():
+    import sys
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    spec = importlib.util.spec_from_file_location("speed", ROOT / "benchmarks" / "speed.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    yield module
+    sys.path.remove(str(ROOT / "benchmarks"))
+
+
+def test_speed_interleaves_mujoco_timings_with_the_loop(speed):
+    from astrocpg.coupling.assembly import build_closed_loop
+    from astrocpg.models import DEFAULT_MODELS
+
+    loop = build_closed_loop(DEFAULT_MODELS, n_trials=2, seed=1)
+    timer = speed.Interleaved(loop.bridge, every=50, mj_steps=200)
+    loop.bridge.add_hook("after_physics", "benchmark", timer, order=1e9)
+    loop.run(0.3)
+    # marks at steps 50, 100, ..., 300: five stretches of 50 steps between six marks
+    assert timer.marks == 6 and timer.loop_steps == 250 and len(timer.loop_chunks) == 5
+    assert timer.mj_total == 6 * 200 and len(timer.mj_chunks) == 6
+    assert all(c > 0 for c in timer.loop_chunks + timer.mj_chunks)
+    # MuJoCo timed on a scratch copy: the trials' robots are where the loop left them
+    assert loop.bridge.data[0].time == pytest.approx(0.3)
+
+
+def test_measure_gives_the_ratio_of_the_two_medians(speed):
+    r = speed.measure(2, 0.3, False, codegen="numpy", mj_seconds=0.05, every=50)
+    assert r["trials"] == 2 and r["mj_step_us"] > 0
+    assert r["x_mj_step"] == pytest.approx(r["trial_step_us"] / r["mj_step_us"])
+    assert r["cpu_per_sim_s"] == pytest.approx(r["trial_step_us"] * 2 / 1e3)
