@@ -114,20 +114,18 @@ def recording(seconds: float, targets: list[str]) -> list[str]:
 
     lines = []
     for target in targets:
-        off = [speed.measure(20, seconds, False, codegen=target)["trial_step_us"]
-               for _ in range(2)]
-        on = [speed.measure(20, seconds, True, codegen=target)["trial_step_us"]
-              for _ in range(2)]
-        a, b = float(np.median(off)), float(np.median(on))
+        pairs = [recording_cost.share_in_run(20, seconds, target) for _ in range(2)]
+        a = float(np.median([p[0] for p in pairs]))
+        b = float(np.median([p[1] for p in pairs]))
         lines.append(f"{target:>7}: {a:.1f} us per trial-step without recording, {b:.1f} with: "
                      f"{100 * (b / a - 1):.1f}% (goal at most 15%)")
     MiB = 2.0 ** 20
     bare = recording_cost.peak_memory(2.0, 20, False)
     for dtype in ("float32", "float64"):
         rec = recording_cost.peak_memory(2.0, 20, True, dtype)
-        per = (rec["peak"] - bare["peak"]) / 20 / 2.0 / MiB
+        per = (rec["rss"] - bare["rss"]) / 20 / 2.0 / MiB
         held = rec["held"] / 20 / 2.0 / MiB
-        lines.append(f"traces as {dtype}: {per:.2f} MiB peak memory per trial per simulated s "
+        lines.append(f"traces as {dtype}: {per:.2f} MiB resident memory per trial per simulated s "
                      f"(20 trials, 2 s), {held:.2f} MiB in the recorders' arrays"
                      + (" (goal at most 2 MiB)" if dtype == "float32" else ""))
     return lines

@@ -60,6 +60,8 @@ class Robots:
         self.act = layout.actuator  # (4, 3)
         self._ctrl_lo = model.actuator_ctrlrange[layout.actuator, 0]
         self._ctrl_hi = model.actuator_ctrlrange[layout.actuator, 1]
+        # the motors' torque limits, flat in the (leg, joint) order of act.reshape(-1)
+        self.ctrl_lo, self.ctrl_hi = self._ctrl_lo.reshape(-1), self._ctrl_hi.reshape(-1)
         fq, fv = self.fq, self.fv = int(layout.free_qpos_adr), int(layout.free_dof_adr)
         # torso state: read-only views, live after every step
         self.torso = {
