@@ -7,9 +7,10 @@ same robot, one process, one core, steady state.
                                [--authors-command "CMD" --authors-seconds S]
 
 How it measures (so that the ratio holds on a machine whose speed drifts): one ``Network.run``
-per point, after a 0.1 s warm-up. Every ``--every`` steps a hook inside the run stops the loop's
+per point, after a 0.1 s warm-up. Every ``--every`` steps (128: two of the numpy target's noise
+blocks of 64 steps in every stretch) a hook inside the run stops the loop's
 clock and times ``mj_step`` alone on a copy of one trial's state (the trials in turn), then
-starts the loop's clock again; the loop's CPU time is the sum of the stretches between these
+starts the loop's clock again; the loop's CPU time is taken over the stretches between these
 marks, so it leaves out ``Network.run``'s fixed cost per call and the timing itself. MuJoCo is
 timed for ``--mj-seconds`` (at least 1 s) in all, spread evenly over the run. Both figures are
 medians over their stretches (a burst of other work on the machine lands in a few of them).
@@ -112,7 +113,7 @@ def delay_models(delays: str):
 
 def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
             check_cost: bool = False, codegen: str = "numpy",
-            delays: str = "default", mj_seconds: float = 1.0, every: int = 100,
+            delays: str = "default", mj_seconds: float = 1.0, every: int = 128,
             mj_step_guess_us: float = 15.0) -> dict[str, float]:
     """One point: the loop's steady-state cost per trial-step and MuJoCo's step, interleaved
     in one run (:class:`Interleaved`)."""
@@ -200,7 +201,7 @@ def main() -> None:
                     choices=["numpy", "cython"], help="Brian2 targets, interleaved per point")
     ap.add_argument("--mj-seconds", type=float, default=1.0,
                     help="CPU seconds of mj_step timed alone per point (at least 1)")
-    ap.add_argument("--every", type=int, default=100,
+    ap.add_argument("--every", type=int, default=128,
                     help="steps between two timings of mj_step inside the run")
     ap.add_argument("--repeats", type=int, default=1,
                     help="measure every point this many times (medians and spread)")

@@ -46,7 +46,8 @@ extensions = [
 
 # The result folders under docs/ (recorded studies, their reports) are data that the pages
 # show and link to, not pages of their own.
-exclude_patterns = ["_build", "ablation", "beyond", "variants", "seeing", "**/.ipynb_checkpoints",
+exclude_patterns = ["_build", "ablation", "beyond", "variants", "seeing", "benchmarks",
+                    "**/.ipynb_checkpoints",
                     "Thumbs.db", ".DS_Store"]
 
 html_theme = "furo"
