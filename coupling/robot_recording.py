@@ -73,13 +73,7 @@ class Recording:
         k, r = divmod(step_count - 1, self.stride)  # sample of the step just done
         if r or k >= len(self.t):
             return
-        # what Robots.sample gives, written in place (no temporaries: this runs every step)
-        B = robots.n_trials
-        angles = self.joint_angles[:, k].reshape(B, -1)
-        np.take(robots.qpos, robots.qa.reshape(-1), axis=1, out=angles)
-        torques = self.torques[:, k].reshape(B, -1)
-        np.take(robots.ctrl, robots.act.reshape(-1), axis=1, out=torques)
-        np.clip(torques, robots.ctrl_lo, robots.ctrl_hi, out=torques)  # as applied
+        robots.joints_into(self.joint_angles[:, k], self.torques[:, k])
         torso = robots.torso
         self.torso_position[:, k] = torso["position"]
         self.torso_velocity[:, k] = torso["velocity"]

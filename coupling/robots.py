@@ -60,8 +60,6 @@ class Robots:
         self.act = layout.actuator  # (4, 3)
         self._ctrl_lo = model.actuator_ctrlrange[layout.actuator, 0]
         self._ctrl_hi = model.actuator_ctrlrange[layout.actuator, 1]
-        # the motors' torque limits, flat in the (leg, joint) order of act.reshape(-1)
-        self.ctrl_lo, self.ctrl_hi = self._ctrl_lo.reshape(-1), self._ctrl_hi.reshape(-1)
         fq, fv = self.fq, self.fv = int(layout.free_qpos_adr), int(layout.free_dof_adr)
         # torso state: read-only views, live after every step
         self.torso = {
@@ -146,6 +144,14 @@ class Robots:
                     else ("ctrl", k - nq - nv))
         return Diverged(f"{self.state[b, k]} in {which}[{i}] of trial {b} at "
                         f"t = {t:.3f} s", culprit=f"robot {which}", t=t, trial=b)
+
+    def joints_into(self, angles: np.ndarray, torques: np.ndarray) -> None:
+        """Every trial's joint angles and applied torques, (trials, 4 legs, 3 joints), written
+        into ``angles`` and ``torques`` (views allowed): :meth:`sample` without temporaries,
+        for a recorder that runs every step."""
+        np.take(self.qpos, self.qa, axis=1, out=angles)
+        np.take(self.ctrl, self.act, axis=1, out=torques)
+        np.clip(torques, self._ctrl_lo, self._ctrl_hi, out=torques)  # as applied
 
     def sample(self, trials: int | slice = slice(None)) -> tuple[np.ndarray, ...]:
         """Joint angles (leg, joint) rad, applied torques (leg, joint) N m, torso position and

@@ -81,12 +81,12 @@ def check_selection(spikes: tuple[str, ...] | None,
 
 def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
                  spikes: tuple[str, ...] = POPULATIONS,
-                 traces: tuple[str, ...] = TRACES, *, n_steps: int | None = None,
+                 traces: tuple[str, ...] = TRACES, *, n_steps: int,
                  trace_dtype: str = "float32") -> dict[str, Any]:
     """Spike monitors of ``spikes`` (Brian2's, by population: a monitor, or a tuple of them,
     one per stage, where the limbs integrate in stages: :meth:`CPG.parts`) and, under
     ``"traces"``, a :class:`~astrocpg.network.recording.TraceRecorder` of ``traces`` sampled
-    every ``trace_dt`` for the next ``n_steps`` steps (default: 10 simulated s), kept as
+    every ``trace_dt`` for the next ``n_steps`` steps (the run's length), kept as
     ``trace_dtype``; all added to the network."""
     mons: dict[str, Any] = {}
     for p in spikes:
@@ -95,8 +95,7 @@ def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
     cpg.net.add(*(m for ms in mons.values() for m in (ms if isinstance(ms, tuple) else (ms,))))
     if record_traces and traces:
         stride = int(round(float(trace_dt) / float(cpg.dt)))
-        steps = int(round(10.0 / float(cpg.dt))) if n_steps is None else int(n_steps)
-        recorder = TraceRecorder(cpg, tuple(traces), stride=stride, n_steps=steps,
+        recorder = TraceRecorder(cpg, tuple(traces), stride=stride, n_steps=int(n_steps),
                                  dtype=trace_dtype)
         cpg.net.add(recorder.operation())
         mons["traces"] = recorder
