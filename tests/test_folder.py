@@ -43,9 +43,11 @@ def hidden(parent: Path) -> list[str]:
 
 
 def astrocpg_output(folder: Path) -> Path:
-    """Make ``folder`` an astrocpg output (its manifest): what --overwrite may replace."""
+    """Make ``folder`` an astrocpg output (its manifest, listing the files there): what
+    --overwrite may replace."""
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "manifest.json").write_text(json.dumps({"astrocpg_command": "run"}))
+    (folder / "manifest.json").write_text(json.dumps({"astrocpg_command": "run",
+                                                      "inventory": F.inventory(folder)}))
     return folder
 
 

@@ -269,6 +269,56 @@ def check_output_path(target: str | os.PathLike, inputs: Iterable[str | os.PathL
                              f"{_derived_places()} may be written there)", culprit=culprit)
 
 
+def _refuse_part_of_output(path: Path, culprit: str) -> None:
+    """InputError when the folder ``path`` lies inside another astrocpg output folder (a run
+    folder inside a study's ``runs/``, a recorded session inside a training): that output
+    holds it, and replacing it would change that output behind its back."""
+    for folder in path.parents:
+        if (folder / MANIFEST).is_file() and is_astrocpg_output(folder):
+            if _derived(path.relative_to(folder).as_posix(), folder=True):
+                return  # figures/, report/, ...: the places later commands write into
+            try:
+                manifest = json.loads((folder / MANIFEST).read_bytes())
+                command = manifest.get("astrocpg_command")
+            except (OSError, ValueError, AttributeError):
+                command = None
+            what = f"the astrocpg {command} folder" if isinstance(command, str) \
+                else "the astrocpg output folder"
+            raise InputError(f"is part of {what} {folder}; --overwrite never replaces a part "
+                             f"of another output (rerun that {command or 'command'} instead, "
+                             f"or write to a folder of its own)", culprit=culprit)
+
+
+def _refuse_foreign_files(path: Path, culprit: str) -> None:
+    """InputError naming the first file (and how many there are) of the astrocpg output
+    folder ``path`` that its manifest's inventory does not list and that no later astrocpg
+    command writes there (:data:`DERIVED`): a file the user added is never deleted by
+    ``--overwrite``. A folder without an inventory (killed before its first manifest) holds
+    only astrocpg's own lock files and temporaries, or its manifest lists no files: then
+    everything not listed counts as foreign too."""
+    try:
+        manifest = json.loads((path / MANIFEST).read_bytes())
+        listed = manifest.get("inventory") if isinstance(manifest, dict) else None
+    except FileNotFoundError:
+        listed = {}
+    except (OSError, ValueError):
+        listed = None
+    if not isinstance(listed, dict):
+        listed = {}
+    try:
+        foreign = [rel for rel, _ in _files(path)
+                   if rel not in listed and not any(fnmatch.fnmatchcase(rel, p)
+                                                    for p in DERIVED)]
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, e.filename or path, "cannot read") from None
+    if foreign:
+        more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+        raise InputError(f"holds {foreign[0]}{more} that astrocpg did not write (not listed in "
+                         f"its {MANIFEST}); --overwrite replaces only what astrocpg wrote: "
+                         f"move your files out first, or choose another folder",
+                         culprit=culprit)
+
+
 def check_replaceable(target: str | os.PathLike, *, culprit: str) -> None:
     """What ``--overwrite`` may replace: an existing folder that :func:`is_astrocpg_output`
     (an existing file: one that no astrocpg output folder around it lists in its manifest).
@@ -281,6 +331,8 @@ def check_replaceable(target: str | os.PathLike, *, culprit: str) -> None:
                              f"{MANIFEST}); --overwrite replaces only a folder astrocpg wrote: "
                              f"choose another folder, or empty this one yourself",
                              culprit=culprit)
+        _refuse_part_of_output(path, culprit)
+        _refuse_foreign_files(path, culprit)
         return
     if not path.exists():
         return
