@@ -267,6 +267,9 @@ def test_train_out_on_an_old_format_folder_is_refused_or_replaced(tmp_path, trai
     shutil.copytree(trained, folder)
     marker = tmp_path / "marker"
     _plant(folder, "old-format", marker)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    manifest.pop("inventory")  # as an old astrocpg wrote it (no inventory): all its own
+    (folder / "manifest.json").write_text(json.dumps(manifest))
     before = tree(folder)
     assert main(["train", "--sessions", "1", *SHORT, "--out", str(folder), "--no-progress"]) == 2
     line = one_line(capsys)

@@ -475,6 +475,29 @@ def read_checkpoint(path: Path, culprit: Any = None) -> dict[str, Any]:
     return payload
 
 
+def check_belongs(out: Path, settings: TrainSettings) -> None:
+    """A folder holds one run: the checkpoint's settings (``settings``) must be those its
+    folder's manifest records (a checkpoint copied or linked in from another training, e.g.
+    of another seed, is refused naming the file and what differs, before anything changes)."""
+    manifest = read_manifest(out)
+    if not isinstance(manifest, dict) or manifest.get("astrocpg_command") != "train" \
+            or not isinstance(manifest.get("settings"), dict):
+        return
+    recorded = {k: v for k, v in manifest["settings"].items() if k not in ("record", "replay_of")}
+    try:
+        mine = TrainSettings(**recorded)
+    except TypeError:
+        raise InputError("manifest.json records settings this astrocpg cannot read",
+                         culprit=f"--resume {out}") from None
+    if mine.fingerprint() == settings.fingerprint():
+        return
+    differ = [f"{k} {v!r} (folder: {recorded.get(k)!r})"
+              for k, v in settings.__dict__.items() if recorded.get(k) != v] or ["its fingerprint"]
+    raise InputError(f"belongs to another training than its folder: {', '.join(differ[:3])}; "
+                     f"a folder holds one run (resume the folder that checkpoint came from)",
+                     culprit=out / CHECKPOINT)
+
+
 TRAIN_FILES = {
     "sessions.csv": "one row per trial and session: " + ", ".join(SESSION_COLUMNS),
     "weights.npz": "weights_mV (trial, session, 8, 8): each trial's inter-limb table after "
@@ -664,6 +687,8 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     if payload["fingerprint"] != settings.fingerprint():
         raise InputError(f"{out / CHECKPOINT} is not consistent with its settings",
                          culprit="--resume")
+    if not fresh:  # a checkpoint copied or linked in from another training
+        check_belongs(out, settings)
     try:
         stored_plan = (None if payload.get("record_plan") is None
                        else RecordPlan.from_dict(payload["record_plan"]))

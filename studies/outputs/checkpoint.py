@@ -266,11 +266,50 @@ def _open(path: Path, culprit: str) -> Any:
     if not head.startswith(_ZIP_MAGIC):
         raise _error(path, culprit, "is not an astrocpg checkpoint")
     try:
+        _check_sizes(path, culprit)
         return np.load(path, allow_pickle=False)
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile) as e:
+        if isinstance(e, InputError):
+            raise
         if isinstance(e, OSError) and not isinstance(e, zipfile.BadZipFile) and e.errno:
             raise EnvironmentFault.from_os_error(e, path, "cannot read the checkpoint") from None
         raise _error(path, culprit, "is corrupt (not a whole archive)") from None
+
+
+def _check_sizes(path: Path, culprit: Any) -> None:
+    """Bounded reading: a checkpoint is written uncompressed (``np.savez``), so each entry must
+    be stored as is (its declared size equal to the bytes it takes in the file) and the sizes
+    must add up to no more than the file: nothing in it can make the reader use more memory
+    than the file's own size (a compressed entry, a compression bomb, a declared size larger
+    than the file is refused before anything is decompressed)."""
+    size = path.stat().st_size
+    with zipfile.ZipFile(path) as zf:
+        total = 0
+        for info in zf.infolist():
+            if info.compress_type != zipfile.ZIP_STORED or info.file_size != info.compress_size:
+                raise _error(path, culprit, f"is not an astrocpg checkpoint (entry "
+                                            f"{info.filename} is compressed: {info.file_size} "
+                                            f"bytes declared in {info.compress_size})")
+            total += info.file_size
+            if total > size:
+                raise _error(path, culprit, f"is corrupt (entry {info.filename} declares "
+                                            f"{info.file_size} bytes, more than the file holds)")
+
+
+def _referenced(tree: Any, found: set[str], depth: int = 0) -> set[str]:
+    """The archive entries the state tree refers to (``$array``, ``$scalar``, ``$bytes``)."""
+    if depth > 64:
+        return found
+    if isinstance(tree, list):
+        for v in tree:
+            _referenced(v, found, depth + 1)
+    elif isinstance(tree, dict):
+        for k, v in tree.items():
+            if k in ("$array", "$scalar", "$bytes") and isinstance(v, str):
+                found.add(v)
+            else:
+                _referenced(v, found, depth + 1)
+    return found
 
 
 def _json_entry(z: Any, name: str, path: Path, culprit: str) -> Any:
@@ -308,6 +347,11 @@ def read_checkpoint(path: Path, culprit: Any = None) -> tuple[dict[str, Any], An
         meta = _meta(z, path, culprit)
         tree = _json_entry(z, "state", path, culprit)
         names = set(z.files) - {"meta", "state"}
+        unreferenced = sorted(names - _referenced(tree, set()))
+        if unreferenced:  # never read: refused before a byte of it is decompressed
+            more = f" and {len(unreferenced) - 1} more" if len(unreferenced) > 1 else ""
+            raise _error(path, culprit, f"is not an astrocpg checkpoint (entry "
+                                        f"{unreferenced[0]}{more} is not part of its state)")
         arrays = {}
         for name in names:  # read every entry now: a damaged one fails here, as a whole
             try:

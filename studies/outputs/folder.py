@@ -293,18 +293,16 @@ def _refuse_foreign_files(path: Path, culprit: str) -> None:
     """InputError naming the first file (and how many there are) of the astrocpg output
     folder ``path`` that its manifest's inventory does not list and that no later astrocpg
     command writes there (:data:`DERIVED`): a file the user added is never deleted by
-    ``--overwrite``. A folder without an inventory (killed before its first manifest) holds
-    only astrocpg's own lock files and temporaries, or its manifest lists no files: then
-    everything not listed counts as foreign too."""
+    ``--overwrite``. A manifest without an inventory (an older astrocpg's) claims every file."""
     try:
         manifest = json.loads((path / MANIFEST).read_bytes())
-        listed = manifest.get("inventory") if isinstance(manifest, dict) else None
     except FileNotFoundError:
-        listed = {}
+        manifest = {"inventory": {}}
     except (OSError, ValueError):
-        listed = None
-    if not isinstance(listed, dict):
-        listed = {}
+        manifest = {}
+    if not isinstance(manifest, dict) or "inventory" not in manifest:
+        return  # written by an astrocpg before manifests listed files: all of it is its own
+    listed = manifest["inventory"] if isinstance(manifest["inventory"], dict) else {}
     try:
         foreign = [rel for rel, _ in _files(path)
                    if rel not in listed and not any(fnmatch.fnmatchcase(rel, p)
