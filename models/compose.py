@@ -78,6 +78,9 @@ def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str,
     from . import INTERFACES
     from .files import check_interface, check_parameters_used, model_from_toml
 
+    from ..shipped import resolve
+    items = [f"{name}={resolve(file, 'model')}" if sep and file else item  # a shipped name
+             for item in items for name, sep, file in [item.partition("=")]]
     texts = read_equation_files(items, option=option)
     slots = dict(DEFAULT_MODELS.items())
     for item in items:

@@ -926,6 +926,12 @@ def _cmd_models(args: argparse.Namespace) -> int:
         for name, model in known.items():
             print(f"{name:20s} {model.kind:10s} {len(model.parameters):3d} parameters  "
                   f"{INTERFACES.get(name) or '-'}")
+        from ..shipped import ROOT, shipped
+        for kind, use in (("model", "--model MODEL=NAME"), ("study", "astrocpg study NAME"),
+                          ("worlds", "evaluate --worlds NAME")):
+            print(f"\nshipped {kind} files ({use}):")
+            for name, path in shipped(kind).items():
+                print(f"  {name:28s} {path.relative_to(ROOT).as_posix()}")
         return 0
     if args.name not in known:
         raise InputError(f"unknown model{did_you_mean(args.name, known)} (models: "

@@ -80,7 +80,8 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
     ``scale = ["P", ...]``, model parameters multiplied together by each factor (e.g. the
     descending drive ``I_background_0``, the torques per spike ``I_thigh`` and ``I_calf``).
     Every name and value is checked (units, parse) here, each error naming its place."""
-    path = BUILTIN_WORLDS.get(str(source), Path(source))
+    from ...shipped import resolve
+    path = BUILTIN_WORLDS.get(str(source)) or resolve(source, "worlds")
     where = f"--worlds {source}"
     try:
         doc = tomllib.loads(path.read_bytes().decode("utf-8"))

@@ -81,10 +81,8 @@ def load_study(path: str | os.PathLike, *, batch: int | None = None) -> Study:
     batch: seeds per run, instead of the file's ``batch`` (how a ``batch = "auto"`` study is
     split once its batch is chosen: :func:`resolve_batch`)."""
 
-    p = Path(path)
-    built_in = Path(__file__).with_name(f"{p.name}.toml")
-    if not p.exists() and p.suffix == "" and built_in.exists():
-        p = built_in  # `astrocpg study quick`: a built-in study by name
+    from ...shipped import resolve
+    p = resolve(path, "study")  # `astrocpg study quick`: a shipped study by name
     try:
         text = p.read_bytes().decode("utf-8")
     except OSError as e:

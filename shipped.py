@@ -1,0 +1,49 @@
+"""Files the package ships, reachable by name: model files, studies and worlds.
+
+``astrocpg study compare_astrocytes`` and ``--model alive=alive_height`` name a shipped file by
+its stem; a path that exists is always read as it is, so a name resolves to the shipped file
+only when no such path exists. The repository's own spelling (``models/variants/x.toml``)
+resolves the same way, so the manual's commands also run from an installed wheel.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent
+# kind -> folders (relative to the package) whose *.toml files of that kind are shipped
+FOLDERS = ("models/variants", "studies/sweeps", "studies/experiments", "docs/beyond")
+
+
+def _kind(path: Path) -> str:
+    text = path.read_text(encoding="utf-8", errors="replace")
+    lines = [line.strip() for line in text.splitlines()]
+    if "[study]" in lines:
+        return "study"
+    if any(line.startswith(("[worlds", "[grid")) for line in lines):
+        return "worlds"
+    return "model"
+
+
+def shipped(kind: str | None = None) -> dict[str, Path]:
+    """{name: path} of the shipped TOML files of ``kind`` (model, study, worlds; None: all)."""
+    out: dict[str, Path] = {}
+    for folder in FOLDERS:
+        for path in sorted((ROOT / folder).glob("*.toml")):
+            if kind is None or _kind(path) == kind:
+                out.setdefault(path.stem, path)
+    return out
+
+
+def resolve(given: str | Path, kind: str) -> Path:
+    """``given`` as a path when it exists, else the shipped file of that name (with or without
+    ``.toml``) or of that repository path; else ``given`` unchanged (its reader says why)."""
+    p = Path(given)
+    if p.exists():
+        return p
+    files = shipped(kind)
+    stem = p.name[:-5] if p.name.endswith(".toml") else p.name
+    if stem in files and (len(p.parts) == 1 or
+                          files[stem].relative_to(ROOT).as_posix() == p.as_posix()):
+        return files[stem]
+    return p
