@@ -15,6 +15,7 @@ import subprocess
 import sys
 import sysconfig
 import venv
+import tarfile
 import zipfile
 from pathlib import Path
 
@@ -69,8 +70,15 @@ def test_build_gives_an_sdist_and_a_wheel_with_the_package_data(dist: Path) -> N
     assert "License-Expression: MIT" in metadata
     assert "Author: " in metadata and "Project-URL: " in metadata
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
-    assert not any(n.startswith(("tests/", "docs/", "astrocpg/tests/", "astrocpg/docs/"))
-                   for n in names)
+    # the manual stays out of the wheel; its example model and study files ship (by name)
+    assert not any(n.startswith(("tests/", "docs/", "astrocpg/tests/")) for n in names)
+    docs = sorted(n for n in names if n.startswith("astrocpg/docs/"))
+    assert docs and all(n.startswith("astrocpg/docs/beyond/") and n.endswith(".toml")
+                        for n in docs), docs
+    assert "astrocpg/shipped.py" in names and "astrocpg/__main__.py" in names
+    sdist = set(tarfile.open(sdists[0]).getnames())
+    for shown in ("CHANGELOG.md", "CITATION.cff", "docs/index.md", "benchmarks/all.py"):
+        assert any(n.endswith("/" + shown) for n in sdist), shown
 
 
 def test_the_wheel_runs_from_a_fresh_environment(dist: Path, tmp_path: Path) -> None:
@@ -102,9 +110,10 @@ def test_the_wheel_runs_from_a_fresh_environment(dist: Path, tmp_path: Path) -> 
     assert version.returncode == 0, version.stderr
     assert version.stdout.strip() == f"astrocpg {astrocpg.__version__}"
 
+    # a shipped variant by name: no models/ folder beside the working folder
     run = subprocess.run([str(script), "run", "--seconds", "0.2", "--no-progress", "--out",
-                          "out/r"], cwd=elsewhere, env=env, capture_output=True, text=True,
-                         timeout=600)
+                          "out/r", "--model", "alive=alive_height"], cwd=elsewhere, env=env,
+                         capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr[-3000:]
     assert (elsewhere / "out" / "r" / "manifest.json").is_file()
 
@@ -120,6 +129,11 @@ def test_the_wheel_runs_from_a_fresh_environment(dist: Path, tmp_path: Path) -> 
                             "print(len(load_study(str(p)).runs))"],
                            cwd=elsewhere, env=env, capture_output=True, text=True, timeout=300)
     assert study.returncode == 0 and int(study.stdout.strip()) > 0, study.stderr[-3000:]
+    by_name = subprocess.run([str(python), "-c",
+                              "from astrocpg.studies.sweeps.study import load_study; "
+                              "print(len(load_study('compare_astrocytes').runs))"],
+                             cwd=elsewhere, env=env, capture_output=True, text=True, timeout=300)
+    assert by_name.returncode == 0 and int(by_name.stdout.strip()) > 0, by_name.stderr[-3000:]
 
 
 def test_pip_wheel_leaves_nothing_in_the_source_tree(tmp_path: Path) -> None:
