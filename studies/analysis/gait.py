@@ -1,6 +1,26 @@
-"""Gait of a controller: the phase of each leg's thigh-extensor bursts relative to FR, a gait
-label from those phases, and stance/swing per leg (foot contact, or extensor bursts when the
-robot has no foot touch sensors).
+"""Rhythm and gait of a controller, and the structure of its inter-limb table.
+
+Two measures, never one for the other:
+
+* the **rhythm** is what the CPG does: the phase of each leg's thigh-extensor burst onsets
+  within FR's cycles (:func:`leg_phases`), labelled by :func:`phase_label`. It exists whether
+  or not the robot stands: a robot on its back keeps its rhythm.
+* the **gait** is what the feet do while the robot stands: the touchdowns of each foot (its
+  touch sensor going from no force to force) over the *upright part* of the analysed window,
+  that is, up to the first sample the alive model does not count as upright
+  (:mod:`~astrocpg.studies.analysis.fall`), their phase within FR's stepping cycles and the
+  same label (:func:`footfall_gait`). A run gets a gait label only when
+
+  - the robot's feet have touch sensors (else: ``no contact data``);
+  - it stood for at least :data:`MIN_GAIT_SHARE` of the analysed window (else:
+    ``fell at 2.16 s``);
+  - every foot touched down at least :data:`MIN_TOUCHDOWNS` times in it (else:
+    ``too few steps``);
+  - each foot's touchdowns keep their phase within FR's cycles (resultant length at least
+    ``min_locking``, else: ``not periodic``).
+
+  Otherwise the gait is ``none`` and ``gait_reason`` says why; a periodic footfall that is
+  none of the named patterns is ``none`` with the reason ``no named pattern``.
 
 Labels (phases relative to FR, within ``tolerance`` of a cycle):
   trot  FR-RL and FL-RR in phase, the two pairs in anti-phase;
@@ -12,14 +32,28 @@ Labels (phases relative to FR, within ``tolerance`` of a cycle):
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
 from ...network import LEGS, Layout
+from .fall import first_fall
 from .rhythm import cycle_period, detect_bursts, phase_locking
 
 LEG_INDEX = {leg: k for k, leg in enumerate(LEGS)}
+NAMED = ("trot", "pace", "bound", "walk")
+"""The labels that name a gait or rhythm (``none`` names none)."""
+
+MIN_GAIT_SHARE = 0.8
+"""A gait is read only from a run that stood for at least this share of the analysed window
+(4 of the 5 s that ``evaluate`` and a study's final runs analyse)."""
+MIN_TOUCHDOWNS = 4
+"""... and in which every foot touched down at least this many times while upright."""
+MIN_SWING_S = 0.05
+"""Contact gaps shorter than this are one stance (a foot bouncing on touchdown)."""
+MIN_STANCE_S = 0.005
+"""Contacts shorter than this are no stance (a toe brushing the ground in swing)."""
 
 
 def _circ(a: float, b: float) -> float:
@@ -29,8 +63,8 @@ def _circ(a: float, b: float) -> float:
 
 def leg_phases(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: int,
                t_start: float, t_stop: float) -> dict[str, Any]:
-    """Phase of each leg's thigh-extensor burst onsets within FR's cycles (circular mean) and
-    how locked it is (resultant length, 1 = every cycle the same)."""
+    """The rhythm: phase of each leg's thigh-extensor burst onsets within FR's cycles (circular
+    mean) and how locked it is (resultant length, 1 = every cycle the same)."""
     keep = (times >= t_start) & (times < t_stop)
     t, i = times[keep], indices[keep]
     bursts = {leg: detect_bursts(t, i, layout.motor_neurons(trial, k, "thigh_extensor"), t_stop,
@@ -44,8 +78,10 @@ def leg_phases(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: in
             "bursts": {leg: b for leg, b in bursts.items()}}
 
 
-def gait_label(phases: dict[str, float], locking: dict[str, float], *, tolerance: float = 0.15,
-               min_locking: float = 0.7) -> str:
+def phase_label(phases: dict[str, float], locking: dict[str, float], *, tolerance: float = 0.15,
+                min_locking: float = 0.7) -> str:
+    """trot, pace, bound, walk or none from the phases of the legs relative to FR (0..1) and
+    their locking: the one classifier of the rhythm and of the gait."""
     if any(not np.isfinite(phases[leg]) or locking[leg] < min_locking for leg in LEGS):
         return "none"
     p = phases
@@ -67,18 +103,120 @@ def gait_label(phases: dict[str, float], locking: dict[str, float], *, tolerance
     return "none"
 
 
+def trial_rhythm(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: int,
+                 t_start: float, t_stop: float) -> dict[str, Any]:
+    """One trial's rhythm between t_start and t_stop: ``rhythm`` (label),
+    ``rhythm_period_s`` and each leg's ``rhythm_phase_<leg>`` and ``rhythm_locking_<leg>``
+    relative to FR."""
+    g = leg_phases(times, indices, layout, trial, t_start, t_stop)
+    row: dict[str, Any] = {"rhythm": phase_label(g["phases"], g["locking"]),
+                           "rhythm_period_s": float(g["period"])}
+    for leg in LEGS[1:]:
+        row[f"rhythm_phase_{leg}"] = float(g["phases"][leg])
+        row[f"rhythm_locking_{leg}"] = float(g["locking"][leg])
+    return row
+
+
+def stances(t: np.ndarray, force: np.ndarray, t_start: float, t_stop: float) -> np.ndarray:
+    """One foot's stances in [t_start, t_stop) as an (n, 2) array of touchdown and lift-off
+    times (s), from its touch sensor (``force`` > 0 N at the samples ``t``): gaps shorter than
+    :data:`MIN_SWING_S` bridged, contacts shorter than :data:`MIN_STANCE_S` dropped, and a
+    stance already on at ``t_start`` not counted as a touchdown."""
+    t = np.asarray(t, dtype=float)
+    sel = (t >= t_start) & (t < t_stop)
+    x, on = t[sel], np.asarray(force, dtype=float)[sel] > 0
+    if x.size < 2:
+        return np.zeros((0, 2))
+    edges = np.diff(np.concatenate([[0], on.astype(int), [0]]))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    step = float(np.median(np.diff(x)))
+    merged: list[list[int]] = []
+    for a, b in zip(starts, stops):
+        if merged and (a - merged[-1][1]) * step < MIN_SWING_S:
+            merged[-1][1] = b
+        else:
+            merged.append([a, b])
+    out = [(x[a], x[b - 1] + step) for a, b in merged
+           if a > 0 and (b - a) * step >= MIN_STANCE_S]
+    return np.array(out, dtype=float).reshape(-1, 2)
+
+
+def _no_gait(reason: str, share: float) -> dict[str, Any]:
+    row: dict[str, Any] = {"gait": "none", "gait_reason": reason, "gait_share": share,
+                           "gait_period_s": math.nan, "gait_duty_factor": math.nan}
+    for leg in LEGS[1:]:
+        row[f"gait_phase_{leg}"] = math.nan
+        row[f"gait_locking_{leg}"] = math.nan
+    return row
+
+
+def footfall_gait(t: np.ndarray, alive: np.ndarray, foot_force: np.ndarray, t_start: float,
+               t_stop: float, *, min_locking: float = 0.7) -> dict[str, Any]:
+    """One trial's gait between t_start and t_stop from its robot recording (sample times
+    ``t``, ``alive`` (samples,) and ``foot_force`` (samples, 4 legs)): ``gait`` (label),
+    ``gait_reason`` (why it is ``none``; empty for a named gait), ``gait_share`` (the share of
+    the window it was read over: upright, before the first fall), ``gait_period_s`` (median
+    interval between FR's touchdowns), ``gait_duty_factor`` (mean share of a cycle a foot is
+    on the ground) and each foot's ``gait_phase_<leg>`` and ``gait_locking_<leg>``: the
+    phase of its touchdowns within FR's stepping cycles."""
+    t = np.asarray(t, dtype=float)
+    force = np.asarray(foot_force, dtype=float)
+    fall = first_fall(t, alive)
+    end = t_stop if fall is None else min(t_stop, max(t_start, fall.t_s))
+    share = (end - t_start) / (t_stop - t_start) if t_stop > t_start else 0.0
+    if force.size == 0 or not np.all(np.isfinite(force)):
+        return _no_gait("no contact data", share)
+    if share < MIN_GAIT_SHARE:
+        return _no_gait(f"fell at {fall.t_s:.2f} s", share)
+    steps = {leg: stances(t, force[:, k], t_start, end) for k, leg in enumerate(LEGS)}
+    if min(len(s) for s in steps.values()) < MIN_TOUCHDOWNS:
+        return _no_gait("too few steps", share)
+    phases, locking = {}, {}
+    for leg, s in steps.items():
+        phases[leg], locking[leg] = phase_locking(steps["FR"], s)
+    period = cycle_period(steps["FR"])
+    duty = float(np.mean([np.sum(s[:, 1] - s[:, 0]) / (end - t_start) for s in steps.values()]))
+    label = phase_label(phases, locking, min_locking=min_locking)
+    if any(locking[leg] < min_locking for leg in LEGS):
+        reason = "not periodic"
+    else:
+        reason = "" if label in NAMED else "no named pattern"
+    row: dict[str, Any] = {"gait": label, "gait_reason": reason, "gait_share": share,
+                           "gait_period_s": period, "gait_duty_factor": duty}
+    for leg in LEGS[1:]:
+        row[f"gait_phase_{leg}"] = float(phases[leg])
+        row[f"gait_locking_{leg}"] = float(locking[leg])
+    return row
+
+
+def trial_measures(times: np.ndarray, indices: np.ndarray, layout: Layout, recording: Any,
+                   trial: int, t_start: float, t_stop: float) -> dict[str, Any]:
+    """Rhythm (:func:`trial_rhythm`, from the motor spikes ``times``, ``indices``) and gait
+    (:func:`footfall_gait`, from the robot ``recording``) of one trial over [t_start, t_stop):
+    the columns every command and table of gaits carries."""
+    return {**trial_rhythm(times, indices, layout, trial, t_start, t_stop),
+            **footfall_gait(recording.t, recording.alive[trial], recording.foot_force[trial],
+                         t_start, t_stop)}
+
+
 def trial_gait(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: int,
                t_start: float, t_stop: float) -> dict[str, Any]:
-    """One trial's gait between t_start and t_stop: ``gait`` (label), ``period_s`` and each
-    leg's ``phase_<leg>`` and ``locking_<leg>`` relative to FR (what evaluate and a study's
-    gait.csv report)."""
-    g = leg_phases(times, indices, layout, trial, t_start, t_stop)
-    row: dict[str, Any] = {"gait": gait_label(g["phases"], g["locking"]),
-                           "period_s": float(g["period"])}
-    for leg in LEGS[1:]:
-        row[f"phase_{leg}"] = float(g["phases"][leg])
-        row[f"locking_{leg}"] = float(g["locking"][leg])
-    return row
+    """The rhythm under the columns the commands still write (``gait``, ``period_s``,
+    ``phase_<leg>``, ``locking_<leg>``): the thigh-pool phase pattern, whether or not the
+    robot stands. Kept until every command writes :func:`trial_measures`."""
+    r = trial_rhythm(times, indices, layout, trial, t_start, t_stop)
+    return {("gait" if k == "rhythm" else k.removeprefix("rhythm_")): v for k, v in r.items()}
+
+
+gait_label = phase_label  # the name the commands still import
+
+
+MEASURE_COLUMNS = ("rhythm", "gait", "gait_reason", "gait_share", "rhythm_period_s",
+                   "rhythm_phase_FL", "rhythm_phase_RR", "rhythm_phase_RL",
+                   "rhythm_locking_FL", "rhythm_locking_RR", "rhythm_locking_RL",
+                   "gait_period_s", "gait_duty_factor", "gait_phase_FL", "gait_phase_RR",
+                   "gait_phase_RL", "gait_locking_FL", "gait_locking_RR", "gait_locking_RL")
+"""The columns of :func:`trial_measures`, in table order."""
 
 
 def phase_matrix(phases: dict[str, float]) -> np.ndarray:
@@ -87,12 +225,20 @@ def phase_matrix(phases: dict[str, float]) -> np.ndarray:
     return (v[None, :] - v[:, None]) % 1.0
 
 
-def weight_structure(table: np.ndarray, w_max: float) -> dict[str, float]:
-    """How a trained 8x8 table looks: limb pairs (of 12) whose 2x2 block holds two inhibitory and
-    two excitatory synapses (the paper's structure with astrocytes), and the share of inter-limb
-    weights above 0.9 w_max (saturation, the paper's ablation)."""
+def weight_structure(table: np.ndarray, w_max: float, w_min: float | None = None
+                     ) -> dict[str, float]:
+    """How a trained 8x8 table looks, over its inter-limb blocks (12 limb pairs, 48 weights):
+
+    * ``mixed_limb_pairs``: limb pairs whose 2x2 block holds two inhibitory and two excitatory
+      synapses (the paper's structure with astrocytes); ``excitatory_limb_pairs`` and
+      ``inhibitory_limb_pairs``: blocks all of one sign;
+    * ``share_excitatory`` and ``share_inhibitory``: weights above and below 0 (the signs);
+    * ``share_above_0.9_w_max`` and ``share_below_0.9_w_min``: weights within 10% of a bound's
+      magnitude of it (saturation at either bound; ``w_min`` defaults to ``-w_max``, the
+      model's, so that 0.9 w_min is -0.045 mV for the default -0.05 mV)."""
+    w_min = -w_max if w_min is None else w_min
     n_legs = table.shape[0] // 2
-    mixed = 0
+    mixed = exc = inh = 0
     values = []
     for a in range(n_legs):
         for b in range(n_legs):
@@ -101,6 +247,11 @@ def weight_structure(table: np.ndarray, w_max: float) -> dict[str, float]:
             block = table[2 * a:2 * a + 2, 2 * b:2 * b + 2]
             values.append(block.ravel())
             mixed += int((block < 0).sum() == 2 and (block > 0).sum() == 2)
+            exc += int((block > 0).all())
+            inh += int((block < 0).all())
     v = np.concatenate(values)
-    return {"mixed_limb_pairs": mixed, "limb_pairs": n_legs * (n_legs - 1),
-            "share_above_0.9_w_max": float(np.mean(v > 0.9 * w_max))}
+    return {"mixed_limb_pairs": mixed, "excitatory_limb_pairs": exc,
+            "inhibitory_limb_pairs": inh, "limb_pairs": n_legs * (n_legs - 1),
+            "share_excitatory": float(np.mean(v > 0)), "share_inhibitory": float(np.mean(v < 0)),
+            "share_above_0.9_w_max": float(np.mean(v > 0.9 * w_max)),
+            "share_below_0.9_w_min": float(np.mean(v < w_min + 0.1 * abs(w_min)))}

@@ -7,7 +7,7 @@ final figures per group (``final_figures.csv`` and ``report.md``): over the last
 fewer where a seed trained fewer) sessions of each seed, mean reward, forward speed, final x,
 session length and the share of sessions that reached L_max, then mean +- std across seeds; and
 from the trained weights the limb pairs with two inhibitory and two excitatory synapses and the
-share of weights above 0.9 w_max (the paper's contrast between the two conditions).
+share of weights above 0.9 w_max and below 0.9 w_min and of excitatory weights (the paper's contrast
 
 A sweep: each final figure against the swept value, one line per condition
 (``sweep_<axis>.png``); over two axes swept as a grid, one heatmap per final figure
@@ -93,10 +93,10 @@ def _group_label(spec: dict[str, Any]) -> str:
     return spec["condition"] + (f" ({point})" if point else "")
 
 
-def _model_values(spec: dict[str, Any]) -> tuple[float, float]:
-    """w_max (volt) and L_max (s) of a run, from its overrides."""
+def _model_values(spec: dict[str, Any]) -> tuple[float, float, float]:
+    """w_max (volt), L_max (s) and w_min (volt) of a run, from its overrides."""
     models = model_set(list(spec["overrides"]), {}, models=spec.get("models") or None)
-    return models.value("w_max"), models.value("L_max")
+    return models.value("w_max"), models.value("L_max"), models.value("w_min")
 
 
 def moving_mean(table: np.ndarray, width: int) -> np.ndarray:
@@ -122,7 +122,10 @@ MEASURES = (Measure("speed", "forward speed", "m/s"), Measure("final_x", "final 
 # from a seed's trained table (weights.npz), when the runs saved one
 WEIGHT_MEASURES = (Measure("mixed_limb_pairs", "mixed limb pairs", "count"),
                    Measure("share_above_0.9_w_max", "weights above 0.9 w_max",
-                           "fraction"))
+                           "fraction"),
+                   Measure("share_below_0.9_w_min", "weights below 0.9 w_min",
+                           "fraction"),
+                   Measure("share_excitatory", "excitatory weights", "fraction"))
 TESTS = "condition_tests.csv"
 _NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:\*\s*(.+?))?\s*")
 
@@ -201,9 +204,9 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
             for trial, sdf in df.groupby("trial"):
                 series[m["spec"]["seed"] + int(trial)] = sdf.sort_values("session")
             if m["weights"] is not None:
-                w_max = _model_values(m["spec"])[0]
+                w_max, _, w_min = _model_values(m["spec"])
                 for trial, w in enumerate(m["weights"]):
-                    structure[m["spec"]["seed"] + trial] = weight_structure(w, w_max)
+                    structure[m["spec"]["seed"] + trial] = weight_structure(w, w_max, w_min)
         if not series:  # no run of the group has finished a session: said, not dropped
             empty.append({"group": label, "condition": condition, **dict(zip(swept, point)),
                           "seeds": 0,
@@ -237,7 +240,9 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
             if seed in structure:
                 one["mixed_limb_pairs"] = float(structure[seed]["mixed_limb_pairs"])
                 one["limb_pairs"] = int(structure[seed]["limb_pairs"])
-                one["share_above_0.9_w_max"] = structure[seed]["share_above_0.9_w_max"]
+                for key in ("share_above_0.9_w_max", "share_below_0.9_w_min",
+                            "share_excitatory"):
+                    one[key] = structure[seed][key]
             seeds_here.append(one)
         per_seed.extend(seeds_here)
         row: dict[str, Any] = {
@@ -443,7 +448,8 @@ def _span(low: int, high: int) -> str:
 
 
 FORMATS = {"speed": ".3f", "final_x": ".2f", "length": ".2f", "reward": ".3f", "full": ".0%",
-           "mixed_limb_pairs": ".1f", "share_above_0.9_w_max": ".0%"}
+           "mixed_limb_pairs": ".1f", "share_above_0.9_w_max": ".0%",
+           "share_below_0.9_w_min": ".0%", "share_excitatory": ".0%"}
 
 
 def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]],
@@ -468,8 +474,9 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
              f"Full-length: share of those sessions that reached L_max.", "",
              "| group | seeds | runs finished | sessions | last sessions | forward speed (m/s) | "
              "final x (m) | session length (s) | mean reward | full-length | "
-             f"mixed limb pairs{pairs} | weights > 0.9 w_max |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             f"mixed limb pairs{pairs} | weights > 0.9 w_max | weights < 0.9 w_min | "
+             "excitatory weights |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         sessions = _span(r["sessions_min"], r["sessions_max"])
         lines.append(
