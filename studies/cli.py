@@ -838,15 +838,31 @@ def _cmd_study(args: argparse.Namespace) -> int:
     print(f"runs: {counts}; {res['rows']} rows in {out / RESULTS}")
     if res.get("evaluation"):
         print(f"evaluated in other worlds: {res['evaluation']}/ (evaluation.csv, summary.csv)")
+    diverged = res.get("diverged") or []
+    if res["failed"] and len(diverged) == len(res["failed"]):
+        # every run left is diverged: a rerun would diverge again (exit 3, like run/train)
+        errors = res.get("errors") or {}
+        first = errors.get(diverged[0], "")
+        print(f"diverged: {', '.join(diverged)} (in {res['failures']}); not a result: its "
+              f"settings make it diverge, a rerun would too")
+        sys.stderr.write(one_line(
+            f"astrocpg: study {study.name}: {len(diverged)} of {len(study.runs)} run(s) "
+            f"diverged ({', '.join(diverged[:5])}{', ...' if len(diverged) > 5 else ''}); "
+            f"{diverged[0]}: {one_line(first, 200)}; errors in {res['failures']}; change the "
+            f"settings of its condition (a new --out), a rerun diverges again", 900) + "\n")
+        return 3
     if res["failed"]:
         # one line on stderr, like every failure: which runs, the first error, where the rest
         # is (only a file that exists), and whether a rerun can help
         errors = res.get("errors") or {}
-        first = next(iter(errors.items()), None)
+        first = next(((k, e) for k, e in errors.items() if k not in diverged), None)
         where = f"; errors in {res['failures']}" if res.get("failures") else ""
-        bad_input = bool(errors) and all(e.startswith("InputError") for e in errors.values())
+        retried = [e for k, e in errors.items() if k not in diverged]
+        bad_input = bool(retried) and all(e.startswith("InputError") for e in retried)
         retry = ("fix the input and rerun the same command" if bad_input
                  else "rerun the same command to retry them")
+        if diverged:  # retried runs may finish; the diverged ones are not run again
+            retry += f" ({len(diverged)} diverged, not retried: {', '.join(diverged[:3])})"
         print(f"not finished: {', '.join(res['failed'])}"
               f"{' (errors in ' + res['failures'] + ')' if res.get('failures') else ''}; "
               f"{retry}")
@@ -872,6 +888,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
         sys.stderr.write(one_line(f"astrocpg: note: no data yet for {len(written['no_data'])} "
                                   f"group(s) of {args.dir}: {'; '.join(written['no_data'])}",
                                   900) + "\n")
+    if written.get("diverged"):  # shown as diverged, never as a result
+        sys.stderr.write(one_line(f"astrocpg: note: {len(written['diverged'])} group(s) of "
+                                  f"{args.dir} diverged (not a result, no figures or tests): "
+                                  f"{'; '.join(written['diverged'])}", 900) + "\n")
     print(written["text"])
     print(f"wrote {', '.join(str(p) for p in written['files'])}")
     return 0

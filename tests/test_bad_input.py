@@ -1373,7 +1373,7 @@ TERRAIN_STUDY = (study_text(batch=1) + 'terrain_height = "0.01*meter"\n'
                  '[sweep.axes]\nterrain_length = ["0.5*meter", "0.001*meter"]\n')
 FINE_WORLDS = '[worlds.rough]\nterrain_height = "0.01*meter"\nterrain_length = "0.001*meter"\n'
 TOO_MANY_WORKERS = str(4 * (os.cpu_count() or 1) + 1)
-EXIT_BASE = 'r_IP3 = "1e306*umolar/second"\n'  # a study run that diverges: it fails
+EXIT_BASE = 'r_IP3 = "1e306*umolar/second"\n'  # a study run that diverges: exit 3
 
 # a study's run folders are its workers' while they train, the study folder its own
 case("study-held-run-train-resume", lambda e: S("train", "--resume", held_run(e)), 2,
@@ -1410,10 +1410,10 @@ case("study-point-invalid-delay-table", lambda e: S("study", e.study(DELAY_STUDY
 case("study-point-terrain-grid-too-fine", lambda e: S("study", e.study(TERRAIN_STUDY), "--out",
                                                       out(e), "--workers", "1"),
      2, "terrain_length", "absent", out)
-case("study-failed-run-one-line",
+case("study-diverged-run-one-line-exit-3",
      lambda e: S("study", e.study(study_text(batch=1) + EXIT_BASE), "--out", out(e),
                  "--workers", "1", "--no-progress"),
-     1, "failures.csv", "none", out, check=failures_named)
+     3, "failures.csv", "none", out, check=failures_named)
 # unbounded work refused up front
 case("study-evaluate-repeats-beyond-memory",
      lambda e: S("study", e.study(study_text() + "[evaluate]\nrepeats = 1000000000\n"),

@@ -138,6 +138,7 @@ def test_report_of_a_partial_study_names_the_groups_without_data(tiny_study, tmp
     spec.update(run_id="late__seed1", condition="late")
     index["specs"]["late__seed1"] = spec
     index["runs"]["late__seed1"] = "0" * 64
+    index["current"].append("late__seed1")  # a run the study file names, not yet started
     (study / "study.json").write_text(json.dumps(index))
     capsys.readouterr()
     assert main(["report", str(study)]) == 0

@@ -40,11 +40,12 @@ from ...network import codegen_target
 from ..analysis.fall import first_fall
 from ..analysis.gait import trial_gait
 from ..outputs.folder import OutputFolder, as_path, verify
+from ..outputs.study_index import INDEX as STUDY_INDEX, read_current
 from ..outputs.writing import atomic_write, write_manifest
 from ..outputs.weights import load_weights
 from .resources import check_memory, estimate_bytes
 from .run import trained_models, training_settings
-from .settings import number, seed_number
+from .settings import check_grid, number, seed_number
 from .simulate import STEP, check_duration, simulate_closed_loop
 
 BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}
@@ -96,6 +97,13 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
         raise InputError("needs [worlds.NAME] and/or [grid.AXIS] tables and nothing else",
                          culprit=where)
     world_names = set(models.world.parameters)
+    # the grid's size from its lengths alone, before a world of it is built or checked
+    lengths = [len(t["values"]) for t in grid.values()
+               if isinstance(t, dict) and isinstance(t.get("values"), list) and t["values"]]
+    if len(lengths) == len(grid) and grid:
+        check_grid(math.prod(lengths) + len(worlds),
+                   f"worlds ({' x '.join(map(str, lengths))} grid values"
+                   + (f", {len(worlds)} named" if worlds else "") + ")", culprit=where)
 
     def assignment(key: str, value: Any, at: str) -> str:
         if isinstance(value, dict):  # [worlds.a.b]: TOML reads the dot as a sub-table
@@ -193,21 +201,21 @@ def in_world(models: ModelSet, world: Mapping[str, Any]) -> ModelSet:
 
 
 def _controllers(folder: Path) -> list[dict[str, Any]]:
-    """The trained trainings under ``folder``: itself (a training), or a study's finished runs,
-    each with its settings and what identifies its trials (condition, swept point, seeds)."""
+    """The trained trainings under ``folder``: itself (a training), or the finished runs its
+    study file now names (a study), each with its settings and what identifies its trials
+    (condition, swept point, seeds)."""
     if (folder / "weights.npz").is_file():
         settings = training_settings(folder)
         return [{"folder": folder, "settings": settings, "condition":
                  "astrocytes" if settings.get("astrocytes", True) else "no_astrocytes",
                  "point": "", "first_seed": int(settings.get("seed", 1))}]
     runs = folder / "runs"
-    if not runs.is_dir():
-        raise InputError("is neither a training (weights.npz) nor a study folder (runs/)",
-                         culprit=str(folder))
-    import json
-
+    if not runs.is_dir() or not (folder / STUDY_INDEX).is_file():
+        raise InputError(f"is neither a training (weights.npz) nor a study folder (runs/ and "
+                         f"{STUDY_INDEX})", culprit=str(folder))
     found = []
-    for run in sorted(p for p in runs.iterdir() if p.is_dir()):
+    # the runs the study file now names, not the runs/ of an earlier version of it
+    for run in sorted(runs / run_id for run_id in read_current(folder, str(folder))):
         try:
             status = json.loads((run / "status.json").read_text())
         except (OSError, ValueError):
@@ -364,6 +372,9 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
         verify(c["folder"], strict=False)
         plans.append((c, load_weights(c["folder"], culprit=""), trained_models(c["settings"])))
     world_set = read_worlds(worlds, plans[0][2])
+    check_grid(len(plans) * len(world_set.worlds),
+               f"cells ({len(plans)} training(s) x {len(world_set.worlds)} world(s))",
+               culprit=f"evaluate {folder} --worlds {worlds}")
     _check_worlds(plans, world_set, worlds)
     n_max = max(len(t) for _, t, _ in plans) * repeats
     check_memory(estimate_bytes(trials=n_max, seconds=seconds, dt=STEP, robot_stride=1),

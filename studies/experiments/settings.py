@@ -23,6 +23,20 @@ def number(value: Any, culprit: str, *, integer: bool = False, minimum: float | 
 #: Brian2 seeds its (and numpy's legacy) generator with an unsigned 32-bit integer.
 MAX_SEED = 2**32 - 1
 
+#: The most units of work one grid may hold, refused before any is built: a study's trainings
+#: (sweep points x conditions x seeds), the worlds of a worlds file and the cells of an
+#: evaluation (trained trainings x worlds; each cell one closed-loop simulation). There is no
+#: switch past it: split the work into several studies or worlds files.
+MAX_GRID = 100_000
+
+
+def check_grid(cells: int, what: str, culprit: str) -> None:
+    """Refuse a grid of more than :data:`MAX_GRID` ``cells``, in one line naming its size
+    (``what``: how it is made) and the bound."""
+    if cells > MAX_GRID:
+        raise InputError(f"{cells} {what} is more than {MAX_GRID}, the most one grid may hold "
+                         f"(split it into several files)", culprit=culprit)
+
 
 def seed_number(value: Any, culprit: str = "--seed", trials: int = 1) -> int:
     """A seed for ``trials`` trials (seeds value .. value + trials - 1), each in Brian2's range

@@ -2,6 +2,13 @@
 raises for the run's own failure: its status says), the pending runs dispatched on the
 cluster longest first with the study's progress bar, and the runs that did not finish written
 to ``failures.csv``.
+
+How a run ends (its ``status.json`` state, and its manifest's status): ``finished``;
+``diverged`` (a state left the numbers, :class:`~astrocpg.errors.Diverged`: the sessions up to
+the diverged one are written, its error says where and when); ``failed`` (any other error);
+``stopped`` (interrupted; its manifest says ``interrupted``). A run that ended ``finished`` or
+``diverged`` is never run again: a diverged run is a function of its settings and would
+diverge again (:data:`ENDED`).
 """
 
 from __future__ import annotations
@@ -18,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import Diverged, InputError
 from ...network import exclusive
 from ..experiments.cluster import run_on_cluster
 from ...models.compose import model_set
@@ -32,6 +39,11 @@ from .study_file import RunSpec
 
 
 # ---------------------------------------------------------------- one run (on a worker)
+
+#: The states of a run that a study never runs again: finished, or diverged (its settings
+#: make it diverge; rerun, it would diverge again at the same step).
+ENDED = ("finished", "diverged")
+
 
 def read_status(folder: Path) -> dict[str, Any]:
     try:
@@ -73,7 +85,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
 
 def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
     status = read_status(out)
-    if status.get("state") == "finished":
+    if status.get("state") in ENDED:
         return status
     worker, worker_name = _this_worker()
     status.update({
@@ -88,6 +100,7 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
     status["history"] = status.get("history", []) + [
         {k: status[k] for k in ("attempts", "worker", "worker_name", "host", "pid", "started")}]
     t0 = time.perf_counter()
+    manifest: dict[str, Any] = {}  # once written, the run's manifest says how it ended
     try:
         _write_status(out, status)
         settings = spec.train_settings()
@@ -103,9 +116,9 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
             trainer.restore(payload)
         status["sessions_at_start"] = int(trainer.training.sessions_done.sum())
         _write_status(out, status)
-        write_manifest(out, command="study-run", seed=spec.seed, settings=asdict(spec),
-                       models_json=trainer.models.to_json(), files=run_files(),
-                       results={"status": "running"})
+        manifest.update(command="study-run", seed=spec.seed, settings=asdict(spec),
+                        models_json=trainer.models.to_json(), files=run_files())
+        write_manifest(out, **manifest, results={"status": "running"})
         wall = trainer.run()
         _write_gaits(out, trainer)
         status.update({"state": "finished", "finished": time.time(),
@@ -119,11 +132,19 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
         return status
     except TrainingStopped as e:
         status.update({"state": "stopped", "error": str(e), "finished": time.time()})
+    except Diverged as e:  # its sessions so far are written (the diverged one last)
+        status.update({"state": "diverged", "error": f"Diverged: {e.line}",
+                       "diverged": {"line": e.line, "t_s": e.t, "trial": e.trial},
+                       "finished": time.time()})
     except Exception as e:  # recorded, not raised: the other runs go on
         status.update({"state": "failed", "error": f"{type(e).__name__}: {e}",
                        "traceback": traceback.format_exc(), "finished": time.time()})
     _end_attempt(status)
     _write_status(out, status)
+    if manifest:  # never left "running": the manifest says how the attempt ended
+        ended = {"stopped": "interrupted"}.get(status["state"], status["state"])
+        write_manifest(out, **manifest, results={"status": ended,
+                                                 "error": str(status.get("error", ""))})
     return status
 
 

@@ -9,6 +9,7 @@ one training folder per run under ``OUT/runs/<run id>/`` with its ``status.json`
 from __future__ import annotations
 
 from ..experiments.train import TRAIN_FILES
+from ..outputs.study_index import INDEX
 
 RUNS = "runs"
 STATUS = "status.json"
@@ -18,13 +19,13 @@ TIMELINE = "timeline.csv"
 TIMELINE_COLUMNS = ("run_id", "attempt", "state", "worker", "worker_name", "host", "pid",
                     "started", "ended", "duration_s", "started_utc")
 STUDY_COPY = "study.toml"
-STUDY_INDEX = "study.json"
+STUDY_INDEX = INDEX  # "study.json"
 GAITS = "gait.csv"
 
 
 def run_files() -> dict[str, str]:
-    return TRAIN_FILES | {STATUS: "state of the run in its study (running, finished, failed), "
-                                     "attempts, error",
+    return TRAIN_FILES | {STATUS: "state of the run in its study (running, finished, "
+                                     "diverged, failed, stopped), attempts, error",
                           GAITS: "each trial's gait with its final tables, learning off, "
                                  "5 s: label, speed, period, leg phases and locking to FR"}
 
@@ -33,10 +34,13 @@ def study_files() -> dict[str, str]:
     return {
         RESULTS: "one row per seed and session of every finished run: run_id, condition, the "
                  "swept parameters, seed, then the columns of a training's sessions.csv",
-        FAILURES: "runs that did not finish, with their error (absent when none)",
-        STUDY_COPY: "the study file as run", STUDY_INDEX: "run ids, their settings' fingerprints",
+        FAILURES: "runs that did not finish (state diverged, failed, stopped or not run), with "
+                  "their error (absent when none)",
+        STUDY_COPY: "the study file as run",
+        STUDY_INDEX: "run ids, their settings' fingerprints (of every version of the study "
+                     "run here) and the runs the study file now names (current)",
         TIMELINE: "one row per attempt of every run, in the order they started: run_id, attempt, "
-                  "state (finished, failed, stopped; interrupted: its worker or the study "
+                  "state (finished, diverged, failed, stopped; interrupted: its worker or the study "
                   "stopped), worker (address), worker_name, host, pid, started and ended (Unix "
                   "seconds, wall clock), duration_s, started_utc",
         RUNS + "/<run id>/": "one training folder per run (sessions.csv, weights.npz, "

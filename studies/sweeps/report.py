@@ -15,7 +15,11 @@ A sweep: each final figure against the swept value, one line per condition
 Two or more conditions: every pair compared at every sweep point, one value per seed (Welch's
 t-test, Mann-Whitney U, Hedges' g, rank-biserial; ``condition_tests.csv`` and ``report.md``).
 
-Runs still in progress are included with the sessions they have and marked as such.
+Runs still in progress are included with the sessions they have and marked as such. A group
+(condition and point) with a run that diverged is no result: it is listed as diverged, with
+its error, and is in none of the figures, the curves or the tests. The report reads the runs
+the study file now names (``study.json``'s ``current``), not those of an earlier version of
+the file left in the folder.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ from ..analysis.compare import compare
 from ..analysis.gait import weight_structure
 from ...models.compose import model_set
 from ..outputs.folder import OutputFolder, verify
+from ..outputs.study_index import current_specs
 from ..figures.save import save_figure
 from ..figures.sweep import Axis, Measure, measure_heatmap, measure_vs_value
 from ..outputs.writing import atomic_write, write_manifest
@@ -57,9 +62,14 @@ def _load(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
                          culprit=f"report {folder}") \
             from None
     runs = []
-    for run_id, spec in index.get("specs", {}).items():
+    for run_id, spec in current_specs(index).items():
         rdir = folder / RUNS / run_id
-        state = read_status(rdir).get("state", "not run")
+        status = read_status(rdir)
+        state = status.get("state", "not run")
+        if state == "diverged":  # not a result: nothing of it is read
+            runs.append({"spec": spec, "state": state, "sessions": None, "folder": rdir,
+                         "weights": None, "gaits": None, "error": status.get("error", "")})
+            continue
         if state == "finished":  # what it read is what its manifest lists
             verify(rdir, culprit=f"report {rdir}", strict=False, only=READ)
         df = weights = None
@@ -86,6 +96,7 @@ def _load(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
 
 
 READ = ("sessions.csv", "weights.npz")  # what a report reads of each run
+
 
 
 def _group_label(spec: dict[str, Any]) -> str:
@@ -182,13 +193,17 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
         key = (r["spec"]["condition"], tuple(str(r["spec"]["point"].get(k, "")) for k in swept))
         groups.setdefault(key, []).append(r)
     if not any(r["sessions"] is not None and len(r["sessions"]) for r in runs):
-        raise InputError("no run has finished a session yet", culprit=f"report {folder}")
+        gone = sorted({_group_label(r["spec"]) for r in runs if r["state"] == "diverged"})
+        raise InputError("no run has finished a session yet" if not gone else
+                         f"no result to report: every run with sessions diverged "
+                         f"({'; '.join(gone)})", culprit=f"report {folder}")
     study_sessions = sorted({int(r["spec"]["n_sessions"]) for r in runs})
 
     fig = Figure(figsize=(8, 8))
     axes = fig.subplots(3, 1, sharex=True)
     rows: list[dict[str, Any]] = []
     empty: list[dict[str, Any]] = []  # groups without a finished session (a partial study)
+    diverged: list[dict[str, Any]] = []  # groups with a diverged run: shown, never a result
     per_seed: list[dict[str, Any]] = []  # one row per (condition, point, seed)
     for k, ((condition, point), members) in enumerate(groups.items()):
         label = _group_label(members[0]["spec"])
@@ -197,6 +212,15 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
         structure: dict[int, dict[str, float]] = {}
         w_max = None
         states = [m["state"] for m in members]
+        if "diverged" in states:  # no figures, curves or tests over it (nor its other seeds)
+            first = next(m for m in members if m["state"] == "diverged")
+            diverged.append({"group": label, "condition": condition,
+                             **dict(zip(swept, point)), "seeds": 0,
+                             "runs_finished": f"{states.count('finished')}/{len(states)}",
+                             "state": "diverged",
+                             "runs_diverged": f"{states.count('diverged')}/{len(states)}",
+                             "error": " ".join(str(first.get("error", "")).split())})
+            continue
         for m in members:
             df = m["sessions"]
             if df is None or not len(df):
@@ -277,13 +301,16 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     measures = [m for m in MEASURES + WEIGHT_MEASURES if any(m.key in o for o in per_seed)]
     if swept:
         _sweep_figures(name, swept, runs, per_seed, measures, figures, shows)
-    tests = _condition_tests(swept, [c for c, _ in groups], per_seed, measures)
+    tests = _condition_tests(swept, [c for c, _ in groups], per_seed, measures,
+                             skip={(d["condition"], tuple(str(d.get(k, "")) for k in swept))
+                                   for d in diverged})
 
     files = []
     for file, f in figures.items():
         save_figure(f, dest / file)
         files.append(dest / file)
-    table_rows = rows + [{k: v for k, v in e.items() if k != "states"} for e in empty]
+    table_rows = rows + [{k: v for k, v in e.items() if k != "states"} for e in empty] \
+        + diverged
     atomic_write(dest / "final_figures.csv", lambda f: f.write(_csv(table_rows).encode()))
     files.append(dest / "final_figures.csv")
     described = dict(shows)
@@ -291,7 +318,10 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
                                       f"of each seed (mean over its last sessions, --last "
                                       f"{last}), mean and std across seeds"
                                       + ("; a group with no data yet has seeds 0 and no figures"
-                                         if empty else ""))
+                                         if empty else "")
+                                      + ("; a group with a diverged run has state diverged, "
+                                         "its error and no figures (not a result)"
+                                         if diverged else ""))
     if tests:
         atomic_write(dest / TESTS, lambda f: f.write(_csv(tests).encode()))
         files.append(dest / TESTS)
@@ -301,12 +331,13 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     described["report.md"] = ("this page: the final figures, the tests between conditions, "
                               "the files written")
     text = _markdown(name, rows, tests, per_seed, study_sessions, last, swept, measures,
-                     described, empty)
+                     described, empty, diverged)
     atomic_write(dest / "report.md", lambda f: f.write(text.encode()))
     files.append(dest / "report.md")
     return {"files": files, "rows": rows, "text": text, "figures": figures, "tests": tests,
             "per_seed": per_seed, "described": described,
-            "no_data": [e["group"] for e in empty]}
+            "no_data": [e["group"] for e in empty],
+            "diverged": [d["group"] for d in diverged]}
 
 
 def _sweep_figures(name: str, swept: list[str], runs: list[dict[str, Any]],
@@ -402,7 +433,9 @@ def _file_slug(text: str) -> str:
 
 
 def _condition_tests(swept: list[str], conditions: list[str], per_seed: list[dict[str, Any]],
-                     measures: list[Measure]) -> list[dict[str, Any]]:
+                     measures: list[Measure],
+                     skip: set[tuple[str, tuple[str, ...]]] = frozenset()
+                     ) -> list[dict[str, Any]]:
     """Every pair of conditions (in the study's order, first minus second) at every sweep
     point, every final figure: :func:`~astrocpg.studies.analysis.compare.compare`."""
     conditions = list(dict.fromkeys(conditions))
@@ -410,6 +443,8 @@ def _condition_tests(swept: list[str], conditions: list[str], per_seed: list[dic
     out = []
     for point in points:
         for a, b in itertools.combinations(conditions, 2):
+            if (a, point) in skip or (b, point) in skip:  # a diverged side: no test
+                continue
             for m in measures:
                 va = [o[m.key] for o in per_seed
                       if o["condition"] == a and o["point"] == point and m.key in o]
@@ -455,7 +490,7 @@ FORMATS = {"speed": ".3f", "final_x": ".2f", "length": ".2f", "reward": ".3f", "
 def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]],
               per_seed: list[dict[str, Any]], study_sessions: list[int], last: int,
               swept: list[str], measures: list[Measure], described: dict[str, str],
-              empty: list[dict[str, Any]] = ()) -> str:
+              empty: list[dict[str, Any]] = (), diverged: list[dict[str, Any]] = ()) -> str:
     trained = [o["sessions"] for o in per_seed]
     used = [o["last_sessions"] for o in per_seed]
     planned = _span(min(study_sessions), max(study_sessions))
@@ -489,6 +524,11 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                       f"finished a session; not in the table, the curves or the tests): "
                   + "; ".join(f"{e['group']} (runs finished {e['runs_finished']}, states: "
                               f"{e['states']})" for e in empty) + "."]
+    if diverged:
+        lines += ["", f"**Diverged** ({len(diverged)} group(s); not a result: not in the table, "
+                      f"the curves, the sweep figures or the tests): "
+                  + "; ".join(f"{d['group']} (runs diverged {d['runs_diverged']}: {d['error']})"
+                              for d in diverged) + "."]
     if tests:
         lines += ["", "## Conditions compared", "",
                   "Per seed one value (its final figure); difference = first condition minus "

@@ -35,8 +35,13 @@ seed ``s + b`` alone: its network and every draw of its noise come from that see
 
 Each run lives in ``OUT/runs/<run id>/`` as an ordinary training folder (``sessions.csv``,
 ``weights.npz``, ``checkpoint.npz``, ``manifest.json``) plus ``status.json``. A run whose
-status is ``finished`` is never run again; any other run resumes from its checkpoint, so
-repeating the command after a crash, a killed worker or Ctrl-C continues where it stopped. A
+status is ``finished`` is never run again, nor is one that ``diverged`` (its settings make it
+diverge: it would again; the study then ends with exit 3 and its report shows the run's group
+as diverged, never as a result); any other run resumes from its checkpoint, so
+repeating the command after a crash, a killed worker or Ctrl-C continues where it stopped.
+The study is what its file names now: a study file edited to fewer seeds or points and run
+again into the same folder keeps the runs of the earlier version there, but its tables, report
+and evaluation read only the runs it now names (``study.json``'s ``current``). A
 checkpoint is data, never code (:func:`~astrocpg.studies.outputs.checkpoint.read_checkpoint`): before any worker
 starts, the checkpoints of the runs to resume are checked, and one that is not a checkpoint of
 this format (an old pickled ``checkpoint.pkl`` included, which is never loaded) refuses the
@@ -67,7 +72,7 @@ from ..outputs.folder import (FolderLock, check_output_path, check_replaceable,
                             clean_stale_temporaries, clear_folder, holds_results)
 from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write_manifest
 # the study's rooms, re-exported: `from astrocpg.studies.sweeps.study import ...` keeps working
-from .execute import dispatch, execute_run, read_status, write_failures  # noqa: F401
+from .execute import ENDED, dispatch, execute_run, read_status, write_failures  # noqa: F401
 from .layout import (FAILURES, GAITS, RESULTS, RUNS, STATUS, STUDY_COPY,  # noqa: F401
                      STUDY_INDEX, TIMELINE, TIMELINE_COLUMNS, run_files, study_files)
 from .study_file import (MAX_SEEDS, RunSpec, Study, consecutive_groups,  # noqa: F401
@@ -211,8 +216,12 @@ def _save_index(study: Study, out: Path) -> None:
         known, specs = old["runs"], old.get("specs", {})
     known.update({r.run_id: r.fingerprint() for r in study.runs})
     specs.update({r.run_id: asdict(r) for r in study.runs})
+    # "current": the runs the study file now names (what its report and evaluation read);
+    # "runs" and "specs" keep the runs of earlier versions too, so a later version may not
+    # change them
     save_json(index_path, {"name": study.name, "sweep": study.sweep, "runs": known,
-                           "specs": specs, "batch": study.batch,
+                           "specs": specs, "current": [r.run_id for r in study.runs],
+                           "batch": study.batch,
                            "batch_setting": study.batch_setting,
                            "batch_choice": study.batch_choice})
     data = study.text.encode()
@@ -287,7 +296,7 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                  * min(len(study.runs), workers or os.cpu_count() or 1),
                  culprit=f"study {study.name} (runs of {largest} trials)")
     folders = {r.run_id: out / RUNS / r.run_id for r in study.runs}
-    pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") != "finished"]
+    pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") not in ENDED]
     _check_checkpoints(pending, folders)
     total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
     n_done_before = len(study.runs) - len(pending)
@@ -315,10 +324,13 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     table = write_results(study, out)
     write_timeline(study, out)
     failed = [r for r in study.runs if states[r.run_id] != "finished"]
+    diverged = [r.run_id for r in failed if states[r.run_id] == "diverged"]
     errors = write_failures(out, failed, folders, unwritten)
     counts = {s: list(states.values()).count(s) for s in sorted(set(states.values()))}
     evaluated = None
-    if study.evaluate is not None and not failed:
+    # the finished runs' controllers, once nothing is left to retry (a diverged run has none)
+    if study.evaluate is not None and len(failed) == len(diverged) \
+            and len(diverged) < len(study.runs):
         # a step of the study: its trained controllers in other worlds (out/evaluation)
         from ..experiments.evaluate import evaluate
 
@@ -331,8 +343,11 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     write_manifest(out, command="study", seed=min(study.seeds),
                    settings=settings,
                    models_json={}, files=study_files(),
-                   results={"status": "finished" if not failed else "incomplete",
-                            "runs": counts, "rows": table, "evaluation": evaluated})
-    return {"counts": counts, "failed": [r.run_id for r in failed], "rows": table,
+                   results={"status": "finished" if not failed
+                            else "diverged" if len(failed) == len(diverged) else "incomplete",
+                            "runs": counts, "diverged": diverged, "rows": table,
+                            "evaluation": evaluated})
+    return {"counts": counts, "failed": [r.run_id for r in failed], "diverged": diverged,
+            "rows": table,
             "evaluation": evaluated, "errors": errors,
             "failures": str(out / FAILURES) if (out / FAILURES).is_file() else None}

@@ -25,11 +25,11 @@ from ...errors import InputError, did_you_mean
 from ...models import DEFAULT_MODELS
 from ..experiments.resources import check_memory, estimate_bytes, estimate_wall_seconds
 from ...models.compose import model_files_record, model_set, read_model_files
-from ..experiments.settings import MAX_SEED
+from ..experiments.settings import MAX_GRID, MAX_SEED, check_grid
 from ..experiments.simulate import STEP, check_duration
 from ..experiments.train import TrainSettings
 
-MAX_SEEDS = 100_000
+MAX_SEEDS = MAX_GRID  # trainings of a study (and seeds): the bound of every grid
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
 _STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch", "record"}
 _CONDITION_KEYS = {"astrocytes", "set"}
@@ -165,6 +165,10 @@ def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
                  _Runs(seeds=seeds, batch=batch, n_sessions=n_sessions, record=record), where)
     evaluate = _evaluate_table(doc.get("evaluate"), p, where)
     if evaluate is not None:
+        # its cells (runs x worlds) bounded now, not refused after the runs have trained
+        check_grid(len(runs) * evaluate["n_worlds"],
+                   f"cells of [evaluate] ({len(runs)} run(s) x {evaluate['n_worlds']} "
+                   f"world(s))", culprit=f"{where} [evaluate]")
         # one evaluation network holds a run's trials x repeats: refused now, not after the runs
         trials = max(r.n_trials for r in runs) * evaluate["repeats"]
         check_memory(estimate_bytes(trials=trials, seconds=evaluate["seconds"], robot_stride=1),
@@ -291,10 +295,9 @@ def _sweep(doc: dict[str, Any], p: Path, slots: set[str], base_files: dict[str, 
         else min((len(v) for v in axes.values()), default=1)
     n_conditions = len(doc["conditions"]) if isinstance(doc.get("conditions"), dict) else 1
     trainings = n_points * max(n_conditions, 1) * n_seeds
-    if trainings > MAX_SEEDS:  # before building (and checking) a million runs
-        raise InputError(f"{trainings} trainings ({n_points} sweep point(s) x {n_conditions} "
-                         f"condition(s) x {n_seeds} seed(s)) is more than {MAX_SEEDS}",
-                         culprit=where)
+    # before building (and checking) a million runs
+    check_grid(trainings, f"trainings ({n_points} sweep point(s) x {n_conditions} "
+                          f"condition(s) x {n_seeds} seed(s))", culprit=where)
     if not names:
         points: list[dict[str, str]] = [{}]
     elif mode == "grid":
@@ -416,7 +419,7 @@ def _evaluate_table(doc: Any, study: Path, where: str) -> dict[str, Any] | None:
                          culprit=where)
     if worlds not in BUILTIN_WORLDS:
         worlds = str((study.parent / worlds).resolve())
-    read_worlds(worlds, DEFAULT_MODELS)
+    n_worlds = len(read_worlds(worlds, DEFAULT_MODELS).worlds)
     seconds, repeats = doc.get("seconds", 10.0), doc.get("repeats", 2)
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not seconds > 0:
         raise InputError("[evaluate] seconds must be a positive number", culprit=where)
@@ -428,7 +431,7 @@ def _evaluate_table(doc: Any, study: Path, where: str) -> dict[str, Any] | None:
         raise InputError("[evaluate] conditions must be a list of condition names",
                          culprit=where)
     return {"worlds": worlds, "seconds": float(seconds), "repeats": repeats,
-            "conditions": conditions}
+            "conditions": conditions, "n_worlds": n_worlds}
 
 
 def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
