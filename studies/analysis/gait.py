@@ -39,7 +39,7 @@ import numpy as np
 
 from ...network import LEGS, Layout
 from .fall import first_fall
-from .rhythm import cycle_period, detect_bursts, phase_locking
+from .rhythm import cycle_period, detect_bursts, on_runs, phase_locking
 
 LEG_INDEX = {leg: k for k, leg in enumerate(LEGS)}
 NAMED = ("trot", "pace", "bound", "walk")
@@ -127,15 +127,8 @@ def stances(t: np.ndarray, force: np.ndarray, t_start: float, t_stop: float) -> 
     x, on = t[sel], np.asarray(force, dtype=float)[sel] > 0
     if x.size < 2:
         return np.zeros((0, 2))
-    edges = np.diff(np.concatenate([[0], on.astype(int), [0]]))
-    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     step = float(np.median(np.diff(x)))
-    merged: list[list[int]] = []
-    for a, b in zip(starts, stops):
-        if merged and (a - merged[-1][1]) * step < MIN_SWING_S:
-            merged[-1][1] = b
-        else:
-            merged.append([a, b])
+    merged = on_runs(on, step, MIN_SWING_S)
     out = [(x[a], x[b - 1] + step) for a, b in merged
            if a > 0 and (b - a) * step >= MIN_STANCE_S]
     return np.array(out, dtype=float).reshape(-1, 2)

@@ -33,6 +33,20 @@ def convolve_same(x: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     return np.convolve(x, kernel, "full")[start:start + len(x)]
 
 
+
+def on_runs(on: np.ndarray, step: float, min_gap: float) -> list[list[int]]:
+    """The runs of True in ``on`` as [start, stop) sample indices, a gap shorter than
+    ``min_gap`` (s, at ``step`` s a sample) bridged: bursts of a pool, stances of a foot."""
+    edges = np.diff(np.concatenate([[0], np.asarray(on).astype(int), [0]]))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    merged: list[list[int]] = []
+    for a, b in zip(starts, stops):
+        if merged and (a - merged[-1][1]) * step < min_gap:
+            merged[-1][1] = b
+        else:
+            merged.append([a, b])
+    return merged
+
 def detect_bursts(times: np.ndarray, indices: np.ndarray, neuron_ids: np.ndarray,
                   t_stop: float, *, t_start: float = 0.0, dt: float = 1e-3,
                   window: float = 0.04, threshold: float = 0.25, min_gap: float = 0.06,
@@ -50,16 +64,7 @@ def detect_bursts(times: np.ndarray, indices: np.ndarray, neuron_ids: np.ndarray
     w = max(1, int(round(window / dt)))
     smooth = convolve_same(act, np.ones(w) / w)
     level = threshold * np.percentile(smooth, 99)
-    on = smooth > level
-    edges = np.diff(np.concatenate([[0], on.astype(int), [0]]))
-    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    # bridge short gaps
-    merged: list[list[int]] = []
-    for a, b in zip(starts, stops):
-        if merged and (a - merged[-1][1]) * dt < min_gap:
-            merged[-1][1] = b
-        else:
-            merged.append([a, b])
+    merged = on_runs(smooth > level, dt, min_gap)
     bursts = []
     cum = np.concatenate([[0], np.cumsum(act)])
     for a, b in merged:
