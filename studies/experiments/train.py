@@ -38,7 +38,7 @@ from ..outputs.checkpoint import (CHECKPOINT, LEGACY_CHECKPOINT, holds_checkpoin
                                refuse_legacy, write_checkpoint as write_checkpoint_file)
 from ..outputs.checkpoint import read_checkpoint as read_checkpoint_file
 from ..outputs.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
-                            as_path, holds_results, refuse_in_use, remove_derived)
+                            as_path, holds_results, refuse_in_use, remove_derived, file_sha256)
 from ..outputs.writing import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..outputs.result import Result
@@ -475,6 +475,31 @@ def read_checkpoint(path: Path, culprit: Any = None) -> dict[str, Any]:
     return payload
 
 
+def _checkpoint_as_listed(out: Path) -> None:
+    """A training that stopped cleanly (finished, interrupted, diverged) listed its last
+    checkpoint's sha256 in its manifest after writing it: a checkpoint that differs was changed
+    since (a damaged byte the archive's CRC-32 does not cover, such as a header field, or a file
+    copied in), and is refused naming it. A manifest still saying ``running`` belongs to a
+    process that was killed, possibly between the checkpoint and its manifest: the archive's own
+    checks are all there is then."""
+    manifest = read_manifest(out)
+    if (not isinstance(manifest, dict) or manifest.get("astrocpg_command") != "train"
+            or not isinstance(manifest.get("results"), dict)
+            or manifest["results"].get("status") == "running"
+            or CHECKPOINT not in (manifest.get("inventory") or {})):
+        return
+    listed = manifest["inventory"][CHECKPOINT]
+    try:
+        same = (isinstance(listed, dict) and (out / CHECKPOINT).stat().st_size == listed.get("bytes")
+                and file_sha256(out / CHECKPOINT) == listed.get("sha256"))
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, out / CHECKPOINT, "cannot read") from None
+    if not same:
+        raise InputError("has changed since its training's manifest.json was written (size or "
+                         "sha256 differs): damaged, or copied in from elsewhere; nothing was changed",
+                         culprit=out / CHECKPOINT)
+
+
 def check_belongs(out: Path, settings: TrainSettings) -> None:
     """A folder holds one run: the checkpoint's settings (``settings``) must be those its
     folder's manifest records (a checkpoint copied or linked in from another training, e.g.
@@ -682,6 +707,7 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
         fresh = True
     else:
         payload = read_checkpoint(out / CHECKPOINT)
+        _checkpoint_as_listed(out)
         settings = TrainSettings(**payload["settings"])
         fresh = False
     if payload["fingerprint"] != settings.fingerprint():
