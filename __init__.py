@@ -13,7 +13,7 @@ The Python API (what the ``astrocpg`` commands call)::
 
 Every ``astrocpg`` command has its function, its options as keyword arguments: ``unit``,
 ``run``, ``train`` (and ``resume``, and ``replay_session``: one session of a training run
-again alone), ``gait``, ``evaluate``, ``power``, ``study``, ``report``,
+again alone), ``gait``, ``evaluate``, ``power``, ``study`` (and ``study_status``), ``report``,
 ``plot``, ``video``, ``export``, ``describe``, ``list_models`` and ``dump_model``
 (``astrocpg models list/dump``), ``robot``; with ``load``, ``Result``
 and ``Trace`` they are imported on first use, so ``import astrocpg`` (and ``astrocpg --help``) does not
@@ -41,7 +41,8 @@ _quiet_brian.install()
 _API = {name: "astrocpg.studies.experiments.api"
         for name in ("unit", "run", "train", "resume", "load", "describe", "export", "gait",
                      "evaluate", "power", "list_models", "dump_model", "robot", "Result", "Trace")}
-_API.update({name: "astrocpg.studies.sweeps.api" for name in ("study", "report")})
+_API.update({name: "astrocpg.studies.sweeps.api" for name in ("study", "study_status",
+                                                                   "report")})
 _API.update({name: "astrocpg.studies.experiments.view" for name in ("plot", "video")})
 _API["replay_session"] = "astrocpg.studies.experiments.replay"
 _API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFault", "Diverged")})

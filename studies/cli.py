@@ -338,8 +338,12 @@ def build_parser() -> argparse.ArgumentParser:
     _add_overwrite(vid)
 
     study = sub.add_parser("study", help="a parameter study (TOML) on Dask; resumable")
-    study.add_argument("file", help="study file, e.g. studies/sweeps/quick.toml, or a built-in "
-                                    "study's name (quick, ablation)")
+    study.add_argument("file", nargs="?",
+                       help="study file, e.g. studies/sweeps/quick.toml, or a built-in "
+                            "study's name (quick, ablation)")
+    study.add_argument("--status", metavar="DIR",
+                       help="say what the study in DIR has done and what is left, with an "
+                            "estimate of the time left (reads only; safe while it runs)")
     study.add_argument("--out", metavar="DIR",
                        help="study folder (default out/<study name>; rerunning continues it)")
     study.add_argument("--workers", type=int, default=None,
@@ -809,9 +813,24 @@ def _cmd_video(args: argparse.Namespace) -> int:
     return 0
 
 
+def _study_status(args: argparse.Namespace) -> int:
+    from .sweeps.status import study_status
+
+    if args.file is not None:
+        raise InputError("takes a study folder alone (astrocpg study --status DIR)",
+                         culprit=f"--status {args.status} {args.file}")
+    print(study_status(args.status, workers=args.workers or 1).text())
+    return 0
+
+
 def _cmd_study(args: argparse.Namespace) -> int:
     from .sweeps.study import RESULTS, load_study, prepare_study, run_study
 
+    if args.status is not None:
+        return _study_status(args)
+    if args.file is None:
+        raise InputError("a study file or a built-in study's name is needed (or --status DIR)",
+                         culprit="astrocpg study")
     study = load_study(args.file)
     out = Path(args.out) if args.out else Path("out") / study.name
     study = prepare_study(study, out, workers=args.workers, scheduler=args.scheduler,

@@ -1,0 +1,207 @@
+"""What a study folder has done and what is left (``astrocpg study --status DIR``).
+
+A long study (hours on a laptop) is one folder that resumes with the same command after any
+stop. This module reads that folder without running or locking anything, so it may be asked
+while the study runs in another process: the runs its study file now names (``study.json``),
+each run's ``status.json`` and ``sessions.csv`` (sessions done per seed), and the wall time of
+every attempt so far (``timeline.csv`` and the running attempts' start).
+
+The estimate of the time left is a projection, and says so: a run's seeds step together in one
+network, so its wall time follows the simulated time of its busiest seed. Each run's cost per
+simulated second is measured on its own attempts (or, for a run not started, the mean of the
+others); the sessions left are taken to last as long as the last ``RECENT`` sessions of each
+seed did (sessions grow longer as a gait is learnt, so early in a training it is low). The runs
+left are shared over ``workers`` processes.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ...errors import InputError
+from ..outputs.study_index import read_current
+from .layout import RUNS, STATUS, TIMELINE
+
+#: the sessions of a seed whose mean length stands for the sessions it has left
+RECENT = 20
+
+
+@dataclass
+class RunProgress:
+    """One run of a study: its state, sessions done of all, and its cost so far."""
+
+    run_id: str
+    state: str
+    sessions_done: int
+    sessions_total: int
+    wall_s: float
+    simulated_s: float  # of its busiest seed: what the run's wall time follows
+    left_simulated_s: float  # the same, projected for the sessions left
+    attempts: int = 0
+
+    @property
+    def fraction(self) -> float:
+        return self.sessions_done / self.sessions_total if self.sessions_total else 1.0
+
+
+@dataclass
+class StudyProgress:
+    """A study folder's progress: its runs and the projected wall time left."""
+
+    folder: Path
+    runs: list[RunProgress] = field(default_factory=list)
+    workers: int = 1
+    left_s: float | None = None
+
+    @property
+    def sessions_done(self) -> int:
+        return sum(r.sessions_done for r in self.runs)
+
+    @property
+    def sessions_total(self) -> int:
+        return sum(r.sessions_total for r in self.runs)
+
+    def text(self) -> str:
+        """The summary ``astrocpg study --status`` prints."""
+        states: dict[str, int] = {}
+        for r in self.runs:
+            states[r.state] = states.get(r.state, 0) + 1
+        done, total = self.sessions_done, self.sessions_total
+        lines = [f"study {self.folder}: {len(self.runs)} run(s) ("
+                 + ", ".join(f"{n} {s}" for s, n in sorted(states.items())) + f"); "
+                 f"{done} of {total} seed-sessions done ({100 * done / max(total, 1):.1f}%)"]
+        width = max((len(r.run_id) for r in self.runs), default=0)
+        for r in self.runs:
+            lines.append(f"  {r.run_id:<{width}}  {r.state:<9} {r.sessions_done:>6}/"
+                         f"{r.sessions_total:<6} sessions  {_duration(r.wall_s):>9} spent"
+                         + (f", {r.attempts} attempts" if r.attempts > 1 else ""))
+        if self.left_s is None:
+            lines.append("time left: unknown until a run has trained a session")
+        elif self.left_s == 0:
+            lines.append("time left: none (every run has ended)")
+        else:
+            lines.append(f"time left: about {_duration(self.left_s)} with {self.workers} "
+                         f"worker(s) (a projection from each run's cost so far; sessions grow "
+                         f"longer as a gait is learnt)")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"folder": str(self.folder), "workers": self.workers, "left_s": self.left_s,
+                "sessions_done": self.sessions_done, "sessions_total": self.sessions_total,
+                "runs": [r.__dict__ | {"fraction": r.fraction} for r in self.runs]}
+
+
+def _duration(seconds: float) -> str:
+    seconds = int(round(seconds))
+    h, rest = divmod(seconds, 3600)
+    m, s = divmod(rest, 60)
+    return f"{h} h {m:02d} min" if h else f"{m} min {s:02d} s"
+
+
+def _sessions(folder: Path, n_trials: int) -> tuple[list[int], list[list[float]]]:
+    """Sessions done and their lengths (s), per seed of the run, from its sessions.csv."""
+    done = [0] * n_trials
+    lengths: list[list[float]] = [[] for _ in range(n_trials)]
+    try:
+        with open(folder / "sessions.csv", newline="") as f:
+            for row in csv.DictReader(f):
+                try:
+                    b, length = int(row["trial"]), float(row["length_s"])
+                except (KeyError, TypeError, ValueError):
+                    continue
+                if 0 <= b < n_trials and math.isfinite(length):
+                    done[b] += 1
+                    lengths[b].append(length)
+    except OSError:  # not started, or between two writes: nothing done that counts
+        pass
+    return done, lengths
+
+
+def _attempt_seconds(out: Path) -> dict[str, float]:
+    """Wall seconds of every ended attempt, per run (timeline.csv)."""
+    spent: dict[str, float] = {}
+    try:
+        with open(out / TIMELINE, newline="") as f:
+            for row in csv.DictReader(f):
+                try:
+                    spent[row["run_id"]] = spent.get(row["run_id"], 0.0) + float(row["duration_s"])
+                except (KeyError, TypeError, ValueError):
+                    continue
+    except OSError:
+        pass
+    return spent
+
+
+def _read_status(folder: Path) -> dict[str, Any]:
+    try:
+        status = json.loads((folder / STATUS).read_text())
+    except (OSError, ValueError, RecursionError):
+        return {}
+    return status if isinstance(status, dict) else {}
+
+
+def study_status(folder: str | Path, *, workers: int = 1,
+                 now: float | None = None) -> StudyProgress:
+    """The progress of the study in ``folder`` (read only; safe while the study runs).
+    ``workers``: the processes the runs left will share, for the time left."""
+    out = Path(folder)
+    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
+        raise InputError(f"must be a whole number of at least 1, got {workers!r}",
+                         culprit="--workers")
+    specs = read_current(out, culprit=f"--status {out}")
+    now = time.time() if now is None else now
+    ended_attempts = _attempt_seconds(out)
+    progress = StudyProgress(folder=out, workers=workers)
+    for run_id, spec in sorted(specs.items()):
+        n_trials, n_sessions = int(spec.get("n_trials", 1)), int(spec.get("n_sessions", 0))
+        run_folder = out / RUNS / run_id
+        status = _read_status(run_folder)
+        state = str(status.get("state", "not run"))
+        done, lengths = _sessions(run_folder, n_trials)
+        wall = ended_attempts.get(run_id, 0.0)
+        if state == "running" and isinstance(status.get("started"), (int, float)):
+            wall += max(0.0, now - float(status["started"]))
+        simulated = max((sum(x) for x in lengths), default=0.0)
+        left = 0.0
+        if state not in ("finished", "diverged"):
+            for b in range(n_trials):
+                recent = lengths[b][-RECENT:]
+                if recent:
+                    left = max(left, sum(lengths[b]) + (n_sessions - done[b])
+                               * sum(recent) / len(recent))
+            left = max(0.0, left - simulated) if left else 0.0
+        progress.runs.append(RunProgress(
+            run_id=run_id, state=state, sessions_done=sum(min(d, n_sessions) for d in done),
+            sessions_total=n_trials * n_sessions, wall_s=wall, simulated_s=simulated,
+            left_simulated_s=left, attempts=int(status.get("attempts", 0) or 0)))
+    progress.left_s = _time_left(progress.runs, workers)
+    return progress
+
+
+def _time_left(runs: list[RunProgress], workers: int) -> float | None:
+    """Projected wall seconds left: each unfinished run's simulated time left at its own cost
+    per simulated second; a run with nothing trained yet costs what the mean run has so far
+    cost in all. None when no run has trained a session."""
+    measured = [r for r in runs if r.simulated_s > 0 and r.wall_s > 0]
+    if all(r.state in ("finished", "diverged") for r in runs):
+        return 0.0
+    if not measured:
+        return None
+    whole = [r.wall_s + r.left_simulated_s * r.wall_s / r.simulated_s for r in measured]
+    mean_run = sum(whole) / len(whole)
+    left = []
+    for r in runs:
+        if r.state in ("finished", "diverged"):
+            continue
+        if r.simulated_s > 0 and r.wall_s > 0:
+            left.append(r.left_simulated_s * r.wall_s / r.simulated_s)
+        else:
+            left.append(mean_run)
+    # the runs left over the workers: no shorter than the longest run, nor than their sum shared
+    return max(max(left), sum(left) / workers) if left else 0.0

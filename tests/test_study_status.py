@@ -1,0 +1,119 @@
+"""``astrocpg study --status DIR``: what a study folder has done and what is left, read without
+running or locking anything (so it may be asked while the study runs)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from astrocpg.errors import InputError
+from astrocpg.studies.sweeps.status import study_status
+
+
+def _study(tmp_path: Path, runs: dict[str, dict]) -> Path:
+    """A study folder as a study leaves it: study.json naming the runs, a status.json and a
+    sessions.csv per run, and timeline.csv with the ended attempts."""
+    out = tmp_path / "s"
+    (out / "runs").mkdir(parents=True)
+    specs = {rid: {"run_id": rid, "n_trials": r["trials"], "n_sessions": r["sessions"]}
+             for rid, r in runs.items()}
+    (out / "study.json").write_text(json.dumps({"name": "s", "specs": specs,
+                                                "current": list(runs)}))
+    timeline = ["run_id,attempt,state,worker,worker_name,host,pid,started,ended,duration_s,"
+                "started_utc"]
+    for rid, r in runs.items():
+        folder = out / "runs" / rid
+        folder.mkdir()
+        if r.get("state"):
+            (folder / "status.json").write_text(json.dumps(
+                {"state": r["state"], "attempts": 1} | r.get("status", {})))
+        if r.get("lengths"):
+            rows = ["trial,session,length_s"] + [
+                f"{b},{s + 1},{x}" for b, xs in enumerate(r["lengths"]) for s, x in enumerate(xs)]
+            (folder / "sessions.csv").write_text("\n".join(rows) + "\n")
+        if r.get("ended_s"):
+            timeline.append(f"{rid},1,{r['state']},w,0,h,1,0,0,{r['ended_s']},x")
+    (out / "timeline.csv").write_text("\n".join(timeline) + "\n")
+    return out
+
+
+def test_sessions_done_and_the_time_left_follow_the_runs(tmp_path):
+    out = _study(tmp_path, {
+        # finished: 2 seeds x 4 sessions, 80 s of wall for 20 simulated s of its busiest seed
+        "a": {"trials": 2, "sessions": 4, "state": "finished", "ended_s": 80,
+              "lengths": [[5, 5, 5, 5], [2, 2, 2, 2]]},
+        # running since 30 s ago with 2 of 4 sessions (10 simulated s): 3 s of wall per
+        # simulated s; 2 sessions of 5 s left -> 30 s
+        "b": {"trials": 1, "sessions": 4, "state": "running", "status": {"started": 970.0},
+              "lengths": [[5, 5]]},
+        # not started: costs the mean run so far (a: 80 s; b: 30 + 30 = 60 s) -> 70 s
+        "c": {"trials": 1, "sessions": 4},
+    })
+    p = study_status(out, workers=1, now=1000.0)
+    by = {r.run_id: r for r in p.runs}
+    assert (by["a"].state, by["a"].sessions_done, by["a"].sessions_total) == ("finished", 8, 8)
+    assert (by["b"].sessions_done, by["b"].wall_s) == (2, 30.0)
+    assert by["b"].left_simulated_s == pytest.approx(10.0)
+    assert by["c"].state == "not run" and by["c"].sessions_done == 0
+    assert p.sessions_done == 10 and p.sessions_total == 16
+    assert p.left_s == pytest.approx(30.0 + 70.0)  # one worker: b then c
+    assert study_status(out, workers=2, now=1000.0).left_s == pytest.approx(70.0)
+    text = p.text()
+    assert "10 of 16 seed-sessions done" in text and "time left: about 1 min 40 s" in text
+    assert "1 finished" in text and "1 running" in text and "1 not run" in text
+
+
+def test_a_study_that_has_ended_has_no_time_left_and_one_not_begun_says_unknown(tmp_path):
+    out = _study(tmp_path / "1", {"a": {"trials": 1, "sessions": 2, "state": "finished",
+                                         "ended_s": 9, "lengths": [[1, 1]]},
+                                   "b": {"trials": 1, "sessions": 2, "state": "diverged",
+                                         "ended_s": 1, "lengths": [[0.5]]}})
+    assert study_status(out).left_s == 0.0
+    assert "every run has ended" in study_status(out).text()
+    fresh = _study(tmp_path / "2", {"a": {"trials": 3, "sessions": 10}})
+    assert study_status(fresh).left_s is None
+    assert "unknown until a run has trained a session" in study_status(fresh).text()
+
+
+def test_only_the_runs_the_study_file_now_names_count(tmp_path):
+    out = _study(tmp_path, {"a": {"trials": 1, "sessions": 2, "state": "finished",
+                                  "ended_s": 5, "lengths": [[1, 1]]},
+                            "old": {"trials": 1, "sessions": 2, "state": "finished",
+                                    "ended_s": 5, "lengths": [[1, 1]]}})
+    index = json.loads((out / "study.json").read_text())
+    index["current"] = ["a"]
+    (out / "study.json").write_text(json.dumps(index))
+    assert [r.run_id for r in study_status(out).runs] == ["a"]
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda p: p, "not a study folder"),
+    (lambda p: [(p / "study.json").write_text("["), p][1], "not a study folder"),
+])
+def test_a_folder_that_holds_no_study_is_refused_naming_it(tmp_path, make, words):
+    folder = make(tmp_path)
+    with pytest.raises(InputError, match=words) as e:
+        study_status(folder)
+    assert str(folder) in str(e.value)
+
+
+def test_workers_must_be_a_whole_number(tmp_path):
+    out = _study(tmp_path, {"a": {"trials": 1, "sessions": 1}})
+    with pytest.raises(InputError, match="at least 1"):
+        study_status(out, workers=0)
+
+
+def test_the_command_and_the_api_say_the_same(tmp_path, capsys):
+    import astrocpg as ac
+    from astrocpg.studies.cli import main
+
+    out = _study(tmp_path, {"a": {"trials": 1, "sessions": 2, "state": "finished",
+                                  "ended_s": 5, "lengths": [[1, 1]]}})
+    assert main(["study", "--status", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert printed.strip() == ac.study_status(out).text()
+    assert "2 of 2 seed-sessions done (100.0%)" in printed
+    assert main(["study", "--status", str(tmp_path / "nosuch")]) == 2
+    assert "not a study folder" in capsys.readouterr().err
