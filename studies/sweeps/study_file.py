@@ -392,11 +392,16 @@ def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], mode
 
 def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]:
     """The record ``{"sha256", "content"}`` of the model file for ``slot`` named in a study (a
-    path relative to the study file's folder)."""
+    path relative to the study file's folder, or a shipped model file's name when no such path
+    exists, e.g. ``homeostatic_interlimb_synapse``)."""
     if not isinstance(file, str) or not file:
         raise InputError(f"expected the path of a model file, got {file!r}",
                          culprit=f"{where} {slot}")
+    from ...shipped import resolve
+
     path = Path(file) if Path(file).is_absolute() else study.parent / file
+    if not path.exists() and not path.is_symlink():  # a shipped model file by its name
+        path = resolve(file, "model") if resolve(file, "model").exists() else path
     text = read_model_files([f"{slot}={path}"], option=where)[slot]
     return model_files_record({slot: text})[slot]
 
