@@ -197,6 +197,62 @@ def table(specs: list[str], sessions: int | None, last: int, seeds: str | None) 
     return "\n".join(lines) + "\n"
 
 
+def worlds(path: str) -> str:
+    """astrocpg evaluate's runs, controller by controller: per condition and world, the mean over
+    controllers (each controller's repeats averaged first) of falls, speed and trot, with 95 %
+    bootstrap intervals, and the two conditions' difference with its interval and
+    Mann-Whitney p (the module docstring says how)."""
+    from scipy import stats
+
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    rng = np.random.default_rng(1)
+    # condition -> world -> controller -> [fell, speed, trot] per repeat
+    table: dict[str, dict[str, dict[str, list[list[float]]]]] = {}
+    for r in rows:
+        table.setdefault(r["condition"], {}).setdefault(r["world"], {}).setdefault(
+            f'{r["source"]}:{r["seed"]}', []).append(
+            [float(r["fell"]), float(r["mean_speed_m_per_s"]), float(r["gait"] == "trot")])
+    conditions = list(table)
+    world_names = list(dict.fromkeys(w for c in conditions for w in table[c]))
+
+    def per_controller(c: str, w: str) -> np.ndarray:
+        return np.array([np.mean(v, axis=0) for v in table[c][w].values()])
+
+    def ci(x: np.ndarray) -> tuple[float, float]:
+        means = x[rng.integers(0, len(x), (10000, len(x)))].mean(axis=1)
+        return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+    labels = ("falls (share of runs)", "speed (m/s)", "trot (share of runs)")
+    n = {c: len(next(iter(table[c].values()))) for c in conditions}
+    reps = {c: len(next(iter(next(iter(table[c].values())).values()))) for c in conditions}
+    lines = [f"Controllers: {', '.join(f'{c} {n[c]} ({reps[c]} repeats each)' for c in conditions)}."
+             f" Mean over controllers [95 % bootstrap interval].", ""]
+    for k, label in enumerate(labels):
+        head = " | ".join(c.replace("_", " ") for c in conditions)
+        lines += [f"**{label}**", "", f"| world | {head} | difference (first − second) | "
+                  "Mann-Whitney p |", "|---|" + "---|" * (len(conditions) + 2)]
+        for w in world_names:
+            cells, values = [], []
+            for c in conditions:
+                x = per_controller(c, w)[:, k]
+                lo, hi = ci(x)
+                cells.append(f"{x.mean():.2f} [{lo:.2f}, {hi:.2f}]")
+                values.append(x)
+            if len(values) == 2:
+                a, b = values
+                diffs = (a[rng.integers(0, len(a), (10000, len(a)))].mean(axis=1)
+                         - b[rng.integers(0, len(b), (10000, len(b)))].mean(axis=1))
+                d = f"{a.mean() - b.mean():+.2f} [{np.percentile(diffs, 2.5):+.2f}, " \
+                    f"{np.percentile(diffs, 97.5):+.2f}]"
+                p = (stats.mannwhitneyu(a, b).pvalue if np.any(a != a[0]) or np.any(b != b[0])
+                     or a[0] != b[0] else 1.0)
+                cells += [d, f"{p:.2g}"]
+            lines.append(f"| {w} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
 PANELS = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
           ("length_s", "session length (s)"))
 
