@@ -281,7 +281,9 @@ def reads_writes(argv: list[str]) -> tuple[list[tuple[str, str]], list[str]]:
             writes.append(a.out)
     if c == "evaluate" and a.worlds != "robustness":
         reads.append(("worlds", a.worlds))
-    if c == "study":
+    if c == "study" and a.status:  # reads a study folder, writes nothing
+        reads.append(("folder", a.status))
+    elif c == "study":
         reads.append(("study", a.file))
         from astrocpg.shipped import resolve
         study = resolve(a.file, "study")
@@ -615,8 +617,15 @@ def test_commands_run_in_order(tmp_path):
     """Every command and snippet, in page order, in a copy of the working tree, shortened."""
     copy = _copy_tree(tmp_path)
     shorten_worlds(copy / "studies" / "experiments" / "robustness.toml")
+    # a page's ~/studies/... lands in a home of the test's own (never the user's studies), with
+    # the user's caches (compiled code) linked in so nothing is compiled again
+    home = tmp_path / "home"
+    home.mkdir()
+    for cache in (".cache", ".cython"):
+        if (Path.home() / cache).is_dir():
+            (home / cache).symlink_to(Path.home() / cache)
     env = {**os.environ, "PYTHONPATH": str(tmp_path), "MPLBACKEND": "Agg",
-           "ASTROCPG_CODEGEN": "numpy"}
+           "ASTROCPG_CODEGEN": "numpy", "HOME": str(home)}
     env.setdefault("MUJOCO_GL", "egl")
     env.pop("ASTROCPG_EXPERIMENTER", None)
     prelude = (f'astrocpg() {{ {shlex.quote(sys.executable)} -m astrocpg "$@"; }}\n'
