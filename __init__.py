@@ -50,12 +50,40 @@ _API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFaul
 __all__ = sorted(_API)
 
 
+# options whose keyword in one function is not the option's name
+_RENAMES = {"resume": {"resume": "folder"}}
+
+
+def _in_keywords(func):  # noqa: ANN001, ANN202
+    """``func`` as the API hands it out: an astrocpg error it raises names the keyword
+    (``seconds``, ``overrides tau_motr``) rather than the command-line option its checks share
+    with ``astrocpg`` (``--seconds``, ``--set tau_motr``). The command line calls the functions
+    themselves, so it keeps its options' names."""
+    import functools
+
+    from .errors import AstrocpgError, speak_keywords
+
+    @functools.wraps(func)
+    def call(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        try:
+            return func(*args, **kwargs)
+        except AstrocpgError as e:
+            speak_keywords(e, _RENAMES.get(func.__name__))
+            raise
+
+    return call
+
+
 def __getattr__(name: str) -> object:
     """Import the API's functions lazily (PEP 562): Brian2 loads on first use."""
+    import inspect
+
     module = _API.get(name)
     if module is None:
         raise AttributeError(f"module 'astrocpg' has no attribute {name!r}")
     value = getattr(importlib.import_module(module), name)
+    if inspect.isfunction(value):
+        value = _in_keywords(value)
     globals()[name] = value
     return value
 

@@ -169,16 +169,43 @@ class _Loader:  # an importlib Loader (duck-typed: importlib.abc is slow to impo
         without = _WithoutExtras()
         if without.skipped:
             sys.meta_path.insert(0, without)
+        hook = sys.excepthook
         try:
             with _signals_from_any_thread():
                 self.inner.exec_module(module)
             close_debug_files()
             mend_interrupt_handler()
+            _keep_brian_banner_to_brian(hook)
         finally:
             if without in sys.meta_path:
                 sys.meta_path.remove(without)
             tempfile.tempdir = before
             shutil.rmtree(private, ignore_errors=True)
+
+
+def _keep_brian_banner_to_brian(previous) -> None:  # noqa: ANN001
+    """Brian2's import sets ``sys.excepthook`` to a hook that prints "Brian 2 encountered an
+    unexpected error. If you think this is a bug in Brian 2, please report ..." before any
+    uncaught exception. A script calling ``ac.run(...)`` with a bad keyword then saw that banner
+    above astrocpg's own error, blaming Brian2. Brian2's hook is kept for what Brian2 raised (the
+    innermost frame in Brian2's code); anything else goes to the hook that was in place before
+    (Python's own, or the user's)."""
+    brian_hook = sys.excepthook
+    if brian_hook is previous:
+        return
+    brian_dir = os.path.dirname(getattr(sys.modules.get("brian2"), "__file__", "") or "")
+
+    def excepthook(exc_type, exc, tb):  # noqa: ANN001, ANN202
+        last = tb
+        while last is not None and last.tb_next is not None:
+            last = last.tb_next
+        where = last.tb_frame.f_code.co_filename if last is not None else ""
+        if brian_dir and os.path.abspath(where).startswith(brian_dir + os.sep):
+            return brian_hook(exc_type, exc, tb)
+        return previous(exc_type, exc, tb)
+
+    excepthook.brian_hook = brian_hook  # type: ignore[attr-defined]
+    sys.excepthook = excepthook
 
 
 class _signals_from_any_thread:  # a context manager, only while Brian2's own import runs

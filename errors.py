@@ -20,6 +20,7 @@ apart from the message, and formats the one line in one place: ``<culprit>: <mes
 from __future__ import annotations
 
 import difflib
+import re
 from typing import Any
 
 EXIT_CODES = {"done": 0, "environment": 1, "input": 2, "diverged": 3, "interrupted": 130}
@@ -69,6 +70,41 @@ class AstrocpgError(Exception):
         return (self.__class__, (self.message, self.culprit))
 
 
+# A command-line option as the Python API's keyword (the API's keywords are named like the
+# options: ``--trace-dtype`` is ``trace_dtype``; these are the exceptions and the flags).
+_KEYWORDS = {"set": "overrides", "model": "models", "condition": "conditions",
+             "no-progress": "progress=False", "overwrite": "overwrite=True",
+             "no-astrocytes": "astrocytes=False"}
+_OPTION = re.compile(r"(?<![\w-])--([a-z][a-z0-9-]*)(=?)")
+
+
+def in_keywords(text: str, renames: dict[str, str] | None = None) -> str:
+    """``text`` with every command-line option named as the API's keyword: ``--out x`` is
+    ``out=x``, ``--set tau_motr`` is ``overrides tau_motr``, ``--overwrite`` is
+    ``overwrite=True``. ``renames``: options whose keyword differs in one function
+    (``ac.resume``'s ``--resume`` is its ``folder``)."""
+    names = _KEYWORDS | dict(renames or {})
+
+    def keyword(m: "re.Match[str]") -> str:
+        name = names.get(m.group(1), m.group(1).replace("-", "_"))
+        return name if "=" in name else name + "="
+    out = _OPTION.sub(keyword, str(text))
+    # "out= x" (an option and its value) reads "out=x"; "overrides= tau_motr" reads "overrides tau_motr"
+    out = re.sub(r"\b(overrides|models|conditions|equations)= ", r"\1 ", out)
+    out = re.sub(r"(\w)=(?=[:;,)]|$)", r"\1", out)  # "seconds=: must be" reads "seconds: must be"
+    return re.sub(r"(\w)= (?=[^\s;,:])", r"\1=", out).replace("= ", " ")
+
+
+def speak_keywords(err: AstrocpgError, renames: dict[str, str] | None = None) -> AstrocpgError:
+    """The same error (changed in place, traceback kept) naming the API's keywords instead of
+    the command line's options: what a script calling ``ac.run(...)`` is told."""
+    err.message = in_keywords(err.message, renames)
+    if err.culprit is not None:
+        err.culprit = in_keywords(err.culprit, renames)
+    err.args = (err.line,)
+    return err
+
+
 class InputError(AstrocpgError, ValueError):
     """Bad user input (a parameter, an equation, a file, a command-line value): exit 2.
 
@@ -113,4 +149,4 @@ def _rebuild_diverged(message: str, culprit: Any, t: float | None, trial: int | 
 
 
 __all__ = ["AstrocpgError", "InputError", "EnvironmentFault", "Diverged", "EXIT_CODES",
-           "one_line", "did_you_mean"]
+           "one_line", "did_you_mean", "in_keywords", "speak_keywords"]

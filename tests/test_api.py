@@ -247,7 +247,7 @@ def test_bad_trace_requests(unit2, training):
     _one_line(err, "not recorded", "motor")
     with pytest.raises(InputError) as err:
         ac.run(seconds=-1)
-    _one_line(err, "--seconds")
+    _one_line(err, "seconds")
 
 
 def test_load_refuses_what_is_not_an_output_folder(tmp_path, run_folder):

@@ -33,8 +33,8 @@ def test_spikes_and_traces_as_text_of_names():
 
 
 @pytest.mark.parametrize("kw, culprit", [
-    ({"spikes": 3}, "--spikes"), ({"spikes": ["motor", 3]}, "--spikes"),
-    ({"spikes": b"motor"}, "--spikes"), ({"traces": 1.5}, "--traces"),
+    ({"spikes": 3}, "spikes"), ({"spikes": ["motor", 3]}, "spikes"),
+    ({"spikes": b"motor"}, "spikes"), ({"traces": 1.5}, "traces"),
     ({"spikes": "m"}, "'m'"), ({"traces": "motor_K"}, "motor_K"),
     ({"weights": [[1.0, 2.0]]}, "weights"), ({"weights": object()}, "weights"),
     ({"weights": [["a"] * 8] * 8}, "weights"), ({"weights": np.full((8, 8), np.nan)}, "weights"),
@@ -45,6 +45,7 @@ def test_a_wrong_argument_is_an_input_error_naming_it(kw, culprit):
     with pytest.raises(ac.InputError) as e:
         ac.run(**CHEAP, **kw)
     assert culprit in str(e.value), str(e.value)
+    assert "--" not in str(e.value), str(e.value)  # the API's keywords, not the options
 
 
 @pytest.mark.parametrize("weights", [np.zeros((8, 8)).tolist(),
@@ -108,10 +109,10 @@ def test_describe_refuses_wrong_arguments_naming_them(kw, culprit):
 
 
 @pytest.mark.parametrize("call, culprit", [
-    (lambda: ac.run(**CHEAP, out=3), "--out"), (lambda: ac.unit(**CHEAP, out=["o"]), "--out"),
+    (lambda: ac.run(**CHEAP, out=3), "out"), (lambda: ac.unit(**CHEAP, out=["o"]), "out"),
     (lambda: ac.run(**CHEAP, robot=3), "robot"), (lambda: ac.load(3), "folder"),
     (lambda: ac.plot(None), "folder"), (lambda: ac.video(7), "folder"),
-    (lambda: ac.resume(3), "--resume"), (lambda: ac.train(out=3, sessions=1), "--out"),
+    (lambda: ac.resume(3), "folder"), (lambda: ac.train(out=3, sessions=1), "out"),
     (lambda: ac.run(**CHEAP, overrides=3), "overrides"),
     (lambda: ac.run(**CHEAP, overrides=[("tau_motor", "9*ms")]), "overrides"),
 ], ids=["run-out", "unit-out", "run-robot", "load", "plot", "video", "resume", "train-out",
@@ -126,3 +127,39 @@ def test_overrides_as_one_text_or_a_mapping():
     a = ac.run(**CHEAP, overrides="tau_motor=9*ms", traces="none")
     b = ac.run(**CHEAP, overrides={"tau_motor": "9*ms"}, traces="none")
     assert np.array_equal(a.spike_times("motor"), b.spike_times("motor"))
+
+
+# ---- the API speaks its own words: no Brian2 banner above an astrocpg error, keywords named
+_SCRIPT = """
+import astrocpg as ac
+ac.{call}
+"""
+
+
+@pytest.mark.parametrize("call, words", [
+    ("run(seconds=-1, progress=False)", "seconds: must be greater than 0"),
+    ("unit(seconds=0.02, overrides={'tau_motr': '8*ms'}, progress=False)",
+     "overrides tau_motr: unknown model parameter"),
+    ("run(seconds=0.02, trace_dtype='float16', progress=False)", "trace_dtype"),
+], ids=["run-seconds", "unit-overrides", "run-trace-dtype"])
+def test_an_error_in_a_plain_script_prints_no_brian_banner_and_names_the_keyword(
+        call, words, tmp_path):
+    import subprocess
+    import sys
+
+    script = tmp_path / "script.py"
+    script.write_text(_SCRIPT.format(call=call))
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 1
+    assert "Brian 2 encountered" not in done.stderr, done.stderr
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("astrocpg.errors.InputError: ") and words in last, last
+    assert "--" not in last, last
+
+
+def test_the_command_line_keeps_its_options_names(capsys):
+    from astrocpg.studies.cli import main
+
+    assert main(["run", "--seconds", "-1"]) == 2
+    assert "--seconds" in capsys.readouterr().err

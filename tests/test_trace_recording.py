@@ -97,7 +97,7 @@ def test_run_keeps_float64_on_request_and_refuses_other_dtypes(tmp_path):
         assert saved["motor_Ca"].dtype == np.float64
     with pytest.raises(InputError, match="float32, float64") as e:
         ac.run(seconds=0.05, trace_dtype="float16", progress=False)
-    assert e.value.culprit == "--trace-dtype"
+    assert e.value.culprit == "trace_dtype"  # the API names its keyword
 
 
 def test_a_default_run_keeps_at_most_2_mib_per_trial_per_simulated_second():
