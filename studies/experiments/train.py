@@ -707,7 +707,6 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
         fresh = True
     else:
         payload = read_checkpoint(out / CHECKPOINT)
-        _checkpoint_as_listed(out)
         settings = TrainSettings(**payload["settings"])
         fresh = False
     if payload["fingerprint"] != settings.fingerprint():
@@ -726,6 +725,8 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
         "traces": traces})
     if not fresh:
         _same_codegen(payload.get("codegen", "numpy"), codegen_target())
+    if not fresh:  # its content passed every check above: is it the file its run wrote?
+        _checkpoint_as_listed(out)
     if not fresh and bool(np.all(np.asarray(payload["training"]["sessions_done"])
                                  >= settings.n_sessions)):
         raise InputError(f"the training is already finished ({settings.n_sessions} sessions per "
