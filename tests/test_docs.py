@@ -1,12 +1,12 @@
 """The manual builds: ``sphinx-build -W -n`` (every warning an error, every cross-reference
-checked) over ``docs/``, executing the tutorial and the examples. The built site's relative
+checked) over ``docs/``, executing the tutorial and the examples (the ``site`` fixture of
+``conftest.py``, built once per test session and shared with ``test_docs_browser.py``). The built site's relative
 links and images all resolve, it has the API reference, each executed example has its
 figures, and the model page has every parameter of the code. The frame-extraction command of
 ``docs/seeing/README.md`` runs as written."""
 
 from __future__ import annotations
 
-import os
 import re
 import shlex
 import subprocess
@@ -31,19 +31,6 @@ API_OBJECTS = [
     "astrocpg.studies.experiments.view.video", "astrocpg.errors.InputError",
     "astrocpg.models.ModelSet",
 ]
-
-
-@pytest.fixture(scope="module")
-def site(tmp_path_factory) -> Path:
-    pytest.importorskip("sphinx")
-    pytest.importorskip("myst_nb")
-    out = tmp_path_factory.mktemp("docs")
-    env = dict(os.environ, MPLBACKEND="Agg")
-    proc = subprocess.run([sys.executable, "-m", "sphinx", "-W", "-n", "--keep-going", "-q",
-                           "-b", "html", str(DOCS), str(out / "html")],
-                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=1800)
-    assert proc.returncode == 0, (proc.stdout[-4000:] + proc.stderr[-8000:])
-    return out / "html"
 
 
 class _Links(HTMLParser):
