@@ -129,3 +129,44 @@ def test_the_seeing_frames_command_runs_as_written(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr[-2000:]
     for second in (1, 2, 3):
         assert (tmp_path / f"video_frame_{second}s.png").is_file(), second
+
+
+class _Images(HTMLParser):
+    def __init__(self) -> None:
+        super().__init__()
+        self.images: list[dict[str, str | None]] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        if tag == "img":
+            self.images.append(dict(attrs))
+
+
+def test_every_image_of_the_site_says_what_it_shows(site: Path) -> None:
+    """An alt text for every figure, and not its file name: docutils writes the image's path
+    as its alt text when a page gives none (an executed cell's figure gets a hash name)."""
+    bad = []
+    for page in sorted(site.rglob("*.html")):
+        parser = _Images()
+        parser.feed(page.read_text(encoding="utf-8"))
+        for img in parser.images:
+            if "toggler" in (img.get("class") or ""):   # the module index's +/- switches
+                continue
+            alt = (img.get("alt") or "").strip()
+            src = img.get("src") or ""
+            if (len(alt) < 12 or re.search(r"\.(png|jpe?g|svg|gif)$", alt, re.I)
+                    or re.fullmatch(r"[\w./-]*[0-9a-f]{16,}[\w./-]*", alt)
+                    or (src and (alt == src or alt.endswith(Path(src).name)))):
+                bad.append(f"{page.relative_to(site)}: {src} alt={alt!r}")
+    assert not bad, "\n".join(bad)
+
+
+def test_the_citing_page_gives_citation_cff_as_bibtex(site: Path) -> None:
+    """docs/citing.md makes its BibTeX from CITATION.cff at build time: this version, the
+    paper's DOI."""
+    import html as html_lib
+
+    import astrocpg
+    text = html_lib.unescape(re.sub(r"<[^>]+>", "", (site / "citing.html").read_text(
+        encoding="utf-8")))
+    assert "@software{astrocpg_" in text and f"{{{astrocpg.__version__}}}" in text
+    assert "{10.48550/arXiv.2312.15805}" in text and "{Han, Zhuangyu and Sengupta, Abhronil}" in text
