@@ -170,3 +170,30 @@ def test_the_citing_page_gives_citation_cff_as_bibtex(site: Path) -> None:
         encoding="utf-8")))
     assert "@software{astrocpg_" in text and f"{{{astrocpg.__version__}}}" in text
     assert "{10.48550/arXiv.2312.15805}" in text and "{Han, Zhuangyu and Sengupta, Abhronil}" in text
+
+
+class _Assets(HTMLParser):
+    """What a page loads by itself: scripts, style sheets, images, frames."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.assets: list[str] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        a = dict(attrs)
+        if tag in ("script", "img", "iframe", "source") and a.get("src"):
+            self.assets.append(a["src"] or "")
+        elif tag == "link" and "stylesheet" in (a.get("rel") or "") and a.get("href"):
+            self.assets.append(a["href"] or "")
+
+
+def test_the_site_loads_nothing_from_another_host(site: Path) -> None:
+    """The manual reads the same without internet: every script (MathJax included), style
+    sheet and image it loads comes with it."""
+    remote = []
+    for page in sorted(site.rglob("*.html")):
+        parser = _Assets()
+        parser.feed(page.read_text(encoding="utf-8"))
+        remote += [f"{page.relative_to(site)}: {src}" for src in parser.assets
+                   if urlsplit(src).scheme in ("http", "https") or src.startswith("//")]
+    assert not remote, "\n".join(remote[:20])
