@@ -41,8 +41,16 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx-mathjax-offline",   # MathJax 3 copied into _static/mathjax: equations need no network
     "sphinx_copybutton",
 ]
+
+# MathJax is served from the built manual (_static/mathjax, copied there by
+# sphinx-mathjax-offline), never from a CDN, so the equations render on a machine without
+# internet and from file://. Its SVG output draws every glyph itself: no web font to load, which
+# a browser may refuse from file://. The extension sets its own `mathjax_path` (CHTML) when it
+# loads, after this file is read, so `setup` below sets ours.
+MATHJAX_PATH = "mathjax/tex-svg.js"
 
 # The result folders under docs/ (recorded studies, their reports) are data that the pages
 # show and link to, not pages of their own.
@@ -53,6 +61,7 @@ exclude_patterns = ["_build", "ablation", "beyond", "variants", "seeing", "bench
 html_theme = "furo"
 html_title = f"astrocpg {release}"
 html_static_path = ["_static"]
+html_css_files = ["astrocpg.css"]   # the model's wide parameter tables fit the text column
 templates_path: list[str] = []
 
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
@@ -144,4 +153,5 @@ nitpick_ignore = [("py:class", "Trainer"), ("py:class", "TrainingStopped"),
 
 
 def setup(app):
+    app.config.mathjax_path = MATHJAX_PATH
     app.connect("autodoc-process-docstring", _plain_docstring)

@@ -4,6 +4,8 @@ tests only; set ASTROCPG_SHARED to point elsewhere."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -22,6 +24,24 @@ def reference_a1_path() -> Path:
     if not path.is_file():
         pytest.skip(f"reference A1 model not found at {path}")
     return path
+
+
+@pytest.fixture(scope="session")
+def site(tmp_path_factory) -> Path:
+    """The manual, built once per test session with ``sphinx -W -n`` (every warning an error,
+    every cross-reference checked), executing the tutorial and the examples: its HTML folder.
+    tests/test_docs.py checks its pages and links, tests/test_docs_browser.py shows them in a
+    browser."""
+    pytest.importorskip("sphinx")
+    pytest.importorskip("myst_nb")
+    root = Path(__file__).resolve().parents[1]
+    out = tmp_path_factory.mktemp("docs")
+    env = dict(os.environ, MPLBACKEND="Agg")
+    proc = subprocess.run([sys.executable, "-m", "sphinx", "-W", "-n", "--keep-going", "-q",
+                           "-b", "html", str(root / "docs"), str(out / "html")],
+                          cwd=root, env=env, capture_output=True, text=True, timeout=1800)
+    assert proc.returncode == 0, (proc.stdout[-4000:] + proc.stderr[-8000:])
+    return out / "html"
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -1,12 +1,12 @@
 """The manual builds: ``sphinx-build -W -n`` (every warning an error, every cross-reference
-checked) over ``docs/``, executing the tutorial and the examples. The built site's relative
+checked) over ``docs/``, executing the tutorial and the examples (the ``site`` fixture of
+``conftest.py``, built once per test session and shared with ``test_docs_browser.py``). The built site's relative
 links and images all resolve, it has the API reference, each executed example has its
 figures, and the model page has every parameter of the code. The frame-extraction command of
 ``docs/seeing/README.md`` runs as written."""
 
 from __future__ import annotations
 
-import os
 import re
 import shlex
 import subprocess
@@ -31,19 +31,6 @@ API_OBJECTS = [
     "astrocpg.studies.experiments.view.video", "astrocpg.errors.InputError",
     "astrocpg.models.ModelSet",
 ]
-
-
-@pytest.fixture(scope="module")
-def site(tmp_path_factory) -> Path:
-    pytest.importorskip("sphinx")
-    pytest.importorskip("myst_nb")
-    out = tmp_path_factory.mktemp("docs")
-    env = dict(os.environ, MPLBACKEND="Agg")
-    proc = subprocess.run([sys.executable, "-m", "sphinx", "-W", "-n", "--keep-going", "-q",
-                           "-b", "html", str(DOCS), str(out / "html")],
-                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=1800)
-    assert proc.returncode == 0, (proc.stdout[-4000:] + proc.stderr[-8000:])
-    return out / "html"
 
 
 class _Links(HTMLParser):
@@ -142,3 +129,71 @@ def test_the_seeing_frames_command_runs_as_written(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr[-2000:]
     for second in (1, 2, 3):
         assert (tmp_path / f"video_frame_{second}s.png").is_file(), second
+
+
+class _Images(HTMLParser):
+    def __init__(self) -> None:
+        super().__init__()
+        self.images: list[dict[str, str | None]] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        if tag == "img":
+            self.images.append(dict(attrs))
+
+
+def test_every_image_of_the_site_says_what_it_shows(site: Path) -> None:
+    """An alt text for every figure, and not its file name: docutils writes the image's path
+    as its alt text when a page gives none (an executed cell's figure gets a hash name)."""
+    bad = []
+    for page in sorted(site.rglob("*.html")):
+        parser = _Images()
+        parser.feed(page.read_text(encoding="utf-8"))
+        for img in parser.images:
+            if "toggler" in (img.get("class") or ""):   # the module index's +/- switches
+                continue
+            alt = (img.get("alt") or "").strip()
+            src = img.get("src") or ""
+            if (len(alt) < 12 or re.search(r"\.(png|jpe?g|svg|gif)$", alt, re.I)
+                    or re.fullmatch(r"[\w./-]*[0-9a-f]{16,}[\w./-]*", alt)
+                    or (src and (alt == src or alt.endswith(Path(src).name)))):
+                bad.append(f"{page.relative_to(site)}: {src} alt={alt!r}")
+    assert not bad, "\n".join(bad)
+
+
+def test_the_citing_page_gives_citation_cff_as_bibtex(site: Path) -> None:
+    """docs/citing.md makes its BibTeX from CITATION.cff at build time: this version, the
+    paper's DOI."""
+    import html as html_lib
+
+    import astrocpg
+    text = html_lib.unescape(re.sub(r"<[^>]+>", "", (site / "citing.html").read_text(
+        encoding="utf-8")))
+    assert "@software{astrocpg_" in text and f"{{{astrocpg.__version__}}}" in text
+    assert "{10.48550/arXiv.2312.15805}" in text and "{Han, Zhuangyu and Sengupta, Abhronil}" in text
+
+
+class _Assets(HTMLParser):
+    """What a page loads by itself: scripts, style sheets, images, frames."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.assets: list[str] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        a = dict(attrs)
+        if tag in ("script", "img", "iframe", "source") and a.get("src"):
+            self.assets.append(a["src"] or "")
+        elif tag == "link" and "stylesheet" in (a.get("rel") or "") and a.get("href"):
+            self.assets.append(a["href"] or "")
+
+
+def test_the_site_loads_nothing_from_another_host(site: Path) -> None:
+    """The manual reads the same without internet: every script (MathJax included), style
+    sheet and image it loads comes with it."""
+    remote = []
+    for page in sorted(site.rglob("*.html")):
+        parser = _Assets()
+        parser.feed(page.read_text(encoding="utf-8"))
+        remote += [f"{page.relative_to(site)}: {src}" for src in parser.assets
+                   if urlsplit(src).scheme in ("http", "https") or src.startswith("//")]
+    assert not remote, "\n".join(remote[:20])
