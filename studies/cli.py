@@ -233,7 +233,9 @@ def build_parser() -> argparse.ArgumentParser:
     train = sub.add_parser("train", help="gait learning over sessions (reward-modulated STDP)",
                            epilog=EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     train.add_argument("--sessions", type=int, default=None,
-                       help="sessions per trial (default 400; with --resume: the run's own)")
+                       help="sessions per trial (default 400; with --resume: the run's own, "
+                            "or more to extend it, finished or not, exactly as if asked for "
+                            "from the start)")
     train.add_argument("--seed", type=int, default=None,
                        help="seed of trial 0; trial k has seed K+k (default 1)")
     train.add_argument("--trials", type=int, default=None,
