@@ -7,7 +7,8 @@
     astrocpg evaluate DIR [--worlds FILE|robustness] [--seconds S] [--repeats R] [--out DIR]
     astrocpg plot DIR [--trial K] [--window T0 T1] [--format png|pdf|svg] [--out DIR]
     astrocpg video DIR [--trial K] [--fps F] [--speed X] [--size W H] [--panel] [--out FILE]
-    astrocpg study FILE [--out DIR] [--workers N] [--scheduler ADDRESS]
+    astrocpg study FILE [--seeds 1-3] [--sessions N] [--set NAME=VALUE] [--out DIR]
+                        [--workers N] [--scheduler ADDRESS]
     astrocpg report DIR
     astrocpg export DIR [--format nwb|npz] [--experimenter 'LAST, FIRST'] [--institution TEXT]
     astrocpg describe [MODEL] [--format markdown|latex]
@@ -344,6 +345,16 @@ def build_parser() -> argparse.ArgumentParser:
                                     "study's name (quick, ablation)")
     study.add_argument("--out", metavar="DIR",
                        help="study folder (default out/<study name>; rerunning continues it)")
+    study.add_argument("--seeds", metavar="SEEDS",
+                       help="the seeds instead of the file's: FIRST-LAST (1-3), a list A,B,C "
+                            "(1,4,9) or a count N (N seeds from the file's first seed); "
+                            "recorded in the study folder (a rerun gives the same)")
+    study.add_argument("--sessions", metavar="N",
+                       help="sessions per trial instead of the file's [study] sessions")
+    study.add_argument("--set", dest="overrides", action="append", default=[],
+                       metavar="NAME=VALUE",
+                       help="a parameter of every run, with units, in place of the file's "
+                            "[base] value (repeatable; e.g. --set L_max=2*second)")
     study.add_argument("--workers", type=int, default=None,
                        help="local cluster size (default: one worker per core)")
     study.add_argument("--scheduler", metavar="ADDRESS",
@@ -812,9 +823,17 @@ def _cmd_video(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from .sweeps.study import RESULTS, load_study, prepare_study, run_study
+    from .sweeps.study import RESULTS, load_study, prepare_study, run_study, study_overrides
 
-    study = load_study(args.file)
+    sessions = args.sessions
+    if sessions is not None:  # parsed, never eval-ed: an integer or a one-line refusal
+        try:
+            sessions = int(sessions, 10)
+        except ValueError:
+            raise InputError(f"expected a whole number, got {args.sessions!r}",
+                             culprit="--sessions") from None
+    given = study_overrides(args.seeds, sessions, args.overrides)
+    study = load_study(args.file, overrides=given)
     out = Path(args.out) if args.out else Path("out") / study.name
     study = prepare_study(study, out, workers=args.workers, scheduler=args.scheduler,
                           overwrite=args.overwrite, progress=not args.no_progress)
