@@ -6,7 +6,8 @@
     astrocpg gait DIR | power DIR [--trial K]
     astrocpg evaluate DIR [--worlds FILE|robustness] [--seconds S] [--repeats R] [--out DIR]
     astrocpg plot DIR [--trial K] [--window T0 T1] [--format png|pdf|svg] [--out DIR]
-    astrocpg video DIR [--trial K] [--fps F] [--speed X] [--size W H] [--panel] [--out FILE]
+    astrocpg video DIR [--trial K] [--start S] [--stop S] [--fps F] [--speed X] [--size W H]
+                       [--panel] [--out FILE]
     astrocpg study FILE [--seeds 1-3] [--sessions N] [--set NAME=VALUE] [--out DIR]
                         [--workers N] [--scheduler ADDRESS]
     astrocpg report DIR
@@ -332,6 +333,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="simulated seconds per second of video (default 1: real time)")
     vid.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), default=(640, 480),
                      help="frame size in pixels, even numbers (default 640 480)")
+    vid.add_argument("--start", type=float, default=None, metavar="S",
+                     help="begin at S seconds of the recording (default: its start)")
+    vid.add_argument("--stop", type=float, default=None, metavar="S",
+                     help="end at S seconds of the recording (default: its end)")
     vid.add_argument("--out", metavar="FILE",
                      help="MP4 file (default DIR/video_trialTT.mp4, replaced each time)")
     vid.add_argument("--panel", action="store_true",
@@ -816,9 +821,9 @@ def _cmd_video(args: argparse.Namespace) -> int:
 
     res = video(args.dir, trial=args.trial, fps=args.fps, speed=args.speed, size=args.size,
                 out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
-                panel=args.panel)
+                panel=args.panel, start=args.start, stop=args.stop)
     print(f"wrote {res['path']} ({res['frames']} frames at {res['fps']:g} fps, "
-          f"{res['seconds']:.1f} s)")
+          f"{res['seconds']:.1f} s; {res['start']:g} to {res['stop']:g} s of the recording)")
     return 0
 
 
