@@ -12,7 +12,7 @@
                         [--workers N] [--scheduler ADDRESS]
     astrocpg report DIR
     astrocpg export DIR [--format nwb|npz] [--experimenter 'LAST, FIRST'] [--institution TEXT]
-    astrocpg describe [MODEL] [--format markdown|latex]
+    astrocpg describe [MODEL|PARAMETER] [--format markdown|latex]
     astrocpg robot export PATH.xml
     astrocpg models list | models dump MODEL [--set NAME=VALUE] [--model MODEL=FILE]
 
@@ -400,9 +400,11 @@ def build_parser() -> argparse.ArgumentParser:
                      help="where it was run, recorded in the file (default: none)")
     _add_overwrite(exp)
 
-    desc = sub.add_parser("describe", help="a model's equations (sympy) and parameter table")
-    desc.add_argument("model", nargs="?", help="one model (default: all), or 'senses': the "
-                      "robot senses a neuron model may bind")
+    desc = sub.add_parser("describe", help="a model's equations (sympy) and parameter table, "
+                                           "or one parameter")
+    desc.add_argument("model", nargs="?", help="one model (default: all), a parameter's name "
+                      "(e.g. tau_motor: its value, model and the equations using it), or "
+                      "'senses': the robot senses a neuron model may bind")
     desc.add_argument("--format", default="markdown", help="markdown or latex (default markdown)")
     desc.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
                       help="describe MODEL with the equation string of FILE")
