@@ -3,7 +3,8 @@
     astrocpg unit  --seconds S --seed K --out DIR [--trials N]
     astrocpg run   --seconds S --seed K [--trials N] [--weights FILE|DIR] [--robot XML] --out DIR
     astrocpg train --sessions N --trials N --seed K [--no-astrocytes] --out DIR | --resume DIR
-    astrocpg gait DIR | power DIR [--trial K]
+    astrocpg gait DIR [--seconds S] [--seed K]
+    astrocpg power DIR [--trial K] [--sessions N]
     astrocpg evaluate DIR [--worlds FILE|robustness] [--seconds S] [--repeats R] [--out DIR]
     astrocpg plot DIR [--trial K] [--window T0 T1] [--format png|pdf|svg] [--out DIR]
     astrocpg video DIR [--trial K] [--start S] [--stop S] [--fps F] [--speed X] [--size W H]
