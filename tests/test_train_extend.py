@@ -100,3 +100,27 @@ def test_a_trial_that_ran_idle_is_not_extended(tmp_path):
     assert "idle" in e.value.line and "trial 1" not in e.value.line
     _check_extension(tmp_path, 400, 500, {"done": np.array([True, True]),
                                           "step_in_session": np.array([0, 0])})
+
+
+@pytest.mark.slow
+def test_two_trials_that_finish_together_extend_exactly(tmp_path):
+    """Sessions of full length end in the same step for both trials: no trial ran idle, so
+    the extension is exact for both (the network holds both trials)."""
+    whole, grown = tmp_path / "whole", tmp_path / "grown"
+    kw = dict(seed=5, trials=2, overrides=["L_max=0.2*second", "L_non_alive=0.2*second"],
+              progress=False)
+    astrocpg.train(out=whole, sessions=3, **kw)
+    r = astrocpg.train(out=grown, sessions=2, **kw)
+    assert set(r.sessions["length_s"].round(6)) == {0.2}  # every session full: ends together
+    astrocpg.resume(grown, sessions=3, progress=False)
+    _same_outputs(whole, grown)
+
+
+def test_a_study_run_is_not_extended(tmp_path):
+    """A study's run trains the study's sessions: extending it alone is refused."""
+    from astrocpg.studies.experiments.train import _check_extension
+
+    (tmp_path / "manifest.json").write_text(json.dumps({"astrocpg_command": "study-run"}))
+    with pytest.raises(astrocpg.InputError) as e:
+        _check_extension(tmp_path, 3, 5, None)
+    assert e.value.culprit == "--sessions" and "a run of a study" in e.value.line
