@@ -21,7 +21,7 @@ training. So a run records with those (the network) and
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -176,6 +176,17 @@ class SessionRecorder:
                 buf["samples"] = k + 1
 
     # ---- checkpoints
+    def extend(self, old_sessions: int, trials: Sequence[int]) -> None:
+        """After a restore of a training of ``old_sessions`` sessions per trial, record as one of
+        :attr:`n_sessions` does: a session in progress recorded only as the old last one is not
+        recorded, and ``trials`` (reopened: :meth:`Training.reopen`) begin their next one."""
+        for b in range(self.n_trials):
+            s = int(self.session[b])
+            if s == old_sessions and not self.plan.records(s, self.n_sessions):
+                self.session[b], self.buffers[b] = 0, None
+        for b in trials:
+            self.start(b, old_sessions + 1)
+
     def state(self) -> dict[str, Any]:
         return {"session": self.session.copy(), "buffers": self.buffers}
 

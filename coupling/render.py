@@ -155,26 +155,49 @@ class Replay:
         self.close()
 
 
-def frame_count(t: np.ndarray, fps: float, speed: float = 1.0) -> float:
+def recording_span(t: np.ndarray) -> tuple[float, float]:
+    """The simulated time a recording at sample times ``t`` covers, in s: from the start of
+    the stride its first sample ends (0 for a run: a sample is the state at the end of its
+    step) to its last sample."""
+    t = np.asarray(t, dtype=float)
+    if len(t) == 0:
+        return 0.0, 0.0
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    return max(0.0, float(t[0]) - step), float(t[-1])
+
+
+def _window(t: np.ndarray, start: float | None, stop: float | None) -> tuple[float, float]:
+    """The frames' first time and the time they end at: the recording's own, or the window."""
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    return (float(t[0]) if start is None else float(start),
+            float(t[-1]) + step if stop is None else float(stop))
+
+
+def frame_count(t: np.ndarray, fps: float, speed: float = 1.0, *, start: float | None = None,
+                stop: float | None = None) -> float:
     """How many frames :func:`frame_samples` makes of the samples at times ``t`` (a float: it
-    may be far too many to make, e.g. ``fps=1e9``)."""
+    may be far too many to make, e.g. ``fps=1e9``); ``start``/``stop``: a window of simulated
+    time in s (default: the whole recording)."""
     t = np.asarray(t, dtype=float)
     if len(t) == 0:
         return 0.0
-    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    duration = float(t[-1] - t[0]) + step  # each sample stands for one stride
-    return max(1.0, float(np.round(duration * fps / speed)))
+    first, end = _window(t, start, stop)
+    return max(1.0, float(np.round((end - first) * fps / speed)))
 
 
-def frame_samples(t: np.ndarray, fps: float, speed: float = 1.0) -> np.ndarray:
+def frame_samples(t: np.ndarray, fps: float, speed: float = 1.0, *, start: float | None = None,
+                  stop: float | None = None) -> np.ndarray:
     """Sample index of each video frame: frame j shows simulated time t0 + j*speed/fps (the
-    nearest sample at or before it); as many frames as the recording's duration fills."""
+    nearest sample at or before it; t0: ``start``, default the first sample); as many frames
+    as the recording's duration, or the window up to ``stop``, fills."""
     t = np.asarray(t, dtype=float)
     if len(t) == 0:
         return np.zeros(0, dtype=np.intp)
-    n = int(frame_count(t, fps, speed))
-    times = t[0] + np.arange(n) * speed / fps
+    n = int(frame_count(t, fps, speed, start=start, stop=stop))
+    first, _ = _window(t, start, stop)
+    times = first + np.arange(n) * speed / fps
     return np.clip(np.searchsorted(t, times + 1e-9, side="right") - 1, 0, len(t) - 1)
 
 
-__all__ = ["Replay", "choose_gl", "frame_count", "frame_samples", "BACKENDS"]
+__all__ = ["Replay", "choose_gl", "frame_count", "frame_samples", "recording_span",
+           "BACKENDS"]

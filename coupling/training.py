@@ -213,6 +213,27 @@ class Training:
         self.cpg.start_noise_at(start.step)
         self.memory.starts[b] = [start]
 
+    def reopen(self) -> list[int]:
+        """After a restore of a training of fewer sessions per trial than :attr:`n_sessions`
+        (an extended training): each trial marked done with fewer sessions goes on as if it had
+        never been done, its next session planned and its start remembered as the end of a
+        session does for a trial not done. Exact only for a trial that finished its last session
+        in the very step the state was taken (``step_in_session`` 0, as every trial of a
+        finished training's last step is). Returns the trials reopened.
+
+        A trial that finished earlier has run on since, idle (learning off, Progress 0), so its
+        state is not what a longer training would have: refused (ValueError naming each such
+        trial and its idle steps), nothing changed."""
+        short = [int(b) for b in np.flatnonzero(self.done) if self.sessions_done[b] < self.n_sessions]
+        idle = [(b, int(self.step_in_session[b])) for b in short if self.step_in_session[b] != 0]
+        if idle:
+            raise ValueError(", ".join(f"trial {b} ran {n} steps idle" for b, n in idle))
+        for b in short:
+            self.done[b] = False
+            self._plan_session(b)
+            self._remember_start(b)
+        return short
+
     def _finish(self, b: int) -> None:
         # a session's end is a cheap moment to look at the whole CPG state
         self.bridge.check_cpg()

@@ -3,14 +3,17 @@
     astrocpg unit  --seconds S --seed K --out DIR [--trials N]
     astrocpg run   --seconds S --seed K [--trials N] [--weights FILE|DIR] [--robot XML] --out DIR
     astrocpg train --sessions N --trials N --seed K [--no-astrocytes] --out DIR | --resume DIR
-    astrocpg gait DIR | power DIR [--trial K]
+    astrocpg gait DIR [--seconds S] [--seed K]
+    astrocpg power DIR [--trial K] [--sessions N]
     astrocpg evaluate DIR [--worlds FILE|robustness] [--seconds S] [--repeats R] [--out DIR]
     astrocpg plot DIR [--trial K] [--window T0 T1] [--format png|pdf|svg] [--out DIR]
-    astrocpg video DIR [--trial K] [--fps F] [--speed X] [--size W H] [--panel] [--out FILE]
-    astrocpg study FILE [--out DIR] [--workers N] [--scheduler ADDRESS]
+    astrocpg video DIR [--trial K] [--start S] [--stop S] [--fps F] [--speed X] [--size W H]
+                       [--panel] [--out FILE]
+    astrocpg study FILE [--seeds 1-3] [--sessions N] [--set NAME=VALUE] [--out DIR]
+                        [--workers N] [--scheduler ADDRESS]
     astrocpg report DIR
     astrocpg export DIR [--format nwb|npz] [--experimenter 'LAST, FIRST'] [--institution TEXT]
-    astrocpg describe [MODEL] [--format markdown|latex]
+    astrocpg describe [MODEL|PARAMETER] [--format markdown|latex]
     astrocpg robot export PATH.xml
     astrocpg models list | models dump MODEL [--set NAME=VALUE] [--model MODEL=FILE]
 
@@ -233,7 +236,9 @@ def build_parser() -> argparse.ArgumentParser:
     train = sub.add_parser("train", help="gait learning over sessions (reward-modulated STDP)",
                            epilog=EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     train.add_argument("--sessions", type=int, default=None,
-                       help="sessions per trial (default 400; with --resume: the run's own)")
+                       help="sessions per trial (default 400; with --resume: the run's own, "
+                            "or more to extend it, finished or not, exactly as if asked for "
+                            "from the start)")
     train.add_argument("--seed", type=int, default=None,
                        help="seed of trial 0; trial k has seed K+k (default 1)")
     train.add_argument("--trials", type=int, default=None,
@@ -329,6 +334,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="simulated seconds per second of video (default 1: real time)")
     vid.add_argument("--size", type=int, nargs=2, metavar=("W", "H"), default=(640, 480),
                      help="frame size in pixels, even numbers (default 640 480)")
+    vid.add_argument("--start", type=float, default=None, metavar="S",
+                     help="begin at S seconds of the recording (default: its start)")
+    vid.add_argument("--stop", type=float, default=None, metavar="S",
+                     help="end at S seconds of the recording (default: its end)")
     vid.add_argument("--out", metavar="FILE",
                      help="MP4 file (default DIR/video_trialTT.mp4, replaced each time)")
     vid.add_argument("--panel", action="store_true",
@@ -346,6 +355,16 @@ def build_parser() -> argparse.ArgumentParser:
                             "estimate of the time left (reads only; safe while it runs)")
     study.add_argument("--out", metavar="DIR",
                        help="study folder (default out/<study name>; rerunning continues it)")
+    study.add_argument("--seeds", metavar="SEEDS",
+                       help="the seeds instead of the file's: FIRST-LAST (1-3), a list A,B,C "
+                            "(1,4,9) or a count N (N seeds from the file's first seed); "
+                            "recorded in the study folder (a rerun gives the same)")
+    study.add_argument("--sessions", metavar="N",
+                       help="sessions per trial instead of the file's [study] sessions")
+    study.add_argument("--set", dest="overrides", action="append", default=[],
+                       metavar="NAME=VALUE",
+                       help="a parameter of every run, with units, in place of the file's "
+                            "[base] value (repeatable; e.g. --set L_max=2*second)")
     study.add_argument("--workers", type=int, default=None,
                        help="local cluster size (default: one worker per core)")
     study.add_argument("--scheduler", metavar="ADDRESS",
@@ -386,9 +405,11 @@ def build_parser() -> argparse.ArgumentParser:
                      help="where it was run, recorded in the file (default: none)")
     _add_overwrite(exp)
 
-    desc = sub.add_parser("describe", help="a model's equations (sympy) and parameter table")
-    desc.add_argument("model", nargs="?", help="one model (default: all), or 'senses': the "
-                      "robot senses a neuron model may bind")
+    desc = sub.add_parser("describe", help="a model's equations (sympy) and parameter table, "
+                                           "or one parameter")
+    desc.add_argument("model", nargs="?", help="one model (default: all), a parameter's name "
+                      "(e.g. tau_motor: its value, model and the equations using it), or "
+                      "'senses': the robot senses a neuron model may bind")
     desc.add_argument("--format", default="markdown", help="markdown or latex (default markdown)")
     desc.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
                       help="describe MODEL with the equation string of FILE")
@@ -807,9 +828,9 @@ def _cmd_video(args: argparse.Namespace) -> int:
 
     res = video(args.dir, trial=args.trial, fps=args.fps, speed=args.speed, size=args.size,
                 out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
-                panel=args.panel)
+                panel=args.panel, start=args.start, stop=args.stop)
     print(f"wrote {res['path']} ({res['frames']} frames at {res['fps']:g} fps, "
-          f"{res['seconds']:.1f} s)")
+          f"{res['seconds']:.1f} s; {res['start']:g} to {res['stop']:g} s of the recording)")
     return 0
 
 
@@ -824,14 +845,22 @@ def _study_status(args: argparse.Namespace) -> int:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from .sweeps.study import RESULTS, load_study, prepare_study, run_study
+    from .sweeps.study import RESULTS, load_study, prepare_study, run_study, study_overrides
 
     if args.status is not None:
         return _study_status(args)
     if args.file is None:
         raise InputError("a study file or a built-in study's name is needed (or --status DIR)",
                          culprit="astrocpg study")
-    study = load_study(args.file)
+    sessions = args.sessions
+    if sessions is not None:  # parsed, never eval-ed: an integer or a one-line refusal
+        try:
+            sessions = int(sessions, 10)
+        except ValueError:
+            raise InputError(f"expected a whole number, got {args.sessions!r}",
+                             culprit="--sessions") from None
+    given = study_overrides(args.seeds, sessions, args.overrides)
+    study = load_study(args.file, overrides=given)
     out = Path(args.out) if args.out else Path("out") / study.name
     study = prepare_study(study, out, workers=args.workers, scheduler=args.scheduler,
                           overwrite=args.overwrite, progress=not args.no_progress)

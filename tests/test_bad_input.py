@@ -1288,7 +1288,7 @@ case("train-resume-equations-changed",
      lambda e: S("train", "--resume", e.copy("train"), "--equations",
                  f"motor_neuron={e.equations('motor_neuron', lambda t: t.replace('/tau_motor', '/(2*tau_motor)'))}"),
      2, "--equations motor_neuron", "unchanged", lambda e: e.copy("train"))
-for option, value in (("--sessions", "5"), ("--trials", "2"), ("--no-astrocytes", None),
+for option, value in (("--sessions", "1"), ("--trials", "2"), ("--no-astrocytes", None),
                       ("--overwrite", None)):
     case(f"train-resume-{option[2:]}-differs",
          lambda e, o=option, v=value: S("train", "--resume", e.copy("train"), o,

@@ -487,7 +487,8 @@ def recorded(tmp_path_factory) -> Path:
     (["--spikes", "motor,interneuron"], "--spikes", ("motor", "motor,interneuron")),
     (["--traces", "astrocyte_Ca"], "--traces", ("motor_Ca", "astrocyte_Ca")),
     (["--set", "L_max=0.3*second"], "--set L_max", ("200", "300")),
-    (["--sessions", "5"], "--sessions", ("1", "5")),
+    # more sessions extend a training (test_train_extend.py); none is no number of sessions
+    (["--sessions", "0"], "--sessions", ("0",)),
     (["--trials", "2"], "--trials", ("1", "2")),
     (["--seed", "4"], "--seed", ("3", "4")),
     (["--no-astrocytes"], "--no-astrocytes", ("on", "off")),

@@ -34,3 +34,23 @@ def test_describe_shows_an_edited_model(tmp_path: Path, capsys) -> None:
     assert "dv/dt = 0.5*" in capsys.readouterr().out
     assert main(["describe", "no_such_model"]) == 2
     assert main(["describe", "astrocyte", "--format", "html"]) == 2
+
+
+def test_describe_a_parameter_by_its_name(capsys) -> None:
+    """``astrocpg describe tau_motor``: the model that declares it, its value with units and
+    every statement that uses it; a misspelt name: one line with the closest name."""
+    assert main(["describe", "tau_motor"]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith("## tau_motor: a parameter of motor_neuron")
+    assert "| 9. ms |" in text and r"\tau_{\mathrm{motor}}" in text
+    assert "- motor_neuron (equation):" in text and "/tau_motor" in text
+    assert "## motor_neuron" not in text  # the parameter, not the whole model
+    # the API, with an override: the value described is the one given
+    import astrocpg
+    assert "| 12. ms |" in astrocpg.describe("tau_motor", overrides=["tau_motor=12*ms"])
+    latex = describe("tau_motor", "latex")
+    assert r"\subsection*{tau\_motor: a parameter of motor\_neuron}" in latex
+    assert r"\begin{align*}" in latex
+    assert main(["describe", "tau_motr"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "did you mean tau_motor?" in err, err

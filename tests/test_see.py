@@ -238,10 +238,36 @@ def test_video_refuses_a_run_recorded_without_orientation(run_dir, tmp_path, cap
 
 @pytest.mark.parametrize("argv, culprit", [
     (["--size", "321", "240"], "--size"), (["--fps", "0"], "--fps"),
-    (["--speed", "-1"], "--speed"), (["--trial", "1"], "--trial 1")])
+    (["--speed", "-1"], "--speed"), (["--trial", "1"], "--trial 1"),
+    (["--stop", "2.5"], "--stop 2.5: is past the recording's end (2 s recorded)"),
+    (["--start", "-1"], "--start -1: is before the recording's start (0 s)"),
+    (["--start", "1.5", "--stop", "1"], "--start 1.5: must be before --stop (1 s)"),
+    (["--start", "nan"], "--start nan")])
 def test_video_refuses_bad_options(run_dir, capsys, argv, culprit):
     assert main(["video", str(run_dir), "--no-progress", *argv]) == 2
-    assert culprit in capsys.readouterr().err
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and culprit in err, err
+
+
+def test_video_of_a_time_window(run_dir, tmp_path, capsys):
+    """--start/--stop: only that window of the 2 s run, its frames the whole video's."""
+    import astrocpg
+
+    whole = astrocpg.video(run_dir, out=tmp_path / "whole.mp4", fps=10, size=(64, 48),
+                           progress=False)
+    assert (whole["start"], whole["stop"], whole["frames"]) == (0.0, pytest.approx(2.0), 20)
+    assert main(["video", str(run_dir), "--start", "0.5", "--stop", "1.2", "--fps", "10",
+                 "--size", "64", "48", "--out", str(tmp_path / "part.mp4"),
+                 "--no-progress"]) == 0
+    assert "0.5 to 1.2 s of the recording" in capsys.readouterr().out
+    a, b = _frames(tmp_path / "whole.mp4").astype(int), _frames(tmp_path / "part.mp4")
+    assert len(b) == 7
+    # frame j of the window is frame 5 + j of the whole video (up to the codec's losses)
+    for j in (0, 6):
+        assert np.abs(b[j] - a[5 + j]).mean() < np.abs(b[j] - a[0 if j else 19]).mean()
+    part = astrocpg.video(run_dir, out=tmp_path / "part2.mp4", fps=10, size=(64, 48),
+                          start=1.5, progress=False)
+    assert (part["start"], part["frames"]) == (1.5, 5)
 
 
 @pytest.mark.slow

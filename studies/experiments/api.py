@@ -54,7 +54,8 @@ def describe(model: str | None = None, format: str = "markdown", *,
              equations: Mapping[str, str] | None = None,
              models: Mapping[str, Any] | None = None) -> str:
     """The equations (rendered with sympy) and the parameter table of ``model`` (e.g.
-    "astrocyte"; None: every model) as markdown or LaTeX text (``format``), with parameter
+    "astrocyte"; None: every model; a parameter's name, e.g. "tau_motor": its value, the model
+    declaring it and the statements using it) as markdown or LaTeX text (``format``), with parameter
     ``overrides`` and replaced ``equations`` applied: what ``astrocpg describe`` prints."""
     from ..figures.describe import describe as render
 

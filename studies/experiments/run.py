@@ -19,7 +19,7 @@ from ..analysis.fall import fall_words, falls
 from ..outputs.folder import OutputFolder, verify
 from ..outputs.writing import file_sha256, save_npz, save_spikes_and_traces, write_manifest
 from ..outputs.result import Result
-from ..outputs.weights import load_weights
+from ..outputs.weights import check_table, load_weights
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from .settings import number, seed_number
 from .resources import check_memory, estimate_bytes
@@ -98,6 +98,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         table = None
     elif isinstance(weights, (str, os.PathLike)):
         table = load_weights(weights, trial)
+        if not Path(weights).is_dir():  # a user's table: in the synapse's range, or refused
+            check_table(table, models, f"--weights {weights}")
     else:  # an array, or nested lists of numbers: tables in volt
         try:
             table = np.asarray(weights, dtype=float)

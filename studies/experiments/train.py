@@ -19,6 +19,7 @@ import io
 import math
 import os
 import re
+import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -267,6 +268,29 @@ class Trainer:
         if self.recorder is not None and "recorder" in payload:
             self.recorder.restore(payload["recorder"])
 
+    def extend(self, sessions: int) -> None:
+        """After :meth:`restore` of a training of ``sessions`` sessions per trial (fewer than
+        this one's): go on as a training of this one's sessions from the start would. Trials
+        that finished in the checkpoint's step are reopened (:meth:`Training.reopen`), the
+        recorder records as the longer training does, and a recording of session ``sessions``
+        that only the shorter training made (its last) is removed."""
+        try:
+            reopened = self.training.reopen()
+        except ValueError as e:  # resume checks this first; a checkpoint that lies about it
+            raise InputError(f"cannot be extended exactly ({e})",
+                             culprit=self.out / CHECKPOINT) from None
+        if self.recorder is not None:
+            self.recorder.extend(sessions, reopened)
+            if not self.record.records(sessions, self.settings.n_sessions):
+                for b in range(self.settings.n_trials):
+                    stale = self.out / "recordings" / f"trial{b:02d}_session{sessions:04d}"
+                    if stale.exists():
+                        try:
+                            shutil.rmtree(stale)
+                        except OSError as e:
+                            raise EnvironmentFault.from_os_error(e, stale,
+                                                                 "cannot remove") from None
+
     # ---- run
     def run(self) -> float:
         """Run until every trial has done its sessions and write the outputs; returns wall
@@ -500,14 +524,17 @@ def _checkpoint_as_listed(out: Path) -> None:
                          culprit=out / CHECKPOINT)
 
 
-def check_belongs(out: Path, settings: TrainSettings) -> None:
+def check_belongs(out: Path, settings: TrainSettings) -> int:
     """A folder holds one run: the checkpoint's settings (``settings``) must be those its
     folder's manifest records (a checkpoint copied or linked in from another training, e.g.
-    of another seed, is refused naming the file and what differs, before anything changes)."""
+    of another seed, is refused naming the file and what differs, before anything changes).
+    Returns the sessions per trial the folder plans: the checkpoint's, or more where the
+    manifest records an extension (``--resume --sessions``) stopped before its first
+    checkpoint (everything else the same)."""
     manifest = read_manifest(out)
     if not isinstance(manifest, dict) or manifest.get("astrocpg_command") != "train" \
             or not isinstance(manifest.get("settings"), dict):
-        return
+        return settings.n_sessions
     recorded = {k: v for k, v in manifest["settings"].items() if k not in ("record", "replay_of")}
     try:
         mine = TrainSettings(**recorded)
@@ -515,7 +542,11 @@ def check_belongs(out: Path, settings: TrainSettings) -> None:
         raise InputError("manifest.json records settings this astrocpg cannot read",
                          culprit=f"--resume {out}") from None
     if mine.fingerprint() == settings.fingerprint():
-        return
+        return settings.n_sessions
+    if (isinstance(mine.n_sessions, int) and mine.n_sessions > settings.n_sessions
+            and dataclasses.replace(mine, n_sessions=settings.n_sessions).fingerprint()
+            == settings.fingerprint()):
+        return mine.n_sessions
     differ = [f"{k} {v!r} (folder: {recorded.get(k)!r})"
               for k, v in settings.__dict__.items() if recorded.get(k) != v] or ["its fingerprint"]
     raise InputError(f"belongs to another training than its folder: {', '.join(differ[:3])}; "
@@ -673,7 +704,8 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
                                        new=True, models=models), out)
 
 
-def resume(folder: str | Path, *, progress: bool = True, record_every: int | None = None,
+def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = True,
+           record_every: int | None = None,
            record_stride: int | None = None, spikes: tuple[str, ...] | None = None,
            traces: tuple[str, ...] | None = None,
            expect: dict[str, Any] | None = None) -> Result:
@@ -686,8 +718,26 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     ``sessions``, ``seed``, ``trials``, ``astrocytes``, ``overrides``, ``equations``,
     ``models``; and the recording options) must agree with them, or the resume is refused
     with the option and both values named (:func:`check_resume_options`): none is silently
-    ignored. Returns the training's Result, like :func:`train`."""
+    ignored.
+
+    ``sessions`` more than the training's sessions per trial extends it (finished or not):
+    it goes on exactly as a training asked for ``sessions`` from the start would have, and its
+    manifest records the new number (its history: each invocation with the sessions it trained
+    to). Fewer than it has done, or than it plans, is refused naming both numbers. A training
+    of several trials can be extended only while no trial has run idle: a trial that finished
+    its sessions before the last trial did ran on with learning off until then, which a longer
+    training would not have done (refused, naming the trials; one trial never idles). A study's
+    run is not extended (its sessions are the study's). Returns the training's Result, like
+    :func:`train`."""
     out = as_path(folder, "--resume")
+    given = dict(expect or {})
+    asked = given.pop("sessions", None)
+    if sessions is None:
+        sessions = asked
+    elif asked is not None and asked != sessions:
+        raise InputError(f"given twice ({asked} and {sessions})", culprit="--sessions")
+    if sessions is not None:
+        sessions = number(sessions, "--sessions", integer=True, minimum=1)
     # a training (or a study's run) that another process is training now: its files are in
     # flux and its lock is that process's, whatever they say
     refuse_in_use(out, culprit=f"--resume {out}")
@@ -712,27 +762,75 @@ def resume(folder: str | Path, *, progress: bool = True, record_every: int | Non
     if payload["fingerprint"] != settings.fingerprint():
         raise InputError(f"{out / CHECKPOINT} is not consistent with its settings",
                          culprit="--resume")
+    planned = settings.n_sessions
     if not fresh:  # a checkpoint copied or linked in from another training
-        check_belongs(out, settings)
+        # an extension stopped before its first checkpoint: the manifest plans more sessions
+        planned = check_belongs(out, settings)
     try:
         stored_plan = (None if payload.get("record_plan") is None
                        else RecordPlan.from_dict(payload["record_plan"]))
     except (TypeError, ValueError):
         raise InputError(f"{out / CHECKPOINT} is corrupt (its recording plan)",
                          culprit="--resume") from None
-    check_resume_options(settings, stored_plan, dict(expect or {}) | {
+    check_resume_options(settings, stored_plan, given | {
         "record_every": record_every, "record_stride": record_stride, "spikes": spikes,
         "traces": traces})
     if not fresh:
         _same_codegen(payload.get("codegen", "numpy"), codegen_target())
     if not fresh:  # its content passed every check above: is it the file its run wrote?
         _checkpoint_as_listed(out)
-    if not fresh and bool(np.all(np.asarray(payload["training"]["sessions_done"])
-                                 >= settings.n_sessions)):
-        raise InputError(f"the training is already finished ({settings.n_sessions} sessions per "
-                         f"trial); nothing was changed", culprit=f"--resume {out}")
+    done = (np.zeros(settings.n_trials, dtype=np.int64) if fresh
+            else np.asarray(payload["training"]["sessions_done"], dtype=np.int64))
+    target = planned if sessions is None else sessions
+    if target < int(done.max(initial=0)):
+        raise InputError(f"{target} sessions per trial is fewer than the {int(done.max())} this "
+                         f"training has done; a training is extended, never shortened",
+                         culprit="--sessions")
+    if target < planned:
+        raise InputError(f"{target} sessions per trial is fewer than the {planned} this training "
+                         f"trains to; a training is extended, never shortened",
+                         culprit="--sessions")
+    if not fresh and bool(np.all(done >= target)):
+        raise InputError(f"the training is already finished ({target} sessions per trial); "
+                         f"nothing was changed (--sessions N, more, extends it)",
+                         culprit=f"--resume {out}")
+    extend_from = None
+    if target != settings.n_sessions:
+        _check_extension(out, settings.n_sessions, target,
+                         None if fresh else payload["training"])
+        check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
+                                    sessions=target),
+                     culprit=f"--sessions {target} x --trials {settings.n_trials}")
+        extend_from = None if fresh else settings.n_sessions
+        settings = dataclasses.replace(settings, n_sessions=target)
     return Result.from_training(_train(settings, out, stored_plan, None if fresh else payload,
-                                       progress, resumed=True), out)
+                                       progress, resumed=True, extend_from=extend_from), out)
+
+
+def _check_extension(out: Path, sessions: int, target: int,
+                     state: Mapping[str, Any] | None) -> None:
+    """Refuse an extension from ``sessions`` to ``target`` sessions per trial that could not end
+    as a training of ``target`` sessions from the start would: of a study's run, or of a
+    training where a trial finished before the step its checkpoint was taken (it ran on idle,
+    learning off, which a longer training would not have done). ``state``: the checkpoint's
+    session-loop state (None: nothing trained yet)."""
+    manifest = read_manifest(out)
+    if isinstance(manifest, dict) and manifest.get("astrocpg_command") == "study-run":
+        raise InputError(f"{out} is a run of a study, which trains the study's {sessions} "
+                         f"sessions per trial; extend the study instead (astrocpg study FILE "
+                         f"--sessions {target}, a new study folder)", culprit="--sessions")
+    if state is None:
+        return
+    finished = np.asarray(state["done"], dtype=bool)
+    idle = np.asarray(state["step_in_session"], dtype=np.int64)
+    late = [int(b) for b in np.flatnonzero(finished & (idle != 0))]
+    if late:
+        which = ", ".join(f"trial {b} ({int(idle[b])} steps)" for b in late[:5])
+        raise InputError(
+            f"cannot extend this training exactly to {target} sessions per trial: {which} "
+            f"finished its {sessions} sessions before the last trial did and ran on idle "
+            f"(learning off) until then, which a {target}-session training would not have "
+            f"done; start a new training with --sessions {target}", culprit="--sessions")
 
 
 #: Relative difference below which two values of a parameter are the same value spelled
@@ -877,13 +975,16 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            payload: dict[str, Any] | None, progress: bool, replace: bool = False,
            new: bool = False, resumed: bool = False,
            models: ModelSet | None = None,
-           start: tuple[SessionStart, dict[str, Any]] | None = None) -> "Trainer":
+           start: tuple[SessionStart, dict[str, Any]] | None = None,
+           extend_from: int | None = None) -> "Trainer":
     """Build, own ``out`` (a lock: one process per training folder), train, write. ``resumed``:
     the training continues, so what later commands derived from its earlier weights (figures/,
     evaluation/, videos, power estimates) is removed first (:func:`remove_derived`).
     ``models``: the set composed from ``settings`` when the caller has it already. ``start``:
     a one-trial training that replays a recorded session (its start, and what the manifest
-    records of where it comes from: :mod:`astrocpg.studies.experiments.replay`)."""
+    records of where it comes from: :mod:`astrocpg.studies.experiments.replay`).
+    ``extend_from``: the sessions per trial of ``payload``'s training, fewer than
+    ``settings``' (:func:`resume` with more ``sessions``)."""
     if models is None:
         models = model_set(settings.overrides, settings.equations, models=settings.models)
     trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
@@ -903,19 +1004,24 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
         if resumed:  # made from the weights this run is about to change: stale from now on
             remove_derived(out)
         return _train_locked(trainer, settings, out, plan, payload,
-                             replay_of=None if start is None else start[1])
+                             replay_of=None if start is None else start[1],
+                             extend_from=extend_from)
 
 
 def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
                   plan: RecordPlan | None, payload: dict[str, Any] | None,
-                  replay_of: dict[str, Any] | None = None) -> "Trainer":
+                  replay_of: dict[str, Any] | None = None,
+                  extend_from: int | None = None) -> "Trainer":
     if payload is not None:
         trainer.restore(payload)
+    if extend_from is not None:
+        trainer.extend(extend_from)
     record_json = None if plan is None else dataclasses.asdict(plan)
     extra = {} if replay_of is None else {"replay_of": replay_of}
     manifest = dict(command="train", seed=settings.seed,
                     settings=settings.__dict__ | {"record": record_json} | extra,
-                    models_json=trainer.models.to_json(), files=TRAIN_FILES)
+                    models_json=trainer.models.to_json(), files=TRAIN_FILES,
+                    invocation={"sessions": settings.n_sessions})
 
     def progress_manifest() -> None:  # the inventory follows every checkpoint
         done = trainer.training.sessions_done.tolist()

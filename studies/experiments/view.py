@@ -182,7 +182,8 @@ def _size(size: Any) -> tuple[int, int]:
 
 def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float = 1.0,
           size: Any = (640, 480), out: str | Path | None = None, overwrite: bool = False,
-          progress: bool = True, panel: bool = False) -> dict[str, Any]:
+          progress: bool = True, panel: bool = False, start: float | None = None,
+          stop: float | None = None) -> dict[str, Any]:
     """Replay the robot recorded in ``folder`` (a run, a recorded training session, or a
     training: its trial's last recorded session) as an MP4: the robot posed from the recorded
     joint angles and torso pose, a camera tracking the trunk, ``fps`` frames per second of
@@ -191,8 +192,9 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     each frame (half its height, at least 240 pixels) with the time, forward speed and, in a
     time window that scrolls with the frame (a line at "now"), a gait diagram, each leg's
     thigh-pool activity and its astrocytes' Ca2+ (a row not recorded holds a note; see
-    :class:`~astrocpg.studies.figures.panel.GaitPanel`). Returns {"path", "frames", "fps",
-    "seconds"}."""
+    :class:`~astrocpg.studies.figures.panel.GaitPanel`). ``start``/``stop``: only that window
+    of the recording, in simulated s from its start (0 to its length; default: all of it).
+    Returns {"path", "frames", "fps", "seconds", "start", "stop"}."""
     import imageio.v2 as imageio
 
     from ...coupling.render import Replay, frame_count, frame_samples
@@ -225,12 +227,15 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
         raise InputError("exists; --overwrite replaces it", culprit=f"--out {path}")
     check_replaceable(path, culprit=f"--out {path}")
     refuse_in_use(path, culprit=f"--out {path}" if out is not None else str(folder))
-    n_frames = frame_count(rob["t"], fps, speed)
+    # checked against the recording; None (not given) keeps the recording's own ends
+    shown = _time_window(rob["t"], start, stop)
+    start, stop = (None if start is None else shown[0]), (None if stop is None else shown[1])
+    n_frames = frame_count(rob["t"], fps, speed, start=start, stop=stop)
     if n_frames > MAX_FRAMES:  # before a frame index of that length is built
         raise InputError(f"{n_frames:.3g} frames ({_span(rob['t'])} s recorded x fps {fps:g} / "
                          f"speed {speed:g}) is more than {MAX_FRAMES}; lower --fps or raise "
                          f"--speed", culprit=f"--fps {fps:g} --speed {speed:g}")
-    samples = frame_samples(rob["t"], fps, speed)
+    samples = frame_samples(rob["t"], fps, speed, start=start, stop=stop)
     model, layout = _robot_model(result)
 
     strip = None
@@ -278,7 +283,35 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
 
     atomic_path(path, write)
     return {"path": path, "frames": len(samples), "fps": fps,
-            "seconds": len(samples) / fps}
+            "seconds": len(samples) / fps, "start": shown[0], "stop": shown[1]}
+
+
+def _time_window(t: Any, start: Any, stop: Any) -> tuple[float, float]:
+    """``--start``/``--stop`` checked against the recording's span (0 to its length, in
+    simulated s): each a number within it, ``start`` before ``stop``; the defaults are the
+    span's ends."""
+    from ...coupling.render import recording_span
+
+    first, end = recording_span(t)
+    values = []
+    for name, value, default in (("--start", start, first), ("--stop", stop, end)):
+        if value is None:
+            values.append(default)
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) \
+                or not np.isfinite(value):
+            raise InputError("must be a number of seconds", culprit=f"{name} {value}")
+        if value < first - 1e-9:
+            raise InputError(f"is before the recording's start ({first:g} s)",
+                             culprit=f"{name} {value:g}")
+        if value > end + 1e-9:
+            raise InputError(f"is past the recording's end ({end:g} s recorded)",
+                             culprit=f"{name} {value:g}")
+        values.append(float(value))
+    if values[0] >= values[1]:
+        raise InputError(f"must be before --stop ({values[1]:g} s)",
+                         culprit=f"--start {values[0]:g}")
+    return values[0], values[1]
 
 
 __all__ = ["plot", "video"]

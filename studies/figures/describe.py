@@ -113,9 +113,56 @@ def _models(name: str | None, models: ModelSet) -> list[tuple[str, Any]]:
     found = [(n, m) for n, m in items if n == name]
     if not found:
         names = [n for n, _ in items]
-        raise InputError(f"unknown model '{name}'{did_you_mean(name, names + ['senses'])} "
-                         f"(models: {', '.join(names)}; or 'senses')", culprit="describe")
+        parameters = sorted({p for _, m in items for p in m.parameters})
+        raise InputError(f"'{name}' is neither a model nor a parameter"
+                         f"{did_you_mean(name, names + ['senses'] + parameters)} "
+                         f"(models: {', '.join(names)}; or 'senses'; or a parameter: "
+                         f"'astrocpg models dump MODEL' lists a model's)", culprit="describe")
     return found
+
+
+def _declaring(name: str, models: ModelSet) -> list[tuple[str, Any]]:
+    """The models that declare parameter ``name`` (usually one)."""
+    return [(n, m) for n, m in models.items() if name in m.parameters]
+
+
+def describe_parameter(name: str, fmt: str = "markdown",
+                       models: ModelSet = DEFAULT_MODELS) -> str:
+    """One parameter: for each model that declares it, its value with units, symbol and
+    meaning, and every statement of every model that uses it (equations, resets, on_pre...)."""
+    parts = []
+    users = [(n, row) for n, m in models.items() for row in model_lines(m)
+             if re.search(rf"(?<![\w.]){re.escape(name)}(?!\w)", row["code"])]
+    for model_name, model in _declaring(name, models):
+        ((_, value, symbol, meaning),) = [r for r in model.parameters.rows() if r[0] == name]
+        if fmt == "markdown":
+            out = [f"## {name}: a parameter of {model_name}", "",
+                   "| name | symbol | value | meaning |", "|---|---|---|---|",
+                   f"| `{name}` | ${symbol}$ | {value} | {meaning} |", ""]
+            if users:
+                out.append("used in:")
+                for user, row in users:
+                    shown = f"$${row['latex']}$$  " if row["latex"] else ""
+                    out.append(f"- {user} ({row['kind']}): {shown}`{row['code']}`")
+            else:
+                out.append(f"used in no statement of a model (read by the code that {model_name}"
+                           f" configures: 'astrocpg describe {model_name}')")
+        else:
+            out = [rf"\subsection*{{{_tex_escape(name)}: a parameter of "
+                   rf"{_tex_escape(model_name)}}}",
+                   r"\begin{tabular}{llll}", r"name & symbol & value & meaning \\ \hline",
+                   rf"\texttt{{{_tex_escape(name)}}} & ${symbol}$ & {_tex_escape(value)} & "
+                   rf"{_tex_escape(meaning)} \\", r"\end{tabular}"]
+            eqs = [(u, row) for u, row in users if row["latex"]]
+            if eqs:
+                out += [r"\begin{align*}", " \\\\\n".join(f"  &{row['latex']}"
+                                                           for _, row in eqs), r"\end{align*}"]
+            for user, row in users:
+                if not row["latex"]:
+                    out.append(rf"\noindent {_tex_escape(user)} ({row['kind']}): "
+                               rf"\texttt{{{_tex_escape(row['code'])}}}\\")
+        parts.append("\n".join(out))
+    return "\n\n".join(parts) + "\n"
 
 
 def describe(name: str | None = None, fmt: str = "markdown",
@@ -130,6 +177,8 @@ def describe(name: str | None = None, fmt: str = "markdown",
             return ("## Robot senses a neuron model may read (its [senses] table)\n\n```\n"
                     + text + "\n```\n")
         return "\\begin{verbatim}\n" + text + "\n\\end{verbatim}\n"
+    if name is not None and name not in dict(models.items()) and _declaring(name, models):
+        return describe_parameter(name, fmt, models)  # a parameter's name, not a model's
     parts = []
     for model_name, model in _models(name, models):
         desc = (model.description or "").strip()

@@ -182,21 +182,26 @@ def read_manifest(folder: Path) -> dict[str, Any] | None:
 
 def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str, Any],
                    models_json: Mapping[str, Any], files: Mapping[str, str],
-                   results: Mapping[str, Any] | None = None, history: bool = False) -> None:
+                   results: Mapping[str, Any] | None = None, history: bool = False,
+                   invocation: Mapping[str, Any] | None = None) -> None:
     """``manifest.json``: what was run, with what, and what each file holds.
 
     With ``history`` (a folder that several invocations continue, e.g. ``train --resume``), the
     first invocation's ``argv`` and ``created`` are kept and each invocation has an entry in
-    ``history`` (argv, start, commit, status), the latest updated in place."""
+    ``history`` (argv, start, commit, status, and ``invocation``'s entries, e.g. the sessions
+    per trial it trained to), the latest updated in place."""
     now = time.strftime("%Y-%m-%dT%H:%M:%S%z")
     entry = {"argv": sys.argv, "started": _STARTED, "updated": now, "git": git_commit(),
-             "status": dict(results or {}).get("status")}
+             "status": dict(results or {}).get("status")} | dict(invocation or {})
     manifest: dict[str, Any] = {"astrocpg_command": command, "argv": sys.argv, "created": now}
     old = read_manifest(out) if history else None
     if old is not None:
         manifest["argv"], manifest["created"] = old.get("argv", sys.argv), old.get("created", now)
+        # the same invocation (one process, one command line, the same extra entries) is
+        # updated in place; two in one process (the API called twice) are two entries
         past = [h for h in old.get("history", []) if h.get("started") != _STARTED
-                or h.get("argv") != sys.argv]
+                or h.get("argv") != sys.argv
+                or any(h.get(k) != v for k, v in dict(invocation or {}).items())]
         manifest["history"] = past + [entry]
     elif history:
         manifest["history"] = [entry]

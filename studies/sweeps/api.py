@@ -19,19 +19,26 @@ def _path(value: Any, culprit: str) -> Path:
 
 
 def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
+          seeds: str | int | list[int] | None = None, sessions: int | None = None,
+          overrides: Any = None,
           workers: int | None = None, scheduler: str | None = None, overwrite: bool = False,
           progress: bool = True) -> dict[str, Any]:
     """Run the parameter study ``file`` (a study file, or a built-in study's name: quick,
     ablation) on Dask into ``out`` (default ``out/<study name>``; a second call continues it),
     on a local cluster of ``workers`` processes or the running ``scheduler``: what ``astrocpg
-    study`` does. Returns the counts of runs by status, the rows of the results table, the
-    runs not finished (``failed``) and their errors."""
-    from .study import load_study, prepare_study, run_study
+    study`` does. ``seeds`` ("1-3", "1,4,9", or a count: that many from the file's first seed;
+    or a list of ints), ``sessions`` per trial and ``overrides`` (``["NAME=VALUE", ...]`` or
+    {name: value}, in place of the file's ``[base]``) change the study as loaded, like
+    ``--seeds``, ``--sessions`` and ``--set``; the study folder records them, and a second
+    call into it must give the same. Returns the counts of runs by status, the rows of the
+    results table, the runs not finished (``failed``) and their errors."""
+    from .study import load_study, prepare_study, run_study, study_overrides
 
     if scheduler is not None and not isinstance(scheduler, str):
         raise InputError(f"expected an address as text, got {type(scheduler).__name__}",
                          culprit="scheduler")
-    loaded = load_study(_path(file, "file"))
+    given = study_overrides(seeds, sessions, overrides)
+    loaded = load_study(_path(file, "file"), overrides=given)
     folder = Path("out") / loaded.name if out is None else _path(out, "out")
     loaded = prepare_study(loaded, folder, workers=workers, scheduler=scheduler,
                            overwrite=overwrite, progress=progress)

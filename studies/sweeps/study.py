@@ -75,16 +75,19 @@ from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write
 from .execute import ENDED, dispatch, execute_run, read_status, write_failures  # noqa: F401
 from .layout import (FAILURES, GAITS, RESULTS, RUNS, STATUS, STUDY_COPY,  # noqa: F401
                      STUDY_INDEX, TIMELINE, TIMELINE_COLUMNS, run_files, study_files)
-from .study_file import (MAX_SEEDS, RunSpec, Study, consecutive_groups,  # noqa: F401
-                         parse_study)
+from .study_file import (MAX_SEEDS, RunSpec, Study, StudyOverrides,  # noqa: F401
+                         consecutive_groups, parse_study, study_overrides)
 from .tables import timeline, utilisation, write_results, write_timeline  # noqa: F401
 
 
-def load_study(path: str | os.PathLike, *, batch: int | None = None) -> Study:
+def load_study(path: str | os.PathLike, *, batch: int | None = None,
+               overrides: StudyOverrides | None = None) -> Study:
     """Read and validate a study file; every error names the file and the offending key.
 
     batch: seeds per run, instead of the file's ``batch`` (how a ``batch = "auto"`` study is
-    split once its batch is chosen: :func:`resolve_batch`)."""
+    split once its batch is chosen: :func:`resolve_batch`). overrides: the command line's
+    ``--seeds``, ``--sessions``, ``--set`` (:func:`study_overrides`), applied to the study as
+    read."""
 
     from ...shipped import resolve
     p = resolve(path, "study")  # `astrocpg study quick`: a shipped study by name
@@ -95,7 +98,7 @@ def load_study(path: str | os.PathLike, *, batch: int | None = None) -> Study:
     except UnicodeDecodeError:
         raise InputError("not a UTF-8 text file (a study file is TOML)",
                          culprit=f"study {p}") from None
-    return parse_study(text, p, batch)
+    return parse_study(text, p, batch, overrides)
 
 
 def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
@@ -136,7 +139,7 @@ def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
                           "per_trial_s_per_sim_s": cost.per_trial,
                           "measured": cost.measured, "codegen": cost.codegen,
                           "when": cost.when}
-    resolved = parse_study(study.text, study.path, int(chosen["batch"]))
+    resolved = parse_study(study.text, study.path, int(chosen["batch"]), study.overrides)
     resolved.batch_choice = chosen
     return resolved
 
@@ -184,11 +187,34 @@ def _check_folder(study: Study, out: Path) -> None:
         if name != study.name:
             raise InputError(f"belongs to study '{name}', not '{study.name}' "
                              f"(use a new --out)", culprit=f"--out {out}")
+        _check_overrides(study, out, json.loads(index_path.read_text()).get("overrides") or {})
     for run in study.runs:
         fp = known.get(run.run_id)
         if fp is not None and fp != run.fingerprint():
             raise InputError(f"run '{run.run_id}' there has other settings than "
                              f"in {study.path.name} (use a new --out)", culprit=f"--out {out}")
+
+
+def _check_overrides(study: Study, out: Path, recorded: dict[str, Any]) -> None:
+    """A study folder keeps the command-line overrides it was started with (``--seeds``,
+    ``--sessions``, ``--set``, recorded in its study.json): rerunning the same command resumes
+    it, other overrides (or none where it had some) are refused naming the option, as an edited
+    study file that changes its runs is."""
+    given = study.overrides.record()
+    for key in ("seeds", "sessions", "set"):
+        was, now = recorded.get(key), given.get(key)
+        if was == now:
+            continue
+        option = f"--{key}"
+
+        def said(v: Any) -> str:
+            if v is None:
+                return f"without {option}"
+            return f"with {option} " + (" --set ".join(v) if isinstance(v, list) else str(v))
+
+        raise InputError(f"{out} holds the study run {said(was)}, not {said(now)}; a study "
+                         f"folder keeps its overrides: run the same command again to continue "
+                         f"it, or use a new --out", culprit=option)
 
 
 def _check_checkpoints(pending: Sequence[RunSpec], folders: dict[str, Path]) -> None:
@@ -219,7 +245,8 @@ def _save_index(study: Study, out: Path) -> None:
     # "current": the runs the study file now names (what its report and evaluation read);
     # "runs" and "specs" keep the runs of earlier versions too, so a later version may not
     # change them
-    save_json(index_path, {"name": study.name, "sweep": study.sweep, "runs": known,
+    save_json(index_path, {"name": study.name, "overrides": study.overrides.record(),
+                           "sweep": study.sweep, "runs": known,
                            "specs": specs, "current": [r.run_id for r in study.runs],
                            "batch": study.batch,
                            "batch_setting": study.batch_setting,
@@ -300,7 +327,8 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     _check_checkpoints(pending, folders)
     total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
     n_done_before = len(study.runs) - len(pending)
-    settings = {"study": str(study.path), "study_text": study.text, "workers": workers,
+    settings = {"study": str(study.path), "study_text": study.text,
+                "overrides": study.overrides.record(), "workers": workers,
                 "scheduler": scheduler, "batch": study.batch, "batch_choice": study.batch_choice}
     cluster = connect_cluster(workers, scheduler) if pending else None
     unwritten: dict[str, str] = {}

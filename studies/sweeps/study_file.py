@@ -80,6 +80,108 @@ class RunSpec:
         return self.train_settings().fingerprint()
 
 
+@dataclass(frozen=True)
+class StudyOverrides:
+    """What the command line (``astrocpg study FILE --seeds --sessions --set``) or
+    ``astrocpg.study(...)``'s keywords change in a study as loaded: ``seeds`` (the seeds, or
+    ``count``: that many from the file's first seed), ``sessions`` per trial, ``sets``
+    (``NAME=VALUE`` items, each replacing the file's ``[base]`` value or added to it). They
+    are recorded in the study folder: a rerun with other ones is refused."""
+
+    seeds: tuple[int, ...] | None = None
+    count: int | None = None
+    sessions: int | None = None
+    sets: tuple[str, ...] = ()
+    seeds_text: str | None = None  # as given, for the record and the messages
+
+    def record(self) -> dict[str, Any]:
+        """The options given, as ``study.json`` and the manifest record them."""
+        out: dict[str, Any] = {}
+        if self.seeds_text is not None:
+            out["seeds"] = self.seeds_text
+        if self.sessions is not None:
+            out["sessions"] = self.sessions
+        if self.sets:
+            out["set"] = list(self.sets)
+        return out
+
+
+#: ``--seeds``: ``FIRST-LAST`` (inclusive), ``A,B,C`` (a list) or ``N`` (a count: N seeds from
+#: the study's first seed).
+SEEDS_GRAMMAR = ("FIRST-LAST (e.g. 1-3), a list A,B,C (e.g. 1,4,9), or a count N (N seeds "
+                 "from the study's first seed)")
+
+
+def study_overrides(seeds: Any = None, sessions: Any = None,
+                    sets: Any = None) -> StudyOverrides:
+    """The overrides checked (an InputError naming ``--seeds``, ``--sessions`` or ``--set``).
+    ``seeds``: text in the grammar of :data:`SEEDS_GRAMMAR`, an int (a count) or a list of
+    ints; ``sets``: ``NAME=VALUE`` texts or a mapping {name: value} (checked against the
+    study's models when it is parsed)."""
+    from ...models.compose import override_items
+    from ..experiments.settings import number
+
+    seeds_list: tuple[int, ...] | None = None
+    count: int | None = None
+    text: str | None = None
+    if seeds is not None:
+        if isinstance(seeds, bool):
+            raise InputError(f"expected {SEEDS_GRAMMAR}, got {seeds!r}", culprit="--seeds")
+        if isinstance(seeds, int):
+            seeds = str(seeds)
+        if isinstance(seeds, (list, tuple)):
+            if not seeds or not all(isinstance(x, int) and not isinstance(x, bool)
+                                    for x in seeds):
+                raise InputError(f"expected a non-empty list of integers, got {seeds!r}",
+                                 culprit="--seeds")
+            seeds_list, text = tuple(seeds), ",".join(map(str, seeds))
+        elif isinstance(seeds, str):
+            text = seeds.strip()
+            m = re.fullmatch(r"(\d+)-(\d+)", text)
+            if m:
+                first, last = int(m.group(1)), int(m.group(2))
+                if last < first:
+                    raise InputError(f"{text}: the last seed is before the first",
+                                     culprit="--seeds")
+                if last - first + 1 > MAX_SEEDS:
+                    raise InputError(f"{text}: {last - first + 1} seeds is more than "
+                                     f"{MAX_SEEDS}", culprit="--seeds")
+                seeds_list = tuple(range(first, last + 1))
+            elif re.fullmatch(r"\d+(\s*,\s*\d+)+\s*,?", text):
+                seeds_list = tuple(int(x) for x in text.split(",") if x.strip())
+            elif re.fullmatch(r"\d+", text):
+                count = int(text)
+                if not 1 <= count <= MAX_SEEDS:
+                    raise InputError(f"a count of seeds must be 1 to {MAX_SEEDS}, got {count}",
+                                     culprit="--seeds")
+            else:
+                raise InputError(f"expected {SEEDS_GRAMMAR}, got {seeds!r}", culprit="--seeds")
+        else:
+            raise InputError(f"expected {SEEDS_GRAMMAR}, got {type(seeds).__name__}",
+                             culprit="--seeds")
+        if seeds_list is not None:
+            if len(set(seeds_list)) != len(seeds_list):
+                raise InputError(f"{text} lists a seed twice", culprit="--seeds")
+            if len(seeds_list) > MAX_SEEDS:
+                raise InputError(f"{len(seeds_list)} seeds is more than {MAX_SEEDS}",
+                                 culprit="--seeds")
+            if min(seeds_list) < 0 or max(seeds_list) > MAX_SEED:
+                raise InputError(f"seeds must be 0 to {MAX_SEED}, got {text}", culprit="--seeds")
+            seeds_list = tuple(sorted(seeds_list))
+    n = None if sessions is None else number(sessions, "--sessions", integer=True, minimum=1)
+    items = override_items(sets)
+    for item in items:
+        name, eq, value = item.partition("=")
+        if not eq or not name.strip() or not value.strip():
+            raise InputError(f"expected NAME=VALUE, got {item!r}", culprit="--set")
+    names = [i.partition("=")[0].strip() for i in items]
+    twice = next((x for x in names if names.count(x) > 1), None)
+    if twice is not None:
+        raise InputError(f"{twice} is set twice", culprit=f"--set {twice}")
+    return StudyOverrides(seeds=seeds_list, count=count, sessions=n, sets=tuple(items),
+                          seeds_text=text)
+
+
 @dataclass(kw_only=True)
 class Study:
     """A parsed, validated study file."""
@@ -99,6 +201,8 @@ class Study:
     # says how; runs are split by ``batch`` only once it is chosen)
     batch_setting: int | str = 0
     batch_choice: dict[str, Any] | None = None
+    # what the command line changed in the file's study (recorded in the study folder)
+    overrides: StudyOverrides = field(default_factory=StudyOverrides)
 
     @property
     def batch_pending(self) -> bool:
@@ -126,10 +230,13 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.+-]+", "-", text).strip("-") or "x"
 
 
-def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
+def parse_study(text: str, p: Path, batch_given: int | None,
+                overrides: StudyOverrides | None = None) -> Study:
     """The :class:`Study` of the TOML ``text`` read from ``p``, every key checked in the order
     the file is read (the first mistake is the one reported); ``batch_given``: seeds per run,
-    instead of the file's ``batch``."""
+    instead of the file's ``batch``; ``overrides``: the command line's changes, applied to the
+    study as read (a mistake names the option)."""
+    given = overrides or StudyOverrides()
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
@@ -154,13 +261,23 @@ def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
     if not isinstance(n_sessions, int) or isinstance(n_sessions, bool) or n_sessions < 1:
         raise InputError(f"[study] sessions must be a positive integer, "
                          f"got {n_sessions!r}", culprit=where)
+    if given.sessions is not None:
+        n_sessions = given.sessions
     seeds = _seeds(head, where)
+    if given.seeds is not None:
+        seeds = list(given.seeds)
+    elif given.count is not None:
+        if seeds[0] + given.count - 1 > MAX_SEED:
+            raise InputError(f"{given.count} seeds from {seeds[0]} go past {MAX_SEED}",
+                             culprit="--seeds")
+        seeds = list(range(seeds[0], seeds[0] + given.count))
     batch_setting, batch = _batch(head, seeds, n_sessions, batch_given, where)
     record = _record_table(head.get("record"), where)
     slots = {name for name, _ in DEFAULT_MODELS.items()}
     base_files, models, base = _base(doc, p, slots, where)
     names, axes, axis_files, points = _sweep(doc, p, slots, base_files, models, len(seeds),
                                              where)
+    base = _apply_sets(doc, models, base, axes, given.sets, where)
     runs = _runs(doc, slots, base_files, models, base, axes, axis_files, points,
                  _Runs(seeds=seeds, batch=batch, n_sessions=n_sessions, record=record), where)
     evaluate = _evaluate_table(doc.get("evaluate"), p, where)
@@ -182,7 +299,35 @@ def parse_study(text: str, p: Path, batch_given: int | None) -> Study:
                  n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs,
                  evaluate=evaluate, batch_setting=batch_setting,
                  batch_choice=None if batch_setting != "auto" or batch_given is None
-                 else {"batch": batch_given, "reason": "given by the caller"})
+                 else {"batch": batch_given, "reason": "given by the caller"},
+                 overrides=given)
+
+
+def _apply_sets(doc: dict[str, Any], models, base: list[str], axes: dict[str, list[str]],
+                sets: Sequence[str], where: str) -> list[str]:
+    """``base`` with each ``--set NAME=VALUE`` checked against the study's models and put in
+    place of the file's ``[base]`` NAME (or added). A name the study sweeps, or a condition
+    sets, is refused: its runs would take the axis's or the condition's value, not this one."""
+    out = list(base)
+    conditions = doc.get("conditions", {})
+    for item in sets:
+        name, _, value = item.partition("=")
+        name, value = name.strip(), value.strip()
+        culprit = f"--set {name}"
+        if name in axes:
+            raise InputError(f"the study sweeps {name} ([sweep.axes] of {where[6:]}): every "
+                             f"run takes its axis value; drop --set or the axis", culprit=culprit)
+        if isinstance(conditions, dict):
+            for cname, cond in conditions.items():
+                if isinstance(cond, dict) and (
+                        name in (cond.get("set") or {})
+                        or (name == "astrocyte_regulation" and cond.get("astrocytes") is False)):
+                    raise InputError(f"condition '{cname}' of {where[6:]} sets {name}: its "
+                                     f"runs take the condition's value; drop --set or edit "
+                                     f"the condition", culprit=culprit)
+        checked = _check_override(models, name, value, culprit)
+        out = [b for b in out if b.partition("=")[0] != name] + [checked]
+    return out
 
 
 def _seeds(head: dict[str, Any], where: str) -> list[int]:
