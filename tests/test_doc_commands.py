@@ -576,7 +576,7 @@ def shorten(argv: list[str], copy: Path, shortened: set[Path]) -> list[str]:
         argv = _set(argv, "--sessions", str(MAX_SESSIONS))
     if c == "evaluate":
         argv = _set(argv, "--repeats", "1")
-    if c == "study":
+    if c == "study" and "--status" not in argv:
         from astrocpg.shipped import resolve
         original = resolve(argv[1], "study")
         target = (copy / original.resolve().relative_to(ROOT)) if original.resolve() \
