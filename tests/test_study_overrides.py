@@ -123,6 +123,6 @@ def test_overrides_are_recorded_and_a_rerun_must_give_them(tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and option in err, err
     assert json.loads((out / "study.json").read_text()) == index
-    with pytest.raises(astrocpg.InputError, match="--set L_max"):
+    with pytest.raises(astrocpg.InputError, match="overrides L_max"):
         astrocpg.study(p, out=out, seeds="2-3", sessions=2, overrides=["L_max=0.1*second"],
                        workers=1, progress=False)
