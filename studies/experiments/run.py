@@ -6,7 +6,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -14,6 +13,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import Diverged, InputError
+from ...reading import read_json
 from ...models import ModelSet
 from ..analysis.fall import fall_words, falls
 from ..outputs.folder import OutputFolder, verify
@@ -390,7 +390,9 @@ def format_run(result: Result, seed: int) -> list[str]:
 def training_settings(folder: str | Path) -> dict[str, Any]:
     """The settings of the training in ``folder`` (from its manifest)."""
     try:
-        return json.loads((Path(folder) / "manifest.json").read_text())["settings"]
+        return read_json(Path(folder) / "manifest.json")["settings"]
+    except InputError:  # not a regular file, nested too deeply: refused, naming it
+        raise
     except (OSError, ValueError, KeyError, TypeError):
         raise InputError("no readable manifest.json (not a training run)",
                          culprit=str(folder)) from None

@@ -71,6 +71,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError, did_you_mean
+from ...reading import check_regular
 from ...network import populations as _table
 from ...network.recordable import trace_sources
 from .folder import (check_output_path, check_replaceable, clean_stale_temporaries,
@@ -126,6 +127,7 @@ def _load(folder: Path) -> dict[str, Any]:
     for name in ("spikes", "traces", "robot"):
         path = folder / f"{name}.npz"
         if path.exists():
+            check_regular(path, f"export {folder}")  # a FIFO is refused, never waited on
             try:
                 with np.load(path, allow_pickle=False) as z:
                     data[name] = {k: z[k] for k in z.files}

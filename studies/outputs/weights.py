@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import json
+import io
 import zipfile
 import zlib
 from pathlib import Path
@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import InputError
+from ...reading import check_regular, loads_json, read_bytes
 from .folder import MANIFEST, verify
 
 WEIGHTS = "weights.npz"
@@ -23,6 +24,8 @@ def load_weights(path: str | Path, trial: int | None = None, *,
     p = Path(path)
     where = f"{culprit} {path}" if culprit else str(path)
     if p.is_dir():
+        check_regular(p / WEIGHTS, where)  # a FIFO is refused, never waited on
+        check_regular(p / MANIFEST, where)
         if not (p / WEIGHTS).is_file():
             raise InputError(f"folder holds no {WEIGHTS} (not a training run)", culprit=where)
         if (p / MANIFEST).is_file():  # a training's: the tables are what its manifest lists
@@ -40,20 +43,25 @@ def load_weights(path: str | Path, trial: int | None = None, *,
                 raise InputError(f"{path} has {len(w)} trial(s)", culprit=f"--trial {trial}")
             w = w[trial]
     else:
+        check_regular(p, where)  # a FIFO, device or socket: refused, never waited on
         if not p.is_file():
             raise InputError("no such file or folder", culprit=where)
         try:
+            raw = read_bytes(p, where)  # what was checked is what is read
             if p.suffix == ".npy":
-                w = np.load(p, allow_pickle=False)
+                w = np.load(io.BytesIO(raw), allow_pickle=False)
             elif p.suffix == ".npz":
-                with np.load(p, allow_pickle=False) as z:
+                with np.load(io.BytesIO(raw), allow_pickle=False) as z:
                     w = z["weights_mV"] if "weights_mV" in z else z["weights"]
             elif p.suffix == ".json":
-                obj = json.loads(p.read_text(encoding="utf-8"))
+                obj = loads_json(raw, where)
                 w = obj["weights_mV"] if isinstance(obj, dict) else obj
             else:
-                w = np.loadtxt(p, delimiter="," if p.suffix == ".csv" else None, encoding="utf-8")
+                w = np.loadtxt(io.StringIO(raw.decode("utf-8")),
+                               delimiter="," if p.suffix == ".csv" else None)
             w = np.asarray(w, dtype=float)
+        except InputError:
+            raise
         except Exception as e:  # numpy/json raise many types for a bad file: all are bad input
             raise InputError(f"cannot read an 8x8 table in mV ({type(e).__name__})",
                              culprit=where) from None

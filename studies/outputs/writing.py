@@ -20,6 +20,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ...errors import InputError
+from ...reading import read_json
 from .folder import (MANIFEST, clean_stale_temporaries, file_sha256, inventory, temp_prefix,
                      temp_suffix)
 
@@ -173,9 +174,12 @@ def _json_default(o: Any) -> Any:
 
 
 def read_manifest(folder: Path) -> dict[str, Any] | None:
-    """The folder's manifest, or None when it has none or it is unreadable."""
+    """The folder's manifest, or None when it has none or it is unreadable (an InputError
+    naming it when it is not a regular file or is nested too deeply)."""
     try:
-        return json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
+        return read_json(Path(folder) / MANIFEST)
+    except InputError:  # not a regular file, nested too deeply: refused, naming it
+        raise
     except (OSError, ValueError):
         return None
 
