@@ -665,6 +665,7 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _cmd_unit(args: argparse.Namespace) -> int:
+    from ..network.recording import overflow_words
     from .experiments.unit import format_rhythm, unit
 
     result = unit(seconds=args.seconds, seed=args.seed, trials=args.trials,
@@ -674,6 +675,8 @@ def _cmd_unit(args: argparse.Namespace) -> int:
                   settings=_settings(args), inputs=_input_files(args), **_models(args))
     for b, s in enumerate(result.summary["rhythm"]):
         print(format_rhythm(b, args.seed + b, s))
+    if result.summary.get("trace_overflow"):
+        print("warning: " + overflow_words(result.summary["trace_overflow"]))
     print(f"wrote {args.out}/")
     return 0
 
@@ -789,12 +792,17 @@ def _cmd_gait(args: argparse.Namespace) -> int:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
+    from ..network.recording import overflow_words
     from .experiments.view import plot
+    from .outputs.writing import read_manifest
 
     written = plot(args.dir, trial=args.trial, window=args.window, fmt=args.format,
                    seconds=args.seconds, out=args.out, overwrite=args.overwrite,
                    progress=not args.no_progress)
     print(f"wrote {len(written)} figure(s): {', '.join(str(p) for p in written)}")
+    over = (read_manifest(Path(args.dir)) or {}).get("results", {}).get("trace_overflow")
+    if over:  # the figures draw what was recorded: infinities are gaps in the curves
+        print("warning: " + overflow_words(over))
     return 0
 
 
@@ -908,11 +916,16 @@ def _cmd_power(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
+    from ..network.recording import overflow_words
     from .experiments.api import export
+    from .outputs.writing import read_manifest
 
     path = export(args.dir, args.format, args.out or None, overwrite=args.overwrite,
                   experimenter=args.experimenter, institution=args.institution)
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
+    over = (read_manifest(Path(args.dir)) or {}).get("results", {}).get("trace_overflow")
+    if over:  # the file's notes and the series' descriptions say it too
+        print("warning: " + overflow_words(over))
     return 0
 
 

@@ -13,6 +13,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import Diverged, InputError
+from ...network.recording import overflow_words, overflowed
 from ...reading import read_json
 from ...models import ModelSet
 from ..analysis.fall import fall_words, falls
@@ -348,7 +349,9 @@ def run_results(result: SimulationResult) -> dict[str, Any]:
             "rate_per_neuron_Hz": x["rate_per_neuron_Hz"], "mechanisms": x["mechanisms"],
             "wall_seconds": result.wall_seconds, "seconds": result.seconds,
             "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
-            "layout": result.cpg.layout.to_json()}
+            "layout": result.cpg.layout.to_json(),
+            # never silent: which traces lost values to float32 (stored as inf), how many
+            "trace_overflow": overflowed(result.traces)}
 
 
 def _lowest(x: dict, b: int) -> str:
@@ -384,6 +387,8 @@ def format_run(result: Result, seed: int) -> list[str]:
         lines += [f"  {s}" for s in mech["statements"]]
     lines.append(f"wall time {x['wall_seconds']:.1f} s for {result.seconds:g} simulated s "
                  f"x {result.layout.n_trials} trial(s)")
+    if x.get("trace_overflow"):
+        lines.append("warning: " + overflow_words(x["trace_overflow"]))
     return lines
 
 
