@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any, Callable, NoReturn, Sequence
 
 from ..errors import AstrocpgError, EnvironmentFault, InputError, did_you_mean, one_line
+from ..environment import check as check_environment, flag
 
 DEFAULT_RUN_OUT = "out/run"
 DESCRIPTION = """\
@@ -541,9 +542,14 @@ def _run_command(args: argparse.Namespace) -> int:
     interrupted = False
     try:
         try:
+            check_environment()  # a switch that is not a boolean: refused before anything runs
             if getattr(args, "codegen", None) is not None:
                 _choose_codegen(args.codegen)
-            return COMMANDS[args.command](args)
+            code = COMMANDS[args.command](args)
+            compiled = sys.modules.get("astrocpg.coupling.compiled")
+            if code == 0 and compiled is not None and compiled.PROBLEM:
+                print(f"warning: {compiled.PROBLEM}")  # warnings are off: said here once
+            return code
         except Exception as e:
             if _interrupted(e):  # cleanup that failed while an interrupt unwound the stack
                 raise KeyboardInterrupt from None
@@ -574,7 +580,7 @@ def _run_command(args: argparse.Namespace) -> int:
         if fault is not None:  # a library refusing the environment it was given
             sys.stderr.write(f"astrocpg: environment: {fault.line}\n")
             return fault.exit_code
-        if os.environ.get("ASTROCPG_DEBUG"):
+        if _debug():
             raise
         sys.stderr.write(f"astrocpg: internal error: {type(e).__name__}: {one_line(str(e), 300)} "
                          f"(a bug in astrocpg; ASTROCPG_DEBUG=1 shows the traceback)\n")
@@ -591,6 +597,15 @@ def _run_command(args: argparse.Namespace) -> int:
             os.environ.pop("ASTROCPG_CODEGEN", None)
         else:
             os.environ["ASTROCPG_CODEGEN"] = env_codegen
+
+
+def _debug() -> bool:
+    """ASTROCPG_DEBUG: a traceback instead of the one line of an internal error (a value
+    that is not a boolean counts as on: it is read while reporting a bug, not refused)."""
+    try:
+        return flag("ASTROCPG_DEBUG")
+    except InputError:
+        return True
 
 
 def _choose_codegen(value: str) -> None:

@@ -40,6 +40,19 @@ def brian2_target() -> str | None:
     return framework_target()
 
 
+def environment_record() -> dict[str, str | None]:
+    """The environment variables that can change a result (:data:`astrocpg.environment.RECORDED`)
+    as set, and ``physics``: how the robots' physics stepped in this process (compiled or from
+    Python; absent where no robot was simulated)."""
+    from ...environment import recorded
+
+    out: dict[str, str | None] = dict(recorded())
+    compiled = sys.modules.get("astrocpg.coupling.compiled")  # loaded only where robots ran
+    if compiled is not None:
+        out["physics"] = compiled.state()
+    return out
+
+
 def package_versions() -> dict[str, str]:
     out = {"python": platform.python_version()}
     for name in PACKAGES:
@@ -212,6 +225,9 @@ def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str,
         "results": dict(results or {}),
         "package_versions": package_versions(),
         "codegen": brian2_target(),
+        # the environment variables that choose how a result is computed, as set, and how the
+        # robots' physics stepped (compiled or Python: bit-identical, recorded all the same)
+        "environment": environment_record(),
         "git": git_commit(),
         "machine": {"platform": platform.platform(), "processor": platform.processor(),
                     "cpu_count": os.cpu_count()},
