@@ -310,7 +310,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="time window in s (default: the whole recording; a training: the "
                            "last 2 s of its run)")
     plot.add_argument("--format", default="png", help="png, pdf or svg (default png)")
-    plot.add_argument("--seconds", type=float, default=10.0,
+    plot.add_argument("--seconds", type=float, default=None,
                       help="a training: simulated time of the run with the trained weights, "
                            "in s, a whole number of 1 ms steps, for its activity and gait "
                            "figures (default 10 s)")

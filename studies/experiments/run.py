@@ -75,6 +75,15 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     from ...coupling.robot import A1Parameters, RobotLayout, load_robot
     from ...coupling.world import world_model
 
+    if trial is not None and not (isinstance(weights, (str, os.PathLike))
+                                  and Path(weights).is_dir()):
+        # a trial picks one table of a training folder: with no weights, a weights file or an
+        # array there is nothing to pick from, and the option would be ignored
+        raise InputError("picks a trial's table of a training folder: give one with --weights "
+                         "DIR" + ("" if weights is None else f" ({_shown(weights)} is not a "
+                                                             f"training folder)"),
+                         culprit=f"--trial {trial}")
+
     seconds = number(seconds, "--seconds", positive=True)
     trials = number(trials, "--trials", integer=True, minimum=1)
     seed = seed_number(seed, trials=trials)
@@ -336,6 +345,10 @@ def _replay(given: dict[str, Any]) -> Result:
                           out=given["out"], record_stride=stride, spikes=given["spikes"],
                           traces=given["traces"], overwrite=given["overwrite"],
                           progress=given["progress"], inputs=given["inputs"])
+
+
+def _shown(weights: Any) -> str:
+    return "an array" if not isinstance(weights, (str, os.PathLike)) else str(weights)
 
 
 def run_results(result: SimulationResult) -> dict[str, Any]:
