@@ -9,7 +9,10 @@ results are the same, bit for bit.
 The loop is compiled once per MuJoCo version with the C compiler Python was built with,
 against the headers and the library that ship with the ``mujoco`` package, and kept in
 ``~/.cache/astrocpg`` (``$ASTROCPG_CACHE``). Without a C compiler, or with
-``ASTROCPG_COMPILED_PHYSICS=0``, the robots are stepped from Python as before.
+``ASTROCPG_COMPILED_PHYSICS`` off (``0``, ``false``, ``no``, ``off``), the robots are stepped
+from Python as before. A cached library that cannot be loaded (damaged, truncated, of another
+machine) or lacks the loop is removed and built again, once per process; if that fails too, a
+warning says so and the robots are stepped from Python.
 """
 
 from __future__ import annotations
@@ -21,11 +24,14 @@ import os
 import subprocess
 import sysconfig
 import tempfile
+import warnings
 from pathlib import Path
 from typing import Any, Callable
 
 import mujoco
 import numpy as np
+
+from ..environment import flag
 
 log = logging.getLogger("astrocpg.compiled")
 
@@ -54,6 +60,8 @@ int astrocpg_step_all(const mjModel* m, mjData** d, int n, double* state, int ro
 """
 
 _LIBRARY: Any = None  # the loaded library, False once building it failed
+#: why a bad cached library could not be replaced (None: no such problem in this process)
+PROBLEM: str | None = None
 
 
 def _cache_dir() -> Path:
@@ -69,10 +77,69 @@ def _mujoco_library() -> tuple[Path, Path]:
     return libs[0], root / "include"
 
 
-def _build() -> ctypes.CDLL:
-    library, include = _mujoco_library()
+class BadLibrary(OSError):
+    """A cached library that cannot be loaded or lacks ``astrocpg_step_all``."""
+
+
+def _target() -> Path:
+    library, _ = _mujoco_library()
     key = hashlib.sha256(f"{SOURCE}{mujoco.__version__}{library}".encode()).hexdigest()[:16]
-    target = _cache_dir() / f"physics_{key}{sysconfig.get_config_var('SHLIB_SUFFIX') or '.so'}"
+    return _cache_dir() / f"physics_{key}{sysconfig.get_config_var('SHLIB_SUFFIX') or '.so'}"
+
+
+def _load(target: Path) -> ctypes.CDLL:
+    """The library at ``target`` with its loop's signature set; BadLibrary when the file is
+    not a loadable library or has no loop (the handle is closed again: a later load of a
+    rebuilt file at the same path must not get this one back from the loader's cache)."""
+    try:
+        lib = ctypes.CDLL(str(target))
+    except OSError as e:
+        raise BadLibrary(f"cannot load {target}: {e}") from None
+    try:
+        fn = lib.astrocpg_step_all
+    except AttributeError:
+        _close(lib)
+        raise BadLibrary(f"{target} has no astrocpg_step_all") from None
+    fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p,
+                   ctypes.c_int]
+    fn.restype = ctypes.c_int
+    return lib
+
+
+def _close(lib: ctypes.CDLL) -> None:
+    try:
+        import _ctypes
+
+        _ctypes.dlclose(lib._handle)  # POSIX only; elsewhere the rebuilt file is loaded anew
+    except (ImportError, AttributeError, OSError):
+        pass
+
+
+def _build() -> ctypes.CDLL:
+    """The compiled loop: the cached library, else built now; a cached one that is bad is
+    removed and built again once (BadLibrary if that one is bad too)."""
+    target = _target()
+    if not target.is_file():
+        _compile(target)
+        return _load(target)
+    try:
+        return _load(target)
+    except BadLibrary as e:
+        bad = e
+    log.info("rebuilding the compiled physics: %s", bad)
+    try:
+        target.unlink()
+    except FileNotFoundError:
+        pass
+    try:
+        _compile(target)
+    except (OSError, subprocess.SubprocessError) as e:
+        raise BadLibrary(f"{bad}; building it again failed: {type(e).__name__}") from None
+    return _load(target)
+
+
+def _compile(target: Path) -> None:
+    library, include = _mujoco_library()
     if not target.is_file():
         target.parent.mkdir(parents=True, exist_ok=True)
         cc = (sysconfig.get_config_var("CC") or "cc").split()
@@ -83,27 +150,39 @@ def _build() -> ctypes.CDLL:
                             str(src), str(library), f"-Wl,-rpath,{library.parent}"],
                            check=True, capture_output=True, timeout=120)
             os.replace(out, target)  # whole or not at all, whoever builds it at the same time
-    lib = ctypes.CDLL(str(target))
-    fn = lib.astrocpg_step_all
-    fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p,
-                   ctypes.c_int]
-    fn.restype = ctypes.c_int
-    return lib
 
 
 def library() -> ctypes.CDLL | None:
     """The compiled loop, built at first use; None where it cannot be built or is turned off
-    (``ASTROCPG_COMPILED_PHYSICS=0``)."""
-    global _LIBRARY
-    if os.environ.get("ASTROCPG_COMPILED_PHYSICS", "1") == "0":
+    (``ASTROCPG_COMPILED_PHYSICS`` false)."""
+    global _LIBRARY, PROBLEM
+    if not flag("ASTROCPG_COMPILED_PHYSICS"):  # InputError naming it for a value not a boolean
         return None
     if _LIBRARY is None:
         try:
             _LIBRARY = _build()
+        except BadLibrary as e:  # a cached library was bad, and so is the one built now
+            PROBLEM = (f"the compiled physics cannot be used ({e}); the robots are stepped "
+                       f"from Python (slower, the same results)")
+            warnings.warn(PROBLEM, RuntimeWarning, stacklevel=2)
+            _LIBRARY = False
         except (OSError, subprocess.SubprocessError, FileNotFoundError) as e:
             log.debug("compiled physics unavailable, stepping from Python: %s", e)
             _LIBRARY = False
     return _LIBRARY or None
+
+
+def state() -> str:
+    """How the robots' physics steps in this process, for a manifest: ``compiled``,
+    ``python (ASTROCPG_COMPILED_PHYSICS off)``, ``python (no C compiler...)``, or ``not used
+    yet``."""
+    if not flag("ASTROCPG_COMPILED_PHYSICS"):
+        return "python (ASTROCPG_COMPILED_PHYSICS off)"
+    if _LIBRARY is None:
+        return "not used yet"
+    if _LIBRARY is False:
+        return f"python ({PROBLEM or 'the compiled loop could not be built here'})"
+    return "compiled"
 
 
 def step_all(model: mujoco.MjModel, data: list[mujoco.MjData],
@@ -129,4 +208,4 @@ def step_all(model: mujoco.MjModel, data: list[mujoco.MjData],
     return step
 
 
-__all__ = ["step_all", "library", "SOURCE"]
+__all__ = ["step_all", "library", "state", "SOURCE", "PROBLEM"]

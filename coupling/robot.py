@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 
 from ..errors import InputError
+from ..reading import check_regular
 
 def quiet_mujoco_log() -> None:
     """MuJoCo's default warning handler appends every warning to ``MUJOCO_LOG.TXT`` in the
@@ -254,6 +255,7 @@ def load_robot(path: str | os.PathLike) -> mujoco.MjModel:
         raise InputError(f"expected the path of an MJCF file, got {type(path).__name__}",
                          culprit="robot")
     p = Path(path)
+    check_regular(p, f"--robot {p}")  # a FIFO is refused, never waited on
     if not p.is_file():
         raise InputError("no such file", culprit=f"--robot {p}")
     try:

@@ -8,10 +8,10 @@ interface (:data:`astrocpg.models.INTERFACES`), plus the record of the model fil
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
 from ..errors import InputError, did_you_mean
+from ..reading import read_bytes
 from . import DEFAULT_MODELS, ModelSet
 
 Overrides = Mapping[str, Any] | Sequence[str]
@@ -53,7 +53,7 @@ def read_equation_files(items: Sequence[str], option: str = "--equations") -> di
         if not sep or not name or not file:
             raise InputError("expected MODEL=FILE", culprit=f"{option} '{item}'")
         try:
-            raw = Path(file).read_bytes()
+            raw = read_bytes(file, f"{option} {name}")  # a FIFO is refused, never waited on
         except OSError as e:
             raise InputError(f"cannot read '{file}' ({e.strerror})",
                              culprit=f"{option} {name}") from None

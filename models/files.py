@@ -28,6 +28,7 @@ import numpy as np
 from brian2 import Quantity
 
 from ..errors import InputError
+from ..reading import loads_toml
 from .base import BrianModel, Interface, Model, Parameter, ParameterTable, model_kinds
 from .units import parse_value, unit_spelling
 
@@ -182,7 +183,7 @@ def model_from_toml(text: str, *, culprit: str, default: Model | None = None) ->
     error; ``default`` (the built-in model of that slot) gives the kind when the file has
     none. Every mistake is an :class:`InputError` of one line."""
     try:
-        data = tomllib.loads(text)
+        data = loads_toml(text, culprit)  # nesting bounded: refused before tomllib recurses
     except tomllib.TOMLDecodeError as e:
         twice = _declared_twice(text)
         if twice:

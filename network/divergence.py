@@ -34,6 +34,7 @@ original ``Diverged``::
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 from typing import Any, Iterable, Protocol
@@ -205,7 +206,15 @@ def network_time(net: brian2.Network) -> float:
 @exclusive  # one Brian2 run at a time in a process (runlock.py)
 def run_network(net: brian2.Network, duration: Any, **kwargs: Any) -> None:
     """``net.run(duration, **kwargs)``, but a :class:`Diverged` raised inside the run (by the
-    bridge or a :class:`DivergenceCheck`) comes out as itself, whatever Brian2 wrapped it in."""
+    bridge or a :class:`DivergenceCheck`) comes out as itself, whatever Brian2 wrapped it in.
+
+    Ctrl-C during the run: Brian2 stops it at the end of the step and logs "Simulation stop
+    requested. Press Ctrl+C again to interrupt." on the console; the caller turns the early
+    stop into its own interruption (KeyboardInterrupt, exit 130 on the command line), so
+    that line is dropped while a run of ours is in progress (a Brian2 run of the user's own
+    keeps it)."""
+    brian_log = logging.getLogger("brian2")
+    brian_log.addFilter(_no_stop_chatter)
     try:
         net.run(duration, **kwargs)
     except Exception as e:
@@ -213,6 +222,13 @@ def run_network(net: brian2.Network, duration: Any, **kwargs: Any) -> None:
         if found is None or found is e:
             raise
         raise found.with_traceback(None) from None
+    finally:
+        brian_log.removeFilter(_no_stop_chatter)
+
+
+def _no_stop_chatter(record: logging.LogRecord) -> bool:
+    """False for Brian2's "Simulation stop requested" record (a filter of the brian2 logger)."""
+    return not str(record.msg).startswith("Simulation stop requested")
 
 
 class Scanned(Protocol):

@@ -64,10 +64,13 @@ class TraceRecorder:
         if self._timestep[0] != self._next or self.samples >= self.n_samples:
             return
         k = self.samples
-        for name, (table, flat, scale) in self.sources.items():
-            table.read()
-            # the stored unit computed in float64 (as before), rounded once to the dtype
-            np.multiply(flat, scale, out=self.values[name][k], casting="unsafe")
+        # a value beyond float32's range becomes inf: counted after the run (overflowed()),
+        # marked in the manifest and the summary, so numpy's warning would only repeat it
+        with np.errstate(over="ignore"):
+            for name, (table, flat, scale) in self.sources.items():
+                table.read()
+                # the stored unit computed in float64 (as before), rounded once to the dtype
+                np.multiply(flat, scale, out=self.values[name][k], casting="unsafe")
         self.samples = k + 1
         self._next += self.stride
 
@@ -84,4 +87,37 @@ class TraceRecorder:
         return sum(v.nbytes for v in self.values.values())
 
 
-__all__ = ["TraceRecorder", "TRACE_DTYPES"]
+def overflowed(traces: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, dict[str, Any]]:
+    """``{trace: {"dtype", "values", "of", "samples"}}`` of the traces kept as float32 that
+    hold values beyond float32's range (about 3.4e38), stored as infinities: how many values
+    of how many, and in how many samples (time points). A state that is itself infinite (or
+    beyond 1e50) stops the run as diverged, so an infinity in a trace of a finished run is
+    always this overflow: the simulation went on with the finite value, only its record lost
+    it. The run is marked rather than refused or widened: the values are not known before the
+    run, and widening every trace to float64 would double the memory the run was sized for
+    (``--trace-dtype float64`` is the remedy, named wherever the mark is shown)."""
+    out: dict[str, dict[str, Any]] = {}
+    for name, (_, v) in traces.items():
+        v = np.asarray(v)
+        if v.dtype != np.float32 or not v.size:
+            continue
+        bad = np.isinf(v)
+        n = int(bad.sum())
+        if n:
+            rows = int(bad.reshape(len(v), -1).any(axis=1).sum()) if v.ndim else 1
+            out[name] = {"dtype": "float32", "values": n, "of": int(v.size), "samples": rows,
+                         "of_samples": int(len(v)) if v.ndim else 1}
+    return out
+
+
+def overflow_words(overflow: dict[str, dict[str, Any]]) -> str:
+    """One sentence naming what :func:`overflowed` found, with the remedy; "" for nothing."""
+    if not overflow:
+        return ""
+    what = "; ".join(f"{name} in {o['samples']} of {o['of_samples']} samples ({o['values']} "
+                     f"values)" for name, o in overflow.items())
+    return (f"traces beyond float32's range, recorded as inf: {what}; the simulation used "
+            f"the finite values: record again with --trace-dtype float64 to keep them")
+
+
+__all__ = ["TraceRecorder", "TRACE_DTYPES", "overflowed", "overflow_words"]

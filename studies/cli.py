@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any, Callable, NoReturn, Sequence
 
 from ..errors import AstrocpgError, EnvironmentFault, InputError, did_you_mean, one_line
+from ..environment import check as check_environment, flag
 
 DEFAULT_RUN_OUT = "out/run"
 DESCRIPTION = """\
@@ -314,7 +315,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="time window in s (default: the whole recording; a training: the "
                            "last 2 s of its run)")
     plot.add_argument("--format", default="png", help="png, pdf or svg (default png)")
-    plot.add_argument("--seconds", type=float, default=10.0,
+    plot.add_argument("--seconds", type=float, default=None,
                       help="a training: simulated time of the run with the trained weights, "
                            "in s, a whole number of 1 ms steps, for its activity and gait "
                            "figures (default 10 s)")
@@ -566,9 +567,14 @@ def _run_command(args: argparse.Namespace) -> int:
     interrupted = False
     try:
         try:
+            check_environment()  # a switch that is not a boolean: refused before anything runs
             if getattr(args, "codegen", None) is not None:
                 _choose_codegen(args.codegen)
-            return COMMANDS[args.command](args)
+            code = COMMANDS[args.command](args)
+            compiled = sys.modules.get("astrocpg.coupling.compiled")
+            if code == 0 and compiled is not None and compiled.PROBLEM:
+                print(f"warning: {compiled.PROBLEM}")  # warnings are off: said here once
+            return code
         except Exception as e:
             if _interrupted(e):  # cleanup that failed while an interrupt unwound the stack
                 raise KeyboardInterrupt from None
@@ -599,7 +605,7 @@ def _run_command(args: argparse.Namespace) -> int:
         if fault is not None:  # a library refusing the environment it was given
             sys.stderr.write(f"astrocpg: environment: {fault.line}\n")
             return fault.exit_code
-        if os.environ.get("ASTROCPG_DEBUG"):
+        if _debug():
             raise
         sys.stderr.write(f"astrocpg: internal error: {type(e).__name__}: {one_line(str(e), 300)} "
                          f"(a bug in astrocpg; ASTROCPG_DEBUG=1 shows the traceback)\n")
@@ -616,6 +622,15 @@ def _run_command(args: argparse.Namespace) -> int:
             os.environ.pop("ASTROCPG_CODEGEN", None)
         else:
             os.environ["ASTROCPG_CODEGEN"] = env_codegen
+
+
+def _debug() -> bool:
+    """ASTROCPG_DEBUG: a traceback instead of the one line of an internal error (a value
+    that is not a boolean counts as on: it is read while reporting a bug, not refused)."""
+    try:
+        return flag("ASTROCPG_DEBUG")
+    except InputError:
+        return True
 
 
 def _choose_codegen(value: str) -> None:
@@ -690,6 +705,7 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _cmd_unit(args: argparse.Namespace) -> int:
+    from ..network.recording import overflow_words
     from .experiments.unit import format_rhythm, unit
 
     result = unit(seconds=args.seconds, seed=args.seed, trials=args.trials,
@@ -699,6 +715,8 @@ def _cmd_unit(args: argparse.Namespace) -> int:
                   settings=_settings(args), inputs=_input_files(args), **_models(args))
     for b, s in enumerate(result.summary["rhythm"]):
         print(format_rhythm(b, args.seed + b, s))
+    if result.summary.get("trace_overflow"):
+        print("warning: " + overflow_words(result.summary["trace_overflow"]))
     print(f"wrote {args.out}/")
     return 0
 
@@ -814,12 +832,17 @@ def _cmd_gait(args: argparse.Namespace) -> int:
 
 
 def _cmd_plot(args: argparse.Namespace) -> int:
+    from ..network.recording import overflow_words
     from .experiments.view import plot
+    from .outputs.writing import read_manifest
 
     written = plot(args.dir, trial=args.trial, window=args.window, fmt=args.format,
                    seconds=args.seconds, out=args.out, overwrite=args.overwrite,
                    progress=not args.no_progress)
     print(f"wrote {len(written)} figure(s): {', '.join(str(p) for p in written)}")
+    over = (read_manifest(Path(args.dir)) or {}).get("results", {}).get("trace_overflow")
+    if over:  # the figures draw what was recorded: infinities are gaps in the curves
+        print("warning: " + overflow_words(over))
     return 0
 
 
@@ -956,11 +979,16 @@ def _cmd_power(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
+    from ..network.recording import overflow_words
     from .experiments.api import export
+    from .outputs.writing import read_manifest
 
     path = export(args.dir, args.format, args.out or None, overwrite=args.overwrite,
                   experimenter=args.experimenter, institution=args.institution)
     print(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
+    over = (read_manifest(Path(args.dir)) or {}).get("results", {}).get("trace_overflow")
+    if over:  # the file's notes and the series' descriptions say it too
+        print("warning: " + overflow_words(over))
     return 0
 
 

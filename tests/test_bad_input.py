@@ -247,8 +247,19 @@ def S(*args: Any) -> list[str]:
     if argv and argv[0] in CHEAP and "--resume" not in argv:
         # after the positional folder of gait/plot/power
         at = 2 if argv[0] in ("gait", "plot", "power", "video") and len(argv) > 1 else 1
-        argv[at:at] = CHEAP[argv[0]]
+        cheap = CHEAP[argv[0]]
+        if argv[0] == "plot" and not (len(argv) > 1 and _is_training(argv[1])):
+            cheap = ["--no-progress"]  # --seconds simulates a training's weights only
+        argv[at:at] = cheap
     return argv
+
+
+def _is_training(folder: str) -> bool:
+    try:
+        command = json.loads((Path(folder) / "manifest.json").read_text())["astrocpg_command"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+    return command in ("train", "study-run")
 
 
 def study_text(**head: Any) -> str:
@@ -492,6 +503,16 @@ case("run-weights-trial-out-of-range", lambda e: S("run", "--weights", e.fx["tra
 case("run-weights-tables-vs-trials", lambda e: S("run", "--weights", e.fx["train"], "--trials",
                                                  "2", "--seconds", "0.01", "--out", out(e)),
      2, "--weights", "absent", out)
+# an option that only acts with another is refused without it, never ignored
+case("run-trial-without-weights", lambda e: S("run", "--trial", "0", "--out", out(e)), 2,
+     "--trial 0", "absent", out)
+case("run-trial-with-a-weights-file", lambda e: S("run", "--weights", e.weights(np.zeros((8, 8))),
+                                                  "--trial", "0", "--out", out(e)), 2,
+     "--trial 0", "absent", out)
+case("run-session-without-weights", lambda e: S("run", "--session", "1", "--out", out(e)), 2,
+     "--session", "absent", out)
+case("plot-seconds-of-a-run-folder", lambda e: S("plot", e.copy("run"), "--seconds", "2",
+                                                 "--out", out(e)), 2, "--seconds", "absent", out)
 case("run-robot-missing", lambda e: S("run", "--robot", e.tmp / "a1.xml", "--out", out(e)), 2,
      "a1.xml", "absent", out)
 case("run-robot-binary", lambda e: S("run", "--robot", e.file("a1.xml", bytes(range(256)) * 4),

@@ -3,6 +3,8 @@ bit for bit, warnings included; without it the robots are stepped from Python.""
 
 from __future__ import annotations
 
+import json
+
 import mujoco
 import numpy as np
 import pytest
@@ -62,3 +64,135 @@ def test_without_a_compiler_the_robots_step_from_python(monkeypatch):
     robots.physics()
     assert robots.data[0].time == pytest.approx(robots.model.opt.timestep)
     monkeypatch.setattr(compiled, "_LIBRARY", None)  # let later tests build it again
+
+
+# ---------------------------------------------------------------- the switch and the cache
+@pytest.mark.parametrize("value, on", [("0", False), ("false", False), ("FALSE", False),
+                                       ("no", False), (" Off ", False), ("1", True),
+                                       ("true", True), ("Yes", True), ("on", True), ("", True)])
+def test_the_switch_is_a_boolean(monkeypatch, value, on):
+    from astrocpg.environment import flag
+
+    monkeypatch.setenv("ASTROCPG_COMPILED_PHYSICS", value)
+    assert flag("ASTROCPG_COMPILED_PHYSICS") is on
+    if not on:
+        assert compiled.library() is None
+        assert compiled.state() == "python (ASTROCPG_COMPILED_PHYSICS off)"
+
+
+@pytest.mark.parametrize("name", ["ASTROCPG_COMPILED_PHYSICS", "ASTROCPG_DEBUG"])
+def test_a_switch_that_is_not_a_boolean_is_refused_naming_it(monkeypatch, tmp_path, capsys,
+                                                              name):
+    from astrocpg.errors import InputError
+    from astrocpg.studies.cli import main
+
+    monkeypatch.setenv(name, "maybe")
+    if name == "ASTROCPG_COMPILED_PHYSICS":
+        with pytest.raises(InputError, match=name):
+            compiled.library()
+    code = main(["run", "--seconds", "0.01", "--no-progress", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and err[0].startswith(f"astrocpg: error: {name}:"), err
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_manifest_records_the_environment(monkeypatch, tmp_path, capsys):
+    from astrocpg.studies.cli import main
+
+    monkeypatch.setenv("ASTROCPG_COMPILED_PHYSICS", "off")
+    assert main(["run", "--seconds", "0.01", "--no-progress", "--out", str(tmp_path / "o")]) == 0
+    env = json.loads((tmp_path / "o" / "manifest.json").read_text())["environment"]
+    assert env["ASTROCPG_COMPILED_PHYSICS"] == "off"
+    assert env["physics"] == "python (ASTROCPG_COMPILED_PHYSICS off)"
+    assert "ASTROCPG_CODEGEN" in env
+
+
+@pytest.fixture
+def own_cache(monkeypatch, tmp_path):
+    """An empty cache of this test's own, and a library built afresh in it."""
+    monkeypatch.setenv("ASTROCPG_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("ASTROCPG_COMPILED_PHYSICS", "1")
+    monkeypatch.setattr(compiled, "_LIBRARY", None)
+    monkeypatch.setattr(compiled, "PROBLEM", None)
+    yield compiled._target()
+    monkeypatch.setattr(compiled, "_LIBRARY", None)  # later tests load the usual one again
+
+
+def _needs_a_compiler() -> None:
+    import shutil
+    import sysconfig
+
+    if not shutil.which((sysconfig.get_config_var("CC") or "cc").split()[0]):
+        pytest.skip("no C compiler here")
+
+
+def test_a_corrupt_cached_library_is_rebuilt(own_cache):
+    _needs_a_compiler()
+    own_cache.parent.mkdir(parents=True)
+    own_cache.write_bytes(b"\x7fELF not really a library")
+    lib = compiled.library()
+    assert lib is not None and hasattr(lib, "astrocpg_step_all")
+    assert own_cache.read_bytes()[:4] == b"\x7fELF" and own_cache.stat().st_size > 1000
+    assert compiled.state() == "compiled"
+
+
+def test_a_cached_library_without_the_loop_is_rebuilt(own_cache):
+    import subprocess
+    import sysconfig
+
+    _needs_a_compiler()
+    own_cache.parent.mkdir(parents=True)
+    src = own_cache.parent / "other.c"
+    src.write_text("int something_else(void) { return 1; }\n")
+    cc = (sysconfig.get_config_var("CC") or "cc").split()
+    subprocess.run([*cc, "-shared", "-fPIC", "-o", str(own_cache), str(src)], check=True)
+    lib = compiled.library()  # the old code: AttributeError, an internal error on every run
+    assert lib is not None and hasattr(lib, "astrocpg_step_all")
+    robots = _robots_here(n=2)
+    assert robots._compiled is not None
+    robots.physics()
+
+
+def _robots_here(n: int) -> Robots:
+    model = build_model()
+    robots = Robots(model, RobotLayout.from_model(model), n)
+    for b in range(n):
+        robots.reset(b)
+    return robots
+
+
+def test_a_bad_library_that_cannot_be_rebuilt_warns_and_steps_from_python(own_cache,
+                                                                         monkeypatch):
+    import subprocess
+
+    own_cache.parent.mkdir(parents=True)
+    own_cache.write_bytes(b"garbage")
+
+    def fail(target):
+        raise subprocess.CalledProcessError(1, "cc")
+
+    monkeypatch.setattr(compiled, "_compile", fail)
+    with pytest.warns(RuntimeWarning, match="stepped from Python"):
+        assert compiled.library() is None
+    assert "building it again failed" in compiled.state()
+    robots = _robots_here(n=2)
+    assert robots._compiled is None
+    robots.physics()
+    assert robots.data[0].time == pytest.approx(robots.model.opt.timestep)
+
+
+def test_the_command_line_says_when_the_physics_fell_back(own_cache, monkeypatch, tmp_path,
+                                                          capsys):
+    import subprocess
+
+    from astrocpg.studies.cli import main
+
+    own_cache.parent.mkdir(parents=True)
+    own_cache.write_bytes(b"garbage")
+    monkeypatch.setattr(compiled, "_compile",
+                        lambda target: (_ for _ in ()).throw(subprocess.CalledProcessError(1, "cc")))
+    assert main(["run", "--seconds", "0.01", "--no-progress", "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "warning: the compiled physics cannot be used" in out, out
+    env = json.loads((tmp_path / "o" / "manifest.json").read_text())["environment"]
+    assert env["physics"].startswith("python (the compiled physics cannot be used")

@@ -35,6 +35,7 @@ import numpy as np
 
 from .cluster import check_scheduler, check_workers
 from ...errors import EnvironmentFault, InputError
+from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
 from ..analysis.fall import first_fall
@@ -85,7 +86,8 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
     path = BUILTIN_WORLDS.get(str(source)) or resolve(source, "worlds")
     where = f"--worlds {source}"
     try:
-        doc = tomllib.loads(path.read_bytes().decode("utf-8"))
+        # a regular file only (a FIFO is refused, never waited on), nesting bounded
+        doc = loads_toml(read_bytes(path, where).decode("utf-8"), where)
     except OSError as e:
         raise InputError(f"cannot read it ({e.strerror}); built-in: "
                          f"{', '.join(BUILTIN_WORLDS)}", culprit=where) from None
@@ -210,6 +212,7 @@ def _controllers(folder: Path) -> list[dict[str, Any]]:
                  "astrocytes" if settings.get("astrocytes", True) else "no_astrocytes",
                  "point": "", "first_seed": int(settings.get("seed", 1))}]
     runs = folder / "runs"
+    check_regular(folder / STUDY_INDEX)  # a FIFO is refused, never waited on
     if not runs.is_dir() or not (folder / STUDY_INDEX).is_file():
         raise InputError(f"is neither a training (weights.npz) nor a study folder (runs/ and "
                          f"{STUDY_INDEX})", culprit=str(folder))
@@ -217,7 +220,9 @@ def _controllers(folder: Path) -> list[dict[str, Any]]:
     # the runs the study file now names, not the runs/ of an earlier version of it
     for run in sorted(runs / run_id for run_id in read_current(folder, str(folder))):
         try:
-            status = json.loads((run / "status.json").read_text())
+            status = read_json(run / "status.json")
+        except InputError:  # not a regular file, nested too deeply: refused, naming it
+            raise
         except (OSError, ValueError):
             continue
         if status.get("state") != "finished":
@@ -291,7 +296,7 @@ class EvaluationParts:
 
     def load(self, cell: str) -> list[dict[str, Any]] | None:
         try:
-            return json.loads(self._path(cell).read_text())
+            return read_json(self._path(cell))
         except (OSError, ValueError):  # absent, or torn by a kill: run it again
             return None
 

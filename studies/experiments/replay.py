@@ -22,6 +22,7 @@ import numpy as np
 
 from ...coupling.training import SessionStart
 from ...errors import InputError
+from ...reading import check_regular
 from ...network.codegen import framework_target
 from ..outputs.folder import OutputFolder, as_path, refuse_in_use
 from ..outputs.result import Result
@@ -38,6 +39,7 @@ def recorded_start(folder: Path, trial: int, session: int) -> SessionStart:
         raise InputError(f"holds no {SESSION_STARTS}: it was trained before astrocpg kept "
                          f"each session's start, so its sessions cannot be replayed "
                          f"(train it again)", culprit=f"--weights {folder}")
+    check_regular(path, f"--weights {folder}")  # a FIFO is refused, never waited on
     try:
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
@@ -64,6 +66,7 @@ def recorded_start(folder: Path, trial: int, session: int) -> SessionStart:
 def recorded_row(folder: Path, trial: int, session: int) -> dict[str, str] | None:
     """The row of ``sessions.csv`` for (trial, session), as written (text), or None while that
     session was still running when the training stopped."""
+    check_regular(folder / "sessions.csv", f"--weights {folder}")
     try:
         with open(folder / "sessions.csv", newline="") as f:
             for row in csv.DictReader(f):

@@ -6,7 +6,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -14,6 +13,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import Diverged, InputError
+from ...network.recording import overflow_words, overflowed
+from ...reading import read_json
 from ...models import ModelSet
 from ..analysis.fall import fall_words, falls
 from ..outputs.folder import OutputFolder, verify
@@ -73,6 +74,15 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
 
     from ...coupling.robot import A1Parameters, RobotLayout, load_robot
     from ...coupling.world import world_model
+
+    if trial is not None and not (isinstance(weights, (str, os.PathLike))
+                                  and Path(weights).is_dir()):
+        # a trial picks one table of a training folder: with no weights, a weights file or an
+        # array there is nothing to pick from, and the option would be ignored
+        raise InputError("picks a trial's table of a training folder: give one with --weights "
+                         "DIR" + ("" if weights is None else f" ({_shown(weights)} is not a "
+                                                             f"training folder)"),
+                         culprit=f"--trial {trial}")
 
     seconds = number(seconds, "--seconds", positive=True)
     trials = number(trials, "--trials", integer=True, minimum=1)
@@ -339,6 +349,10 @@ def _replay(given: dict[str, Any]) -> Result:
                           progress=given["progress"], inputs=given["inputs"])
 
 
+def _shown(weights: Any) -> str:
+    return "an array" if not isinstance(weights, (str, os.PathLike)) else str(weights)
+
+
 def run_results(result: SimulationResult) -> dict[str, Any]:
     """What the manifest's ``results`` (and the Result's ``summary``) hold for a run."""
     x = result.extra
@@ -350,7 +364,9 @@ def run_results(result: SimulationResult) -> dict[str, Any]:
             "rate_per_neuron_Hz": x["rate_per_neuron_Hz"], "mechanisms": x["mechanisms"],
             "wall_seconds": result.wall_seconds, "seconds": result.seconds,
             "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
-            "layout": result.cpg.layout.to_json()}
+            "layout": result.cpg.layout.to_json(),
+            # never silent: which traces lost values to float32 (stored as inf), how many
+            "trace_overflow": overflowed(result.traces)}
 
 
 def _lowest(x: dict, b: int) -> str:
@@ -386,13 +402,17 @@ def format_run(result: Result, seed: int) -> list[str]:
         lines += [f"  {s}" for s in mech["statements"]]
     lines.append(f"wall time {x['wall_seconds']:.1f} s for {result.seconds:g} simulated s "
                  f"x {result.layout.n_trials} trial(s)")
+    if x.get("trace_overflow"):
+        lines.append("warning: " + overflow_words(x["trace_overflow"]))
     return lines
 
 
 def training_settings(folder: str | Path) -> dict[str, Any]:
     """The settings of the training in ``folder`` (from its manifest)."""
     try:
-        return json.loads((Path(folder) / "manifest.json").read_text())["settings"]
+        return read_json(Path(folder) / "manifest.json")["settings"]
+    except InputError:  # not a regular file, nested too deeply: refused, naming it
+        raise
     except (OSError, ValueError, KeyError, TypeError):
         raise InputError("no readable manifest.json (not a training run)",
                          culprit=str(folder)) from None

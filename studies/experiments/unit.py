@@ -13,6 +13,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import Diverged
+from ...network.recording import overflowed
 from ..analysis.rhythm import rhythm_summary
 from ..outputs.folder import OutputFolder
 from ..outputs.writing import save_spikes_and_traces, write_manifest
@@ -138,7 +139,9 @@ def unit_results(result: SimulationResult) -> dict[str, Any]:
     return {"status": result.extra.get("status", "finished"), "error": result.extra.get("error"),
             "rhythm": result.extra.get("rhythm", []), "wall_seconds": result.wall_seconds,
             "dt_s": float(result.cpg.dt), "seconds": result.seconds,
-            "layout": result.cpg.layout.to_json()}
+            "layout": result.cpg.layout.to_json(),
+            # never silent: which traces lost values to float32 (stored as inf), how many
+            "trace_overflow": overflowed(result.traces)}
 
 
 def format_rhythm(b: int, seed: int, s: Mapping[str, Any]) -> str:

@@ -46,7 +46,7 @@ def _check_window(window: Any, span: tuple[float, float] | None) -> tuple[float,
 
 
 def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "png",
-         seconds: float = 10.0, out: str | Path | None = None,
+         seconds: float | None = None, out: str | Path | None = None,
          overwrite: bool = False, progress: bool = True) -> list[Path]:
     """The figures of any output folder, into ``out`` (default ``folder/figures``, replaced
     whole on every plot); returns the paths written.
@@ -54,7 +54,7 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     unit, run, recorded training session: the trace figures of the recording (rasters, pool
     activity, motor-neuron Ca2+, each astrocyte, joints, torso path, gait diagram; those the
     recording allows), no new simulation. training (or a study's run): its figures from a run
-    of ``seconds`` with its trained weights, and the trace figures of the trial's last recorded
+    of ``seconds`` (default 10) with its trained weights, and the trace figures of the trial's last recorded
     session. ``window`` (T0, T1) in s; ``fmt``: png, pdf or svg. ``progress``: a bar on
     stderr, a step per kind of figure drawn and per figure written (and the run's own bar, for
     a training)."""
@@ -65,9 +65,14 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     folder = as_path(folder, "folder")
     result = load(folder)
     if result.kind == "train":
-        return plot_training(folder, trial=trial, seconds=seconds, out=out,
+        return plot_training(folder, trial=trial, seconds=10.0 if seconds is None else seconds,
+                             out=out,
                              overwrite=overwrite, fmt=fmt, window=_check_window(window, None),
                              progress=progress)
+    if seconds is not None:  # a recording is drawn as it is: nothing is simulated
+        raise InputError(f"simulates a training's weights; {folder} is a {result.kind} "
+                         f"folder, drawn from its recording (--window T0 T1 picks a part)",
+                         culprit="--seconds")
     _check_trial(result, trial)
     span = recorded_span(result)
     win = _check_window(window, span) or span

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -34,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import EnvironmentFault, InputError
+from ...reading import loads_json, open_regular
 from .writing import atomic_write
 
 CHECKPOINT = "checkpoint.npz"
@@ -251,39 +253,52 @@ def write_checkpoint(path: Path, meta: dict[str, Any], state: Any) -> None:
     atomic_write(Path(path), lambda f: np.savez(f, **arrays))
 
 
-def _open(path: Path, culprit: str) -> Any:
+def _open(path: Path, culprit: str) -> tuple[Any, Any]:
+    """``(file, archive)``: the checkpoint opened (a regular file only: a FIFO, device or
+    socket is refused before it is read, never waited on) and read as an ``.npz``; the caller
+    closes both."""
+    if path.is_dir():
+        raise _error(path, culprit, "is a folder, not a checkpoint")
     try:
-        with open(path, "rb") as f:
-            head = f.read(len(_LEGACY_MAGIC))
+        f = open_regular(path, culprit)
     except FileNotFoundError:
         raise _error(path, culprit, "does not exist", cls=InputError) from None
-    except IsADirectoryError:
-        raise _error(path, culprit, "is a folder, not a checkpoint") from None
     except OSError as e:
         raise EnvironmentFault.from_os_error(e, path, "cannot read the checkpoint") from None
-    if head.startswith(_LEGACY_MAGIC) or head[:1] == b"\x80":  # astrocpg's old one, a pickle
-        raise _old_format(path, culprit)
-    if not head.startswith(_ZIP_MAGIC):
-        raise _error(path, culprit, "is not an astrocpg checkpoint")
     try:
-        _check_sizes(path, culprit)
-        return np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile) as e:
-        if isinstance(e, InputError):
-            raise
-        if isinstance(e, OSError) and not isinstance(e, zipfile.BadZipFile) and e.errno:
+        try:
+            head = f.read(len(_LEGACY_MAGIC))
+            f.seek(0)
+        except OSError as e:
             raise EnvironmentFault.from_os_error(e, path, "cannot read the checkpoint") from None
-        raise _error(path, culprit, "is corrupt (not a whole archive)") from None
+        if head.startswith(_LEGACY_MAGIC) or head[:1] == b"\x80":  # astrocpg's old one, a pickle
+            raise _old_format(path, culprit)
+        if not head.startswith(_ZIP_MAGIC):
+            raise _error(path, culprit, "is not an astrocpg checkpoint")
+        try:
+            _check_sizes(f, path, culprit)
+            f.seek(0)
+            return f, np.load(f, allow_pickle=False)
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile) as e:
+            if isinstance(e, InputError):
+                raise
+            if isinstance(e, OSError) and not isinstance(e, zipfile.BadZipFile) and e.errno:
+                raise EnvironmentFault.from_os_error(e, path,
+                                                     "cannot read the checkpoint") from None
+            raise _error(path, culprit, "is corrupt (not a whole archive)") from None
+    except BaseException:
+        f.close()
+        raise
 
 
-def _check_sizes(path: Path, culprit: Any) -> None:
+def _check_sizes(f: Any, path: Path, culprit: Any) -> None:
     """Bounded reading: a checkpoint is written uncompressed (``np.savez``), so each entry must
     be stored as is (its declared size equal to the bytes it takes in the file) and the sizes
     must add up to no more than the file: nothing in it can make the reader use more memory
     than the file's own size (a compressed entry, a compression bomb, a declared size larger
     than the file is refused before anything is decompressed)."""
-    size = path.stat().st_size
-    with zipfile.ZipFile(path) as zf:
+    size = os.fstat(f.fileno()).st_size
+    with zipfile.ZipFile(f) as zf:
         total = 0
         for info in zf.infolist():
             if info.compress_type != zipfile.ZIP_STORED or info.file_size != info.compress_size:
@@ -319,7 +334,11 @@ def _json_entry(z: Any, name: str, path: Path, culprit: str) -> Any:
     if a.dtype != np.uint8 or a.ndim != 1:
         raise _error(path, culprit, f"is corrupt ({name} is not text)")
     try:
-        return json.loads(a.tobytes().decode("utf-8"))
+        # bounded: a JSON entry nested 100,000 deep is refused before the parser recurses
+        return loads_json(a.tobytes().decode("utf-8"), culprit if culprit is not None else path,
+                          path)
+    except InputError:
+        raise
     except (UnicodeDecodeError, ValueError):
         raise _error(path, culprit, f"is corrupt ({name} is not JSON)") from None
 
@@ -342,7 +361,7 @@ def read_checkpoint(path: Path, culprit: Any = None) -> tuple[dict[str, Any], An
     the archive's CRC-32. Any file that is not a whole checkpoint of this format is an
     InputError (old pickled checkpoints included: refused, never loaded)."""
     path = Path(path)
-    z = _open(path, culprit)
+    f, z = _open(path, culprit)
     try:
         meta = _meta(z, path, culprit)
         tree = _json_entry(z, "state", path, culprit)
@@ -370,3 +389,4 @@ def read_checkpoint(path: Path, culprit: Any = None) -> tuple[dict[str, Any], An
                                 f"{str(e)[:80] or 'unreadable'})") from None
     finally:
         z.close()
+        f.close()

@@ -71,8 +71,10 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError, did_you_mean
+from ...reading import check_regular
 from ...network import populations as _table
 from ...network.recordable import trace_sources
+from ...network.recording import overflow_words, overflowed
 from .folder import (check_output_path, check_replaceable, clean_stale_temporaries,
                      refuse_in_use, verify)
 from .writing import atomic_path, save_npz
@@ -126,6 +128,7 @@ def _load(folder: Path) -> dict[str, Any]:
     for name in ("spikes", "traces", "robot"):
         path = folder / f"{name}.npz"
         if path.exists():
+            check_regular(path, f"export {folder}")  # a FIFO is refused, never waited on
             try:
                 with np.load(path, allow_pickle=False) as z:
                     data[name] = {k: z[k] for k in z.files}
@@ -133,6 +136,14 @@ def _load(folder: Path) -> dict[str, Any]:
                 raise InputError(f"{name}.npz is corrupt or truncated ({type(e).__name__}); "
                                  f"record the run again", culprit=f"export {folder}") from None
     data.setdefault("spikes", {})  # recorded with --spikes none: export what exists
+    # traces that overflowed float32 (stored as inf): counted from the data itself (a folder
+    # recorded before its manifest said so has them too), carried into the export's notes
+    # and each such series' description: never passed off as a clean record
+    over = overflowed({k: (None, v) for k, v in data.get("traces", {}).items()
+                       if not k.endswith("_t")})
+    if over:
+        data["manifest"] = {**manifest, "results": {**(manifest.get("results") or {}),
+                                                    "trace_overflow": over}}
     return data
 
 
@@ -183,6 +194,16 @@ def _spike_trains(times: np.ndarray, indices: np.ndarray, n: int) -> list[np.nda
     return [t[bounds[k]:bounds[k + 1]].astype(np.float64) for k in range(n)]
 
 
+def _overflow_note(manifest: dict[str, Any], name: str) -> str:
+    """``; WARNING: ...`` for a trace that overflowed float32 (values stored as inf)."""
+    over = ((manifest.get("results") or {}).get("trace_overflow") or {}).get(name)
+    if not over:
+        return ""
+    return (f"; WARNING: {over['values']} of {over['of']} values (in {over['samples']} of "
+            f"{over['of_samples']} samples) were beyond float32's range and are stored as inf, "
+            f"not as simulated (record again with --trace-dtype float64)")
+
+
 def _metadata(manifest: dict[str, Any]) -> dict[str, Any]:
     """What an export carries of the manifest: the command, its settings, its versions, and
     how the run ended (``status``: finished or diverged, with the ``error`` of a diverged
@@ -193,7 +214,10 @@ def _metadata(manifest: dict[str, Any]) -> dict[str, Any]:
                                            "created", "package_versions", "git")},
             "status": results.get("status", "finished"),
             "simulated_seconds": _simulated_seconds(manifest),
-            "error": results.get("error")}
+            "error": results.get("error"),
+            **({"trace_overflow": results["trace_overflow"],
+                "warning": overflow_words(results["trace_overflow"])}
+               if results.get("trace_overflow") else {})}
 
 
 def _simulated_seconds(manifest: dict[str, Any]) -> Any:
@@ -394,7 +418,8 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
                 name=f"{name}_{suffix}", data=values[:, cols], unit=unit,
                 conversion=conversion, comments=SAMPLE_COMMENT, **_sampling(t, dt),
                 description=(f"{_table.trace_meaning(name)}; one column per cell, the cell "
-                             f"of each column in processing/misc/{population}_trace_columns"))
+                             f"of each column in processing/misc/{population}_trace_columns"
+                             + _overflow_note(m, name)))
             nwb.add_acquisition(series)
             column_rows[population] += [(series, k, cols.start + k) for k in range(width)]
     for pop, table in cells.items():

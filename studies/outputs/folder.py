@@ -49,6 +49,7 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping
 
 from ...errors import EnvironmentFault, InputError
+from ...reading import open_regular, read_json
 
 MANIFEST = "manifest.json"
 LOCK_NAME = ".astrocpg.lock"
@@ -219,8 +220,7 @@ def is_astrocpg_output(folder: str | os.PathLike) -> bool:
     temporaries (what a process killed before its first manifest leaves)?"""
     root = Path(folder)
     try:
-        with open(root / MANIFEST, "rb") as f:
-            manifest = json.loads(f.read())
+        manifest = read_json(root / MANIFEST)
     except FileNotFoundError:
         try:
             names = os.listdir(root)
@@ -278,7 +278,7 @@ def _refuse_part_of_output(path: Path, culprit: str) -> None:
             if _derived(path.relative_to(folder).as_posix(), folder=True):
                 return  # figures/, report/, ...: the places later commands write into
             try:
-                manifest = json.loads((folder / MANIFEST).read_bytes())
+                manifest = read_json(folder / MANIFEST)
                 command = manifest.get("astrocpg_command")
             except (OSError, ValueError, AttributeError):
                 command = None
@@ -295,7 +295,7 @@ def _refuse_foreign_files(path: Path, culprit: str) -> None:
     command writes there (:data:`DERIVED`): a file the user added is never deleted by
     ``--overwrite``. A manifest without an inventory (an older astrocpg's) claims every file."""
     try:
-        manifest = json.loads((path / MANIFEST).read_bytes())
+        manifest = read_json(path / MANIFEST)
     except FileNotFoundError:
         manifest = {"inventory": {}}
     except (OSError, ValueError):
@@ -338,7 +338,7 @@ def check_replaceable(target: str | os.PathLike, *, culprit: str) -> None:
         if (folder / MANIFEST).is_file() and is_astrocpg_output(folder):
             rel = path.relative_to(folder).as_posix()
             try:
-                listed = json.loads((folder / MANIFEST).read_bytes()).get("inventory") or {}
+                listed = read_json(folder / MANIFEST).get("inventory") or {}
             except (OSError, ValueError):
                 listed = {}
             if rel == MANIFEST or rel in listed:
@@ -662,7 +662,7 @@ def _files(root: Path) -> Iterator[tuple[str, Path]]:
 def file_sha256(path: str | os.PathLike) -> str:
     """sha256 of a file, streamed."""
     h = hashlib.sha256()
-    with open(path, "rb") as f:
+    with open_regular(path) as f:  # a FIFO in a folder is refused, never waited on
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
@@ -712,12 +712,14 @@ def verify(folder: str | os.PathLike, *, culprit: str | None = None,
         raise InputError("no such folder" if not os.path.lexists(root) else "is not a folder",
                          culprit=who)
     try:
-        manifest = json.loads((root / MANIFEST).read_bytes())
+        manifest = read_json(root / MANIFEST)
     except FileNotFoundError:
         raise InputError(f"not an astrocpg output folder (no {MANIFEST})", culprit=who) from None
     except OSError as e:
         raise InputError(f"not an astrocpg output folder (cannot read {MANIFEST}: "
                          f"{e.strerror or type(e).__name__})", culprit=who) from None
+    except InputError:  # not a regular file, nested too deeply: named as such
+        raise
     except ValueError:
         raise InputError(f"not an astrocpg output folder ({MANIFEST} is not valid JSON)",
                          culprit=who) from None
@@ -913,7 +915,7 @@ class FolderLock:
     def owner(self) -> dict[str, Any] | None:
         """What the owner file says (pid, since, host, argv), or None."""
         try:
-            data = json.loads((self.folder / OWNER_NAME).read_bytes())
+            data = read_json(self.folder / OWNER_NAME)
         except (OSError, ValueError):
             return None
         return data if isinstance(data, dict) else None

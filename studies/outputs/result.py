@@ -27,6 +27,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ...errors import InputError, did_you_mean
+from ...reading import open_regular, read_json
 from ...network import populations as _table
 from ...network.layout import LEGS, Layout
 from ...network.recordable import spike_populations, trace_sources
@@ -391,7 +392,9 @@ def _plain(obj: Any) -> Any:
 
 def _read_manifest(folder: Path) -> dict[str, Any] | None:
     try:
-        data = json.loads((folder / MANIFEST).read_bytes())
+        data = read_json(folder / MANIFEST)
+    except InputError:  # not a regular file, nested too deeply: refused, naming it
+        raise
     except (OSError, ValueError):
         return None
     return data if isinstance(data, dict) else None
@@ -424,9 +427,11 @@ def _check_folder(folder: Path) -> dict[str, Any]:
 def _npz(folder: Path, name: str) -> dict[str, np.ndarray]:
     path = folder / name
     try:
-        with np.load(path, allow_pickle=False) as z:
+        with open_regular(path, str(folder)) as f, np.load(f, allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
     except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as e:
+        if isinstance(e, InputError):
+            raise
         raise InputError(f"{name} cannot be read ({type(e).__name__}: corrupt or truncated?)",
                          culprit=str(folder)) from None
 

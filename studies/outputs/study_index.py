@@ -7,11 +7,11 @@ file edited to fewer seeds leaves the earlier runs in ``runs/``, not in the stud
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 from ...errors import InputError
+from ...reading import read_json
 
 INDEX = "study.json"
 
@@ -35,9 +35,11 @@ def read_current(folder: Path, culprit: str) -> dict[str, Any]:
     """:func:`current_specs` of the study in ``folder``; InputError naming ``culprit`` when
     its index is missing or unreadable."""
     try:
-        index = json.loads((Path(folder) / INDEX).read_text())
+        index = read_json(Path(folder) / INDEX)
         if not isinstance(index, dict):
             raise ValueError
+    except InputError:  # not a regular file, nested too deeply: refused, naming it
+        raise
     except (OSError, ValueError):
         raise InputError(f"not a study folder (no readable {INDEX})", culprit=culprit) \
             from None

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import zipfile
 import zlib
 from pathlib import Path
@@ -22,6 +21,7 @@ import numpy as np
 
 from ...errors import InputError, did_you_mean
 from ...network import interlimb_labels
+from ...reading import check_regular, loads_json, read_bytes
 from .folder import MANIFEST, verify
 
 WEIGHTS = "weights.npz"
@@ -35,6 +35,8 @@ def load_weights(path: str | Path, trial: int | None = None, *,
     p = Path(path)
     where = f"{culprit} {path}" if culprit else str(path)
     if p.is_dir():
+        check_regular(p / WEIGHTS, where)  # a FIFO is refused, never waited on
+        check_regular(p / MANIFEST, where)
         if not (p / WEIGHTS).is_file():
             raise InputError(f"folder holds no {WEIGHTS} (not a training run)", culprit=where)
         if (p / MANIFEST).is_file():  # a training's: the tables are what its manifest lists
@@ -52,24 +54,26 @@ def load_weights(path: str | Path, trial: int | None = None, *,
                 raise InputError(f"{path} has {len(w)} trial(s)", culprit=f"--trial {trial}")
             w = w[trial]
     else:
+        check_regular(p, where)  # a FIFO, device or socket: refused, never waited on
         if not p.is_file():
             raise InputError("no such file or folder", culprit=where)
         try:
+            raw = read_bytes(p, where)  # what was checked is what is read
             if p.suffix == ".npy":
-                w = np.load(p, allow_pickle=False)
+                w = np.load(io.BytesIO(raw), allow_pickle=False)
             elif p.suffix == ".npz":
-                with np.load(p, allow_pickle=False) as z:
+                with np.load(io.BytesIO(raw), allow_pickle=False) as z:
                     w = z["weights_mV"] if "weights_mV" in z else z["weights"]
                     labels = [str(x) for x in z["labels"]] if "labels" in z.files else None
                 if labels is not None:  # one order for rows and columns: read by it
                     w = _by_labels(np.asarray(w, dtype=float), labels, labels, where)
             elif p.suffix == ".json":
-                obj = json.loads(p.read_text(encoding="utf-8"))
+                obj = loads_json(raw, where)
                 w = obj["weights_mV"] if isinstance(obj, dict) else obj
             elif p.suffix == ".csv":
-                w = read_csv_table(p.read_text(encoding="utf-8"), where)
+                w = read_csv_table(raw.decode("utf-8"), where)
             else:
-                w = np.loadtxt(p, encoding="utf-8")
+                w = np.loadtxt(io.StringIO(raw.decode("utf-8")))
             w = np.asarray(w, dtype=float)
         except InputError:
             raise

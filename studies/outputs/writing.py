@@ -20,6 +20,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ...errors import InputError
+from ...reading import read_json
 from .folder import (MANIFEST, clean_stale_temporaries, file_sha256, inventory, temp_prefix,
                      temp_suffix)
 
@@ -37,6 +38,19 @@ def brian2_target() -> str | None:
     from ...network.codegen import framework_target  # the framework's, not the user's pref
 
     return framework_target()
+
+
+def environment_record() -> dict[str, str | None]:
+    """The environment variables that can change a result (:data:`astrocpg.environment.RECORDED`)
+    as set, and ``physics``: how the robots' physics stepped in this process (compiled or from
+    Python; absent where no robot was simulated)."""
+    from ...environment import recorded
+
+    out: dict[str, str | None] = dict(recorded())
+    compiled = sys.modules.get("astrocpg.coupling.compiled")  # loaded only where robots ran
+    if compiled is not None:
+        out["physics"] = compiled.state()
+    return out
 
 
 def package_versions() -> dict[str, str]:
@@ -173,9 +187,12 @@ def _json_default(o: Any) -> Any:
 
 
 def read_manifest(folder: Path) -> dict[str, Any] | None:
-    """The folder's manifest, or None when it has none or it is unreadable."""
+    """The folder's manifest, or None when it has none or it is unreadable (an InputError
+    naming it when it is not a regular file or is nested too deeply)."""
     try:
-        return json.loads((Path(folder) / MANIFEST).read_text(encoding="utf-8"))
+        return read_json(Path(folder) / MANIFEST)
+    except InputError:  # not a regular file, nested too deeply: refused, naming it
+        raise
     except (OSError, ValueError):
         return None
 
@@ -213,6 +230,9 @@ def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str,
         "results": dict(results or {}),
         "package_versions": package_versions(),
         "codegen": brian2_target(),
+        # the environment variables that choose how a result is computed, as set, and how the
+        # robots' physics stepped (compiled or Python: bit-identical, recorded all the same)
+        "environment": environment_record(),
         "git": git_commit(),
         "machine": {"platform": platform.platform(), "processor": platform.processor(),
                     "cpu_count": os.cpu_count()},

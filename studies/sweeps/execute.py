@@ -13,7 +13,6 @@ diverge again (:data:`ENDED`).
 
 from __future__ import annotations
 
-import json
 import os
 import socket
 import sys
@@ -26,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import Diverged, InputError
+from ...reading import read_json
 from ...network import exclusive
 from ..experiments.cluster import run_on_cluster
 from ...models.compose import model_set
@@ -47,9 +47,12 @@ ENDED = ("finished", "diverged")
 
 def read_status(folder: Path) -> dict[str, Any]:
     try:
-        return json.loads((folder / STATUS).read_text())
+        status = read_json(folder / STATUS)
+    except InputError:  # not a regular file, nested too deeply: refused, naming it
+        raise
     except (OSError, ValueError):
         return {}
+    return status if isinstance(status, dict) else {}
 
 
 def _write_status(folder: Path, status: dict[str, Any]) -> None:

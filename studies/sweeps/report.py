@@ -25,7 +25,6 @@ the file left in the folder.
 from __future__ import annotations
 
 import itertools
-import json
 import os
 import re
 import zipfile
@@ -36,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError
+from ...reading import check_regular, read_json
 from ...models import DEFAULT_MODELS
 from ..analysis.compare import compare
 from ..analysis.gait import weight_structure
@@ -56,7 +56,9 @@ def _load(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     import pandas as pd
 
     try:
-        index = json.loads((folder / STUDY_INDEX).read_text())
+        index = read_json(folder / STUDY_INDEX)
+    except InputError:  # not a regular file, nested too deeply: refused, naming it
+        raise
     except (OSError, ValueError):
         raise InputError(f"not a study folder (no readable {STUDY_INDEX})",
                          culprit=f"report {folder}") \
@@ -75,12 +77,16 @@ def _load(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
         df = weights = None
         if (rdir / "sessions.csv").exists():
             try:
+                for name in ("sessions.csv", "weights.npz", GAITS):  # never wait on a FIFO
+                    check_regular(rdir / name, f"report {rdir}")
                 df = pd.read_csv(rdir / "sessions.csv")
                 if (rdir / "weights.npz").exists():
                     with np.load(rdir / "weights.npz", allow_pickle=False) as z:
                         weights = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3
             except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile,
                     zlib.error) as e:
+                if isinstance(e, InputError):
+                    raise
                 raise InputError(f"cannot read sessions.csv or weights.npz ({type(e).__name__}"
                                  f"): corrupt or truncated", culprit=f"report {rdir}") from None
         gaits = None
@@ -148,6 +154,7 @@ def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = 
     for a sweep, the final figures against the swept values (``sweep_<axis>.png``, or one
     ``heatmap_<measure>.png`` per measure over two axes); for two or more conditions,
     ``condition_tests.csv``. Returns files, rows, text, figures ({file: Figure}), tests."""
+    check_regular(Path(folder) / STUDY_INDEX)  # a FIFO is refused, never waited on
     if not (Path(folder) / STUDY_INDEX).is_file():
         raise InputError(f"not a study folder (no {STUDY_INDEX})", culprit=f"report {folder}")
     target = Path(out) if out is not None else Path(folder) / REPORT

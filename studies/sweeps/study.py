@@ -64,6 +64,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from ...errors import EnvironmentFault, InputError
+from ...reading import read_bytes, read_json
 from ..experiments.cluster import check_scheduler, check_workers, connect_cluster
 from ..experiments.resources import available_memory, check_memory, estimate_bytes
 from ..experiments.train import CHECKPOINT, read_checkpoint
@@ -92,7 +93,7 @@ def load_study(path: str | os.PathLike, *, batch: int | None = None,
     from ...shipped import resolve
     p = resolve(path, "study")  # `astrocpg study quick`: a shipped study by name
     try:
-        text = p.read_bytes().decode("utf-8")
+        text = read_bytes(p, f"study {p}").decode("utf-8")  # a FIFO: refused, not waited on
     except OSError as e:
         raise InputError(f"cannot read ({e.strerror})", culprit=f"study {p}") from None
     except UnicodeDecodeError:
@@ -147,7 +148,7 @@ def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
 def _recorded_batch(out: Path) -> int | None:
     """The batch a study folder was started with (its index), or None for a new folder."""
     try:
-        index = json.loads((Path(out) / STUDY_INDEX).read_text())
+        index = read_json(Path(out) / STUDY_INDEX)
     except (OSError, ValueError):
         return None
     if isinstance(index.get("batch"), int) and index["batch"] >= 1:
@@ -173,7 +174,7 @@ def _check_folder(study: Study, out: Path) -> None:
     known: dict[str, str] = {}
     if index_path.exists():
         try:
-            known = json.loads(index_path.read_text())["runs"]
+            known = read_json(index_path)["runs"]
         except (OSError, ValueError, KeyError):
             raise InputError(f"{STUDY_INDEX} is unreadable", culprit=f"--out {out}") from None
     elif any(out.iterdir()):
@@ -181,7 +182,7 @@ def _check_folder(study: Study, out: Path) -> None:
                          f"use a new folder", culprit=f"--out {out}")
     if index_path.exists():
         try:
-            name = json.loads(index_path.read_text())["name"]
+            name = read_json(index_path)["name"]
         except (OSError, ValueError, KeyError):
             raise InputError(f"{STUDY_INDEX} is unreadable", culprit=f"--out {out}") from None
         if name != study.name:
@@ -238,7 +239,7 @@ def _save_index(study: Study, out: Path) -> None:
     known: dict[str, str] = {}
     specs: dict[str, Any] = {}
     if index_path.exists():  # a rerun may add runs (more seeds, points): keep the earlier ones
-        old = json.loads(index_path.read_text())
+        old = read_json(index_path)
         known, specs = old["runs"], old.get("specs", {})
     known.update({r.run_id: r.fingerprint() for r in study.runs})
     specs.update({r.run_id: asdict(r) for r in study.runs})

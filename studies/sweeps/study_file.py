@@ -22,6 +22,7 @@ from ...coupling.assembly import check_models
 from ...coupling.recorder import RecordPlan
 from ...coupling.training import session_steps
 from ...errors import InputError, did_you_mean
+from ...reading import loads_toml
 from ...models import DEFAULT_MODELS
 from ..experiments.resources import check_memory, estimate_bytes, estimate_wall_seconds
 from ...models.compose import model_files_record, model_set, read_model_files
@@ -238,7 +239,7 @@ def parse_study(text: str, p: Path, batch_given: int | None,
     study as read (a mistake names the option)."""
     given = overrides or StudyOverrides()
     try:
-        doc = tomllib.loads(text)
+        doc = loads_toml(text, f"study {p}")  # nesting bounded before tomllib recurses
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"not valid TOML ({e})", culprit=f"study {p}") from None
     where = f"study {p.name}"
