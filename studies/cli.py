@@ -863,6 +863,15 @@ def _study_status(args: argparse.Namespace) -> int:
     if args.file is not None:
         raise InputError("takes a study folder alone (astrocpg study --status DIR)",
                          culprit=f"--status {args.status} {args.file}")
+    # --status reads a folder and runs nothing: an option that would act on a run is refused,
+    # never ignored (--workers is the estimate's number of processes)
+    given = [option for option, value in (
+        ("--out", args.out), ("--seeds", args.seeds), ("--sessions", args.sessions),
+        ("--set", args.overrides), ("--scheduler", args.scheduler), ("--codegen", args.codegen),
+        ("--overwrite", args.overwrite), ("--no-progress", args.no_progress)) if value]
+    if given:
+        raise InputError(f"reads a study folder and runs nothing: {given[0]} does not apply "
+                         f"(only --workers, for the estimate)", culprit=f"--status {args.status}")
     print(study_status(args.status, workers=args.workers or 1).text())
     return 0
 

@@ -117,3 +117,15 @@ def test_the_command_and_the_api_say_the_same(tmp_path, capsys):
     assert "2 of 2 seed-sessions done (100.0%)" in printed
     assert main(["study", "--status", str(tmp_path / "nosuch")]) == 2
     assert "not a study folder" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra", [["--out", "x"], ["--seeds", "1-2"], ["--sessions", "3"],
+                                   ["--set", "L_max=1*second"], ["--overwrite"],
+                                   ["--codegen", "cython"], ["--no-progress"]])
+def test_status_refuses_an_option_it_would_ignore(tmp_path, capsys, extra):
+    from astrocpg.studies.cli import main
+
+    out = _study(tmp_path, {"a": {"trials": 1, "sessions": 1}})
+    assert main(["study", "--status", str(out), *extra]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and extra[0] in err and "does not apply" in err, err
