@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import sys
 import time
@@ -128,14 +129,17 @@ def main(argv: list[str] | None = None) -> int:
             out[kind] = {"named": k, "share": k / len(selected) if selected else None,
                          "low": lo, "high": hi,
                          "labels": dict(Counter(r[kind] for r in selected))}
-        out["gait_reasons"] = dict(Counter(r["gait_reason"] for r in selected
-                                           if r["gait"] not in NAMED))
+        # why a run has no gait, a fall counted as one reason (each run keeps its time)
+        out["gait_reasons"] = dict(Counter(
+            "fell" if r["gait_reason"].startswith("fell at") else r["gait_reason"]
+            for r in selected if r["gait"] not in NAMED))
         return out
 
     summary = {kind: shares([r for r in rows if r["kind"] == kind])
                for kind in ("no_astrocytes", "shuffled", "trained")}
     summary["no_structure"] = shares([r for r in rows if r["kind"] != "trained"])
-    doc = {"command": "python benchmarks/gait_false_positives.py " + " ".join(argv or sys.argv[1:]),
+    doc = {"command": " ".join(["python benchmarks/gait_false_positives.py",
+                                *(argv if argv is not None else sys.argv[1:])]),
            "settings": {"astrocytes": str(args.astrocytes.relative_to(ROOT)
                                           if args.astrocytes.is_relative_to(ROOT)
                                           else args.astrocytes),
@@ -145,7 +149,9 @@ def main(argv: list[str] | None = None) -> int:
                         "permutations": args.permutations, "repeats": args.repeats,
                         "seconds": args.seconds, "seed": args.seed, "batch": args.batch},
            "machine": {"python": platform.python_version(), "platform": platform.platform(),
-                       "processor": platform.processor() or platform.machine()},
+                       "processor": platform.processor() or platform.machine(),
+                       "cpus": os.cpu_count()},
+           "date": time.strftime("%Y-%m-%d"),
            "wall_seconds": round(wall, 1), "summary": summary, "runs": rows}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(doc, indent=1) + "\n")
