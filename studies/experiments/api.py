@@ -7,7 +7,7 @@
     ac.load("out/run")                           # any output folder -> Result
     ac.describe("astrocyte")                     # equations and parameter table (markdown)
     ac.export("out/run", "nwb")                  # out/run.nwb: NWB (or npz) file of a folder
-    ac.gait("out/astro")                         # the trained gait, one line per trial
+    ac.gait("out/astro")                         # rhythm and gait of each run, shares per table
     ac.evaluate("out/astro")                     # trained controllers in other worlds
     ac.power("out/astro")                        # SNN vs RL power estimate -> (path, figures)
     ac.list_models(); ac.dump_model("astrocyte")  # the model set; one model as TOML text
