@@ -265,15 +265,23 @@ def build_parser() -> argparse.ArgumentParser:
     _add_record_options(train)
     _add_model_options(train)
 
-    gait = sub.add_parser("gait", help="run trained weights and name the gait")
+    gait = sub.add_parser("gait", help="run trained weights, name their rhythm and their gait")
     gait.add_argument("dir", help="a training folder")
     gait.add_argument("--seconds", type=float, default=10.0,
-                      help="simulated time of the run with the trained weights, in s, a "
-                           "whole number of 1 ms steps (default 10 s; the gait is read from its "
-                           "second half)")
+                      help="simulated time of each run with the trained weights, in s, a "
+                           "whole number of 1 ms steps (default 10 s; rhythm and gait are "
+                           "read from its second half)")
+    gait.add_argument("--repeats", type=int, default=5,
+                      help="runs per trained table, learning off, each with its own noise "
+                           "(default 5): the gait is the share of runs that show it, with its "
+                           "95%% interval")
     gait.add_argument("--seed", type=int, default=None,
-                      help="seed of trial 0 of the run, trial k with seed K+k (default: the "
-                           "training's own, each table on the network it trained with)")
+                      help="seed of run 0; run b (table k of n, repeat r: b = r*n + k) has "
+                           "seed K+b (default: the training's own, so repeat 0 runs each table "
+                           "on the network it trained with)")
+    gait.add_argument("--world", action="append", default=[], metavar="NAME=VALUE",
+                      help="a world parameter for the runs, over the training's world (e.g. "
+                           "slope=0.17; repeatable; 'astrocpg models show world' lists them)")
     _add_no_progress(gait)
     _add_codegen_option(gait)
 
@@ -288,10 +296,12 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--seconds", type=float, default=10.0,
                     help="simulated time of each evaluation run, in s, a whole number of 1 ms "
                          "steps (default 10 s)")
-    ev.add_argument("--repeats", type=int, default=2,
-                    help="runs per controller and world, each with its own noise (default 2)")
+    ev.add_argument("--repeats", type=int, default=5,
+                    help="runs per controller and world, each with its own noise (default 5; "
+                         "a gait is the share of runs that show it, with its 95%% interval)")
     ev.add_argument("--seed", type=int, default=1,
-                    help="seed of the first repeat's noise; repeat r has seed K+r (default 1)")
+                    help="seed of the first run; run b of a training's batch (controller k of "
+                         "n, repeat r: b = r*n + k) has seed K+b (default 1)")
     ev.add_argument("--condition", action="append", default=None, metavar="NAME",
                     help="only a study's runs of this condition (repeatable; default all)")
     ev.add_argument("--out", default=None, metavar="OUT",
@@ -391,6 +401,11 @@ def build_parser() -> argparse.ArgumentParser:
     power.add_argument("--trial", type=int, default=0, help="which trial's weights (default 0)")
     power.add_argument("--sessions", type=int, default=10,
                        help="sessions to measure (default 10)")
+    power.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                       dest="power_set",
+                       help="a parameter over the training's models for this measurement "
+                            "(e.g. limit_margin=0*radian; repeatable); the figures go to "
+                            "power_trial<K>_<NAME=VALUE>.json")
     _add_no_progress(power)
     _add_codegen_option(power)
 
@@ -825,7 +840,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 def _cmd_gait(args: argparse.Namespace) -> int:
     from .experiments.trained_controller import describe_gait
 
-    for line in describe_gait(args.dir, seconds=args.seconds, seed=args.seed,
+    for line in describe_gait(args.dir, seconds=args.seconds, repeats=args.repeats,
+                              seed=args.seed, world=args.world,
                               progress=not args.no_progress):
         print(line)
     return 0
@@ -981,7 +997,8 @@ def _cmd_power(args: argparse.Namespace) -> int:
     from .experiments.power import format_power, power
 
     path, res = power(Path(args.dir), trial=args.trial, sessions=args.sessions,
-                      progress=not args.no_progress, argv=sys.argv)
+                      progress=not args.no_progress, argv=sys.argv,
+                      overrides=args.power_set)
     print(format_power(res))
     print(f"wrote {path}")
     return 0

@@ -234,7 +234,7 @@ def out(e: Env) -> Path:
 CHEAP = {"unit": ["--seconds", "0.01", "--no-progress"],
          "run": ["--seconds", "0.01", "--no-progress"],
          "train": ["--sessions", "1", *SHORT, "--no-progress"],
-         "gait": ["--seconds", "0.05", "--no-progress"],
+         "gait": ["--seconds", "0.05", "--repeats", "1", "--no-progress"],
          "plot": ["--seconds", "0.05", "--no-progress"],
          "video": ["--no-progress", "--size", "64", "48", "--fps", "10"],
          "power": ["--sessions", "1", "--no-progress"]}
@@ -406,6 +406,13 @@ for cmd in (UNIT, "train", "gait"):
                                                  "--seed", str(2**32),
                                                  *(["--out", out(e)] if c != "gait" else [])),
          2, "--seed", "absent" if cmd != "gait" else "none", out)
+case("gait-repeats-0", lambda e: S("gait", e.copy("train"), "--repeats", "0"), 2, "--repeats",
+     "none", out)
+case("gait-world-not-a-world-parameter",
+     lambda e: S("gait", e.copy("train"), "--world", "tau_motor=9*ms"), 2,
+     "--world tau_motor=9*ms", "none", out)
+case("gait-world-wrong-unit", lambda e: S("gait", e.copy("train"), "--world", "slope=2*meter"),
+     2, "slope", "none", out)
 case("run-seeds-of-the-trials-beyond-2to32", lambda e: S("run", "--seed", str(2**32 - 1),
                                                          "--trials", "2", "--out", out(e)),
      2, "--seed", "absent", out)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from astrocpg.studies.cli import main
-from astrocpg.studies.analysis.gait import gait_label, phase_matrix
+from astrocpg.studies.analysis.gait import phase_label, phase_matrix
 
 LOCKED = {leg: 0.95 for leg in ("FR", "FL", "RR", "RL")}
 
@@ -19,12 +19,12 @@ LOCKED = {leg: 0.95 for leg in ("FR", "FL", "RR", "RL")}
     ({"FR": 0.0, "FL": 0.3, "RR": 0.6, "RL": 0.1}, "none"),
 ])
 def test_labels(phases, label):
-    assert gait_label(phases, LOCKED) == label
+    assert phase_label(phases, LOCKED) == label
 
 
 def test_unstable_phases_are_no_gait():
     phases = {"FR": 0.0, "FL": 0.5, "RR": 0.5, "RL": 0.0}
-    assert gait_label(phases, {**LOCKED, "RR": 0.3}) == "none"
+    assert phase_label(phases, {**LOCKED, "RR": 0.3}) == "none"
 
 
 def test_phase_matrix_is_antisymmetric_mod_one():

@@ -383,9 +383,14 @@ def test_a_crushing_payload_is_named_in_the_summary_and_the_height_variant_is_no
 
 def test_an_alive_model_file_may_read_any_sense_the_robot_offers_and_no_other(tmp_path, capsys):
     """The bridge gives an alive model the inputs it declares, of those the robot offers."""
-    assert main(["run", "--seconds", "0.05", "--model", f"alive={ALIVE_HEIGHT}", "--spikes",
-                 "none", "--traces", "none", "--no-progress", "--out", str(tmp_path / "r")]) == 0, \
-        capsys.readouterr().err
+    code = main(["run", "--seconds", "0.05", "--model", f"alive={ALIVE_HEIGHT}", "--spikes",
+                 "none", "--traces", "none", "--no-progress", "--out", str(tmp_path / "r")])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    # the summary names the alive model the run used, not the built-in one's words
+    assert ("alive (the alive model: (torso_z_up >= Thres_z_alive) * (torso_height >= "
+            "Thres_height_alive))") in out, out
+    assert "torso level" not in out
     f = tmp_path / "alive.toml"
     f.write_text(ALIVE_HEIGHT.read_text().replace("torso_height", "torso_heigth"))
     assert main(["run", "--seconds", "0.05", "--model", f"alive={f}", "--spikes", "none",

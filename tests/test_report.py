@@ -194,11 +194,23 @@ def test_condition_tests_match_scipy(tmp_path: Path) -> None:
         assert float(row["hedges_g"]) == pytest.approx(d * (1 - 3 / (4 * 10 - 9)), rel=1e-5)
         assert float(row["rank_biserial"]) == pytest.approx(2 * u.statistic / 25 - 1, rel=1e-5)
         assert float(row["difference"]) == pytest.approx(a.mean() - b.mean(), rel=1e-5)
+        # 5 + 5 seeds: every relabelling enumerated (C(10, 5) = 252), an exact p
+        assert row["perm_exact"] == "True"
+        assert float(row["perm_p"]) >= 1 / 252
+        assert float(row["difference_low"]) <= float(row["difference"]) <= float(
+            row["difference_high"])
+    # one family (astrocytes vs no_astrocytes at the one point): Holm over its 5 figures
+    from astrocpg.studies.analysis.compare import holm
+    raw = [float(table[k]["perm_p"]) for k in sorted(table)]
+    assert [float(table[k]["perm_p_holm"]) for k in sorted(table)] == pytest.approx(
+        holm(raw), rel=1e-5)
     text = (folder / "report" / "report.md").read_text()
     assert "### astrocytes vs no_astrocytes" in text
-    t = stats.ttest_ind(*[[o["final_x"] for o in seeds if o["condition"] == c]
-                          for c in ("astrocytes", "no_astrocytes")], equal_var=False)
-    assert f"{t.statistic:.3g} ({t.pvalue:.3g})" in text
+    assert "difference [95% interval]" in text and "permutation p (Holm)" in text
+    assert "Holm-adjusted" in text and "exact" in text
+    r = table["final_x"]
+    assert (f"[{float(r['difference_low']):+.2f}, {float(r['difference_high']):+.2f}]"
+            in text)
     # the session counts in the text are the study's, not the default --last 50
     assert "trains 15 sessions per seed" in text and "its last 15 sessions" in text
     assert "50 sessions" not in text
@@ -206,6 +218,39 @@ def test_condition_tests_match_scipy(tmp_path: Path) -> None:
     # and with --last below the study's length
     text = report(folder, last=4)["text"]
     assert "its last 4 sessions" in text and "| astrocytes | 5 | 3/3 | 15 | 4 |" in text
+
+
+def test_a_study_that_declares_pairs_is_compared_seed_by_seed(tmp_path: Path) -> None:
+    """``paired = true`` in [study]: seed k of one condition against seed k of the other, by
+    sign flips; without it the same data is compared unpaired."""
+    def value(run, seed, session):  # each seed's own level, the condition adds 0.1
+        return seed + (0.1 if run.astrocytes else 0.0) + 0.001 * session, 0.1
+
+    text = HEAD.format(sessions=3, seeds=6) + CONDITIONS
+    (tmp_path / "unpaired").mkdir()
+    (tmp_path / "paired").mkdir()
+    folder, _ = _study_folder(tmp_path / "unpaired", text, value)
+    unpaired = {t["measure"]: t for t in report(folder)["tests"]}
+    paired_text = text.replace("batch = 2\n", "batch = 2\npaired = true\n")
+    folder, study = _study_folder(tmp_path / "paired", paired_text, value)
+    assert study.paired
+    written = report(folder)
+    paired = {t["measure"]: t for t in written["tests"]}
+    # 6 pairs, each +0.1: 2 of the 2^6 sign patterns reach it
+    assert paired["final_x"]["paired"] and paired["final_x"]["perm_p"] == pytest.approx(2 / 64)
+    assert paired["final_x"]["difference_low"] == pytest.approx(0.1)
+    assert unpaired["final_x"]["perm_p"] > 0.5  # the seeds' spread hides it unpaired
+    assert "paired by seed" in written["text"] and "paired = true" in written["text"]
+
+
+def test_paired_must_be_a_boolean(tmp_path: Path) -> None:
+    from astrocpg.errors import InputError
+
+    f = tmp_path / "s.toml"
+    f.write_text(HEAD.format(sessions=2, seeds=2).replace("batch = 2\n", "batch = 2\npaired = 1\n")
+                 + CONDITIONS)
+    with pytest.raises(InputError, match="paired must be true or false"):
+        load_study(f)
 
 
 def test_one_seed_per_side_is_n_too_small(tmp_path: Path) -> None:
@@ -230,7 +275,7 @@ def test_the_numbers_of_the_text_come_from_the_data(tmp_path: Path) -> None:
     text = report(folder)["text"]
     # final x per condition: mean of 2.01, 2.02, 2.03 and of 1.01, 1.02, 1.03
     assert "| astrocytes | 3 | 2/2 | 7 | 7 | 0.404 ± 0.002 | 2.02 ± 0.01 |" in text
-    assert "| 2.02 (n=3) | 1.02 (n=3) | +1.00 |" in text
+    assert "| 2.02 (n=3) | 1.02 (n=3) | +1.00 [" in text
     assert "trains 7 sessions per seed; 7 of them are done" in text
     # the ablation's second run stopped after 3 sessions and is still running
     run = next(r for r in study.runs if not r.astrocytes and r.n_trials == 1)

@@ -81,11 +81,14 @@ def _assert_complete(out: Path, study_file: Path) -> list[dict]:
     assert set(keys) == expected
     for run in study.runs:
         assert _status(out / "runs" / run.run_id)["state"] == "finished"
-    # every seed's final gait (gait.csv of its run), on each of its rows
-    gaits = {(r["run_id"], r["seed"], r["final_gait"]) for r in rows}
+    # every seed's final rhythm and gait (gait.csv of its run), on each of its rows
+    gaits = {(r["run_id"], r["seed"], r["final_gait"], r["final_rhythm"]) for r in rows}
     assert len(gaits) == len({(r["run_id"], r["seed"]) for r in rows})
-    assert all(r["final_gait"] in ("trot", "pace", "bound", "walk", "none") for r in rows)
-    assert all(r["final_phase_FL"] != "" for r in rows)
+    labels = ("trot", "pace", "bound", "walk", "none")
+    assert all(r["final_gait"] in labels and r["final_rhythm"] in labels for r in rows)
+    # a gait that is none says why; a run's rhythm phases are read whatever its feet do
+    assert all(r["final_gait"] != "none" or r["final_gait_reason"] for r in rows)
+    assert all(r["final_rhythm_phase_FL"] != "" for r in rows)
     return rows
 
 

@@ -1,12 +1,21 @@
-"""Two groups of seeds compared: the difference of means, Welch's t-test, the Mann-Whitney U
-test and their effect sizes (Hedges' g, Cohen's d, the rank-biserial correlation).
+"""Two groups of seeds compared: the difference of means with its 95% bootstrap interval,
+a permutation test of that difference, the Mann-Whitney U test and effect sizes (Hedges' g,
+Cohen's d, the rank-biserial correlation); Welch's t alongside.
 
 Used by ``astrocpg report`` for the contrast between a study's conditions (e.g. astrocytes vs
-none), one final figure per seed on each side.
+none), one final figure per seed on each side. With a handful of seeds a p-value is only as
+small as the test allows: the permutation test enumerates every relabelling when there are
+at most :data:`N_PERM` of them (exact), else draws :data:`N_PERM` of them (seeded; its p is
+never below ``1 / (N_PERM + 1)``, and is given as that bound when no draw reached the
+observed difference); the Mann-Whitney p is exact when no value is tied. Paired comparisons
+(a study that declares ``paired = true``: seed k of one condition against seed k of the
+other) use the sign-flip permutation test and a bootstrap over pairs. :func:`holm` adjusts
+a family of p-values (Holm 1979).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import warnings
 from typing import Any, Sequence
@@ -15,37 +24,166 @@ import numpy as np
 
 # Fewer seeds than this on a side: no test (a t-test needs a variance on each side)
 MIN_SEEDS = 2
+N_PERM = 10000
+"""Permutations (or sign flips) of a Monte Carlo permutation test; fewer relabellings than
+this are all enumerated (an exact test)."""
+N_BOOT = 10000
+"""Bootstrap resamples of a difference's 95% interval."""
+SEED = 20231215
+"""The fixed seed of every resampling here (bootstrap, Monte Carlo permutations): a report
+gives the same intervals and p-values every time it is made."""
 
 
-def compare(a: Sequence[float], b: Sequence[float]) -> dict[str, Any]:
-    """Compare the per-seed values ``a`` and ``b`` (non-finite values are dropped).
+def bootstrap_interval(a: Sequence[float], b: Sequence[float], *, paired: bool = False,
+                       n_boot: int = N_BOOT, seed: int = SEED,
+                       level: float = 0.95) -> tuple[float, float]:
+    """Percentile bootstrap interval of mean(a) - mean(b): seeds resampled with replacement
+    within each group (``paired``: pairs (a_k, b_k) resampled together); (nan, nan) with
+    fewer than two values on a side."""
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if len(x) < 2 or len(y) < 2:
+        return math.nan, math.nan
+    rng = np.random.default_rng(seed)
+    if paired:
+        d = x - y
+        stats_ = d[rng.integers(0, len(d), (n_boot, len(d)))].mean(axis=1)
+    else:
+        stats_ = (x[rng.integers(0, len(x), (n_boot, len(x)))].mean(axis=1)
+                  - y[rng.integers(0, len(y), (n_boot, len(y)))].mean(axis=1))
+    q = (1.0 - level) / 2.0
+    lo, hi = np.quantile(stats_, [q, 1.0 - q])
+    return float(lo), float(hi)
 
-    Returns n_a, n_b, mean_a, mean_b, difference (mean_a - mean_b), and, with at least
-    :data:`MIN_SEEDS` values on each side: welch_t, welch_p (two-sided Welch's t-test,
-    ``scipy.stats.ttest_ind(equal_var=False)``), mwu_U (U of ``a``), mwu_p (two-sided
-    ``scipy.stats.mannwhitneyu``), cohens_d and hedges_g (difference over the pooled sample
+
+def permutation_test(a: Sequence[float], b: Sequence[float], *, paired: bool = False,
+                     n_perm: int = N_PERM, seed: int = SEED) -> dict[str, Any]:
+    """Two-sided permutation test of mean(a) - mean(b): the share of relabellings (paired:
+    sign flips of the pair differences) whose |difference| reaches the observed one.
+
+    Returns ``p``, ``exact`` (every relabelling enumerated), ``n`` (relabellings counted),
+    ``p_min`` (the smallest p this test can give: 1/n of the relabellings exact, else
+    1/(n_perm + 1)) and ``bound`` (True when no Monte Carlo draw reached the observed
+    difference: p is then ``< p_min``-style, written ``<= 1/(n_perm+1)``)."""
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    tol = 1e-12 * max(1.0, float(np.abs(np.concatenate([x, y])).max(initial=0.0)))
+    if paired:
+        d = x - y
+        observed = abs(d.mean())
+        m = len(d)
+        if 2 ** m <= n_perm:
+            signs = ((np.arange(2 ** m)[:, None] >> np.arange(m)) & 1) * 2 - 1
+            stats_ = np.abs((signs * d).mean(axis=1))
+            hits = int(np.sum(stats_ >= observed - tol))
+            return {"p": hits / len(stats_), "exact": True, "n": len(stats_),
+                    "p_min": 1.0 / len(stats_), "bound": False}
+        rng = np.random.default_rng(seed)
+        signs = rng.choice([-1.0, 1.0], size=(n_perm, m))
+        stats_ = np.abs((signs * d).mean(axis=1))
+    else:
+        pooled = np.concatenate([x, y])
+        n, k = len(pooled), len(x)
+        observed = abs(x.mean() - y.mean())
+        total = pooled.sum()
+        if math.comb(n, k) <= n_perm:
+            sums = np.array([pooled[list(c)].sum() for c in itertools.combinations(range(n), k)])
+            stats_ = np.abs(sums / k - (total - sums) / (n - k))
+            hits = int(np.sum(stats_ >= observed - tol))
+            return {"p": hits / len(stats_), "exact": True, "n": len(stats_),
+                    "p_min": 1.0 / len(stats_), "bound": False}
+        rng = np.random.default_rng(seed)
+        idx = np.argsort(rng.random((n_perm, n)), axis=1)[:, :k]
+        sums = pooled[idx].sum(axis=1)
+        stats_ = np.abs(sums / k - (total - sums) / (n - k))
+    hits = int(np.sum(stats_ >= observed - tol))
+    return {"p": (hits + 1) / (n_perm + 1), "exact": False, "n": n_perm,
+            "p_min": 1.0 / (n_perm + 1), "bound": hits == 0}
+
+
+def mann_whitney(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
+    """U of ``x``, its two-sided p (exact when no value is tied, else the normal
+    approximation with tie correction) and the smallest p the exact test can give,
+    2 / C(n_x + n_y, n_x)."""
+    from scipy import stats
+
+    pooled = np.concatenate([x, y])
+    method = "exact" if len(np.unique(pooled)) == len(pooled) else "asymptotic"
+    u = stats.mannwhitneyu(x, y, alternative="two-sided", method=method)
+    p_min = min(1.0, 2.0 / math.comb(len(x) + len(y), len(x)))
+    # the normal approximation may go below what any ordering of these n values can give
+    return float(u.statistic), max(float(u.pvalue), p_min), p_min
+
+
+def holm(p: Sequence[float | None]) -> list[float | None]:
+    """Holm's step-down adjustment of a family of p-values (None: no test, left out of the
+    family and returned as None): the k-th smallest of m times (m - k + 1), made monotone,
+    at most 1."""
+    known = [(v, i) for i, v in enumerate(p) if v is not None and np.isfinite(v)]
+    m = len(known)
+    out: list[float | None] = [None] * len(p)
+    running = 0.0
+    for rank, (v, i) in enumerate(sorted(known)):
+        running = max(running, min(1.0, (m - rank) * v))
+        out[i] = running
+    return out
+
+
+def p_text(p: float | None, p_min: float | None = None, bound: bool = False) -> str:
+    """A p-value as the report writes it: ``0.0079``, or ``<= 0.0001`` when it is a bound
+    (no Monte Carlo draw reached the observed difference)."""
+    if p is None or not np.isfinite(p):
+        return "n/a"
+    if bound and p_min is not None:
+        return f"<= {p_min:.2g}"
+    return f"{p:.2g}"
+
+
+def compare(a: Sequence[float], b: Sequence[float], *, paired: bool = False) -> dict[str, Any]:
+    """Compare the per-seed values ``a`` and ``b`` (non-finite values are dropped; ``paired``:
+    ``a[k]`` and ``b[k]`` are one pair, a pair with a non-finite side is dropped).
+
+    Returns n_a, n_b, mean_a, mean_b, difference (mean_a - mean_b), paired, and, with at
+    least :data:`MIN_SEEDS` values on each side: difference_low and difference_high (its 95%
+    bootstrap interval, :func:`bootstrap_interval`), perm_p, perm_exact, perm_p_min,
+    perm_bound (:func:`permutation_test`), welch_t, welch_p (two-sided Welch's t-test,
+    ``scipy.stats.ttest_ind(equal_var=False)``; not for a handful of seeds: the report gives
+    the permutation p), mwu_U (U of ``a``), mwu_p, mwu_p_min (:func:`mann_whitney`; unpaired
+    only), cohens_d and hedges_g (difference over the pooled sample
     standard deviation; g with the small-sample correction 1 - 3/(4(n_a+n_b)-9)), rank_biserial
     (2U/(n_a n_b) - 1: +1 when every value of ``a`` exceeds every value of ``b``). ``note`` says
     why a figure is missing: "n too small" (fewer than two seeds on a side), "no spread" (every
     value equal on both sides, to rounding: t and d undefined)."""
     from scipy import stats
 
-    x = np.asarray([v for v in a if np.isfinite(v)], dtype=float)
-    y = np.asarray([v for v in b if np.isfinite(v)], dtype=float)
+    if paired:
+        if len(a) != len(b):
+            raise ValueError(f"paired samples of different lengths ({len(a)}, {len(b)})")
+        keep = [(u, v) for u, v in zip(a, b) if np.isfinite(u) and np.isfinite(v)]
+        x = np.asarray([u for u, _ in keep], dtype=float)
+        y = np.asarray([v for _, v in keep], dtype=float)
+    else:
+        x = np.asarray([v for v in a if np.isfinite(v)], dtype=float)
+        y = np.asarray([v for v in b if np.isfinite(v)], dtype=float)
     out: dict[str, Any] = {
-        "n_a": len(x), "n_b": len(y),
+        "n_a": len(x), "n_b": len(y), "paired": paired,
         "mean_a": float(x.mean()) if len(x) else math.nan,
         "mean_b": float(y.mean()) if len(y) else math.nan,
     }
     out["difference"] = out["mean_a"] - out["mean_b"]
-    keys = ("welch_t", "welch_p", "mwu_U", "mwu_p", "cohens_d", "hedges_g", "rank_biserial")
+    keys = ("difference_low", "difference_high", "perm_p", "perm_exact", "perm_p_min",
+            "perm_bound", "welch_t", "welch_p", "mwu_U", "mwu_p", "mwu_p_min", "cohens_d",
+            "hedges_g", "rank_biserial")
     out.update({k: None for k in keys})
     if len(x) < MIN_SEEDS or len(y) < MIN_SEEDS:
         out["note"] = "n too small"
         return out
-    u = stats.mannwhitneyu(x, y, alternative="two-sided")
-    out["mwu_U"], out["mwu_p"] = float(u.statistic), float(u.pvalue)
-    out["rank_biserial"] = 2.0 * float(u.statistic) / (len(x) * len(y)) - 1.0
+    out["difference_low"], out["difference_high"] = bootstrap_interval(x, y, paired=paired)
+    perm = permutation_test(x, y, paired=paired)
+    out.update({"perm_p": perm["p"], "perm_exact": perm["exact"], "perm_p_min": perm["p_min"],
+                "perm_bound": perm["bound"]})
+    if not paired:
+        u, out["mwu_p"], out["mwu_p_min"] = mann_whitney(x, y)
+        out["mwu_U"] = u
+        out["rank_biserial"] = 2.0 * u / (len(x) * len(y)) - 1.0
     pooled = math.sqrt(((len(x) - 1) * x.var(ddof=1) + (len(y) - 1) * y.var(ddof=1))
                        / (len(x) + len(y) - 2))
     # both sides constant (to rounding: means of the same sessions summed in another order):

@@ -192,18 +192,6 @@ def trial_measures(times: np.ndarray, indices: np.ndarray, layout: Layout, recor
                          t_start, t_stop)}
 
 
-def trial_gait(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: int,
-               t_start: float, t_stop: float) -> dict[str, Any]:
-    """The rhythm under the columns the commands still write (``gait``, ``period_s``,
-    ``phase_<leg>``, ``locking_<leg>``): the thigh-pool phase pattern, whether or not the
-    robot stands. Kept until every command writes :func:`trial_measures`."""
-    r = trial_rhythm(times, indices, layout, trial, t_start, t_stop)
-    return {("gait" if k == "rhythm" else k.removeprefix("rhythm_")): v for k, v in r.items()}
-
-
-gait_label = phase_label  # the name the commands still import
-
-
 MEASURE_COLUMNS = ("rhythm", "gait", "gait_reason", "gait_share", "rhythm_period_s",
                    "rhythm_phase_FL", "rhythm_phase_RR", "rhythm_phase_RL",
                    "rhythm_locking_FL", "rhythm_locking_RR", "rhythm_locking_RL",

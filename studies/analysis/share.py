@@ -36,4 +36,17 @@ def share_words(k: int, n: int) -> str:
     return f"{k} of {n} run{'s' if n != 1 else ''} ({k / n:.0%}, 95% interval {lo:.0%}-{hi:.0%})"
 
 
-__all__ = ["wilson_interval", "share_words", "Z95"]
+def label_shares(labels: list[str], named: tuple[str, ...]) -> dict[str, dict[str, float]]:
+    """Each label of ``named`` that occurs in ``labels`` (one per run): ``k`` runs of ``n``,
+    the ``share`` and its Wilson interval ``low``-``high``; and ``any``: the runs with any
+    label of ``named``."""
+    n = len(labels)
+    out: dict[str, dict[str, float]] = {}
+    for name in [*(x for x in named if x in labels), "any"]:
+        k = sum(x in named for x in labels) if name == "any" else labels.count(name)
+        lo, hi = wilson_interval(k, n)
+        out[name] = {"k": k, "n": n, "share": k / n if n else math.nan, "low": lo, "high": hi}
+    return out
+
+
+__all__ = ["wilson_interval", "share_words", "label_shares", "Z95"]

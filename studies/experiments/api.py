@@ -7,7 +7,7 @@
     ac.load("out/run")                           # any output folder -> Result
     ac.describe("astrocyte")                     # equations and parameter table (markdown)
     ac.export("out/run", "nwb")                  # out/run.nwb: NWB (or npz) file of a folder
-    ac.gait("out/astro")                         # the trained gait, one line per trial
+    ac.gait("out/astro")                         # rhythm and gait of each run, shares per table
     ac.evaluate("out/astro")                     # trained controllers in other worlds
     ac.power("out/astro")                        # SNN vs RL power estimate -> (path, figures)
     ac.list_models(); ac.dump_model("astrocyte")  # the model set; one model as TOML text
@@ -108,23 +108,31 @@ def _path(value: Any, culprit: str) -> Path:
     return Path(value)
 
 
-def gait(folder: str | os.PathLike, *, seconds: float = 10.0, seed: int | None = None,
-         progress: bool = True) -> list[str]:
-    """Run each trial's trained weights of the training in ``folder`` for ``seconds`` (trial
-    ``b`` with seed ``seed + b``; by default the training's own seed) and name its gait: one
-    line per trial (leg phases relative to FR, the gait label, speed, upright share, a fall,
-    the weight structure), as ``astrocpg gait`` prints them."""
+def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
+         seed: int | None = None, world: Sequence[str] = (), progress: bool = True,
+         rows: bool = False) -> list[str] | list[dict[str, Any]]:
+    """Run each trained table of the training in ``folder`` ``repeats`` times for ``seconds``,
+    learning off (run ``b`` with seed ``seed + b``; by default the training's own seed;
+    ``world``: ``NAME=VALUE`` world parameters over the training's world) and name, per run,
+    its rhythm (thigh-extensor bursts) and its gait (footfalls), and per table the share of
+    runs with each (Wilson 95% intervals): the lines ``astrocpg gait`` prints; with ``rows``,
+    one dict per run instead (table, repeat, seed, speed, fall, rhythm and gait columns)."""
     from .settings import number, seed_number
-    from .trained_controller import describe_gait
+    from .trained_controller import describe_gait, gait_runs
 
-    return describe_gait(_path(folder, "folder"), seconds=number(seconds, "seconds",
-                                                                   positive=True),
-                         seed=None if seed is None else seed_number(seed, "seed"),
-                         progress=progress)
+    if isinstance(world, str):  # one setting, not its characters
+        world = [world]
+    kwargs = dict(seconds=number(seconds, "seconds", positive=True),
+                  repeats=number(repeats, "repeats", integer=True, minimum=1),
+                  seed=None if seed is None else seed_number(seed, "seed"), world=list(world),
+                  progress=progress)
+    if rows:
+        return gait_runs(_path(folder, "folder"), **kwargs)[0]
+    return describe_gait(_path(folder, "folder"), **kwargs)
 
 
 def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustness",
-             seconds: float = 10.0, repeats: int = 2, seed: int = 1,
+             seconds: float = 10.0, repeats: int = 5, seed: int = 1,
              conditions: Sequence[str] | None = None, out: str | os.PathLike | None = None,
              overwrite: bool = False, progress: bool = True, workers: int | None = None,
              scheduler: str | None = None) -> dict[str, Any]:

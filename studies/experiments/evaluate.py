@@ -39,7 +39,8 @@ from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
 from ..analysis.fall import first_fall
-from ..analysis.gait import trial_gait
+from ..analysis.gait import MEASURE_COLUMNS, NAMED, trial_measures
+from ..analysis.share import label_shares, wilson_interval
 from ..outputs.folder import OutputFolder, as_path, verify
 from ..outputs.study_index import INDEX as STUDY_INDEX, read_current
 from ..outputs.writing import atomic_write, write_manifest
@@ -53,10 +54,13 @@ BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}
 EVALUATION = "evaluation.csv"
 SUMMARY = "summary.csv"
 PARTS_SUFFIX = ".parts"  # <out>.parts/: finished cells of an evaluation not yet written whole
-COLUMNS = ("source", "condition", "point", "seed", "world", "repeat", "distance_m",
-           "mean_speed_m_per_s", "fell", "time_to_fall_s", "upright_share", "gait",
-           "period_s", "locking_FL", "locking_RR", "locking_RL", "phase_FL", "phase_RR",
-           "phase_RL")
+COLUMNS = ("source", "condition", "point", "seed", "world", "repeat", "run_seed", "distance_m",
+           "mean_speed_m_per_s", "fell", "time_to_fall_s", "upright_share", *MEASURE_COLUMNS)
+"""One row per controller x world x repeat: the rhythm (``rhythm``, thigh-extensor bursts)
+and the gait (``gait``, footfalls over the upright part; ``gait_reason`` when none) of each
+run, so that every repeat's labels are kept."""
+REPEATS = 5
+"""Evaluation runs per controller and world by default: a gait is a share of runs."""
 
 
 @dataclass
@@ -238,7 +242,8 @@ def _controllers(folder: Path) -> list[dict[str, Any]]:
 
 
 def _trial_rows(result: Any, b: int, seconds: float) -> dict[str, Any]:
-    """What one trial did: distance, speed, fall, upright share, gait over its second half."""
+    """What one trial did: distance, speed, fall, upright share, and its rhythm and gait over
+    its second half (:func:`~astrocpg.studies.analysis.gait.trial_measures`)."""
     rec = result.robot
     x = rec.torso_position[b, :, 0]
     alive = np.asarray(rec.alive[b], dtype=bool)
@@ -249,7 +254,7 @@ def _trial_rows(result: Any, b: int, seconds: float) -> dict[str, Any]:
     return {"distance_m": float(x[-1] - x[0]), "mean_speed_m_per_s":
             float(rec.torso_velocity[b, :, 0].mean()), "fell": int(fell),
             "time_to_fall_s": t_fall, "upright_share": float(alive.mean()),
-            **trial_gait(t, i, result.cpg.layout, b, seconds / 2, seconds)}
+            **trial_measures(t, i, result.cpg.layout, rec, b, seconds / 2, seconds)}
 
 
 def evaluate_cell(controller: Mapping[str, Any], tables: np.ndarray, world: str,
@@ -270,7 +275,7 @@ def evaluate_cell(controller: Mapping[str, Any], tables: np.ndarray, world: str,
         rows.append({"source": Path(controller["folder"]).name,
                      "condition": controller["condition"], "point": controller["point"],
                      "seed": controller["first_seed"] + k, "world": world, **grid,
-                     "repeat": r, **_trial_rows(result, b, seconds)})
+                     "repeat": r, "run_seed": seed + b, **_trial_rows(result, b, seconds)})
     return rows
 
 
@@ -329,7 +334,7 @@ def _fingerprint(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],
 
 
 def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: float = 10.0,
-             repeats: int = 2, seed: int = 1, conditions: Sequence[str] | None = None,
+             repeats: int = REPEATS, seed: int = 1, conditions: Sequence[str] | None = None,
              out: str | Path | None = None, overwrite: bool = False,
              progress: bool = True, workers: int | None = None,
              scheduler: str | None = None) -> dict[str, Any]:
@@ -339,7 +344,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     off (``conditions``: only a study's runs of these conditions). Writes ``evaluation.csv``
     (one row per controller x world x repeat), ``summary.csv`` (mean and std over controllers
     and repeats per condition x point x world: distance, speed, fall rate, time to fall, share
-    of trot), ``gait_map.png`` for a two-axis grid, and ``manifest.json`` into ``out`` (default
+    of runs with each gait and each rhythm, with Wilson 95% intervals), ``gait_map.png`` for a two-axis grid, and ``manifest.json`` into ``out`` (default
     ``folder/evaluation``, replaced whole). Returns {"rows", "summary", "out", "figures"}.
 
     Each (training, world) is one *cell*. With ``workers`` or ``scheduler`` the cells run on a
@@ -509,7 +514,14 @@ def summarise(rows: list[Mapping[str, Any]]) -> list[dict[str, Any]]:
         falls = np.array([r["time_to_fall_s"] for r in rs], dtype=float)
         entry["time_to_fall_s_median"] = (float(np.nanmedian(falls))
                                           if np.isfinite(falls).any() else math.nan)
-        entry["trot_share"] = float(np.mean([r["gait"] == "trot" for r in rs]))
+        for kind in ("gait", "rhythm"):  # the feet's gait and the CPG's rhythm, both named
+            shares = label_shares([r[kind] for r in rs], NAMED)
+            for label in ("trot", "any"):
+                sh = shares.get(label, {"share": 0.0, **dict(zip(
+                    ("low", "high"), wilson_interval(0, len(rs))))})
+                entry[f"{kind}_{label}_share"] = sh["share"]
+                entry[f"{kind}_{label}_low"] = sh["low"]
+                entry[f"{kind}_{label}_high"] = sh["high"]
         out.append(entry)
     return out
 
@@ -530,6 +542,9 @@ def format_summary(summary: list[Mapping[str, Any]]) -> list[str]:
         where = f"{s['condition']}{' ' + s['point'] if s['point'] else ''}"
         lines.append(f"{where:<28} {s['world']:<16} distance {s['distance_m_mean']:+.2f} "
                      f"+- {s['distance_m_std']:.2f} m, speed {s['mean_speed_m_per_s_mean']:+.3f} "
-                     f"m/s, falls {s['fell_mean']:.0%}, trot {s['trot_share']:.0%} "
-                     f"(n = {s['n']})")
+                     f"m/s, falls {s['fell_mean']:.0%}, gait (footfalls) trot "
+                     f"{s['gait_trot_share']:.0%} ({s['gait_trot_low']:.0%}-"
+                     f"{s['gait_trot_high']:.0%}), rhythm (thigh bursts) trot "
+                     f"{s['rhythm_trot_share']:.0%} ({s['rhythm_trot_low']:.0%}-"
+                     f"{s['rhythm_trot_high']:.0%}) (n = {s['n']} runs; 95% Wilson intervals)")
     return lines

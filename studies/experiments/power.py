@@ -15,6 +15,7 @@ counts a pool's spikes for the torque is not a synaptic operation and is left ou
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -67,9 +68,12 @@ def synaptic_events_per_spike(cpg) -> dict[str, float]:
 
 @exclusive  # one Brian2 build-and-run at a time per process (network/runlock.py)
 def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
-            progress: bool = True) -> dict[str, Any]:
+            progress: bool = True, overrides: list[str] | tuple[str, ...] = ()
+            ) -> dict[str, Any]:
     """Run trial ``trial``'s trained table of the training in ``folder`` for ``sessions``
-    sessions with learning off; return rates, events per spike and the power estimates."""
+    sessions with learning off; return rates, events per spike and the power estimates.
+    ``overrides``: ``NAME=VALUE`` settings over the training's models (``--set``, e.g.
+    ``limit_margin=0*radian``), to measure what one parameter does to the rates."""
     trial = number(trial, "--trial", integer=True, minimum=0)
     sessions = number(sessions, "--sessions", integer=True, minimum=1)
     check_memory(estimate_bytes(trials=1, seconds=0.0, spikes=False, sessions=sessions),
@@ -81,8 +85,8 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
                                                                                       dict):
         raise InputError("not a training run (astrocpg train, or a study's run)",
                          culprit=f"power {folder}")
-    models = model_set(settings.get("overrides", []), settings.get("equations", {}),
-                       models=settings.get("models"))
+    models = model_set([*settings.get("overrides", []), *overrides],
+                       settings.get("equations", {}), models=settings.get("models"))
     # weights fixed: a measurement, not training (zero in each rate's own unit)
     models = models.with_zeros("eta", "eta_ADO")
     if not settings.get("astrocytes", True):
@@ -136,7 +140,8 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
     snn_paper_ops = float(models.snn_power.compile()(
         **{f"ops_{k}": v for k, v in PAPER["ops_per_spike"].items()},
         **{f"f_{k}": v for k, v in rates.items()}))
-    return {"trial": trial, "seed": seed, "sessions": per_session, "total_rate_Hz": rates,
+    return {"trial": trial, "seed": seed, "overrides": list(overrides),
+            "sessions": per_session, "total_rate_Hz": rates,
             "ops_per_spike": ops, "snn_W": snn, "rl_W": rl, "ratio": rl / snn,
             "snn_W_with_paper_ops": snn_paper_ops, "paper": PAPER}
 
@@ -146,8 +151,10 @@ def format_power(res: dict[str, Any]) -> str:
     names = {"inhibitory": "inhibitory interneurons", "calf": "calf motor neurons",
              "thigh": "thigh motor neurons", "limit": "limit-position inhibition"}
     lengths = [s["length_s"] for s in res["sessions"]]
+    over = res.get("overrides") or []
     lines = [f"{len(lengths)} sessions with the trained table of trial {res['trial']} "
-             f"(seed {res['seed']}), lengths {min(lengths):.2f}–{max(lengths):.2f} s",
+             f"(seed {res['seed']}{', --set ' + ' '.join(over) if over else ''}), lengths "
+             f"{min(lengths):.2f}–{max(lengths):.2f} s",
              f"{'population':28s} {'events/spike':>12s} {'(paper)':>8s} {'total rate (Hz)':>16s}"
              f" {'(paper)':>9s}"]
     for k, label in names.items():
@@ -163,15 +170,19 @@ def format_power(res: dict[str, Any]) -> str:
 
 
 def power(folder: Path, *, trial: int = 0, sessions: int = 10, progress: bool = True,
-          argv: list[str] | None = None) -> tuple[Path, dict[str, Any]]:
-    """:func:`measure`, then ``power_trial<K>.json`` in ``folder`` (with package versions);
+          argv: list[str] | None = None, overrides: list[str] | tuple[str, ...] = ()
+          ) -> tuple[Path, dict[str, Any]]:
+    """:func:`measure`, then ``power_trial<K>.json`` in ``folder`` (with package versions;
+    with ``overrides``, ``power_trial<K>_<name>=<value>....json``, one file per setting);
     returns its path and the figures."""
     from ..outputs.folder import refuse_in_use
     from ..outputs.writing import package_versions, save_json
 
-    path = Path(folder) / f"power_trial{trial}.json"
+    tag = "".join("_" + re.sub(r"[^A-Za-z0-9_.=+-]+", "", o) for o in overrides)
+    path = Path(folder) / f"power_trial{trial}{tag}.json"
     refuse_in_use(path, culprit=str(folder))  # a training or study run that is running
-    res = measure(Path(folder), trial=trial, sessions=sessions, progress=progress)
+    res = measure(Path(folder), trial=trial, sessions=sessions, progress=progress,
+                  overrides=tuple(overrides))
     refuse_in_use(path, culprit=str(folder))
     save_json(path, res | {"package_versions": package_versions(), "argv": argv or []})
     return path, res

@@ -386,8 +386,8 @@ def format_run(result: Result, seed: int) -> list[str]:
     for b in range(result.layout.n_trials):
         fall = fall_words(fell[b]) if b < len(fell) else ""
         lines.append(f"trial {b} (seed {seed}+{b}): distance {x['distance_m'][b]:+.3f} m, mean "
-                     f"forward speed {x['mean_forward_speed_m_per_s'][b]:+.3f} m/s, alive "
-                     f"(the alive model: torso level) {x['upright_share'][b] * 100:.0f}% of "
+                     f"forward speed {x['mean_forward_speed_m_per_s'][b]:+.3f} m/s, "
+                     f"{alive_words(result.models)} {x['upright_share'][b] * 100:.0f}% of "
                      f"steps" + _lowest(x, b) + (f"; {fall}" if fall else ""))
         if x["rate_per_neuron_Hz"]:
             lines.append("  rate per neuron (Hz): " + ", ".join(
@@ -429,22 +429,59 @@ def trained_models(settings: Mapping[str, Any]) -> ModelSet:
 
 
 def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None,
-           progress: bool = True) -> tuple[SimulationResult, np.ndarray]:
+           progress: bool = True, repeats: int = 1,
+           world: Sequence[str] = ()) -> tuple[SimulationResult, np.ndarray]:
     """The trained tables of every trial of the training in ``folder``, run for ``seconds``
-    with the training's models (one batch, learning off); trial ``b`` with seed ``seed + b``,
-    by default the training's own seed, so that each table runs on the network and noise it
-    trained with. Returns the result and the tables (volt)."""
+    with the training's models (one batch, learning off), ``repeats`` times: batch trial
+    ``b = r * n + k`` is table ``k`` (of ``n``) in repeat ``r``, with seed ``seed + b``
+    (independent network noise per run), by default the training's own seed, so that repeat 0
+    runs each table on the network and noise it trained with. ``world``: ``NAME=VALUE`` world
+    parameters (e.g. ``slope=0.17``) set over the training's own world. Returns the result and
+    the ``n`` tables (volt)."""
     seconds = number(seconds, "--seconds", positive=True)
     check_duration(seconds, STEP)
+    repeats = number(repeats, "--repeats", integer=True, minimum=1)
     if seed is None:
         seed = training_settings(folder).get("seed", 1)
     seed = seed_number(seed)
     verify(folder, strict=False)  # its files are what its manifest lists
     weights = load_weights(folder, culprit="")
-    check_memory(estimate_bytes(trials=len(weights), seconds=seconds, dt=STEP, robot_stride=1),
-                 culprit=f"--seconds {seconds:g} x {len(weights)} trained trial(s)")
     models = trained_models(training_settings(folder))
+    models = in_world_settings(models, world)
+    check_memory(estimate_bytes(trials=len(weights) * repeats, seconds=seconds, dt=STEP,
+                                robot_stride=1),
+                 culprit=f"--seconds {seconds:g} x {len(weights)} trained trial(s) x "
+                         f"{repeats} repeat(s)")
     result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
-                                  n_trials=len(weights), weights=weights, record_traces=False,
-                                  progress=progress)
+                                  n_trials=len(weights) * repeats,
+                                  weights=np.concatenate([weights] * repeats),
+                                  record_traces=False, progress=progress)
     return result, weights
+
+
+def in_world_settings(models: ModelSet, world: Sequence[str]) -> ModelSet:
+    """``models`` with the world parameters ``world`` (``NAME=VALUE`` texts, ``--world``)
+    set; a name that is not a world parameter is refused, naming it."""
+    values = {}
+    for text in world:
+        name = text.partition("=")[0].strip()
+        if name not in models.world.parameters:
+            raise InputError(f"is not a world parameter "
+                             f"({', '.join(sorted(models.world.parameters))})",
+                             culprit=f"--world {text}")
+        values.update([models.parse_assignment(text)])
+    if not values:
+        return models
+    out = models.with_values(values)
+    from ...coupling.assembly import check_models
+
+    check_models(out)  # a world it cannot build (terrain grid, values) is refused here
+    return out
+
+
+def alive_words(models: ModelSet | None) -> str:
+    """``alive (the alive model: torso_z_up >= Thres_z_alive)``: the upright share named by
+    the alive model the run used (its expression), whatever model file replaced it."""
+    if models is None:
+        return "alive"
+    return f"alive (the alive model: {models.alive.expression})"

@@ -3,64 +3,153 @@
 
 from __future__ import annotations
 
+import math
 import os
+from collections import Counter
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
 from ...errors import InputError
-from ..analysis.gait import (gait_label, leg_phases, phase_matrix, trial_gait,
+from ...network import LEGS
+from ..analysis.gait import (MEASURE_COLUMNS, NAMED, leg_phases, phase_matrix, trial_measures,
                              weight_structure)
 from ..analysis.fall import fall_words, first_fall
+from ..analysis.share import share_words, wilson_interval
 from ..outputs.folder import OutputFolder, as_path
 from ..outputs.writing import write_manifest
 from .progress import Bar
-from .run import replay
+from .run import alive_words, replay, training_settings
 
 
-def describe_gait(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None,
-                  progress: bool = True) -> list[str]:
-    """Run every trial's trained table for ``seconds``; one line per trial: leg phases relative
-    to FR, the gait label, speed, upright share, the fall if the robot fell (when, in simulated
-    s) and the weight structure."""
-    result, weights = replay(folder, seconds=seconds, seed=seed, progress=progress)
-    w_max = result.cpg.models.value("w_max")
+GAIT_REPEATS = 5
+"""Evaluation runs per trained table by default (``astrocpg gait``, ``evaluate``): a
+controller's gait is the share of its runs that show it, with its Wilson interval."""
+
+
+def gait_runs(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_REPEATS,
+              seed: int | None = None, world: Sequence[str] = (),
+              progress: bool = True) -> tuple[list[dict[str, Any]], np.ndarray, Any]:
+    """Run every trained table of the training in ``folder`` ``repeats`` times for
+    ``seconds``, learning off (run ``b = r * n + k``: table ``k``, repeat ``r``, seed
+    ``seed + b``; :func:`~astrocpg.studies.experiments.run.replay`); one row per run: table,
+    repeat, seed, speed, upright share, the fall, and the rhythm and the gait over the run's
+    second half (:func:`~astrocpg.studies.analysis.gait.trial_measures`). Returns the rows,
+    the tables (volt) and the models the runs used."""
+    if seed is None:
+        seed = training_settings(folder).get("seed", 1)
+    result, weights = replay(folder, seconds=seconds, seed=seed, progress=progress,
+                             repeats=repeats, world=world)
+    first_seed = int(seed)
     t, i = result.spikes["motor"]
     rec = result.robot
-    lines = []
+    n = len(weights)
+    rows = []
     for b in range(result.cpg.n_trials):
-        g = leg_phases(t, i, result.cpg.layout, b, min(1.0, seconds / 5), seconds)
-        label = gait_label(g["phases"], g["locking"])
-        speed = float(rec.torso_velocity[b, :, 0].mean())
-        ph = ", ".join(f"{leg} {g['phases'][leg]:.2f} (lock {g['locking'][leg]:.2f})"
-                       for leg in ("FR", "FL", "RR", "RL"))
-        ws = weight_structure(weights[b], w_max)
-        fall = fall_words(first_fall(rec.t, rec.alive[b]))
+        r, k = divmod(b, n)
+        fall = first_fall(rec.t, rec.alive[b])
+        rows.append({"table": k, "repeat": r,
+                     "seed": first_seed + b,
+                     "mean_speed_m_per_s": float(rec.torso_velocity[b, :, 0].mean()),
+                     "upright_share": float(rec.alive[b].mean()),
+                     "lowest_torso_height_m": float(rec.torso_position[b, :, 2].min()),
+                     "fell": int(fall is not None),
+                     "time_to_fall_s": fall.t_s if fall is not None else math.nan,
+                     "fall": fall_words(fall),
+                     **trial_measures(t, i, result.cpg.layout, rec, b, seconds / 2, seconds)})
+    return rows, weights, result.cpg.models
+
+
+def _phases(row: Mapping[str, Any], kind: str) -> str:
+    return ", ".join(f"{leg} {row[f'{kind}_phase_{leg}']:.2f} (lock "
+                     f"{row[f'{kind}_locking_{leg}']:.2f})" for leg in LEGS[1:])
+
+
+def run_words(row: Mapping[str, Any]) -> str:
+    """``rhythm trot (...); gait none: fell at 2.16 s``: one run's two labels, named."""
+    rhythm = (f"rhythm (thigh-extensor bursts) {row['rhythm']}"
+              + (f" (phases relative to FR: {_phases(row, 'rhythm')})"
+                 if np.isfinite(row["rhythm_period_s"]) else ""))
+    if row["gait_reason"] and not np.isfinite(row["gait_period_s"]):
+        gait = f"gait (footfalls) none: {row['gait_reason']}"
+    else:
+        gait = (f"gait (footfalls) {row['gait']}{': ' + row['gait_reason'] if row['gait_reason'] else ''}"
+                f" (touchdowns relative to FR: {_phases(row, 'gait')}; duty factor "
+                f"{row['gait_duty_factor']:.2f})")
+    return f"{rhythm}; {gait}"
+
+
+def shares_words(rows: Sequence[Mapping[str, Any]], kind: str) -> str:
+    """``gait trot in 4 of 5 runs (80%, 95% interval 38-96%); none 1 (fell at 2.16 s)``: the
+    most common named ``kind`` label (``gait`` or ``rhythm``) of the runs ``rows`` with its
+    Wilson interval (or ``no named gait in 5 runs (95% interval 0-43%)``), then the others,
+    a gait's ``none`` with its reasons."""
+    labels = [r[kind] for r in rows]
+    counts = Counter(labels)
+    named = [g for g, _ in counts.most_common() if g in NAMED]
+    n = len(labels)
+    if named:
+        head = f"{kind} {named[0]} in {share_words(counts[named[0]], n)}"
+    else:
+        lo, hi = wilson_interval(0, n)
+        head = (f"no named {kind} in {n} run{'s' if n != 1 else ''} (95% interval "
+                f"{lo:.0%}-{hi:.0%})")
+    rest = []
+    for g, c in counts.most_common():
+        if named and g == named[0]:
+            continue
+        why = Counter(r.get(f"{kind}_reason", "") for r in rows if r[kind] == g) \
+            if kind == "gait" and g == "none" else Counter()
+        because = ", ".join(f"{w} {k}" if k > 1 else w for w, k in why.most_common() if w)
+        rest.append(f"{g} {c}" + (f" ({because})" if because else ""))
+    return head + (f"; {', '.join(rest)}" if rest else "")
+
+
+def describe_gait(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_REPEATS,
+                  seed: int | None = None, world: Sequence[str] = (),
+                  progress: bool = True) -> list[str]:
+    """Run every trained table ``repeats`` times (:func:`gait_runs`); a line per run (its
+    rhythm and its gait, each named, speed, upright share by the alive model in use, a fall)
+    and per table the share of runs with each gait and each rhythm (Wilson 95% intervals)
+    and the weight structure."""
+    rows, weights, models = gait_runs(folder, seconds=seconds, repeats=repeats, seed=seed,
+                                      world=world, progress=progress)
+    w_max = models.value("w_max")
+    alive = alive_words(models)
+    lines = []
+    for k in range(len(weights)):
+        mine = [r for r in rows if r["table"] == k]
+        for r in mine:
+            lines.append(
+                f"table {k} repeat {r['repeat']} (seed {r['seed']}): {run_words(r)}; mean "
+                f"forward speed {r['mean_speed_m_per_s']:.3f} m/s; {alive} "
+                f"{r['upright_share']:.0%}, torso centre at least "
+                f"{r['lowest_torso_height_m']:.2f} m above the ground"
+                f"{'; ' + r['fall'] if r['fall'] else ''}")
+        ws = weight_structure(weights[k], w_max)
         lines.append(
-            f"trial {b}: phases relative to FR: {ph}; gait: {label}; "
-            f"mean forward speed {speed:.3f} m/s; alive (torso level) {rec.alive[b].mean():.0%}, "
-            f"torso centre at least {rec.torso_position[b, :, 2].min():.2f} m above the ground"
-            f"{'; ' + fall if fall else ''}; "
-            f"weights: {ws['mixed_limb_pairs']} of {ws['limb_pairs']} limb pairs with two "
-            f"inhibitory and two excitatory synapses, {ws['share_above_0.9_w_max']:.0%} "
-            f"above 0.9 w_max")
+            f"table {k}: {shares_words(mine, 'gait')} | {shares_words(mine, 'rhythm')} | "
+            f"weights: "
+            f"{ws['mixed_limb_pairs']} of {ws['limb_pairs']} limb pairs with two inhibitory "
+            f"and two excitatory synapses, {ws['share_above_0.9_w_max']:.0%} above 0.9 w_max, "
+            f"{ws['share_below_0.9_w_min']:.0%} below 0.9 w_min")
     return lines
 
 
-GAIT_COLUMNS = ("final_gait", "final_speed_m_per_s", "final_period_s", "final_phase_FL",
-                "final_phase_RR", "final_phase_RL", "final_locking_FL", "final_locking_RR",
-                "final_locking_RL")
-"""What :func:`final_gaits` says of each trained trial (study results carry them per seed)."""
+GAIT_COLUMNS = ("final_speed_m_per_s", *(f"final_{c}" for c in MEASURE_COLUMNS))
+"""What :func:`final_gaits` says of each trained trial (study results carry them per seed):
+the rhythm (``final_rhythm``, thigh-extensor bursts) and the gait (``final_gait``, footfalls,
+with ``final_gait_reason`` when it is none)."""
 
 
 def final_gaits(models, tables: np.ndarray, *, seconds: float = 5.0,
                 seed: int = 1) -> list[dict[str, Any]]:
-    """The gait of each trained table (volt, (trials, 8, 8)) with learning off: one run of
-    ``seconds`` for all of them, leg phases relative to FR and their locking over its second
-    half, the gait label and the mean forward speed; one dict of :data:`GAIT_COLUMNS` per
-    trial. Table ``b`` runs with seed ``seed + b`` (give a training's seed: each table on the
-    network and noise it trained with)."""
+    """The rhythm and the gait of each trained table (volt, (trials, 8, 8)) with learning off:
+    one run of ``seconds`` for all of them, both read over its second half
+    (:func:`~astrocpg.studies.analysis.gait.trial_measures`), and the mean forward speed; one
+    dict of :data:`GAIT_COLUMNS` per trial. Table ``b`` runs with seed ``seed + b`` (give a
+    training's seed: each table on the network and noise it trained with)."""
     from .simulate import simulate_closed_loop
 
     result = simulate_closed_loop(models, seconds=seconds, seed=seed, n_trials=len(tables),
@@ -69,7 +158,7 @@ def final_gaits(models, tables: np.ndarray, *, seconds: float = 5.0,
     t, i = result.spikes["motor"]
     rows = []
     for b in range(len(tables)):
-        g = trial_gait(t, i, result.cpg.layout, b, seconds / 2, seconds)
+        g = trial_measures(t, i, result.cpg.layout, result.robot, b, seconds / 2, seconds)
         rows.append({"final_speed_m_per_s": float(result.robot.torso_velocity[b, :, 0].mean()),
                      **{f"final_{k}": v for k, v in g.items()}})
     return rows
@@ -122,8 +211,12 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
         bar.update(1)
         t, i = result.spikes["motor"]
         g = leg_phases(t, i, result.cpg.layout, b, min(1.0, seconds / 5), seconds)
+        m = trial_measures(t, i, result.cpg.layout, result.robot, b, seconds / 2, seconds)
+        labels = (f"rhythm {m['rhythm']}, gait {m['gait']}"
+                  + (f" ({m['gait_reason']})" if m["gait_reason"] else "")
+                  + f" (second half of {seconds:g} s)")
         save_figure(plots.plot_gait(result.robot, b, phase_matrix(g["phases"]), g,
-                                    window=window), tmp / names[3])
+                                    window=window, labels=labels), tmp / names[3])
         bar.update(1)
         if recorded:
             session = recorded[-1]
@@ -146,4 +239,5 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
 FIGURE_FILES = ("the trial's trained 8x8 inter-limb table (mV)",
                 "mean reward, final x and session length per session (mean +- std over trials)",
                 "thigh-extensor activity of the 4 limbs in the window",
-                "gait diagram and inter-limb phase matrix")
+                "gait diagram (foot contact) with the run's rhythm and gait labels, and the "
+                "rhythm's inter-limb phase matrix (thigh-extensor bursts)")

@@ -150,9 +150,10 @@ def plot_training_curves(sessions_csv: Path) -> Figure:
 
 
 def plot_gait(recording, trial: int, phases: np.ndarray, gait: dict,
-              window: tuple[float, float]) -> Figure:
+              window: tuple[float, float], labels: str = "") -> Figure:
     """Gait diagram (stance = foot contact, or thigh-extensor bursts without touch sensors)
-    and the inter-limb phase matrix."""
+    and the rhythm's inter-limb phase matrix (thigh-extensor bursts); ``labels``: the run's
+    rhythm and gait labels, named, for the title."""
     fig, (ax, axm) = _subplots(1, 2, figsize=(11, 3.6), gridspec_kw={"width_ratios": [3, 1]})
     t = recording.t
     sel = (t >= window[0]) & (t < window[1])
@@ -173,7 +174,8 @@ def plot_gait(recording, trial: int, phases: np.ndarray, gait: dict,
     ax.set_xlim(*window)
     ax.set_xlabel("time (s)")
     fell = mark_fall(ax, t, recording.alive[trial])
-    ax.set_title("Gait diagram (black: foot contact)" + (f"\n{fell}" if fell else ""),
+    ax.set_title("Gait diagram (black: foot contact)" + (f"; {labels}" if labels else "")
+                 + (f"\n{fell}" if fell else ""),
                  **({"color": "tab:red"} if fell else {}))
     im = axm.imshow(phases, cmap="twilight", vmin=0, vmax=1)
     axm.set_xticks(range(4), LEGS)
@@ -182,7 +184,7 @@ def plot_gait(recording, trial: int, phases: np.ndarray, gait: dict,
         for j in range(4):
             axm.text(j, i, f"{phases[i, j]:.2f}", ha="center", va="center", fontsize=7,
                      color="w" if 0.25 < phases[i, j] < 0.75 else "k")
-    axm.set_title("phase of column vs row")
+    axm.set_title("rhythm: thigh-extensor burst\nphase of column vs row", fontsize=9)
     fig.colorbar(im, ax=axm, fraction=0.046)
     fig.tight_layout()
     return fig

@@ -344,7 +344,8 @@ def gait_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[s
     ax.set_xlabel("time (s)")
     ax.set_ylabel("leg")
     fell = _fall_note(result, trial, ax) if rob is not None else ""
-    ax.set_title(f"Gait diagram (trial {trial}; {what})" + (f"\n{fell}" if fell else ""),
+    kind = "Gait" if force is not None else "Rhythm"  # bursts are the CPG's, not the feet's
+    ax.set_title(f"{kind} diagram (trial {trial}; {what})" + (f"\n{fell}" if fell else ""),
                  **({"color": "tab:red"} if fell else {}))
     return {"gait_diagram": fig}
 

@@ -13,6 +13,8 @@ diverge again (:data:`ENDED`).
 
 from __future__ import annotations
 
+import csv
+import io
 import os
 import socket
 import sys
@@ -152,7 +154,8 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
 
 
 def _write_gaits(out: Path, trainer: Trainer) -> None:
-    """``gait.csv``: each trial's gait with its final tables, learning off (a short run), each
+    """``gait.csv``: each trial's rhythm and gait with its final tables, learning off (a short
+    run; :data:`~astrocpg.studies.experiments.trained_controller.GAIT_COLUMNS`), each
     on its own network and noise (the seed it trained with), so that a seed's row does not
     depend on the batch it trained in."""
     from ..experiments.trained_controller import GAIT_COLUMNS, final_gaits
@@ -160,10 +163,12 @@ def _write_gaits(out: Path, trainer: Trainer) -> None:
     with np.load(out / WEIGHTS, allow_pickle=False) as z:  # written by this process a moment ago
         tables = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3
     rows = final_gaits(trainer.models, tables, seed=trainer.settings.seed)
-    lines = ["trial," + ",".join(GAIT_COLUMNS)]
+    buf = io.StringIO()  # a reason is text: quoted where it needs it
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["trial", *GAIT_COLUMNS])
     for b, row in enumerate(rows):
-        lines.append(f"{b}," + ",".join(str(row[c]) for c in GAIT_COLUMNS))
-    data = ("\n".join(lines) + "\n").encode()
+        w.writerow([b, *(row[c] for c in GAIT_COLUMNS)])
+    data = buf.getvalue().encode()
     atomic_write(out / GAITS, lambda f: f.write(data))
 
 

@@ -26,8 +26,11 @@ GAITS = "gait.csv"
 def run_files() -> dict[str, str]:
     return TRAIN_FILES | {STATUS: "state of the run in its study (running, finished, "
                                      "diverged, failed, stopped), attempts, error",
-                          GAITS: "each trial's gait with its final tables, learning off, "
-                                 "5 s: label, speed, period, leg phases and locking to FR"}
+                          GAITS: "each trial's rhythm (final_rhythm: thigh-extensor "
+                                 "bursts) and gait (final_gait: footfalls over the upright "
+                                 "part; final_gait_reason when none) with its final tables, "
+                                 "learning off, 5 s: labels, speed, periods, leg phases and "
+                                 "locking to FR"}
 
 
 def study_files() -> dict[str, str]:

@@ -12,8 +12,11 @@ share of weights above 0.9 w_max and below 0.9 w_min and of excitatory weights (
 A sweep: each final figure against the swept value, one line per condition
 (``sweep_<axis>.png``); over two axes swept as a grid, one heatmap per final figure
 (``heatmap_<figure>.png``). An axis of model files is categorical, its ticks the files' stems.
-Two or more conditions: every pair compared at every sweep point, one value per seed (Welch's
-t-test, Mann-Whitney U, Hedges' g, rank-biserial; ``condition_tests.csv`` and ``report.md``).
+Two or more conditions: every pair compared at every sweep point, one value per seed: the
+difference with its 95% bootstrap interval (seeded), a permutation test (exact for a handful of
+seeds), Mann-Whitney U (exact without ties), both Holm-adjusted over the final figures of one
+pair at one point, Hedges' g, rank-biserial; paired by seed only where the study file declares
+``paired = true`` (``condition_tests.csv`` and ``report.md``).
 
 Runs still in progress are included with the sessions they have and marked as such. A group
 (condition and point) with a run that diverged is no result: it is listed as diverged, with
@@ -37,7 +40,7 @@ import numpy as np
 from ...errors import InputError
 from ...reading import check_regular, read_json
 from ...models import DEFAULT_MODELS
-from ..analysis.compare import compare
+from ..analysis.compare import N_BOOT, N_PERM, SEED, compare, holm, p_text
 from ..analysis.gait import weight_structure
 from ...models.compose import model_set
 from ..outputs.folder import OutputFolder, verify
@@ -310,7 +313,8 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
         _sweep_figures(name, swept, runs, per_seed, measures, figures, shows)
     tests = _condition_tests(swept, [c for c, _ in groups], per_seed, measures,
                              skip={(d["condition"], tuple(str(d.get(k, "")) for k in swept))
-                                   for d in diverged})
+                                   for d in diverged},
+                             paired=bool(index.get("paired", False)))
 
     files = []
     for file, f in figures.items():
@@ -333,8 +337,10 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
         atomic_write(dest / TESTS, lambda f: f.write(_csv(tests).encode()))
         files.append(dest / TESTS)
         described[TESTS] = ("per sweep point, pair of conditions and final figure: means, "
-                            "difference, Welch's t-test, Mann-Whitney U, Hedges' g, "
-                            "rank-biserial correlation")
+                            "difference with its 95% bootstrap interval (difference_low, "
+                            "difference_high), permutation p (perm_p, perm_exact, perm_p_min, "
+                            "perm_bound; perm_p_holm), Mann-Whitney U and p (mwu_p_holm), "
+                            "Welch's t and p, Hedges' g, rank-biserial correlation, paired")
     described["report.md"] = ("this page: the final figures, the tests between conditions, "
                               "the files written")
     text = _markdown(name, rows, tests, per_seed, study_sessions, last, swept, measures,
@@ -403,14 +409,18 @@ def _gait_map(name: str, x_axis: Axis, y_axis: Axis, runs: list[dict[str, Any]],
     from ..figures.gait_map import gait_map_figures
 
     seeds = []
+    old = False  # a gait.csv without final_rhythm: its final_gait is the thigh-pool rhythm
     for r in runs:
         g = r.get("gaits")
         if g is None:
             continue
+        old = old or "final_rhythm" not in g.columns
         point = r["spec"]["point"]
         for row in g.to_dict("records"):
+            reason = str(row.get("final_gait_reason", "") or "")
             seeds.append({"condition": r["spec"]["condition"], "gait": row["final_gait"],
-                          "mean_speed_m_per_s": row["final_speed_m_per_s"], "fell": 0,
+                          "mean_speed_m_per_s": row["final_speed_m_per_s"],
+                          "fell": int(reason.startswith("fell")),
                           f"grid_{y_axis.name}": str(point.get(y_axis.name, "")),
                           f"grid_{x_axis.name}": str(point.get(x_axis.name, ""))})
     if not seeds:
@@ -419,7 +429,9 @@ def _gait_map(name: str, x_axis: Axis, y_axis: Axis, runs: list[dict[str, Any]],
                                    (x_axis.name, list(x_axis.values))],
                            {y_axis.name: y_axis.label, x_axis.name: x_axis.label})
     figures["gait_map.png"] = fig["gait_map.png"]
-    shows["gait_map.png"] = (f"each seed's final gait (learning off, 5 s) over {x_axis.name} x "
+    what = ("rhythm (thigh-extensor bursts: these runs were written before the gait was read "
+            "from the feet)" if old else "gait (footfalls over the upright part)")
+    shows["gait_map.png"] = (f"each seed's final {what} (learning off, 5 s) over {x_axis.name} x "
                              f"{y_axis.name}: the most common label per cell (colour, its share "
                              f"written), mean forward speed (contours), one panel per condition")
 
@@ -441,10 +453,15 @@ def _file_slug(text: str) -> str:
 
 def _condition_tests(swept: list[str], conditions: list[str], per_seed: list[dict[str, Any]],
                      measures: list[Measure],
-                     skip: set[tuple[str, tuple[str, ...]]] = frozenset()
-                     ) -> list[dict[str, Any]]:
+                     skip: set[tuple[str, tuple[str, ...]]] = frozenset(),
+                     paired: bool = False) -> list[dict[str, Any]]:
     """Every pair of conditions (in the study's order, first minus second) at every sweep
-    point, every final figure: :func:`~astrocpg.studies.analysis.compare.compare`."""
+    point, every final figure: :func:`~astrocpg.studies.analysis.compare.compare`. The final
+    figures of one pair at one point are one family (one question: do the conditions
+    differ?): their permutation and Mann-Whitney p-values are Holm-adjusted together
+    (``perm_p_holm``, ``mwu_p_holm``). ``paired`` (the study file's ``paired = true``,
+    declared before any run): seed k of one condition is compared with seed k of the
+    other, on the seeds both have."""
     conditions = list(dict.fromkeys(conditions))
     points = list(dict.fromkeys(o["point"] for o in per_seed))
     out = []
@@ -452,15 +469,26 @@ def _condition_tests(swept: list[str], conditions: list[str], per_seed: list[dic
         for a, b in itertools.combinations(conditions, 2):
             if (a, point) in skip or (b, point) in skip:  # a diverged side: no test
                 continue
+            family = []
             for m in measures:
-                va = [o[m.key] for o in per_seed
-                      if o["condition"] == a and o["point"] == point and m.key in o]
-                vb = [o[m.key] for o in per_seed
-                      if o["condition"] == b and o["point"] == point and m.key in o]
-                if not va and not vb:
+                sa = {o["seed"]: o[m.key] for o in per_seed
+                      if o["condition"] == a and o["point"] == point and m.key in o}
+                sb = {o["seed"]: o[m.key] for o in per_seed
+                      if o["condition"] == b and o["point"] == point and m.key in o}
+                if not sa and not sb:
                     continue
-                out.append({**dict(zip(swept, point)), "condition_a": a, "condition_b": b,
-                            "measure": m.key, "unit": m.unit, **compare(va, vb)})
+                if paired:
+                    common = sorted(set(sa) & set(sb), key=str)
+                    va, vb = [sa[k] for k in common], [sb[k] for k in common]
+                else:
+                    va, vb = list(sa.values()), list(sb.values())
+                family.append({**dict(zip(swept, point)), "condition_a": a, "condition_b": b,
+                               "measure": m.key, "unit": m.unit,
+                               **compare(va, vb, paired=paired)})
+            for key in ("perm_p", "mwu_p"):
+                for t, adjusted in zip(family, holm([t[key] for t in family])):
+                    t[f"{key}_holm"] = adjusted
+            out += family
     return out
 
 
@@ -537,37 +565,62 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                   + "; ".join(f"{d['group']} (runs diverged {d['runs_diverged']}: {d['error']})"
                               for d in diverged) + "."]
     if tests:
+        paired = bool(tests[0].get("paired"))
         lines += ["", "## Conditions compared", "",
                   "Per seed one value (its final figure); difference = first condition minus "
-                  "second; Welch's t-test and the Mann-Whitney U test two-sided (scipy); effect "
+                  "second, with its 95% bootstrap interval (" + (
+                      "pairs of seeds resampled" if paired else "seeds resampled within each "
+                      "condition") + f", {N_BOOT} resamples, seed {SEED}). p: two-sided "
+                  "permutation test of the difference of means (" + (
+                      "sign flips of each seed's pair difference: the study file declares "
+                      "paired = true, seed k of one condition against seed k of the other"
+                      if paired else "relabellings of the seeds between the conditions")
+                  + f"; exact when there are at most {N_PERM} of them, else {N_PERM} drawn "
+                  f"with seed {SEED}, when p is never below 1/{N_PERM + 1} and written "
+                  f"'<= 1e-04' if no draw reached the observed difference)"
+                  + ("" if paired else "; the Mann-Whitney U test two-sided (exact without "
+                     "ties, never below 2/C(n_a+n_b, n_a))")
+                  + ". Each pair of conditions at one point is one family of tests: its "
+                  "p-values are Holm-adjusted over the final figures (raw, then Holm). Effect "
                   "sizes: Hedges' g (difference over the pooled sample std, small-sample "
-                  "corrected) and the rank-biserial correlation of U (+1: every seed of the "
-                  "first condition above every seed of the second). With fewer than 2 seeds "
-                  "on a side no test is made (n too small).", ""]
+                  "corrected)" + ("" if paired else " and the rank-biserial correlation of U "
+                  "(+1: every seed of the first condition above every seed of the second)")
+                  + ". With fewer than 2 seeds on a side no test is made (n too small).", ""]
         for key, chunk in itertools.groupby(
                 tests, key=lambda t: (tuple(t.get(k) for k in swept), t["condition_a"],
                                       t["condition_b"])):
             point, a, b = key
             where = ", ".join(f"{k}={v}" for k, v in zip(swept, point))
-            lines += [f"### {a} vs {b}" + (f" ({where})" if where else ""), "",
-                      f"| final figure | {a} | {b} | difference | Welch t (p) | "
-                      f"Mann-Whitney U (p) | Hedges' g | rank-biserial |",
-                      "|---|---|---|---|---|---|---|---|"]
+            lines += [f"### {a} vs {b}" + (f" ({where})" if where else "")
+                      + (" (paired by seed)" if paired else ""), "",
+                      f"| final figure | {a} | {b} | difference [95% interval] | "
+                      f"permutation p (Holm) | "
+                      + ("" if paired else "Mann-Whitney U, p (Holm) | ")
+                      + "Hedges' g |" + ("" if paired else " rank-biserial |"),
+                      "|---|---|---|---|---|" + ("" if paired else "---|") + "---|"
+                      + ("" if paired else "---|")]
             for t in chunk:
                 m = next(x for x in measures if x.key == t["measure"])
                 fmt = FORMATS[m.key]
                 head = (f"| {m.label} | {format(t['mean_a'], fmt)} (n={t['n_a']}) | "
                         f"{format(t['mean_b'], fmt)} (n={t['n_b']}) | "
-                        f"{format(t['difference'], '+' + fmt)} | ")
+                        f"{format(t['difference'], '+' + fmt)}")
+                cells = 3 if paired else 5
                 if t["note"] == "n too small":
-                    lines.append(head + "n too small | n too small | n too small | "
-                                        "n too small |")
+                    lines.append(head + " |" + " n too small |" * cells)
                     continue
-                welch = ("undefined (no spread)" if t["welch_t"] is None
-                         else f"{t['welch_t']:.3g} ({t['welch_p']:.3g})")
+                head += (f" [{format(t['difference_low'], '+' + fmt)}, "
+                         f"{format(t['difference_high'], '+' + fmt)}] | ")
+                perm = (f"{p_text(t['perm_p'], t['perm_p_min'], t['perm_bound'])}"
+                        f"{' exact' if t['perm_exact'] else ''} "
+                        f"({p_text(t['perm_p_holm'], t['perm_p_holm'], t['perm_bound'])})")
                 g = "undefined (no spread)" if t["hedges_g"] is None else f"{t['hedges_g']:.3g}"
-                lines.append(head + f"{welch} | {t['mwu_U']:.3g} ({t['mwu_p']:.3g}) | {g} | "
-                                    f"{t['rank_biserial']:+.3g} |")
+                if paired:
+                    lines.append(head + f"{perm} | {g} |")
+                else:
+                    lines.append(head + f"{perm} | {t['mwu_U']:.3g}, {p_text(t['mwu_p'])} "
+                                        f"({p_text(t['mwu_p_holm'])}) | {g} | "
+                                        f"{t['rank_biserial']:+.3g} |")
             lines.append("")
         lines.append(f"The same in {TESTS}.")
     lines += ["", "## Files", ""]

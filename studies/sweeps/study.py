@@ -249,7 +249,7 @@ def _save_index(study: Study, out: Path) -> None:
     save_json(index_path, {"name": study.name, "overrides": study.overrides.record(),
                            "sweep": study.sweep, "runs": known,
                            "specs": specs, "current": [r.run_id for r in study.runs],
-                           "batch": study.batch,
+                           "batch": study.batch, "paired": study.paired,
                            "batch_setting": study.batch_setting,
                            "batch_choice": study.batch_choice})
     data = study.text.encode()

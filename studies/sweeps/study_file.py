@@ -32,7 +32,7 @@ from ..experiments.train import TrainSettings
 
 MAX_SEEDS = MAX_GRID  # trainings of a study (and seeds): the bound of every grid
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
-_STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch", "record"}
+_STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch", "record", "paired"}
 _CONDITION_KEYS = {"astrocytes", "set"}
 
 
@@ -204,6 +204,9 @@ class Study:
     batch_choice: dict[str, Any] | None = None
     # what the command line changed in the file's study (recorded in the study folder)
     overrides: StudyOverrides = field(default_factory=StudyOverrides)
+    # paired = true: the report compares seed k of one condition with seed k of another
+    # (paired tests), a design declared in the file before any run, never chosen after
+    paired: bool = False
 
     @property
     def batch_pending(self) -> bool:
@@ -296,8 +299,12 @@ def parse_study(text: str, p: Path, batch_given: int | None,
             if c not in {r.condition for r in runs}:
                 raise InputError(f"[evaluate] conditions: no condition '{c}' in the study",
                                  culprit=where)
+    paired = head.get("paired", False)
+    if not isinstance(paired, bool):
+        raise InputError("[study] paired must be true or false", culprit=where)
     return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
                  n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs,
+                 paired=paired,
                  evaluate=evaluate, batch_setting=batch_setting,
                  batch_choice=None if batch_setting != "auto" or batch_given is None
                  else {"batch": batch_given, "reason": "given by the caller"},
@@ -571,7 +578,7 @@ def _evaluate_table(doc: Any, study: Path, where: str) -> dict[str, Any] | None:
     if worlds not in BUILTIN_WORLDS:
         worlds = str((study.parent / worlds).resolve())
     n_worlds = len(read_worlds(worlds, DEFAULT_MODELS).worlds)
-    seconds, repeats = doc.get("seconds", 10.0), doc.get("repeats", 2)
+    seconds, repeats = doc.get("seconds", 10.0), doc.get("repeats", 5)
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not seconds > 0:
         raise InputError("[evaluate] seconds must be a positive number", culprit=where)
     check_duration(seconds, STEP, culprit=f"{where} [evaluate] seconds")
