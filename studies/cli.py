@@ -402,7 +402,7 @@ def build_parser() -> argparse.ArgumentParser:
     power.add_argument("--sessions", type=int, default=10,
                        help="sessions to measure (default 10)")
     power.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                       dest="power_set",
+                       dest="overrides",
                        help="a parameter over the training's models for this measurement "
                             "(e.g. limit_margin=0*radian; repeatable); the figures go to "
                             "power_trial<K>_<NAME=VALUE>.json")
@@ -998,7 +998,7 @@ def _cmd_power(args: argparse.Namespace) -> int:
 
     path, res = power(Path(args.dir), trial=args.trial, sessions=args.sessions,
                       progress=not args.no_progress, argv=sys.argv,
-                      overrides=args.power_set)
+                      overrides=args.overrides)
     print(format_power(res))
     print(f"wrote {path}")
     return 0

@@ -34,6 +34,8 @@ NOT_A_KEYWORD = {
     "codegen",
     # train --resume DIR is the function ac.resume(DIR), not a keyword of ac.train
     "resume",
+    # study --status DIR is the function ac.study_status(DIR), not a keyword of ac.study
+    "status",
 }
 
 

@@ -159,17 +159,21 @@ def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustne
 
 
 def power(folder: str | os.PathLike, *, trial: int = 0, sessions: int = 10,
+          overrides: Overrides | None = None,
           progress: bool = True) -> tuple[Path, dict[str, Any]]:
     """The SNN vs RL power estimate of trial ``trial``'s trained controller in ``folder``,
     measured over ``sessions`` sessions and written to ``folder/power_trial<K>.json``: what
-    ``astrocpg power`` does. Returns that file's path and the figures."""
+    ``astrocpg power`` does. ``overrides`` (``{"limit_margin": "0*radian"}``) set parameters
+    over the training's models for this measurement; the file is then
+    ``power_trial<K>_<NAME=VALUE>.json``. Returns that file's path and the figures."""
+    from ...models.compose import override_items
     from .power import power as measure_power
     from .settings import number
 
     return measure_power(_path(folder, "folder"),
                          trial=number(trial, "trial", integer=True, minimum=0),
                          sessions=number(sessions, "sessions", integer=True, minimum=1),
-                         progress=progress)
+                         progress=progress, overrides=override_items(overrides))
 
 
 def list_models(*, overrides: Overrides | None = None,
