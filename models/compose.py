@@ -97,9 +97,28 @@ def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str,
     return texts
 
 
+def as_model_files(models: Any) -> Any:
+    """A whole :class:`ModelSet` given where model files are meant (``models=`` of the API) as
+    ``{slot: model file text}`` of the slots whose model differs from the built-in one, so it
+    is validated, recorded in the manifest and replayed like files; anything else unchanged."""
+    if not isinstance(models, ModelSet):
+        return models
+    from .files import model_to_toml
+
+    defaults = dict(DEFAULT_MODELS.items())
+    out = {}
+    for slot, model in models.items():
+        text = model_to_toml(model)
+        if slot not in defaults or text != model_to_toml(defaults[slot]):
+            out[slot] = text
+    return out
+
+
 def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, str]]:
-    """``{model: {"sha256": ..., "content": ...}}`` of model files' texts, for manifests."""
+    """``{model: {"sha256": ..., "content": ...}}`` of model files' texts, for manifests (a
+    :class:`ModelSet` as the files of the models it changes)."""
     from .files import file_sha256
+    models = as_model_files(models)
     if models is not None and not isinstance(models, Mapping):
         raise InputError(f"expected a mapping {{model name: model file text}}, got "
                          f"{type(models).__name__}", culprit="models")
@@ -125,6 +144,7 @@ def model_set(overrides: Overrides | None = None,
     from .files import (check_interface, check_parameters_used, file_sha256,
                                  model_from_toml)
 
+    models = as_model_files(models)
     for given, what in ((models, "models"), (equations, "equations")):
         if given is not None and not isinstance(given, Mapping):
             value = "model file text" if what == "models" else "equation text"

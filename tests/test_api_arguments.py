@@ -163,3 +163,20 @@ def test_the_command_line_keeps_its_options_names(capsys):
 
     assert main(["run", "--seconds", "-1"]) == 2
     assert "--seconds" in capsys.readouterr().err
+
+
+def test_a_model_set_is_accepted_where_a_model_set_is_meant():
+    """The manual's "edit the model set itself": a ModelSet given as ``models`` runs as the same
+    change given as overrides, and its changed models are recorded as model files."""
+    from brian2 import ms
+
+    from astrocpg.models import DEFAULT_MODELS
+
+    edited = DEFAULT_MODELS.with_values({"tau_motor": 8 * ms})
+    by_set = ac.unit(seconds=0.05, seed=2, models=edited, progress=False)
+    by_override = ac.unit(seconds=0.05, seed=2, overrides={"tau_motor": "8*ms"}, progress=False)
+    plain = ac.unit(seconds=0.05, seed=2, progress=False)
+    np.testing.assert_array_equal(by_set.spikes["motor"][0], by_override.spikes["motor"][0])
+    assert not np.array_equal(by_set.spikes["motor"][0], plain.spikes["motor"][0]) \
+        or len(by_set.spikes["motor"][0]) != len(plain.spikes["motor"][0])
+    assert set(by_set.manifest["settings"]["models"]) == {"motor_neuron"}
