@@ -98,7 +98,7 @@ def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str,
 
 
 def as_model_files(models: Any) -> Any:
-    """A whole :class:`ModelSet` given where model files are meant (``models=`` of the API) as
+    """A whole :class:`~astrocpg.models.ModelSet` given where model files are meant (``models=`` of the API) as
     ``{slot: model file text}`` of the slots whose model differs from the built-in one, so it
     is validated, recorded in the manifest and replayed like files; anything else unchanged."""
     if not isinstance(models, ModelSet):
@@ -116,7 +116,7 @@ def as_model_files(models: Any) -> Any:
 
 def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, str]]:
     """``{model: {"sha256": ..., "content": ...}}`` of model files' texts, for manifests (a
-    :class:`ModelSet` as the files of the models it changes)."""
+    :class:`~astrocpg.models.ModelSet` as the files of the models it changes)."""
     from .files import file_sha256
     models = as_model_files(models)
     if models is not None and not isinstance(models, Mapping):

@@ -61,7 +61,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     files): ``out`` may not be or hold one, nor ``weights`` and ``robot`` (see
     :func:`~astrocpg.studies.outputs.folder.check_output_path`). session: with ``weights`` a
     training folder, replay that session (1-based) of trial ``trial`` (default 0) exactly,
-    learning on (:func:`~astrocpg.studies.experiments.replay.replay_session`, which returns a
+    learning on (:func:`~astrocpg.replay_session`, which returns a
     Result of kind "train"; ``out`` is required, and the run's own settings are the training's).
 
     Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "run": spikes, traces, the

@@ -377,7 +377,7 @@ def _split(payload: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
 
 
 #: Each session's start (step, Progress, t_learning_start, the state a reset leaves) per trial:
-#: what a replay of one session reads (:func:`astrocpg.studies.experiments.replay.replay_session`).
+#: what a replay of one session reads (:func:`astrocpg.replay_session`).
 SESSION_STARTS = "session_starts.npz"
 
 
@@ -573,7 +573,7 @@ def record_plan(every: int | None, stride: int | None = None,
                 spikes: tuple[str, ...] | None = None,
                 traces: tuple[str, ...] | None = None) -> RecordPlan | None:
     """The new training's RecordPlan from the options (a resumed one keeps its own:
-    :func:`check_resume_options`)."""
+    :func:`~astrocpg.studies.experiments.train.check_resume_options`)."""
     if every is None:
         if stride is not None:
             raise InputError("a training records sessions only with --record-every N",
@@ -669,7 +669,7 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
     """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
     each, writing ``out`` (sessions.csv, weights.npz, checkpoint.npz, manifest.json) after every
     session: what ``astrocpg train`` runs. ``astrocytes=False`` is the paper's ablation;
-    overrides/equations as for :func:`~astrocpg.studies.experiments.run.run` (e.g.
+    overrides/equations as for :func:`~astrocpg.run` (e.g.
     ``["L_max=0.5*second"]`` for short sessions). ``record_every=N`` records sessions 1, 1+N,
     ... and each trial's last into ``out/recordings/`` (``record_stride`` steps between trace
     and robot samples; ``spikes``/``traces`` pick what). ``overwrite`` replaces only an astrocpg
@@ -717,7 +717,7 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     A resumed training keeps the settings it started with. Options given again (``expect``:
     ``sessions``, ``seed``, ``trials``, ``astrocytes``, ``overrides``, ``equations``,
     ``models``; and the recording options) must agree with them, or the resume is refused
-    with the option and both values named (:func:`check_resume_options`): none is silently
+    with the option and both values named (:func:`~astrocpg.studies.experiments.train.check_resume_options`): none is silently
     ignored.
 
     ``sessions`` more than the training's sessions per trial extends it (finished or not):

@@ -127,7 +127,7 @@ class Result:
     """What a unit, a closed-loop run, a training or a recorded training session produced.
 
     Made by ``astrocpg.unit/run/train/resume`` (then ``network`` and ``monitors`` are the live
-    Brian2 objects and ``models`` the ModelSet) or by :func:`load` from an output folder (then
+    Brian2 objects and ``models`` the ModelSet) or by :func:`~astrocpg.load` from an output folder (then
     they are None). Attributes:
 
     kind        "unit", "run", "train" or "train-session"
@@ -461,7 +461,7 @@ def _training_layout(manifest: Mapping[str, Any], folder: Path) -> Layout:
 def load(folder: str | os.PathLike) -> Result:
     """Read an output folder of ``astrocpg unit``, ``run``, ``train`` (or a study's run) or a
     recorded training session (``TRAINING/recordings/trialTT_sessionSSSS``) back into a
-    :class:`Result`. A folder that is not an astrocpg output folder, or whose files are missing,
+    :class:`~astrocpg.studies.outputs.result.Result`. A folder that is not an astrocpg output folder, or whose files are missing,
     changed or corrupt: InputError naming the folder."""
     folder = as_path(folder, "folder")
     manifest = _check_folder(folder)
