@@ -22,13 +22,14 @@ DOCS = ROOT / "docs"
 EXAMPLES = ["tutorial", "examples/fig3c", "examples/model_file", "examples/nwb_export",
             "examples/sweep", "examples/frames"]
 API_OBJECTS = [
-    "astrocpg.studies.experiments.unit.unit", "astrocpg.studies.experiments.run.run",
-    "astrocpg.studies.experiments.train.train", "astrocpg.studies.experiments.train.resume",
-    "astrocpg.studies.outputs.result.load", "astrocpg.studies.outputs.result.Result",
+    # the functions at the names users call them by (import astrocpg as ac; ac.run)
+    "astrocpg.unit", "astrocpg.run", "astrocpg.train", "astrocpg.resume", "astrocpg.load",
+    "astrocpg.describe", "astrocpg.export", "astrocpg.plot", "astrocpg.video", "astrocpg.gait",
+    "astrocpg.evaluate", "astrocpg.power", "astrocpg.study", "astrocpg.study_status",
+    "astrocpg.report",
+    "astrocpg.studies.outputs.result.Result",
     "astrocpg.studies.outputs.result.Result.spike_times", "astrocpg.studies.outputs.result.Result.trace",
-    "astrocpg.studies.outputs.result.Trace", "astrocpg.studies.experiments.api.describe",
-    "astrocpg.studies.experiments.api.export", "astrocpg.studies.experiments.view.plot",
-    "astrocpg.studies.experiments.view.video", "astrocpg.errors.InputError",
+    "astrocpg.studies.outputs.result.Trace", "astrocpg.errors.InputError",
     "astrocpg.models.ModelSet",
 ]
 
