@@ -16,11 +16,17 @@ FOLDERS = ("models/variants", "studies/sweeps", "studies/experiments", "docs/bey
 
 
 def _kind(path: Path) -> str:
-    text = path.read_text(encoding="utf-8", errors="replace")
-    lines = [line.strip() for line in text.splitlines()]
-    if "[study]" in lines:
+    """What a shipped TOML file holds, by its tables (however the file spells their names:
+    ``[study]``, ``["study"]``): a study, a worlds file or a model file."""
+    import tomllib
+
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8", errors="replace"))
+    except (tomllib.TOMLDecodeError, RecursionError, OSError):
+        return "model"  # its reader says what is wrong with it
+    if "study" in doc:
         return "study"
-    if any(line.startswith(("[worlds", "[grid")) for line in lines):
+    if "worlds" in doc or "grid" in doc:
         return "worlds"
     return "model"
 

@@ -694,8 +694,28 @@ def _environment_fault(e: BaseException) -> EnvironmentFault | None:
                 return EnvironmentFault(f"{type(err).__name__}: {one_line(text, 300)} (set it "
                                         f"to a value the library accepts, or unset it)",
                                         culprit=shown)
+        # the backend MUJOCO_GL names is missing: PyOpenGL fails inside its own import (e.g.
+        # MUJOCO_GL=osmesa without libOSMesa: "'NoneType' object has no attribute 'glGetError'")
+        if os.environ.get("MUJOCO_GL") and _raised_in_gl(err):
+            return EnvironmentFault(
+                f"MuJoCo cannot load this OpenGL backend ({type(err).__name__}: "
+                f"{one_line(text, 200)}); install it (OSMesa: the libosmesa6 package; EGL: a GPU "
+                f"driver) or unset MUJOCO_GL to let astrocpg choose",
+                culprit=f"MUJOCO_GL={os.environ['MUJOCO_GL']}")
         err = err.__cause__ or err.__context__
     return None
+
+
+def _raised_in_gl(err: BaseException) -> bool:
+    """Whether ``err`` was raised inside PyOpenGL or MuJoCo's GL backends (its traceback)."""
+    tb = err.__traceback__
+    while tb is not None:
+        path = tb.tb_frame.f_code.co_filename.replace(os.sep, "/")
+        if "/OpenGL/" in path or "/mujoco/osmesa/" in path or "/mujoco/egl/" in path \
+                or "/mujoco/glfw/" in path:
+            return True
+        tb = tb.tb_next
+    return False
 
 
 def _kind(e: AstrocpgError) -> str:
