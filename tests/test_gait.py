@@ -43,9 +43,14 @@ def trained(tmp_path_factory):
 @pytest.mark.slow
 def test_gait_plot_and_replay(trained, capsys, tmp_path):
     capsys.readouterr()
-    assert main(["gait", str(trained), "--seconds", "3", "--no-progress"]) == 0
+    assert main(["gait", str(trained), "--seconds", "3", "--repeats", "1", "--no-progress"]) == 0
     out = capsys.readouterr().out
-    assert out.count("gait:") == 2 and "relative to FR" in out
+    # a line per run (both measures named) and a summary per table
+    runs = [x for x in out.splitlines() if x.startswith("table ") and " repeat " in x]
+    tables = [x for x in out.splitlines() if x.startswith(("table 0:", "table 1:"))]
+    assert len(runs) == 2 and len(tables) == 2, out
+    assert all("rhythm (thigh-extensor bursts)" in x and "gait (footfalls)" in x for x in runs)
+    assert "relative to FR" in out
     assert main(["plot", str(trained), "--seconds", "3"]) == 0
     for name in ("weights.png", "training.png", "thigh_extensor_activity.png", "gait.png"):
         assert (trained / "figures" / name).stat().st_size > 5000, name
