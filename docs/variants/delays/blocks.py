@@ -46,9 +46,9 @@ def main() -> None:
             p = compare(values[0], values[1])["welch_p"] if len(values) == 2 else None
             cells = " | ".join(f"{v.mean():.3f} ± {v.std():.3f}" for v in values)
             print(f"| {key} | {a + 1}-{b} | {cells} | {'' if p is None else f'{p:.2f}'} |")
-    print("\nEach seed's gait with its final table (learning off, 5 s):\n")
-    print("| table | seed | gait | speed (m/s) | phase FL, RR, RL (of FR's cycle) |")
-    print("|---|---|---|---|---|")
+    print("\nEach seed's rhythm and gait with its final table (learning off, 5 s):\n")
+    print("| table | seed | rhythm | gait | speed (m/s) | rhythm phase FL, RR, RL (of FR's cycle) |")
+    print("|---|---|---|---|---|---|")
     speeds: dict[str, list[float]] = {}
     for run in sorted((args.study / "runs").iterdir()):
         manifest_rows = [r for r in rows if r["run_id"] == run.name]
@@ -58,15 +58,22 @@ def main() -> None:
         seeds = sorted({int(r["seed"]) for r in manifest_rows})
         for g in csv.DictReader((run / "gait.csv").open()):
             seed = seeds[int(g["trial"])]
-            phases = ", ".join(f"{float(g[f'final_phase_{leg}']):.2f}" for leg in ("FL", "RR", "RL"))
-            print(f"| {table} | {seed} | {g['final_gait']} | "
+            # a study of astrocpg 0.1.0 has the rhythm only, named final_gait and final_phase_*
+            new = "final_rhythm" in g
+            rhythm = g["final_rhythm"] if new else g["final_gait"]
+            gait = g["final_gait"] + (f" ({g['final_gait_reason']})"
+                                      if g.get("final_gait_reason") else "") if new else "-"
+            phase = "final_rhythm_phase_{}" if new else "final_phase_{}"
+            phases = ", ".join(f"{float(g[phase.format(leg)]):.2f}" for leg in ("FL", "RR", "RL"))
+            print(f"| {table} | {seed} | {rhythm} | {gait} | "
                   f"{float(g['final_speed_m_per_s']):.2f} | {phases} |")
             speeds.setdefault(table, []).append(float(g["final_speed_m_per_s"]))
     if len(speeds) == 2:
         (ta, a), (tb, b) = sorted(speeds.items())
         c = compare(a, b)
         print(f"\nSpeed with the final table: {ta} {np.mean(a):.3f} ± {np.std(a):.3f}, {tb} "
-              f"{np.mean(b):.3f} ± {np.std(b):.3f} m/s; Welch's p = {c['welch_p']:.3f}.")
+              f"{np.mean(b):.3f} ± {np.std(b):.3f} m/s; Welch's p = "
+              f"{'n/a (one seed a side)' if c['welch_p'] is None else format(c['welch_p'], '.3f')}.")
 
 
 if __name__ == "__main__":
