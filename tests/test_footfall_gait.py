@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from astrocpg.studies.analysis.gait import (MIN_GAIT_SHARE, footfall_gait, stances,
-                                            weight_structure)
+from astrocpg.studies.analysis.gait import (MIN_GAIT_SHARE, MIN_STEPS, footfall_gait,
+                                            stance_phases, weight_structure)
 from astrocpg.studies.analysis.share import wilson_interval
 
 DT = 1e-3
@@ -29,26 +29,29 @@ def _contacts(offsets: dict[str, float], period: float = 0.4, duty: float = 0.4,
 
 
 TROT = {"FR": 0.0, "FL": 0.5, "RR": 0.5, "RL": 0.0}
+CYCLES = np.arange(0.0, 4.01, 0.4) + 0.1  # the CPG's stepping cycles (FR burst onsets)
 UPRIGHT = np.ones(T.size, dtype=bool)
 
 
 def test_trotting_feet_of_a_standing_robot_are_a_trot():
-    g = footfall_gait(T, UPRIGHT, _contacts(TROT), 1.0, 4.0)
+    g = footfall_gait(T, UPRIGHT, _contacts(TROT), 1.0, 4.0, CYCLES)
     assert g["gait"] == "trot" and g["gait_reason"] == "" and g["gait_share"] == 1.0
     assert g["gait_period_s"] == pytest.approx(0.4, abs=2e-3)
     assert g["gait_phase_FL"] == pytest.approx(0.5, abs=0.01)
+    assert g["gait_phase_RL"] == pytest.approx(0.0, abs=0.01) or g["gait_phase_RL"] > 0.99
+    assert g["gait_locking_RR"] == pytest.approx(1.0, abs=0.01)
     assert g["gait_duty_factor"] == pytest.approx(0.4, abs=0.03)
 
 
 def test_a_robot_that_fell_has_no_gait_and_says_when():
     alive = T < 2.16  # fell at 2.16 s: upright for 39% of the window 1..4 s
-    g = footfall_gait(T, alive, _contacts(TROT), 1.0, 4.0)
+    g = footfall_gait(T, alive, _contacts(TROT), 1.0, 4.0, CYCLES)
     assert g["gait"] == "none" and g["gait_reason"] == "fell at 2.16 s"
     assert g["gait_share"] == pytest.approx((2.16 - 1.0) / 3.0, abs=1e-3)
     assert math.isnan(g["gait_phase_FL"])
     # standing for more than MIN_GAIT_SHARE of the window: read over the upright part
     late = 1.0 + 3.0 * (MIN_GAIT_SHARE + 0.05)
-    assert footfall_gait(T, T < late, _contacts(TROT), 1.0, 4.0)["gait"] == "trot"
+    assert footfall_gait(T, T < late, _contacts(TROT), 1.0, 4.0, CYCLES)["gait"] == "trot"
 
 
 def test_feet_without_a_pattern_are_not_periodic():
@@ -57,28 +60,57 @@ def test_feet_without_a_pattern_are_not_periodic():
     for k in range(4):  # each foot on its own, at random times
         for on in np.sort(rng.uniform(0, 4, 10)):
             force[(T >= on) & (T < on + 0.1), k] = 50.0
-    g = footfall_gait(T, UPRIGHT, force, 1.0, 4.0)
+    g = footfall_gait(T, UPRIGHT, force, 1.0, 4.0, CYCLES)
     assert g["gait"] == "none" and g["gait_reason"] in ("not periodic", "too few steps")
 
 
 def test_no_touch_sensors_no_gait():
-    g = footfall_gait(T, UPRIGHT, np.full((T.size, 4), np.nan), 1.0, 4.0)
+    g = footfall_gait(T, UPRIGHT, np.full((T.size, 4), np.nan), 1.0, 4.0, CYCLES)
     assert g["gait"] == "none" and g["gait_reason"] == "no contact data"
 
 
 def test_feet_that_never_lift_make_too_few_steps():
-    g = footfall_gait(T, UPRIGHT, np.full((T.size, 4), 80.0), 1.0, 4.0)
+    g = footfall_gait(T, UPRIGHT, np.full((T.size, 4), 80.0), 1.0, 4.0, CYCLES)
     assert g["gait"] == "none" and g["gait_reason"] == "too few steps"
 
 
-def test_stances_bridge_bounces_and_skip_a_stance_on_at_the_start():
-    f = np.zeros(T.size)
-    f[(T >= 0.5) & (T < 1.2)] = 1.0  # on at the window's start: no touchdown
-    f[(T >= 1.5) & (T < 1.6)] = 1.0
-    f[(T >= 1.62) & (T < 1.7)] = 1.0  # a 20 ms bounce: the same stance
-    f[(T >= 2.0) & (T < 2.002)] = 1.0  # a 2 ms brush: no stance
-    s = stances(T, f, 1.0, 3.0)
-    assert s.shape == (1, 2) and s[0, 0] == pytest.approx(1.5) and s[0, 1] == pytest.approx(1.7)
+def test_bouncing_feet_keep_their_gait():
+    """Hind feet that land with their diagonal and touch down again, briefly, with the other
+    pair (what trained controllers' A1 does): the long stances set the phase, the bounces do
+    not make the trot aperiodic, and neither does a brush in swing."""
+    force = _contacts(TROT)
+    for k, leg in ((2, "RR"), (3, "RL")):
+        for c in range(12):
+            on = (c + TROT[leg] + 0.5) * 0.4  # the other pair's touchdown
+            force[(T >= on) & (T < on + 0.012), k] = 300.0
+    force[(T >= 2.05) & (T < 2.052), 0] = 20.0
+    g = footfall_gait(T, UPRIGHT, force, 1.0, 4.0, CYCLES)
+    assert g["gait"] == "trot" and g["gait_reason"] == ""
+    assert min(g[f"gait_locking_{leg}"] for leg in ("FL", "RR", "RL")) > 0.9
+
+
+def test_feet_off_the_rhythm_are_not_periodic():
+    """Feet that trot at another period than the CPG's cycle do not follow the rhythm."""
+    g = footfall_gait(T, UPRIGHT, _contacts(TROT, period=0.29), 1.0, 4.0, CYCLES)
+    assert g["gait"] == "none" and g["gait_reason"] == "not periodic"
+
+
+def test_no_stepping_cycles_no_gait():
+    g = footfall_gait(T, UPRIGHT, _contacts(TROT), 1.0, 4.0, CYCLES[:MIN_STEPS])
+    assert g["gait"] == "none" and g["gait_reason"] == "no rhythm"
+
+
+def test_stance_phase_per_cycle():
+    """A stance from 0.2 to 0.4 of each 1 s cycle is centred at 0.3; a cycle without contact,
+    or with contact throughout, has no stance phase."""
+    t = np.arange(0, 4000) * DT
+    on = np.zeros(t.size, dtype=bool)
+    for c in (0, 2):
+        on[(t >= c + 0.2) & (t < c + 0.4)] = True
+    on[(t >= 3.0)] = True
+    p = stance_phases(t, on, np.array([0.0, 1.0, 2.0, 3.0, 3.999]))
+    assert p[0] == pytest.approx(0.3, abs=1e-3) and p[2] == pytest.approx(0.3, abs=1e-3)
+    assert math.isnan(p[1]) and math.isnan(p[3])
 
 
 def test_wilson_interval():

@@ -5,19 +5,27 @@ Two measures, never one for the other:
 * the **rhythm** is what the CPG does: the phase of each leg's thigh-extensor burst onsets
   within FR's cycles (:func:`leg_phases`), labelled by :func:`phase_label`. It exists whether
   or not the robot stands: a robot on its back keeps its rhythm.
-* the **gait** is what the feet do while the robot stands: the touchdowns of each foot (its
-  touch sensor going from no force to force) over the *upright part* of the analysed window,
-  that is, up to the first sample the alive model does not count as upright
-  (:mod:`~astrocpg.studies.analysis.fall`), their phase within FR's stepping cycles and the
-  same label (:func:`footfall_gait`). A run gets a gait label only when
+* the **gait** is what the feet do while the robot stands, measured against the CPG's
+  stepping cycle: over the *upright part* of the analysed window (up to the first sample the
+  alive model does not count as upright, :mod:`~astrocpg.studies.analysis.fall`), each cycle
+  between two of FR's thigh-extensor burst onsets gives each foot a **stance phase**, the
+  circular mean of the phases of the samples in which its touch sensor reads force (a cycle
+  in which the foot does not both touch and lift gives none). A foot's phase is the circular
+  mean of its stance phases, its locking their resultant length over *all* the cycles (a cycle
+  without a stance counts as a phase lost), and the feet's phases relative to FR's foot are
+  labelled by :func:`phase_label` (:func:`footfall_gait`). A stance phase weighs every sample
+  of contact, so the short contacts of a foot bouncing on touchdown or brushing the ground in
+  swing move it little. A run gets a gait label only when
 
   - the robot's feet have touch sensors (else: ``no contact data``);
   - it stood for at least :data:`MIN_GAIT_SHARE` of the analysed window (else:
     ``fell at 2.16 s``);
-  - every foot touched down at least :data:`MIN_TOUCHDOWNS` times in it (else:
+  - its CPG has at least :data:`MIN_STEPS` + 1 FR bursts while upright, the stepping cycles
+    (else: ``no rhythm``);
+  - every foot stepped (touched and lifted) in at least :data:`MIN_STEPS` cycles (else:
     ``too few steps``);
-  - each foot's touchdowns keep their phase within FR's cycles (resultant length at least
-    ``min_locking``, else: ``not periodic``).
+  - every foot keeps its stance phase from cycle to cycle (locking at least ``min_locking``,
+    else: ``not periodic``: the feet do not follow the rhythm).
 
   Otherwise the gait is ``none`` and ``gait_reason`` says why; a periodic footfall that is
   none of the named patterns is ``none`` with the reason ``no named pattern``.
@@ -39,7 +47,7 @@ import numpy as np
 
 from ...network import LEGS, Layout
 from .fall import first_fall
-from .rhythm import cycle_period, detect_bursts, on_runs, phase_locking
+from .rhythm import cycle_period, detect_bursts, phase_locking
 
 LEG_INDEX = {leg: k for k, leg in enumerate(LEGS)}
 NAMED = ("trot", "pace", "bound", "walk")
@@ -48,13 +56,12 @@ NAMED = ("trot", "pace", "bound", "walk")
 MIN_GAIT_SHARE = 0.8
 """A gait is read only from a run that stood for at least this share of the analysed window
 (4 of the 5 s that ``evaluate`` and a study's final runs analyse)."""
-MIN_TOUCHDOWNS = 4
-"""... and in which every foot touched down at least this many times while upright."""
-MIN_SWING_S = 0.05
-"""Contact gaps shorter than this are one stance (a foot bouncing on touchdown)."""
-MIN_STANCE_S = 0.005
-"""Contacts shorter than this are no stance (a toe brushing the ground in swing)."""
-
+MIN_STEPS = 4
+"""... in which the CPG made at least this many stepping cycles and every foot stepped in at
+least this many of them."""
+MIN_SWING_S = 0.02
+"""A foot steps in a cycle when it touches the ground and is off it for at least this long in
+that cycle (a foot that never lifts has no stance phase)."""
 
 def _circ(a: float, b: float) -> float:
     d = abs(a - b) % 1.0
@@ -108,7 +115,10 @@ def trial_rhythm(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: 
     """One trial's rhythm between t_start and t_stop: ``rhythm`` (label),
     ``rhythm_period_s`` and each leg's ``rhythm_phase_<leg>`` and ``rhythm_locking_<leg>``
     relative to FR."""
-    g = leg_phases(times, indices, layout, trial, t_start, t_stop)
+    return _rhythm_row(leg_phases(times, indices, layout, trial, t_start, t_stop))
+
+
+def _rhythm_row(g: dict[str, Any]) -> dict[str, Any]:
     row: dict[str, Any] = {"rhythm": phase_label(g["phases"], g["locking"]),
                            "rhythm_period_s": float(g["period"])}
     for leg in LEGS[1:]:
@@ -117,21 +127,28 @@ def trial_rhythm(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: 
     return row
 
 
-def stances(t: np.ndarray, force: np.ndarray, t_start: float, t_stop: float) -> np.ndarray:
-    """One foot's stances in [t_start, t_stop) as an (n, 2) array of touchdown and lift-off
-    times (s), from its touch sensor (``force`` > 0 N at the samples ``t``): gaps shorter than
-    :data:`MIN_SWING_S` bridged, contacts shorter than :data:`MIN_STANCE_S` dropped, and a
-    stance already on at ``t_start`` not counted as a touchdown."""
+def stance_phases(t: np.ndarray, on: np.ndarray, cycles: np.ndarray) -> np.ndarray:
+    """One foot's stance phase (0..1) in each cycle between consecutive ``cycles`` onsets (s):
+    the circular mean of the phases of the samples ``t`` where the foot is ``on`` the ground;
+    nan for a cycle in which it does not touch, or is off the ground less than
+    :data:`MIN_SWING_S`."""
     t = np.asarray(t, dtype=float)
-    sel = (t >= t_start) & (t < t_stop)
-    x, on = t[sel], np.asarray(force, dtype=float)[sel] > 0
-    if x.size < 2:
-        return np.zeros((0, 2))
-    step = float(np.median(np.diff(x)))
-    merged = on_runs(on, step, MIN_SWING_S)
-    out = [(x[a], x[b - 1] + step) for a, b in merged
-           if a > 0 and (b - a) * step >= MIN_STANCE_S]
-    return np.array(out, dtype=float).reshape(-1, 2)
+    on = np.asarray(on, dtype=bool)
+    out = np.full(max(len(cycles) - 1, 0), np.nan)
+    if out.size == 0 or t.size < 2:
+        return out
+    step = float(np.median(np.diff(t)))
+    k = np.searchsorted(cycles, t, side="right") - 1
+    inside = (k >= 0) & (k < len(cycles) - 1)
+    k, x, c = k[inside], t[inside], on[inside]
+    phase = (x - cycles[k]) / (cycles[k + 1] - cycles[k])
+    z = np.bincount(k[c], weights=np.cos(2 * np.pi * phase[c]), minlength=out.size) \
+        + 1j * np.bincount(k[c], weights=np.sin(2 * np.pi * phase[c]), minlength=out.size)
+    touched = np.bincount(k[c], minlength=out.size) > 0
+    off_s = np.bincount(k[~c], minlength=out.size) * step
+    steps = touched & (off_s >= MIN_SWING_S)
+    out[steps] = (np.angle(z[steps]) / (2 * np.pi)) % 1.0
+    return out
 
 
 def _no_gait(reason: str, share: float) -> dict[str, Any]:
@@ -144,14 +161,16 @@ def _no_gait(reason: str, share: float) -> dict[str, Any]:
 
 
 def footfall_gait(t: np.ndarray, alive: np.ndarray, foot_force: np.ndarray, t_start: float,
-               t_stop: float, *, min_locking: float = 0.7) -> dict[str, Any]:
+                  t_stop: float, cycles: np.ndarray, *, min_locking: float = 0.7
+                  ) -> dict[str, Any]:
     """One trial's gait between t_start and t_stop from its robot recording (sample times
-    ``t``, ``alive`` (samples,) and ``foot_force`` (samples, 4 legs)): ``gait`` (label),
-    ``gait_reason`` (why it is ``none``; empty for a named gait), ``gait_share`` (the share of
-    the window it was read over: upright, before the first fall), ``gait_period_s`` (median
-    interval between FR's touchdowns), ``gait_duty_factor`` (mean share of a cycle a foot is
-    on the ground) and each foot's ``gait_phase_<leg>`` and ``gait_locking_<leg>``: the
-    phase of its touchdowns within FR's stepping cycles."""
+    ``t``, ``alive`` (samples,) and ``foot_force`` (samples, 4 legs)) and its stepping
+    ``cycles`` (onsets of FR's thigh-extensor bursts, s): ``gait`` (label), ``gait_reason`` (why
+    it is ``none``; empty for a named gait), ``gait_share`` (the share of the window it was
+    read over: upright, before the first fall), ``gait_period_s`` (median interval between FR's
+    successive stance centres), ``gait_duty_factor`` (mean share of the time a foot is on the
+    ground) and each foot's ``gait_phase_<leg>`` (its stance phase relative to FR's foot) and
+    ``gait_locking_<leg>`` (see the module's description)."""
     t = np.asarray(t, dtype=float)
     force = np.asarray(foot_force, dtype=float)
     fall = first_fall(t, alive)
@@ -161,14 +180,25 @@ def footfall_gait(t: np.ndarray, alive: np.ndarray, foot_force: np.ndarray, t_st
         return _no_gait("no contact data", share)
     if share < MIN_GAIT_SHARE:
         return _no_gait(f"fell at {fall.t_s:.2f} s", share)
-    steps = {leg: stances(t, force[:, k], t_start, end) for k, leg in enumerate(LEGS)}
-    if min(len(s) for s in steps.values()) < MIN_TOUCHDOWNS:
+    cycles = np.asarray(cycles, dtype=float)
+    cycles = cycles[(cycles >= t_start) & (cycles <= end)]
+    if len(cycles) < MIN_STEPS + 1:
+        return _no_gait("no rhythm", share)
+    sel = (t >= t_start) & (t < end)
+    on = force[sel] > 0
+    per = {leg: stance_phases(t[sel], on[:, k], cycles) for k, leg in enumerate(LEGS)}
+    if min(int(np.isfinite(p).sum()) for p in per.values()) < MIN_STEPS:
         return _no_gait("too few steps", share)
-    phases, locking = {}, {}
-    for leg, s in steps.items():
-        phases[leg], locking[leg] = phase_locking(steps["FR"], s)
-    period = cycle_period(steps["FR"])
-    duty = float(np.mean([np.sum(s[:, 1] - s[:, 0]) / (end - t_start) for s in steps.values()]))
+    own, locking = {}, {}
+    for leg, p in per.items():
+        z = np.sum(np.exp(2j * np.pi * p[np.isfinite(p)])) / len(p)
+        own[leg], locking[leg] = float(np.angle(z) / (2 * np.pi)) % 1.0, float(abs(z))
+    phases = {leg: (own[leg] - own["FR"]) % 1.0 for leg in LEGS}
+    fr = per["FR"]
+    centres = cycles[:-1] + fr * np.diff(cycles)
+    gaps = np.diff(centres)[np.isfinite(np.diff(centres))]
+    period = float(np.median(gaps)) if gaps.size else math.nan
+    duty = float(on.mean())
     label = phase_label(phases, locking, min_locking=min_locking)
     if any(locking[leg] < min_locking for leg in LEGS):
         reason = "not periodic"
@@ -187,9 +217,10 @@ def trial_measures(times: np.ndarray, indices: np.ndarray, layout: Layout, recor
     """Rhythm (:func:`trial_rhythm`, from the motor spikes ``times``, ``indices``) and gait
     (:func:`footfall_gait`, from the robot ``recording``) of one trial over [t_start, t_stop):
     the columns every command and table of gaits carries."""
-    return {**trial_rhythm(times, indices, layout, trial, t_start, t_stop),
+    g = leg_phases(times, indices, layout, trial, t_start, t_stop)
+    return {**_rhythm_row(g),
             **footfall_gait(recording.t, recording.alive[trial], recording.foot_force[trial],
-                         t_start, t_stop)}
+                            t_start, t_stop, g["bursts"]["FR"][:, 0])}
 
 
 MEASURE_COLUMNS = ("rhythm", "gait", "gait_reason", "gait_share", "rhythm_period_s",

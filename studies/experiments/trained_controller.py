@@ -75,7 +75,7 @@ def run_words(row: Mapping[str, Any]) -> str:
         gait = f"gait (footfalls) none: {row['gait_reason']}"
     else:
         gait = (f"gait (footfalls) {row['gait']}{': ' + row['gait_reason'] if row['gait_reason'] else ''}"
-                f" (touchdowns relative to FR: {_phases(row, 'gait')}; duty factor "
+                f" (stances relative to FR: {_phases(row, 'gait')}; duty factor "
                 f"{row['gait_duty_factor']:.2f})")
     return f"{rhythm}; {gait}"
 
