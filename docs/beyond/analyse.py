@@ -122,7 +122,7 @@ def measures(series: np.ndarray, last: int) -> list[float]:
 
 
 def paired(a_spec: str, b_spec: str, sessions: int | None, last: int) -> str:
-    from scipy import stats
+    from astrocpg.studies.analysis.compare import compare, holm, p_text
 
     a_rows, _ = read_rows(a_spec)
     b_rows, _ = read_rows(b_spec)
@@ -137,28 +137,47 @@ def paired(a_spec: str, b_spec: str, sessions: int | None, last: int) -> str:
     S = n_a.pop()
     ma = np.array([measures(a[s], last) for s in seeds])
     mb = np.array([measures(b[s], last) for s in seeds])
+    tests = [compare(mb[:, k], ma[:, k], paired=True) for k in range(len(MEASURES))]
+    adjusted = holm([t["perm_p"] for t in tests])
     lines = [f"{len(seeds)} seeds ({seeds[0]}-{seeds[-1]}), sessions 1-{S}, last {last} sessions; "
-             f"A = {a_spec}, B = {b_spec}", "",
-             "| measure | A: mean ± std | B: mean ± std | B − A per seed: mean ± std | paired t p "
-             "| Wilcoxon p |", "|---|---|---|---|---|---|"]
+             f"A = {a_spec}, B = {b_spec}. B − A per seed: mean [95 % bootstrap interval over "
+             f"seeds]; p: two-sided sign-flip permutation test of the per-seed differences; "
+             f"Holm: adjusted over the {len(MEASURES)} measures of this table.", "",
+             "| measure | A: mean ± std | B: mean ± std | B − A per seed [95 % interval] "
+             "| p | Holm p |", "|---|---|---|---|---|---|"]
     for k, name in enumerate(MEASURES):
-        x, y = ma[:, k], mb[:, k]
-        ok = ~(np.isnan(x) | np.isnan(y))
-        d = y[ok] - x[ok]
-        if ok.sum() >= 2 and np.any(d != 0):
-            t_p = stats.ttest_rel(y[ok], x[ok]).pvalue
-            w_p = stats.wilcoxon(y[ok], x[ok]).pvalue
-            ps = f"{t_p:.3g} | {w_p:.3g}"
-        else:
-            ps = "– | –"
+        x, y, t = ma[:, k], mb[:, k], tests[k]
         never = ""
         if name.startswith("learnt"):
             never = f" (never: A {int(np.isnan(x).sum())}, B {int(np.isnan(y).sum())})"
+        if t["difference_low"] is not None:
+            d = f"{t['difference']:+.3f} [{t['difference_low']:+.3f}, {t['difference_high']:+.3f}]"
+        else:
+            d = f"{t['difference']:+.3f} ({t['note']})"
         lines.append(f"| {name}{never} | {np.nanmean(x):.3f} ± {np.nanstd(x):.3f} | "
-                     f"{np.nanmean(y):.3f} ± {np.nanstd(y):.3f} | "
-                     f"{d.mean() if len(d) else math.nan:.3f} ± "
-                     f"{d.std() if len(d) else math.nan:.3f} | {ps} |")
+                     f"{np.nanmean(y):.3f} ± {np.nanstd(y):.3f} | {d} | "
+                     f"{p_text(t['perm_p'], t['perm_p_min'], bool(t['perm_bound']))} | "
+                     f"{p_text(adjusted[k])} |")
     return "\n".join(lines) + "\n"
+
+
+def _final_labels(rows: list[dict[str, str]]) -> str:
+    """The final runs' labels of a run's seeds, each measure named: ``rhythm trot 8; gait trot
+    5, none 3`` (a study that reads both), or ``rhythm trot 8`` for rows written before the
+    gait was read from the feet (their ``final_gait`` is the CPG's rhythm)."""
+    seeds = {r["seed"]: r for r in rows}
+    new = any("final_rhythm" in r for r in seeds.values())
+    kinds = (("rhythm", "final_rhythm"), ("gait", "final_gait")) if new else \
+        (("rhythm", "final_gait"),)
+    parts = []
+    for name, column in kinds:
+        counts: dict[str, int] = {}
+        for r in seeds.values():
+            label = r.get(column, "") or "–"
+            counts[label] = counts.get(label, 0) + 1
+        parts.append(f"{name} " + ", ".join(
+            f"{k} {v}" for k, v in sorted(counts.items(), key=lambda kv: -kv[1])))
+    return "; ".join(parts)
 
 
 def table(specs: list[str], sessions: int | None, last: int, seeds: str | None) -> str:
@@ -170,7 +189,7 @@ def table(specs: list[str], sessions: int | None, last: int, seeds: str | None) 
     if seeds:
         lo, _, hi = seeds.partition("-")
         keep = set(range(int(lo), int(hi or lo) + 1))
-    lines = ["| run | seeds | sessions | " + " | ".join(MEASURES) + " | final gait |",
+    lines = ["| run | seeds | sessions | " + " | ".join(MEASURES) + " | final labels |",
              "|---|---|---|" + "---|" * (len(MEASURES) + 1)]
     for spec in specs:
         rows, _ = read_rows(spec)
@@ -186,33 +205,39 @@ def table(specs: list[str], sessions: int | None, last: int, seeds: str | None) 
                 never = f" ({int(np.isnan(x).sum())} never)" if np.isnan(x).any() else ""
                 cells.append(f"{np.nanmean(x):.2f} ± {np.nanstd(x):.2f}{never}"
                              if not np.isnan(x).all() else "never")
-            gait = {r["seed"]: r.get("final_gait", "") for r in rows if r["run_id"] == run_id}
-            counts: dict[str, int] = {}
-            for seed, label in gait.items():
-                if keep is None or int(seed) in keep:
-                    counts[label or "–"] = counts.get(label or "–", 0) + 1
-            cells.append(", ".join(f"{k} {v}" for k, v in sorted(counts.items(),
-                                                                  key=lambda kv: -kv[1])))
+            cells.append(_final_labels(
+                [r for r in rows if r["run_id"] == run_id
+                 and (keep is None or int(r["seed"]) in keep)]))
             lines.append(f"| {run_id} | {len(series)} | 1–{S} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
 def worlds(path: str) -> str:
     """astrocpg evaluate's runs, controller by controller: per condition and world, the mean over
-    controllers (each controller's repeats averaged first) of falls, speed and trot, with 95 %
-    bootstrap intervals, and the two conditions' difference with its interval and
-    Mann-Whitney p (the module docstring says how)."""
-    from scipy import stats
+    controllers (each controller's repeats averaged first) of falls, speed, and the share of
+    runs with a trot rhythm and (evaluations that read it) a trot gait, with 95 % bootstrap
+    intervals, and the two conditions' difference with its interval, Mann-Whitney p and that p
+    Holm-adjusted over the worlds (the module docstring says how)."""
+    from astrocpg.studies.analysis.compare import compare, holm, p_text
 
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
+    # evaluations written before the gait was read from the feet have no ``rhythm`` column:
+    # their ``gait`` is the CPG's rhythm
+    new = bool(rows) and "rhythm" in rows[0]
+    columns = [("falls (share of runs)", lambda r: float(r["fell"])),
+               ("speed (m/s)", lambda r: float(r["mean_speed_m_per_s"])),
+               ("trot rhythm (share of runs)",
+                lambda r: float(r["rhythm" if new else "gait"] == "trot"))]
+    if new:
+        columns.append(("trot gait, from the feet while upright (share of runs)",
+                        lambda r: float(r["gait"] == "trot")))
     rng = np.random.default_rng(1)
-    # condition -> world -> controller -> [fell, speed, trot] per repeat
+    # condition -> world -> controller -> [measures] per repeat
     table: dict[str, dict[str, dict[str, list[list[float]]]]] = {}
     for r in rows:
         table.setdefault(r["condition"], {}).setdefault(r["world"], {}).setdefault(
-            f'{r["source"]}:{r["seed"]}', []).append(
-            [float(r["fell"]), float(r["mean_speed_m_per_s"]), float(r["gait"] == "trot")])
+            f'{r["source"]}:{r["seed"]}', []).append([f(r) for _, f in columns])
     conditions = list(table)
     world_names = list(dict.fromkeys(w for c in conditions for w in table[c]))
 
@@ -223,31 +248,40 @@ def worlds(path: str) -> str:
         means = x[rng.integers(0, len(x), (10000, len(x)))].mean(axis=1)
         return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
-    labels = ("falls (share of runs)", "speed (m/s)", "trot (share of runs)")
     n = {c: len(next(iter(table[c].values()))) for c in conditions}
     reps = {c: len(next(iter(next(iter(table[c].values())).values()))) for c in conditions}
     lines = [f"Controllers: {', '.join(f'{c} {n[c]} ({reps[c]} repeats each)' for c in conditions)}."
-             f" Mean over controllers [95 % bootstrap interval].", ""]
-    for k, label in enumerate(labels):
+             " Mean over controllers [95 % bootstrap interval]; difference [95 % bootstrap "
+             "interval]; Mann-Whitney p (exact where no value is tied) and, in the last column, "
+             f"Holm-adjusted over the {len(world_names)} worlds of the table.", ""]
+    for k, (label, _) in enumerate(columns):
         head = " | ".join(c.replace("_", " ") for c in conditions)
-        lines += [f"**{label}**", "", f"| world | {head} | difference (first − second) | "
-                  "Mann-Whitney p |", "|---|" + "---|" * (len(conditions) + 2)]
+        two = len(conditions) == 2
+        lines += [f"**{label}**", "", f"| world | {head} |"
+                  + (" difference (first − second) | Mann-Whitney p | Holm p |" if two else ""),
+                  "|---|" + "---|" * (len(conditions) + (3 if two else 0))]
+        body, tests = [], []
         for w in world_names:
             cells, values = [], []
             for c in conditions:
-                x = per_controller(c, w)[:, k]
-                lo, hi = ci(x)
-                cells.append(f"{x.mean():.2f} [{lo:.2f}, {hi:.2f}]")
+                x = per_controller(c, w)[:, k] if w in table[c] else np.array([])
+                lo, hi = ci(x) if len(x) else (math.nan, math.nan)
+                cells.append(f"{x.mean():.2f} [{lo:.2f}, {hi:.2f}]" if len(x) else "–")
                 values.append(x)
-            if len(values) == 2:
-                a, b = values
-                diffs = (a[rng.integers(0, len(a), (10000, len(a)))].mean(axis=1)
-                         - b[rng.integers(0, len(b), (10000, len(b)))].mean(axis=1))
-                d = f"{a.mean() - b.mean():+.2f} [{np.percentile(diffs, 2.5):+.2f}, " \
-                    f"{np.percentile(diffs, 97.5):+.2f}]"
-                p = (stats.mannwhitneyu(a, b).pvalue if np.any(a != a[0]) or np.any(b != b[0])
-                     or a[0] != b[0] else 1.0)
-                cells += [d, f"{p:.2g}"]
+            t = compare(*values) if two and all(len(v) for v in values) else None
+            tests.append(t)
+            body.append((w, cells, t))
+        adjusted = holm([t["mwu_p"] if t else None for t in tests])
+        for (w, cells, t), adj in zip(body, adjusted):
+            if len(conditions) == 2:
+                if t is None:
+                    cells += ["–", "–", "–"]
+                elif t["difference_low"] is None:
+                    cells += [f"{t['difference']:+.2f} ({t['note']})", "–", "–"]
+                else:
+                    cells += [f"{t['difference']:+.2f} [{t['difference_low']:+.2f}, "
+                              f"{t['difference_high']:+.2f}]",
+                              p_text(t["mwu_p"]), p_text(adj)]
             lines.append(f"| {w} | " + " | ".join(cells) + " |")
         lines.append("")
     return "\n".join(lines)
