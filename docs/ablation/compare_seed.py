@@ -2,6 +2,8 @@
 
     python docs/ablation/compare_seed.py out/seed7 docs/ablation/streams/results.csv.gz \
         --condition astrocytes --seed 7
+    python docs/ablation/compare_seed.py out/hc_seed5 rows.csv.gz --condition control \
+        --seed 5 --run interlimb_synapse=homeostatic
 
 Reads the training's ``sessions.csv`` (one trial) and the study's ``results.csv`` (or its
 ``.gz``), and compares every column of every session that both hold, as written (text). Prints
@@ -29,9 +31,16 @@ def main() -> int:
     ap.add_argument("results", type=Path, help="a study's results.csv or results.csv.gz")
     ap.add_argument("--condition", required=True)
     ap.add_argument("--seed", required=True)
+    ap.add_argument("--run", default="",
+                    help="only the rows of runs whose name contains this (a sweep point, e.g. "
+                         "interlimb_synapse=homeostatic)")
     args = ap.parse_args()
     study = {r["session"]: r for r in _rows(args.results)
-             if r["condition"] == args.condition and r["seed"] == args.seed}
+             if r["condition"] == args.condition and r["seed"] == args.seed
+             and args.run in r.get("run_id", "")}
+    if not study:
+        sys.exit(f"compare_seed.py: no row of condition {args.condition!r}, seed {args.seed}"
+                 + (f", run {args.run!r}" if args.run else "") + f" in {args.results}")
     alone = _rows(args.training / "sessions.csv")
     columns = [c for c in alone[0] if c != "trial"] if alone else []
     both = [r for r in alone if r["session"] in study]
