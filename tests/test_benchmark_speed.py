@@ -43,3 +43,26 @@ def test_measure_gives_the_ratio_of_the_two_medians(speed):
     assert r["trials"] == 2 and r["mj_step_us"] > 0
     assert r["x_mj_step"] == pytest.approx(r["trial_step_us"] / r["mj_step_us"])
     assert r["cpu_per_sim_s"] == pytest.approx(r["trial_step_us"] * 2 / 1e3)
+
+
+def test_the_authors_time_counts_their_loop_only(speed, tmp_path):
+    """Two durations: the slope leaves out a start-up that costs the same in both runs (here
+    0.3 CPU s of 'imports' before a loop of 0.1 CPU s per simulated second)."""
+    import sys
+
+    script = tmp_path / "their_main.py"
+    script.write_text(
+        "import sys, time\n"
+        "def spin(s):\n"
+        "    end = time.process_time() + s\n"
+        "    while time.process_time() < end:\n"
+        "        pass\n"
+        "spin(0.3)\n"
+        "spin(0.1 * float(sys.argv[1]))\n")
+    command = f"{sys.executable} {script} {{seconds}}"
+    loop_only = speed.authors_speed(command, [1.0, 4.0])
+    with_start = speed.authors_speed(command.replace("{seconds}", "1"), 1.0)
+    assert loop_only == pytest.approx(0.1, abs=0.04)
+    assert with_start > loop_only + 0.2
+    with pytest.raises(SystemExit, match="seconds"):
+        speed.authors_speed(f"{sys.executable} {script} 1", [1.0, 2.0])
