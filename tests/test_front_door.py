@@ -40,6 +40,15 @@ def test_run_records_the_same_settings_from_either_door(tmp_path, capsys):
     assert not {"out", "command", "no_progress", "codegen", "model_files"} & set(by_cli)
 
 
+def test_unit_records_the_same_settings_from_either_door(tmp_path, capsys):
+    cli, api = tmp_path / "cli", tmp_path / "api"
+    assert main(["unit", "--seconds", "0.1", "--trials", "2", "--set", "tau_motor=9*ms",
+                 "--no-progress", "--out", str(cli)]) == 0
+    capsys.readouterr()
+    ac.unit(seconds=0.1, trials=2, overrides={"tau_motor": "9*ms"}, progress=False, out=api)
+    assert _settings(cli) == _settings(api)
+
+
 def test_train_records_the_same_settings_from_either_door(tmp_path, capsys):
     cli, api = tmp_path / "cli", tmp_path / "api"
     sets = [x for item in SHORT_SESSIONS for x in ("--set", item)]
