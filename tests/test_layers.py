@@ -41,7 +41,7 @@ def _imports(path: Path):
 def test_nothing_imports_the_command_line():
     offenders = []
     for path in _package_files():
-        if path == ROOT / "studies" / "cli.py":
+        if (ROOT / "studies" / "cli") in path.parents:  # the command line's own modules
             continue
         for node, module, names in _imports(path):
             if module.endswith("cli") or "cli" in names or any(n.endswith(".cli") for n in names):

@@ -122,9 +122,10 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
 
     if isinstance(world, str):  # one setting, not its characters
         world = [world]
-    kwargs = dict(seconds=number(seconds, "seconds", positive=True),
-                  repeats=number(repeats, "repeats", integer=True, minimum=1),
-                  seed=None if seed is None else seed_number(seed, "seed"), world=list(world),
+    # named as the command's options; ac.gait names its keywords (astrocpg._in_keywords)
+    kwargs = dict(seconds=number(seconds, "--seconds", positive=True),
+                  repeats=number(repeats, "--repeats", integer=True, minimum=1),
+                  seed=None if seed is None else seed_number(seed, "--seed"), world=list(world),
                   progress=progress)
     if rows:
         return gait_runs(_path(folder, "folder"), **kwargs)[0]
@@ -171,8 +172,8 @@ def power(folder: str | os.PathLike, *, trial: int = 0, sessions: int = 10,
     from .settings import number
 
     return measure_power(_path(folder, "folder"),
-                         trial=number(trial, "trial", integer=True, minimum=0),
-                         sessions=number(sessions, "sessions", integer=True, minimum=1),
+                         trial=number(trial, "--trial", integer=True, minimum=0),
+                         sessions=number(sessions, "--sessions", integer=True, minimum=1),
                          progress=progress, overrides=override_items(overrides))
 
 

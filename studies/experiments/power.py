@@ -170,11 +170,13 @@ def format_power(res: dict[str, Any]) -> str:
 
 
 def power(folder: Path, *, trial: int = 0, sessions: int = 10, progress: bool = True,
-          argv: list[str] | None = None, overrides: list[str] | tuple[str, ...] = ()
-          ) -> tuple[Path, dict[str, Any]]:
-    """:func:`measure`, then ``power_trial<K>.json`` in ``folder`` (with package versions;
+          overrides: list[str] | tuple[str, ...] = ()) -> tuple[Path, dict[str, Any]]:
+    """:func:`measure`, then ``power_trial<K>.json`` in ``folder`` (with package versions and
+    the process's command line, as manifests record it, whichever door called;
     with ``overrides``, ``power_trial<K>_<name>=<value>....json``, one file per setting);
     returns its path and the figures."""
+    import sys
+
     from ..outputs.folder import refuse_in_use
     from ..outputs.writing import package_versions, save_json
 
@@ -184,5 +186,5 @@ def power(folder: Path, *, trial: int = 0, sessions: int = 10, progress: bool = 
     res = measure(Path(folder), trial=trial, sessions=sessions, progress=progress,
                   overrides=tuple(overrides))
     refuse_in_use(path, culprit=str(folder))
-    save_json(path, res | {"package_versions": package_versions(), "argv": argv or []})
+    save_json(path, res | {"package_versions": package_versions(), "argv": sys.argv})
     return path, res

@@ -42,7 +42,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         robot_stride: int = 1,
         spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
         out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
-        figure: bool = False, settings: Mapping[str, Any] | None = None,
+        figure: bool = False,
         inputs: Sequence[str | os.PathLike] = (), session: int | None = None) -> Result:
     """Run the CPG driving ``trials`` A1 robots in MuJoCo for ``seconds`` (seeds seed,
     seed+1, ...): the closed loop, what ``astrocpg run`` runs.
@@ -131,7 +131,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
                          f"at {params.timestep:g} s (set <option timestep=\"{params.timestep:g}\"/>)",
                          culprit=f"--robot {Path(robot).name}")
     layout = RobotLayout.from_model(model, params)
-    settings = dict(settings or {}) or {
+    # the manifest's settings: the checked values, whichever door (command line or API) called
+    settings = {
         "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
         "trace_dtype": trace_dtype, "robot_stride": robot_stride, "overrides": override_items(overrides),
         "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
@@ -329,20 +330,25 @@ REPLAY_FIXED = {"seconds": 10.0, "seed": 1, "trials": 1, "overrides": None, "equ
 
 
 def _replay(given: dict[str, Any]) -> Result:
-    """:func:`run` with ``session``: the replay of a training's session."""
+    """:func:`run` with ``session``: the replay of a training's session. The errors name the
+    command's options (``ac.run`` names its keywords)."""
     from ...models.units import whole_steps
     from .replay import replay_session
 
+    weights = given["weights"]
+    if not isinstance(weights, (str, os.PathLike)):
+        raise InputError("replays a session of a training: give the training folder with "
+                         "--weights DIR", culprit="--session")
     for name, default in REPLAY_FIXED.items():
         value = given[name]
         if value != default and not (default is None and not value):
+            option = "--" + {"overrides": "set", "models": "model"}.get(
+                name, name).replace("_", "-")
             raise InputError("a replay takes the training's own (the session's length, seed, "
-                             "models and robot); leave it out", culprit=name)
-    weights = given["weights"]
-    if not isinstance(weights, (str, os.PathLike)) or given["out"] is None:
-        raise InputError("replays a session of a training: give the training folder as "
-                         "weights and an out folder", culprit="session")
-    stride = whole_steps(float(given["trace_dt"]) * 1e-3, 1e-3, culprit="trace_dt")
+                             "models and robot); drop it", culprit=option)
+    if given["out"] is None:
+        raise InputError("a replay writes a folder: give one", culprit="--out")
+    stride = whole_steps(float(given["trace_dt"]) * 1e-3, 1e-3, culprit="--trace-dt")
     return replay_session(weights, trial=given["trial"] or 0, session=given["session"],
                           out=given["out"], record_stride=stride, spikes=given["spikes"],
                           traces=given["traces"], overwrite=given["overwrite"],

@@ -659,7 +659,7 @@ def _true(value: Any) -> bool:
     return value in (True, 1, "1", "True", "true")
 
 
-def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 1,
+def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials: int = 1,
           astrocytes: bool = True, overrides: Any = None,
           equations: dict[str, str] | None = None, models: dict[str, str] | None = None,
           record_every: int | None = None,
@@ -681,6 +681,8 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
     session)``), with the live ``network`` and ``trainer`` (the :class:`Trainer`:
     ``trainer.training.memory.rows``, ``trainer.cpg``). Raises TrainingStopped if interrupted
     (continue with :func:`resume`)."""
+    if out is None or (isinstance(out, str) and not out):
+        raise InputError("is required (or --resume DIR)", culprit="--out")
     n_trials = number(trials, "--trials", integer=True, minimum=1)
     settings = TrainSettings(
         n_sessions=number(sessions, "--sessions", integer=True, minimum=1),
@@ -707,18 +709,22 @@ def train(*, out: str | Path, sessions: int = 400, seed: int = 1, trials: int = 
 def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = True,
            record_every: int | None = None,
            record_stride: int | None = None, spikes: tuple[str, ...] | None = None,
-           traces: tuple[str, ...] | None = None,
+           traces: tuple[str, ...] | None = None, seed: int | None = None,
+           trials: int | None = None, astrocytes: bool | None = None, overrides: Any = None,
+           equations: Mapping[str, str] | None = None, models: Mapping[str, Any] | None = None,
+           out: str | Path | None = None, overwrite: bool = False,
            expect: dict[str, Any] | None = None) -> Result:
     """Continue the training in ``folder`` from its checkpoint (``astrocpg train --resume``)
     and end with the same files as a training never interrupted (what later commands derived
     from the earlier weights, e.g. ``evaluation/`` and ``figures/``, is removed: it would be
     stale).
 
-    A resumed training keeps the settings it started with. Options given again (``expect``:
-    ``sessions``, ``seed``, ``trials``, ``astrocytes``, ``overrides``, ``equations``,
-    ``models``; and the recording options) must agree with them, or the resume is refused
+    A resumed training keeps the settings it started with. Options given again (``seed``,
+    ``trials``, ``astrocytes``, ``overrides``, ``equations``, ``models``, the recording
+    options; or the same in ``expect``) must agree with them, or the resume is refused
     with the option and both values named (:func:`~astrocpg.studies.experiments.train.check_resume_options`): none is silently
-    ignored.
+    ignored. ``out`` may only name ``folder`` itself (a resume writes where it continues), and
+    ``overwrite`` is refused (it would replace what the resume continues).
 
     ``sessions`` more than the training's sessions per trial extends it (finished or not):
     it goes on exactly as a training asked for ``sessions`` from the start would have, and its
@@ -729,8 +735,15 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     training would not have done (refused, naming the trials; one trial never idles). A study's
     run is not extended (its sessions are the study's). Returns the training's Result, like
     :func:`train`."""
+    out_given = None if out is None else as_path(out, "--out")
     out = as_path(folder, "--resume")
-    given = dict(expect or {})
+    if out_given is not None and Path(out_given).resolve() != out.resolve():
+        raise InputError("--resume writes into its own folder; drop --out", culprit="--out")
+    if overwrite:  # never ignored: it would replace what --resume continues
+        raise InputError("replaces a training, --resume continues one: use one of them",
+                         culprit="--overwrite")
+    given = _given_again(seed, trials, astrocytes, overrides, equations, models) \
+        | dict(expect or {})
     asked = given.pop("sessions", None)
     if sessions is None:
         sessions = asked
@@ -805,6 +818,18 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
         settings = dataclasses.replace(settings, n_sessions=target)
     return Result.from_training(_train(settings, out, stored_plan, None if fresh else payload,
                                        progress, resumed=True, extend_from=extend_from), out)
+
+
+def _given_again(seed: int | None, trials: int | None, astrocytes: bool | None,
+                 overrides: Any, equations: Mapping[str, str] | None,
+                 models: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The settings a resume was given again, as :func:`check_resume_options` compares them
+    (None: not given)."""
+    items = override_items(overrides)
+    return {"seed": seed, "trials": trials,
+            "astrocytes": None if astrocytes is None else bool(astrocytes),
+            "overrides": sorted(items) or None, "equations": dict(equations or {}) or None,
+            "models": model_files_record(models) or None}
 
 
 def _check_extension(out: Path, sessions: int, target: int,

@@ -33,7 +33,6 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          spikes: tuple[str, ...] | None = None,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
          overwrite: bool = False, progress: bool = True,
-         settings: Mapping[str, Any] | None = None,
          inputs: Sequence[str | os.PathLike] = ()) -> Result:
     """Simulate ``trials`` independent locomotion units (the FR limb's CPG, open loop; seeds
     seed, seed+1, ...) for ``seconds``; what ``astrocpg unit`` runs.
@@ -44,7 +43,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     trace_dt: sampling of the traces in ms; trace_dtype: kept as float32 (default) or float64
     (full resolution). spikes / traces: which
     populations and traces to record (None: all). out: writes the folder ``astrocpg unit``
-    writes, whole or nothing (``settings`` goes into its manifest; a folder that holds files is
+    writes, whole or nothing (its manifest records the checked settings; a folder that holds files is
     refused unless ``overwrite``, which replaces only an astrocpg output folder that is none of
     ``inputs``, the files the caller read, e.g. model files). progress: a progress bar for long
     runs.
@@ -70,7 +69,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
                  culprit=f"--seconds {seconds:g} x --trials {trials}")
     files = model_files_record(models)
     models = model_set(overrides, equations, models=models)
-    settings = dict(settings or {}) or {
+    # the manifest's settings: the checked values, whichever door (command line or API) called
+    settings = {
         "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
         "trace_dtype": trace_dtype, "overrides": override_items(overrides), "equations": dict(equations or {}),
         "spikes": spikes, "traces": traces}

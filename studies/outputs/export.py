@@ -306,16 +306,35 @@ def _column_table(name: str, description: str, cell: str, cells: Any,
 def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
                institution: str | None = None) -> Path:
     """Write ``folder`` as the NWB file ``path`` (see the module's docstring)."""
-    from hdmf.common import DynamicTable, VectorData
-    from pynwb import NWBHDF5IO, NWBFile, ProcessingModule, TimeSeries
-    from pynwb.file import Subject
-    from pynwb.misc import Units
+    from pynwb import NWBHDF5IO, ProcessingModule
 
     data = _load(folder)
     m = data["manifest"]
+    dt = _resolution(m, data)
+    nwb = _nwb_file(m, experimenter=experimenter, institution=institution)
+    populations = unit_rows(m)
+    _add_units(nwb, populations, data["spikes"], dt)
+    module = ProcessingModule(name="misc", description=(
+        "the simulated network: its cells (astrocytes, motor_neurons), the cell of each column "
+        "of the trace TimeSeries (astrocyte_trace_columns, motor_trace_columns), and the model "
+        "as simulated (parameters and equations of every model)"))
+    _add_traces(nwb, module, m, data, populations, dt)
+    _add_robot(nwb, data.get("robot"), dt)
+    _add_models(module, m)
+    nwb.add_processing_module(module)
+    atomic_path(path, lambda p: _nwb_write(NWBHDF5IO, nwb, p))
+    return path
+
+
+def _nwb_file(m: dict[str, Any], *, experimenter: Sequence[str],
+              institution: str | None) -> Any:
+    """The NWBFile of the folder whose manifest is ``m``: its session, who and where, and the
+    simulation as its subject."""
+    from pynwb import NWBFile
+    from pynwb.file import Subject
+
     created = datetime.strptime(m["created"], "%Y-%m-%dT%H:%M:%S%z")
     lay = m["results"]["layout"]
-    dt = _resolution(m, data)
     digest = hashlib.sha256(json.dumps(_metadata(m), sort_keys=True, default=str)
                             .encode()).hexdigest()
     nwb = NWBFile(
@@ -344,8 +363,14 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
                           description=("a simulated spiking CPG with astrocytes driving a "
                                        "simulated Unitree A1 quadruped robot; no animal (species: "
                                        "NCBI Taxonomy 32630, synthetic construct)"))
-    populations = unit_rows(m)
-    spikes = data["spikes"]
+    return nwb
+
+
+def _add_units(nwb: Any, populations: dict[str, list[dict[str, Any]]],
+               spikes: dict[str, np.ndarray], dt: float) -> None:
+    """The Units table: every recorded neuron's spike train and its trial, limb and pool."""
+    from pynwb.misc import Units
+
     recorded = [pop for pop in populations if f"{pop}_times" in spikes]
     if recorded:  # recorded with --spikes none: no Units table
         nwb.units = Units(name="units", resolution=dt,
@@ -373,10 +398,14 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
                           dtype=_index_dtype(max(r["neuron_index"] for r in rows))))):
             nwb.units.add_column(name=col, description=desc, data=values)
 
-    module = ProcessingModule(name="misc", description=(
-        "the simulated network: its cells (astrocytes, motor_neurons), the cell of each column "
-        "of the trace TimeSeries (astrocyte_trace_columns, motor_trace_columns), and the model "
-        "as simulated (parameters and equations of every model)"))
+
+def _add_traces(nwb: Any, module: Any, m: dict[str, Any], data: dict[str, Any],
+                populations: dict[str, list[dict[str, Any]]], dt: float) -> None:
+    """The traces as TimeSeries (one per trial and limb, or per trial), the cell tables and
+    the cell of each trace column (in ``module``)."""
+    from pynwb import TimeSeries
+
+    lay = m["results"]["layout"]
     cells = {"astrocyte": _cell_table("astrocytes", "one row per astrocyte: the trial, limb "
                                                     "and thigh pool it covers",
                                       populations["astrocyte"],
@@ -431,7 +460,12 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
                                      f"the {cell.replace('_', ' ')} of each column of the "
                                      f"{pop} trace TimeSeries", cell, cells[pop],
                                      column_rows[pop]))
-    robot = data.get("robot")
+
+
+def _add_robot(nwb: Any, robot: Any, dt: float) -> None:
+    """The robot's recorded arrays, one TimeSeries per array and trial."""
+    from pynwb import TimeSeries
+
     if robot is not None and len(robot["t"]):
         legs, joints = [str(x) for x in robot["legs"]], [str(x) for x in robot["joints"]]
         for key, meaning in ROBOT_SERIES:
@@ -444,6 +478,12 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
                     name=f"{key}_trial{b}", data=values, unit=ROBOT_UNITS[key],
                     comments=SAMPLE_COMMENT, **_sampling(robot["t"], dt),
                     description=f"{meaning}; columns: {', '.join(columns)}"))
+
+
+def _add_models(module: Any, m: dict[str, Any]) -> None:
+    """The model as simulated: every model's parameters and equation strings, two tables."""
+    from hdmf.common import DynamicTable, VectorData
+
     names, params, values, symbols, meanings = [], [], [], [], []
     eq_models, eq_kinds, eq_texts = [], [], []
     for model, entry in m.get("models", {}).items():
@@ -476,9 +516,7 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
                                                 "threshold, reset, ...", data=eq_kinds),
                                      VectorData(name="text", description="Brian2 code",
                                                 data=eq_texts)]))
-    nwb.add_processing_module(module)
-    atomic_path(path, lambda p: _nwb_write(NWBHDF5IO, nwb, p))
-    return path
+
 
 def _resolution(manifest: dict[str, Any], data: dict[str, Any]) -> float:
     """The simulation time step (spike times lie on its grid)."""

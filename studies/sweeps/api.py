@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from ...errors import InputError
 from ..experiments.settings import number
@@ -22,7 +22,8 @@ def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
           seeds: str | int | list[int] | None = None, sessions: int | None = None,
           overrides: Any = None,
           workers: int | None = None, scheduler: str | None = None, overwrite: bool = False,
-          progress: bool = True) -> dict[str, Any]:
+          progress: bool = True,
+          announce: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Run the parameter study ``file`` (a study file, or a built-in study's name: quick,
     ablation) on Dask into ``out`` (default ``out/<study name>``; a second call continues it),
     on a local cluster of ``workers`` processes or the running ``scheduler``: what ``astrocpg
@@ -30,8 +31,11 @@ def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
     or a list of ints), ``sessions`` per trial and ``overrides`` (``["NAME=VALUE", ...]`` or
     {name: value}, in place of the file's ``[base]``) change the study as loaded, like
     ``--seeds``, ``--sessions`` and ``--set``; the study folder records them, and a second
-    call into it must give the same. Returns the counts of runs by status, the rows of the
-    results table, the runs not finished (``failed``) and their errors."""
+    call into it must give the same. ``announce`` is called, before the runs start, with each
+    line that says what the study will run (its runs, trials and sessions, and how ``batch =
+    "auto"`` chose; ``astrocpg study`` prints them). Returns the counts of runs by status, the
+    rows of the results table, the runs not finished (``failed``) and their errors, with the
+    study's ``name``, its ``runs`` (how many) and its folder (``out``)."""
     from .study import load_study, prepare_study, run_study, study_overrides
 
     if scheduler is not None and not isinstance(scheduler, str):
@@ -42,8 +46,29 @@ def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
     folder = Path("out") / loaded.name if out is None else _path(out, "out")
     loaded = prepare_study(loaded, folder, workers=workers, scheduler=scheduler,
                            overwrite=overwrite, progress=progress)
-    return run_study(loaded, folder, workers=workers, scheduler=scheduler, progress=progress,
-                     overwrite=overwrite)
+    for line in plan_lines(loaded, folder) if announce is not None else ():
+        announce(line)
+    res = run_study(loaded, folder, workers=workers, scheduler=scheduler, progress=progress,
+                    overwrite=overwrite)
+    return res | {"name": loaded.name, "runs": len(loaded.runs), "out": folder}
+
+
+def plan_lines(study: Any, out: Path) -> list[str]:
+    """What a prepared ``study`` will run into ``out``: how ``batch = "auto"`` chose (when it
+    did), then its runs, trials and sessions."""
+    lines = []
+    if study.batch_setting == "auto":
+        c = study.batch_choice or {}
+        projected = c.get("projected_s", 0.0)
+        span = f"{projected / 60:.0f} min" if projected >= 120 else f"{projected:.0f} s"
+        how = c.get("reason") or (f"{c['runs']} runs on {c['workers']} workers: {span} if "
+                                  f"every session lasts L_max, on this machine's measured cost "
+                                  f"per trial")
+        lines.append(f"batch auto: {study.batch} seeds per run ({how})")
+    n_trials = sum(r.n_trials for r in study.runs)
+    lines.append(f"study {study.name}: {len(study.runs)} runs ({n_trials} trials x "
+                 f"{study.n_sessions} sessions) -> {out}/")
+    return lines
 
 
 def report(folder: str | os.PathLike, *, smooth: int = 1, last: int = 50,
@@ -55,8 +80,9 @@ def report(folder: str | os.PathLike, *, smooth: int = 1, last: int = 50,
     from .report import report as write_report
 
     return write_report(_path(folder, "folder"),
-                        last=number(last, "last", integer=True, minimum=1),
-                        smooth=number(smooth, "smooth", integer=True, minimum=1),
+                        # named as the command's options; ac.report names its keywords
+                        last=number(last, "--last", integer=True, minimum=1),
+                        smooth=number(smooth, "--smooth", integer=True, minimum=1),
                         out=None if out is None else _path(out, "out"), overwrite=overwrite)
 
 

@@ -261,23 +261,7 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
             ax.fill_between(x, mean - std, mean + std, color=color, alpha=0.25, lw=0)
             ax.set_ylabel(ylabel)
         L_max = _model_values(members[0]["spec"])[1]
-        seeds_here = []
-        for seed, s in series.items():
-            tail = s.tail(last)
-            one = {"condition": condition, "point": point, "seed": seed,
-                   "sessions": len(s), "last_sessions": len(tail),
-                   "speed": float(tail["mean_forward_speed_m_per_s"].mean()),
-                   "final_x": float(tail["final_x_m"].mean()),
-                   "length": float(tail["length_s"].mean()),
-                   "reward": float(tail["mean_reward"].mean()),
-                   "full": float((tail["length_s"] >= L_max - 1e-6).mean())}
-            if seed in structure:
-                one["mixed_limb_pairs"] = float(structure[seed]["mixed_limb_pairs"])
-                one["limb_pairs"] = int(structure[seed]["limb_pairs"])
-                for key in ("share_above_0.9_w_max", "share_below_0.9_w_min",
-                            "share_excitatory"):
-                    one[key] = structure[seed][key]
-            seeds_here.append(one)
+        seeds_here = _seed_finals(condition, point, series, structure, last=last, L_max=L_max)
         per_seed.extend(seeds_here)
         row: dict[str, Any] = {
             "group": label, "condition": condition, **dict(zip(swept, point)),
@@ -316,6 +300,47 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
                                    for d in diverged},
                              paired=bool(index.get("paired", False)))
 
+    files, described, text = _write_files(
+        dest, name, figures, shows, rows, tests, per_seed, study_sessions, last=last,
+        swept=swept, measures=measures, empty=empty, diverged=diverged)
+    return {"files": files, "rows": rows, "text": text, "figures": figures, "tests": tests,
+            "per_seed": per_seed, "described": described,
+            "no_data": [e["group"] for e in empty],
+            "diverged": [d["group"] for d in diverged]}
+
+
+def _seed_finals(condition: str, point: tuple[str, ...], series: dict[int, Any],
+                 structure: dict[int, dict[str, float]], *, last: int,
+                 L_max: float) -> list[dict[str, Any]]:
+    """One row per seed of a group: its final figures (means over its ``last`` sessions) and,
+    where its weights were read, their structure."""
+    seeds_here = []
+    for seed, s in series.items():
+        tail = s.tail(last)
+        one = {"condition": condition, "point": point, "seed": seed,
+               "sessions": len(s), "last_sessions": len(tail),
+               "speed": float(tail["mean_forward_speed_m_per_s"].mean()),
+               "final_x": float(tail["final_x_m"].mean()),
+               "length": float(tail["length_s"].mean()),
+               "reward": float(tail["mean_reward"].mean()),
+               "full": float((tail["length_s"] >= L_max - 1e-6).mean())}
+        if seed in structure:
+            one["mixed_limb_pairs"] = float(structure[seed]["mixed_limb_pairs"])
+            one["limb_pairs"] = int(structure[seed]["limb_pairs"])
+            for key in ("share_above_0.9_w_max", "share_below_0.9_w_min",
+                        "share_excitatory"):
+                one[key] = structure[seed][key]
+        seeds_here.append(one)
+    return seeds_here
+
+
+def _write_files(dest: Path, name: str, figures: dict[str, Any], shows: dict[str, str],
+                 rows: list[dict[str, Any]], tests: list[dict[str, Any]],
+                 per_seed: list[dict[str, Any]], study_sessions: list[int], *, last: int,
+                 swept: list[str], measures: list[Measure], empty: list[dict[str, Any]],
+                 diverged: list[dict[str, Any]]) -> tuple[list[Path], dict[str, str], str]:
+    """The report's files in ``dest``: the figures, final_figures.csv, the tests between
+    conditions and report.md. Returns the files, what each shows and report.md's text."""
     files = []
     for file, f in figures.items():
         save_figure(f, dest / file)
@@ -347,10 +372,7 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
                      described, empty, diverged)
     atomic_write(dest / "report.md", lambda f: f.write(text.encode()))
     files.append(dest / "report.md")
-    return {"files": files, "rows": rows, "text": text, "figures": figures, "tests": tests,
-            "per_seed": per_seed, "described": described,
-            "no_data": [e["group"] for e in empty],
-            "diverged": [d["group"] for d in diverged]}
+    return files, described, text
 
 
 def _sweep_figures(name: str, swept: list[str], runs: list[dict[str, Any]],

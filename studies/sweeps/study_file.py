@@ -169,6 +169,12 @@ def study_overrides(seeds: Any = None, sessions: Any = None,
             if min(seeds_list) < 0 or max(seeds_list) > MAX_SEED:
                 raise InputError(f"seeds must be 0 to {MAX_SEED}, got {text}", culprit="--seeds")
             seeds_list = tuple(sorted(seeds_list))
+    if isinstance(sessions, str):  # the command line's text: parsed, never eval-ed
+        try:
+            sessions = int(sessions, 10)
+        except ValueError:
+            raise InputError(f"expected a whole number, got {sessions!r}",
+                             culprit="--sessions") from None
     n = None if sessions is None else number(sessions, "--sessions", integer=True, minimum=1)
     items = override_items(sets)
     for item in items:

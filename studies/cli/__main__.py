@@ -1,0 +1,5 @@
+"""``python -m astrocpg.studies.cli``: the ``astrocpg`` command."""
+
+from . import entry
+
+entry()

@@ -1,0 +1,288 @@
+"""The command line's process plumbing: what every command shares around its handler. SIGTERM
+stops a command like Ctrl-C; exit codes (0 done, 1 environment, 2 bad input, 3 diverged, 130
+interrupted); the one line on stderr of a failure, by the kind of error; standard streams that
+survive any bytes; library warnings and log records kept off stderr; ``--codegen`` set for the
+command alone; and :func:`entry`, which ends the process without the interpreter's teardown."""
+
+from __future__ import annotations
+
+import argparse
+import atexit
+import logging
+import os
+import signal
+import sys
+import threading
+import warnings
+from typing import Any, NoReturn, Sequence
+
+from ...environment import check as check_environment, flag
+from ...errors import AstrocpgError, EnvironmentFault, InputError, one_line
+from .grammar import build_parser
+from .handlers import COMMANDS
+from .options import command_list
+
+def _ignore_unraisable(unraisable: Any) -> None:
+    """``sys.unraisablehook`` while a command ends by interrupt (see :func:`main`)."""
+
+
+def _forget_unhandled_interrupt() -> None:
+    """Tell CPython the interrupt was handled, so that exit code 130 stands.
+
+    An interrupt that lands while a C extension runs Python source through ``PyRun_String``
+    (Cython modules do, as they are imported) sets CPython's "unhandled KeyboardInterrupt"
+    flag on its way out of that nested run, although we catch it further up. Under
+    ``python -m`` the interpreter then ends by killing itself with SIGINT (exit -2) instead
+    of our 130 (CI saw this once in ~850 tests). Every top-level run of source clears the
+    flag as it starts, and no public API does, so we run an empty one."""
+    import ctypes
+
+    try:
+        ctypes.pythonapi.PyRun_SimpleString(b"pass")
+    except (AttributeError, OSError):  # not CPython: no such flag
+        pass
+
+
+def _sigterm(signum: int, frame: Any) -> None:
+    """SIGTERM ends a command like Ctrl-C does: a Brian2 run in progress stops cleanly at the end
+    of its step (the caller then sees it stopped early), anything else is interrupted."""
+    brian2 = sys.modules.get("brian2")
+    network = getattr(brian2, "Network", None)
+    if network is not None and network._globally_running and not network._globally_stopped:
+        network._globally_stopped = True
+        return
+    raise KeyboardInterrupt
+
+
+def _not_utf8(args: Sequence[str]) -> bool:
+    try:
+        "\0".join(args).encode("utf-8")
+    except UnicodeEncodeError:  # bytes that are not UTF-8, e.g. a file name in Latin-1
+        return True
+    return False
+
+
+def _survive_any_bytes() -> None:
+    """An argument that is not UTF-8 (a file name with other bytes) is a path like any other:
+    our messages print it escaped, and Brian2, which copies the command line into its temp
+    folder when imported (and fails on such bytes), is imported without that copy."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            try:
+                reconfigure(errors="backslashreplace")
+            except (ValueError, OSError):
+                pass
+    if "brian2" not in sys.modules and _not_utf8(sys.argv):
+        argv0, sys.argv[0] = sys.argv[0], ""  # no script to copy
+        try:
+            import brian2  # noqa: F401
+        finally:
+            sys.argv[0] = argv0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; its exit code (0 done, 1 environment, 2 bad input, 3 diverged, 130
+    interrupted)."""
+    code = _main(argv)
+    if code == 130:  # interrupted, whichever layer caught the KeyboardInterrupt
+        _forget_unhandled_interrupt()
+    return code
+
+
+def entry() -> NoReturn:
+    """The ``astrocpg`` command (and ``python -m astrocpg.studies.cli``): :func:`main`, then
+    the process ends without tearing the interpreter down.
+
+    Freeing Brian2's, SymPy's and MuJoCo's objects one by one at interpreter shutdown took
+    about 0.6 s after every command. Everything a command writes is closed and renamed before
+    :func:`main` returns, so the exit handlers run (Brian2's, Dask's, multiprocessing's), the
+    standard streams are flushed and the process ends there. While a non-daemon thread is
+    still running, the process exits the usual way, which waits for it."""
+    code = main()
+    if any(t.is_alive() and not t.daemon for t in threading.enumerate()
+           if t is not threading.main_thread()) or not hasattr(atexit, "_run_exitfuncs"):
+        raise SystemExit(code)
+    try:
+        atexit._run_exitfuncs()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):  # a closed pipe or stream: nothing more to say
+                pass
+        os._exit(code)
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    listing = command_list(parser, args)
+    if listing is not None:  # a command group alone lists what it can do
+        sys.stdout.write(listing)
+        return 0
+    _survive_any_bytes()
+    # One line, always: a command reports through its result or its one error line, so no
+    # library's warning (numpy's "input contained no data", Brian2's, Dask's) or log record
+    # (Brian2's console log, its "Simulation stop requested" on Ctrl-C) reaches stderr. Both
+    # are restored when the command ends (main() runs in-process in tests and notebooks).
+    quiet = warnings.catch_warnings()
+    quiet.__enter__()
+    warnings.simplefilter("ignore")
+    logging_was = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        return _run_command(args)
+    finally:
+        logging.disable(logging_was)
+        quiet.__exit__(None, None, None)
+
+
+def _run_command(args: argparse.Namespace) -> int:
+    # only the main thread may set handlers (main() called in another thread: none of ours)
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _sigterm) if in_main else None
+    env_codegen = os.environ.get("ASTROCPG_CODEGEN")  # --codegen sets it for this command only
+    unraisable = sys.unraisablehook
+    interrupted = False
+    try:
+        try:
+            check_environment()  # a switch that is not a boolean: refused before anything runs
+            if getattr(args, "codegen", None) is not None:
+                _choose_codegen(args.codegen)
+            code = COMMANDS[args.command](args)
+            compiled = sys.modules.get("astrocpg.coupling.compiled")
+            if code == 0 and compiled is not None and compiled.PROBLEM:
+                print(f"warning: {compiled.PROBLEM}")  # warnings are off: said here once
+            return code
+        except Exception as e:
+            if _interrupted(e):  # cleanup that failed while an interrupt unwound the stack
+                raise KeyboardInterrupt from None
+            raise
+    except AstrocpgError as e:
+        sys.stderr.write(f"astrocpg: {_kind(e)}: {e.line}\n")
+        return e.exit_code
+    except KeyboardInterrupt:
+        # An interrupt can land inside a constructor (e.g. zipfile.ZipFile's, while numpy
+        # writes an .npz): the half-built object's __del__ then fails as the stack unwinds and
+        # Python prints "Exception ignored in ..." with a traceback after our line. The
+        # interrupt is the whole story: say it once.
+        interrupted = True
+        sys.unraisablehook = _ignore_unraisable
+        sys.stderr.write("astrocpg: interrupted\n")
+        return 130
+    except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
+        sys.stderr.close()
+        return 0
+    except OSError as e:  # an I/O failure no layer turned into an EnvironmentFault
+        sys.stderr.write(f"astrocpg: environment: {EnvironmentFault.from_os_error(e).line}\n")
+        return 1
+    except MemoryError:
+        sys.stderr.write("astrocpg: environment: out of memory\n")
+        return 1
+    except Exception as e:  # a bug of ours: still one line, the traceback on request
+        fault = _environment_fault(e)
+        if fault is not None:  # a library refusing the environment it was given
+            sys.stderr.write(f"astrocpg: environment: {fault.line}\n")
+            return fault.exit_code
+        if _debug():
+            raise
+        sys.stderr.write(f"astrocpg: internal error: {type(e).__name__}: {one_line(str(e), 300)} "
+                         f"(a bug in astrocpg; ASTROCPG_DEBUG=1 shows the traceback)\n")
+        return 1
+    finally:
+        if in_main:
+            signal.signal(signal.SIGTERM, previous)
+        if interrupted:  # collect what the unwinding left in cycles while the hook is quiet
+            import gc
+
+            gc.collect()
+            sys.unraisablehook = unraisable
+        if env_codegen is None:
+            os.environ.pop("ASTROCPG_CODEGEN", None)
+        else:
+            os.environ["ASTROCPG_CODEGEN"] = env_codegen
+
+
+def _debug() -> bool:
+    """ASTROCPG_DEBUG: a traceback instead of the one line of an internal error (a value
+    that is not a boolean counts as on: it is read while reporting a bug, not refused)."""
+    try:
+        return flag("ASTROCPG_DEBUG")
+    except InputError:
+        return True
+
+
+def _choose_codegen(value: str) -> None:
+    """--codegen: checked, then set for this process and (through the environment, which they
+    inherit) a study's local Dask workers."""
+    from ...network.codegen import ENV, choose_target
+
+    try:
+        os.environ[ENV] = choose_target(value)
+    except InputError as e:
+        raise InputError(e.message, culprit="--codegen") from None
+
+
+def _interrupted(e: BaseException) -> bool:
+    """Was ``e`` raised while a Ctrl-C/SIGTERM unwound the stack (e.g. a zip file that cannot
+    close its half-written member)? Then the command was interrupted, whatever came next."""
+    seen: set[int] = set()
+    err: BaseException | None = e
+    while err is not None and id(err) not in seen:
+        if isinstance(err, KeyboardInterrupt):
+            return True
+        seen.add(id(err))
+        err = err.__context__
+    return False
+
+
+#: Environment variables that libraries read when imported and refuse with an exception of
+#: their own (MuJoCo: "invalid value for environment variable MUJOCO_GL: bogus" from
+#: ``import mujoco``; "Failed to import OpenGL backend (MUJOCO_GL='egl')"): such an error is
+#: the environment's, not a bug of astrocpg.
+LIBRARY_ENVIRONMENT = ("MUJOCO_GL", "PYOPENGL_PLATFORM")
+
+
+def _environment_fault(e: BaseException) -> EnvironmentFault | None:
+    """The EnvironmentFault naming the variable when ``e`` (or an error it came from) is a
+    library refusing one of :data:`LIBRARY_ENVIRONMENT`; else None."""
+    seen: set[int] = set()
+    err: BaseException | None = e
+    while err is not None and id(err) not in seen:
+        seen.add(id(err))
+        text = str(err)
+        for name in LIBRARY_ENVIRONMENT:
+            if name in text:
+                value = os.environ.get(name)
+                shown = f"{name}={value}" if value is not None else name
+                return EnvironmentFault(f"{type(err).__name__}: {one_line(text, 300)} (set it "
+                                        f"to a value the library accepts, or unset it)",
+                                        culprit=shown)
+        # the backend MUJOCO_GL names is missing: PyOpenGL fails inside its own import (e.g.
+        # MUJOCO_GL=osmesa without libOSMesa: "'NoneType' object has no attribute 'glGetError'")
+        if os.environ.get("MUJOCO_GL") and _raised_in_gl(err):
+            return EnvironmentFault(
+                f"MuJoCo cannot load this OpenGL backend ({type(err).__name__}: "
+                f"{one_line(text, 200)}); install it (OSMesa: the libosmesa6 package; EGL: a GPU "
+                f"driver) or unset MUJOCO_GL to let astrocpg choose",
+                culprit=f"MUJOCO_GL={os.environ['MUJOCO_GL']}")
+        err = err.__cause__ or err.__context__
+    return None
+
+
+def _raised_in_gl(err: BaseException) -> bool:
+    """Whether ``err`` was raised inside PyOpenGL or MuJoCo's GL backends (its traceback)."""
+    tb = err.__traceback__
+    while tb is not None:
+        path = tb.tb_frame.f_code.co_filename.replace(os.sep, "/")
+        if "/OpenGL/" in path or "/mujoco/osmesa/" in path or "/mujoco/egl/" in path \
+                or "/mujoco/glfw/" in path:
+            return True
+        tb = tb.tb_next
+    return False
+
+
+def _kind(e: AstrocpgError) -> str:
+    return {2: "error", 3: "diverged"}.get(e.exit_code, "environment")
+
