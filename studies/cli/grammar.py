@@ -124,7 +124,7 @@ def add_gait(sub: Subparsers) -> None:
                            "on the network it trained with)")
     gait.add_argument("--world", action="append", default=[], metavar="NAME=VALUE",
                       help="a world parameter for the runs, over the training's world (e.g. "
-                           "slope=0.17; repeatable; 'astrocpg models show world' lists them)")
+                           "slope=0.17; repeatable; 'astrocpg describe world' lists them)")
     add_no_progress(gait)
     add_codegen_option(gait)
 
