@@ -135,6 +135,12 @@ def overflowed(traces: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, di
         v = np.asarray(v)
         if v.dtype != np.float32 or not v.size:
             continue
+        # a finite sum means no infinity (an inf makes the sum inf or nan): one pass without a
+        # temporary; only a trace that may hold one is counted value by value
+        with np.errstate(over="ignore", invalid="ignore"):  # large finite values may sum to inf
+            maybe = not np.isfinite(v.sum())
+        if not maybe:
+            continue
         bad = np.isinf(v)
         n = int(bad.sum())
         if n:
