@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -48,12 +48,14 @@ class Recording:
     def allocate(cls, n_trials: int, n_steps: int, stride: int, dt: float) -> "Recording":
         n = (n_steps + stride - 1) // stride
 
-        def full(shape: tuple[int, ...], value: float | bool, dtype: type = float) -> np.ndarray:
-            # written through now: the run's memory is taken at its start, not page by page
-            # inside the step
-            a = np.empty(shape, dtype=dtype)
+        def full(shape: tuple[int, ...], value: Any, dtype: type = float) -> np.ndarray:
+            # held sample-major, seen trial-major: a step's sample of every trial is one
+            # contiguous block (a few cache lines, one page), not a row in each trial's stretch
+            # of memory; written through now: the run's memory is taken at its start, not page
+            # by page inside the step
+            a = np.empty((shape[1], shape[0]) + shape[2:], dtype=dtype)
             a[...] = value
-            return a
+            return a.swapaxes(0, 1)
 
         return cls(
             stride=stride,
@@ -65,7 +67,7 @@ class Recording:
             reward=full((n_trials, n), 0.0),
             alive=full((n_trials, n), False, bool),
             foot_force=full((n_trials, n, 4), np.nan),
-            torso_quaternion=np.tile([1.0, 0.0, 0.0, 0.0], (n_trials, n, 1)),
+            torso_quaternion=full((n_trials, n, 4), np.array([1.0, 0.0, 0.0, 0.0])),
         )
 
     def take(self, step_count: int, robots: "Robots", senses: "Senses") -> None:

@@ -23,13 +23,20 @@ from .populations import trace_sources
 #: What a trace may be kept as: float32 (default) or float64 (Brian2's own resolution).
 TRACE_DTYPES = ("float32", "float64")
 
+#: Samples computed in float64 before they are rounded to float32 together: one cast of a block
+#: instead of a cast (and a check of numpy's overflow flag) per sample and trace.
+STAGED_SAMPLES = 64
+
 
 class TraceRecorder:
     """Samples ``traces`` of ``cpg`` every ``stride`` steps for ``n_steps`` steps from the
     network's time at construction; :meth:`operation` is the ``NetworkOperation`` to add.
 
     values[name]: (samples, columns) in the files' column order (trial-major), in the trace's
-    stored unit; :meth:`collected` gives ``{name: (t, values)}`` of the samples taken."""
+    stored unit; :meth:`collected` gives ``{name: (t, values)}`` of the samples taken. Kept as
+    float32, the latest samples (up to :data:`STAGED_SAMPLES`) wait in a float64 block until
+    it is full or :meth:`collected` (or :meth:`flush`) is called: the same product, rounded
+    once to float32, as if each sample had been rounded when taken."""
 
     def __init__(self, cpg: Any, traces: tuple[str, ...], *, stride: int, n_steps: int,
                  dtype: str = "float32") -> None:
@@ -45,6 +52,10 @@ class TraceRecorder:
         self.dt = float(cpg.dt)
         self.sources: dict[str, tuple[Any, np.ndarray, float]] = {}
         self.values: dict[str, np.ndarray] = {}
+        staged = self.dtype != np.float64
+        #: float64 blocks of the samples not yet rounded into values (float32 only)
+        self._stage: dict[str, np.ndarray] = {}
+        self._flushed = 0  # samples already in values
         for name in traces:
             group, var, scale, _ = trace_sources()[name]
             table = cpg.table(group, var)
@@ -53,6 +64,14 @@ class TraceRecorder:
             # written through once here: the memory is taken now, not page by page in the run
             self.values[name] = np.empty((self.n_samples, table.values.size), dtype=self.dtype)
             self.values[name].fill(0)
+            if staged:
+                self._stage[name] = np.zeros((min(STAGED_SAMPLES, max(self.n_samples, 1)),
+                                              table.values.size))
+        # what sample() does per trace, looked up once: the tables to refresh (a live view of
+        # Brian2's array needs none), then (flat view, scale, where the sample goes)
+        self._reads = [table.read for table, _, _ in self.sources.values() if not table.live]
+        self._plan = [(flat, scale, self._stage.get(name), self.values[name])
+                      for name, (_, flat, scale) in self.sources.items()]
 
     def operation(self) -> brian2.NetworkOperation:
         """At the start of every step, on the network's clock (one clock: Brian2's single-clock
@@ -64,15 +83,28 @@ class TraceRecorder:
         if self._timestep[0] != self._next or self.samples >= self.n_samples:
             return
         k = self.samples
+        j = k - self._flushed  # its row in the float64 block (float32 traces)
+        for read in self._reads:
+            read()
+        for flat, scale, stage, values in self._plan:
+            # the stored unit computed in float64, rounded to float32 with its block (flush)
+            np.multiply(flat, scale, out=values[k] if stage is None else stage[j])
+        self.samples = k + 1
+        self._next += self.stride
+        if self._stage and j + 1 == len(next(iter(self._stage.values()))):
+            self.flush()
+
+    def flush(self) -> None:
+        """Round the float64 block of the latest samples into :attr:`values` (float32)."""
+        n = self.samples - self._flushed
+        if n <= 0 or not self._stage:
+            return
         # a value beyond float32's range becomes inf: counted after the run (overflowed()),
         # marked in the manifest and the summary, so numpy's warning would only repeat it
         with np.errstate(over="ignore"):
-            for name, (table, flat, scale) in self.sources.items():
-                table.read()
-                # the stored unit computed in float64 (as before), rounded once to the dtype
-                np.multiply(flat, scale, out=self.values[name][k], casting="unsafe")
-        self.samples = k + 1
-        self._next += self.stride
+            for name, stage in self._stage.items():
+                self.values[name][self._flushed:self.samples] = stage[:n]
+        self._flushed = self.samples
 
     def times(self) -> np.ndarray:
         """Sampling times (s): the start of each sampled step."""
@@ -80,11 +112,13 @@ class TraceRecorder:
 
     def collected(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """``{trace: (t, values)}`` of the samples taken so far (views, not copies)."""
+        self.flush()
         t = self.times()
         return {name: (t, v[:self.samples]) for name, v in self.values.items()}
 
     def nbytes(self) -> int:
-        return sum(v.nbytes for v in self.values.values())
+        return sum(v.nbytes for v in self.values.values()) + \
+            sum(v.nbytes for v in self._stage.values())
 
 
 def overflowed(traces: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, dict[str, Any]]:
@@ -100,6 +134,12 @@ def overflowed(traces: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, di
     for name, (_, v) in traces.items():
         v = np.asarray(v)
         if v.dtype != np.float32 or not v.size:
+            continue
+        # a finite sum means no infinity (an inf makes the sum inf or nan): one pass without a
+        # temporary; only a trace that may hold one is counted value by value
+        with np.errstate(over="ignore", invalid="ignore"):  # large finite values may sum to inf
+            maybe = not np.isfinite(v.sum())
+        if not maybe:
             continue
         bad = np.isinf(v)
         n = int(bad.sum())
@@ -120,4 +160,4 @@ def overflow_words(overflow: dict[str, dict[str, Any]]) -> str:
             f"the finite values: record again with --trace-dtype float64 to keep them")
 
 
-__all__ = ["TraceRecorder", "TRACE_DTYPES", "overflowed", "overflow_words"]
+__all__ = ["TraceRecorder", "TRACE_DTYPES", "STAGED_SAMPLES", "overflowed", "overflow_words"]

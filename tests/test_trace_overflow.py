@@ -7,6 +7,7 @@ series' descriptions."""
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -25,6 +26,13 @@ def test_overflowed_counts_infinities_of_float32_traces_only():
                         "astrocyte_IP3": (t, np.zeros((4, 2), np.float32))})
     assert found == {"motor_Ca": {"dtype": "float32", "values": 4, "of": 12, "samples": 2,
                                   "of_samples": 4}}
+    # finite values whose sum overflows float32: nothing to count, nothing said
+    big = np.full((4, 3), 3e38, dtype=np.float32)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert overflowed({"motor_Ca": (t, big)}) == {}
+        big[2, 1] = -np.inf
+        assert overflowed({"motor_Ca": (t, big)})["motor_Ca"]["values"] == 1
     words = overflow_words(found)
     assert "motor_Ca in 2 of 4 samples" in words and "--trace-dtype float64" in words
     assert overflow_words({}) == ""

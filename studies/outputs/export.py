@@ -585,7 +585,7 @@ def export_npz(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
     arrays["metadata_json"] = np.array(json.dumps(
         _metadata(m) | {"models": m.get("models"), "experimenter": list(experimenter),
                         "institution": institution}, default=str))
-    save_npz(path, arrays)
+    save_npz(path, arrays, compressed=True)
     return path
 
 def default_path(folder: Path, fmt: str) -> Path:
