@@ -1,8 +1,8 @@
 """Wiring: the CPG's populations and synapses built from ``astrocpg.models`` for ``n_trials``
 independent copies (``build``: :func:`build_cpg`, :class:`CPG`), one group per row of the
 population table (``populations``), their index layout (legs, pools, interneurons: ``layout``,
-``parts``), the stages of limbs that 0 ms inter-limb delays make (``delays``), the traces a run
-can record (``recordable``), the divergence scan of the state (``divergence``), Brian2's
+``parts``), what a run can record (the rows' spikes and traces), the stages of limbs that 0 ms
+inter-limb delays make (``delays``), the divergence scan of the state (``divergence``), Brian2's
 code-generation target (``codegen``), and the run lock that lets one build-and-run use Brian2
 at a time in a process and applies the framework's Brian2 settings only while it does
 (``runlock``, ``brian_prefs``). Nothing here is biophysics."""

@@ -21,7 +21,7 @@ from ...models import ModelSet
 from ...models.units import whole_steps
 from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, exclusive,
                         network_time, run_network)
-from ...network.recordable import POPULATIONS, TRACES, spike_populations, trace_sources
+from ...network.populations import BUILT_IN, spike_populations, trace_sources
 from ...network.recording import TRACE_DTYPES, TraceRecorder
 from .progress import time_bar
 
@@ -79,6 +79,11 @@ def check_selection(spikes: tuple[str, ...] | None,
     return spikes, traces
 
 
+#: what a built-in network can record (the default of add_monitors)
+POPULATIONS: tuple[str, ...] = spike_populations(BUILT_IN)
+TRACES: tuple[str, ...] = tuple(trace_sources(BUILT_IN))
+
+
 def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
                  spikes: tuple[str, ...] = POPULATIONS,
                  traces: tuple[str, ...] = TRACES, *, n_steps: int,
@@ -111,7 +116,7 @@ def _with_numbers(cpg: CPG, population: str, monitors: Any) -> list[tuple[Any, A
 def _collect(cpg: CPG, mons: dict[str, Any]) -> tuple[dict, dict]:
     """Spikes (t, files' index) and traces (t, values in the files' column order)."""
     spikes = {}
-    for p in spike_populations():
+    for p in spike_populations(cpg.layout.rows):
         if p not in mons:
             continue
         ts, idx = [], []

@@ -9,13 +9,14 @@ the result holds nothing to draw); :func:`trace_figures` collects them all.
 
 from __future__ import annotations
 
+import os
 from typing import Any, Callable
 
 import numpy as np
 from matplotlib.figure import Figure
 
-from ...network.layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS
-from ...network.recordable import TRACE_SOURCES, spike_populations
+from ...network.layout import LEGS, POOLS, THIGH_POOLS
+from ...network.populations import trace_sources
 from ..analysis.gait import leg_phases
 from ..analysis.rhythm import pool_activity
 from .plots import POOL_COLOURS, mark_fall
@@ -27,9 +28,9 @@ ASTRO_ROWS = (("astrocyte_Ca", "Ca²⁺"), ("astrocyte_IP3", "IP3"), ("astrocyte
 DT = 1e-3  # s, bin of pool activity (one network step)
 
 
-def _unit(name: str) -> str:
-    """The unit of a recorded trace as a label shows it."""
-    return TRACE_SOURCES[name][3].replace("uM", "µM")
+def _unit(result: Any, name: str) -> str:
+    """The unit of a recorded trace (as the folder's rows say) as a label shows it."""
+    return trace_sources(result.layout.rows)[name][3].replace("uM", "µM")
 
 
 def _figure(figsize: Any) -> Figure:
@@ -55,66 +56,55 @@ def _legs(result: Any) -> tuple[str, ...]:
 
 # ---------------------------------------------------------------- spikes
 def raster_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[str, Figure]:
-    """rasters: one panel per recorded population (motor neurons coloured by pool,
-    interneurons, astrocytes' adenosine releases, then any population added to the table,
-    cells by limb)."""
-    known = spike_populations()
-    pops = [p for p in known if p in result.spikes]
-    if not pops:
-        return {}
+    """rasters: one panel per recorded population, in the order of the folder's population
+    rows, each drawn as its row's ``raster`` says (motor neurons coloured by pool,
+    interneurons, astrocytes' adenosine releases, then any added population, cells by limb)."""
     L, (t0, t1) = result.layout, window
-    heights = {"motor": 4, "interneuron": 2, "astrocyte": 1.2}
-    fig = _figure((11, 2.2 + 1.3 * sum(heights.get(p, 2) for p in pops)))
-    axes = np.atleast_1d(fig.subplots(
-        len(pops), 1, sharex=True, gridspec_kw={"height_ratios": [heights.get(p, 2)
-                                                                  for p in pops]}))
-    for ax, pop in zip(axes, pops):
-        t, i = (np.asarray(a) for a in result.spikes[pop])
+    rows = [r for r in L.rows if r.spikes and r.name in result.spikes]
+    if not rows:
+        return {}
+    heights = [float(r.raster.get("height", 2)) for r in rows]
+    fig = _figure((11, 2.2 + 1.3 * sum(heights)))
+    axes = np.atleast_1d(fig.subplots(len(rows), 1, sharex=True,
+                                      gridspec_kw={"height_ratios": heights}))
+    for ax, row in zip(axes, rows):
+        t, i = (np.asarray(a) for a in result.spikes[row.name])
         keep = (t >= t0) & (t < t1)
-        t, i = t[keep], i[keep]
-        if pop == "motor":
-            base = trial * L.motor_per_trial
-            for name in POOLS:
-                sel = np.zeros(len(i), dtype=bool)
-                for leg_i in range(L.n_legs):
-                    ids = L.motor_neurons(trial, leg_i, name)
-                    sel |= (i >= ids[0]) & (i <= ids[-1])
-                ax.plot(t[sel], i[sel] - base, "|", ms=2, color=POOL_COLOURS[name], label=name)
-            per_leg = L.motor_per_trial // L.n_legs
-            ax.set_yticks([(k + 0.5) * per_leg for k in range(L.n_legs)], _legs(result))
-            ax.set_ylim(-0.5, L.motor_per_trial - 0.5)
-            ax.set_ylabel("motor neuron (leg)")
-            ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7,
-                      title="pool", title_fontsize=7, markerscale=3)
-            ax.set_title(f"Spike rasters (trial {trial})")
-        elif pop == "interneuron":
-            base = trial * L.interneurons_per_trial
-            sel = (i >= base) & (i < base + L.interneurons_per_trial)
-            ax.plot(t[sel], i[sel] - base, "|", ms=3, color="k")
-            ax.set_yticks([(k + 0.5) * len(INTERNEURONS) for k in range(L.n_legs)],
-                          _legs(result))
-            ax.set_ylim(-0.5, L.interneurons_per_trial - 0.5)
-            ax.set_ylabel("interneuron (leg)")
-        elif pop != "astrocyte":  # an added population: its cells, limb by limb
-            n = L.cells_per_trial(pop)
-            base = trial * n
-            sel = (i >= base) & (i < base + n)
-            ax.plot(t[sel], i[sel] - base, "|", ms=3, color="tab:purple")
-            ax.set_yticks([(k + 0.5) * n / L.n_legs for k in range(L.n_legs)], _legs(result))
-            ax.set_ylim(-0.5, n - 0.5)
-            ax.set_ylabel(f"{pop} (leg)")
-        else:
-            base = trial * L.thigh_pools_per_trial
-            sel = (i >= base) & (i < base + L.thigh_pools_per_trial)
-            ax.plot(t[sel], i[sel] - base, "v", ms=4, color="tab:olive")
-            labels = [f"{leg} {p.replace('thigh_', '')}" for leg in _legs(result)
-                      for p in THIGH_POOLS]
-            ax.set_yticks(range(len(labels)), labels, fontsize=6)
-            ax.set_ylim(-0.5, len(labels) - 0.5)
-            ax.set_ylabel("astrocyte\n(adenosine release)")
+        _raster_panel(ax, row, L, trial, t[keep], i[keep])
+    axes[0].set_title(f"Spike rasters (trial {trial})")
     axes[-1].set_xlim(t0, t1)
     axes[-1].set_xlabel("time (s)")
     return {"rasters": fig}
+
+
+def _raster_panel(ax: Any, row: Any, L: Any, trial: int, t: np.ndarray, i: np.ndarray) -> None:
+    """One population's spikes of ``trial`` (cells in index order, limb after limb)."""
+    style = row.raster
+    labels = row.labels(L.pool_size)
+    n = L.n_legs * len(labels)
+    base = trial * n
+    sel = (i >= base) & (i < base + n)
+    t, local = t[sel], i[sel] - base
+    marker, size = str(style.get("marker", "|")), float(style.get("size", 3))
+    if style.get("colour") == "by label":  # one colour per label (the motor pools)
+        label_of = np.array(labels * L.n_legs)
+        for label in dict.fromkeys(labels):
+            mine = label_of[local] == label
+            ax.plot(t[mine], local[mine], marker, ms=size, color=POOL_COLOURS.get(label),
+                    label=label)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7,
+                  title="pool", title_fontsize=7, markerscale=3)
+    else:
+        ax.plot(t, local, marker, ms=size, color=str(style.get("colour", "tab:purple")))
+    if style.get("ticks") == "cell":  # one tick per cell: its limb and label
+        prefix = os.path.commonprefix(list(labels)) if len(labels) > 1 else ""
+        prefix = prefix[:prefix.rfind("_") + 1]
+        ax.set_yticks(range(n), [f"{leg} {c[len(prefix):]}" for leg in L.legs for c in labels],
+                      fontsize=6)
+    else:
+        ax.set_yticks([(k + 0.5) * len(labels) for k in range(L.n_legs)], list(L.legs))
+    ax.set_ylim(-0.5, n - 0.5)
+    ax.set_ylabel(str(style.get("label", f"{row.name} (leg)")))
 
 
 def _activity(result: Any, trial: int, leg_i: int, pool: str, window: tuple[float, float]):
@@ -163,7 +153,7 @@ def motor_calcium_figures(result: Any, trial: int,
         return {}
     L, legs = result.layout, _legs(result)
     t, v = _trace(result, "motor_Ca", window)
-    unit = _unit("motor_Ca")
+    unit = _unit(result, "motor_Ca")
     fig = _figure((11, 1.0 + 1.6 * len(legs)))
     axes = np.atleast_1d(fig.subplots(len(legs), 1, sharex=True, sharey=True))
     for leg_i, (ax, leg) in enumerate(zip(axes, legs)):
@@ -211,7 +201,7 @@ def astrocyte_figures(result: Any, trial: int, window: tuple[float, float]) -> d
                     t, v = _trace(result, row, window)
                     label = dict(ASTRO_ROWS)[row]
                     ax.plot(t, v[:, col], lw=1.0, color="tab:olive", label=label)
-                    ax.set_ylabel(f"{label}\n({_unit(row)})")
+                    ax.set_ylabel(f"{label}\n({_unit(result, row)})")
                 for k, e in enumerate(events):
                     ax.axvline(e, color="k", ls="--", lw=0.7,
                                label="adenosine release" if k == 0 and ax is axes[0] else None)
