@@ -226,9 +226,6 @@ class CPG:
         ``full`` only; the element is located only when one fails."""
         return self.scan.first(full)
 
-    #: The former name of :meth:`first_invalid` (NaN and inf only were invalid then).
-    first_nonfinite = first_invalid
-
     def reset_trial(self, trial: int, keep: tuple[str, ...] = ("astrocyte",)) -> None:
         """Reset one trial's state to the start of a session: every state variable of the
         groups not in ``keep`` (astrocytes keep theirs: docs/model.md) and every dynamic variable of the

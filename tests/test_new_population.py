@@ -82,7 +82,7 @@ def test_built_and_scanned(renshaw):
 
 def test_staged_limbs(renshaw):
     """0 ms inter-limb delays split the motor neurons by stage: the wiring step follows."""
-    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.models.compose import model_set
 
     authors = Path(__file__).parents[1] / "models" / "variants" / "interlimb_authors_delays.toml"
     models = model_set(models={"interlimb_synapse": authors.read_text()})

@@ -209,7 +209,7 @@ def study_command(args: argparse.Namespace) -> int:
 def _study_outcome(res: dict[str, Any]) -> int:
     """What a study's result says on stdout and stderr, and its exit code: 0 every run
     finished, 3 every run left diverged (a rerun diverges again), 1 runs left to retry."""
-    from ..sweeps.study import RESULTS
+    from ..sweeps.layout import RESULTS
 
     counts = ", ".join(f"{v} {k}" for k, v in res["counts"].items())
     print(f"runs: {counts}; {res['rows']} rows in {res['out'] / RESULTS}")

@@ -1,6 +1,6 @@
 """Settings shared by the experiments: the checks of the numbers every experiment takes
-(durations, counts, sampling). Model composition lives in :mod:`astrocpg.models.compose`; its
-names are re-exported here for the callers and users that import them from this module."""
+(durations, counts, sampling) and the populations a call adds (:func:`population_rows`). Model
+composition lives in :mod:`astrocpg.models.compose`."""
 
 from __future__ import annotations
 
@@ -8,15 +8,13 @@ from typing import Any, Mapping
 
 from ...errors import InputError
 from ...network.populations import Population, population_from_toml
-from ...models.compose import (Overrides, model_files_record,  # noqa: F401
-                               model_set, override_items, read_equation_files, read_model_files)
-from ...models.values import finite_number
+from ...models.units import finite_number
 
 
 def number(value: Any, culprit: str, *, integer: bool = False, minimum: float | None = None,
            positive: bool = False) -> Any:
     """A finite number (int if ``integer``) within bounds, or an InputError naming the culprit
-    (:func:`astrocpg.models.values.finite_number`)."""
+    (:func:`astrocpg.models.units.finite_number`)."""
     return finite_number(value, culprit=culprit, kind=int if integer else float,
                          minimum=minimum, strictly_positive=positive)
 

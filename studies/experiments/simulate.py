@@ -14,7 +14,8 @@ import numpy as np
 from brian2 import NetworkOperation, SpikeMonitor, ms, second
 
 from ...coupling.assembly import build_closed_loop
-from ...coupling.bridge import ORDER_MEASURE, Recording
+from ...coupling.bridge import ORDER_MEASURE
+from ...coupling.robot_recording import Recording
 from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError, did_you_mean
 from ...models import ModelSet
