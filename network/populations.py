@@ -107,6 +107,13 @@ class Population:
     raster: how a raster draws it: ``height`` (relative), ``label`` (the axis),
         ``marker``, ``colour`` (``"by label"``: one colour per label), ``ticks`` (``"leg"``: one
         tick per limb; ``"cell"``: one per cell).
+    trace_plot: how ``astrocpg plot`` draws its traces: ``style`` ``"label mean"`` (default: per
+        limb, each label's mean with a min..max band; ``figures`` names the figure of a trace,
+        default the trace's name) or ``"per cell"`` (one figure per cell with all its traces,
+        ``labels`` by trace, its spikes marked as ``events``, and the activity of the pool its
+        label names).
+    activity: its spikes per label and step are the pools' activity (the figures' activity
+        panels).
     inputs: what connects an added population (:class:`Input`), declared in its file.
     wire: a wiring step in Python for an added population (:data:`Wire`).
     """
@@ -123,6 +130,8 @@ class Population:
     scan_rank: int = 0
     trace_series_per_leg: bool = False
     raster: Mapping[str, Any] = field(default_factory=dict)
+    trace_plot: Mapping[str, Any] = field(default_factory=dict)
+    activity: bool = False
     inputs: tuple[Input, ...] = ()
     wire: Wire | None = None
 
@@ -173,7 +182,8 @@ class Population:
                 "table_description": self.table_description
                 or f"one row per {self.noun.replace('_', ' ')}",
                 "scan_rank": self.scan_rank, "trace_series_per_leg": self.trace_series_per_leg,
-                "raster": dict(self.raster), "inputs": [i.to_json() for i in self.inputs],
+                "raster": dict(self.raster), "trace_plot": dict(self.trace_plot),
+                "activity": self.activity, "inputs": [i.to_json() for i in self.inputs],
                 "built_in": self.built_in}
 
 
@@ -195,6 +205,8 @@ def from_json(data: Mapping[str, Any]) -> Population:
             scan_rank=int(data.get("scan_rank", 0)),
             trace_series_per_leg=bool(data.get("trace_series_per_leg", False)),
             raster=dict(data.get("raster") or {}),
+            trace_plot=dict(data.get("trace_plot") or {}),
+            activity=bool(data.get("activity", False)),
             inputs=tuple(Input(str(i["from"]), str(i["synapse"]), str(i.get("match", "label")))
                          for i in data.get("inputs") or ()))
     except (KeyError, TypeError, ValueError, AttributeError) as e:
@@ -218,7 +230,9 @@ BUILT_IN: tuple[Population, ...] = (
                traces=INTERFACES["motor_neuron"].traces,
                cell_noun="motor_neuron", label_meaning="motor pool", spike_meaning="motor neuron",
                table_description="one row per motor neuron", scan_rank=4,
-               trace_series_per_leg=True,
+               trace_series_per_leg=True, activity=True,
+               trace_plot={"style": "label mean", "figures": {"motor_Ca": "motor_calcium"},
+                           "title": "Motor-neuron Ca²⁺", "ylabel": "Ca²⁺"},
                raster={"height": 4, "label": "motor neuron (leg)", "colour": "by label",
                        "marker": "|", "size": 2, "ticks": "leg", "title": True}),
     Population("interneuron", "interneuron", lambda n: [name for name, *_ in INTERNEURONS],
@@ -235,6 +249,10 @@ BUILT_IN: tuple[Population, ...] = (
                spike_meaning="spike = adenosine release",
                table_description="one row per astrocyte: the trial, limb and thigh pool it "
                                  "covers", scan_rank=1,
+               trace_plot={"style": "per cell", "title": "Astrocyte", "colour": "tab:olive",
+                           "events": "adenosine release",
+                           "labels": {"astrocyte_Ca": "Ca²⁺", "astrocyte_IP3": "IP3",
+                                      "astrocyte_AG": "2-AG", "astrocyte_ADO": "adenosine"}},
                raster={"height": 1.2, "label": "astrocyte\n(adenosine release)",
                        "colour": "tab:olive", "marker": "v", "size": 4, "ticks": "cell"}),
     Population("pool", "pool", lambda n: POOLS, cell_noun="pool", label_meaning="motor pool",
@@ -337,7 +355,7 @@ def model_of_object() -> dict[str, str]:
 UNIT_FACTORS = {"a.u.": 1.0, "mV": 1e3, "uM": 1e3, "ms": 1e3, "s": 1.0, "V": 1.0}
 _ROW_KEYS = {"name", "cells_per_leg", "spikes", "traces", "inputs", "cell_noun",
              "label_meaning", "spike_meaning", "table_description", "trace_series_per_leg",
-             "raster"}
+             "raster", "trace_plot"}
 
 
 def population_from_toml(text: str, *, culprit: str) -> Population:
@@ -393,7 +411,9 @@ def population_from_toml(text: str, *, culprit: str) -> Population:
     return Population(name=name, model=model, cells_per_leg=lambda pool_size: cells(pool_size),
                       spikes=bool(spec.get("spikes", True)), traces=traces,
                       trace_series_per_leg=bool(spec.get("trace_series_per_leg", False)),
-                      raster=dict(spec.get("raster") or {}), inputs=inputs, **text_fields)
+                      raster=dict(spec.get("raster") or {}),
+                      trace_plot=dict(spec.get("trace_plot") or {}), inputs=inputs,
+                      **text_fields)
 
 
 def _without_population(text: str) -> str:

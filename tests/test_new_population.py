@@ -245,3 +245,21 @@ def test_built_in_rows_are_the_former_lists():
     assert [L.cells_per_trial(p) for p in ("motor", "interneuron", "astrocyte", "pool",
                                            "torque")] == [80, 24, 8, 16, 8]
     assert L.interneurons_per_trial == 24 and L.joints_per_trial == 8
+
+
+def test_a_folder_written_before_rows_reads_the_built_in_rows():
+    """A manifest without ``results.layout.populations`` (written before manifests held the
+    rows) is read with the built-in rows; one with them, with its own, whatever this process's
+    table holds."""
+    from astrocpg.network.layout import Layout
+    from astrocpg.studies.outputs.export import unit_rows
+
+    old = {"n_trials": 1, "pool_size": 3, "legs": ["FR"]}
+    assert Layout.from_json(old).rows == populations.BUILT_IN
+    assert list(unit_rows({"results": {"layout": old}})) == ["motor", "interneuron", "astrocyte"]
+    with populations.registered(file_row()):
+        new = Layout(n_trials=1, pool_size=3, legs=("FR",)).to_json()
+    read = Layout.from_json(new)
+    assert [r.name for r in read.rows][-1] == "renshaw" and read.cells_per_trial("renshaw") == 4
+    assert read.row("renshaw").traces["renshaw_v"].unit == "mV"
+    assert list(unit_rows({"results": {"layout": new}}))[-1] == "renshaw"

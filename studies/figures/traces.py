@@ -15,7 +15,7 @@ from typing import Any, Callable
 import numpy as np
 from matplotlib.figure import Figure
 
-from ...network.layout import LEGS, POOLS, THIGH_POOLS
+from ...network.layout import LEGS
 from ...network.populations import trace_sources
 from ..analysis.gait import leg_phases
 from ..analysis.rhythm import pool_activity
@@ -23,8 +23,6 @@ from .plots import POOL_COLOURS, mark_fall
 from .save import FORMATS, save_figures  # noqa: F401  (drawn here, written there)
 
 JOINT_COLOURS = {"hip": "tab:green", "thigh": "tab:blue", "calf": "tab:purple"}
-ASTRO_ROWS = (("astrocyte_Ca", "Ca²⁺"), ("astrocyte_IP3", "IP3"), ("astrocyte_AG", "2-AG"),
-              ("astrocyte_ADO", "adenosine"))
 DT = 1e-3  # s, bin of pool activity (one network step)
 
 
@@ -107,25 +105,41 @@ def _raster_panel(ax: Any, row: Any, L: Any, trial: int, t: np.ndarray, i: np.nd
     ax.set_ylabel(str(style.get("label", f"{row.name} (leg)")))
 
 
-def _activity(result: Any, trial: int, leg_i: int, pool: str, window: tuple[float, float]):
-    t, i = result.spikes["motor"]
+def _activity_row(result: Any) -> Any:
+    """The recorded population whose spikes are the pools' activity (its row's ``activity``),
+    or None."""
+    return next((r for r in result.layout.rows if r.activity and r.name in result.spikes), None)
+
+
+def _cells_of(L: Any, row: Any, trial: int, leg_i: int, label: str) -> np.ndarray:
+    """The indices (in the population) of ``trial``'s cells of ``label`` in limb ``leg_i``."""
+    labels = row.labels(L.pool_size)
+    start = trial * L.n_legs * len(labels) + leg_i * len(labels)
+    return start + np.array([k for k, x in enumerate(labels) if x == label], dtype=np.intp)
+
+
+def _activity(result: Any, row: Any, trial: int, leg_i: int, pool: str,
+              window: tuple[float, float]):
+    t, i = result.spikes[row.name]
     t0, t1 = window
-    act = pool_activity(np.asarray(t), np.asarray(i), result.layout.motor_neurons(trial, leg_i, pool),
-                        t1, DT, t0)
+    act = pool_activity(np.asarray(t), np.asarray(i),
+                        _cells_of(result.layout, row, trial, leg_i, pool), t1, DT, t0)
     return t0 + np.arange(len(act)) * DT, act
 
 
 def activity_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[str, Figure]:
-    """pool_activity: each leg's four motor pools, neurons spiking per 1 ms step."""
-    if "motor" not in result.spikes:
+    """pool_activity: each leg's pools, cells spiking per 1 ms step (the population whose row
+    says its spikes are the pools' activity: the motor neurons)."""
+    row = _activity_row(result)
+    if row is None:
         return {}
     legs = _legs(result)
     fig = _figure((11, 1.0 + 1.6 * len(legs)))
     axes = np.atleast_1d(fig.subplots(len(legs), 1, sharex=True, sharey=True))
     for leg_i, (ax, leg) in enumerate(zip(axes, legs)):
-        for pool in POOLS:
-            x, act = _activity(result, trial, leg_i, pool, window)
-            ax.plot(x, act, lw=0.6, color=POOL_COLOURS[pool], label=pool)
+        for pool in dict.fromkeys(row.labels(result.layout.pool_size)):
+            x, act = _activity(result, row, trial, leg_i, pool, window)
+            ax.plot(x, act, lw=0.6, color=POOL_COLOURS.get(pool), label=pool)
         ax.set_ylabel(f"{leg}\nneurons / ms")
     axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, title="pool",
                    title_fontsize=7)
@@ -146,72 +160,93 @@ def _trace(result: Any, name: str, window: tuple[float, float]):
     return t[keep], v[keep]
 
 
-def motor_calcium_figures(result: Any, trial: int,
-                          window: tuple[float, float]) -> dict[str, Figure]:
-    """motor_calcium: each pool's mean motor-neuron Ca2+ (band: min..max over the pool)."""
-    if "motor_Ca" not in result.traces:
-        return {}
-    L, legs = result.layout, _legs(result)
-    t, v = _trace(result, "motor_Ca", window)
-    unit = _unit(result, "motor_Ca")
-    fig = _figure((11, 1.0 + 1.6 * len(legs)))
-    axes = np.atleast_1d(fig.subplots(len(legs), 1, sharex=True, sharey=True))
-    for leg_i, (ax, leg) in enumerate(zip(axes, legs)):
-        for pool in POOLS:
-            cols = v[:, L.motor_neurons(trial, leg_i, pool)]
-            ax.plot(t, cols.mean(axis=1), lw=0.8, color=POOL_COLOURS[pool], label=pool)
-            ax.fill_between(t, cols.min(axis=1), cols.max(axis=1), color=POOL_COLOURS[pool],
-                            alpha=0.15, lw=0)
-        ax.set_ylabel(f"{leg}\nCa²⁺ ({unit})")
-    axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, title="pool",
-                   title_fontsize=7)
-    axes[0].set_title(f"Motor-neuron Ca²⁺ (trial {trial}, pool mean, band: min..max)")
-    axes[-1].set_xlim(*window)
-    axes[-1].set_xlabel("time (s)")
-    return {"motor_calcium": fig}
+def _traced_rows(result: Any, style: str) -> list[tuple[Any, list[str]]]:
+    """(row, its recorded traces) of the rows whose traces are drawn in ``style``."""
+    out = []
+    for row in result.layout.rows:
+        names = [n for n in row.traces if n in result.traces]
+        if names and row.trace_plot.get("style", "label mean") == style:
+            out.append((row, names))
+    return out
 
 
-def astrocyte_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[str, Figure]:
-    """astrocyte_LEG_POOL: one astrocyte's Ca2+, IP3, 2-AG and adenosine, its adenosine
-    releases marked (dashed lines), and the activity of the thigh pool it sits on."""
-    names = [n for n, _ in ASTRO_ROWS if n in result.traces]
-    if not names:
-        return {}
-    L = result.layout
-    releases = None
-    if "astrocyte" in result.spikes:
-        releases = tuple(np.asarray(a) for a in result.spikes["astrocyte"])
-    figs = {}
-    for leg_i, leg in enumerate(_legs(result)):
-        for pool in THIGH_POOLS:
-            col = L.thigh_pool(trial, leg_i, pool)
-            rows = names + (["activity"] if "motor" in result.spikes else [])
-            fig = _figure((10, 1.0 + 1.35 * len(rows)))
-            axes = np.atleast_1d(fig.subplots(len(rows), 1, sharex=True))
-            events = np.zeros(0)
-            if releases is not None:
-                rt, ri = releases
-                events = rt[(ri == col) & (rt >= window[0]) & (rt < window[1])]
-            for ax, row in zip(axes, rows):
-                if row == "activity":
-                    x, act = _activity(result, trial, leg_i, pool, window)
-                    ax.plot(x, act, lw=0.6, color=POOL_COLOURS[pool])
-                    ax.set_ylabel("pool activity\n(neurons / ms)")
-                else:
-                    t, v = _trace(result, row, window)
-                    label = dict(ASTRO_ROWS)[row]
-                    ax.plot(t, v[:, col], lw=1.0, color="tab:olive", label=label)
-                    ax.set_ylabel(f"{label}\n({_unit(result, row)})")
-                for k, e in enumerate(events):
-                    ax.axvline(e, color="k", ls="--", lw=0.7,
-                               label="adenosine release" if k == 0 and ax is axes[0] else None)
-            if len(events):
-                axes[0].legend(loc="upper right", fontsize=7)
-            axes[0].set_title(f"Astrocyte of {leg} {pool} (trial {trial}): "
-                              f"{len(events)} release(s) in the window")
+def label_mean_figures(result: Any, trial: int,
+                       window: tuple[float, float]) -> dict[str, Figure]:
+    """One figure per trace of a "label mean" row (motor_calcium: each pool's mean motor-neuron
+    Ca2+, band: min..max over the pool): per limb, each label's mean and its min..max band."""
+    L, legs, figs = result.layout, _legs(result), {}
+    for row, names in _traced_rows(result, "label mean"):
+        style = row.trace_plot
+        labels = list(dict.fromkeys(row.labels(L.pool_size)))
+        for name in names:
+            t, v = _trace(result, name, window)
+            unit = _unit(result, name)
+            fig = _figure((11, 1.0 + 1.6 * len(legs)))
+            axes = np.atleast_1d(fig.subplots(len(legs), 1, sharex=True, sharey=True))
+            for leg_i, (ax, leg) in enumerate(zip(axes, legs)):
+                for label in labels:
+                    cols = v[:, _cells_of(L, row, trial, leg_i, label)]
+                    colour = POOL_COLOURS.get(label)
+                    ax.plot(t, cols.mean(axis=1), lw=0.8, color=colour, label=label)
+                    ax.fill_between(t, cols.min(axis=1), cols.max(axis=1), color=colour,
+                                    alpha=0.15, lw=0)
+                ax.set_ylabel(f"{leg}\n{style.get('ylabel', name)} ({unit})")
+            axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7,
+                           title="pool", title_fontsize=7)
+            axes[0].set_title(f"{style.get('title', name)} (trial {trial}, pool mean, band: "
+                              f"min..max)")
             axes[-1].set_xlim(*window)
             axes[-1].set_xlabel("time (s)")
-            figs[f"astrocyte_{leg}_{pool}"] = fig
+            figs[dict(style.get("figures") or {}).get(name, name)] = fig
+    return figs
+
+
+def per_cell_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[str, Figure]:
+    """POPULATION_LEG_LABEL for each cell of a "per cell" row (astrocyte_FR_thigh_flexor: one
+    astrocyte's Ca2+, IP3, 2-AG and adenosine, its adenosine releases marked (dashed lines),
+    and the activity of the thigh pool it sits on)."""
+    L, figs = result.layout, {}
+    active = _activity_row(result)
+    for row, names in _traced_rows(result, "per cell"):
+        style = row.trace_plot
+        shown = dict(style.get("labels") or {})
+        events_name = str(style.get("events", "spike"))
+        spikes = tuple(np.asarray(a) for a in result.spikes[row.name]) \
+            if row.name in result.spikes else None
+        pools = set(active.labels(L.pool_size)) if active is not None else set()
+        labels = row.labels(L.pool_size)
+        for leg_i, leg in enumerate(_legs(result)):
+            for k, label in enumerate(labels):
+                col = (trial * L.n_legs + leg_i) * len(labels) + k
+                panels = names + (["activity"] if label in pools else [])
+                fig = _figure((10, 1.0 + 1.35 * len(panels)))
+                axes = np.atleast_1d(fig.subplots(len(panels), 1, sharex=True))
+                events = np.zeros(0)
+                if spikes is not None:
+                    st, si = spikes
+                    events = st[(si == col) & (st >= window[0]) & (st < window[1])]
+                for ax, panel in zip(axes, panels):
+                    if panel == "activity":
+                        x, act = _activity(result, active, trial, leg_i, label, window)
+                        ax.plot(x, act, lw=0.6, color=POOL_COLOURS.get(label))
+                        ax.set_ylabel("pool activity\n(neurons / ms)")
+                    else:
+                        t, v = _trace(result, panel, window)
+                        text = shown.get(panel, panel)
+                        ax.plot(t, v[:, col], lw=1.0, color=style.get("colour", "tab:purple"),
+                                label=text)
+                        ax.set_ylabel(f"{text}\n({_unit(result, panel)})")
+                    for e_k, e in enumerate(events):
+                        ax.axvline(e, color="k", ls="--", lw=0.7,
+                                   label=events_name if e_k == 0 and ax is axes[0] else None)
+                if len(events):
+                    axes[0].legend(loc="upper right", fontsize=7)
+                axes[0].set_title(f"{style.get('title', row.name)} of {leg} {label} (trial "
+                                  f"{trial}): {len(events)} {events_name.split()[-1]}(s) in "
+                                  f"the window")
+                axes[-1].set_xlim(*window)
+                axes[-1].set_xlabel("time (s)")
+                figs[f"{row.name}_{leg}_{label}"] = fig
     return figs
 
 
@@ -304,9 +339,10 @@ def gait_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[s
             force = None
     bursts = None
     if force is None:
-        if "motor" not in result.spikes:
+        active = _activity_row(result)  # the pools' activity: the motor neurons' spikes
+        if active is None:
             return {}
-        t, i = (np.asarray(a) for a in result.spikes["motor"])
+        t, i = (np.asarray(a) for a in result.spikes[active.name])
         bursts = leg_phases(t, i, result.layout, trial, window[0], window[1])["bursts"]
     legs = _legs(result)
     fig = _figure((11, 1.4 + 0.45 * len(legs)))
@@ -341,7 +377,7 @@ def gait_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[s
 
 
 #: The figure makers :func:`trace_figures` calls in turn, each for what the recording holds.
-FIGURE_FUNCTIONS = (raster_figures, activity_figures, motor_calcium_figures, astrocyte_figures,
+FIGURE_FUNCTIONS = (raster_figures, activity_figures, label_mean_figures, per_cell_figures,
                     joint_figures, torso_figures, gait_figures)
 
 
@@ -361,5 +397,5 @@ def trace_figures(result: Any, trial: int = 0,
 
 
 __all__ = ["trace_figures", "save_figures", "FORMATS", "recorded_span", "FIGURE_FUNCTIONS", "raster_figures",
-           "activity_figures", "motor_calcium_figures", "astrocyte_figures", "joint_figures",
+           "activity_figures", "label_mean_figures", "per_cell_figures", "joint_figures",
            "torso_figures", "gait_figures"]
