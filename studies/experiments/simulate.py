@@ -20,7 +20,7 @@ from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError, did_you_mean
 from ...models import ModelSet
 from ...models.units import whole_steps
-from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, exclusive,
+from ...network import (CPG, DivergenceCheck, build_cpg, check_runs, exclusive,
                         network_time, run_network)
 from ...network.populations import BUILT_IN, spike_populations, trace_sources
 from ...network.recording import TRACE_DTYPES, TraceRecorder
@@ -328,18 +328,22 @@ def firing_rates(result: SimulationResult) -> dict[str, Any]:
     cpg, T = result.cpg, result.seconds
     L = cpg.layout
     out: dict[str, Any] = {}
-    if "motor" not in result.spikes:
+    # the pools' activity (the motor neurons): one rate per pool type, the others one each
+    active = next((r for r in L.rows if r.activity and r.name in result.spikes), None)
+    if active is None:
         return {}
-    t, i = result.spikes["motor"]
-    per_trial = i // L.motor_per_trial
-    pool_kind = (i % L.motor_per_trial) // L.pool_size % 4
-    for k, name in enumerate(POOLS):
-        counts = np.bincount(per_trial[pool_kind == k], minlength=L.n_trials)
-        out[name] = counts / (L.n_legs * L.pool_size * T)
-    for pop, n in (("interneuron", L.interneurons_per_trial),
-                   ("astrocyte", L.thigh_pools_per_trial)):
-        if pop not in result.spikes:
+    for row in L.rows:
+        if not row.spikes or row.name not in result.spikes:
             continue
-        _, idx = result.spikes[pop]
-        out[pop] = np.bincount(idx // n, minlength=L.n_trials) / (n * T)
+        _, idx = result.spikes[row.name]
+        idx = np.asarray(idx)
+        n = L.cells_per_trial(row.name)
+        if row is not active:
+            out[row.name] = np.bincount(idx // n, minlength=L.n_trials) / (n * T)
+            continue
+        labels = row.labels(L.pool_size)
+        label_of = np.array(labels * L.n_legs)[idx % n]
+        for label in dict.fromkeys(labels):
+            counts = np.bincount(idx[label_of == label] // n, minlength=L.n_trials)
+            out[label] = counts / (L.n_legs * labels.count(label) * T)
     return {k: np.asarray(v) for k, v in out.items()}
