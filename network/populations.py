@@ -89,9 +89,9 @@ class Population:
     """One row of the population table.
 
     name: the population's name, which is also its Brian2 group's (``motor`` is one group per
-        stage of limbs: :mod:`astrocpg.network.delays`), its key in spikes.npz and ``Result``.
+        stage of limbs: ``astrocpg.network.delays``), its key in spikes.npz and ``Result``.
     model: the :class:`~astrocpg.models.ModelSet` slot it is built from (``"interneuron"``), or,
-        for an added population, the :class:`~astrocpg.models.base.NeuronModel` itself.
+        for an added population, the ``NeuronModel`` itself.
     cells_per_leg: given the pool size, the label of each cell of one limb in index order
         (a pool, an interneuron's name); a label repeats for the cells of one pool.
     spikes: are its spikes recordable (``--spikes``)?
@@ -114,8 +114,8 @@ class Population:
         label names).
     activity: its spikes per label and step are the pools' activity (the figures' activity
         panels).
-    inputs: what connects an added population (:class:`Input`), declared in its file.
-    wire: a wiring step in Python for an added population (:data:`Wire`).
+    inputs: what connects an added population (``Input``: source population, synapse model, match), declared in its file.
+    wire: a wiring step in Python for an added population (``Wire``: a function given the build's ``Wiring``).
     """
 
     name: str

@@ -263,3 +263,16 @@ def test_a_folder_written_before_rows_reads_the_built_in_rows():
     assert [r.name for r in read.rows][-1] == "renshaw" and read.cells_per_trial("renshaw") == 4
     assert read.row("renshaw").traces["renshaw_v"].unit == "mV"
     assert list(unit_rows({"results": {"layout": new}}))[-1] == "renshaw"
+
+
+def test_a_training_without_layout_takes_its_pool_size_from_its_models():
+    """A training manifest written before it held the layout: the pool size is the one its
+    models record (read as the models read it), not a default."""
+    from astrocpg.models import DEFAULT_MODELS
+    from astrocpg.studies.outputs.result import _training_layout
+
+    models = DEFAULT_MODELS.with_values({"pool_size": 7}).to_json()
+    layout = _training_layout({"settings": {"n_trials": 3}, "models": models}, Path("t"))
+    assert (layout.n_trials, layout.pool_size) == (3, 7)
+    with pytest.raises(InputError, match="pool size"):
+        _training_layout({"settings": {"n_trials": 3}}, Path("t"))

@@ -459,7 +459,8 @@ def _training_layout(manifest: Mapping[str, Any], folder: Path) -> Layout:
         size = int(ModelSet.from_json(manifest["models"]).value("pool_size"))
         return Layout(n_trials=int(manifest["settings"]["n_trials"]), pool_size=size, legs=LEGS)
     except (KeyError, TypeError, ValueError, AttributeError, InputError):
-        raise InputError(f"{MANIFEST} does not say how many trials the training has",
+        raise InputError(f"{MANIFEST} does not say how many trials the training has, nor "
+                         f"its pool size",
                          culprit=str(folder)) from None
 
 
