@@ -59,7 +59,7 @@ from ..models import ModelSet
 from ..network import CPG, LEGS
 from .robot import RobotLayout
 from .robot_recording import Recording
-from .robots import INSTABILITY_WARNINGS, Robots  # noqa: F401  (INSTABILITY_WARNINGS: its old home)
+from .robots import Robots
 from .senses import Senses
 
 _THIGH, _CALF = 1, 2  # joint order within a leg: hip, thigh, calf

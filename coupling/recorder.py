@@ -26,8 +26,12 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ..network import CPG
-from ..network.recordable import POPULATIONS, TRACES, spike_populations, trace_sources
+from ..network.populations import BUILT_IN, spike_populations, trace_sources
 from .bridge import ORDER_MEASURE, Bridge
+
+#: what a built-in network can record (RecordPlan's default)
+POPULATIONS: tuple[str, ...] = spike_populations(BUILT_IN)
+TRACES: tuple[str, ...] = tuple(trace_sources(BUILT_IN))
 
 
 @dataclass(frozen=True, kw_only=True)

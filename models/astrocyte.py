@@ -9,7 +9,7 @@ released by the astrocyte's own pool
 
 from brian2 import second, umolar
 
-from .base import Interface, NeuronModel, Parameter, ParameterTable
+from .base import Interface, NeuronModel, Parameter, ParameterTable, TraceSource
 
 EQUATIONS = """
 dCa/dt = J_chan + J_leak - J_pump : mmolar  # cytosolic [Ca2+]
@@ -77,9 +77,17 @@ PARAMETERS = ParameterTable("astrocyte", [
               meaning="adenosine release refractory period", positive=True),
 ])
 
-INTERFACE = Interface(variables=("n_pool", "ADO", "Ca", "IP3", "AG"))
+# concentrations are stored in uM (Brian2 keeps mol/m^3 = mM)
+INTERFACE = Interface(variables=("n_pool", "ADO"), traces={
+    "astrocyte_Ca": TraceSource("Ca", 1e3, "uM", "astrocyte cytosolic Ca2+ (Li-Rinzel)"),
+    "astrocyte_IP3": TraceSource("IP3", 1e3, "uM", "astrocyte IP3"),
+    "astrocyte_AG": TraceSource("AG", 1.0, "a.u.",
+                                "2-AG (endocannabinoid) at the astrocyte (dimensionless)"),
+    "astrocyte_ADO": TraceSource("ADO", 1.0, "a.u.",
+                                 "adenosine released by the astrocyte (dimensionless)"),
+})
 """What the network reads or sets: ``n_pool`` (linked to the pool's spike count), ``ADO``
-(linked into the inter-limb synapse), ``Ca``, ``IP3``, ``AG`` (recorded traces)."""
+(linked into the inter-limb synapse); and what it records: ``Ca``, ``IP3``, ``AG``, ``ADO``."""
 
 ASTROCYTE = NeuronModel(
     name="astrocyte",

@@ -232,6 +232,22 @@ def _value_from_json(data: Any, culprit: str) -> Any:
 # ---- what a model and the framework agree on
 
 @dataclass(frozen=True)
+class TraceSource:
+    """A recordable trace of a model: the group's ``variable``, the ``factor`` from Brian2's SI
+    value to the stored unit, the stored unit's text (``uM``, ``mV``, ``a.u.`` ...) and what it
+    means (the NWB export's description)."""
+
+    variable: str
+    factor: float
+    unit: str
+    meaning: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {"variable": self.variable, "factor": self.factor, "unit": self.unit,
+                "meaning": self.meaning}
+
+
+@dataclass(frozen=True)
 class Interface:
     """What the framework may touch on a model slot, declared once in the model's module as
     ``INTERFACE`` (NESTML style: the model states what it offers and what it lets the
@@ -247,21 +263,32 @@ class Interface:
         (the astrocyte ablation, the frozen weights of ``astrocpg power``).
     optional: parameters the framework reads when the model declares them, and does without
         otherwise (the inter-limb delays: a pair of legs without one takes one step).
+    traces: the state variables that can be recorded, trace name -> :class:`TraceSource`
+        (stored unit, meaning); the population table's rows read them from here, and a model
+        file for the slot must declare their variables too.
     """
 
     variables: tuple[str, ...] = ()
     inputs: tuple[str, ...] = ()
     parameters: tuple[str, ...] = ()
     optional: tuple[str, ...] = ()
+    traces: Mapping[str, TraceSource] = field(default_factory=dict, compare=False)
+
+    @property
+    def state_variables(self) -> tuple[str, ...]:
+        """The variables the network reads, sets or records, each once."""
+        return tuple(dict.fromkeys(self.variables + tuple(s.variable for s in
+                                                          self.traces.values())))
 
     def __iter__(self):
-        """Every required name of the interface: variables, inputs, then parameters."""
-        return iter(self.variables + self.inputs + self.parameters)
+        """Every required name of the interface: variables (recorded ones too), inputs, then
+        parameters."""
+        return iter(self.state_variables + self.inputs + self.parameters)
 
     def __str__(self) -> str:
         """One line for ``astrocpg models list``: ``variables: ...; parameters: ...``."""
         parts = [f"{label}: {', '.join(names)}" for label, names in (
-            ("variables", self.variables), ("inputs", self.inputs),
+            ("variables", self.state_variables), ("inputs", self.inputs),
             ("parameters", self.parameters)) if names]
         if self.optional:
             parts.append(f"optional: {len(self.optional)} ({self.optional[0]}, ...)")
@@ -272,7 +299,8 @@ class Interface:
         return self.parameters + self.optional
 
     def __bool__(self) -> bool:
-        return bool(self.variables or self.inputs or self.parameters or self.optional)
+        return bool(self.variables or self.inputs or self.parameters or self.optional
+                    or self.traces)
 
 
 # ---- the model contract

@@ -285,7 +285,7 @@ def check_interface(model: Model, interface: Interface | None, *, culprit: str) 
             raise InputError(f"uses inputs {extra} the network does not give (inputs: "
                              f"{', '.join(interface.inputs)})", culprit=culprit)
     names = set(model.brian_equations().names) if isinstance(model, BrianModel) else set()
-    missing = [n for n in interface.variables if n not in names]
+    missing = [n for n in interface.state_variables if n not in names]
     missing += [n for n in interface.parameters if n not in model.parameters]
     if missing:
         raise InputError(f"lacks {', '.join(missing)}, which the framework reads or sets "

@@ -8,7 +8,7 @@ not refractory; the K+ current acts on every neuron (docs/model.md, "Discretisat
 
 from brian2 import Hz, meter, ms, mV, second
 
-from .base import Interface, NeuronModel, Parameter, ParameterTable
+from .base import Interface, NeuronModel, Parameter, ParameterTable, TraceSource
 
 EQUATIONS = """
 dv/dt = (v_motor_rest - v)/tau_motor + int(not_refractory)*I_input - C_K_chan*K_open : volt  # membrane potential
@@ -67,7 +67,9 @@ PARAMETERS = ParameterTable("motor_neuron", [
               meaning="amplitude of the uniform noise on the background stimulation"),
 ])
 
-INTERFACE = Interface(variables=("x_position", "y_position", "z_position", "Ca"))
+INTERFACE = Interface(variables=("x_position", "y_position", "z_position"), traces={
+    "motor_Ca": TraceSource("Ca", 1.0, "a.u.",
+                            "motor-neuron Ca2+ (dimensionless, drives the K+ adaptation current)")})
 """What the network sets (positions) or records (``Ca``); its linked variables must be pool
 variables of the same name (checked when the network is built)."""
 

@@ -209,7 +209,7 @@ class CPG:
 
     def _scan_order(self) -> list[str]:
         """The populations of this network, upstream first (the table's ``scan_rank``)."""
-        built = [r for r in populations.table() if r.name in self.groups or r.name == "motor"]
+        built = [r for r in self.layout.rows if r.name in self.groups or r.name == "motor"]
         return [r.name for r in sorted(built, key=lambda r: r.scan_rank)]
 
     @property
@@ -225,9 +225,6 @@ class CPG:
         One reduction per array (about 1 us each), constants on the first call and with
         ``full`` only; the element is located only when one fails."""
         return self.scan.first(full)
-
-    #: The former name of :meth:`first_invalid` (NaN and inf only were invalid then).
-    first_nonfinite = first_invalid
 
     def reset_trial(self, trial: int, keep: tuple[str, ...] = ("astrocyte",)) -> None:
         """Reset one trial's state to the start of a session: every state variable of the
@@ -322,7 +319,7 @@ class CPG:
         if var == "not_refractory":
             return True
         model = (self.models.interlimb_synapse if group == "interlimb"
-                 else populations.row(group).model_in(self.models))
+                 else self.layout.row(group).model_in(self.models))
         value = model.initial_values.get(var, 0.0)
         if isinstance(value, str):
             raise InputError("a session reset needs a number, not an expression",
@@ -491,7 +488,7 @@ def _build_groups(w: Wiring) -> None:
     """One group per population of the table, in its order (the motor neurons: one per stage
     of limbs); then each stage's pools, one contiguous block of the pool group."""
     L, B = w.layout, w.layout.n_trials
-    for row in populations.table():
+    for row in L.rows:
         model = row.model_in(w.models)
         if row.name == "motor":
             # the trial-major motor-neuron number of each neuron of each stage's group
@@ -506,6 +503,49 @@ def _build_groups(w: Wiring) -> None:
     pool = w.groups["pool"]
     w.stage_pools = [pool] if w.n_stages == 1 else \
         [pool[slice(*L.stage_pool_range(s))] for s in range(w.n_stages)]
+
+
+def _source_cells(w: Wiring, population: str, numbers: np.ndarray) -> list[tuple[Any, np.ndarray,
+                                                                             np.ndarray]]:
+    """(group, where in ``numbers``, index in the group) of cells of ``population`` given by
+    their trial-major numbers: the motor neurons stage by stage, the pools in the pool group's
+    order, any other population's group as it is."""
+    L = w.layout
+    if population == "motor":
+        stage, local = L.motor_local(numbers)
+        return [(m, stage == s, local[stage == s]) for s, m in enumerate(w.motors)]
+    if population == "pool":
+        return [(w.groups["pool"], np.ones(len(numbers), dtype=bool),
+                 np.argsort(L.pool_number)[numbers])]
+    return [(w.groups[population], np.ones(len(numbers), dtype=bool), numbers)]
+
+
+def _wire_input(w: Wiring, target: str, given: populations.Input) -> None:
+    """The synapses of an input declared in a population's row (:class:`populations.Input`):
+    within each trial and limb, every target cell from the source cells with its label
+    (``match = "label"``) or from every source cell of the limb (``"limb"``); one object per
+    source group (stage), named ``SOURCE_to_TARGET`` (plus the stage's suffix)."""
+    L = w.layout
+    src_labels = L.row(given.source).labels(L.pool_size)
+    tgt_labels = L.row(target).labels(L.pool_size)
+    n_src, n_tgt = L.cells_per_trial(given.source), L.cells_per_trial(target)
+    i, j = [], []
+    for b in range(L.n_trials):
+        for leg in range(L.n_legs):
+            for t, label in enumerate(tgt_labels):
+                s = [k for k, x in enumerate(src_labels) if given.match == "limb" or x == label]
+                i += [b * n_src + leg * len(src_labels) + k for k in s]
+                j += [b * n_tgt + leg * len(tgt_labels) + t] * len(s)
+    if not i:
+        raise InputError(f"connects no cell: no label of {given.source} is one of {target}'s",
+                         culprit=f"population {target}")
+    model = getattr(w.models, given.synapse)
+    kind = f"{given.source}_to_{target}"
+    j_ = np.asarray(j, dtype=np.intp)
+    for s, (group, here, local) in enumerate(_source_cells(w, given.source,
+                                                            np.asarray(i, dtype=np.intp))):
+        name = kind + (w.suffix(s) if given.source == "motor" else "")
+        w.add(kind, w.synapses(model, group, w.groups[target], name, local, j_[here]))
 
 
 def _place_motor_neurons(w: Wiring, seed: int) -> None:
@@ -681,7 +721,8 @@ def build_cpg(
     pool_size = int(models.value("pool_size"))
     stages = limb_stages(models, legs, dt)  # 0 ms inter-limb delays: limbs one after another
     layout = Layout(n_trials=int(n_trials), pool_size=pool_size, legs=legs,
-                    stages=stages if len(stages) > 1 else None)
+                    stages=stages if len(stages) > 1 else None,
+                    populations=populations.table())  # the rows it is built from, kept
     # numpy, or cython (opt-in): ``codegen``, else $ASTROCPG_CODEGEN. Every group and synapse
     # is pinned to it, so a later change of Brian2's preference does not move this network.
     codegen = use_codegen(codegen)
@@ -698,9 +739,13 @@ def build_cpg(
     _link_pool_variables(w)
     for step in WIRING_STEPS:
         step(w)
-    for row in populations.added():
-        with _blame(f"population {row.name}"):
-            row.wire(w)  # type: ignore[misc]
+    for row in layout.rows:
+        if row.inputs or row.wire is not None:
+            with _blame(f"population {row.name}"):
+                for given in row.inputs:
+                    _wire_input(w, row.name, given)
+                if row.wire is not None:
+                    row.wire(w)
     w.objects.extend(w.learning)
 
     g = w.groups
@@ -787,7 +832,7 @@ def built_in_models(models: ModelSet) -> bool:
     """Is every Brian2 model of the CPG the built-in one (the same object as in
     ``DEFAULT_MODELS``)? Such a network needs no :func:`check_runs`: the test suite builds and
     runs it, and a check would generate all its code twice (about 0.4 s of every command)."""
-    if populations.added():  # a population added to the table: its model is not the suite's
+    if any(not r.built_in for r in populations.table()):  # an added population's model
         return False
     return all(getattr(models, name) is getattr(DEFAULT_MODELS, name)
                for name in dict.fromkeys(MODEL_OF.values()))

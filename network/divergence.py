@@ -117,10 +117,6 @@ class InvalidState:
                         trial=self.trial)
 
 
-#: The former name (only NaN and inf were invalid then).
-NonFinite = InvalidState
-
-
 class StateScan:
     """Applies :func:`invalid` to live state arrays, fast: see the module's docstring.
 
@@ -276,5 +272,5 @@ class DivergenceCheck:
             raise found.error(t if math.isfinite(t) else None)
 
 
-__all__ = ["LIMIT", "invalid", "InvalidState", "NonFinite", "StateScan", "leave_to_the_scan",
+__all__ = ["LIMIT", "invalid", "InvalidState", "StateScan", "leave_to_the_scan",
            "DivergenceCheck", "find_diverged", "run_network", "MODEL_OF", "model_of"]

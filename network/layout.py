@@ -17,7 +17,7 @@ and :meth:`Layout.pool_number` map them back to the trial-major numbering.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -42,6 +42,18 @@ class Layout:
     #: positions in ``legs`` of the limbs of each stage, in the order the stages integrate within
     #: a step; None: one stage of every limb (no 0 ms inter-limb delay)
     stages: tuple[tuple[int, ...], ...] | None = None
+    #: the population rows this layout places (a built network's, or a folder's manifest's);
+    #: None: this process's table (:func:`astrocpg.network.populations.table`)
+    populations: tuple[_table.Population, ...] | None = field(default=None, compare=False)
+
+    @property
+    def rows(self) -> tuple[_table.Population, ...]:
+        """Its population rows (:attr:`populations`, else this process's table)."""
+        return self.populations if self.populations is not None else _table.table()
+
+    def row(self, population: str) -> _table.Population:
+        """The row of ``population`` among :attr:`rows` (KeyError if there is none)."""
+        return _table.row(population, self.rows)
 
     @property
     def limb_stages(self) -> tuple[tuple[int, ...], ...]:
@@ -115,19 +127,22 @@ class Layout:
             "astrocyte_index": "trial*thigh_pools_per_trial + leg*2 + (0 flexor, 1 extensor)",
             "thigh_pools": list(THIGH_POOLS),
             # every population's cell labels in one limb (the export's and Result's cells)
-            "cells_per_leg": {p.name: list(p.labels(self.pool_size)) for p in _table.table()},
+            "cells_per_leg": {p.name: list(p.labels(self.pool_size)) for p in self.rows},
+            # the rows themselves: a folder describes itself (populations.rows_of)
+            "populations": [p.to_json(self.pool_size) for p in self.rows],
         }
 
     @classmethod
     def from_json(cls, data: dict) -> "Layout":
-        """The layout a manifest's ``results.layout`` (:meth:`to_json`) describes."""
+        """The layout a manifest's ``results.layout`` (:meth:`to_json`) describes, with the
+        rows it holds (the built-in rows for a folder written before manifests held them)."""
         return cls(n_trials=int(data["n_trials"]), pool_size=int(data["pool_size"]),
-                   legs=tuple(data.get("legs", LEGS)))
+                   legs=tuple(data.get("legs", LEGS)), populations=_table.rows_of(data))
 
     # ---- sizes per trial
     def cells_per_trial(self, population: str) -> int:
         """How many cells of ``population`` (a row of the population table) one trial has."""
-        return self.n_legs * len(_table.row(population).labels(self.pool_size))
+        return self.n_legs * len(self.row(population).labels(self.pool_size))
 
     @property
     def pools_per_trial(self) -> int:

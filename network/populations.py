@@ -1,41 +1,45 @@
 """The population table: one row per population of the CPG, from which the index layout, the
 CPG's groups, the divergence scan, what can be recorded, :class:`~astrocpg.studies.outputs.result.Result`'s
-cells and the NWB export read.
+cells, the figures and the exports read.
 
 A row (:class:`Population`) says which model the population is built from (a slot of the
 :class:`~astrocpg.models.ModelSet`, or a model itself), its cells in one limb (so its cells per
 trial and its place in the layout), whether its spikes are recordable, which state variables
-are recordable traces (with their stored unit), what the export calls its cells, and, for a
-population that is not built in, the wiring step that connects it (:data:`Wire`).
+are recordable traces (a built-in row takes them from its model's interface,
+:attr:`astrocpg.models.base.Interface.traces`), what the export calls its cells and its table,
+how a raster draws it, and, for a population that is not built in, what connects it (its
+``inputs``, or a Python wiring step :data:`Wire`).
 
-Adding a population (docs/model-files.md, "A new population"): write its model file, then
-register one row, for the whole process (:func:`register`) or for a block
-(:func:`registered`)::
+Every output folder's manifest holds the rows it was written with (``results.layout.populations``,
+:meth:`Population.to_json`), so that a folder describes itself: readers take the rows from the
+folder (:func:`rows_of`), never from this process's table.
 
-    from astrocpg.models.files import model_from_toml
+Adding a population (docs/model-files.md, "A new population"): a model file with a
+``[population]`` table (:func:`population_from_toml`), given to ``astrocpg unit`` or ``run``
+with ``--population FILE``; or, in Python, a row registered for a block (:func:`registered`)::
+
     from astrocpg.network import populations, build_cpg
 
-    renshaw = populations.Population(
-        name="renshaw", model=model_from_toml(text, culprit="renshaw.toml"),
-        cells_per_leg=lambda pool_size: populations.POOLS, spikes=True,
-        traces={"renshaw_v": populations.TraceSource("v", 1e3, "mV", "Renshaw cell potential")},
-        wire=wire_renshaw)
-    with populations.registered(renshaw):
+    row = populations.population_from_toml(text, culprit="renshaw.toml")
+    with populations.registered(row):
         cpg = build_cpg(...)
 
 The projections (synapse objects) have their own, smaller table (:data:`PROJECTIONS`: object
 name -> model slot), which the divergence check uses to name the model of a failing object.
-This module imports no Brian2 (``describe`` prints cached text without it).
 """
 
 from __future__ import annotations
 
 import contextlib
+import tomllib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from ..errors import InputError
+from ..reading import loads_toml
+from ..models import DEFAULT_MODELS, INTERFACES
+from ..models.base import TraceSource
 
 # The order of the authors' loop over the limbs; the inter-limb synapse model names its delays
 # with the same names (models.interlimb_synapse.LIMBS: tests/test_delays.py checks they agree).
@@ -55,23 +59,29 @@ INTERNEURONS: tuple[tuple[str, str, str, str], ...] = (
     ("thigh_flexor_to_calf_extensor", "IIN", "thigh_flexor", "calf_extensor"),
 )
 
-
-@dataclass(frozen=True)
-class TraceSource:
-    """A recordable trace: the group's ``variable``, the ``factor`` from Brian2's SI value to the
-    stored unit, the stored unit's text (``uM``, ``a.u.`` ...) and what it means (NWB)."""
-
-    variable: str
-    factor: float
-    unit: str
-    meaning: str
-
-
-#: A population's wiring step (populations that are not built in): called by
-#: :func:`astrocpg.network.build_cpg` once every built-in population and projection exists, with
-#: the build's :class:`~astrocpg.network.build.Wiring` (layout, models, groups by population,
+#: A population's wiring step written in Python: called by :func:`astrocpg.network.build_cpg`
+#: once every built-in population and projection exists, with the build's
+#: :class:`~astrocpg.network.build.Wiring` (layout, models, groups by population,
 #: ``synapses(model, source, target, name, i, j)`` and ``add(kind, synapses)``).
 Wire = Callable[[Any], None]
+
+#: How an input connects its source's cells to the population's, within one trial and limb:
+#: ``label``: each cell from the source's cells with the same label (a Renshaw cell of a pool
+#: from that pool's motor neurons); ``limb``: each cell from every source cell of the limb.
+MATCHES: tuple[str, ...] = ("label", "limb")
+
+
+@dataclass(frozen=True)
+class Input:
+    """A projection into an added population: from the cells of population ``source`` through
+    synapses of the model set's synapse model ``synapse``, paired by ``match`` (:data:`MATCHES`)."""
+
+    source: str
+    synapse: str
+    match: str = "label"
+
+    def to_json(self) -> dict[str, str]:
+        return {"from": self.source, "synapse": self.synapse, "match": self.match}
 
 
 @dataclass(frozen=True)
@@ -79,20 +89,33 @@ class Population:
     """One row of the population table.
 
     name: the population's name, which is also its Brian2 group's (``motor`` is one group per
-        stage of limbs: :mod:`astrocpg.network.delays`), its key in spikes.npz and ``Result``.
+        stage of limbs: ``astrocpg.network.delays``), its key in spikes.npz and ``Result``.
     model: the :class:`~astrocpg.models.ModelSet` slot it is built from (``"interneuron"``), or,
-        for an added population, the :class:`~astrocpg.models.base.NeuronModel` itself.
+        for an added population, the ``NeuronModel`` itself.
     cells_per_leg: given the pool size, the label of each cell of one limb in index order
         (a pool, an interneuron's name); a label repeats for the cells of one pool.
     spikes: are its spikes recordable (``--spikes``)?
-    traces: recordable traces, trace name -> :class:`TraceSource`.
+    traces: recordable traces, trace name -> :class:`~astrocpg.models.base.TraceSource`.
     cell_noun: what one cell is called in the export (``motor_neuron``: table ``motor_neurons``).
     label_meaning: what a cell's label (the ``pool`` column of the export) means.
+    spike_meaning: what one of its spikes is (the export's ``population`` column).
+    table_description: the export's description of its cell table.
     scan_rank: the divergence scan checks populations upstream first, by this rank (lowest
         first), after the synapses.
     trace_series_per_leg: the export splits its traces in one series per trial and limb (else
         one per trial).
-    wire: the wiring step of an added population (None: built in, wired by ``build_cpg``).
+    raster: how a raster draws it: ``height`` (relative), ``label`` (the axis),
+        ``marker``, ``colour`` (``"by label"``: one colour per label), ``ticks`` (``"leg"``: one
+        tick per limb; ``"cell"``: one per cell).
+    trace_plot: how ``astrocpg plot`` draws its traces: ``style`` ``"label mean"`` (default: per
+        limb, each label's mean with a min..max band; ``figures`` names the figure of a trace,
+        default the trace's name) or ``"per cell"`` (one figure per cell with all its traces,
+        ``labels`` by trace, its spikes marked as ``events``, and the activity of the pool its
+        label names).
+    activity: its spikes per label and step are the pools' activity (the figures' activity
+        panels).
+    inputs: what connects an added population (``Input``: source population, synapse model, match), declared in its file.
+    wire: a wiring step in Python for an added population (``Wire``: a function given the build's ``Wiring``).
     """
 
     name: str
@@ -102,14 +125,25 @@ class Population:
     traces: Mapping[str, TraceSource] = field(default_factory=dict)
     cell_noun: str = ""
     label_meaning: str = ""
+    spike_meaning: str = ""
+    table_description: str = ""
     scan_rank: int = 0
     trace_series_per_leg: bool = False
+    raster: Mapping[str, Any] = field(default_factory=dict)
+    trace_plot: Mapping[str, Any] = field(default_factory=dict)
+    activity: bool = False
+    inputs: tuple[Input, ...] = ()
     wire: Wire | None = None
 
     @property
     def model_name(self) -> str:
         """The name of the model it is built from (a slot's name, or the model's)."""
         return self.model if isinstance(self.model, str) else str(self.model.name)
+
+    @property
+    def built_in(self) -> bool:
+        """Is it wired by ``build_cpg`` itself (neither ``inputs`` nor ``wire``)?"""
+        return not self.inputs and self.wire is None
 
     def model_in(self, models: Any) -> Any:
         """Its model, taken from ``models`` (a ModelSet) where it names a slot."""
@@ -128,32 +162,99 @@ class Population:
             seen[label] = seen.get(label, 0) + 1
         return out
 
+    @property
+    def noun(self) -> str:
+        return self.cell_noun or self.name
+
+    @property
+    def table_name(self) -> str:
+        """The export's table of its cells (``motor_neurons``)."""
+        return f"{self.noun}s"
+
+    def to_json(self, pool_size: int) -> dict[str, Any]:
+        """What a folder's manifest holds of the row (its cells at ``pool_size``): all a reader
+        needs, so that a folder describes itself (:func:`from_json`)."""
+        return {"name": self.name, "model": self.model_name,
+                "cells_per_leg": list(self.labels(pool_size)), "spikes": self.spikes,
+                "traces": {t: s.to_json() for t, s in self.traces.items()},
+                "cell_noun": self.noun, "label_meaning": self.label_meaning,
+                "spike_meaning": self.spike_meaning,
+                "table_description": self.table_description
+                or f"one row per {self.noun.replace('_', ' ')}",
+                "scan_rank": self.scan_rank, "trace_series_per_leg": self.trace_series_per_leg,
+                "raster": dict(self.raster), "trace_plot": dict(self.trace_plot),
+                "activity": self.activity, "inputs": [i.to_json() for i in self.inputs],
+                "built_in": self.built_in}
+
+
+def from_json(data: Mapping[str, Any]) -> Population:
+    """The row a manifest holds (:meth:`Population.to_json`), for reading a folder: its cells
+    are the ones recorded (at the folder's pool size); it builds nothing."""
+    try:
+        labels = tuple(str(x) for x in data["cells_per_leg"])
+        traces = {str(t): TraceSource(str(s["variable"]), float(s["factor"]), str(s["unit"]),
+                                      str(s.get("meaning", t)))
+                  for t, s in (data.get("traces") or {}).items()}
+        return Population(
+            name=str(data["name"]), model=str(data.get("model", data["name"])),
+            cells_per_leg=lambda pool_size: labels, spikes=bool(data.get("spikes", False)),
+            traces=traces, cell_noun=str(data.get("cell_noun", "")),
+            label_meaning=str(data.get("label_meaning", "")),
+            spike_meaning=str(data.get("spike_meaning", "")),
+            table_description=str(data.get("table_description", "")),
+            scan_rank=int(data.get("scan_rank", 0)),
+            trace_series_per_leg=bool(data.get("trace_series_per_leg", False)),
+            raster=dict(data.get("raster") or {}),
+            trace_plot=dict(data.get("trace_plot") or {}),
+            activity=bool(data.get("activity", False)),
+            inputs=tuple(Input(str(i["from"]), str(i["synapse"]), str(i.get("match", "label")))
+                         for i in data.get("inputs") or ()))
+    except (KeyError, TypeError, ValueError, AttributeError) as e:
+        raise InputError(f"a population row of the manifest cannot be read ({type(e).__name__}: "
+                         f"{e})", culprit=str(data.get("name", "population")
+                                              if isinstance(data, Mapping) else "population"))
+
+
+def rows_of(layout: Mapping[str, Any] | None) -> tuple[Population, ...]:
+    """The rows a folder was written with: its manifest's ``results.layout.populations``; a
+    folder written before manifests held them has the built-in rows."""
+    rows = (layout or {}).get("populations") if isinstance(layout, Mapping) else None
+    if not rows:
+        return BUILT_IN
+    return tuple(from_json(r) for r in rows)
+
 
 BUILT_IN: tuple[Population, ...] = (
     Population("motor", "motor_neuron",
                lambda n: [p for p in POOLS for _ in range(n)], spikes=True,
-               traces={"motor_Ca": TraceSource(
-                   "Ca", 1.0, "a.u.",
-                   "motor-neuron Ca2+ (dimensionless, drives the K+ adaptation current)")},
-               cell_noun="motor_neuron", label_meaning="motor pool", scan_rank=4,
-               trace_series_per_leg=True),
+               traces=INTERFACES["motor_neuron"].traces,
+               cell_noun="motor_neuron", label_meaning="motor pool", spike_meaning="motor neuron",
+               table_description="one row per motor neuron", scan_rank=4,
+               trace_series_per_leg=True, activity=True,
+               trace_plot={"style": "label mean", "figures": {"motor_Ca": "motor_calcium"},
+                           "title": "Motor-neuron Ca²⁺", "ylabel": "Ca²⁺"},
+               raster={"height": 4, "label": "motor neuron (leg)", "colour": "by label",
+                       "marker": "|", "size": 2, "ticks": "leg", "title": True}),
     Population("interneuron", "interneuron", lambda n: [name for name, *_ in INTERNEURONS],
                spikes=True, cell_noun="interneuron",
-               label_meaning="interneuron (source_to_target)", scan_rank=3),
-    # astrocyte "spikes": adenosine releases; concentrations in uM (Brian2 keeps mol/m^3 = mM)
+               label_meaning="interneuron (source_to_target)", spike_meaning="V1/V2b or IIN",
+               scan_rank=3,
+               raster={"height": 2, "label": "interneuron (leg)", "colour": "k", "marker": "|",
+                       "size": 3, "ticks": "leg"}),
+    # astrocyte "spikes": adenosine releases
     Population("astrocyte", "astrocyte", lambda n: THIGH_POOLS, spikes=True,
-               traces={
-                   "astrocyte_Ca": TraceSource("Ca", 1e3, "uM",
-                                               "astrocyte cytosolic Ca2+ (Li-Rinzel)"),
-                   "astrocyte_IP3": TraceSource("IP3", 1e3, "uM", "astrocyte IP3"),
-                   "astrocyte_AG": TraceSource(
-                       "AG", 1.0, "a.u.",
-                       "2-AG (endocannabinoid) at the astrocyte (dimensionless)"),
-                   "astrocyte_ADO": TraceSource(
-                       "ADO", 1.0, "a.u.", "adenosine released by the astrocyte (dimensionless)"),
-               },
+               traces=INTERFACES["astrocyte"].traces,
                cell_noun="astrocyte", label_meaning="the thigh pool whose spikes the astrocyte "
-                                                    "takes in", scan_rank=1),
+                                                    "takes in",
+               spike_meaning="spike = adenosine release",
+               table_description="one row per astrocyte: the trial, limb and thigh pool it "
+                                 "covers", scan_rank=1,
+               trace_plot={"style": "per cell", "title": "Astrocyte", "colour": "tab:olive",
+                           "events": "adenosine release",
+                           "labels": {"astrocyte_Ca": "Ca²⁺", "astrocyte_IP3": "IP3",
+                                      "astrocyte_AG": "2-AG", "astrocyte_ADO": "adenosine"}},
+               raster={"height": 1.2, "label": "astrocyte\n(adenosine release)",
+                       "colour": "tab:olive", "marker": "v", "size": 4, "ticks": "cell"}),
     Population("pool", "pool", lambda n: POOLS, cell_noun="pool", label_meaning="motor pool",
                scan_rank=0),
     Population("torque", "torque", lambda n: JOINTS_DRIVEN, cell_noun="joint",
@@ -179,9 +280,10 @@ def added() -> tuple[Population, ...]:
     return tuple(_ADDED)
 
 
-def row(name: str) -> Population:
-    """The row of population ``name`` (KeyError if there is none)."""
-    for p in table():
+def row(name: str, rows: Sequence[Population] | None = None) -> Population:
+    """The row of population ``name`` in ``rows`` (None: this process's table); KeyError if
+    there is none."""
+    for p in table() if rows is None else rows:
         if p.name == name:
             return p
     raise KeyError(f"no population {name!r}")
@@ -192,10 +294,10 @@ def names() -> tuple[str, ...]:
 
 
 def register(population: Population) -> Population:
-    """Add a row to the table for this process (its ``wire`` step connects it). A name or a
-    trace name the table already holds is an InputError naming it."""
-    if population.wire is None:
-        raise InputError("an added population needs its wiring step (wire=)",
+    """Add a row to the table for this process (its ``inputs`` or ``wire`` step connects it).
+    A name or a trace name the table already holds is an InputError naming it."""
+    if population.built_in:
+        raise InputError("an added population needs its inputs or its wiring step (wire=)",
                          culprit=f"population {population.name}")
     taken = set(names()) | set(PROJECTIONS) | set(trace_sources())
     for name in (population.name, *population.traces):
@@ -212,7 +314,7 @@ def unregister(name: str) -> None:
 
 @contextlib.contextmanager
 def registered(*populations: Population) -> Iterator[tuple[Population, ...]]:
-    """Add rows for the ``with`` block only (tests, a notebook's experiment)."""
+    """Add rows for the ``with`` block only (a command's run, tests, a notebook's experiment)."""
     done = []
     try:
         for p in populations:
@@ -223,19 +325,21 @@ def registered(*populations: Population) -> Iterator[tuple[Population, ...]]:
             unregister(p.name)
 
 
-# ---- the views the rest of the package reads
-def spike_populations() -> tuple[str, ...]:
+# ---- the views the rest of the package reads (rows: a folder's; None: this process's table)
+def spike_populations(rows: Sequence[Population] | None = None) -> tuple[str, ...]:
     """The populations whose spikes can be recorded, in table order."""
-    return tuple(p.name for p in table() if p.spikes)
+    return tuple(p.name for p in (table() if rows is None else rows) if p.spikes)
 
 
-def trace_sources() -> dict[str, tuple[str, str, float, str]]:
+def trace_sources(rows: Sequence[Population] | None = None
+                  ) -> dict[str, tuple[str, str, float, str]]:
     """trace -> (population, variable, factor to the stored unit, stored unit)."""
-    return {t: (p.name, s.variable, s.factor, s.unit) for p in table() for t, s in p.traces.items()}
+    return {t: (p.name, s.variable, s.factor, s.unit)
+            for p in (table() if rows is None else rows) for t, s in p.traces.items()}
 
 
-def trace_meaning(trace: str) -> str:
-    for p in table():
+def trace_meaning(trace: str, rows: Sequence[Population] | None = None) -> str:
+    for p in table() if rows is None else rows:
         if trace in p.traces:
             return p.traces[trace].meaning
     return trace
@@ -246,7 +350,118 @@ def model_of_object() -> dict[str, str]:
     return {**{p.name: p.model_name for p in table()}, **PROJECTIONS}
 
 
-__all__ = ["Population", "TraceSource", "Wire", "BUILT_IN", "PROJECTIONS", "table", "added",
-           "row", "names", "register", "unregister", "registered", "spike_populations",
-           "trace_sources", "trace_meaning", "model_of_object", "LEGS", "POOLS", "THIGH_POOLS",
+# ---- a population declared in a model file
+#: the stored unit's factor from Brian2's SI value, for the units a trace may name without one
+UNIT_FACTORS = {"a.u.": 1.0, "mV": 1e3, "uM": 1e3, "ms": 1e3, "s": 1.0, "V": 1.0}
+_ROW_KEYS = {"name", "cells_per_leg", "spikes", "traces", "inputs", "cell_noun",
+             "label_meaning", "spike_meaning", "table_description", "trace_series_per_leg",
+             "raster", "trace_plot"}
+
+
+def population_from_toml(text: str, *, culprit: str) -> Population:
+    """The row a model file declares in its ``[population]`` table (docs/model-files.md, "A new
+    population"), with the model the same file defines. InputError naming ``culprit`` (and the
+    key) for anything that does not fit: a name the table holds, a label source it does not,
+    a trace variable the equations lack, an input from no population or through no synapse
+    model."""
+    from ..models.files import model_from_toml
+
+    try:
+        doc = loads_toml(text, culprit)
+    except tomllib.TOMLDecodeError as e:
+        raise InputError(f"not valid TOML ({e})", culprit=culprit) from None
+    spec = doc.pop("population", None)
+    if not isinstance(spec, dict):
+        raise InputError("declares no population (a [population] table)", culprit=culprit)
+    unknown = sorted(set(spec) - _ROW_KEYS)
+    if unknown:
+        raise InputError(f"unknown key {unknown[0]} (keys: {', '.join(sorted(_ROW_KEYS))})",
+                         culprit=f"{culprit} [population]")
+    model = model_from_toml(_without_population(text), culprit=culprit)
+    if model.kind != "neuron":
+        raise InputError(f"a population is built from a neuron model, not a {model.kind} model",
+                         culprit=culprit)
+    where = f"{culprit} [population]"
+    name = spec.get("name", model.name)
+    if not isinstance(name, str) or not name.isidentifier():
+        raise InputError(f"name must be a Python identifier, got {name!r}", culprit=where)
+    cells = _labels(spec.get("cells_per_leg"), f"{where} cells_per_leg")
+    variables = set(model.brian_equations().names)
+    traces = {}
+    for trace, t in (spec.get("traces") or {}).items():
+        tw = f"{where} traces.{trace}"
+        if not isinstance(t, dict) or not isinstance(t.get("variable"), str):
+            raise InputError("needs { variable = \"...\", unit = \"...\" }", culprit=tw)
+        if t["variable"] not in variables:
+            raise InputError(f"the equations do not define {t['variable']!r}", culprit=tw)
+        unit = str(t.get("unit", "a.u."))
+        factor = t.get("factor", UNIT_FACTORS.get(unit))
+        if isinstance(factor, bool) or not isinstance(factor, (int, float)):
+            raise InputError(f"needs a factor from the SI value to {unit!r} (factor = ...)",
+                             culprit=tw)
+        traces[trace] = TraceSource(t["variable"], float(factor), unit,
+                                    str(t.get("meaning", trace)))
+    inputs = tuple(_input(i, f"{where} inputs[{k}]")
+                   for k, i in enumerate(spec.get("inputs") or ()))
+    if not inputs:
+        raise InputError("needs at least one input ([[population.inputs]] from = ..., "
+                         "synapse = ...)", culprit=where)
+    text_fields = {k: str(spec.get(k, "")) for k in ("cell_noun", "label_meaning",
+                                                      "spike_meaning", "table_description")}
+    return Population(name=name, model=model, cells_per_leg=lambda pool_size: cells(pool_size),
+                      spikes=bool(spec.get("spikes", True)), traces=traces,
+                      trace_series_per_leg=bool(spec.get("trace_series_per_leg", False)),
+                      raster=dict(spec.get("raster") or {}),
+                      trace_plot=dict(spec.get("trace_plot") or {}), inputs=inputs,
+                      **text_fields)
+
+
+def _without_population(text: str) -> str:
+    """The model file's text without its ``[population]`` tables (the model's own part)."""
+    out, skipping = [], False
+    for line in text.splitlines():
+        head = line.strip()
+        if head.startswith("["):
+            skipping = head.strip("[] ").split(".")[0].strip() == "population"
+        if not skipping:
+            out.append(line)
+    return "\n".join(out) + "\n"
+
+
+def _labels(given: Any, culprit: str) -> Callable[[int], tuple[str, ...]]:
+    """cells_per_leg: a list of labels, or the name of a population whose labels it takes."""
+    if isinstance(given, list) and given and all(isinstance(x, str) for x in given):
+        fixed = tuple(given)
+        return lambda pool_size: fixed
+    if isinstance(given, str):
+        try:
+            source = row(given)
+        except KeyError:
+            raise InputError(f"names no population (populations: {', '.join(names())}), nor "
+                             f"is it a list of labels", culprit=culprit) from None
+        return source.labels
+    raise InputError("must be a list of labels or the name of a population", culprit=culprit)
+
+
+def _input(given: Any, culprit: str) -> Input:
+    if not isinstance(given, dict) or set(given) - {"from", "synapse", "match"}:
+        raise InputError("needs from = POPULATION, synapse = MODEL (and match)", culprit=culprit)
+    source, synapse = given.get("from"), given.get("synapse")
+    match = given.get("match", "label")
+    if source not in names():
+        raise InputError(f"from {source!r}: no such population (populations: "
+                         f"{', '.join(names())})", culprit=culprit)
+    slots = {n: m for n, m in DEFAULT_MODELS.items() if m.kind == "synapse"}
+    if synapse not in slots:
+        raise InputError(f"synapse {synapse!r}: no such synapse model (synapse models: "
+                         f"{', '.join(slots)})", culprit=culprit)
+    if match not in MATCHES:
+        raise InputError(f"match {match!r}: one of {', '.join(MATCHES)}", culprit=culprit)
+    return Input(str(source), str(synapse), str(match))
+
+
+__all__ = ["Population", "TraceSource", "Input", "Wire", "MATCHES", "BUILT_IN", "PROJECTIONS",
+           "table", "added", "row", "names", "register", "unregister", "registered",
+           "spike_populations", "trace_sources", "trace_meaning", "model_of_object",
+           "from_json", "rows_of", "population_from_toml", "LEGS", "POOLS", "THIGH_POOLS",
            "JOINTS_DRIVEN", "INTERNEURONS"]

@@ -5,7 +5,7 @@ goes, so a run held up to twice its traces' size in float64, most of it the moto
 [Ca2+]: about 7 MiB per trial per simulated second. :class:`TraceRecorder` samples the same
 variables at the same point of the step (Brian2's ``start`` slot: the state after the previous
 step, labelled with the step's start time, as a ``StateMonitor`` labels it) into arrays of the
-run's final size, converted to the stored unit (:mod:`astrocpg.network.recordable`) in float64
+run's final size, converted to the stored unit (:mod:`astrocpg.network.populations`) in float64
 and then kept as ``dtype``: float32 by default (7 significant digits: 0.0001 of a [Ca2+] of 10),
 float64 for full resolution. With float32 a default run keeps about 1.8 MiB per trial per
 simulated second (``studies.experiments.resources`` counts it before a run starts).

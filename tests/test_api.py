@@ -15,8 +15,11 @@ import pytest
 
 import astrocpg as ac
 from astrocpg.errors import InputError
-from astrocpg.network.recordable import POPULATIONS, TRACE_SOURCES
+from astrocpg.studies.experiments.simulate import POPULATIONS
+from astrocpg.network.populations import BUILT_IN, trace_sources
 from astrocpg.studies.cli import main
+
+TRACE_SOURCES = trace_sources(BUILT_IN)
 
 SHORT_SESSIONS = ["L_max=0.3*second", "L_non_alive=0.2*second"]
 

@@ -187,9 +187,9 @@ def test_the_stages_count_the_same_synaptic_events_per_spike():
 
 def test_a_non_finite_value_in_a_stage_names_its_group_and_trial():
     cpg = build_cpg(_authors(), n_trials=3, seed=2)
-    assert cpg.first_nonfinite() is None
+    assert cpg.first_invalid() is None
     fl = cpg.array("motor_FL", "v")
     fl[2 * 80 + 7] = np.nan  # trial 2 of the FL stage's group (80 neurons per trial)
-    found = cpg.first_nonfinite()
+    found = cpg.first_invalid()
     assert (found.population, found.variable, found.trial) == ("motor_FL", "v", 2)
     assert "model motor_neuron" in str(found.error(0.1))

@@ -86,7 +86,7 @@ def test_open_loop_unit_diverges():
     cpg2.net.run(0.05 * second, namespace={})
     with pytest.raises(Diverged):
         DivergenceCheck(cpg2).check()
-    assert build_cpg(DEFAULT_MODELS, n_trials=1, seed=1).first_nonfinite() is None
+    assert build_cpg(DEFAULT_MODELS, n_trials=1, seed=1).first_invalid() is None
 
 
 def test_find_diverged_through_wrapping():

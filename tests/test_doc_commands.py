@@ -450,7 +450,7 @@ def test_pages_hold_the_commands():
     assert len(cmds) > 60
     assert any(t.startswith("astrocpg study compare_astrocytes") for t in texts)
     assert any(t.startswith("python docs/beyond/analyse.py worlds") for t in texts)
-    assert any(c.snippet and "populations.Population" in c.text for c in cmds)
+    assert any(c.snippet and "populations.population_from_toml" in c.text for c in cmds)
     covered = {c.page for c in cmds} | {p for p in pages()}
     for page in [ROOT / "README.md", *DOCS.glob("*.md"), *DOCS.glob("examples/*.md")]:
         if page.name != "changelog.md":

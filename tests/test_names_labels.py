@@ -5,7 +5,7 @@ one of the model's own variables is refused when the model is made (one check,
 :mod:`astrocpg.models.names`), model files' fields are strictly typed, and a parameter the
 network does not read is not accepted as "applied".
 
-Labels: every duration runs as whole steps (:func:`astrocpg.models.values.whole_steps`), an
+Labels: every duration runs as whole steps (:func:`astrocpg.models.units.whole_steps`), an
 export says how the run ended and how long it simulated, "upright" reads the torso's height
 too, and an evaluation grid has one axis per parameter.
 """
@@ -24,7 +24,7 @@ from astrocpg.errors import InputError
 from astrocpg.models import DEFAULT_MODELS, NeuronModel, Parameter, ParameterTable
 from astrocpg.models.files import model_from_toml, model_to_toml
 from astrocpg.models.names import SPECIAL_NAMES, why_reserved
-from astrocpg.models.values import whole_steps
+from astrocpg.models.units import whole_steps
 from astrocpg.studies.cli import main
 
 

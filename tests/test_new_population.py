@@ -1,9 +1,14 @@
-"""A population added by one model file (tests/data/renshaw.toml) and one row of the population
-table (astrocpg.network.populations) is built, scanned, recorded, loaded, exported to NWB and
-plotted, with no other change to the package (docs/model-files.md, "A new population")."""
+"""A population added by one model file with a ``[population]`` table
+(tests/data/renshaw_population.toml) is built, scanned, recorded, loaded, exported to npz and
+NWB, plotted and run from the command line, with no other change to the package
+(docs/model-files.md, "A new population"); a folder it wrote describes itself: a process that
+has not added the row reads it whole."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +21,7 @@ from astrocpg.network.build import Wiring
 from astrocpg.network.layout import POOLS
 
 MODEL_FILE = Path(__file__).parent / "data" / "renshaw.toml"
+POPULATION_FILE = Path(__file__).parent / "data" / "renshaw_population.toml"
 
 
 def wire_renshaw(w: Wiring) -> None:
@@ -49,9 +55,14 @@ def renshaw_row() -> populations.Population:
         wire=wire_renshaw)
 
 
+def file_row() -> populations.Population:
+    return populations.population_from_toml(POPULATION_FILE.read_text(),
+                                            culprit=str(POPULATION_FILE))
+
+
 @pytest.fixture
 def renshaw():
-    with populations.registered(renshaw_row()) as rows:
+    with populations.registered(file_row()) as rows:
         yield rows[0]
     assert "renshaw" not in populations.names()  # the row is gone after the block
 
@@ -71,7 +82,7 @@ def test_built_and_scanned(renshaw):
 
 def test_staged_limbs(renshaw):
     """0 ms inter-limb delays split the motor neurons by stage: the wiring step follows."""
-    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.models.compose import model_set
 
     authors = Path(__file__).parents[1] / "models" / "variants" / "interlimb_authors_delays.toml"
     models = model_set(models={"interlimb_synapse": authors.read_text()})
@@ -114,16 +125,89 @@ def test_recorded_exported_plotted(renshaw, tmp_path):
     paths = ac.plot(folder, out=tmp_path / "figures", progress=False)
     assert any(p.name.startswith("rasters") for p in paths)
 
-    # a process that has not registered the row reads the folder's built-in populations
+    # a process that has not added the row reads the folder whole: its manifest's rows
     populations.unregister("renshaw")
     plain = ac.load(folder)
-    assert "renshaw" not in plain.spikes and "motor" in plain.spikes
+    assert "renshaw" in plain.spikes and "renshaw_v" in plain.traces
+    assert plain.trace("renshaw_v").unit == "mV"
     with pynwb.NWBHDF5IO(str(ac.export(folder, "nwb", out=tmp_path / "plain.nwb")), "r") as io:
         nwb = io.read()
-        assert "renshaw_v_trial0" not in nwb.acquisition
+        assert "renshaw_v_trial0" in nwb.acquisition
         assert "motor_Ca_trial0_FR" in nwb.acquisition
-    ac.export(folder, "npz", out=tmp_path / "plain.npz")
-    assert ac.plot(folder, out=tmp_path / "plain_figures", progress=False)
+        assert "renshaw_cells" in nwb.processing["misc"].data_interfaces
+    with np.load(ac.export(folder, "npz", out=tmp_path / "plain.npz")) as z:
+        assert len(z["spikes_renshaw_times"]) > 0
+        assert set(z["units_renshaw_pool"]) == set(POOLS)
+    figure = raster_figures(plain, 0, (0.0, 1.0))["rasters"]
+    assert "renshaw (leg)" in [ax.get_ylabel() for ax in figure.axes]
+
+
+def test_python_wiring_step():
+    """A row made in Python may wire its population with a step of its own."""
+    with populations.registered(renshaw_row()):
+        cpg = build_cpg(n_trials=1, seed=3)
+    assert len(cpg.synapses["motor_to_renshaw"]) == 4 * len(POOLS) * cpg.layout.pool_size
+
+
+def test_file_row_wires_like_the_python_step(renshaw):
+    """The file's declared input (motor -> renshaw by pool) makes the same pairs as the Python
+    wiring step."""
+    cpg = build_cpg(n_trials=2, seed=3)
+    s = cpg.synapses["motor_to_renshaw"]
+    declared = sorted(zip(np.asarray(s.i[:]), np.asarray(s.j[:])))
+    populations.unregister("renshaw")
+    with populations.registered(renshaw_row()):
+        by_hand = build_cpg(n_trials=2, seed=3).synapses["motor_to_renshaw"]
+    assert declared == sorted(zip(np.asarray(by_hand.i[:]), np.asarray(by_hand.j[:])))
+
+
+@pytest.mark.slow
+def test_command_line(tmp_path):
+    """astrocpg run with --population: the run records, and plot and export read the folder in
+    processes that were never told about the population."""
+    pytest.importorskip("mujoco")
+    env = dict(os.environ, MPLBACKEND="Agg")
+    out = tmp_path / "run"
+
+    def astrocpg(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "astrocpg", *args], env=env, text=True,
+                              capture_output=True, timeout=300)
+
+    done = astrocpg("run", "--seconds", "0.2", "--trials", "1", "--no-progress",
+                    "--population", str(POPULATION_FILE), "--out", str(out))
+    assert done.returncode == 0, done.stderr
+    import json
+
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert "renshaw" in manifest["settings"]["populations"]
+    rows = {r["name"]: r for r in manifest["results"]["layout"]["populations"]}
+    assert rows["renshaw"]["cells_per_leg"] == list(POOLS)
+    assert rows["renshaw"]["traces"]["renshaw_v"]["unit"] == "mV"
+    with np.load(out / "spikes.npz") as z:
+        assert "renshaw_times" in z.files
+    done = astrocpg("export", str(out), "--format", "npz", "--out", str(tmp_path / "run.npz"))
+    assert done.returncode == 0, done.stderr
+    with np.load(tmp_path / "run.npz") as z:
+        assert "trace_renshaw_v" in z.files
+    done = astrocpg("plot", str(out), "--out", str(tmp_path / "figures"))
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "figures" / "rasters.png").exists()
+
+
+@pytest.mark.parametrize("change, words", [
+    ('name = "renshaw"', 'name = "motor"'),
+    ('from = "motor"', 'from = "nowhere"'),
+    ('synapse = "pool_to_interneuron"', 'synapse = "no_synapse"'),
+    ('variable = "v"', 'variable = "u"'),
+    ('cells_per_leg = "pool"', 'cells_per_leg = 3'),
+])
+def test_bad_population_file(change, words):
+    text = POPULATION_FILE.read_text().replace(*((change, words)))
+    from astrocpg.studies.experiments.settings import population_rows
+
+    with pytest.raises(InputError):
+        with populations.registered(*population_rows({"bad.toml": text})[0]):
+            pass
 
 
 def test_register_refuses_a_taken_name():
@@ -133,7 +217,7 @@ def test_register_refuses_a_taken_name():
             populations.register(populations.Population(name=name, model=row.model,
                                                         cells_per_leg=row.cells_per_leg,
                                                         wire=wire_renshaw))
-    with pytest.raises(InputError, match="wiring step"):
+    with pytest.raises(InputError, match="inputs or its wiring step"):
         populations.register(populations.Population(name="x", model=row.model,
                                                     cells_per_leg=row.cells_per_leg))
     assert populations.names() == tuple(p.name for p in populations.BUILT_IN)
@@ -143,7 +227,10 @@ def test_built_in_rows_are_the_former_lists():
     """The views read from the table are the lists the modules held before it."""
     from astrocpg.network.divergence import MODEL_OF
     from astrocpg.network.layout import Layout
-    from astrocpg.network.recordable import POPULATIONS, TRACE_SOURCES, TRACES
+
+    POPULATIONS = populations.spike_populations()
+    TRACE_SOURCES = populations.trace_sources()
+    TRACES = tuple(TRACE_SOURCES)
 
     assert POPULATIONS == ("motor", "interneuron", "astrocyte")
     assert TRACES == ("motor_Ca", "astrocyte_Ca", "astrocyte_IP3", "astrocyte_AG",
@@ -158,3 +245,34 @@ def test_built_in_rows_are_the_former_lists():
     assert [L.cells_per_trial(p) for p in ("motor", "interneuron", "astrocyte", "pool",
                                            "torque")] == [80, 24, 8, 16, 8]
     assert L.interneurons_per_trial == 24 and L.joints_per_trial == 8
+
+
+def test_a_folder_written_before_rows_reads_the_built_in_rows():
+    """A manifest without ``results.layout.populations`` (written before manifests held the
+    rows) is read with the built-in rows; one with them, with its own, whatever this process's
+    table holds."""
+    from astrocpg.network.layout import Layout
+    from astrocpg.studies.outputs.export import unit_rows
+
+    old = {"n_trials": 1, "pool_size": 3, "legs": ["FR"]}
+    assert Layout.from_json(old).rows == populations.BUILT_IN
+    assert list(unit_rows({"results": {"layout": old}})) == ["motor", "interneuron", "astrocyte"]
+    with populations.registered(file_row()):
+        new = Layout(n_trials=1, pool_size=3, legs=("FR",)).to_json()
+    read = Layout.from_json(new)
+    assert [r.name for r in read.rows][-1] == "renshaw" and read.cells_per_trial("renshaw") == 4
+    assert read.row("renshaw").traces["renshaw_v"].unit == "mV"
+    assert list(unit_rows({"results": {"layout": new}}))[-1] == "renshaw"
+
+
+def test_a_training_without_layout_takes_its_pool_size_from_its_models():
+    """A training manifest written before it held the layout: the pool size is the one its
+    models record (read as the models read it), not a default."""
+    from astrocpg.models import DEFAULT_MODELS
+    from astrocpg.studies.outputs.result import _training_layout
+
+    models = DEFAULT_MODELS.with_values({"pool_size": 7}).to_json()
+    layout = _training_layout({"settings": {"n_trials": 3}, "models": models}, Path("t"))
+    assert (layout.n_trials, layout.pool_size) == (3, 7)
+    with pytest.raises(InputError, match="pool size"):
+        _training_layout({"settings": {"n_trials": 3}}, Path("t"))

@@ -1,5 +1,5 @@
-"""Rooms that hold one thing: one saver writes every figure, and the split modules keep their
-old import paths (``sweeps/study.py``, ``models/values.py``, ``coupling/bridge.py``)."""
+"""Rooms that hold one thing: one saver writes every figure, and each name lives in one module
+(no re-exported former homes)."""
 
 from __future__ import annotations
 
@@ -46,19 +46,25 @@ def test_plot_functions_return_figures():
             assert node.args.args[0].arg != "path", node.name
 
 
-def test_the_old_import_paths_still_hold():
-    from astrocpg.coupling import bridge, robot_recording, robots
-    from astrocpg.models import expressions, units, values
-    from astrocpg.studies.sweeps import execute, layout, study, study_file, tables
+def test_the_old_names_are_gone():
+    """The split modules' names live in one place each: no module re-exports another's, and
+    the former names (models/values.py, network/recordable.py, NonFinite, first_nonfinite)
+    are gone."""
+    import importlib
 
-    assert study.RunSpec is study_file.RunSpec and study.Study is study_file.Study
-    assert study.execute_run is execute.execute_run and study.read_status is execute.read_status
-    assert study.write_results is tables.write_results and study.utilisation is tables.utilisation
-    assert study.timeline is tables.timeline and study.write_timeline is tables.write_timeline
-    assert (study.RUNS, study.STATUS, study.GAITS, study.RESULTS) == \
-        (layout.RUNS, layout.STATUS, layout.GAITS, layout.RESULTS)
-    assert values.parse_value is units.parse_value and values.whole_steps is units.whole_steps
-    assert values.compile_expression is expressions.compile_expression
-    assert values.FUNCTIONS is expressions.FUNCTIONS and values.UNITS is units.UNITS
-    assert bridge.Recording is robot_recording.Recording
-    assert bridge.INSTABILITY_WARNINGS is robots.INSTABILITY_WARNINGS
+    import pytest
+
+    from astrocpg.coupling import bridge
+    from astrocpg.network import CPG, divergence
+    from astrocpg.studies.experiments import settings
+    from astrocpg.studies.sweeps import study
+
+    for module in ("astrocpg.models.values", "astrocpg.network.recordable"):
+        with pytest.raises(ModuleNotFoundError):
+            importlib.import_module(module)
+    for module, names in ((study, ("execute_run", "utilisation", "timeline", "RESULTS",
+                                   "study_overrides", "MAX_SEEDS")),
+                          (settings, ("model_set", "override_items", "read_model_files")),
+                          (bridge, ("INSTABILITY_WARNINGS",)), (divergence, ("NonFinite",)),
+                          (CPG, ("first_nonfinite",))):
+        assert not [n for n in names if hasattr(module, n)], module

@@ -133,7 +133,7 @@ def test_the_run_records_the_senses_a_model_binds(tmp_path):
 
 def test_only_names_cells_of_the_population():
     from astrocpg.coupling.assembly import build_closed_loop
-    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.models.compose import model_set
 
     text = LOAD_AFFERENT.read_text().replace('only = ["thigh_extensor", "calf_extensor"]',
                                              'only = ["thigh_extensors"]')
@@ -152,7 +152,7 @@ def test_the_load_afferent_reaches_extensors_and_flexors():
     from brian2 import mV, second
 
     from astrocpg.coupling.assembly import build_closed_loop
-    from astrocpg.studies.experiments.settings import model_set
+    from astrocpg.models.compose import model_set
 
     def closed_loop(c_load):
         models = model_set(models={"motor_neuron": LOAD_AFFERENT.read_text()}) \

@@ -408,7 +408,7 @@ set = { L_max = "0.5*second" }
 def test_runs_are_ordered_longest_first_and_idle_is_measured(tmp_path: Path) -> None:
     """The cost estimate ranks runs by trials, sessions and session length; `utilisation`
     finds a worker left free while a run waited (synthetic timeline, no cluster)."""
-    from astrocpg.studies.sweeps.study import utilisation
+    from astrocpg.studies.sweeps.tables import utilisation
 
     p = tmp_path / "unequal.toml"
     p.write_text(UNEQUAL)
@@ -444,7 +444,8 @@ def test_no_worker_idles_while_runs_wait(tmp_path: Path) -> None:
     """Six runs of unequal length on two workers: from the recorded timeline, every worker
     ran its runs back to back and was never free while a run waited (beyond the hand-over
     from one run to the next), and runs started longest first."""
-    from astrocpg.studies.sweeps.study import run_study, utilisation
+    from astrocpg.studies.sweeps.study import run_study
+    from astrocpg.studies.sweeps.tables import utilisation
 
     p = tmp_path / "unequal.toml"
     # six sessions: every run lasts well beyond the hand-over slack below, also on a fast

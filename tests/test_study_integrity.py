@@ -169,7 +169,8 @@ def _hold(folder: Path, inside: Path | None = None) -> subprocess.Popen:
 
 
 def test_a_worker_writes_nothing_into_a_run_folder_another_process_holds(tiny_study, tmp_path):
-    from astrocpg.studies.sweeps.study import RunSpec, execute_run
+    from astrocpg.studies.sweeps.execute import execute_run
+    from astrocpg.studies.sweeps.study_file import RunSpec
 
     study = tmp_path / "held"
     shutil.copytree(tiny_study, study)
@@ -194,7 +195,7 @@ def test_a_worker_writes_nothing_into_a_run_folder_another_process_holds(tiny_st
 def test_a_worker_holds_its_run_folder_while_it_trains(tiny_study, tmp_path, monkeypatch):
     from astrocpg.studies.outputs import folder as folder_module
     from astrocpg.studies.sweeps import execute as execute_module
-    from astrocpg.studies.sweeps import study as study_module
+    from astrocpg.studies.sweeps.study_file import RunSpec
 
     study = tmp_path / "mine"
     shutil.copytree(tiny_study, study)
@@ -208,9 +209,8 @@ def test_a_worker_holds_its_run_folder_while_it_trains(tiny_study, tmp_path, mon
         return {"state": "finished"}
 
     monkeypatch.setattr(execute_module, "_execute_run_locked", inside)
-    spec = study_module.RunSpec(**json.loads((study / "study.json").read_text())
-                                ["specs"]["astro__seed1"])
-    assert study_module.execute_run(spec, str(run))["state"] == "finished"
+    spec = RunSpec(**json.loads((study / "study.json").read_text())["specs"]["astro__seed1"])
+    assert execute_module.execute_run(spec, str(run))["state"] == "finished"
     assert seen == {"held_here": True, "locked": True}
     assert not (run / folder_module.LOCK_NAME).exists()  # released, files removed
 

@@ -14,7 +14,7 @@ from astrocpg.coupling.assembly import build_closed_loop
 from astrocpg.errors import InputError
 from astrocpg.models import DEFAULT_MODELS
 from astrocpg.models.compose import model_set
-from astrocpg.network.recordable import trace_sources
+from astrocpg.network.populations import trace_sources
 from astrocpg.studies.experiments.resources import estimate_bytes
 from astrocpg.studies.experiments.simulate import _collect, add_monitors
 

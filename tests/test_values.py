@@ -1,4 +1,4 @@
-"""models/values.py: values and model expressions are read without eval; every failure is one
+"""models/units.py and models/expressions.py: values and model expressions are read without eval; every failure is one
 InputError line naming the culprit."""
 
 from __future__ import annotations
@@ -20,9 +20,8 @@ from hypothesis import strategies as st
 
 from astrocpg.errors import InputError
 from astrocpg.models import DEFAULT_MODELS, ExpressionModel
-from astrocpg.models.values import (
-    FUNCTIONS, compile_expression, example_value, finite_number, parse_value, unit_spelling,
-)
+from astrocpg.models.expressions import FUNCTIONS, compile_expression
+from astrocpg.models.units import example_value, finite_number, parse_value, unit_spelling
 
 CULPRIT = "--set tau_motor"
 SENTINEL = f"/tmp/astrocpg_pwned_{uuid.uuid4().hex}"

@@ -9,6 +9,7 @@ from typing import Any
 
 from .options import (DEFAULT_RUN_OUT, DESCRIPTION, EXIT_HELP, Parser, add_codegen_option,
                       add_model_file_option, add_model_options, add_no_progress, add_overwrite,
+                      add_population_option,
                       add_record_options, add_simulation_options)
 
 #: what ``add_subparsers`` returns (argparse's ``_SubParsersAction``, a private class)
@@ -39,6 +40,7 @@ def add_unit(sub: Subparsers) -> None:
     add_overwrite(unit)
     add_record_options(unit)
     add_model_options(unit)
+    add_population_option(unit)
 
 
 def add_run(sub: Subparsers) -> None:
@@ -70,6 +72,7 @@ def add_run(sub: Subparsers) -> None:
     add_overwrite(run)
     add_record_options(run)
     add_model_options(run)
+    add_population_option(run)
 
 
 def add_train(sub: Subparsers) -> None:

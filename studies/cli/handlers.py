@@ -21,10 +21,20 @@ def model_args(args: argparse.Namespace) -> dict[str, Any]:
             "models": read_model_files(getattr(args, "model_files", []))}
 
 
+def population_args(args: argparse.Namespace) -> dict[str, Any]:
+    """``--population FILE`` as the API's ``populations`` ({file: text}, each read once)."""
+    from ...reading import read_text
+
+    return {"populations": {f: read_text(f, culprit=f"--population {f}")
+                            for f in getattr(args, "population_files", [])}}
+
+
 def input_files(args: argparse.Namespace) -> list[str]:
-    """The files --model and --equations MODEL=FILE name: --out may not be or hold them."""
+    """The files --model and --equations MODEL=FILE and --population name: --out may not be or
+    hold them."""
     items = [*getattr(args, "model_files", []), *getattr(args, "equations", [])]
-    return [item.partition("=")[2] for item in items if "=" in item]
+    return ([item.partition("=")[2] for item in items if "=" in item]
+            + list(getattr(args, "population_files", [])))
 
 
 def _recording(args: argparse.Namespace) -> dict[str, Any]:
@@ -39,7 +49,8 @@ def unit_command(args: argparse.Namespace) -> int:
     result = unit(seconds=args.seconds, seed=args.seed, trials=args.trials,
                   trace_dt=args.trace_dt, trace_dtype=args.trace_dtype, out=args.out,
                   overwrite=args.overwrite, progress=not args.no_progress,
-                  inputs=input_files(args), **_recording(args), **model_args(args))
+                  inputs=input_files(args), **_recording(args), **model_args(args),
+                  **population_args(args))
     for b, s in enumerate(result.summary["rhythm"]):
         print(format_rhythm(b, args.seed + b, s))
     if result.summary.get("trace_overflow"):
@@ -59,7 +70,7 @@ def run_command(args: argparse.Namespace) -> int:
                  trace_dtype=args.trace_dtype, robot_stride=args.robot_stride, out=args.out,
                  overwrite=args.overwrite, progress=not args.no_progress, figure=args.figure,
                  session=args.session, inputs=input_files(args), **_recording(args),
-                 **model_args(args))
+                 **model_args(args), **population_args(args))
     if args.session is not None:
         print("\n".join(format_replay(result)))
         print(f"wrote {args.out}/ (the session: {args.out}/recordings/trial00_session0001/)")
@@ -198,7 +209,7 @@ def study_command(args: argparse.Namespace) -> int:
 def _study_outcome(res: dict[str, Any]) -> int:
     """What a study's result says on stdout and stderr, and its exit code: 0 every run
     finished, 3 every run left diverged (a rerun diverges again), 1 runs left to retry."""
-    from ..sweeps.study import RESULTS
+    from ..sweeps.layout import RESULTS
 
     counts = ", ".join(f"{v} {k}" for k, v in res["counts"].items())
     print(f"runs: {counts}; {res['rows']} rows in {res['out'] / RESULTS}")

@@ -116,6 +116,13 @@ def add_model_file_option(p: argparse.ArgumentParser) -> None:
                         "dump MODEL` writes it); it may declare new parameters and variables")
 
 
+def add_population_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--population", dest="population_files", action="append", default=[],
+                   metavar="FILE",
+                   help="add a population: a neuron model file (TOML) with a [population] table "
+                        "saying its cells, traces and inputs (docs/model-files.md)")
+
+
 def add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
                    help="override a model parameter, with units (e.g. --set tau_motor=9*ms)")

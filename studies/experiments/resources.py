@@ -16,8 +16,6 @@ BYTES_PER_TRIAL = 1_000_000
 # float32 (4 B) or float64 (network/recording.py: arrays of the run's size, allocated once);
 # the robot's ~40 float64 per step.
 SPIKE_BYTES_PER_TRIAL_S = 9_000 * 12
-TRACE_COLUMNS_PER_TRIAL = {"motor_Ca": 320, "astrocyte_Ca": 8, "astrocyte_IP3": 8,
-                           "astrocyte_AG": 8, "astrocyte_ADO": 8}
 ROBOT_FLOATS_PER_STEP = 40
 # What a training (or a power measurement) keeps per trial and session: the row of
 # sessions.csv as a dict (~25 values) and the inter-limb table after the session (8x8 floats).
@@ -47,6 +45,20 @@ def available_memory() -> int:
         return 1 << 62  # unknown: do not refuse
 
 
+def trace_columns_per_trial(trace: str) -> int:
+    """The columns of ``trace`` in one trial (its population's cells, from the population
+    table, at the built-in pool size; 8 for a trace the table does not know)."""
+    from ...models import DEFAULT_MODELS
+    from ...network.layout import Layout
+    from ...network.populations import trace_sources
+
+    source = trace_sources().get(trace)
+    if source is None:
+        return 8
+    layout = Layout(n_trials=1, pool_size=int(DEFAULT_MODELS.value("pool_size")))
+    return layout.cells_per_trial(source[0])
+
+
 def estimate_bytes(*, trials: int, seconds: float, dt: float = 1e-3, trace_dt: float = 1e-3,
                    robot_stride: int | None = None, traces: tuple[str, ...] = (),
                    spikes: bool = True, sessions: int = 0, trace_bytes: int = 4) -> int:
@@ -57,7 +69,7 @@ def estimate_bytes(*, trials: int, seconds: float, dt: float = 1e-3, trace_dt: f
     per_trial = float(BYTES_PER_TRIAL) + float(SESSION_BYTES_PER_TRIAL) * sessions
     if spikes:
         per_trial += SPIKE_BYTES_PER_TRIAL_S * seconds
-    per_trial += sum(TRACE_COLUMNS_PER_TRIAL.get(t, 8) for t in traces) * trace_bytes * seconds / trace_dt
+    per_trial += sum(trace_columns_per_trial(t) for t in traces) * trace_bytes * seconds / trace_dt
     if robot_stride:
         per_trial += ROBOT_FLOATS_PER_STEP * 8 * steps / robot_stride
     return int(per_trial * trials)

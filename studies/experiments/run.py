@@ -22,7 +22,8 @@ from ..outputs.writing import file_sha256, save_npz, save_spikes_and_traces, wri
 from ..outputs.result import Result
 from ..outputs.weights import check_table, load_weights
 from ...models.compose import Overrides, model_files_record, model_set, override_items
-from .settings import number, seed_number
+from ...network import populations as _table
+from .settings import number, population_rows, seed_number
 from .resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
@@ -43,7 +44,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
         out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
         figure: bool = False,
-        inputs: Sequence[str | os.PathLike] = (), session: int | None = None) -> Result:
+        inputs: Sequence[str | os.PathLike] = (), session: int | None = None,
+        populations: Any = None) -> Result:
     """Run the CPG driving ``trials`` A1 robots in MuJoCo for ``seconds`` (seeds seed,
     seed+1, ...): the closed loop, what ``astrocpg run`` runs.
 
@@ -57,7 +59,9 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     resolution); robot_stride in physics steps. spikes / traces: which populations and
     traces to record (None: all). out: writes the folder ``astrocpg run`` writes. figure: also
     draw ``thigh_extensor_activity.png`` there (about a second; ``astrocpg plot OUT`` draws it
-    and the other figures at any time later). inputs: other files the caller read (e.g. model
+    and the other figures at any time later). populations: model files with a ``[population]``
+    table, populations added to the network for this call (docs/model-files.md). inputs: other
+    files the caller read (e.g. model
     files): ``out`` may not be or hold one, nor ``weights`` and ``robot`` (see
     :func:`~astrocpg.studies.outputs.folder.check_output_path`). session: with ``weights`` a
     training folder, replay that session (1-based) of trial ``trial`` (default 0) exactly,
@@ -70,98 +74,104 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     from brian2 import ms
 
     if session is not None:
+        if populations:
+            raise InputError("a replay runs the training's own network", culprit="--population")
         return _replay(locals())
 
-    from ...coupling.robot import A1Parameters, RobotLayout, load_robot
-    from ...coupling.world import world_model
+    rows, population_record = population_rows(populations)  # before any other check
+    with _table.registered(*rows):
+        from ...coupling.robot import A1Parameters, RobotLayout, load_robot
+        from ...coupling.world import world_model
 
-    if trial is not None and not (isinstance(weights, (str, os.PathLike))
-                                  and Path(weights).is_dir()):
-        # a trial picks one table of a training folder: with no weights, a weights file or an
-        # array there is nothing to pick from, and the option would be ignored
-        raise InputError("picks a trial's table of a training folder: give one with --weights "
-                         "DIR" + ("" if weights is None else f" ({_shown(weights)} is not a "
-                                                             f"training folder)"),
-                         culprit=f"--trial {trial}")
+        if trial is not None and not (isinstance(weights, (str, os.PathLike))
+                                      and Path(weights).is_dir()):
+            # a trial picks one table of a training folder: with no weights, a weights file or an
+            # array there is nothing to pick from, and the option would be ignored
+            raise InputError("picks a trial's table of a training folder: give one with --weights "
+                             "DIR" + ("" if weights is None else f" ({_shown(weights)} is not a "
+                                                                 f"training folder)"),
+                             culprit=f"--trial {trial}")
 
-    seconds = number(seconds, "--seconds", positive=True)
-    trials = number(trials, "--trials", integer=True, minimum=1)
-    seed = seed_number(seed, trials=trials)
-    trace_dt = number(trace_dt, "--trace-dt", positive=True)
-    check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
-    robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
-    trace_dtype = check_trace_dtype(trace_dtype)
-    check_duration(seconds, STEP)
-    # what the run reads: --out may not replace it (nor hold it)
-    inputs = [*inputs, *([weights] if isinstance(weights, (str, os.PathLike)) else []),
-              *([robot] if robot is not None else [])]
-    if out is not None:
-        OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
-    pops, names = check_selection(spikes, traces)
-    check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
-                                traces=names, spikes=bool(pops), robot_stride=robot_stride,
-                                trace_bytes=np.dtype(trace_dtype).itemsize),
-                 culprit=f"--seconds {seconds:g} x --trials {trials}")
-    files = model_files_record(models)
-    models = model_set(overrides, equations, models=models)
-    if weights is None:
-        table = None
-    elif isinstance(weights, (str, os.PathLike)):
-        table = load_weights(weights, trial)
-        if not Path(weights).is_dir():  # a user's table: in the synapse's range, or refused
-            check_table(table, models, f"--weights {weights}")
-    else:  # an array, or nested lists of numbers: tables in volt
+        seconds = number(seconds, "--seconds", positive=True)
+        trials = number(trials, "--trials", integer=True, minimum=1)
+        seed = seed_number(seed, trials=trials)
+        trace_dt = number(trace_dt, "--trace-dt", positive=True)
+        check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
+        robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
+        trace_dtype = check_trace_dtype(trace_dtype)
+        check_duration(seconds, STEP)
+        # what the run reads: --out may not replace it (nor hold it)
+        inputs = [*inputs, *([weights] if isinstance(weights, (str, os.PathLike)) else []),
+                  *([robot] if robot is not None else [])]
+        if out is not None:
+            OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
+        pops, names = check_selection(spikes, traces)
+        check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
+                                    traces=names, spikes=bool(pops), robot_stride=robot_stride,
+                                    trace_bytes=np.dtype(trace_dtype).itemsize),
+                     culprit=f"--seconds {seconds:g} x --trials {trials}")
+        files = model_files_record(models)
+        models = model_set(overrides, equations, models=models)
+        if weights is None:
+            table = None
+        elif isinstance(weights, (str, os.PathLike)):
+            table = load_weights(weights, trial)
+            if not Path(weights).is_dir():  # a user's table: in the synapse's range, or refused
+                check_table(table, models, f"--weights {weights}")
+        else:  # an array, or nested lists of numbers: tables in volt
+            try:
+                table = np.asarray(weights, dtype=float)
+            except (TypeError, ValueError):
+                raise InputError(f"expected a file, a training folder or 8x8 tables of numbers in "
+                                 f"volt, got {type(weights).__name__}", culprit="weights") from None
+            if table.ndim not in (2, 3) or table.shape[-2:] != (8, 8) \
+                    or not np.all(np.isfinite(table)):
+                raise InputError(f"expected finite 8x8 tables in volt, got shape {table.shape}",
+                                 culprit="weights")
+            weights = table
+        if table is not None and table.ndim == 3 and table.shape[0] != trials:
+            raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
+                             culprit=f"--weights {weights if not isinstance(weights, np.ndarray) else ''}")
+        params = A1Parameters()
+        model = world_model(models, params, load_robot(robot) if robot else None)
+        if abs(model.opt.timestep - params.timestep) > 1e-12:
+            raise InputError(f"timestep is {model.opt.timestep:g} s; the CPG steps with the physics "
+                             f"at {params.timestep:g} s (set <option timestep=\"{params.timestep:g}\"/>)",
+                             culprit=f"--robot {Path(robot).name}")
+        layout = RobotLayout.from_model(model, params)
+        # the manifest's settings: the checked values, whichever door (command line or API) called
+        settings = {
+            "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
+            "trace_dtype": trace_dtype, "robot_stride": robot_stride, "overrides": override_items(overrides),
+            "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
+            "weights": None if weights is None or isinstance(weights, np.ndarray)
+            else str(weights), "trial": trial, "robot": None if robot is None else str(robot),
+            "figure": bool(figure)}
+        if files:
+            settings["models"] = files  # each model file's content and sha256
+        if population_record:
+            settings["populations"] = population_record  # each added population's model file
+        robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
+                      else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
+        start_x = layout.reset_qpos[layout.free_qpos_adr]
         try:
-            table = np.asarray(weights, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError(f"expected a file, a training folder or 8x8 tables of numbers in "
-                             f"volt, got {type(weights).__name__}", culprit="weights") from None
-        if table.ndim not in (2, 3) or table.shape[-2:] != (8, 8) \
-                or not np.all(np.isfinite(table)):
-            raise InputError(f"expected finite 8x8 tables in volt, got shape {table.shape}",
-                             culprit="weights")
-        weights = table
-    if table is not None and table.ndim == 3 and table.shape[0] != trials:
-        raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
-                         culprit=f"--weights {weights if not isinstance(weights, np.ndarray) else ''}")
-    params = A1Parameters()
-    model = world_model(models, params, load_robot(robot) if robot else None)
-    if abs(model.opt.timestep - params.timestep) > 1e-12:
-        raise InputError(f"timestep is {model.opt.timestep:g} s; the CPG steps with the physics "
-                         f"at {params.timestep:g} s (set <option timestep=\"{params.timestep:g}\"/>)",
-                         culprit=f"--robot {Path(robot).name}")
-    layout = RobotLayout.from_model(model, params)
-    # the manifest's settings: the checked values, whichever door (command line or API) called
-    settings = {
-        "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-        "trace_dtype": trace_dtype, "robot_stride": robot_stride, "overrides": override_items(overrides),
-        "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
-        "weights": None if weights is None or isinstance(weights, np.ndarray)
-        else str(weights), "trial": trial, "robot": None if robot is None else str(robot),
-        "figure": bool(figure)}
-    if files:
-        settings["models"] = files  # each model file's content and sha256
-    robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
-                  else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
-    start_x = layout.reset_qpos[layout.free_qpos_adr]
-    try:
-        result = simulate_closed_loop(models, model, layout, seconds=seconds, seed=seed,
-                                      n_trials=trials, weights=table, trace_dt=trace_dt * ms,
-                                      robot_stride=robot_stride, spikes=spikes, traces=traces,
-                                      progress=progress, trace_dtype=trace_dtype)
-    except Diverged as e:  # the folder keeps what ran, and says it diverged
-        if out is not None and getattr(e, "result", None) is not None:
-            _summarise(e.result, models, start_x, robot_info, table, e)
-            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
-                write_run_folder(folder, e.result, settings, figure=figure)
-        raise
-    _summarise(result, models, start_x, robot_info, table)
-    if out is not None:
-        with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:  # whole, or nothing
-            write_run_folder(folder, result, settings, figure=figure)
-    return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
-                                  summary=run_results(result), robot=robot_arrays(result),
-                                  models=models, folder=out)
+            result = simulate_closed_loop(models, model, layout, seconds=seconds, seed=seed,
+                                          n_trials=trials, weights=table, trace_dt=trace_dt * ms,
+                                          robot_stride=robot_stride, spikes=spikes, traces=traces,
+                                          progress=progress, trace_dtype=trace_dtype)
+        except Diverged as e:  # the folder keeps what ran, and says it diverged
+            if out is not None and getattr(e, "result", None) is not None:
+                _summarise(e.result, models, start_x, robot_info, table, e)
+                with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
+                    write_run_folder(folder, e.result, settings, figure=figure)
+            raise
+        _summarise(result, models, start_x, robot_info, table)
+        if out is not None:
+            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:  # whole, or nothing
+                write_run_folder(folder, result, settings, figure=figure)
+        return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
+                                      summary=run_results(result), robot=robot_arrays(result),
+                                      models=models, folder=out)
 
 
 def _summarise(result: SimulationResult, models: Any, start_x: float, robot_info: dict,

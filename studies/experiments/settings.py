@@ -1,21 +1,20 @@
 """Settings shared by the experiments: the checks of the numbers every experiment takes
-(durations, counts, sampling). Model composition lives in :mod:`astrocpg.models.compose`; its
-names are re-exported here for the callers and users that import them from this module."""
+(durations, counts, sampling) and the populations a call adds (:func:`population_rows`). Model
+composition lives in :mod:`astrocpg.models.compose`."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Mapping
 
 from ...errors import InputError
-from ...models.compose import (Overrides, model_files_record,  # noqa: F401
-                               model_set, override_items, read_equation_files, read_model_files)
-from ...models.values import finite_number
+from ...network.populations import Population, population_from_toml
+from ...models.units import finite_number
 
 
 def number(value: Any, culprit: str, *, integer: bool = False, minimum: float | None = None,
            positive: bool = False) -> Any:
     """A finite number (int if ``integer``) within bounds, or an InputError naming the culprit
-    (:func:`astrocpg.models.values.finite_number`)."""
+    (:func:`astrocpg.models.units.finite_number`)."""
     return finite_number(value, culprit=culprit, kind=int if integer else float,
                          minimum=minimum, strictly_positive=positive)
 
@@ -46,3 +45,31 @@ def seed_number(value: Any, culprit: str = "--seed", trials: int = 1) -> int:
         raise InputError(f"must be at most {MAX_SEED - trials + 1} (seeds of {trials} trial(s) "
                          f"up to 2**32 - 1), got {seed}", culprit=culprit)
     return seed
+
+
+def population_rows(populations: Any) -> tuple[tuple[Population, ...], dict[str, Any]]:
+    """The rows of ``populations`` (model files with a ``[population]`` table: their texts, or
+    ``{file: text}``, or a manifest's record ``{name: {"sha256", "content"}}``), and the
+    manifest's record of them (``{name: {"sha256", "content"}}``). Bad input: InputError
+    naming the file."""
+    from ...models.files import file_sha256
+
+    if not populations:
+        return (), {}
+    if isinstance(populations, str) or not isinstance(populations, (Mapping, list, tuple)):
+        raise InputError(f"expected model file texts (a list, or {{file: text}}), got "
+                         f"{type(populations).__name__}", culprit="populations")
+    items = populations.items() if isinstance(populations, Mapping) else \
+        ((f"populations[{k}]", text) for k, text in enumerate(populations))
+    rows, record = [], {}
+    for where, text in items:
+        if isinstance(text, Mapping):  # a manifest's record
+            text = text.get("content")
+        if not isinstance(text, str):
+            raise InputError("expected a model file's text", culprit=f"--population {where}")
+        row = population_from_toml(text, culprit=f"--population {where}")
+        if row.name in record:
+            raise InputError("is given twice", culprit=f"population {row.name}")
+        rows.append(row)
+        record[row.name] = {"sha256": file_sha256(text), "content": text}
+    return tuple(rows), record

@@ -14,14 +14,15 @@ import numpy as np
 from brian2 import NetworkOperation, SpikeMonitor, ms, second
 
 from ...coupling.assembly import build_closed_loop
-from ...coupling.bridge import ORDER_MEASURE, Recording
+from ...coupling.bridge import ORDER_MEASURE
+from ...coupling.robot_recording import Recording
 from ...coupling.robot import A1Parameters, RobotLayout
 from ...errors import Diverged, InputError, did_you_mean
 from ...models import ModelSet
 from ...models.units import whole_steps
-from ...network import (CPG, POOLS, DivergenceCheck, build_cpg, check_runs, exclusive,
+from ...network import (CPG, DivergenceCheck, build_cpg, check_runs, exclusive,
                         network_time, run_network)
-from ...network.recordable import POPULATIONS, TRACES, spike_populations, trace_sources
+from ...network.populations import BUILT_IN, spike_populations, trace_sources
 from ...network.recording import TRACE_DTYPES, TraceRecorder
 from .progress import time_bar
 
@@ -79,6 +80,11 @@ def check_selection(spikes: tuple[str, ...] | None,
     return spikes, traces
 
 
+#: what a built-in network can record (the default of add_monitors)
+POPULATIONS: tuple[str, ...] = spike_populations(BUILT_IN)
+TRACES: tuple[str, ...] = tuple(trace_sources(BUILT_IN))
+
+
 def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
                  spikes: tuple[str, ...] = POPULATIONS,
                  traces: tuple[str, ...] = TRACES, *, n_steps: int,
@@ -111,7 +117,7 @@ def _with_numbers(cpg: CPG, population: str, monitors: Any) -> list[tuple[Any, A
 def _collect(cpg: CPG, mons: dict[str, Any]) -> tuple[dict, dict]:
     """Spikes (t, files' index) and traces (t, values in the files' column order)."""
     spikes = {}
-    for p in spike_populations():
+    for p in spike_populations(cpg.layout.rows):
         if p not in mons:
             continue
         ts, idx = [], []
@@ -322,18 +328,22 @@ def firing_rates(result: SimulationResult) -> dict[str, Any]:
     cpg, T = result.cpg, result.seconds
     L = cpg.layout
     out: dict[str, Any] = {}
-    if "motor" not in result.spikes:
+    # the pools' activity (the motor neurons): one rate per pool type, the others one each
+    active = next((r for r in L.rows if r.activity and r.name in result.spikes), None)
+    if active is None:
         return {}
-    t, i = result.spikes["motor"]
-    per_trial = i // L.motor_per_trial
-    pool_kind = (i % L.motor_per_trial) // L.pool_size % 4
-    for k, name in enumerate(POOLS):
-        counts = np.bincount(per_trial[pool_kind == k], minlength=L.n_trials)
-        out[name] = counts / (L.n_legs * L.pool_size * T)
-    for pop, n in (("interneuron", L.interneurons_per_trial),
-                   ("astrocyte", L.thigh_pools_per_trial)):
-        if pop not in result.spikes:
+    for row in L.rows:
+        if not row.spikes or row.name not in result.spikes:
             continue
-        _, idx = result.spikes[pop]
-        out[pop] = np.bincount(idx // n, minlength=L.n_trials) / (n * T)
+        _, idx = result.spikes[row.name]
+        idx = np.asarray(idx)
+        n = L.cells_per_trial(row.name)
+        if row is not active:
+            out[row.name] = np.bincount(idx // n, minlength=L.n_trials) / (n * T)
+            continue
+        labels = row.labels(L.pool_size)
+        label_of = np.array(labels * L.n_legs)[idx % n]
+        for label in dict.fromkeys(labels):
+            counts = np.bincount(idx[label_of == label] // n, minlength=L.n_trials)
+            out[label] = counts / (L.n_legs * labels.count(label) * T)
     return {k: np.asarray(v) for k, v in out.items()}

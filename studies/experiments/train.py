@@ -159,7 +159,7 @@ class Trainer:
         save_npz(folder / "robot.npz", robot | {"legs": np.array(list(self.cpg.layout.legs)),
                                                 "joints": np.array(["hip", "thigh", "calf"])})
         layout = Layout(n_trials=1, pool_size=self.cpg.layout.pool_size,
-                        legs=self.cpg.layout.legs)
+                        legs=self.cpg.layout.legs, populations=self.cpg.layout.rows)
         write_manifest(folder, command="train-session", seed=self.settings.seed + trial,
                        settings={"training": str(self.out), "trial": trial, "session": session,
                                  "record": dataclasses.asdict(self.record),

@@ -19,7 +19,8 @@ from ..outputs.folder import OutputFolder
 from ..outputs.writing import save_spikes_and_traces, write_manifest
 from ..outputs.result import Result
 from ...models.compose import Overrides, model_files_record, model_set, override_items
-from .settings import number, seed_number
+from ...network import populations as _table
+from .settings import number, population_rows, seed_number
 from .resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
@@ -33,7 +34,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          spikes: tuple[str, ...] | None = None,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
          overwrite: bool = False, progress: bool = True,
-         inputs: Sequence[str | os.PathLike] = ()) -> Result:
+         inputs: Sequence[str | os.PathLike] = (), populations: Any = None) -> Result:
     """Simulate ``trials`` independent locomotion units (the FR limb's CPG, open loop; seeds
     seed, seed+1, ...) for ``seconds``; what ``astrocpg unit`` runs.
 
@@ -46,55 +47,60 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     writes, whole or nothing (its manifest records the checked settings; a folder that holds files is
     refused unless ``overwrite``, which replaces only an astrocpg output folder that is none of
     ``inputs``, the files the caller read, e.g. model files). progress: a progress bar for long
-    runs.
+    runs. populations: model files with a ``[population]`` table (texts, or ``{file: text}``),
+    populations added to the network for this call (docs/model-files.md, "A new population").
 
     Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "unit"; its
     ``summary["rhythm"]`` holds each trial's period, phases and rates. Bad input: InputError
     naming the culprit, before anything is simulated or written."""
-    from brian2 import ms
+    rows, population_record = population_rows(populations)  # before any other check
+    with _table.registered(*rows):
+        from brian2 import ms
 
-    seconds = number(seconds, "--seconds", positive=True)
-    trials = number(trials, "--trials", integer=True, minimum=1)
-    seed = seed_number(seed, trials=trials)
-    trace_dt = number(trace_dt, "--trace-dt", positive=True)
-    check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
-    trace_dtype = check_trace_dtype(trace_dtype)
-    check_duration(seconds, STEP)
-    if out is not None:
-        OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
-    pops, names = check_selection(spikes, traces)
-    check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
-                                traces=names, spikes=bool(pops),
-                                trace_bytes=np.dtype(trace_dtype).itemsize),
-                 culprit=f"--seconds {seconds:g} x --trials {trials}")
-    files = model_files_record(models)
-    models = model_set(overrides, equations, models=models)
-    # the manifest's settings: the checked values, whichever door (command line or API) called
-    settings = {
-        "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-        "trace_dtype": trace_dtype, "overrides": override_items(overrides), "equations": dict(equations or {}),
-        "spikes": spikes, "traces": traces}
-    if files:
-        settings["models"] = files  # each model file's content and sha256
-    try:
-        result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
-                               trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
-                               progress=progress, trace_dtype=trace_dtype)
-    except Diverged as e:  # the folder keeps what ran, and says it diverged
-        partial = getattr(e, "result", None)
-        if out is not None and partial is not None:
-            partial.extra.update({"models": models, "rhythm": [], "status": "diverged",
-                                  "error": {"line": e.line, "t_s": e.t, "trial": e.trial}})
-            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
-                write_unit_folder(folder, partial, settings)
-        raise
-    result.extra["rhythm"] = rhythm_per_trial(result, seconds)
-    result.extra["models"] = models
-    if out is not None:
-        with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:  # whole, or nothing
-            write_unit_folder(folder, result, settings)
-    return Result.from_simulation(result, kind="unit", seed=seed, settings=settings,
-                                  summary=unit_results(result), models=models, folder=out)
+        seconds = number(seconds, "--seconds", positive=True)
+        trials = number(trials, "--trials", integer=True, minimum=1)
+        seed = seed_number(seed, trials=trials)
+        trace_dt = number(trace_dt, "--trace-dt", positive=True)
+        check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
+        trace_dtype = check_trace_dtype(trace_dtype)
+        check_duration(seconds, STEP)
+        if out is not None:
+            OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
+        pops, names = check_selection(spikes, traces)
+        check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
+                                    traces=names, spikes=bool(pops),
+                                    trace_bytes=np.dtype(trace_dtype).itemsize),
+                     culprit=f"--seconds {seconds:g} x --trials {trials}")
+        files = model_files_record(models)
+        models = model_set(overrides, equations, models=models)
+        # the manifest's settings: the checked values, whichever door (command line or API) called
+        settings = {
+            "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
+            "trace_dtype": trace_dtype, "overrides": override_items(overrides), "equations": dict(equations or {}),
+            "spikes": spikes, "traces": traces}
+        if files:
+            settings["models"] = files  # each model file's content and sha256
+        if population_record:
+            settings["populations"] = population_record  # each added population's model file
+        try:
+            result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
+                                   trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
+                                   progress=progress, trace_dtype=trace_dtype)
+        except Diverged as e:  # the folder keeps what ran, and says it diverged
+            partial = getattr(e, "result", None)
+            if out is not None and partial is not None:
+                partial.extra.update({"models": models, "rhythm": [], "status": "diverged",
+                                      "error": {"line": e.line, "t_s": e.t, "trial": e.trial}})
+                with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
+                    write_unit_folder(folder, partial, settings)
+            raise
+        result.extra["rhythm"] = rhythm_per_trial(result, seconds)
+        result.extra["models"] = models
+        if out is not None:
+            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:  # whole, or nothing
+                write_unit_folder(folder, result, settings)
+        return Result.from_simulation(result, kind="unit", seed=seed, settings=settings,
+                                      summary=unit_results(result), models=models, folder=out)
 
 
 def rhythm_per_trial(result: SimulationResult, seconds: float) -> list[dict[str, Any]]:

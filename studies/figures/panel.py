@@ -17,7 +17,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from ...network.layout import LEGS, THIGH_POOLS
-from ...network.recordable import TRACE_SOURCES
+from ...network.populations import trace_sources
 from ..analysis.fall import first_fall
 from ..analysis.rhythm import convolve_same, pool_activity
 from .plots import POOL_COLOURS
@@ -182,7 +182,7 @@ class GaitPanel:
 
     def _calcium(self, ax: Any, result: Any, trial: int) -> None:
         """One line per thigh-pool astrocyte: colour by leg, solid extensor, dashed flexor."""
-        unit = TRACE_SOURCES[CALCIUM][3].replace("uM", "µM")
+        unit = trace_sources(result.layout.rows)[CALCIUM][3].replace("uM", "µM")
         ax.set_ylabel(f"astrocyte\nCa²⁺ ({unit})")
         if CALCIUM not in result.traces:
             ax.set_yticks([])

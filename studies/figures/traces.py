@@ -9,27 +9,26 @@ the result holds nothing to draw); :func:`trace_figures` collects them all.
 
 from __future__ import annotations
 
+import os
 from typing import Any, Callable
 
 import numpy as np
 from matplotlib.figure import Figure
 
-from ...network.layout import INTERNEURONS, LEGS, POOLS, THIGH_POOLS
-from ...network.recordable import TRACE_SOURCES, spike_populations
+from ...network.layout import LEGS
+from ...network.populations import trace_sources
 from ..analysis.gait import leg_phases
 from ..analysis.rhythm import pool_activity
 from .plots import POOL_COLOURS, mark_fall
 from .save import FORMATS, save_figures  # noqa: F401  (drawn here, written there)
 
 JOINT_COLOURS = {"hip": "tab:green", "thigh": "tab:blue", "calf": "tab:purple"}
-ASTRO_ROWS = (("astrocyte_Ca", "Ca²⁺"), ("astrocyte_IP3", "IP3"), ("astrocyte_AG", "2-AG"),
-              ("astrocyte_ADO", "adenosine"))
 DT = 1e-3  # s, bin of pool activity (one network step)
 
 
-def _unit(name: str) -> str:
-    """The unit of a recorded trace as a label shows it."""
-    return TRACE_SOURCES[name][3].replace("uM", "µM")
+def _unit(result: Any, name: str) -> str:
+    """The unit of a recorded trace (as the folder's rows say) as a label shows it."""
+    return trace_sources(result.layout.rows)[name][3].replace("uM", "µM")
 
 
 def _figure(figsize: Any) -> Figure:
@@ -55,87 +54,92 @@ def _legs(result: Any) -> tuple[str, ...]:
 
 # ---------------------------------------------------------------- spikes
 def raster_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[str, Figure]:
-    """rasters: one panel per recorded population (motor neurons coloured by pool,
-    interneurons, astrocytes' adenosine releases, then any population added to the table,
-    cells by limb)."""
-    known = spike_populations()
-    pops = [p for p in known if p in result.spikes]
-    if not pops:
-        return {}
+    """rasters: one panel per recorded population, in the order of the folder's population
+    rows, each drawn as its row's ``raster`` says (motor neurons coloured by pool,
+    interneurons, astrocytes' adenosine releases, then any added population, cells by limb)."""
     L, (t0, t1) = result.layout, window
-    heights = {"motor": 4, "interneuron": 2, "astrocyte": 1.2}
-    fig = _figure((11, 2.2 + 1.3 * sum(heights.get(p, 2) for p in pops)))
-    axes = np.atleast_1d(fig.subplots(
-        len(pops), 1, sharex=True, gridspec_kw={"height_ratios": [heights.get(p, 2)
-                                                                  for p in pops]}))
-    for ax, pop in zip(axes, pops):
-        t, i = (np.asarray(a) for a in result.spikes[pop])
+    rows = [r for r in L.rows if r.spikes and r.name in result.spikes]
+    if not rows:
+        return {}
+    heights = [float(r.raster.get("height", 2)) for r in rows]
+    fig = _figure((11, 2.2 + 1.3 * sum(heights)))
+    axes = np.atleast_1d(fig.subplots(len(rows), 1, sharex=True,
+                                      gridspec_kw={"height_ratios": heights}))
+    for ax, row in zip(axes, rows):
+        t, i = (np.asarray(a) for a in result.spikes[row.name])
         keep = (t >= t0) & (t < t1)
-        t, i = t[keep], i[keep]
-        if pop == "motor":
-            base = trial * L.motor_per_trial
-            for name in POOLS:
-                sel = np.zeros(len(i), dtype=bool)
-                for leg_i in range(L.n_legs):
-                    ids = L.motor_neurons(trial, leg_i, name)
-                    sel |= (i >= ids[0]) & (i <= ids[-1])
-                ax.plot(t[sel], i[sel] - base, "|", ms=2, color=POOL_COLOURS[name], label=name)
-            per_leg = L.motor_per_trial // L.n_legs
-            ax.set_yticks([(k + 0.5) * per_leg for k in range(L.n_legs)], _legs(result))
-            ax.set_ylim(-0.5, L.motor_per_trial - 0.5)
-            ax.set_ylabel("motor neuron (leg)")
-            ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7,
-                      title="pool", title_fontsize=7, markerscale=3)
-            ax.set_title(f"Spike rasters (trial {trial})")
-        elif pop == "interneuron":
-            base = trial * L.interneurons_per_trial
-            sel = (i >= base) & (i < base + L.interneurons_per_trial)
-            ax.plot(t[sel], i[sel] - base, "|", ms=3, color="k")
-            ax.set_yticks([(k + 0.5) * len(INTERNEURONS) for k in range(L.n_legs)],
-                          _legs(result))
-            ax.set_ylim(-0.5, L.interneurons_per_trial - 0.5)
-            ax.set_ylabel("interneuron (leg)")
-        elif pop != "astrocyte":  # an added population: its cells, limb by limb
-            n = L.cells_per_trial(pop)
-            base = trial * n
-            sel = (i >= base) & (i < base + n)
-            ax.plot(t[sel], i[sel] - base, "|", ms=3, color="tab:purple")
-            ax.set_yticks([(k + 0.5) * n / L.n_legs for k in range(L.n_legs)], _legs(result))
-            ax.set_ylim(-0.5, n - 0.5)
-            ax.set_ylabel(f"{pop} (leg)")
-        else:
-            base = trial * L.thigh_pools_per_trial
-            sel = (i >= base) & (i < base + L.thigh_pools_per_trial)
-            ax.plot(t[sel], i[sel] - base, "v", ms=4, color="tab:olive")
-            labels = [f"{leg} {p.replace('thigh_', '')}" for leg in _legs(result)
-                      for p in THIGH_POOLS]
-            ax.set_yticks(range(len(labels)), labels, fontsize=6)
-            ax.set_ylim(-0.5, len(labels) - 0.5)
-            ax.set_ylabel("astrocyte\n(adenosine release)")
+        _raster_panel(ax, row, L, trial, t[keep], i[keep])
+    axes[0].set_title(f"Spike rasters (trial {trial})")
     axes[-1].set_xlim(t0, t1)
     axes[-1].set_xlabel("time (s)")
     return {"rasters": fig}
 
 
-def _activity(result: Any, trial: int, leg_i: int, pool: str, window: tuple[float, float]):
-    t, i = result.spikes["motor"]
+def _raster_panel(ax: Any, row: Any, L: Any, trial: int, t: np.ndarray, i: np.ndarray) -> None:
+    """One population's spikes of ``trial`` (cells in index order, limb after limb)."""
+    style = row.raster
+    labels = row.labels(L.pool_size)
+    n = L.n_legs * len(labels)
+    base = trial * n
+    sel = (i >= base) & (i < base + n)
+    t, local = t[sel], i[sel] - base
+    marker, size = str(style.get("marker", "|")), float(style.get("size", 3))
+    if style.get("colour") == "by label":  # one colour per label (the motor pools)
+        label_of = np.array(labels * L.n_legs)
+        for label in dict.fromkeys(labels):
+            mine = label_of[local] == label
+            ax.plot(t[mine], local[mine], marker, ms=size, color=POOL_COLOURS.get(label),
+                    label=label)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7,
+                  title="pool", title_fontsize=7, markerscale=3)
+    else:
+        ax.plot(t, local, marker, ms=size, color=str(style.get("colour", "tab:purple")))
+    if style.get("ticks") == "cell":  # one tick per cell: its limb and label
+        prefix = os.path.commonprefix(list(labels)) if len(labels) > 1 else ""
+        prefix = prefix[:prefix.rfind("_") + 1]
+        ax.set_yticks(range(n), [f"{leg} {c[len(prefix):]}" for leg in L.legs for c in labels],
+                      fontsize=6)
+    else:
+        ax.set_yticks([(k + 0.5) * len(labels) for k in range(L.n_legs)], list(L.legs))
+    ax.set_ylim(-0.5, n - 0.5)
+    ax.set_ylabel(str(style.get("label", f"{row.name} (leg)")))
+
+
+def _activity_row(result: Any) -> Any:
+    """The recorded population whose spikes are the pools' activity (its row's ``activity``),
+    or None."""
+    return next((r for r in result.layout.rows if r.activity and r.name in result.spikes), None)
+
+
+def _cells_of(L: Any, row: Any, trial: int, leg_i: int, label: str) -> np.ndarray:
+    """The indices (in the population) of ``trial``'s cells of ``label`` in limb ``leg_i``."""
+    labels = row.labels(L.pool_size)
+    start = trial * L.n_legs * len(labels) + leg_i * len(labels)
+    return start + np.array([k for k, x in enumerate(labels) if x == label], dtype=np.intp)
+
+
+def _activity(result: Any, row: Any, trial: int, leg_i: int, pool: str,
+              window: tuple[float, float]):
+    t, i = result.spikes[row.name]
     t0, t1 = window
-    act = pool_activity(np.asarray(t), np.asarray(i), result.layout.motor_neurons(trial, leg_i, pool),
-                        t1, DT, t0)
+    act = pool_activity(np.asarray(t), np.asarray(i),
+                        _cells_of(result.layout, row, trial, leg_i, pool), t1, DT, t0)
     return t0 + np.arange(len(act)) * DT, act
 
 
 def activity_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[str, Figure]:
-    """pool_activity: each leg's four motor pools, neurons spiking per 1 ms step."""
-    if "motor" not in result.spikes:
+    """pool_activity: each leg's pools, cells spiking per 1 ms step (the population whose row
+    says its spikes are the pools' activity: the motor neurons)."""
+    row = _activity_row(result)
+    if row is None:
         return {}
     legs = _legs(result)
     fig = _figure((11, 1.0 + 1.6 * len(legs)))
     axes = np.atleast_1d(fig.subplots(len(legs), 1, sharex=True, sharey=True))
     for leg_i, (ax, leg) in enumerate(zip(axes, legs)):
-        for pool in POOLS:
-            x, act = _activity(result, trial, leg_i, pool, window)
-            ax.plot(x, act, lw=0.6, color=POOL_COLOURS[pool], label=pool)
+        for pool in dict.fromkeys(row.labels(result.layout.pool_size)):
+            x, act = _activity(result, row, trial, leg_i, pool, window)
+            ax.plot(x, act, lw=0.6, color=POOL_COLOURS.get(pool), label=pool)
         ax.set_ylabel(f"{leg}\nneurons / ms")
     axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, title="pool",
                    title_fontsize=7)
@@ -156,72 +160,93 @@ def _trace(result: Any, name: str, window: tuple[float, float]):
     return t[keep], v[keep]
 
 
-def motor_calcium_figures(result: Any, trial: int,
-                          window: tuple[float, float]) -> dict[str, Figure]:
-    """motor_calcium: each pool's mean motor-neuron Ca2+ (band: min..max over the pool)."""
-    if "motor_Ca" not in result.traces:
-        return {}
-    L, legs = result.layout, _legs(result)
-    t, v = _trace(result, "motor_Ca", window)
-    unit = _unit("motor_Ca")
-    fig = _figure((11, 1.0 + 1.6 * len(legs)))
-    axes = np.atleast_1d(fig.subplots(len(legs), 1, sharex=True, sharey=True))
-    for leg_i, (ax, leg) in enumerate(zip(axes, legs)):
-        for pool in POOLS:
-            cols = v[:, L.motor_neurons(trial, leg_i, pool)]
-            ax.plot(t, cols.mean(axis=1), lw=0.8, color=POOL_COLOURS[pool], label=pool)
-            ax.fill_between(t, cols.min(axis=1), cols.max(axis=1), color=POOL_COLOURS[pool],
-                            alpha=0.15, lw=0)
-        ax.set_ylabel(f"{leg}\nCa²⁺ ({unit})")
-    axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, title="pool",
-                   title_fontsize=7)
-    axes[0].set_title(f"Motor-neuron Ca²⁺ (trial {trial}, pool mean, band: min..max)")
-    axes[-1].set_xlim(*window)
-    axes[-1].set_xlabel("time (s)")
-    return {"motor_calcium": fig}
+def _traced_rows(result: Any, style: str) -> list[tuple[Any, list[str]]]:
+    """(row, its recorded traces) of the rows whose traces are drawn in ``style``."""
+    out = []
+    for row in result.layout.rows:
+        names = [n for n in row.traces if n in result.traces]
+        if names and row.trace_plot.get("style", "label mean") == style:
+            out.append((row, names))
+    return out
 
 
-def astrocyte_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[str, Figure]:
-    """astrocyte_LEG_POOL: one astrocyte's Ca2+, IP3, 2-AG and adenosine, its adenosine
-    releases marked (dashed lines), and the activity of the thigh pool it sits on."""
-    names = [n for n, _ in ASTRO_ROWS if n in result.traces]
-    if not names:
-        return {}
-    L = result.layout
-    releases = None
-    if "astrocyte" in result.spikes:
-        releases = tuple(np.asarray(a) for a in result.spikes["astrocyte"])
-    figs = {}
-    for leg_i, leg in enumerate(_legs(result)):
-        for pool in THIGH_POOLS:
-            col = L.thigh_pool(trial, leg_i, pool)
-            rows = names + (["activity"] if "motor" in result.spikes else [])
-            fig = _figure((10, 1.0 + 1.35 * len(rows)))
-            axes = np.atleast_1d(fig.subplots(len(rows), 1, sharex=True))
-            events = np.zeros(0)
-            if releases is not None:
-                rt, ri = releases
-                events = rt[(ri == col) & (rt >= window[0]) & (rt < window[1])]
-            for ax, row in zip(axes, rows):
-                if row == "activity":
-                    x, act = _activity(result, trial, leg_i, pool, window)
-                    ax.plot(x, act, lw=0.6, color=POOL_COLOURS[pool])
-                    ax.set_ylabel("pool activity\n(neurons / ms)")
-                else:
-                    t, v = _trace(result, row, window)
-                    label = dict(ASTRO_ROWS)[row]
-                    ax.plot(t, v[:, col], lw=1.0, color="tab:olive", label=label)
-                    ax.set_ylabel(f"{label}\n({_unit(row)})")
-                for k, e in enumerate(events):
-                    ax.axvline(e, color="k", ls="--", lw=0.7,
-                               label="adenosine release" if k == 0 and ax is axes[0] else None)
-            if len(events):
-                axes[0].legend(loc="upper right", fontsize=7)
-            axes[0].set_title(f"Astrocyte of {leg} {pool} (trial {trial}): "
-                              f"{len(events)} release(s) in the window")
+def label_mean_figures(result: Any, trial: int,
+                       window: tuple[float, float]) -> dict[str, Figure]:
+    """One figure per trace of a "label mean" row (motor_calcium: each pool's mean motor-neuron
+    Ca2+, band: min..max over the pool): per limb, each label's mean and its min..max band."""
+    L, legs, figs = result.layout, _legs(result), {}
+    for row, names in _traced_rows(result, "label mean"):
+        style = row.trace_plot
+        labels = list(dict.fromkeys(row.labels(L.pool_size)))
+        for name in names:
+            t, v = _trace(result, name, window)
+            unit = _unit(result, name)
+            fig = _figure((11, 1.0 + 1.6 * len(legs)))
+            axes = np.atleast_1d(fig.subplots(len(legs), 1, sharex=True, sharey=True))
+            for leg_i, (ax, leg) in enumerate(zip(axes, legs)):
+                for label in labels:
+                    cols = v[:, _cells_of(L, row, trial, leg_i, label)]
+                    colour = POOL_COLOURS.get(label)
+                    ax.plot(t, cols.mean(axis=1), lw=0.8, color=colour, label=label)
+                    ax.fill_between(t, cols.min(axis=1), cols.max(axis=1), color=colour,
+                                    alpha=0.15, lw=0)
+                ax.set_ylabel(f"{leg}\n{style.get('ylabel', name)} ({unit})")
+            axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7,
+                           title="pool", title_fontsize=7)
+            axes[0].set_title(f"{style.get('title', name)} (trial {trial}, pool mean, band: "
+                              f"min..max)")
             axes[-1].set_xlim(*window)
             axes[-1].set_xlabel("time (s)")
-            figs[f"astrocyte_{leg}_{pool}"] = fig
+            figs[dict(style.get("figures") or {}).get(name, name)] = fig
+    return figs
+
+
+def per_cell_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[str, Figure]:
+    """POPULATION_LEG_LABEL for each cell of a "per cell" row (astrocyte_FR_thigh_flexor: one
+    astrocyte's Ca2+, IP3, 2-AG and adenosine, its adenosine releases marked (dashed lines),
+    and the activity of the thigh pool it sits on)."""
+    L, figs = result.layout, {}
+    active = _activity_row(result)
+    for row, names in _traced_rows(result, "per cell"):
+        style = row.trace_plot
+        shown = dict(style.get("labels") or {})
+        events_name = str(style.get("events", "spike"))
+        spikes = tuple(np.asarray(a) for a in result.spikes[row.name]) \
+            if row.name in result.spikes else None
+        pools = set(active.labels(L.pool_size)) if active is not None else set()
+        labels = row.labels(L.pool_size)
+        for leg_i, leg in enumerate(_legs(result)):
+            for k, label in enumerate(labels):
+                col = (trial * L.n_legs + leg_i) * len(labels) + k
+                panels = names + (["activity"] if label in pools else [])
+                fig = _figure((10, 1.0 + 1.35 * len(panels)))
+                axes = np.atleast_1d(fig.subplots(len(panels), 1, sharex=True))
+                events = np.zeros(0)
+                if spikes is not None:
+                    st, si = spikes
+                    events = st[(si == col) & (st >= window[0]) & (st < window[1])]
+                for ax, panel in zip(axes, panels):
+                    if panel == "activity":
+                        x, act = _activity(result, active, trial, leg_i, label, window)
+                        ax.plot(x, act, lw=0.6, color=POOL_COLOURS.get(label))
+                        ax.set_ylabel("pool activity\n(neurons / ms)")
+                    else:
+                        t, v = _trace(result, panel, window)
+                        text = shown.get(panel, panel)
+                        ax.plot(t, v[:, col], lw=1.0, color=style.get("colour", "tab:purple"),
+                                label=text)
+                        ax.set_ylabel(f"{text}\n({_unit(result, panel)})")
+                    for e_k, e in enumerate(events):
+                        ax.axvline(e, color="k", ls="--", lw=0.7,
+                                   label=events_name if e_k == 0 and ax is axes[0] else None)
+                if len(events):
+                    axes[0].legend(loc="upper right", fontsize=7)
+                axes[0].set_title(f"{style.get('title', row.name)} of {leg} {label} (trial "
+                                  f"{trial}): {len(events)} {events_name.split()[-1]}(s) in "
+                                  f"the window")
+                axes[-1].set_xlim(*window)
+                axes[-1].set_xlabel("time (s)")
+                figs[f"{row.name}_{leg}_{label}"] = fig
     return figs
 
 
@@ -314,9 +339,10 @@ def gait_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[s
             force = None
     bursts = None
     if force is None:
-        if "motor" not in result.spikes:
+        active = _activity_row(result)  # the pools' activity: the motor neurons' spikes
+        if active is None:
             return {}
-        t, i = (np.asarray(a) for a in result.spikes["motor"])
+        t, i = (np.asarray(a) for a in result.spikes[active.name])
         bursts = leg_phases(t, i, result.layout, trial, window[0], window[1])["bursts"]
     legs = _legs(result)
     fig = _figure((11, 1.4 + 0.45 * len(legs)))
@@ -351,7 +377,7 @@ def gait_figures(result: Any, trial: int, window: tuple[float, float]) -> dict[s
 
 
 #: The figure makers :func:`trace_figures` calls in turn, each for what the recording holds.
-FIGURE_FUNCTIONS = (raster_figures, activity_figures, motor_calcium_figures, astrocyte_figures,
+FIGURE_FUNCTIONS = (raster_figures, activity_figures, label_mean_figures, per_cell_figures,
                     joint_figures, torso_figures, gait_figures)
 
 
@@ -371,5 +397,5 @@ def trace_figures(result: Any, trial: int = 0,
 
 
 __all__ = ["trace_figures", "save_figures", "FORMATS", "recorded_span", "FIGURE_FUNCTIONS", "raster_figures",
-           "activity_figures", "motor_calcium_figures", "astrocyte_figures", "joint_figures",
+           "activity_figures", "label_mean_figures", "per_cell_figures", "joint_figures",
            "torso_figures", "gait_figures"]

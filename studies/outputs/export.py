@@ -72,15 +72,12 @@ import numpy as np
 
 from ...errors import InputError, did_you_mean
 from ...reading import check_regular
-from ...network import populations as _table
-from ...network.recordable import trace_sources
+from ...network.populations import Population, rows_of, trace_meaning, trace_sources
 from ...network.recording import overflow_words, overflowed
 from .folder import (check_output_path, check_replaceable, clean_stale_temporaries,
                      refuse_in_use, verify)
 from .writing import atomic_path, save_npz
 
-#: what each built-in trace holds (the population table's; an added row's: trace_meaning)
-TRACE_MEANING = {t: src.meaning for p in _table.BUILT_IN for t, src in p.traces.items()}
 # the unit of each robot.npz array (None: labels or flags, no unit)
 ROBOT_UNITS: dict[str, str | None] = {
     "t": "s", "joint_angles": "rad", "torques": "N*m", "torso_position": "m",
@@ -147,44 +144,30 @@ def _load(folder: Path) -> dict[str, Any]:
     return data
 
 
+def _rows(manifest: dict[str, Any]) -> tuple[Population, ...]:
+    """The population rows the folder was written with (its manifest's; the built-in rows for a
+    folder written before manifests held them)."""
+    return rows_of(manifest["results"]["layout"])
+
+
 def unit_rows(manifest: dict[str, Any]) -> dict[str, list[dict[str, Any]]]:
-    """Per population, one dict per neuron: trial, limb, pool (or interneuron name), index.
+    """Per population that can be recorded (spikes or traces), one dict per cell: trial, limb,
+    pool (its label: a pool, an interneuron's name ...), index.
 
     The order is the populations' index order (see the manifest's layout): trial, then leg,
-    then pool, interneuron or astrocyte, then (motor neurons) neuron within the pool."""
+    then the cells of one limb as the population's row lists them."""
     lay = manifest["results"]["layout"]
-    per_leg = {"motor": [p for p in lay["pools"] for _ in range(lay["pool_size"])],
-               "interneuron": list(lay["interneurons"]),
-               "astrocyte": list(lay["thigh_pools"])}
-    # the population table's other recordable rows (added populations), as the layout lists them
-    for pop, cells in (lay.get("cells_per_leg") or {}).items():
-        if pop not in per_leg and _recordable(pop):
-            per_leg[pop] = list(cells)
     rows: dict[str, list[dict[str, Any]]] = {}
-    for pop, cells in per_leg.items():
-        rows[pop] = [{"trial": b, "limb": leg, "pool": cell}
-                     for b in range(lay["n_trials"]) for leg in lay["legs"] for cell in cells]
-        for k, row in enumerate(rows[pop]):
-            row["neuron_index"] = k
+    for row in _rows(manifest):
+        if not (row.spikes or row.traces):
+            continue
+        cells = row.labels(lay["pool_size"])
+        rows[row.name] = [{"trial": b, "limb": leg, "pool": cell}
+                          for b in range(lay["n_trials"]) for leg in lay["legs"]
+                          for cell in cells]
+        for k, cell in enumerate(rows[row.name]):
+            cell["neuron_index"] = k
     return rows
-
-
-def _recordable(population: str) -> bool:
-    """Can ``population`` have spikes or traces? (A population the table does not know, from a
-    folder written with a row this process has not registered, is taken as recordable.)"""
-    try:
-        row = _table.row(population)
-    except KeyError:
-        return True
-    return row.spikes or bool(row.traces)
-
-
-def _cell_noun(population: str) -> str:
-    """What one cell of ``population`` is called in the export (``motor_neuron``)."""
-    try:
-        return _table.row(population).cell_noun or population
-    except KeyError:
-        return population
 
 
 def _spike_trains(times: np.ndarray, indices: np.ndarray, n: int) -> list[np.ndarray]:
@@ -313,11 +296,13 @@ def export_nwb(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
     dt = _resolution(m, data)
     nwb = _nwb_file(m, experimenter=experimenter, institution=institution)
     populations = unit_rows(m)
-    _add_units(nwb, populations, data["spikes"], dt)
+    _add_units(nwb, m, populations, data["spikes"], dt)
+    traced = [r for r in _rows(m) if r.traces]
     module = ProcessingModule(name="misc", description=(
-        "the simulated network: its cells (astrocytes, motor_neurons), the cell of each column "
-        "of the trace TimeSeries (astrocyte_trace_columns, motor_trace_columns), and the model "
-        "as simulated (parameters and equations of every model)"))
+        f"the simulated network: its cells ({', '.join(r.table_name for r in traced)}), the cell "
+        f"of each column of the trace TimeSeries "
+        f"({', '.join(f'{r.name}_trace_columns' for r in traced)}), and the model as simulated "
+        f"(parameters and equations of every model)"))
     _add_traces(nwb, module, m, data, populations, dt)
     _add_robot(nwb, data.get("robot"), dt)
     _add_models(module, m)
@@ -366,16 +351,18 @@ def _nwb_file(m: dict[str, Any], *, experimenter: Sequence[str],
     return nwb
 
 
-def _add_units(nwb: Any, populations: dict[str, list[dict[str, Any]]],
+def _add_units(nwb: Any, m: dict[str, Any], populations: dict[str, list[dict[str, Any]]],
                spikes: dict[str, np.ndarray], dt: float) -> None:
     """The Units table: every recorded neuron's spike train and its trial, limb and pool."""
     from pynwb.misc import Units
 
     recorded = [pop for pop in populations if f"{pop}_times" in spikes]
+    spiking = [r for r in _rows(m) if r.spikes]
     if recorded:  # recorded with --spikes none: no Units table
-        nwb.units = Units(name="units", resolution=dt,
-                          description="spikes of the simulated neurons (astrocytes: adenosine "
-                                      "releases)")
+        nwb.units = Units(name="units", resolution=dt, description=(
+            "spikes of the simulated cells" + "".join(
+                f"; {r.name}: {r.spike_meaning}" for r in spiking
+                if r.spike_meaning.startswith("spike"))))
         rows = []
         for pop in recorded:
             trains = _spike_trains(spikes[f"{pop}_times"], spikes[f"{pop}_indices"],
@@ -385,14 +372,15 @@ def _add_units(nwb: Any, populations: dict[str, list[dict[str, Any]]],
                 rows.append(row | {"population": pop})
         # typed columns (pynwb would store Python ints as int64)
         for col, desc, values in (
-                ("population", "motor (motor neuron), interneuron (V1/V2b or IIN), astrocyte "
-                               "(spike = adenosine release)", [r["population"] for r in rows]),
+                ("population", ", ".join(f"{r.name} ({r.spike_meaning})" if r.spike_meaning
+                                         else r.name for r in spiking),
+                 [r["population"] for r in rows]),
                 ("trial", "independent trial of the batch (seed = file seed + trial)",
                  np.array([r["trial"] for r in rows],
                           dtype=_index_dtype(max(r["trial"] for r in rows)))),
                 ("limb", "leg: FR, FL, RR, RL", [r["limb"] for r in rows]),
-                ("pool", "motor pool, interneuron (source_to_target) or astrocyte's pool",
-                 [r["pool"] for r in rows]),
+                ("pool", "; ".join(f"{r.name}: {r.label_meaning or 'its label'}"
+                                   for r in spiking), [r["pool"] for r in rows]),
                 ("neuron_index", "index within the population (column of its trace)",
                  np.array([r["neuron_index"] for r in rows],
                           dtype=_index_dtype(max(r["neuron_index"] for r in rows))))):
@@ -406,27 +394,19 @@ def _add_traces(nwb: Any, module: Any, m: dict[str, Any], data: dict[str, Any],
     from pynwb import TimeSeries
 
     lay = m["results"]["layout"]
-    cells = {"astrocyte": _cell_table("astrocytes", "one row per astrocyte: the trial, limb "
-                                                    "and thigh pool it covers",
-                                      populations["astrocyte"],
-                                      "the thigh pool whose spikes the astrocyte takes in"),
-             "motor": _cell_table("motor_neurons", "one row per motor neuron",
-                                  populations["motor"], "motor pool")}
-    column_rows: dict[str, list[tuple[Any, int, int]]] = {"astrocyte": [], "motor": []}
-    dims = {"motor": (len(lay["legs"]), len(lay["pools"]) * lay["pool_size"]),
-            "astrocyte": (1, len(lay["legs"]) * len(lay["thigh_pools"]))}
-    sources = trace_sources()
-    for name in data.get("traces", {}):  # traces of an added population: its own cell table
-        pop = sources[name][0] if name in sources else None
-        if pop is not None and pop not in cells and pop in populations:
-            row = _table.row(pop)
-            noun = _cell_noun(pop)
-            cells[pop] = _cell_table(f"{noun}s", f"one row per {noun.replace('_', ' ')}",
-                                     populations[pop], row.label_meaning or "pool")
-            column_rows[pop] = []
-            per_leg = len(populations[pop]) // (lay["n_trials"] * len(lay["legs"]))
-            dims[pop] = ((len(lay["legs"]), per_leg) if row.trace_series_per_leg
-                         else (1, len(lay["legs"]) * per_leg))
+    rows = _rows(m)
+    cells, column_rows, dims = {}, {}, {}
+    for row in rows:  # every population with recordable traces: a table of its cells
+        if not row.traces or row.name not in populations:
+            continue
+        d = row.to_json(lay["pool_size"])
+        cells[row.name] = _cell_table(row.table_name, d["table_description"],
+                                      populations[row.name], row.label_meaning or "pool")
+        column_rows[row.name] = []
+        per_leg = len(row.labels(lay["pool_size"]))
+        dims[row.name] = ((len(lay["legs"]), per_leg) if row.trace_series_per_leg
+                          else (1, len(lay["legs"]) * per_leg))
+    sources = trace_sources(rows)
     for name, values in sorted(data.get("traces", {}).items()):
         if name.endswith("_t"):
             continue
@@ -438,7 +418,7 @@ def _add_traces(nwb: Any, module: Any, m: dict[str, Any], data: dict[str, Any],
         # one series per trial and limb (motor) or per trial (astrocytes): time stays the
         # longest dimension, and a series is one limb's or one trial's cells
         n_parts, width = dims[population]
-        by_leg = _table.row(population).trace_series_per_leg
+        by_leg = next(r for r in rows if r.name == population).trace_series_per_leg
         for part in range(values.shape[1] // width):
             b, limb = divmod(part, n_parts)
             cols = slice(part * width, (part + 1) * width)
@@ -446,7 +426,7 @@ def _add_traces(nwb: Any, module: Any, m: dict[str, Any], data: dict[str, Any],
             series = TimeSeries(
                 name=f"{name}_{suffix}", data=values[:, cols], unit=unit,
                 conversion=conversion, comments=SAMPLE_COMMENT, **_sampling(t, dt),
-                description=(f"{_table.trace_meaning(name)}; one column per cell, the cell "
+                description=(f"{trace_meaning(name, rows)}; one column per cell, the cell "
                              f"of each column in processing/misc/{population}_trace_columns"
                              + _overflow_note(m, name)))
             nwb.add_acquisition(series)
@@ -454,7 +434,7 @@ def _add_traces(nwb: Any, module: Any, m: dict[str, Any], data: dict[str, Any],
     for pop, table in cells.items():
         module.add(table)
     for pop in cells:
-        cell = _cell_noun(pop)
+        cell = next(r for r in rows if r.name == pop).noun
         if column_rows[pop]:
             module.add(_column_table(f"{pop}_trace_columns",
                                      f"the {cell.replace('_', ' ')} of each column of the "
@@ -546,7 +526,7 @@ def _nwb_write(io_cls, nwb, path: Path) -> None:
         os.fsync(out.fileno())
 
 
-def _npz_unit(name: str) -> str | None:
+def _npz_unit(name: str, sources: dict[str, tuple[str, str, float, str]]) -> str | None:
     """The unit of the npz array ``name`` (None: labels, indices or flags)."""
     if name.startswith("spikes_"):
         return "s" if name.endswith("_times") else None  # _indices: neuron indices
@@ -556,9 +536,9 @@ def _npz_unit(name: str) -> str | None:
         trace = name[len("trace_"):]
         if trace.endswith("_t"):
             return "s"
-        if trace not in trace_sources():  # a population added in another process only
+        if trace not in sources:
             return None
-        unit = trace_sources()[trace][3]
+        unit = sources[trace][3]
         return "dimensionless" if unit == "a.u." else unit
     return ROBOT_UNITS[name[len("robot_"):]]
 
@@ -580,7 +560,8 @@ def export_npz(folder: Path, path: Path, *, experimenter: Sequence[str] = (),
         arrays[f"trace_{name}"] = v
     for name, v in data.get("robot", {}).items():
         arrays[f"robot_{name}"] = v
-    units = {name: _npz_unit(name) for name in arrays}
+    sources = trace_sources(_rows(m))  # the folder's traces, as its manifest's rows say
+    units = {name: _npz_unit(name, sources) for name in arrays}
     arrays["array_units_json"] = np.array(json.dumps(units))
     arrays["metadata_json"] = np.array(json.dumps(
         _metadata(m) | {"models": m.get("models"), "experimenter": list(experimenter),

@@ -28,9 +28,8 @@ import numpy as np
 
 from ...errors import InputError, did_you_mean
 from ...reading import open_regular, read_json
-from ...network import populations as _table
 from ...network.layout import LEGS, Layout
-from ...network.recordable import spike_populations, trace_sources
+from ...network.populations import spike_populations, trace_sources
 from .folder import MANIFEST, as_path, verify
 
 #: what each ``astrocpg_command`` of a manifest loads as
@@ -40,13 +39,13 @@ KINDS = {"unit": "unit", "run": "run", "train": "train", "study-run": "train",
 def _cells(layout: Layout, population: str) -> list[tuple[str, str, int]]:
     """(leg, pool or interneuron, k within the pool) of each cell of one trial, in index order
     (the population table's cells of one limb, limb after limb)."""
-    per_leg = _table.row(population).cells(layout.pool_size)
+    per_leg = layout.row(population).cells(layout.pool_size)
     return [(leg, pool, k) for leg in layout.legs for pool, k in per_leg]
 
 
-def _pool_names(population: str, pool_size: int) -> tuple[str, ...]:
+def _pool_names(layout: Layout, population: str) -> tuple[str, ...]:
     """The labels (pools, interneurons ...) of one limb's cells, each once."""
-    return tuple(dict.fromkeys(_table.row(population).labels(pool_size)))
+    return tuple(dict.fromkeys(layout.row(population).labels(layout.pool_size)))
 
 
 def _known_and_recorded(kind: str, name: str, known: Any, recorded: Any, culprit: str) -> None:
@@ -227,14 +226,15 @@ class Result:
         return self.layout.n_trials
 
     def _population(self, population: str) -> None:
-        _known_and_recorded("population", population, spike_populations(), self.spikes,
+        _known_and_recorded("population", population, spike_populations(self.layout.rows),
+                            self.spikes,
                             f"population={population!r}")
         return population
 
     def neurons(self, population: str, trial: int | None = 0, leg: str | None = None,
                 pool: str | None = None, neuron: int | None = None) -> np.ndarray:
         """Indices (in the population) of the cells :meth:`spike_times` selects."""
-        POPULATIONS = spike_populations()
+        POPULATIONS = spike_populations(self.layout.rows)
         if population not in POPULATIONS:
             raise InputError(f"unknown population{did_you_mean(population, POPULATIONS)} "
                              f"(populations: {_choices(POPULATIONS)})",
@@ -247,9 +247,9 @@ class Result:
         if leg is not None and leg not in L.legs:
             raise InputError(f"unknown leg{did_you_mean(leg, L.legs)} (legs: {_choices(L.legs)})",
                              culprit=f"leg={leg!r}")
-        names = _pool_names(population, L.pool_size)
+        names = _pool_names(L, population)
         if pool is not None and pool not in names:
-            what = "interneurons" if population == "interneuron" else "pools"
+            what = L.row(population).label_meaning or "pools"
             raise InputError(f"not a {population} pool ({what}: {_choices(names)})",
                              culprit=f"pool={pool!r}")
         cells = _cells(L, population)
@@ -303,7 +303,7 @@ class Result:
         """A recorded trace as a :class:`Trace` (time in second, values with their unit, the
         columns mapped to trial/leg/pool): "motor_Ca" (a.u.), "astrocyte_Ca" and
         "astrocyte_IP3" (uM), "astrocyte_AG" and "astrocyte_ADO" (a.u.)."""
-        TRACE_SOURCES = trace_sources()
+        TRACE_SOURCES = trace_sources(self.layout.rows)
         _known_and_recorded("trace", name, TRACE_SOURCES, self.traces, f"trace {name!r}")
         group, _, _, unit = TRACE_SOURCES[name]
         t, values = self.traces[name]
@@ -311,8 +311,11 @@ class Result:
         if values.ndim == 1:
             values = values[:, None]
         cells = _cells(self.layout, group)
+        # a population with several cells per label (motor neurons: pool_size per pool) numbers
+        # each cell within its label
+        per_label = max((k + 1 for _, _, k in cells), default=1)
         columns = [{"trial": b, "leg": leg, "pool": pool, "index": b * len(cells) + j}
-                   | ({"neuron": k} if group == "motor" else {})
+                   | ({"neuron": k} if per_label > 1 else {})
                    for b in range(self.layout.n_trials) for j, (leg, pool, k) in enumerate(cells)]
         if len(columns) != values.shape[1]:
             raise InputError(f"holds {values.shape[1]} columns; the layout has {len(columns)}",
@@ -363,7 +366,7 @@ class Result:
         if self.traces:
             lines.append("  traces: " + ", ".join(
                 f"{n} {np.shape(v)[0]}x{np.shape(v)[1] if np.ndim(v) > 1 else 1} "
-                f"{trace_sources()[n][3] if n in trace_sources() else ''}"
+                f"{trace_sources(L.rows)[n][3] if n in trace_sources(L.rows) else ''}"
                 for n, (_, v) in self.traces.items()) + "  -> trace(name)")
         if self.robot:
             lines.append("  robot: " + ", ".join(self.robot))
@@ -449,12 +452,15 @@ def _training_layout(manifest: Mapping[str, Any], folder: Path) -> Layout:
         lay = manifest.get("results", {}).get("layout")
         if lay:
             return Layout.from_json(lay)
-        settings = manifest["settings"]
-        pool = manifest.get("models", {}).get("pool", {}).get("parameters", {})
-        size = int(float(str(pool.get("pool_size", {}).get("value", "20")).split()[0]))
-        return Layout(n_trials=int(settings["n_trials"]), pool_size=size, legs=LEGS)
-    except (KeyError, TypeError, ValueError, AttributeError):
-        raise InputError(f"{MANIFEST} does not say how many trials the training has",
+        # a training written before its manifest held the layout: the pool size its models
+        # say (the manifest's model set, read as the models read it)
+        from ...models import ModelSet
+
+        size = int(ModelSet.from_json(manifest["models"]).value("pool_size"))
+        return Layout(n_trials=int(manifest["settings"]["n_trials"]), pool_size=size, legs=LEGS)
+    except (KeyError, TypeError, ValueError, AttributeError, InputError):
+        raise InputError(f"{MANIFEST} does not say how many trials the training has, nor "
+                         f"its pool size",
                          culprit=str(folder)) from None
 
 
@@ -489,10 +495,11 @@ def load(folder: str | os.PathLike) -> Result:
                       sessions=sessions, weights=w["weights_mV"])
     layout = _layout(manifest, folder)
     spikes_npz = _npz(folder, "spikes.npz") if (folder / "spikes.npz").exists() else {}
-    spikes = {p: (spikes_npz[f"{p}_times"], spikes_npz[f"{p}_indices"]) for p in spike_populations()
+    spikes = {p: (spikes_npz[f"{p}_times"], spikes_npz[f"{p}_indices"])
+              for p in spike_populations(layout.rows)
               if f"{p}_times" in spikes_npz and f"{p}_indices" in spikes_npz}
     traces_npz = _npz(folder, "traces.npz") if (folder / "traces.npz").exists() else {}
-    traces = {n: (traces_npz[f"{n}_t"], traces_npz[n]) for n in trace_sources()
+    traces = {n: (traces_npz[f"{n}_t"], traces_npz[n]) for n in trace_sources(layout.rows)
               if n in traces_npz and f"{n}_t" in traces_npz}
     robot = _npz(folder, "robot.npz") if (folder / "robot.npz").exists() else None
     settings = manifest.get("settings") or {}

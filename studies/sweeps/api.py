@@ -36,7 +36,8 @@ def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
     "auto"`` chose; ``astrocpg study`` prints them). Returns the counts of runs by status, the
     rows of the results table, the runs not finished (``failed``) and their errors, with the
     study's ``name``, its ``runs`` (how many) and its folder (``out``)."""
-    from .study import load_study, prepare_study, run_study, study_overrides
+    from .study import load_study, prepare_study, run_study
+    from .study_file import study_overrides
 
     if scheduler is not None and not isinstance(scheduler, str):
         raise InputError(f"expected an address as text, got {type(scheduler).__name__}",

@@ -72,13 +72,10 @@ from ..outputs.checkpoint import refuse_legacy
 from ..outputs.folder import (FolderLock, check_output_path, check_replaceable,
                             clean_stale_temporaries, clear_folder, holds_results)
 from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write_manifest
-# the study's rooms, re-exported: `from astrocpg.studies.sweeps.study import ...` keeps working
-from .execute import ENDED, dispatch, execute_run, read_status, write_failures  # noqa: F401
-from .layout import (FAILURES, GAITS, RESULTS, RUNS, STATUS, STUDY_COPY,  # noqa: F401
-                     STUDY_INDEX, TIMELINE, TIMELINE_COLUMNS, run_files, study_files)
-from .study_file import (MAX_SEEDS, RunSpec, Study, StudyOverrides,  # noqa: F401
-                         consecutive_groups, parse_study, study_overrides)
-from .tables import timeline, utilisation, write_results, write_timeline  # noqa: F401
+from .execute import ENDED, dispatch, read_status, write_failures
+from .layout import FAILURES, RUNS, STUDY_COPY, STUDY_INDEX, study_files
+from .study_file import RunSpec, Study, StudyOverrides, consecutive_groups, parse_study
+from .tables import write_results, write_timeline
 
 
 def load_study(path: str | os.PathLike, *, batch: int | None = None,
