@@ -24,6 +24,7 @@ RENAMED = {
     "condition": "conditions",       # --condition (repeatable): conditions=[...]
     "dir": "folder",                 # the positional folder of plot, gait, export, ...
     "no_astrocytes": "astrocytes",   # train --no-astrocytes: astrocytes=False
+    "population_files": "populations",  # --population FILE (repeatable): populations={FILE: text}
 }
 #: per function, a dest renamed for that function only
 RENAMED_IN = {"plot": {"format": "fmt"}}
