@@ -147,3 +147,21 @@ def test_pip_wheel_leaves_nothing_in_the_source_tree(tmp_path: Path) -> None:
     assert list(tmp_path.glob("astrocpg-*.whl"))
     left = {p.name for p in ROOT.iterdir()} - before
     assert not left, f"pip wheel left {sorted(left)} in the source tree"
+
+
+def test_every_package_folder_is_listed_for_the_wheel():
+    """A folder of the package with an __init__.py (a new sub-package such as the command
+    line's) is in pyproject's ``packages``, so the wheel holds it."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    skip = {"tests", "docs", "benchmarks", "_build_backend", ".venv", "build"}
+    found = {"astrocpg"}
+    for init in ROOT.rglob("__init__.py"):
+        rel = init.parent.relative_to(ROOT)
+        if rel.parts and (rel.parts[0] in skip or rel.parts[0].startswith(".")):
+            continue
+        if rel.parts:
+            found.add("astrocpg." + ".".join(rel.parts))
+    assert found <= listed, f"not in pyproject's packages: {sorted(found - listed)}"

@@ -32,7 +32,7 @@ KEPT = ("settings", "seed", "models", "package_versions", "codegen", "git", "mac
 
 def tables(run: Path, sessions: list[int]) -> dict[str, np.ndarray]:
     manifest = json.loads((run / "manifest.json").read_text(encoding="utf-8"))
-    with np.load(run / "weights.npz") as w:
+    with np.load(run / "weights.npz", allow_pickle=False) as w:
         data = {k: w[k] for k in w.files}
     n = data["final_weights_mV"].shape[0]
     first = int(manifest.get("seed", manifest.get("settings", {}).get("seed", 1)))
