@@ -164,7 +164,8 @@ astrocytes = true
 
 @pytest.mark.slow
 def test_study_models_table_and_axis(capsys, tmp_path):
-    from astrocpg.studies.sweeps.study import execute_run, load_study
+    from astrocpg.studies.sweeps.execute import execute_run
+    from astrocpg.studies.sweeps.study import load_study
 
     dumped = _dump(capsys, "astrocyte")
     extra = _astrocyte_with_extra_term(dumped)
