@@ -11,16 +11,9 @@ import shlex
 import pytest
 
 from astrocpg.studies.cli import build_parser
+from test_cli_words import _parsers
 
 QUOTED = re.compile(r"['`](astrocpg [a-z][^'`]*)['`]")
-
-
-def _parsers(parser: argparse.ArgumentParser):
-    yield parser
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            for sub in action.choices.values():
-                yield from _parsers(sub)
 
 
 def _named_commands() -> list[str]:

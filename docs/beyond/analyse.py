@@ -23,6 +23,14 @@
     # the rows of a study folder as they stand (finished or not), as one table
     python docs/beyond/analyse.py rows out/load_afferent --out docs/beyond/load_afferent/rows.csv.gz
 
+    # one reference against each run of a study, unpaired, over the same sessions and seeds
+    python docs/beyond/analyse.py versus docs/ablation/streams/results.csv.gz:astrocytes \
+        docs/beyond/drive_sweep/results.csv.gz --sessions 120 --seeds 1-8
+
+    # one column (a value per seed) of two CSV files, unpaired
+    python docs/beyond/analyse.py columns docs/variants/delays/gait_interlimb-authors-delays.csv \
+        docs/variants/delays/gait_interlimb-synapse.csv --column final_speed_m_per_s
+
     # astrocpg evaluate's runs, controller by controller, with 95 % confidence intervals
     python docs/beyond/analyse.py worlds docs/beyond/robustness/evaluation.csv
 
@@ -178,6 +186,63 @@ def _final_labels(rows: list[dict[str, str]]) -> str:
         parts.append(f"{name} " + ", ".join(
             f"{k} {v}" for k, v in sorted(counts.items(), key=lambda kv: -kv[1])))
     return "; ".join(parts)
+
+
+def versus(ref_spec: str, spec: str, sessions: int | None, last: int, seeds: str | None
+           ) -> str:
+    """Each run of ``spec`` against the runs of ``ref_spec`` (unpaired, one value per seed over
+    the same sessions): for speed and session length, the difference ref − run with its 95 %
+    bootstrap interval, the Mann-Whitney p (exact where no value is tied) and that p
+    Holm-adjusted over the runs of ``spec``."""
+    from astrocpg.studies.analysis.compare import compare, holm, p_text
+
+    keep = None
+    if seeds:
+        lo, _, hi = seeds.partition("-")
+        keep = set(range(int(lo), int(hi or lo) + 1))
+
+    def values(rows: list[dict[str, str]]) -> np.ndarray:
+        series = per_seed(rows, sessions)
+        series = {s: v for s, v in series.items() if keep is None or s in keep}
+        S = min(len(v) for v in series.values())
+        return np.array([measures(v[:S], last) for _, v in sorted(series.items())])
+
+    ref_rows, _ = read_rows(ref_spec)
+    ref = values(ref_rows)
+    rows, _ = read_rows(spec)
+    lines = [f"A = {ref_spec} ({len(ref)} seeds); sessions up to {sessions or 'all'}, last "
+             f"{last}. A − run: mean [95 % bootstrap interval over seeds]; Mann-Whitney p; "
+             "Holm over the runs below.", ""]
+    for k in (0, 2):
+        runs = list(dict.fromkeys(r["run_id"] for r in rows))
+        tests = [compare(ref[:, k], values([r for r in rows if r["run_id"] == run])[:, k])
+                 for run in runs]
+        adjusted = holm([t["mwu_p"] for t in tests])
+        lines += [f"**{MEASURES[k]}**", "", "| run | A − run [95 % interval] | p | Holm p |",
+                  "|---|---|---|---|"]
+        for run, t, adj in zip(runs, tests, adjusted):
+            d = (f"{t['difference']:+.2f} [{t['difference_low']:+.2f}, {t['difference_high']:+.2f}]"
+                 if t["difference_low"] is not None else f"{t['difference']:+.2f} ({t['note']})")
+            lines.append(f"| {run} | {d} | {p_text(t['mwu_p'])} | {p_text(adj)} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def columns(a_csv: str, b_csv: str, column: str) -> str:
+    """One numeric column of two CSV files (a value per seed each), unpaired: the means, the
+    difference a − b with its 95 % bootstrap interval, the permutation and Mann-Whitney p."""
+    from astrocpg.studies.analysis.compare import compare, p_text
+
+    def read(path: str) -> list[float]:
+        with open(path, newline="") as f:
+            return [float(r[column]) for r in csv.DictReader(f)]
+
+    t = compare(read(a_csv), read(b_csv))
+    return (f"{column}: A = {a_csv} {t['mean_a']:.3f} (n={t['n_a']}), B = {b_csv} "
+            f"{t['mean_b']:.3f} (n={t['n_b']}); A − B {t['difference']:+.3f} [95 % bootstrap "
+            f"interval {t['difference_low']:+.3f}, {t['difference_high']:+.3f}]; permutation "
+            f"p {p_text(t['perm_p'], t['perm_p_min'], bool(t['perm_bound']))}, Mann-Whitney p "
+            f"{p_text(t['mwu_p'])}\n")
 
 
 def table(specs: list[str], sessions: int | None, last: int, seeds: str | None) -> str:
@@ -381,6 +446,16 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--out", type=Path, required=True)
     w = sub.add_parser("worlds")
     w.add_argument("evaluation")
+    v = sub.add_parser("versus")
+    v.add_argument("ref")
+    v.add_argument("results")
+    v.add_argument("--sessions", type=int)
+    v.add_argument("--last", type=int, default=20)
+    v.add_argument("--seeds", help="FIRST-LAST: only these seeds")
+    c = sub.add_parser("columns")
+    c.add_argument("a")
+    c.add_argument("b")
+    c.add_argument("--column", required=True)
     args = ap.parse_args(argv)
     if args.what == "fig3c":
         if len(args.titles) != len(args.results):
@@ -403,6 +478,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {args.out} ({len(rows)} rows)")
     elif args.what == "worlds":
         sys.stdout.write(worlds(args.evaluation))
+    elif args.what == "versus":
+        sys.stdout.write(versus(args.ref, args.results, args.sessions, args.last, args.seeds))
+    elif args.what == "columns":
+        sys.stdout.write(columns(args.a, args.b, args.column))
     return 0
 
 
