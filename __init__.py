@@ -38,13 +38,13 @@ __version__ = "0.1.0"
 _quiet_brian.install()
 
 # public name -> module that defines it (imported on first access)
-_API = {name: "astrocpg.studies.experiments.api"
+_API = {name: "astrocpg.studies.commands.api"
         for name in ("unit", "run", "train", "resume", "load", "describe", "export", "gait",
                      "evaluate", "power", "list_models", "dump_model", "robot", "Result", "Trace")}
-_API.update({name: "astrocpg.studies.sweeps.api" for name in ("study", "study_status",
+_API.update({name: "astrocpg.studies.parameter_studies.api" for name in ("study", "study_status",
                                                                    "report")})
-_API.update({name: "astrocpg.studies.experiments.view" for name in ("plot", "video")})
-_API["replay_session"] = "astrocpg.studies.experiments.replay"
+_API.update({name: "astrocpg.studies.commands.view" for name in ("plot", "video")})
+_API["replay_session"] = "astrocpg.studies.commands.replay"
 _API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFault", "Diverged")})
 
 __all__ = sorted(_API)

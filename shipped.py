@@ -12,7 +12,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent
 # kind -> folders (relative to the package) whose *.toml files of that kind are shipped
-FOLDERS = ("models/variants", "studies/sweeps", "studies/experiments", "docs/beyond")
+FOLDERS = ("models/variants", "studies/parameter_studies", "studies/commands", "docs/beyond")
 
 
 def _kind(path: Path) -> str:

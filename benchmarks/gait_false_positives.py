@@ -71,8 +71,8 @@ def main(argv: list[str] | None = None) -> int:
 
     from astrocpg.studies.analysis.gait import NAMED, trial_measures
     from astrocpg.studies.analysis.share import wilson_interval
-    from astrocpg.studies.experiments.run import trained_models, training_settings
-    from astrocpg.studies.experiments.simulate import simulate_closed_loop
+    from astrocpg.studies.commands.run import trained_models, training_settings
+    from astrocpg.studies.commands.simulate import simulate_closed_loop
     from astrocpg.studies.outputs.weights import load_weights
 
     astro = load_weights(args.astrocytes, culprit="--astrocytes")

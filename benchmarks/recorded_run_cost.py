@@ -116,7 +116,7 @@ t1 = time.perf_counter()
 with np.load(sys.argv[1] + "/traces.npz") as z:
     v = z["motor_Ca"]
 t2 = time.perf_counter()
-import astrocpg, astrocpg.studies.experiments.api, brian2  # imports apart: not the reading
+import astrocpg, astrocpg.studies.commands.api, brian2  # imports apart: not the reading
 t3 = time.perf_counter()
 r = astrocpg.load(sys.argv[1])
 tr = r.trace("motor_Ca")

@@ -64,7 +64,7 @@ def share_in_run(trials: int, seconds: float, codegen: str, every: int = 100) ->
 
     from astrocpg.coupling.assembly import build_closed_loop
     from astrocpg.models import DEFAULT_MODELS
-    from astrocpg.studies.experiments.simulate import add_monitors
+    from astrocpg.studies.commands.simulate import add_monitors
 
     loop = build_closed_loop(DEFAULT_MODELS, n_trials=trials, seed=1, codegen=codegen)
     bridge, cpg = loop.bridge, loop.cpg

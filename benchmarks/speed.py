@@ -49,7 +49,7 @@ from brian2 import ms  # noqa: E402
 
 from astrocpg.coupling.assembly import build_closed_loop  # noqa: E402
 from astrocpg.models import DEFAULT_MODELS  # noqa: E402
-from astrocpg.studies.experiments.simulate import add_monitors  # noqa: E402
+from astrocpg.studies.commands.simulate import add_monitors  # noqa: E402
 
 
 class Interleaved:

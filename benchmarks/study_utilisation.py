@@ -22,8 +22,8 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from astrocpg.studies.sweeps.study import load_study, run_study  # noqa: E402
-from astrocpg.studies.sweeps.tables import timeline, utilisation  # noqa: E402
+from astrocpg.studies.parameter_studies.study import load_study, run_study  # noqa: E402
+from astrocpg.studies.parameter_studies.tables import timeline, utilisation  # noqa: E402
 
 STUDY = """
 [study]

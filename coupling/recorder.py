@@ -10,7 +10,7 @@ torques and torso position and velocity are copied into buffers allocated at the
 start. When the session ends, the buffers go to ``on_recorded`` (which writes them). The state
 of sessions in progress is part of training checkpoints, so a resumed training records the same.
 
-Why not a run's recorders (``studies/experiments/simulate.add_monitors``: Brian2's spike
+Why not a run's recorders (``studies/commands/simulate.add_monitors``: Brian2's spike
 monitors and :class:`~astrocpg.network.recording.TraceRecorder`): they record every trial of
 the network for the whole run, while the trials of a training are in different sessions at any
 step and only chosen sessions of each trial are kept; their memory would grow with the whole

@@ -8,7 +8,7 @@ step, labelled with the step's start time, as a ``StateMonitor`` labels it) into
 run's final size, converted to the stored unit (:mod:`astrocpg.network.populations`) in float64
 and then kept as ``dtype``: float32 by default (7 significant digits: 0.0001 of a [Ca2+] of 10),
 float64 for full resolution. With float32 a default run keeps about 1.8 MiB per trial per
-simulated second (``studies.experiments.resources`` counts it before a run starts).
+simulated second (``studies.runtime.resources`` counts it before a run starts).
 """
 
 from __future__ import annotations

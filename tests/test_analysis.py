@@ -63,7 +63,7 @@ def test_authors_discretisation_matches_spec_and_brian2_unit():
     """The oracle reproduces SPEC section 3, and the Brian2 unit agrees with it within 5%."""
     from authors_discretisation import simulate_unit as oracle
     from astrocpg.models import DEFAULT_MODELS
-    from astrocpg.studies.experiments.simulate import simulate_unit
+    from astrocpg.studies.commands.simulate import simulate_unit
 
     seconds = 30.0
     pools = {name: np.arange(k * 20, (k + 1) * 20) for k, name in enumerate(POOLS)}

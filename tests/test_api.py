@@ -15,7 +15,7 @@ import pytest
 
 import astrocpg as ac
 from astrocpg.errors import InputError
-from astrocpg.studies.experiments.simulate import POPULATIONS
+from astrocpg.studies.commands.simulate import POPULATIONS
 from astrocpg.network.populations import BUILT_IN, trace_sources
 from astrocpg.studies.cli import main
 
@@ -292,7 +292,7 @@ def test_import_astrocpg_does_not_load_brian2():
     assert proc.returncode == 0, proc.stderr
     for name in ("unit", "run", "train", "resume", "load", "describe", "Result"):
         assert f"'{name}'" in proc.stdout
-    from astrocpg.studies.experiments import api
+    from astrocpg.studies.commands import api
     # the functions as handed out name the API's keywords in their errors (the same function
     # inside); the classes are the classes
     assert ac.load.__wrapped__ is api.load and ac.run.__wrapped__ is api.run

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 
 from astrocpg.errors import InputError
-from astrocpg.studies.experiments import trial_cost as tc
-from astrocpg.studies.sweeps.batching import choose_batch, longest_first_makespan
-from astrocpg.studies.sweeps.study import (consecutive_groups, load_study, prepare_study,
+from astrocpg.studies.commands import trial_cost as tc
+from astrocpg.studies.parameter_studies.batching import choose_batch, longest_first_makespan
+from astrocpg.studies.parameter_studies.study import (consecutive_groups, load_study, prepare_study,
                                            resolve_batch)
 
 # the shape measured on the 2-core machine (numpy): 1.76 s per simulated s for 1 trial,
@@ -99,7 +99,7 @@ def stored_cost(tmp_path, monkeypatch):
 def sixteen_cores(monkeypatch) -> None:
     """A machine of 16 cores for --workers 16 (a local cluster has at most 4 workers per
     core: check_workers)."""
-    from astrocpg.studies.experiments import cluster
+    from astrocpg.studies.commands import cluster
 
     monkeypatch.setattr(cluster, "cores", lambda: 16)
 
@@ -184,7 +184,7 @@ def test_the_cost_is_measured_once_and_stored(tmp_path, monkeypatch) -> None:
 
 @pytest.mark.slow
 def test_an_auto_study_runs_and_records_its_choice(tmp_path, stored_cost) -> None:
-    from astrocpg.studies.sweeps.study import run_study
+    from astrocpg.studies.parameter_studies.study import run_study
 
     p = tmp_path / "auto.toml"
     p.write_text(AUTO.format(seeds=2).replace("sessions = 400", "sessions = 2")

@@ -167,7 +167,7 @@ def test_a_deep_study_file_is_refused(tmp_path, capsys):
 
 def test_a_deep_worlds_file_is_refused(tmp_path):
     from astrocpg.models import DEFAULT_MODELS
-    from astrocpg.studies.experiments.evaluate import read_worlds
+    from astrocpg.studies.commands.evaluate import read_worlds
 
     (tmp_path / "w.toml").write_text("[worlds]\n" + deep_toml("ground"))
     with pytest.raises(InputError, match=NESTED) as e:
@@ -251,7 +251,7 @@ def test_api_study_refuses_a_fifo_study_file(tmp_path, fifo):
 
 def test_a_fifo_worlds_file_is_refused(tmp_path, fifo):
     from astrocpg.models import DEFAULT_MODELS
-    from astrocpg.studies.experiments.evaluate import read_worlds
+    from astrocpg.studies.commands.evaluate import read_worlds
 
     fifo(tmp_path / "w.toml")
     with pytest.raises(InputError, match="not a regular file") as e:

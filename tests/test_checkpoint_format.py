@@ -446,8 +446,8 @@ def test_a_malicious_checkpoint_in_a_study_run_runs_nothing(tmp_path, study, cap
 def test_a_worker_reading_a_malicious_checkpoint_runs_nothing(tmp_path, study, how):
     """A file planted after the study's own check (on a shared file system, while it runs):
     the worker reads it as data, and the run fails with the reason."""
-    from astrocpg.studies.sweeps.execute import execute_run
-    from astrocpg.studies.sweeps.study import load_study
+    from astrocpg.studies.parameter_studies.execute import execute_run
+    from astrocpg.studies.parameter_studies.study import load_study
 
     file, out = study
     _, run = _pending_copy(tmp_path, out)

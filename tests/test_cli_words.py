@@ -167,7 +167,7 @@ def test_a_run_bar_reaches_its_total_and_never_passes_it(seconds) -> None:
     'clamping frac to range [0, 1]' as it draws)."""
     from tqdm import TqdmWarning
 
-    from astrocpg.studies.experiments.simulate import _Progress
+    from astrocpg.studies.commands.simulate import _Progress
 
     bar = _Progress(seconds, "test", True)
     bar.open()
@@ -189,7 +189,7 @@ def test_a_run_bar_reaches_its_total_and_never_passes_it(seconds) -> None:
 
 
 def test_a_warning_during_a_bar_is_shown_after_it() -> None:
-    from astrocpg.studies.experiments.progress import Bar, held_warnings
+    from astrocpg.studies.runtime.progress import Bar, held_warnings
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -206,7 +206,7 @@ def test_a_warning_during_a_bar_is_shown_after_it() -> None:
 
 
 def test_a_disabled_bar_holds_nothing() -> None:
-    from astrocpg.studies.experiments.progress import Bar, held_warnings
+    from astrocpg.studies.runtime.progress import Bar, held_warnings
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -228,7 +228,7 @@ def _rows(n: int, L_max: float = 1.0, fell: tuple[int, ...] = ()) -> list[dict]:
                                           (60, "over the last 20 sessions",
                                            "of the last 50 sessions")])
 def test_the_last_n_says_how_many_there_were(n, speed, full) -> None:
-    from astrocpg.studies.experiments.train import train_summary
+    from astrocpg.studies.commands.train import train_summary
 
     line = train_summary(_rows(n), 1, 1.0)["lines"][0]
     assert speed in line and full in line, line
@@ -236,7 +236,7 @@ def test_the_last_n_says_how_many_there_were(n, speed, full) -> None:
 
 
 def test_a_training_summary_counts_its_falls() -> None:
-    from astrocpg.studies.experiments.train import train_summary
+    from astrocpg.studies.commands.train import train_summary
 
     rows = _rows(5, fell=(2, 4))
     rows.append({"trial": 0, "session": 6, "length_s": 0.1, "mean_forward_speed_m_per_s": 0.0,
@@ -360,7 +360,7 @@ def test_a_log_record_during_a_bar_is_shown_after_it() -> None:
     on stderr: in the middle of a bar, unless held."""
     import logging
 
-    from astrocpg.studies.experiments.progress import Bar
+    from astrocpg.studies.runtime.progress import Bar
 
     stream = io.StringIO()
     handler = logging.StreamHandler(stream)

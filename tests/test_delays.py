@@ -179,7 +179,7 @@ def test_run_with_the_authors_preset_records_every_limb_in_the_files_numbering(c
 
 
 def test_the_stages_count_the_same_synaptic_events_per_spike():
-    from astrocpg.studies.experiments.power import synaptic_events_per_spike
+    from astrocpg.studies.commands.power import synaptic_events_per_spike
 
     assert synaptic_events_per_spike(build_cpg(_authors(), n_trials=2, seed=3)) == \
         synaptic_events_per_spike(build_cpg(DEFAULT_MODELS, n_trials=2, seed=3))

@@ -143,7 +143,7 @@ def test_trainer_writes_the_diverged_row(tmp_path):
     import csv
 
     from astrocpg.models.compose import model_set
-    from astrocpg.studies.experiments.train import Trainer, TrainSettings
+    from astrocpg.studies.commands.train import Trainer, TrainSettings
 
     settings = TrainSettings(n_sessions=5, seed=1, n_trials=1, astrocytes=True,
                              overrides=["L_max=0.01*second"])

@@ -69,7 +69,7 @@ EXCEPTIONS = {
     "python -m sphinx -W -n -b html docs docs/_build/html":
         "builds the manual (minutes); tests/test_docs.py runs it",
     "python -m build": "builds the wheel and sdist; tests/test_wheel.py does",
-    "astrocpg study studies/sweeps/ablation.toml --out /scratch/$USER/ablation --scheduler "
+    "astrocpg study studies/parameter_studies/ablation.toml --out /scratch/$USER/ablation --scheduler "
     "tcp://NODE:PORT": "needs a Dask scheduler on a SLURM cluster (NODE:PORT is yours)",
     "slurm_cluster.py": "needs dask-jobqueue and a SLURM cluster",
     "python docs/ablation/compare_seed.py out/la_rough_seed5":
@@ -652,7 +652,7 @@ def _copy_tree(dest: Path) -> Path:
 def test_commands_run_in_order(tmp_path):
     """Every command and snippet, in page order, in a copy of the working tree, shortened."""
     copy = _copy_tree(tmp_path)
-    shorten_worlds(copy / "studies" / "experiments" / "robustness.toml")
+    shorten_worlds(copy / "studies" / "commands" / "robustness.toml")
     # a page's ~/studies/... lands in a home of the test's own (never the user's studies), with
     # the user's caches (compiled code) linked in so nothing is compiled again
     home = tmp_path / "home"

@@ -11,7 +11,7 @@ import pytest
 from astrocpg.errors import InputError
 from astrocpg.models import DEFAULT_MODELS
 from astrocpg.studies.cli import main
-from astrocpg.studies.experiments.evaluate import COLUMNS, in_world, read_worlds
+from astrocpg.studies.commands.evaluate import COLUMNS, in_world, read_worlds
 
 
 def test_builtin_robustness_worlds_parse():
@@ -135,7 +135,7 @@ def _evaluate(train, worlds, out, seconds="0.3", *extra) -> int:
 
 def _counting(monkeypatch, fail_at: int | None = None) -> list[str]:
     """Count the cells run here; raise KeyboardInterrupt (Ctrl-C) when cell ``fail_at`` starts."""
-    import astrocpg.studies.experiments.evaluate as ev
+    import astrocpg.studies.commands.evaluate as ev
 
     real, calls = ev.evaluate_cell, []
 

@@ -156,7 +156,7 @@ def trot_table(w: float = 0.05e-3) -> np.ndarray:
 def test_a_trot_table_on_a_steep_slope_keeps_its_rhythm_and_has_no_gait():
     from astrocpg.models import DEFAULT_MODELS
     from astrocpg.studies.analysis.gait import trial_measures
-    from astrocpg.studies.experiments.simulate import simulate_closed_loop
+    from astrocpg.studies.commands.simulate import simulate_closed_loop
 
     models = DEFAULT_MODELS.with_values(dict([DEFAULT_MODELS.parse_assignment("slope=0.35")]))
     tables = np.stack([trot_table(), trot_table()])

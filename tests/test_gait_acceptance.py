@@ -64,9 +64,9 @@ def test_evaluate_on_a_steep_slope_has_a_rhythm_and_no_gait(tmp_path) -> None:
 
 @pytest.mark.slow
 def test_a_studys_rows_on_a_steep_slope_have_a_rhythm_and_no_gait() -> None:
-    from astrocpg.studies.experiments.run import (in_world_settings, trained_models,
+    from astrocpg.studies.commands.run import (in_world_settings, trained_models,
                                                   training_settings)
-    from astrocpg.studies.experiments.trained_controller import GAIT_COLUMNS, final_gaits
+    from astrocpg.studies.commands.trained_controller import GAIT_COLUMNS, final_gaits
     from astrocpg.studies.outputs.weights import load_weights
 
     settings = training_settings(TRAINED)

@@ -14,8 +14,8 @@ from astrocpg.models import DEFAULT_MODELS
 from astrocpg.studies.analysis.gait import NAMED
 from astrocpg.studies.analysis.share import label_shares, wilson_interval
 from astrocpg.studies.cli import build_parser, main
-from astrocpg.studies.experiments.run import in_world_settings
-from astrocpg.studies.experiments.trained_controller import shares_words
+from astrocpg.studies.commands.run import in_world_settings
+from astrocpg.studies.commands.trained_controller import shares_words
 
 
 def test_label_shares_count_each_named_label_and_any() -> None:

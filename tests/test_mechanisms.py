@@ -38,7 +38,7 @@ def test_limit_inhibition_and_coupling_counted_per_trial() -> None:
     inhibition are those whose recorded thigh angles lie beyond the limits."""
     from astrocpg.coupling.robot import A1Parameters, RobotLayout, build_model
     from astrocpg.models import DEFAULT_MODELS
-    from astrocpg.studies.experiments.run import run
+    from astrocpg.studies.commands.run import run
 
     # 0.03 mV within [w_min, w_max]; one weight above w_max, clipped by the synapse's update
     weights = np.full((8, 8), 0.03e-3)

@@ -40,7 +40,7 @@ NOT_PARAMETER_READS: dict[tuple[str, str], str] = {
     ("studies/outputs/export.py", "pool_size"): "a key of the manifest's layout JSON",
     ("studies/outputs/result.py", "pool_size"):
         "an old manifest's recorded parameter table (JSON text, not a model set)",
-    ("studies/sweeps/study_file.py", "astrocyte_regulation"):
+    ("studies/parameter_studies/study_file.py", "astrocyte_regulation"):
         "names, in a conflict message, the parameter 'astrocytes = false' sets",
 }
 

@@ -164,8 +164,8 @@ astrocytes = true
 
 @pytest.mark.slow
 def test_study_models_table_and_axis(capsys, tmp_path):
-    from astrocpg.studies.sweeps.execute import execute_run
-    from astrocpg.studies.sweeps.study import load_study
+    from astrocpg.studies.parameter_studies.execute import execute_run
+    from astrocpg.studies.parameter_studies.study import load_study
 
     dumped = _dump(capsys, "astrocyte")
     extra = _astrocyte_with_extra_term(dumped)
@@ -194,7 +194,7 @@ def test_study_models_table_and_axis(capsys, tmp_path):
 
 def test_study_bad_model_file(capsys, tmp_path):
     from astrocpg.errors import InputError
-    from astrocpg.studies.sweeps.study import load_study
+    from astrocpg.studies.parameter_studies.study import load_study
 
     text = _dump(capsys, "astrocyte").replace("dAG/dt", "dAX/dt").replace(
         'AG = { value = "0.0" }', "")
@@ -234,7 +234,7 @@ def test_shipped_variants(capsys):
     """models/variants: the Li-Rinzel file is the built-in astrocyte; the G-ChI astrocyte has
     the same interface; the study compares them."""
     from astrocpg.models.compose import model_set
-    from astrocpg.studies.sweeps.study import load_study
+    from astrocpg.studies.parameter_studies.study import load_study
 
     li_rinzel = (VARIANTS / "li_rinzel_astrocyte.toml").read_text()
     assert li_rinzel == _dump(capsys, "astrocyte")
@@ -254,7 +254,7 @@ def test_the_gait_map_study_sweeps_a_parameter_its_model_file_declares(tmp_path)
     parameter of torque_gain.toml; at torque_gain = 1 that file runs exactly as the built-in
     torque trace."""
     from astrocpg.models.compose import model_set
-    from astrocpg.studies.sweeps.study import load_study
+    from astrocpg.studies.parameter_studies.study import load_study
 
     runs = load_study(BEYOND / "gait_map_trained.toml").runs
     assert len(runs) == 25 and {r.point["torque_gain"] for r in runs} == \

@@ -408,7 +408,7 @@ def test_an_alive_model_file_may_read_any_sense_the_robot_offers_and_no_other(tm
      '[grid.heavier]\nvalues = [2.0]\nscale = ["payload"]\n', "grid.payload and grid.heavier"),
 ])
 def test_two_grid_axes_on_one_parameter_are_refused(grid, both, tmp_path):
-    from astrocpg.studies.experiments.evaluate import read_worlds
+    from astrocpg.studies.commands.evaluate import read_worlds
     f = tmp_path / "w.toml"
     f.write_text(grid)
     with pytest.raises(InputError) as e:
@@ -417,7 +417,7 @@ def test_two_grid_axes_on_one_parameter_are_refused(grid, both, tmp_path):
 
 
 def test_distinct_axes_are_accepted(tmp_path):
-    from astrocpg.studies.experiments.evaluate import read_worlds
+    from astrocpg.studies.commands.evaluate import read_worlds
     f = tmp_path / "w.toml"
     f.write_text('[grid.a]\nvalues = [2.0, 3.0]\nscale = ["I_thigh"]\n'
                  '[grid.b]\nvalues = [0.5]\nscale = ["I_calf"]\n')

@@ -203,7 +203,7 @@ def test_command_line(tmp_path):
 ])
 def test_bad_population_file(change, words):
     text = POPULATION_FILE.read_text().replace(*((change, words)))
-    from astrocpg.studies.experiments.settings import population_rows
+    from astrocpg.studies.commands.settings import population_rows
 
     with pytest.raises(InputError):
         with populations.registered(*population_rows({"bad.toml": text})[0]):

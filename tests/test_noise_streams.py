@@ -15,7 +15,7 @@ import pytest
 import astrocpg as ac
 from astrocpg.errors import InputError
 from astrocpg.network import noise
-from astrocpg.studies.experiments.replay import replay_session as replay
+from astrocpg.studies.commands.replay import replay_session as replay
 
 CLI = [sys.executable, "-m", "astrocpg.studies.cli"]
 MASK = (1 << 64) - 1
@@ -203,7 +203,7 @@ def test_a_replayed_session_ends_where_the_training_recorded(tmp_path: Path) -> 
 
 def test_session_starts_survive_the_checkpoint(tmp_path: Path) -> None:
     """What a resume reads back holds every session start the training wrote."""
-    from astrocpg.studies.experiments.train import _memory_from_state, read_checkpoint
+    from astrocpg.studies.commands.train import _memory_from_state, read_checkpoint
     training = tmp_path / "t"
     ac.train(out=training, sessions=2, trials=2, seed=2, progress=False,
              overrides=["L_max=0.5*second", "L_non_alive=0.2*second"])

@@ -10,7 +10,7 @@ from brian2 import SpikeMonitor, StateMonitor
 
 from astrocpg.coupling.recorder import RecordPlan
 from astrocpg.models.compose import model_set as models_from
-from astrocpg.studies.experiments.train import Trainer, TrainSettings
+from astrocpg.studies.commands.train import Trainer, TrainSettings
 
 
 def test_recorded_sessions_match_brian2_monitors(tmp_path: Path) -> None:

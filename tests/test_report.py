@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from astrocpg.coupling.training import SESSION_COLUMNS
-from astrocpg.studies.experiments.trained_controller import GAIT_COLUMNS
+from astrocpg.studies.commands.trained_controller import GAIT_COLUMNS
 from astrocpg.studies.outputs.writing import write_manifest
-from astrocpg.studies.sweeps.report import report
-from astrocpg.studies.sweeps.study import _save_index, load_study
+from astrocpg.studies.parameter_studies.report import report
+from astrocpg.studies.parameter_studies.study import _save_index, load_study
 
 VARIANTS = Path(__file__).resolve().parents[1] / "models" / "variants"
 

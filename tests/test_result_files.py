@@ -16,7 +16,7 @@ from astrocpg.coupling.assembly import build_closed_loop
 from astrocpg.errors import InputError
 from astrocpg.models import DEFAULT_MODELS
 from astrocpg.network.recording import STAGED_SAMPLES
-from astrocpg.studies.experiments.simulate import _collect, add_monitors
+from astrocpg.studies.commands.simulate import _collect, add_monitors
 from astrocpg.studies.outputs.folder import inventory, verify
 
 ARRAYS = ("spikes.npz", "traces.npz", "robot.npz")

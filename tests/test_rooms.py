@@ -56,8 +56,8 @@ def test_the_old_names_are_gone():
 
     from astrocpg.coupling import bridge
     from astrocpg.network import CPG, divergence
-    from astrocpg.studies.experiments import settings
-    from astrocpg.studies.sweeps import study
+    from astrocpg.studies.commands import settings
+    from astrocpg.studies.parameter_studies import study
 
     for module in ("astrocpg.models.values", "astrocpg.network.recordable"):
         with pytest.raises(ModuleNotFoundError):

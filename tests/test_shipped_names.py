@@ -12,7 +12,7 @@ import pytest
 
 from astrocpg.models.compose import read_model_files
 from astrocpg.shipped import resolve, shipped
-from astrocpg.studies.sweeps.study import load_study
+from astrocpg.studies.parameter_studies.study import load_study
 
 
 @pytest.fixture

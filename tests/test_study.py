@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from astrocpg.errors import InputError
-from astrocpg.studies.sweeps.study import load_study
+from astrocpg.studies.parameter_studies.study import load_study
 
 BIN = Path(sys.executable).parent
 ENV = {**os.environ, "PYTHONWARNINGS": "ignore", "DASK_DISTRIBUTED__LOGGING__DISTRIBUTED": "error"}
@@ -148,12 +148,12 @@ def test_sweep_grid_and_seed_batches(tmp_path: Path) -> None:
     assert not b.astrocytes and "L_non_alive=0.5*second" in b.overrides
     assert len({r.run_id for r in study.runs}) == 12
     for name in ("quick", "ablation"):
-        built_in = load_study(Path(__file__).resolve().parents[1] / "studies" / "sweeps"
+        built_in = load_study(Path(__file__).resolve().parents[1] / "studies" / "parameter_studies"
                               / f"{name}.toml")
         assert {r.condition for r in built_in.runs} == {"astrocytes", "no_astrocytes"}
         # a built-in study by its name (resolved: the package may be imported via a symlink)
         assert load_study(name).path.resolve() == built_in.path
-    ablation = load_study(Path(__file__).resolve().parents[1] / "studies" / "sweeps" / "ablation.toml")
+    ablation = load_study(Path(__file__).resolve().parents[1] / "studies" / "parameter_studies" / "ablation.toml")
     assert ablation.n_sessions == 400 and len(ablation.seeds) == 20
 
 
@@ -293,7 +293,7 @@ def test_power_counts_come_from_the_network(tmp_path: Path) -> None:
     formula with the measured rates; the RL figure is the paper's."""
     from astrocpg.network import INTERNEURONS, LEGS, build_cpg
     from astrocpg.studies.cli import main
-    from astrocpg.studies.experiments.power import synaptic_events_per_spike
+    from astrocpg.studies.commands.power import synaptic_events_per_spike
 
     cpg = build_cpg(n_trials=2, seed=3)
     ops = synaptic_events_per_spike(cpg)
@@ -380,7 +380,7 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path: Path, case: str, ca
 def test_trailing_mean_of_the_report() -> None:
     import numpy as np
 
-    from astrocpg.studies.sweeps.report import moving_mean
+    from astrocpg.studies.parameter_studies.report import moving_mean
     t = np.array([[1.0, 2.0, 3.0, 4.0, np.nan], [2.0, 2.0, 2.0, 2.0, 2.0]])
     out = moving_mean(t, 2)
     np.testing.assert_allclose(out[0, :4], [1.0, 1.5, 2.5, 3.5])
@@ -408,7 +408,7 @@ set = { L_max = "0.5*second" }
 def test_runs_are_ordered_longest_first_and_idle_is_measured(tmp_path: Path) -> None:
     """The cost estimate ranks runs by trials, sessions and session length; `utilisation`
     finds a worker left free while a run waited (synthetic timeline, no cluster)."""
-    from astrocpg.studies.sweeps.tables import utilisation
+    from astrocpg.studies.parameter_studies.tables import utilisation
 
     p = tmp_path / "unequal.toml"
     p.write_text(UNEQUAL)
@@ -444,8 +444,8 @@ def test_no_worker_idles_while_runs_wait(tmp_path: Path) -> None:
     """Six runs of unequal length on two workers: from the recorded timeline, every worker
     ran its runs back to back and was never free while a run waited (beyond the hand-over
     from one run to the next), and runs started longest first."""
-    from astrocpg.studies.sweeps.study import run_study
-    from astrocpg.studies.sweeps.tables import utilisation
+    from astrocpg.studies.parameter_studies.study import run_study
+    from astrocpg.studies.parameter_studies.tables import utilisation
 
     p = tmp_path / "unequal.toml"
     # six sessions: every run lasts well beyond the hand-over slack below, also on a fast

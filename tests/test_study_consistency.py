@@ -14,10 +14,10 @@ import pytest
 
 from astrocpg.errors import InputError
 from astrocpg.studies.cli import main
-from astrocpg.studies.experiments import evaluate as ev
-from astrocpg.studies.experiments.settings import MAX_GRID
-from astrocpg.studies.sweeps.report import report
-from astrocpg.studies.sweeps.study import _save_index, load_study
+from astrocpg.studies.commands import evaluate as ev
+from astrocpg.studies.commands.settings import MAX_GRID
+from astrocpg.studies.parameter_studies.report import report
+from astrocpg.studies.parameter_studies.study import _save_index, load_study
 from test_report import CONDITIONS, HEAD, _study_folder
 from tiny_study import tiny_study
 
@@ -148,7 +148,7 @@ def test_a_study_whose_every_run_diverged_has_no_result_to_report(tmp_path):
 ], ids=["only-diverged", "diverged-and-failed"])
 def test_the_study_command_exits_3_when_only_diverged_runs_are_left(
         tmp_path, monkeypatch, capsys, failed, diverged, code, words):
-    from astrocpg.studies.sweeps import study as study_module
+    from astrocpg.studies.parameter_studies import study as study_module
 
     errors = {"a__seed1": "OSError: disk full", "bad__seed1": "Diverged: motor.v: -2e251"}
     monkeypatch.setattr(study_module, "run_study", lambda *a, **k: {

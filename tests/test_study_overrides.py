@@ -11,8 +11,8 @@ import pytest
 
 import astrocpg
 from astrocpg.studies.cli import main
-from astrocpg.studies.sweeps.study import load_study
-from astrocpg.studies.sweeps.study_file import study_overrides
+from astrocpg.studies.parameter_studies.study import load_study
+from astrocpg.studies.parameter_studies.study_file import study_overrides
 
 from tiny_study import tiny_study
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from astrocpg.errors import InputError
-from astrocpg.studies.sweeps.status import study_status
+from astrocpg.studies.parameter_studies.status import study_status
 
 
 def _study(tmp_path: Path, runs: dict[str, dict]) -> Path:

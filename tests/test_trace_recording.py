@@ -15,8 +15,8 @@ from astrocpg.errors import InputError
 from astrocpg.models import DEFAULT_MODELS
 from astrocpg.models.compose import model_set
 from astrocpg.network.populations import trace_sources
-from astrocpg.studies.experiments.resources import estimate_bytes
-from astrocpg.studies.experiments.simulate import _collect, add_monitors
+from astrocpg.studies.runtime.resources import estimate_bytes
+from astrocpg.studies.commands.simulate import _collect, add_monitors
 
 AUTHORS_DELAYS = (Path(__file__).resolve().parents[1] / "models" / "variants"
                   / "interlimb_authors_delays.toml")

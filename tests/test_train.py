@@ -177,7 +177,7 @@ def test_checkpoints_are_spaced_by_their_cost_and_the_files_stay_the_same(tmp_pa
     """Writes are spaced (CHECKPOINT_SPACING x the last write's duration): with slow writes
     (0.1 s each) a training writes at its first session end and its last and little between,
     where unspaced it writes at every step with a session end; the files are the same."""
-    import astrocpg.studies.experiments.train as train_module
+    import astrocpg.studies.commands.train as train_module
 
     original = train_module.Trainer.write_checkpoint
     writes: list[list[int]] = []

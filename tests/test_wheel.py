@@ -30,9 +30,9 @@ PACKAGE_DATA = [
     "astrocpg/models/variants/li_rinzel_astrocyte.toml",
     "astrocpg/models/variants/interlimb_authors_delays.toml",
     "astrocpg/models/variants/compare_astrocytes.toml",
-    "astrocpg/studies/sweeps/quick.toml",
-    "astrocpg/studies/sweeps/ablation.toml",
-    "astrocpg/studies/experiments/robustness.toml",
+    "astrocpg/studies/parameter_studies/quick.toml",
+    "astrocpg/studies/parameter_studies/ablation.toml",
+    "astrocpg/studies/commands/robustness.toml",
     "astrocpg/coupling/robot.py",
 ]
 
@@ -123,14 +123,14 @@ def test_the_wheel_runs_from_a_fresh_environment(dist: Path, tmp_path: Path) -> 
     assert "<mujoco" in (elsewhere / "a1.xml").read_text()
 
     study = subprocess.run([str(python), "-c",
-                            "from astrocpg.studies.sweeps.study import load_study; "
+                            "from astrocpg.studies.parameter_studies.study import load_study; "
                             "from importlib.resources import files; "
-                            "p = files('astrocpg.studies.sweeps') / 'quick.toml'; "
+                            "p = files('astrocpg.studies.parameter_studies') / 'quick.toml'; "
                             "print(len(load_study(str(p)).runs))"],
                            cwd=elsewhere, env=env, capture_output=True, text=True, timeout=300)
     assert study.returncode == 0 and int(study.stdout.strip()) > 0, study.stderr[-3000:]
     by_name = subprocess.run([str(python), "-c",
-                              "from astrocpg.studies.sweeps.study import load_study; "
+                              "from astrocpg.studies.parameter_studies.study import load_study; "
                               "print(len(load_study('compare_astrocytes').runs))"],
                              cwd=elsewhere, env=env, capture_output=True, text=True, timeout=300)
     assert by_name.returncode == 0 and int(by_name.stdout.strip()) > 0, by_name.stderr[-3000:]

@@ -217,7 +217,7 @@ def add_study(sub: Subparsers) -> None:
     """``astrocpg study``: a parameter study, and --status."""
     study = sub.add_parser("study", help="a parameter study (TOML) on Dask; resumable")
     study.add_argument("file", nargs="?",
-                       help="study file, e.g. studies/sweeps/quick.toml, or a built-in "
+                       help="study file, e.g. studies/parameter_studies/quick.toml, or a built-in "
                             "study's name (quick, ablation)")
     study.add_argument("--status", metavar="DIR",
                        help="say what the study in DIR has done and what is left, with an "

@@ -44,7 +44,7 @@ def _recording(args: argparse.Namespace) -> dict[str, Any]:
 
 def unit_command(args: argparse.Namespace) -> int:
     from ...network.recording import overflow_words
-    from ..experiments.unit import format_rhythm, unit
+    from ..commands.unit import format_rhythm, unit
 
     result = unit(seconds=args.seconds, seed=args.seed, trials=args.trials,
                   trace_dt=args.trace_dt, trace_dtype=args.trace_dtype, out=args.out,
@@ -62,8 +62,8 @@ def unit_command(args: argparse.Namespace) -> int:
 def run_command(args: argparse.Namespace) -> int:
     """``astrocpg run``; with ``--session``, the replay of a training's session (``ac.run``
     with ``session``, which takes the rest from the training)."""
-    from ..experiments.replay import format_replay
-    from ..experiments.run import format_run, run
+    from ..commands.replay import format_replay
+    from ..commands.run import format_run, run
 
     result = run(seconds=args.seconds, seed=args.seed, trials=args.trials, weights=args.weights,
                  trial=args.trial, robot=args.robot, trace_dt=args.trace_dt,
@@ -84,7 +84,7 @@ def train_command(args: argparse.Namespace) -> int:
     """``astrocpg train`` (``ac.train``) or ``train --resume DIR`` (``ac.resume``, which
     refuses an option given again that differs from the training's own). Only the options
     given are passed: the defaults are the API's."""
-    from ..experiments.train import TrainingStopped, format_train, resume, train
+    from ..commands.train import TrainingStopped, format_train, resume, train
 
     given = {key: value for key, value in (
         ("sessions", args.sessions), ("seed", args.seed), ("trials", args.trials),
@@ -112,8 +112,8 @@ def train_command(args: argparse.Namespace) -> int:
 
 
 def evaluate_command(args: argparse.Namespace) -> int:
-    from ..experiments.api import evaluate
-    from ..experiments.evaluate import format_summary
+    from ..commands.api import evaluate
+    from ..commands.evaluate import format_summary
 
     res = evaluate(args.dir, worlds=args.worlds, seconds=args.seconds, repeats=args.repeats,
                    seed=args.seed, conditions=args.condition, out=args.out,
@@ -126,7 +126,7 @@ def evaluate_command(args: argparse.Namespace) -> int:
 
 
 def gait_command(args: argparse.Namespace) -> int:
-    from ..experiments.api import gait
+    from ..commands.api import gait
 
     for line in gait(args.dir, seconds=args.seconds, repeats=args.repeats, seed=args.seed,
                      world=args.world, progress=not args.no_progress):
@@ -145,7 +145,7 @@ def _overflow_warning(folder: str) -> None:
 
 
 def plot_command(args: argparse.Namespace) -> int:
-    from ..experiments.view import plot
+    from ..commands.view import plot
 
     written = plot(args.dir, trial=args.trial, window=args.window, fmt=args.format,
                    seconds=args.seconds, out=args.out, overwrite=args.overwrite,
@@ -156,7 +156,7 @@ def plot_command(args: argparse.Namespace) -> int:
 
 
 def video_command(args: argparse.Namespace) -> int:
-    from ..experiments.view import video
+    from ..commands.view import video
 
     res = video(args.dir, trial=args.trial, fps=args.fps, speed=args.speed, size=args.size,
                 out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
@@ -167,7 +167,7 @@ def video_command(args: argparse.Namespace) -> int:
 
 
 def _study_status(args: argparse.Namespace) -> int:
-    from ..sweeps.api import study_status
+    from ..parameter_studies.api import study_status
 
     if args.file is not None:
         raise InputError("takes a study folder alone (astrocpg study --status DIR)",
@@ -188,7 +188,7 @@ def _study_status(args: argparse.Namespace) -> int:
 def study_command(args: argparse.Namespace) -> int:
     """``astrocpg study`` (``ac.study``, its plan printed before the runs start), or
     ``study --status DIR`` (``ac.study_status``)."""
-    from ..sweeps.api import study
+    from ..parameter_studies.api import study
 
     if args.status is not None:
         return _study_status(args)
@@ -209,7 +209,7 @@ def study_command(args: argparse.Namespace) -> int:
 def _study_outcome(res: dict[str, Any]) -> int:
     """What a study's result says on stdout and stderr, and its exit code: 0 every run
     finished, 3 every run left diverged (a rerun diverges again), 1 runs left to retry."""
-    from ..sweeps.layout import RESULTS
+    from ..parameter_studies.layout import RESULTS
 
     counts = ", ".join(f"{v} {k}" for k, v in res["counts"].items())
     print(f"runs: {counts}; {res['rows']} rows in {res['out'] / RESULTS}")
@@ -258,7 +258,7 @@ def _study_not_finished(res: dict[str, Any], diverged: list[str]) -> None:
 
 
 def report_command(args: argparse.Namespace) -> int:
-    from ..sweeps.api import report
+    from ..parameter_studies.api import report
 
     written = report(args.dir, last=args.last, smooth=args.smooth, out=args.out,
                      overwrite=args.overwrite)
@@ -276,8 +276,8 @@ def report_command(args: argparse.Namespace) -> int:
 
 
 def power_command(args: argparse.Namespace) -> int:
-    from ..experiments.api import power
-    from ..experiments.power import format_power
+    from ..commands.api import power
+    from ..commands.power import format_power
 
     path, res = power(args.dir, trial=args.trial, sessions=args.sessions,
                       overrides=args.overrides, progress=not args.no_progress)
@@ -287,7 +287,7 @@ def power_command(args: argparse.Namespace) -> int:
 
 
 def export_command(args: argparse.Namespace) -> int:
-    from ..experiments.api import export
+    from ..commands.api import export
 
     path = export(args.dir, args.format, args.out or None, overwrite=args.overwrite,
                   experimenter=args.experimenter, institution=args.institution)
@@ -299,17 +299,17 @@ def export_command(args: argparse.Namespace) -> int:
 def describe_command(args: argparse.Namespace) -> int:
     if not (args.overrides or args.equations or getattr(args, "model_files", [])):
         # the built-in models: from the cache, without importing Brian2 when it is warm
-        from ..figures.describe_cache import cached_text
+        from ..runtime.describe_cache import cached_text
 
         def render() -> str:
-            from ..experiments.api import describe
+            from ..commands.api import describe
             return describe(args.model, args.format)
 
         name_ok = args.model is None or args.model.isidentifier()
         if name_ok and args.format in ("markdown", "latex"):
             sys.stdout.write(cached_text(args.model, args.format, render))
             return 0
-    from ..experiments.api import describe
+    from ..commands.api import describe
 
     sys.stdout.write(describe(args.model, args.format, **model_args(args)))
     return 0
@@ -321,7 +321,7 @@ def models_command(args: argparse.Namespace) -> int:
     from ...errors import did_you_mean
     from ...models import INTERFACES
     from ...models.files import model_to_toml
-    from ..experiments.api import list_models
+    from ..commands.api import list_models
 
     if args.models_command == "list":
         for name, model in list_models().items():
@@ -343,7 +343,7 @@ def models_command(args: argparse.Namespace) -> int:
 
 
 def robot_command(args: argparse.Namespace) -> int:
-    from ..experiments.api import robot
+    from ..commands.api import robot
 
     print(f"wrote {robot(args.path, overwrite=args.overwrite)}")
     return 0

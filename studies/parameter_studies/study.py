@@ -65,9 +65,9 @@ from typing import Any, Sequence
 
 from ...errors import EnvironmentFault, InputError
 from ...reading import read_bytes, read_json
-from ..experiments.cluster import check_scheduler, check_workers, connect_cluster
-from ..experiments.resources import available_memory, check_memory, estimate_bytes
-from ..experiments.train import CHECKPOINT, read_checkpoint
+from ..runtime.cluster import check_scheduler, check_workers, connect_cluster
+from ..runtime.resources import available_memory, check_memory, estimate_bytes
+from ..commands.train import CHECKPOINT, read_checkpoint
 from ..outputs.checkpoint import refuse_legacy
 from ..outputs.folder import (FolderLock, check_output_path, check_replaceable,
                             clean_stale_temporaries, clear_folder, holds_results)
@@ -102,7 +102,7 @@ def load_study(path: str | os.PathLike, *, batch: int | None = None,
 def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
                   scheduler: str | None = None, progress: bool = True) -> Study:
     """``batch = "auto"``: the study split into runs of the batch that finishes it soonest on
-    these workers (:func:`~astrocpg.studies.sweeps.batching.choose_batch`, with this machine's
+    these workers (:func:`~astrocpg.studies.parameter_studies.batching.choose_batch`, with this machine's
     measured cost per trial). A folder that already holds the study keeps the batch it was
     started with, whatever the workers now, so a rerun resumes the same runs. Any other study
     is returned as it is."""
@@ -112,7 +112,7 @@ def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
     if recorded is not None:
         chosen = {"batch": recorded, "reason": f"recorded in {STUDY_INDEX} when the study began"}
     else:
-        from ..experiments.trial_cost import trial_cost
+        from ..runtime.trial_cost import trial_cost
         from .batching import choose_batch
 
         n_workers = _cluster_threads(scheduler) if scheduler else (workers or os.cpu_count() or 1)
@@ -313,7 +313,7 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
 def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler: str | None,
                       progress: bool) -> dict[str, Any]:
     # the progress bar of a study (tqdm.auto: notebook or tty; warnings wait until it closes)
-    from ..experiments.progress import Bar as tqdm
+    from ..runtime.progress import Bar as tqdm
 
     largest = max(r.n_trials for r in study.runs)
     check_memory(estimate_bytes(trials=largest, seconds=0.0, spikes=False,
@@ -358,7 +358,7 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     if study.evaluate is not None and len(failed) == len(diverged) \
             and len(diverged) < len(study.runs):
         # a step of the study: its trained controllers in other worlds (out/evaluation)
-        from ..experiments.evaluate import evaluate
+        from ..commands.evaluate import evaluate
 
         e = study.evaluate
         # on the study's cluster settings, resumable like its runs (out/evaluation.parts)

@@ -1,7 +1,7 @@
 """A study file read and checked: the TOML text parsed into a :class:`Study` of
 :class:`RunSpec` (one per run), every mistake an InputError naming the file and the key.
 
-What a study file holds is described in :mod:`astrocpg.studies.sweeps.study`. Everything a run
+What a study file holds is described in :mod:`astrocpg.studies.parameter_studies.study`. Everything a run
 would refuse (a parameter out of range, a model file that does not fit, whole steps per session,
 memory for a batch) is checked here, before anything runs.
 """
@@ -24,11 +24,11 @@ from ...coupling.training import session_steps
 from ...errors import InputError, did_you_mean
 from ...reading import loads_toml
 from ...models import DEFAULT_MODELS
-from ..experiments.resources import check_memory, estimate_bytes, estimate_wall_seconds
+from ..runtime.resources import check_memory, estimate_bytes, estimate_wall_seconds
 from ...models.compose import model_files_record, model_set, read_model_files
-from ..experiments.settings import MAX_GRID, MAX_SEED, check_grid
-from ..experiments.simulate import STEP, check_duration
-from ..experiments.train import TrainSettings
+from ..commands.settings import MAX_GRID, MAX_SEED, check_grid
+from ..commands.simulate import STEP, check_duration
+from ..commands.train import TrainSettings
 
 MAX_SEEDS = MAX_GRID  # trainings of a study (and seeds): the bound of every grid
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
@@ -120,7 +120,7 @@ def study_overrides(seeds: Any = None, sessions: Any = None,
     ints; ``sets``: ``NAME=VALUE`` texts or a mapping {name: value} (checked against the
     study's models when it is parsed)."""
     from ...models.compose import override_items
-    from ..experiments.settings import number
+    from ..commands.settings import number
 
     seeds_list: tuple[int, ...] | None = None
     count: int | None = None
@@ -575,7 +575,7 @@ def _evaluate_table(doc: Any, study: Path, where: str) -> dict[str, Any] | None:
         return None
     if not isinstance(doc, dict) or set(doc) - _EVALUATE_KEYS:
         raise InputError(f"[evaluate] takes {', '.join(sorted(_EVALUATE_KEYS))}", culprit=where)
-    from ..experiments.evaluate import BUILTIN_WORLDS, read_worlds
+    from ..commands.evaluate import BUILTIN_WORLDS, read_worlds
 
     worlds = doc.get("worlds", "robustness")
     if not isinstance(worlds, str) or not worlds:

@@ -3,7 +3,7 @@ soonest on the workers at hand.
 
 For each candidate batch size the study's seeds are split into runs as they would be
 (consecutive seeds, per condition and sweep point), each run costed with the machine's measured
-:class:`~astrocpg.studies.experiments.trial_cost.TrialCost` and its longest possible sessions
+:class:`~astrocpg.studies.runtime.trial_cost.TrialCost` and its longest possible sessions
 (``sessions x L_max``), and the runs scheduled longest first on the workers, the way the study
 dispatches them (a free worker takes the next run). The batch with the shortest projected
 wall time wins; within 2 % of it the largest batch wins (it spends the least CPU). Every run is
@@ -20,7 +20,7 @@ import heapq
 import math
 from typing import Any, Callable, Sequence
 
-from ..experiments.trial_cost import TrialCost
+from ..runtime.trial_cost import TrialCost
 
 TIE = 0.02  # projected wall times within 2 % count as equal: the larger batch wins
 MAX_RUNS_PER_WORKER = 8  # smaller batches are never faster: the fixed cost per run dominates

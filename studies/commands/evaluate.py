@@ -11,7 +11,7 @@ A worlds file (TOML) names worlds by their world parameters (``astrocpg.models.w
     terrain_height = "0.02*meter"
     terrain_seed = "1"
 
-``robustness`` (``studies/experiments/robustness.toml``) holds the worlds of the paper's open
+``robustness`` (``studies/commands/robustness.toml``) holds the worlds of the paper's open
 question: slopes of +-0.09 and +-0.17 rad, rough terrain of two heights, lower friction and a
 lateral push.
 """
@@ -33,7 +33,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .cluster import check_scheduler, check_workers
+from ..runtime.cluster import check_scheduler, check_workers
 from ...errors import EnvironmentFault, InputError
 from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
@@ -45,7 +45,7 @@ from ..outputs.folder import OutputFolder, as_path, verify
 from ..outputs.study_index import INDEX as STUDY_INDEX, read_current
 from ..outputs.writing import atomic_write, write_manifest
 from ..outputs.weights import load_weights
-from .resources import check_memory, estimate_bytes
+from ..runtime.resources import check_memory, estimate_bytes
 from .run import trained_models, training_settings
 from .settings import check_grid, number, seed_number
 from .simulate import STEP, check_duration, simulate_closed_loop
@@ -466,7 +466,7 @@ def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],
     """Run the cells of ``todo`` here or on Dask, saving each as it ends (into ``done`` and
     ``parts``). On Dask, cells are handed out as threads free up, largest batches first: the
     same dispatch as a study's runs (no cell waits on a busy worker while another is idle)."""
-    from .progress import Bar as tqdm  # warnings wait until the bar closes
+    from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 
     bar = tqdm(total=n_cells, initial=len(done), unit="cell", desc="evaluate",
                disable=not progress, dynamic_ncols=True)
@@ -481,7 +481,7 @@ def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],
             for cell, args in todo.items():
                 ended(cell, evaluate_cell(*args))
             return
-        from .cluster import connect_cluster, run_on_cluster
+        from ..runtime.cluster import connect_cluster, run_on_cluster
 
         client, cluster = connect_cluster(workers, scheduler)
         try:

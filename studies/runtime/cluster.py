@@ -130,16 +130,23 @@ def check_scheduler(scheduler: str) -> None:
 class _ImportBrian2:
     """Worker plugin: Brian2 installs a SIGINT handler when imported, which only works in a
     process's main thread; Dask runs tasks in other threads, so import it at worker start-up
-    (plugins are set up on the worker's event loop, in its main thread)."""
+    (plugins are set up on the worker's event loop, in its main thread), with the module of the
+    task's function (``module``: what the tasks will import, Brian2's users among it)."""
 
     name = "astrocpg-import-brian2"
 
+    def __init__(self, module: str) -> None:
+        self.module = module
+
     def setup(self, worker: Any) -> None:
+        import importlib
         import signal
 
         import brian2  # noqa: F401
 
-        from ..experiments import train  # noqa: F401
+        # the caller's module (a command, a study's runs), named by the caller: the runtime
+        # imports nothing above it
+        importlib.import_module(self.module)
 
         # Ctrl-C reaches the whole process group: the study's own process stops the cluster
         # and says "interrupted" once; a worker that also took it printed Brian2's "stop
@@ -169,7 +176,7 @@ def run_on_cluster(client: Any, fn: Callable[..., Any], items: Sequence[tuple[st
     from distributed import wait
     from distributed.diagnostics.plugin import WorkerPlugin
 
-    plugin = type("ImportBrian2", (_ImportBrian2, WorkerPlugin), {})()
+    plugin = type("ImportBrian2", (_ImportBrian2, WorkerPlugin), {})(fn.__module__)
     client.register_plugin(plugin)
     waiting = list(items)
     in_flight: dict[Any, str] = {}

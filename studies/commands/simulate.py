@@ -24,7 +24,7 @@ from ...network import (CPG, DivergenceCheck, build_cpg, check_runs, exclusive,
                         network_time, run_network)
 from ...network.populations import BUILT_IN, spike_populations, trace_sources
 from ...network.recording import TRACE_DTYPES, TraceRecorder
-from .progress import time_bar
+from ..runtime.progress import time_bar
 
 
 

@@ -28,8 +28,8 @@ from ...errors import InputError
 from ...network import exclusive
 from ..outputs.folder import verify
 from ..outputs.weights import load_weights
-from .progress import Bar as tqdm  # warnings wait until the bar closes
-from .resources import check_memory, estimate_bytes
+from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
+from ..runtime.resources import check_memory, estimate_bytes
 from ...models.compose import model_set
 from .settings import number
 

@@ -1,6 +1,6 @@
 """The Python API of the parameter studies, ``ac.study`` and ``ac.report``: what ``astrocpg
 study`` and ``astrocpg report`` do, with their options as keyword arguments (see
-:mod:`astrocpg.studies.experiments.api` for the others)."""
+:mod:`astrocpg.studies.commands.api` for the others)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ...errors import InputError
-from ..experiments.settings import number
+from ..commands.settings import number
 
 
 def _path(value: Any, culprit: str) -> Path:
@@ -89,7 +89,7 @@ def report(folder: str | os.PathLike, *, smooth: int = 1, last: int = 50,
 
 def study_status(folder: str | os.PathLike, *, workers: int = 1) -> Any:
     """What the study in ``folder`` has done and what is left (``astrocpg study --status``):
-    a :class:`~astrocpg.studies.sweeps.status.StudyProgress` with each run's state and
+    a :class:`~astrocpg.studies.parameter_studies.status.StudyProgress` with each run's state and
     sessions, and ``left_s``, a projection of the wall seconds left with ``workers``
     processes (``.text()`` is what the command prints). Reads only: safe while the study
     runs in another process."""

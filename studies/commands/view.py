@@ -20,7 +20,7 @@ from ..outputs.folder import (OutputFolder, as_path, check_output_path, check_re
                             refuse_in_use)
 from ..outputs.writing import write_manifest
 from ..outputs.result import Result, load
-from .progress import Bar
+from ..runtime.progress import Bar
 from .trained_controller import FIGURES, plot_training
 
 

@@ -4,9 +4,9 @@ and the versions of Brian2 and sympy (they write the LaTeX), so a later ``descri
 in milliseconds instead of importing Brian2 (about a second). Any edit of a model file gives a
 new hash, hence a fresh text; ``--set``/``--model``/``--equations`` bypass the cache.
 
-Only the standard library is imported here; the cache lives in ``$ASTROCPG_CACHE`` (default
-``$XDG_CACHE_HOME/astrocpg`` or ``~/.cache/astrocpg``); a cache that cannot be written is
-simply not used.
+Only the standard library is imported here; the cache lives in astrocpg's cache folder
+(:func:`~astrocpg.studies.runtime.caches.cache_dir`); a cache that cannot be written is simply
+not used.
 """
 
 from __future__ import annotations
@@ -18,15 +18,9 @@ from importlib import metadata
 from pathlib import Path
 from typing import Callable
 
+from .caches import cache_dir
+
 _MODELS = Path(__file__).resolve().parents[2] / "models"
-
-
-def cache_dir() -> Path:
-    """Where cached texts live."""
-    if os.environ.get("ASTROCPG_CACHE"):
-        return Path(os.environ["ASTROCPG_CACHE"])
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "astrocpg"
 
 
 def models_key() -> str:

@@ -19,7 +19,7 @@ from ..analysis.fall import fall_words, first_fall
 from ..analysis.share import share_words, wilson_interval
 from ..outputs.folder import OutputFolder, as_path
 from ..outputs.writing import write_manifest
-from .progress import Bar
+from ..runtime.progress import Bar
 from .run import alive_words, replay, training_settings
 
 
@@ -33,7 +33,7 @@ def gait_runs(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_
               progress: bool = True) -> tuple[list[dict[str, Any]], np.ndarray, Any]:
     """Run every trained table of the training in ``folder`` ``repeats`` times for
     ``seconds``, learning off (run ``b = r * n + k``: table ``k``, repeat ``r``, seed
-    ``seed + b``; :func:`~astrocpg.studies.experiments.run.replay`); one row per run: table,
+    ``seed + b``; :func:`~astrocpg.studies.commands.run.replay`); one row per run: table,
     repeat, seed, speed, upright share, the fall, and the rhythm and the gait over the run's
     second half (:func:`~astrocpg.studies.analysis.gait.trial_measures`). Returns the rows,
     the tables (volt) and the models the runs used."""

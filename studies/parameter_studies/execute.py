@@ -29,9 +29,9 @@ import numpy as np
 from ...errors import Diverged, InputError
 from ...reading import read_json
 from ...network import exclusive
-from ..experiments.cluster import run_on_cluster
+from ..runtime.cluster import run_on_cluster
 from ...models.compose import model_set
-from ..experiments.train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
+from ..commands.train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
 from ..outputs.checkpoint import refuse_legacy
 from ..outputs.folder import FolderLock
 from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write_manifest
@@ -155,10 +155,10 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
 
 def _write_gaits(out: Path, trainer: Trainer) -> None:
     """``gait.csv``: each trial's rhythm and gait with its final tables, learning off (a short
-    run; :data:`~astrocpg.studies.experiments.trained_controller.GAIT_COLUMNS`), each
+    run; :data:`~astrocpg.studies.commands.trained_controller.GAIT_COLUMNS`), each
     on its own network and noise (the seed it trained with), so that a seed's row does not
     depend on the batch it trained in."""
-    from ..experiments.trained_controller import GAIT_COLUMNS, final_gaits
+    from ..commands.trained_controller import GAIT_COLUMNS, final_gaits
 
     with np.load(out / WEIGHTS, allow_pickle=False) as z:  # written by this process a moment ago
         tables = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3

@@ -32,7 +32,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ...errors import InputError
-from ..figures.describe_cache import cache_dir
+from .caches import cache_dir
 
 COST_FILE = "trial_cost.json"
 SIZES = (1, 4, 10, 20)  # batch sizes measured: the fit is a straight line through them

@@ -24,7 +24,7 @@ from ..outputs.weights import check_table, load_weights
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from ...network import populations as _table
 from .settings import number, population_rows, seed_number
-from .resources import check_memory, estimate_bytes
+from ..runtime.resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
                        firing_rates, simulate_closed_loop)

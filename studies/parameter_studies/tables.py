@@ -21,7 +21,7 @@ def write_results(study: Study, out: Path) -> int:
     """Gather the finished runs' ``sessions.csv`` into ``OUT/results.csv``, each row with its
     seed's final gait (``gait.csv`` of the run: label, speed, period, leg phases; empty for a
     run trained before runs wrote it); returns its rows."""
-    from ..experiments.trained_controller import GAIT_COLUMNS
+    from ..commands.trained_controller import GAIT_COLUMNS
 
     head = ["run_id", "condition", *study.sweep, "seed", *SESSION_COLUMNS, *GAIT_COLUMNS]
     lines = [",".join(head)]

@@ -8,7 +8,7 @@ one training folder per run under ``OUT/runs/<run id>/`` with its ``status.json`
 
 from __future__ import annotations
 
-from ..experiments.train import TRAIN_FILES
+from ..commands.train import TRAIN_FILES
 from ..outputs.study_index import INDEX
 
 RUNS = "runs"

@@ -16,7 +16,7 @@
 
 Each command of ``astrocpg`` has its function here (``astrocpg models list`` and ``models dump
 NAME`` are ``ac.list_models()`` and ``ac.dump_model(NAME)``, ``astrocpg robot export PATH`` is ``ac.robot(PATH)``; ``study`` and
-``report`` live in :mod:`astrocpg.studies.sweeps.api`), with the command's options as keyword
+``report`` live in :mod:`astrocpg.studies.parameter_studies.api`), with the command's options as keyword
 arguments named like them (``--no-progress``: ``progress=False``; ``--set``: ``overrides``;
 ``--model``: ``models``; ``--condition``: ``conditions``; ``plot --format``: ``fmt``).
 ``--codegen`` is the process's choice, not a keyword: set ``ASTROCPG_CODEGEN`` in the

@@ -43,8 +43,8 @@ from ..outputs.folder import (FolderLock, OutputFolder, clean_stale_temporaries,
 from ..outputs.writing import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..outputs.result import Result
-from .progress import Bar as tqdm  # warnings wait until the bar closes
-from .resources import check_memory, estimate_bytes
+from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
+from ..runtime.resources import check_memory, estimate_bytes
 from ...models.compose import model_files_record, model_set, override_items
 from .settings import number, seed_number
 from .simulate import check_selection
@@ -573,7 +573,7 @@ def record_plan(every: int | None, stride: int | None = None,
                 spikes: tuple[str, ...] | None = None,
                 traces: tuple[str, ...] | None = None) -> RecordPlan | None:
     """The new training's RecordPlan from the options (a resumed one keeps its own:
-    :func:`~astrocpg.studies.experiments.train.check_resume_options`)."""
+    :func:`~astrocpg.studies.commands.train.check_resume_options`)."""
     if every is None:
         if stride is not None:
             raise InputError("a training records sessions only with --record-every N",
@@ -722,7 +722,7 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     A resumed training keeps the settings it started with. Options given again (``seed``,
     ``trials``, ``astrocytes``, ``overrides``, ``equations``, ``models``, the recording
     options; or the same in ``expect``) must agree with them, or the resume is refused
-    with the option and both values named (:func:`~astrocpg.studies.experiments.train.check_resume_options`): none is silently
+    with the option and both values named (:func:`~astrocpg.studies.commands.train.check_resume_options`): none is silently
     ignored. ``out`` may only name ``folder`` itself (a resume writes where it continues), and
     ``overwrite`` is refused (it would replace what the resume continues).
 
@@ -1007,7 +1007,7 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
     evaluation/, videos, power estimates) is removed first (:func:`remove_derived`).
     ``models``: the set composed from ``settings`` when the caller has it already. ``start``:
     a one-trial training that replays a recorded session (its start, and what the manifest
-    records of where it comes from: :mod:`astrocpg.studies.experiments.replay`).
+    records of where it comes from: :mod:`astrocpg.studies.commands.replay`).
     ``extend_from``: the sessions per trial of ``payload``'s training, fewer than
     ``settings``' (:func:`resume` with more ``sessions``)."""
     if models is None:
