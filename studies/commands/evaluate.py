@@ -25,7 +25,6 @@ import itertools
 import json
 import math
 import os
-import shutil
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,8 +32,9 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from ..runtime.cells import pending, run_cells
 from ..runtime.cluster import check_scheduler, check_workers
-from ...errors import EnvironmentFault, InputError
+from ...errors import InputError
 from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
@@ -42,8 +42,9 @@ from ..analysis.fall import first_fall
 from ..analysis.gait import MEASURE_COLUMNS, NAMED, trial_measures
 from ..analysis.share import label_shares, wilson_interval
 from ..outputs.folder import OutputFolder, as_path, verify
+from ..outputs.parts import PARTS_SUFFIX, CellParts
 from ..outputs.study_index import INDEX as STUDY_INDEX, read_current
-from ..outputs.writing import atomic_write, write_manifest
+from ..outputs.writing import write_manifest
 from ..outputs.weights import load_weights
 from ..runtime.resources import check_memory, estimate_bytes
 from .run import trained_models, training_settings
@@ -53,7 +54,6 @@ from .simulate import STEP, check_duration, simulate_closed_loop
 BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}
 EVALUATION = "evaluation.csv"
 SUMMARY = "summary.csv"
-PARTS_SUFFIX = ".parts"  # <out>.parts/: finished cells of an evaluation not yet written whole
 COLUMNS = ("source", "condition", "point", "seed", "world", "repeat", "run_seed", "distance_m",
            "mean_speed_m_per_s", "fell", "time_to_fall_s", "upright_share", *MEASURE_COLUMNS)
 """One row per controller x world x repeat: the rhythm (``rhythm``, thigh-extensor bursts)
@@ -279,47 +279,6 @@ def evaluate_cell(controller: Mapping[str, Any], tables: np.ndarray, world: str,
     return rows
 
 
-class EvaluationParts:
-    """The finished cells (controller x world) of an evaluation not yet written whole, kept
-    beside its output folder in ``<out>.parts/``: an evaluation interrupted (Ctrl-C, a killed
-    machine) and started again with the same controllers and settings reuses them and runs
-    only the rest. Other settings or other trained weights (another ``fingerprint``) discard
-    them. The folder goes once the evaluation's folder is written."""
-
-    def __init__(self, folder: Path, fingerprint: str) -> None:
-        self.folder, self.fingerprint = folder, fingerprint
-        key = folder / "fingerprint.txt"
-        try:
-            stale = folder.is_dir() and (not key.is_file() or key.read_text() != fingerprint)
-        except OSError:
-            stale = True
-        if stale:
-            shutil.rmtree(folder, ignore_errors=True)
-
-    def _path(self, cell: str) -> Path:
-        return self.folder / f"{cell}.json"
-
-    def load(self, cell: str) -> list[dict[str, Any]] | None:
-        try:
-            return read_json(self._path(cell))
-        except (OSError, ValueError):  # absent, or torn by a kill: run it again
-            return None
-
-    def save(self, cell: str, rows: list[dict[str, Any]]) -> None:
-        try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-            key = self.folder / "fingerprint.txt"
-            if not key.is_file():
-                atomic_write(key, lambda f: f.write(self.fingerprint.encode()))
-            body = json.dumps(rows).encode()  # NaN (time to fall of a trial that stood) too
-            atomic_write(self._path(cell), lambda f: f.write(body))
-        except OSError as e:
-            raise EnvironmentFault.from_os_error(e, self.folder, "cannot save a cell") from None
-
-    def remove(self) -> None:
-        shutil.rmtree(self.folder, ignore_errors=True)
-
-
 def _fingerprint(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],
                  world_set: "WorldSet", seconds: float, repeats: int, seed: int) -> str:
     h = hashlib.sha256()
@@ -389,14 +348,14 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     n_max = max(len(t) for _, t, _ in plans) * repeats
     check_memory(estimate_bytes(trials=n_max, seconds=seconds, dt=STEP, robot_stride=1),
                  culprit=f"--seconds {seconds:g} x {n_max} trials")
-    parts = EvaluationParts(target.with_name(target.name + PARTS_SUFFIX),
+    parts = CellParts(target.with_name(target.name + PARTS_SUFFIX),
                             _fingerprint(plans, world_set, seconds, repeats, seed))
     cells = {f"{ci:04d}-{wi:04d}": (c, tables, world, setting, grid_values(world_set, world))
              for ci, (c, tables, _) in enumerate(plans)
              for wi, (world, setting) in enumerate(world_set.worlds.items())}
-    done = {cell: rows for cell in cells if (rows := parts.load(cell)) is not None}
+    done, todo = pending(cells, parts.load)  # the cells kept by an interrupted evaluation
     todo = {cell: (c, tables, world, setting, grid, seconds, seed, repeats)
-            for cell, (c, tables, world, setting, grid) in cells.items() if cell not in done}
+            for cell, (c, tables, world, setting, grid) in todo.items()}
     if todo:
         _run_cells(todo, done, parts, workers=workers, scheduler=scheduler, progress=progress,
                    n_cells=len(cells))
@@ -461,40 +420,27 @@ def _check_worlds(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],
 
 
 def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],
-               parts: EvaluationParts, *, workers: int | None, scheduler: str | None,
+               parts: CellParts, *, workers: int | None, scheduler: str | None,
                progress: bool, n_cells: int) -> None:
-    """Run the cells of ``todo`` here or on Dask, saving each as it ends (into ``done`` and
-    ``parts``). On Dask, cells are handed out as threads free up, largest batches first: the
-    same dispatch as a study's runs (no cell waits on a busy worker while another is idle)."""
+    """Run the cells of ``todo`` on the runtime's engine (:func:`~astrocpg.studies.runtime.cells.
+    run_cells`, the one that runs a study's runs): here, one after the other, or on Dask,
+    handed out as threads free up, largest batches first (no cell waits on a busy worker while
+    another is idle); each is saved as it ends (into ``done`` and ``parts``)."""
     from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 
     bar = tqdm(total=n_cells, initial=len(done), unit="cell", desc="evaluate",
                disable=not progress, dynamic_ncols=True)
 
-    def ended(cell: str, rows: list[dict[str, Any]]) -> None:
+    def ended(cell: str, outcome: Any) -> None:
+        rows = outcome.result()  # a cell's error (Diverged, ...) comes out as itself
         done[cell] = rows
         parts.save(cell, rows)
         bar.update()
 
-    try:
-        if workers is None and scheduler is None:
-            for cell, args in todo.items():
-                ended(cell, evaluate_cell(*args))
-            return
-        from ..runtime.cluster import connect_cluster, run_on_cluster
-
-        client, cluster = connect_cluster(workers, scheduler)
-        try:
-            order = sorted(todo, key=lambda cell: -len(todo[cell][1]))  # trials per cell
-            # a cell's error (Diverged, ...) comes out of result() as itself
-            run_on_cluster(client, evaluate_cell, [(cell, todo[cell]) for cell in order],
-                           lambda cell, future: ended(cell, future.result()))
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-    finally:
-        bar.close()
+    here = workers is None and scheduler is None
+    order = list(todo) if here else sorted(todo, key=lambda cell: -len(todo[cell][1]))
+    run_cells(evaluate_cell, [(cell, todo[cell]) for cell in order], ended, bar=bar, here=here,
+              workers=workers, scheduler=scheduler)
 
 
 def summarise(rows: list[Mapping[str, Any]]) -> list[dict[str, Any]]:

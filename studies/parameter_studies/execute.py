@@ -29,7 +29,7 @@ import numpy as np
 from ...errors import Diverged, InputError
 from ...reading import read_json
 from ...network import exclusive
-from ..runtime.cluster import run_on_cluster
+from ..runtime.cells import run_cells
 from ...models.compose import model_set
 from ..commands.train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
 from ..outputs.checkpoint import refuse_legacy
@@ -45,6 +45,14 @@ from .study_file import RunSpec
 #: The states of a run that a study never runs again: finished, or diverged (its settings
 #: make it diverge; rerun, it would diverge again at the same step).
 ENDED = ("finished", "diverged")
+
+
+def ended_status(folder: Path) -> dict[str, Any] | None:
+    """The status of the run in ``folder`` if it ended (:data:`ENDED`: it is never run again),
+    else None: the store the runtime's engine reads to leave a study's ended runs out
+    (:func:`~astrocpg.studies.runtime.cells.pending`)."""
+    status = read_status(folder)
+    return status if status.get("state") in ENDED else None
 
 
 def read_status(folder: Path) -> dict[str, Any]:
@@ -200,9 +208,10 @@ def _sessions_done(folder: Path) -> int:
 
 def dispatch(study, pending, folders, client, progress, total_sessions, n_done_before,
               tqdm) -> dict[str, str]:
-    """Run ``pending`` on the cluster, longest first, one run per free worker thread
-    (:func:`run_on_cluster`), with the study's progress bar. Returns the errors of runs that
-    could not write their status (their folder was held by another process): {run_id:
+    """Run ``pending`` on the cluster of ``client``, longest first, one run per free worker
+    thread, on the runtime's engine (:func:`~astrocpg.studies.runtime.cells.run_cells`, the one
+    that runs an evaluation's cells), with the study's progress bar. Returns the errors of runs
+    that could not write their status (their folder was held by another process): {run_id:
     error}."""
     unwritten: dict[str, str] = {}
     waiting = sorted(pending, key=lambda r: r.estimated_seconds(), reverse=True)
@@ -226,11 +235,8 @@ def dispatch(study, pending, folders, client, progress, total_sessions, n_done_b
         bar.set_postfix_str(f"runs done {n_done_before + counts['finished'] - counts['failed']}/"
                             f"{len(study.runs)}, running {running}, failed {counts['failed']}")
 
-    try:
-        run_on_cluster(client, execute_run,
-                       [(r.run_id, (r, str(folders[r.run_id]))) for r in waiting], ended, tick)
-    finally:
-        bar.close()
+    run_cells(execute_run, [(r.run_id, (r, str(folders[r.run_id]))) for r in waiting], ended,
+              bar=bar, client=client, tick=tick)
     return unwritten
 
 

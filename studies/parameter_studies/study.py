@@ -72,7 +72,8 @@ from ..outputs.checkpoint import refuse_legacy
 from ..outputs.folder import (FolderLock, check_output_path, check_replaceable,
                             clean_stale_temporaries, clear_folder, holds_results)
 from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write_manifest
-from .execute import ENDED, dispatch, read_status, write_failures
+from ..runtime.cells import pending
+from .execute import dispatch, ended_status, read_status, write_failures
 from .layout import FAILURES, RUNS, STUDY_COPY, STUDY_INDEX, study_files
 from .study_file import RunSpec, Study, StudyOverrides, consecutive_groups, parse_study
 from .tables import write_results, write_timeline
@@ -321,14 +322,17 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                  * min(len(study.runs), workers or os.cpu_count() or 1),
                  culprit=f"study {study.name} (runs of {largest} trials)")
     folders = {r.run_id: out / RUNS / r.run_id for r in study.runs}
-    pending = [r for r in study.runs if read_status(folders[r.run_id]).get("state") not in ENDED]
-    _check_checkpoints(pending, folders)
+    # the runs that ended are never run again (their status.json says so): the rest run
+    _, todo = pending({r.run_id: r for r in study.runs},
+                      lambda run_id: ended_status(folders[run_id]))
+    waiting = list(todo.values())
+    _check_checkpoints(waiting, folders)
     total_sessions = sum(r.n_trials * r.n_sessions for r in study.runs)
-    n_done_before = len(study.runs) - len(pending)
+    n_done_before = len(study.runs) - len(waiting)
     settings = {"study": str(study.path), "study_text": study.text,
                 "overrides": study.overrides.record(), "workers": workers,
                 "scheduler": scheduler, "batch": study.batch, "batch_choice": study.batch_choice}
-    cluster = connect_cluster(workers, scheduler) if pending else None
+    cluster = connect_cluster(workers, scheduler) if waiting else None
     unwritten: dict[str, str] = {}
     try:
         prepare_output_dir(out)
@@ -336,8 +340,8 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
         write_manifest(out, command="study", seed=min(study.seeds),
                        settings=settings,
                        models_json={}, files=study_files(), results={"status": "running"})
-        if pending:
-            unwritten = dispatch(study, pending, folders, cluster[0], progress,
+        if waiting:
+            unwritten = dispatch(study, waiting, folders, cluster[0], progress,
                                   total_sessions, n_done_before, tqdm)
     finally:
         if cluster is not None:
