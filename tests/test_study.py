@@ -380,7 +380,7 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path: Path, case: str, ca
 def test_trailing_mean_of_the_report() -> None:
     import numpy as np
 
-    from astrocpg.studies.parameter_studies.report import moving_mean
+    from astrocpg.studies.analysis.final_figures import moving_mean
     t = np.array([[1.0, 2.0, 3.0, 4.0, np.nan], [2.0, 2.0, 2.0, 2.0, 2.0]])
     out = moving_mean(t, 2)
     np.testing.assert_allclose(out[0, :4], [1.0, 1.5, 2.5, 3.5])

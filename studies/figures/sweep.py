@@ -13,6 +13,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..analysis.final_figures import Measure
+
 
 @dataclass(frozen=True)
 class Axis:
@@ -26,20 +28,6 @@ class Axis:
     ticks: tuple[str, ...]
     label: str
     categorical: bool
-
-
-@dataclass(frozen=True)
-class Measure:
-    """A final figure of a seed: key (column of final_figures.csv without _mean/_std), title,
-    unit (in the axis label)."""
-
-    key: str
-    title: str
-    unit: str
-
-    @property
-    def label(self) -> str:
-        return f"{self.title} ({self.unit})"
 
 
 # per condition: mean, std and number of seeds at each value of the axis (NaN where none)

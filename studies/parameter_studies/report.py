@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import itertools
 import os
-import re
 import zipfile
 import zlib
 from pathlib import Path
@@ -39,21 +38,18 @@ import numpy as np
 
 from ...errors import InputError
 from ...reading import check_regular, read_json
-from ...models import DEFAULT_MODELS
-from ..analysis.compare import N_BOOT, N_PERM, SEED, compare, holm, p_text
+from ..analysis.compare import N_BOOT, N_PERM, SEED, p_text
+from ..analysis.final_figures import (CURVES, MEASURES, WEIGHT_MEASURES, Measure, across_seeds,
+                                      condition_tests, seed_finals, session_curve)
 from ..analysis.gait import weight_structure
 from ...models.compose import model_set
 from ..outputs.folder import OutputFolder, verify
 from ..outputs.study_index import current_specs
 from ..figures.save import save_figure
-from ..figures.sweep import Axis, Measure, measure_heatmap, measure_vs_value
+from ..figures.study_report import fig3c, sweep_figures
 from ..outputs.writing import atomic_write, write_manifest
 from .execute import read_status
 from .layout import GAITS, RUNS, STUDY_INDEX
-
-CURVES = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
-          ("length_s", "session length (s)"))
-
 
 def _load(folder: Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     import pandas as pd
@@ -119,35 +115,9 @@ def _model_values(spec: dict[str, Any]) -> tuple[float, float, float]:
     return models.value("w_max"), models.value("L_max"), models.value("w_min")
 
 
-def moving_mean(table: np.ndarray, width: int) -> np.ndarray:
-    """Trailing mean over the last ``width`` sessions (fewer at the start), NaN-aware."""
-    valid = np.isfinite(table)
-    filled = np.where(valid, table, 0.0)
-    csum = np.cumsum(filled, axis=1)
-    ccount = np.cumsum(valid, axis=1)
-    csum[:, width:] = csum[:, width:] - csum[:, :-width].copy()
-    ccount[:, width:] = ccount[:, width:] - ccount[:, :-width].copy()
-    out = np.full_like(table, np.nan)
-    np.divide(csum, ccount, out=out, where=(ccount > 0) & valid)
-    return out
-
-
 REPORT = "report"
 
-# the final figures of a seed (over its last sessions), in the order of the tables and figures
-MEASURES = (Measure("speed", "forward speed", "m/s"), Measure("final_x", "final x", "m"),
-            Measure("length", "session length", "s"),
-            Measure("reward", "mean reward", "dimensionless"),
-            Measure("full", "full-length sessions", "fraction"))
-# from a seed's trained table (weights.npz), when the runs saved one
-WEIGHT_MEASURES = (Measure("mixed_limb_pairs", "mixed limb pairs", "count"),
-                   Measure("share_above_0.9_w_max", "weights above 0.9 w_max",
-                           "fraction"),
-                   Measure("share_below_0.9_w_min", "weights below 0.9 w_min",
-                           "fraction"),
-                   Measure("share_excitatory", "excitatory weights", "fraction"))
 TESTS = "condition_tests.csv"
-_NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:\*\s*(.+?))?\s*")
 
 
 def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = None,
@@ -173,28 +143,7 @@ def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = 
     return written
 
 
-def _axis(name: str, values: list[str]) -> Axis:
-    """How a swept axis is drawn: numeric (sorted by value, labelled with the unit the study
-    file writes) when every value is a number with one same unit; otherwise categorical in the
-    study file's order, model files by their stem."""
-    if name in dict(DEFAULT_MODELS.items()):
-        return Axis(name, tuple(values), tuple(float(i) for i in range(len(values))),
-                    tuple(Path(v).stem for v in values), f"{name} (model file)", True)
-    parsed = [_NUMBER.fullmatch(v) for v in values]
-    if all(parsed) and len({m.group(2) for m in parsed}) == 1:
-        unit = parsed[0].group(2) or "dimensionless"
-        order = sorted(range(len(values)), key=lambda i: float(parsed[i].group(1)))
-        return Axis(name, tuple(values[i] for i in order),
-                    tuple(float(parsed[i].group(1)) for i in order),
-                    tuple(parsed[i].group(1) for i in order), f"{name} ({unit})", False)
-    return Axis(name, tuple(values), tuple(float(i) for i in range(len(values))),
-                tuple(values), f"{name} (as in the study file)", True)
-
-
 def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, Any]:
-    # heavy: only when a report is drawn; outside pyplot, so the caller's backend is left alone
-    from matplotlib.figure import Figure
-
     index, runs = _load(folder)
     name = index.get("name", folder.name)
     swept: list[str] = list(index.get("sweep", []))
@@ -209,8 +158,7 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
                          f"({'; '.join(gone)})", culprit=f"report {folder}")
     study_sessions = sorted({int(r["spec"]["n_sessions"]) for r in runs})
 
-    fig = Figure(figsize=(8, 8))
-    axes = fig.subplots(3, 1, sharex=True)
+    curves: list[tuple[int, str, list[tuple[np.ndarray, np.ndarray]]]] = []  # Fig. 3c's lines
     rows: list[dict[str, Any]] = []
     empty: list[dict[str, Any]] = []  # groups without a finished session (a partial study)
     diverged: list[dict[str, Any]] = []  # groups with a diverged run: shown, never a result
@@ -248,22 +196,12 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
                           "states": ", ".join(sorted(set(states)))})
             continue
         n = max(int(s["session"].max()) for s in series.values())
-        color = f"C{k}"
-        for ax, (key, ylabel) in zip(axes, CURVES):
-            table = np.full((len(series), n), np.nan)
-            for row, s in enumerate(series.values()):
-                table[row, s["session"].to_numpy(int) - 1] = s[key].to_numpy(float)
-            if smooth > 1:  # moving mean over sessions, per seed, before the across-seed stats
-                table = moving_mean(table, smooth)
-            mean, std = np.nanmean(table, axis=0), np.nanstd(table, axis=0)
-            x = np.arange(1, n + 1)
-            ax.plot(x, mean, color=color, lw=1.2, label=f"{label} (n={len(series)})")
-            ax.fill_between(x, mean - std, mean + std, color=color, alpha=0.25, lw=0)
-            ax.set_ylabel(ylabel)
+        curves.append((k, f"{label} (n={len(series)})",
+                       [session_curve(series, key, n, smooth) for key, _ in CURVES]))
         L_max = _model_values(members[0]["spec"])[1]
-        seeds_here = _seed_finals(condition, point, series, structure, last=last, L_max=L_max)
+        seeds_here = seed_finals(condition, point, series, structure, last=last, L_max=L_max)
         per_seed.extend(seeds_here)
-        row: dict[str, Any] = {
+        rows.append({
             "group": label, "condition": condition, **dict(zip(swept, point)),
             "seeds": len(series),
             "runs_finished": f"{states.count('finished')}/{len(states)}",
@@ -271,31 +209,17 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
             "sessions_max": max(len(s) for s in series.values()),
             "last_sessions_min": min(o["last_sessions"] for o in seeds_here),
             "last_sessions_max": max(o["last_sessions"] for o in seeds_here),
-        }
-        for m in MEASURES + WEIGHT_MEASURES:
-            vals = [o[m.key] for o in seeds_here if m.key in o]
-            if vals:  # std across seeds with ddof=0, as in the curves of fig3c
-                row[f"{m.key}_mean"], row[f"{m.key}_std"] = (float(np.mean(vals)),
-                                                             float(np.std(vals)))
-        limb_pairs = {o["limb_pairs"] for o in seeds_here if "limb_pairs" in o}
-        if limb_pairs:
-            row["limb_pairs"] = limb_pairs.pop()
-        rows.append(row)
-    axes[0].legend(fontsize=8, loc="best")
-    axes[-1].set_xlabel("session")
-    axes[0].set_title(f"Study {name}: mean +- std across seeds "
-                      f"(paper Fig. 3c)"
-                      + (f", trailing mean over {smooth} sessions" if smooth > 1 else ""))
-    fig.tight_layout()
-    figures: dict[str, Any] = {"fig3c.png": fig}
+            **across_seeds(seeds_here),
+        })
+    figures: dict[str, Any] = {"fig3c.png": fig3c(name, curves, smooth)}
     shows = {"fig3c.png": "mean reward, final x (m) and session length (s) per session, "
                           "mean ± std across seeds, one line per group (paper Fig. 3c)"
                           + (f"; each seed's trailing mean over {smooth} sessions"
                              if smooth > 1 else "")}
     measures = [m for m in MEASURES + WEIGHT_MEASURES if any(m.key in o for o in per_seed)]
     if swept:
-        _sweep_figures(name, swept, runs, per_seed, measures, figures, shows)
-    tests = _condition_tests(swept, [c for c, _ in groups], per_seed, measures,
+        sweep_figures(name, swept, runs, per_seed, measures, figures, shows)
+    tests = condition_tests(swept, [c for c, _ in groups], per_seed, measures,
                              skip={(d["condition"], tuple(str(d.get(k, "")) for k in swept))
                                    for d in diverged},
                              paired=bool(index.get("paired", False)))
@@ -307,31 +231,6 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
             "per_seed": per_seed, "described": described,
             "no_data": [e["group"] for e in empty],
             "diverged": [d["group"] for d in diverged]}
-
-
-def _seed_finals(condition: str, point: tuple[str, ...], series: dict[int, Any],
-                 structure: dict[int, dict[str, float]], *, last: int,
-                 L_max: float) -> list[dict[str, Any]]:
-    """One row per seed of a group: its final figures (means over its ``last`` sessions) and,
-    where its weights were read, their structure."""
-    seeds_here = []
-    for seed, s in series.items():
-        tail = s.tail(last)
-        one = {"condition": condition, "point": point, "seed": seed,
-               "sessions": len(s), "last_sessions": len(tail),
-               "speed": float(tail["mean_forward_speed_m_per_s"].mean()),
-               "final_x": float(tail["final_x_m"].mean()),
-               "length": float(tail["length_s"].mean()),
-               "reward": float(tail["mean_reward"].mean()),
-               "full": float((tail["length_s"] >= L_max - 1e-6).mean())}
-        if seed in structure:
-            one["mixed_limb_pairs"] = float(structure[seed]["mixed_limb_pairs"])
-            one["limb_pairs"] = int(structure[seed]["limb_pairs"])
-            for key in ("share_above_0.9_w_max", "share_below_0.9_w_min",
-                        "share_excitatory"):
-                one[key] = structure[seed][key]
-        seeds_here.append(one)
-    return seeds_here
 
 
 def _write_files(dest: Path, name: str, figures: dict[str, Any], shows: dict[str, str],
@@ -373,145 +272,6 @@ def _write_files(dest: Path, name: str, figures: dict[str, Any], shows: dict[str
     atomic_write(dest / "report.md", lambda f: f.write(text.encode()))
     files.append(dest / "report.md")
     return files, described, text
-
-
-def _sweep_figures(name: str, swept: list[str], runs: list[dict[str, Any]],
-                   per_seed: list[dict[str, Any]], measures: list[Measure],
-                   figures: dict[str, Any], shows: dict[str, str]) -> None:
-    """The final figures against the swept values: one axis, a panel per measure; two axes
-    swept as a grid, a heatmap per measure; otherwise each sweep point as a category."""
-    conditions = list(dict.fromkeys(o["condition"] for o in per_seed))
-    points = list(dict.fromkeys(tuple(str(r["spec"]["point"].get(k, "")) for k in swept)
-                                for r in runs))
-    values = [list(dict.fromkeys(p[i] for p in points)) for i in range(len(swept))]
-    grid = len(swept) == 2 and len(points) == len(values[0]) * len(values[1])
-    if len(swept) == 1 or not grid:
-        if len(swept) == 1:
-            axis, where = _axis(swept[0], values[0]), (lambda p: p[0])
-        else:  # zip mode or more than two axes: the points in the study's order
-            labels = [", ".join(f"{k}={v}" for k, v in zip(swept, p)) for p in points]
-            axis = Axis("sweep point", tuple(labels), tuple(map(float, range(len(labels)))),
-                        tuple(labels), "sweep point (values as in the study file)", True)
-            where = (lambda p: ", ".join(f"{k}={v}" for k, v in zip(swept, p)))
-        series = {m.key: {c: _stats([[o[m.key] for o in per_seed
-                                      if o["condition"] == c and where(o["point"]) == v
-                                      and m.key in o] for v in axis.values])
-                          for c in conditions} for m in measures}
-        file = f"sweep_{_file_slug(axis.name)}.png"
-        figures[file] = measure_vs_value(
-            axis, measures, series, f"Study {name}: final figures against {axis.name}, "
-                                    f"mean ± std across seeds")
-        shows[file] = (f"each final figure ({', '.join(m.title for m in measures)}) against "
-                       f"{axis.name}, mean ± std across seeds, one line per condition")
-        return
-    x_axis, y_axis = _axis(swept[0], values[0]), _axis(swept[1], values[1])
-    _gait_map(name, x_axis, y_axis, runs, figures, shows)
-    for m in measures:
-        grids = {}
-        for c in conditions:
-            cells = [[[o[m.key] for o in per_seed if o["condition"] == c and m.key in o
-                       and o["point"] == (xv, yv)] for xv in x_axis.values]
-                     for yv in y_axis.values]
-            mean, std, n = _stats([v for row in cells for v in row])
-            shape = (len(y_axis.values), len(x_axis.values))
-            grids[c] = (mean.reshape(shape), std.reshape(shape), n.reshape(shape))
-        file = f"heatmap_{_file_slug(m.key)}.png"
-        figures[file] = measure_heatmap(
-            x_axis, y_axis, m, grids, f"Study {name}: {m.title} ({m.unit}) over "
-                                      f"{x_axis.name} and {y_axis.name}, mean across seeds")
-        shows[file] = (f"{m.title} ({m.unit}), mean (± std, n) across seeds over {x_axis.name} "
-                       f"x {y_axis.name}, one panel per condition")
-
-
-def _gait_map(name: str, x_axis: Axis, y_axis: Axis, runs: list[dict[str, Any]],
-              figures: dict[str, Any], shows: dict[str, str]) -> None:
-    """``gait_map.png`` over the two swept axes from the runs' ``gait.csv`` (each seed's gait
-    with its final tables): the most common label per cell as colour, mean speed as contours.
-    Nothing when no run wrote one."""
-    from ..figures.gait_map import gait_map_figures
-
-    seeds = []
-    old = False  # a gait.csv without final_rhythm: its final_gait is the thigh-pool rhythm
-    for r in runs:
-        g = r.get("gaits")
-        if g is None:
-            continue
-        old = old or "final_rhythm" not in g.columns
-        point = r["spec"]["point"]
-        for row in g.to_dict("records"):
-            reason = str(row.get("final_gait_reason", "") or "")
-            seeds.append({"condition": r["spec"]["condition"], "gait": row["final_gait"],
-                          "mean_speed_m_per_s": row["final_speed_m_per_s"],
-                          "fell": int(reason.startswith("fell")),
-                          f"grid_{y_axis.name}": str(point.get(y_axis.name, "")),
-                          f"grid_{x_axis.name}": str(point.get(x_axis.name, ""))})
-    if not seeds:
-        return
-    fig = gait_map_figures(seeds, [(y_axis.name, list(y_axis.values)),
-                                   (x_axis.name, list(x_axis.values))],
-                           {y_axis.name: y_axis.label, x_axis.name: x_axis.label})
-    figures["gait_map.png"] = fig["gait_map.png"]
-    what = ("rhythm (thigh-extensor bursts: these runs were written before the gait was read "
-            "from the feet)" if old else "gait (footfalls over the upright part)")
-    shows["gait_map.png"] = (f"each seed's final {what} (learning off, 5 s) over {x_axis.name} x "
-                             f"{y_axis.name}: the most common label per cell (colour, its share "
-                             f"written), mean forward speed (contours), one panel per condition")
-
-
-def _stats(cells: list[list[float]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Mean, std (ddof=0) and count of the finite values of each cell (NaN where none)."""
-    out = np.full((3, len(cells)), np.nan)
-    for i, values in enumerate(cells):
-        v = np.asarray([x for x in values if np.isfinite(x)], dtype=float)
-        out[2, i] = len(v)
-        if len(v):
-            out[0, i], out[1, i] = v.mean(), v.std()
-    return out[0], out[1], out[2]
-
-
-def _file_slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9.+-]+", "_", text).strip("_") or "x"
-
-
-def _condition_tests(swept: list[str], conditions: list[str], per_seed: list[dict[str, Any]],
-                     measures: list[Measure],
-                     skip: set[tuple[str, tuple[str, ...]]] = frozenset(),
-                     paired: bool = False) -> list[dict[str, Any]]:
-    """Every pair of conditions (in the study's order, first minus second) at every sweep
-    point, every final figure: :func:`~astrocpg.studies.analysis.compare.compare`. The final
-    figures of one pair at one point are one family (one question: do the conditions
-    differ?): their permutation and Mann-Whitney p-values are Holm-adjusted together
-    (``perm_p_holm``, ``mwu_p_holm``). ``paired`` (the study file's ``paired = true``,
-    declared before any run): seed k of one condition is compared with seed k of the
-    other, on the seeds both have."""
-    conditions = list(dict.fromkeys(conditions))
-    points = list(dict.fromkeys(o["point"] for o in per_seed))
-    out = []
-    for point in points:
-        for a, b in itertools.combinations(conditions, 2):
-            if (a, point) in skip or (b, point) in skip:  # a diverged side: no test
-                continue
-            family = []
-            for m in measures:
-                sa = {o["seed"]: o[m.key] for o in per_seed
-                      if o["condition"] == a and o["point"] == point and m.key in o}
-                sb = {o["seed"]: o[m.key] for o in per_seed
-                      if o["condition"] == b and o["point"] == point and m.key in o}
-                if not sa and not sb:
-                    continue
-                if paired:
-                    common = sorted(set(sa) & set(sb), key=str)
-                    va, vb = [sa[k] for k in common], [sb[k] for k in common]
-                else:
-                    va, vb = list(sa.values()), list(sb.values())
-                family.append({**dict(zip(swept, point)), "condition_a": a, "condition_b": b,
-                               "measure": m.key, "unit": m.unit,
-                               **compare(va, vb, paired=paired)})
-            for key in ("perm_p", "mwu_p"):
-                for t, adjusted in zip(family, holm([t[key] for t in family])):
-                    t[f"{key}_holm"] = adjusted
-            out += family
-    return out
 
 
 def _csv(rows: list[dict[str, Any]]) -> str:
