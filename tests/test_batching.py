@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from astrocpg.errors import InputError
-from astrocpg.studies.commands import trial_cost as tc
+from astrocpg.studies.runtime import trial_cost as tc
 from astrocpg.studies.parameter_studies.batching import choose_batch, longest_first_makespan
 from astrocpg.studies.parameter_studies.study import (consecutive_groups, load_study, prepare_study,
                                            resolve_batch)
@@ -99,7 +99,7 @@ def stored_cost(tmp_path, monkeypatch):
 def sixteen_cores(monkeypatch) -> None:
     """A machine of 16 cores for --workers 16 (a local cluster has at most 4 workers per
     core: check_workers)."""
-    from astrocpg.studies.commands import cluster
+    from astrocpg.studies.runtime import cluster
 
     monkeypatch.setattr(cluster, "cores", lambda: 16)
 

@@ -90,7 +90,7 @@ def test_batch_auto_with_a_corrupt_cost_measures_again_and_says_so(cache, tmp_pa
                                                                   capsys):
     """A NaN in trial_cost.json made every batch = "auto" study an internal error: now one note
     naming the file, a new measurement stored over it, and a batch chosen on finite costs."""
-    from astrocpg.studies.commands import trial_cost as tc
+    from astrocpg.studies.runtime import trial_cost as tc
     from astrocpg.studies.parameter_studies.study import load_study, prepare_study
 
     path = _store(cache, per_trial=math.nan)
