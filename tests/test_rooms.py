@@ -68,3 +68,35 @@ def test_the_old_names_are_gone():
                           (bridge, ("INSTABILITY_WARNINGS",)), (divergence, ("NonFinite",)),
                           (CPG, ("first_nonfinite",))):
         assert not [n for n in names if hasattr(module, n)], module
+
+
+def test_one_engine_runs_many_cells():
+    """A study's runs and an evaluation's cells go through the runtime's engine
+    (``runtime/cells.py``): no other module hands tasks to a Dask cluster itself."""
+    engine = ROOT / "studies" / "runtime" / "cells.py"
+    callers = []
+    for path in _package_files():
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "run_on_cluster":
+                callers.append(path.relative_to(ROOT).as_posix())
+    assert callers and set(callers) == {engine.relative_to(ROOT).as_posix()}, callers
+
+
+def test_the_engine_runs_cells_here_in_order_and_skips_finished_ones():
+    from astrocpg.studies.runtime.cells import pending, run_cells
+
+    kept = {"b": [2]}
+    done, todo = pending({"a": (1,), "b": (2,), "c": (3,)}, kept.get)
+    assert done == {"b": [2]} and list(todo) == ["a", "c"]
+
+    class Bar:
+        closed = False
+
+        def close(self):
+            self.closed = True
+
+    seen, bar = [], Bar()
+    run_cells(lambda x: [x * 10], list(todo.items()),
+              lambda name, outcome: seen.append((name, outcome.status, outcome.result())),
+              bar=bar, here=True)
+    assert seen == [("a", "finished", [10]), ("c", "finished", [30])] and bar.closed
