@@ -82,6 +82,28 @@ def session_steps(models: ModelSet, dt: float) -> tuple[int, int, int, int]:
     return max_steps, non_alive, int(memory), window
 
 
+@dataclass
+class _StepBuffers:
+    """Scratch arrays of :meth:`Training.step`, per trial (``counts``: per trial and pool)."""
+
+    row_start: np.ndarray  # b * window: where trial b's slots of the reward ring start
+    slot: np.ndarray
+    old: np.ndarray
+    mean: np.ndarray
+    time: np.ndarray
+    flag: np.ndarray
+    open: np.ndarray
+    counts: np.ndarray
+
+    @classmethod
+    def allocate(cls, n_trials: int, window: int, pools: int) -> "_StepBuffers":
+        return cls(row_start=np.arange(n_trials, dtype=np.int64) * window,
+                   slot=np.zeros(n_trials, dtype=np.int64), old=np.zeros(n_trials),
+                   mean=np.zeros(n_trials), time=np.zeros(n_trials),
+                   flag=np.zeros(n_trials, dtype=bool), open=np.zeros(n_trials, dtype=bool),
+                   counts=np.zeros((n_trials, pools), dtype=np.int64))
+
+
 class Training:
     """The session loop of ``n_sessions`` sessions per trial, hooked into a :class:`Bridge`."""
 
@@ -132,6 +154,13 @@ class Training:
                                     weights=[[] for _ in range(B)],
                                     starts=[[] for _ in range(B)])
         self._arange = np.arange(B)
+        # the step's scratch arrays (allocated once) and the ring as one flat view
+        self._buf = _StepBuffers.allocate(B, self.window, L.pools_per_trial)
+        self._ring_flat = self.ring.reshape(-1)
+        self._tables_live = all(t.live for t in self._tables)
+        # the bridge's step_count from which step() looks for session ends again (0: at once;
+        # a restore calls counters_set)
+        self._check_at = 0
         self._start_x = bridge.layout.reset_qpos[bridge.layout.free_qpos_adr]
         self._forward = bridge.forward_velocity
         self._counted_step = -1  # the bridge's step_count when step() last ran
@@ -149,30 +178,64 @@ class Training:
 
     # ---- per step (after the physics step and the reward)
     def step(self) -> None:
+        """One step of every trial's session: counters, the reward's sliding window, the
+        learning signals written where the inter-limb synapses read them, the session's sums;
+        sessions that end now end (:meth:`_finish`). Hot loop: the same arithmetic as the
+        plain expressions (``ring_sum / window``, ``step_in_session * dt >= t_learning_start``),
+        written into buffers allocated once (:meth:`_buffers`); the state arrays are read
+        afresh each step (a restore writes into them, never replaces them)."""
         br = self.bridge
         r = br.reward
+        buf = self._buf
         self._counted_step = br.step_count
-        self.step_in_session += 1
-        self.non_alive += ~br.alive
-        idx = self.step_in_session % self.window
-        old = self.ring[self._arange, idx]
-        self.ring[self._arange, idx] = r
-        self.ring_sum += r - old
+        steps = self.step_in_session
+        steps += 1
+        np.logical_not(br.alive, out=buf.flag)
+        self.non_alive += buf.flag
+        # the ring of the last `window` rewards, trial b's slot at b * window + step % window
+        at = buf.slot
+        np.remainder(steps, self.window, out=at)
+        at += buf.row_start
+        np.take(self._ring_flat, at, out=buf.old)
+        self._ring_flat[at] = r
+        np.subtract(r, buf.old, out=buf.old)
+        self.ring_sum += buf.old
         self._reward[:] = r[:, None]
-        self._reward_mean[:] = (self.ring_sum / self.window)[:, None]
-        learning = (self.step_in_session * self.dt >= self.t_learning_start) & ~self.done
-        self._learning[:] = learning[:, None]
-        for table in self._tables:
-            table.write()
+        np.divide(self.ring_sum, self.window, out=buf.mean)
+        self._reward_mean[:] = buf.mean[:, None]
+        np.multiply(steps, self.dt, out=buf.time)
+        np.greater_equal(buf.time, self.t_learning_start, out=buf.flag)
+        np.logical_not(self.done, out=buf.open)
+        buf.flag &= buf.open
+        self._learning[:] = buf.flag[:, None]
+        if not self._tables_live:
+            for table in self._tables:
+                table.write()
         self.reward_sum += r
         self.speed_sum += self._forward
-        self.pool_counts += self._n_table.read().astype(np.int64)
-        ended = (self.step_in_session >= self.max_steps) | (self.non_alive >= self.non_alive_limit)
-        if ended.any():
-            for b in np.flatnonzero(ended & ~self.done):
-                self._finish(int(b))
-            if self.done.all():
-                self.cpg.net.stop()
+        np.copyto(buf.counts, self._n_table.read(), casting="unsafe")  # as astype(int64)
+        self.pool_counts += buf.counts
+        # no session can end before step _check_at: step_in_session grows by one a step and
+        # non_alive by at most one, so a trial ends no sooner than the smaller of its two
+        # distances to their limits (resets only lengthen them)
+        if br.step_count < self._check_at:
+            return
+        left = min(int((self.max_steps - steps).min()),
+                   int((self.non_alive_limit - self.non_alive).min()))
+        if left > 0:
+            self._check_at = br.step_count + left
+            return
+        ended = (steps >= self.max_steps) | (self.non_alive >= self.non_alive_limit)
+        for b in np.flatnonzero(ended & ~self.done):
+            self._finish(int(b))
+        if self.done.all():
+            self.cpg.net.stop()
+
+    def counters_set(self) -> None:
+        """The session counters (``step_in_session``, ``non_alive``) or the bridge's
+        ``step_count`` were written from outside (a restore): look for session ends at the
+        next step."""
+        self._check_at = 0
 
     # ---- session boundaries
     def _plan_session(self, b: int) -> None:

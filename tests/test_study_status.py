@@ -129,3 +129,48 @@ def test_status_refuses_an_option_it_would_ignore(tmp_path, capsys, extra):
     assert main(["study", "--status", str(out), *extra]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and extra[0] in err and "does not apply" in err, err
+
+
+def test_a_killed_attempt_is_not_costed_as_if_it_took_no_time(tmp_path):
+    """A machine that stopped leaves attempts without an end: the run is then costed on its
+    current attempt alone (wall since it started against the simulated time since), not on all
+    its sessions against the current attempt's minutes."""
+    import os
+    import socket
+
+    host = socket.gethostname()
+    history = [{"attempts": 1, "started": 0.0, "host": host, "pid": 1},      # killed: no end
+               {"attempts": 2, "started": 900.0, "host": host, "pid": os.getpid()}]
+    out = _study(tmp_path, {
+        # 8 sessions of 5 s done before this attempt (40 s), 2 since (10 s) in 100 s of wall:
+        # 10 s of wall per simulated s; 10 sessions of 5 s left -> 500 s
+        "a": {"trials": 1, "sessions": 20, "state": "running",
+              "status": {"started": 900.0, "host": host, "pid": os.getpid(),
+                         "history": history, "sessions_at_start": 8},
+              "lengths": [[5] * 10]}})
+    p = study_status(out, workers=1, now=1000.0)
+    (run,) = p.runs
+    assert run.state == "running" and run.unrecorded_attempts == 1
+    assert run.wall_s == pytest.approx(100.0)
+    assert p.left_s == pytest.approx(500.0)  # the old reading: 100 s / 50 s -> 100 s
+    assert "1 stopped without a record" in p.text()
+
+
+def test_a_run_whose_process_is_gone_is_shown_stopped(tmp_path):
+    import socket
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True)
+    dead = int(done.stdout)  # a pid that has exited
+    host = socket.gethostname()
+    out = _study(tmp_path, {
+        "a": {"trials": 1, "sessions": 4, "state": "running",
+              "status": {"started": 900.0, "host": host, "pid": dead,
+                         "history": [{"attempts": 1, "started": 900.0, "host": host,
+                                      "pid": dead}], "sessions_at_start": 0},
+              "lengths": [[5, 5]]}})
+    (run,) = study_status(out, now=1000.0).runs
+    assert run.state == "stopped" and run.wall_s == 0.0 and run.unrecorded_attempts == 1
+    assert study_status(out, now=1000.0).left_s is None  # no attempt whose cost is known

@@ -34,6 +34,12 @@
     # astrocpg evaluate's runs, controller by controller, with 95 % confidence intervals
     python docs/beyond/analyse.py worlds docs/beyond/robustness/evaluation.csv
 
+    # each run of a study against a reference run, seed by seed: evaluated gait, rhythm, speed
+    # and falls of the final tables, and the tables' weight structure (final_tables.py folders)
+    python docs/beyond/analyse.py against docs/beyond/robustness/evaluation.csv:astrocytes__seeds1-20 \
+        docs/ablation/faster_loop/tables docs/beyond/homeostatic_control/evaluation.csv \
+        docs/beyond/homeostatic_control/tables --world flat
+
 ``worlds`` averages each controller's repeats first (the repeats of one controller are not
 independent samples of the condition), then gives per condition and world the mean over
 controllers of the falls, the forward speed and the trot with a 95 % bootstrap interval
@@ -44,9 +50,10 @@ Per seed, over its sessions 1..S (``--sessions``; default all): the mean over th
 sessions (``--last``) of the forward speed, the final x and the session length; the share of
 those N sessions that ran the full L_max (the robot did not fall); the falls over all S sessions
 (sessions that ended before L_max); and the session at which the trailing mean of 10 session
-lengths first reached 90 % of L_max ("learnt by"). ``paired`` prints each measure's mean for
-both sides, the mean of the per-seed differences ± their std, the paired t-test's p and the
-Wilcoxon signed-rank test's p (both two-sided, scipy).
+lengths first reached 90 % of L_max ("learnt by"). ``paired`` prints each measure's mean ± std for
+both sides, the mean per-seed difference with its 95 % bootstrap interval over seeds, the
+two-sided sign-flip permutation p of the per-seed differences and that p Holm-adjusted over the
+table's measures.
 """
 
 from __future__ import annotations
@@ -352,6 +359,103 @@ def worlds(path: str) -> str:
     return "\n".join(lines)
 
 
+AGAINST = (("trot gait (share of runs)", "gait"), ("trot rhythm (share of runs)", "rhythm"),
+           ("speed (m/s)", "speed"), ("falls (share of runs)", "falls"),
+           ("weights above 0.9 w_max (share)", "share_above_0.9_w_max"),
+           ("weights below 0.9 w_min (share)", "share_below_0.9_w_min"),
+           ("mixed limb pairs (of 12)", "mixed_limb_pairs"))
+"""The measures of ``against``, fixed before the studies they read had finished: four from the
+evaluation runs of each seed's final table (each averaged over the seed's repeats first), three
+from the table itself (:func:`astrocpg.studies.analysis.gait.weight_structure`)."""
+
+
+def _evaluated(path: str, world: str) -> dict[str, dict[int, dict[str, float]]]:
+    """run id -> seed -> the evaluation measures of AGAINST, each seed's repeats averaged."""
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["world"] == world]
+    if not rows:
+        sys.exit(f"analyse.py: no runs in world {world!r} in {path}")
+    if "rhythm" not in rows[0]:
+        sys.exit(f"analyse.py: {path} predates the gait read from the feet (no rhythm column)")
+    runs: dict[str, dict[int, list[list[float]]]] = {}
+    for r in rows:
+        runs.setdefault(r["source"], {}).setdefault(int(r["seed"]), []).append(
+            [float(r["gait"] == "trot"), float(r["rhythm"] == "trot"),
+             float(r["mean_speed_m_per_s"]), float(r["fell"])])
+    return {run: {seed: dict(zip(("gait", "rhythm", "speed", "falls"), np.mean(v, axis=0)))
+                  for seed, v in seeds.items()} for run, seeds in runs.items()}
+
+
+def _structures(tables: Path, run: str) -> dict[int, dict[str, float]]:
+    """seed -> weight structure of its final table (``final_tables.py``'s ``RUN.npz``), with the
+    bounds of the model the run trained with."""
+    import json
+
+    from astrocpg.models import DEFAULT_MODELS
+    from astrocpg.studies.analysis.gait import weight_structure
+
+    npz, meta = tables / f"{run}.npz", tables / f"{run}.json"
+    if not npz.is_file():
+        sys.exit(f"analyse.py: no final tables {npz} (python docs/ablation/final_tables.py)")
+    overrides = json.loads(meta.read_text())["settings"].get("overrides", {}) \
+        if meta.is_file() else {}
+    if {"w_max", "w_min"} & set(overrides or {}):
+        sys.exit(f"analyse.py: {run} trained with its own weight bounds; not supported here")
+    w_max, w_min = (float(DEFAULT_MODELS.value(k)) * 1e3 for k in ("w_max", "w_min"))  # mV
+    with np.load(npz, allow_pickle=False) as f:
+        return {int(seed): weight_structure(table, w_max, w_min)
+                for seed, table in zip(f["seeds"], f["final_weights_mV"])}
+
+
+def against(reference: str, reference_tables: Path, evaluation: str, tables: Path,
+            world: str) -> str:
+    """Each run of a study against a reference run, seed by seed, on the measures of AGAINST:
+    B − A per seed with its 95 % bootstrap interval over seeds, the two-sided sign-flip
+    permutation p, and that p Holm-adjusted over every run and measure of the table. The pairing
+    is real: a seed has the same initial weights and noise draws in every study of this page."""
+    from astrocpg.studies.analysis.compare import compare, holm, p_text
+
+    ref_eval, _, ref_run = reference.rpartition(":")
+    ref_runs = _evaluated(ref_eval, world)
+    if ref_run not in ref_runs:
+        sys.exit(f"analyse.py: no run {ref_run!r} in {ref_eval} (runs: {', '.join(ref_runs)})")
+    ref_structure = _structures(reference_tables, ref_run)
+    ref = {s: {**v, **ref_structure[s]} for s, v in ref_runs[ref_run].items()
+           if s in ref_structure}
+    runs = _evaluated(evaluation, world)
+    results = []
+    for run, seeds_eval in runs.items():
+        structure = _structures(tables, run)
+        seeds = sorted(set(seeds_eval) & set(ref) & set(structure))
+        for label, key in AGAINST:
+            a = [float(ref[s][key]) for s in seeds]
+            b = [float({**seeds_eval[s], **structure[s]}[key]) for s in seeds]
+            # compare(b, a): its mean_a is B's, mean_b A's and difference B − A
+            results.append((run, label, seeds, compare(b, a, paired=True)))
+    adjusted = holm([t["perm_p"] for *_, t in results])
+    lines = [f"A = {ref_run} ({ref_eval}, tables {reference_tables}); B = each run of "
+             f"{evaluation} (tables {tables}); world {world!r}. Each seed's repeats averaged "
+             "first. B − A per seed: mean [95 % bootstrap interval over seeds]; p: two-sided "
+             "sign-flip permutation test of the per-seed differences; Holm: adjusted over all "
+             f"{len(results)} tests of this table.", ""]
+    current = None
+    for (run, label, seeds, t), adj in zip(results, adjusted):
+        if run != current:
+            current = run
+            lines += [""] * bool(lines[-1]) + [f"**{run}** ({len(seeds)} seeds: "
+                      f"{seeds[0]}–{seeds[-1]})", "",
+                      "| measure | A: mean | B: mean | B − A per seed [95 % interval] | p "
+                      "| Holm p |", "|---|---|---|---|---|---|"]
+        if t["difference_low"] is not None:
+            d = f"{t['difference']:+.3f} [{t['difference_low']:+.3f}, {t['difference_high']:+.3f}]"
+            p = p_text(t["perm_p"], t["perm_p_min"], bool(t["perm_bound"]))
+        else:
+            d, p = f"{t['difference']:+.3f} ({t['note']})", "–"
+        lines.append(f"| {label} | {t['mean_b']:.3f} | {t['mean_a']:.3f} | {d} | {p} | "
+                     f"{p_text(adj) if adj is not None else '–'} |")
+    return "\n".join(lines) + "\n"
+
+
 PANELS = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
           ("length_s", "session length (s)"))
 
@@ -456,6 +560,12 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("a")
     c.add_argument("b")
     c.add_argument("--column", required=True)
+    g = sub.add_parser("against")
+    g.add_argument("reference", help="EVALUATION.csv:RUN_ID, the reference run")
+    g.add_argument("reference_tables", type=Path, help="its final_tables.py folder")
+    g.add_argument("evaluation", help="the study's evaluation.csv")
+    g.add_argument("tables", type=Path, help="the study's final_tables.py folder")
+    g.add_argument("--world", default="flat")
     args = ap.parse_args(argv)
     if args.what == "fig3c":
         if len(args.titles) != len(args.results):
@@ -482,6 +592,9 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout.write(versus(args.ref, args.results, args.sessions, args.last, args.seeds))
     elif args.what == "columns":
         sys.stdout.write(columns(args.a, args.b, args.column))
+    elif args.what == "against":
+        sys.stdout.write(against(args.reference, args.reference_tables, args.evaluation,
+                                 args.tables, args.world))
     return 0
 
 

@@ -135,13 +135,14 @@ def add_gait(sub: Subparsers) -> None:
 def add_evaluate(sub: Subparsers) -> None:
     """``astrocpg evaluate``: trained controllers in other worlds."""
     ev = sub.add_parser("evaluate", help="trained controllers, learning off, in other worlds "
-                                         "(slopes, terrain, friction, pushes)")
+                                         "(slopes, terrain, friction, pushes, payloads)")
     ev.add_argument("dir", help="a training folder or a study folder (its finished runs)")
     ev.add_argument("--worlds", default="robustness",
                     help="a worlds file (TOML: [worlds.NAME] tables of world parameters, "
                          "and/or [grid.AXIS] with values = [...] and, for factors, scale = "
                          "[parameters]) or 'robustness' (flat, slopes +-0.09 and +-0.17 rad, "
-                         "rough terrain 1 and 2 cm, friction 0.3, a 60 N push; the default)")
+                         "rough terrain 1 and 2 cm, friction 0.3, a 60 N push, payloads of 3, "
+                         "6 and 12 kg; the default)")
     ev.add_argument("--seconds", type=float, default=10.0,
                     help="simulated time of each evaluation run, in s, a whole number of 1 ms "
                          "steps (default 10 s)")

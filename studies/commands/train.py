@@ -264,6 +264,7 @@ class Trainer:
                 getattr(self.bridge, k)[...] = v
         for k, v in payload["training"].items():
             getattr(self.training, k)[...] = v
+        self.training.counters_set()
         self.training.memory = _memory_from_state(payload["memory"], self.settings.n_trials)
         if self.recorder is not None and "recorder" in payload:
             self.recorder.restore(payload["recorder"])

@@ -12,6 +12,13 @@ simulated second is measured on its own attempts (or, for a run not started, the
 others); the sessions left are taken to last as long as the last ``RECENT`` sessions of each
 seed did (sessions grow longer as a gait is learnt, so early in a training it is low). The runs
 left are shared over ``workers`` processes.
+
+An attempt that was killed (the machine stopped, the process was ended) leaves no end in the
+run's history, so its wall time is not known. A run with such an attempt is costed on its
+current attempt alone: the wall time since that attempt started against the simulated time
+trained since (the sessions it found done are the first ``sessions_at_start`` rows of
+``sessions.csv``). A run whose status says "running" while no process of that pid lives on this
+host is shown as "stopped".
 """
 
 from __future__ import annotations
@@ -19,6 +26,8 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
+import socket
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,6 +53,15 @@ class RunProgress:
     simulated_s: float  # of its busiest seed: what the run's wall time follows
     left_simulated_s: float  # the same, projected for the sessions left
     attempts: int = 0
+    unrecorded_attempts: int = 0  # killed attempts: their wall time is not known
+    # the wall and simulated seconds the run's cost is measured on (all its attempts, or the
+    # current one alone when an earlier attempt's time is not known)
+    cost_wall_s: float | None = None
+    cost_simulated_s: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.cost_wall_s is None:
+            self.cost_wall_s, self.cost_simulated_s = self.wall_s, self.simulated_s
 
     @property
     def fraction(self) -> float:
@@ -80,9 +98,13 @@ class StudyProgress:
         for r in self.runs:
             lines.append(f"  {r.run_id:<{width}}  {r.state:<9} {r.sessions_done:>6}/"
                          f"{r.sessions_total:<6} sessions  {_duration(r.wall_s):>9} spent"
-                         + (f", {r.attempts} attempts" if r.attempts > 1 else ""))
+                         + (f", {r.attempts} attempts" if r.attempts > 1 else "")
+                         + (f" ({r.unrecorded_attempts} stopped without a record: their "
+                            f"time is not counted)" if r.unrecorded_attempts else ""))
         if self.left_s is None:
-            lines.append("time left: unknown until a run has trained a session")
+            lines.append("time left: unknown until a run has trained a session"
+                         + (" in an attempt whose time is known"
+                            if any(r.unrecorded_attempts for r in self.runs) else ""))
         elif self.left_s == 0:
             lines.append("time left: none (every run has ended)")
         else:
@@ -138,6 +160,43 @@ def _attempt_seconds(out: Path) -> dict[str, float]:
     return spent
 
 
+def _alive(status: dict[str, Any]) -> bool:
+    """Whether the attempt a status names still runs: its pid lives, where that can be known
+    (the same host); an attempt on another host is taken at its word."""
+    pid = status.get("pid")
+    if status.get("host") != socket.gethostname() or not isinstance(pid, int) or pid <= 0:
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # it exists but is not ours to signal
+        return True
+    return True
+
+
+def _simulated_before(folder: Path, n_trials: int, rows: Any) -> float | None:
+    """The busiest seed's simulated seconds over the first ``rows`` rows of sessions.csv (the
+    sessions an attempt found done); None when that count is not known."""
+    if not isinstance(rows, int) or rows < 0:
+        return None
+    per_seed = [0.0] * n_trials
+    try:
+        with open(folder / "sessions.csv", newline="") as f:
+            for k, row in enumerate(csv.DictReader(f)):
+                if k >= rows:
+                    break
+                try:
+                    b, length = int(row["trial"]), float(row["length_s"])
+                except (KeyError, TypeError, ValueError):
+                    continue
+                if 0 <= b < n_trials and math.isfinite(length):
+                    per_seed[b] += length
+    except OSError:
+        return None
+    return max(per_seed, default=0.0)
+
+
 def _read_status(folder: Path) -> dict[str, Any]:
     try:
         status = json.loads((folder / STATUS).read_text())
@@ -164,10 +223,26 @@ def study_status(folder: str | Path, *, workers: int = 1,
         status = _read_status(run_folder)
         state = str(status.get("state", "not run"))
         done, lengths = _sessions(run_folder, n_trials)
-        wall = ended_attempts.get(run_id, 0.0)
-        if state == "running" and isinstance(status.get("started"), (int, float)):
-            wall += max(0.0, now - float(status["started"]))
+        history = status.get("history") if isinstance(status.get("history"), list) else None
+        if history is not None:  # the run's own record of its attempts, ended or not
+            wall = sum(float(h["duration_s"]) for h in history
+                       if isinstance(h, dict) and isinstance(h.get("duration_s"), (int, float)))
+        else:  # older folders: the study's timeline, written when it ended
+            wall = ended_attempts.get(run_id, 0.0)
+        running = state == "running" and isinstance(status.get("started"), (int, float))
+        if running and not _alive(status):
+            state, running = "stopped", False
+        unrecorded = 0 if history is None else sum(
+            1 for h in history[:-1 if running else None]
+            if isinstance(h, dict) and "duration_s" not in h)
+        current_wall = max(0.0, now - float(status["started"])) if running else 0.0
+        wall += current_wall
         simulated = max((sum(x) for x in lengths), default=0.0)
+        cost_wall, cost_simulated = wall, simulated
+        if unrecorded:  # cost the run on its current attempt alone, or not at all
+            before = _simulated_before(run_folder, n_trials, status.get("sessions_at_start"))
+            cost_wall, cost_simulated = (current_wall, simulated - before) \
+                if running and before is not None and simulated > before else (0.0, 0.0)
         left = 0.0
         if state not in ("finished", "diverged"):
             for b in range(n_trials):
@@ -179,7 +254,9 @@ def study_status(folder: str | Path, *, workers: int = 1,
         progress.runs.append(RunProgress(
             run_id=run_id, state=state, sessions_done=sum(min(d, n_sessions) for d in done),
             sessions_total=n_trials * n_sessions, wall_s=wall, simulated_s=simulated,
-            left_simulated_s=left, attempts=int(status.get("attempts", 0) or 0)))
+            left_simulated_s=left, attempts=int(status.get("attempts", 0) or 0),
+            unrecorded_attempts=unrecorded, cost_wall_s=cost_wall,
+            cost_simulated_s=cost_simulated))
     progress.left_s = _time_left(progress.runs, workers)
     return progress
 
@@ -188,19 +265,23 @@ def _time_left(runs: list[RunProgress], workers: int) -> float | None:
     """Projected wall seconds left: each unfinished run's simulated time left at its own cost
     per simulated second; a run with nothing trained yet costs what the mean run has so far
     cost in all. None when no run has trained a session."""
-    measured = [r for r in runs if r.simulated_s > 0 and r.wall_s > 0]
+    measured = [r for r in runs if r.cost_simulated_s > 0 and r.cost_wall_s > 0]
     if all(r.state in ("finished", "diverged") for r in runs):
         return 0.0
     if not measured:
         return None
-    whole = [r.wall_s + r.left_simulated_s * r.wall_s / r.simulated_s for r in measured]
+
+    def cost(r: RunProgress) -> float:  # wall seconds per simulated second of the busiest seed
+        return r.cost_wall_s / r.cost_simulated_s
+
+    whole = [(r.simulated_s + r.left_simulated_s) * cost(r) for r in measured]
     mean_run = sum(whole) / len(whole)
     left = []
     for r in runs:
         if r.state in ("finished", "diverged"):
             continue
-        if r.simulated_s > 0 and r.wall_s > 0:
-            left.append(r.left_simulated_s * r.wall_s / r.simulated_s)
+        if r in measured:
+            left.append(r.left_simulated_s * cost(r))
         else:
             left.append(mean_run)
     # the runs left over the workers: no shorter than the longest run, nor than their sum shared

@@ -1,0 +1,71 @@
+"""docs/beyond/analyse.py against: a study's runs against a reference run, seed by seed, on the
+evaluated gait, rhythm, speed and falls and on the final tables' weight structure."""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+COLUMNS = ("source", "condition", "point", "seed", "world", "repeat", "mean_speed_m_per_s",
+           "fell", "rhythm", "gait")
+
+
+def _analyse():
+    spec = importlib.util.spec_from_file_location("analyse", ROOT / "docs/beyond/analyse.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _evaluation(path: Path, run: str, speed: np.ndarray, trot: np.ndarray) -> None:
+    """Two repeats per seed in the flat world (and one in another world, which must be left out)."""
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        for k, (v, t) in enumerate(zip(speed, trot)):
+            for repeat in range(2):
+                w.writerow({"source": run, "condition": "c", "point": "", "seed": k + 1,
+                            "world": "flat", "repeat": repeat, "mean_speed_m_per_s": v,
+                            "fell": 0, "rhythm": "trot", "gait": "trot" if t else "none"})
+            w.writerow({"source": run, "condition": "c", "point": "", "seed": k + 1,
+                        "world": "rough", "repeat": 0, "mean_speed_m_per_s": 99.0, "fell": 1,
+                        "rhythm": "none", "gait": "none"})
+
+
+def _tables(folder: Path, run: str, saturated: bool, n: int) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    w_max = 0.05  # mV, the model's default
+    table = np.full((8, 8), 0.5 * w_max)
+    if saturated:
+        table[:] = w_max
+    np.savez(folder / f"{run}.npz", final_weights_mV=np.repeat(table[None], n, axis=0),
+             seeds=np.arange(1, n + 1))
+    (folder / f"{run}.json").write_text(json.dumps({"settings": {"overrides": {}}}))
+
+
+def test_against_pairs_seeds_and_corrects_over_the_table(tmp_path):
+    n = 12
+    rng = np.random.default_rng(3)
+    ref_speed = rng.uniform(0.8, 1.2, n)
+    _evaluation(tmp_path / "ref.csv", "astro", ref_speed, np.ones(n, bool))
+    _tables(tmp_path / "ref_tables", "astro", saturated=False, n=n)
+    # the study: every seed 0.5 m/s slower than itself with astrocytes, no trot, saturated
+    _evaluation(tmp_path / "study.csv", "control", ref_speed - 0.5, np.zeros(n, bool))
+    _tables(tmp_path / "tables", "control", saturated=True, n=n)
+    text = _analyse().against(f"{tmp_path / 'ref.csv'}:astro", tmp_path / "ref_tables",
+                              str(tmp_path / "study.csv"), tmp_path / "tables", "flat")
+    rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
+            for line in text.splitlines() if line.startswith("| ") and "measure" not in line}
+    assert "all 7 tests" in text and "12 seeds: 1–12" in text
+    speed = rows["speed (m/s)"]
+    assert speed[2].startswith("-0.500 [-0.500, -0.500]")  # exactly paired: no spread
+    trot = rows["trot gait (share of runs)"]
+    assert trot[0] == "1.000" and trot[1] == "0.000" and trot[2].startswith("-1.000")
+    assert rows["weights above 0.9 w_max (share)"][1] == "1.000"
+    # 12 sign flips: the smallest two-sided p is 2/2**12, reported as such
+    assert rows["falls (share of runs)"][2].startswith("+0.000")
