@@ -6,6 +6,7 @@ import csv
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from astrocpg.errors import InputError
@@ -205,3 +206,36 @@ def test_evaluate_on_dask_gives_the_rows_of_the_serial_run(trained, tmp_path):
     assert (dask / "evaluation.csv").read_text() == (here / "evaluation.csv").read_text()
     assert json.loads((dask / "manifest.json").read_text())["settings"]["workers"] == 2
     verify(train)  # evaluation/ beside a training's files: still its whole, listed folder
+
+
+def test_the_tables_after_a_session_are_those_the_training_kept(tmp_path):
+    """--session S evaluates each trial's table after session S (weights.npz keeps one per
+    session), refused where a trial has not done it or the source is a table file."""
+    from astrocpg.studies.outputs.weights import load_weights
+
+    folder = tmp_path / "train"
+    folder.mkdir()
+    per_session = np.arange(2 * 3 * 64, dtype=float).reshape(2, 3, 8, 8) * 1e-4  # mV
+    np.savez(folder / "weights.npz", weights_mV=per_session, final_weights_mV=per_session[:, -1],
+             sessions_done=np.array([3, 2]), labels=np.array(["x"] * 8))
+    np.testing.assert_array_equal(load_weights(folder, session=1), per_session[:, 0] * 1e-3)
+    np.testing.assert_array_equal(load_weights(folder, session=2, trial=1),
+                                  per_session[1, 1] * 1e-3)
+    np.testing.assert_array_equal(load_weights(folder), per_session[:, -1] * 1e-3)
+    with pytest.raises(InputError, match="not every trial has done 3 sessions") as e:
+        load_weights(folder, session=3)
+    assert e.value.culprit == "--session 3"
+    with pytest.raises(InputError, match="at least 1"):
+        load_weights(folder, session=0)
+    np.save(tmp_path / "t.npy", per_session[0, 0])
+    with pytest.raises(InputError, match="has no sessions"):
+        load_weights(tmp_path / "t.npy", session=1)
+
+
+@pytest.mark.slow
+def test_evaluate_names_a_session_no_trial_has_reached(trained, tmp_path, capsys):
+    train, worlds = trained
+    assert _evaluate(train, worlds, tmp_path / "ev", "0.3", "--session", "5") == 2
+    err = capsys.readouterr().err
+    assert "--session 5" in err and "not every trial has done 5 sessions" in err
+    assert not (tmp_path / "ev").exists()

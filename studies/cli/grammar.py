@@ -154,6 +154,9 @@ def add_evaluate(sub: Subparsers) -> None:
                          "n, repeat r: b = r*n + k) has seed K+b (default 1)")
     ev.add_argument("--condition", action="append", default=None, metavar="NAME",
                     help="only a study's runs of this condition (repeatable; default all)")
+    ev.add_argument("--session", type=int, default=None, metavar="S",
+                    help="the tables after session S of each training (every trial must have "
+                         "done it; default: the final tables)")
     ev.add_argument("--out", default=None, metavar="OUT",
                     help="output folder (default DIR/evaluation, replaced whole each time)")
     add_overwrite(ev)

@@ -118,7 +118,7 @@ def evaluate_command(args: argparse.Namespace) -> int:
     res = evaluate(args.dir, worlds=args.worlds, seconds=args.seconds, repeats=args.repeats,
                    seed=args.seed, conditions=args.condition, out=args.out,
                    overwrite=args.overwrite, progress=not args.no_progress,
-                   workers=args.workers, scheduler=args.scheduler)
+                   workers=args.workers, scheduler=args.scheduler, session=args.session)
     for line in format_summary(res["summary"]):
         print(line)
     print(f"wrote {res['out']}/ (evaluation.csv, summary.csv, manifest.json)")

@@ -136,11 +136,12 @@ def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustne
              seconds: float = 10.0, repeats: int = 5, seed: int = 1,
              conditions: Sequence[str] | None = None, out: str | os.PathLike | None = None,
              overwrite: bool = False, progress: bool = True, workers: int | None = None,
-             scheduler: str | None = None) -> dict[str, Any]:
+             scheduler: str | None = None, session: int | None = None) -> dict[str, Any]:
     """The trained controllers under ``folder`` (a training, or a study's finished runs of
     ``conditions``), learning off, in each world of ``worlds`` (a worlds file, or
-    "robustness"), ``repeats`` times each: what ``astrocpg evaluate`` does. Writes ``out``
-    (default ``folder/evaluation``); returns its rows, summary and ``out``."""
+    "robustness"), ``repeats`` times each: what ``astrocpg evaluate`` does. ``session``: the
+    tables after that session instead of the final ones. Writes ``out`` (default
+    ``folder/evaluation``); returns its rows, summary and ``out``."""
     from .evaluate import evaluate as evaluate_folder
 
     if isinstance(conditions, str):  # one condition, not its characters
@@ -156,7 +157,8 @@ def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustne
     return evaluate_folder(_path(folder, "folder"), worlds=worlds, seconds=seconds,
                            repeats=repeats, seed=seed, conditions=conditions,
                            out=None if out is None else _path(out, "out"), overwrite=overwrite,
-                           progress=progress, workers=workers, scheduler=scheduler)
+                           progress=progress, workers=workers, scheduler=scheduler,
+                           session=session)
 
 
 def power(folder: str | os.PathLike, *, trial: int = 0, sessions: int = 10,

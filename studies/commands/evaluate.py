@@ -296,7 +296,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
              repeats: int = REPEATS, seed: int = 1, conditions: Sequence[str] | None = None,
              out: str | Path | None = None, overwrite: bool = False,
              progress: bool = True, workers: int | None = None,
-             scheduler: str | None = None) -> dict[str, Any]:
+             scheduler: str | None = None, session: int | None = None) -> dict[str, Any]:
     """Run every trained controller under ``folder`` in each world of ``worlds`` for
     ``seconds``, ``repeats`` times (different noise, seeds seed, seed+1, ... per repeat: all
     controllers of a training and all repeats run as trials of one network per world), learning
@@ -310,7 +310,11 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     Dask cluster (a local one of ``workers`` processes, or a running scheduler), as a study's
     runs do; otherwise here, one after the other. Every finished cell is kept in
     ``<out>.parts/`` until the folder is written, so an interrupted evaluation, started again
-    with the same arguments, runs only the cells it had not finished."""
+    with the same arguments, runs only the cells it had not finished.
+
+    ``session``: evaluate each training's tables after that session (every trial must have
+    done it) rather than its final tables, e.g. a long study's tables after 120 and 200 of its
+    400 sessions, evaluated the same way as the final ones."""
     folder = as_path(folder, "folder")
     seconds = number(seconds, "--seconds", positive=True)
     check_duration(seconds, STEP)
@@ -339,7 +343,8 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     plans = []
     for c in controllers:
         verify(c["folder"], strict=False)
-        plans.append((c, load_weights(c["folder"], culprit=""), trained_models(c["settings"])))
+        plans.append((c, load_weights(c["folder"], culprit="", session=session),
+                      trained_models(c["settings"])))
     world_set = read_worlds(worlds, plans[0][2])
     check_grid(len(plans) * len(world_set.worlds),
                f"cells ({len(plans)} training(s) x {len(world_set.worlds)} world(s))",
@@ -376,6 +381,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     settings = {"folder": str(folder), **world_set.to_json(),
                 "worlds_source": str(worlds), "seconds": seconds, "repeats": repeats,
                 "seed": seed, "conditions": list(conditions or []),
+                "tables": "final" if session is None else f"after session {session}",
                 "trainings": [str(c["folder"]) for c, _, _ in plans],
                 "workers": workers, "scheduler": scheduler,
                 "cells_reused": len(cells) - len(todo)}

@@ -28,9 +28,10 @@ WEIGHTS = "weights.npz"
 
 
 def load_weights(path: str | Path, trial: int | None = None, *,
-                 culprit: str = "--weights") -> np.ndarray:
+                 culprit: str = "--weights", session: int | None = None) -> np.ndarray:
     """An 8x8 inter-limb table in mV from .npy, .npz ('weights_mV' or 'weights'), .json or
-    text, or a training folder (its final tables: all trials, or ``trial``); returns volt.
+    text, or a training folder (its final tables, or with ``session`` its tables after that
+    session, which every trial must have done: all trials, or ``trial``); returns volt.
     Every problem is an InputError naming ``culprit`` and the path as the user typed it."""
     p = Path(path)
     where = f"{culprit} {path}" if culprit else str(path)
@@ -43,7 +44,12 @@ def load_weights(path: str | Path, trial: int | None = None, *,
             verify(p, culprit=where, strict=False, only=(WEIGHTS,))
         try:
             with np.load(p / WEIGHTS, allow_pickle=False) as z:
-                w = np.asarray(z["final_weights_mV"], dtype=float)
+                if session is None:
+                    w = np.asarray(z["final_weights_mV"], dtype=float)
+                else:
+                    w = _after_session(z, session, where)
+        except InputError:  # a session the trials have not done: said as such
+            raise
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error):
             raise InputError(f"{WEIGHTS} is corrupt or truncated", culprit=where) from None
         if w.ndim != 3 or w.shape[-2:] != (8, 8):
@@ -54,6 +60,9 @@ def load_weights(path: str | Path, trial: int | None = None, *,
                 raise InputError(f"{path} has {len(w)} trial(s)", culprit=f"--trial {trial}")
             w = w[trial]
     else:
+        if session is not None:
+            raise InputError("a table file has no sessions: give a training folder",
+                             culprit=f"--session {session}")
         check_regular(p, where)  # a FIFO, device or socket: refused, never waited on
         if not p.is_file():
             raise InputError("no such file or folder", culprit=where)
@@ -86,6 +95,19 @@ def load_weights(path: str | Path, trial: int | None = None, *,
     if not np.all(np.isfinite(w)):
         raise InputError("contains non-finite values", culprit=where)
     return w * 1e-3
+
+
+def _after_session(z: Any, session: int, where: str) -> np.ndarray:
+    """Every trial's table after ``session`` (1-based) from a training's weights.npz, whose
+    ``weights_mV`` holds the table after each session; refused unless every trial did it."""
+    if isinstance(session, bool) or not isinstance(session, (int, np.integer)) or session < 1:
+        raise InputError(f"must be a whole number of at least 1, got {session!r}",
+                         culprit="--session")
+    done = np.asarray(z["sessions_done"])
+    if int(done.min()) < session:
+        raise InputError(f"{where}: not every trial has done {session} sessions (the fewest: "
+                         f"{int(done.min())})", culprit=f"--session {session}")
+    return np.asarray(z["weights_mV"][:, session - 1], dtype=float)
 
 
 #: The top-left cell of a labelled CSV: which pools its rows are (normalised: no spaces,
