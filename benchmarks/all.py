@@ -7,8 +7,8 @@ utilisation, the training's writes and the paper's ablation projected on this ma
 
 - **Trial-step**: the closed loop at 1 and 20 trials (``speed.py``: steady state, MuJoCo's step
   timed alone for 1 s inside the same run), each point ``--speed-repeats`` times, interleaved;
-  medians, and the spread of the ratio between repeats. Goals at 20 trials: 1.5 x MuJoCo's
-  step on Cython, 2.5 x on numpy.
+  medians, and the spread of the ratio between repeats. Goals at 20 trials: 2.0 x MuJoCo's
+  step on Cython, 3.5 x on numpy.
 - **Recording**: ``astrocpg run``'s default recording against none at 20 trials, and its peak
   memory per trial per simulated second (``recording_cost.py``; goals 15 % and 2 MiB).
 - **Start-up**: ``run --seconds 0.1`` and ``describe`` against ``import brian2, mujoco``

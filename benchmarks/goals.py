@@ -1,0 +1,106 @@
+"""The three speed goals side by side, in one run, each from its own benchmark run as a user
+would type it, every figure with its repeats and their spread:
+
+    python benchmarks/goals.py [--repeats 3] [--json docs/benchmarks/goals.json]
+                               [--markdown docs/benchmarks/goals.md]
+
+- **Recorded run** (``recorded_run_cost.py``): ``astrocpg run --trials 20 --codegen cython``
+  with its default recording against the same command recording nothing, CPU of the command as
+  typed (writes included), slope between 2 s and 6 s runs. Goal: at most 1.25 x.
+- **Training step** (``training_cost.py``): a training step against a fixed-weight step of the
+  same 20-trial batch, in one process, interleaved. Goal: at most 1.15 x.
+- **Trial-step** (``speed.py --trials 20``): a trial-step of the closed loop against MuJoCo's
+  own step of the same robot, Cython and numpy. Goals: at most 2.0 x on Cython, 3.5 x on numpy.
+
+Each benchmark runs ``--repeats`` times inside its own script (interleaved where the script
+interleaves); ``spread`` is max/min - 1 over the repeats, and a figure counts as measured when
+its spread is within ``--within`` (default 10 %). Other programs on the machine slow a run and
+widen the spread: run it on a quiet machine (the load average is recorded).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def _run(script: str, *args: str, json_out: Path) -> dict:
+    cmd = [sys.executable, str(HERE / script), *args, "--json", str(json_out)]
+    print("$ " + " ".join(cmd[1:]), flush=True)
+    subprocess.run(cmd, check=True)
+    return json.loads(json_out.read_text())
+
+
+def _row(goal: str, measure: str, values: list[float], target: float,
+         within: float) -> dict:
+    median = statistics.median(values)
+    spread = max(values) / min(values) - 1
+    return {"goal": goal, "measure": measure, "values": [round(v, 3) for v in values],
+            "median": round(median, 3), "spread": round(spread, 3), "target": target,
+            "steady": spread <= within, "met": median <= target and spread <= within}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--within", type=float, default=0.10, help="largest spread that counts")
+    ap.add_argument("--json", default=None, metavar="FILE")
+    ap.add_argument("--markdown", default=None, metavar="FILE")
+    args = ap.parse_args()
+    started, load_before = time.time(), os.getloadavg()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        t = Path(tmp)
+        rec = _run("recorded_run_cost.py", "--repeats", str(args.repeats), "--runs", "1",
+                   json_out=t / "recorded.json")
+        rows.append(_row("recorded run", "recorded / unrecorded CPU per trial-second",
+                         [r["ratio"] for r in rec["repeats"]], 1.25, args.within))
+        tr = _run("training_cost.py", "--seconds", "3", "--repeats", str(args.repeats),
+                  "--no-breakdown", json_out=t / "training.json")
+        rows.append(_row("training step", "training / fixed-weight step",
+                         [r["ratio"] for r in tr["repeats"]], 1.15, args.within))
+        sp = _run("speed.py", "--trials", "20", "--codegen", "cython", "numpy", "--seconds",
+                  "3", "--repeats", str(args.repeats), json_out=t / "speed.json")
+        for point in sp["points"]:
+            target = {"cython": 2.0, "numpy": 3.5}[point["codegen"]]
+            rows.append(_row(f"trial-step ({point['codegen']})", "trial-step / mj_step",
+                             [r["x_mj_step"] for r in point["repeats"]], target, args.within))
+    result = {"benchmark": "goals", "argv": sys.argv, "date": time.strftime("%Y-%m-%d %H:%M"),
+              "wall_s": round(time.time() - started, 1),
+              "machine": {"platform": platform.platform(), "cpu_count": os.cpu_count(),
+                          "load_average_before": list(load_before),
+                          "load_average_after": list(os.getloadavg())},
+              "goals": rows, "recorded_run": rec, "training": tr, "speed": sp}
+    lines = [f"Speed goals, `python {' '.join(sys.argv)}`, {result['date']}, "
+             f"{os.cpu_count()} cores, load average {load_before[0]:.1f} before and "
+             f"{os.getloadavg()[0]:.1f} after, {result['wall_s']:.0f} s.", "",
+             "| goal | measure | repeats | median | spread | target | met |",
+             "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        met = "yes" if r["met"] else ("no" if r["steady"] else "not shown (spread)")
+        lines.append(f"| {r['goal']} | {r['measure']} | "
+                     + ", ".join(f"{v:.2f}" for v in r["values"])
+                     + f" | {r['median']:.2f} | {100 * r['spread']:.0f} % | "
+                       f"≤ {r['target']:.2f} | {met} |")
+    text = "\n".join(lines) + "\n"
+    print()
+    print(text)
+    if args.json:
+        Path(args.json).write_text(json.dumps(result, indent=1))
+    if args.markdown:
+        Path(args.markdown).write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
