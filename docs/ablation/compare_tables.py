@@ -140,9 +140,11 @@ def main(argv: list[str] | None = None) -> int:
                 test = (f"| {p_text(c['perm_p'], c['perm_p_min'], c['perm_bound'])} | "
                         f"{p_text(c['mwu_p'])} | {p_text(p_holm, p_holm, c['perm_bound'])} |")
             lines.append(f"| {g} | {label} | {cells[0]} | {cells[1]} | {diff} {test}")
-        known = [p for p in adjusted if p is not None]
-        lines += ["", f"{sum(p < 0.05 for p in known)} of {m} figures differ at Holm p < 0.05; "
-                      f"smallest Holm p {p_text(min(known)) if known else 'n/a'}."]
+        known = [(p, c["perm_bound"]) for p, (*_, c) in zip(adjusted, rows) if p is not None]
+        smallest = min(known, default=None)
+        lines += ["", f"{sum(p < 0.05 for p, _ in known)} of {m} figures differ at Holm p < 0.05; "
+                      f"smallest Holm p "
+                      f"{p_text(smallest[0], smallest[0], smallest[1]) if smallest else 'n/a'}."]
     else:
         m = sum(1 for g in groups for key, _, _ in FIGURES
                 if a[g][f"{key}_std"] > 0 or b[g][f"{key}_std"] > 0)
