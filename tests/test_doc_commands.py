@@ -496,6 +496,35 @@ def test_analyse_commands_run_on_the_committed_tables(tmp_path):
     assert ran >= 6
 
 
+STATISTICS = ("docs/ablation/retest.py", "docs/ablation/compare_tables.py")
+
+
+def test_statistics_commands_rewrite_the_committed_tables(tmp_path):
+    """The retest.py and compare_tables.py commands of the manual and of docs/ablation's run
+    pages that read committed rows and tables only: each runs, and its output is the committed
+    file it redirects to (a table left stale by a change of the script or of its data fails)."""
+    cmds = [c for c in commands() if not c.snippet]
+    for page in sorted(DOCS.glob("ablation/*/README.md")):
+        for block in blocks(page):
+            if block.lang in SHELL_LANGS:
+                cmds.extend(_block_commands(block))
+    ran = set()
+    for cmd in cmds:
+        if not any(s in cmd.text for s in STATISTICS) or "out/" in cmd.text or cmd.text in ran:
+            continue
+        redirect = _redirect(cmd)
+        assert redirect, f"{cmd.where}: {cmd.text} writes no committed file"
+        argv = _without_redirect(segments(cmd)[0], redirect)
+        done = subprocess.run([sys.executable, *argv[1:]], cwd=ROOT, capture_output=True,
+                              text=True, env={**os.environ, "MPLBACKEND": "Agg"}, timeout=300)
+        assert done.returncode == 0, f"{cmd.where}: {cmd.text}\n{done.stderr[-2000:]}"
+        assert done.stdout == (ROOT / redirect).read_text(encoding="utf-8"), \
+            f"{cmd.where}: {redirect} is not what the command writes"
+        ran.add(cmd.text)
+    # the rough and load-afferent retests, the streams' and the three runs' comparisons
+    assert len(ran) >= 6, sorted(ran)
+
+
 # --- the slow test: everything, in order, shortened ---------------------------------------------
 
 MAX_SECONDS = 4.0
