@@ -46,7 +46,8 @@ from ..outputs.result import Result
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..runtime.resources import check_memory, estimate_bytes
 from ...models.compose import model_files_record, model_set, override_items
-from .settings import added_populations, number, population_rows, seed_number, same_populations
+from .settings import (added_populations, number, population_rows, same_populations,
+                       seed_number)
 from .simulate import check_selection
 
 # Writing the outputs and the checkpoint costs time that grows with the sessions done (20 trials
@@ -1104,7 +1105,8 @@ def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
 
     def progress_manifest() -> None:  # the inventory follows every checkpoint
         done = trainer.training.sessions_done.tolist()
-        write_manifest(out, **manifest, results={"status": "running", "sessions_done": done} | layout,
+        write_manifest(out, **manifest,
+                       results={"status": "running", "sessions_done": done} | layout,
                        history=True)
 
     trainer.on_checkpoint = progress_manifest
