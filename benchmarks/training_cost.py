@@ -122,7 +122,7 @@ def build_training(models: Any, args: argparse.Namespace, out: Path) -> Any:
     out.mkdir(parents=True, exist_ok=True)
     trainer.bar = Bar(total=SESSIONS * args.trials, unit="session", disable=True)
     manifest = dict(command="train", seed=settings.seed,
-                    settings=settings.__dict__ | {"record": None},
+                    settings=settings.record() | {"record": None},
                     models_json=trainer.models.to_json(), files=TRAIN_FILES,
                     invocation={"sessions": settings.n_sessions})
 

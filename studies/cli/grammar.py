@@ -107,6 +107,9 @@ def add_train(sub: Subparsers) -> None:
                             "samples (default 1)")
     add_record_options(train)
     add_model_options(train)
+    add_population_option(train, "; the training keeps its file: --resume rebuilds it (a "
+                                 "different file is refused), and its replays (run --weights, "
+                                 "gait, evaluate) build it too")
 
 
 def add_gait(sub: Subparsers) -> None:

@@ -95,10 +95,10 @@ def train_command(args: argparse.Namespace) -> int:
     try:
         if args.resume:
             result = resume(args.resume, out=args.out or None, overwrite=args.overwrite,
-                            **common, **model_args(args))
+                            **common, **model_args(args), **population_args(args))
         else:
             result = train(out=args.out, overwrite=args.overwrite, inputs=input_files(args),
-                           **common, **model_args(args))
+                           **common, **model_args(args), **population_args(args))
     except TrainingStopped as e:
         where = args.resume or args.out
         sys.stderr.write(f"astrocpg: training {e}; continue with astrocpg train --resume "

@@ -116,11 +116,11 @@ def add_model_file_option(p: argparse.ArgumentParser) -> None:
                         "dump MODEL` writes it); it may declare new parameters and variables")
 
 
-def add_population_option(p: argparse.ArgumentParser) -> None:
+def add_population_option(p: argparse.ArgumentParser, more: str = "") -> None:
     p.add_argument("--population", dest="population_files", action="append", default=[],
                    metavar="FILE",
                    help="add a population: a neuron model file (TOML) with a [population] table "
-                        "saying its cells, traces and inputs (docs/model-files.md)")
+                        "saying its cells, traces and inputs (docs/model-files.md)" + more)
 
 
 def add_model_options(p: argparse.ArgumentParser) -> None:

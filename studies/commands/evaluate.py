@@ -48,7 +48,7 @@ from ..outputs.writing import write_manifest
 from ..outputs.weights import load_weights
 from ..runtime.resources import check_memory, estimate_bytes
 from .run import trained_models, training_settings
-from .settings import check_grid, number, seed_number
+from .settings import added_populations, check_grid, number, seed_number
 from .simulate import STEP, check_duration, simulate_closed_loop
 
 BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}
@@ -262,13 +262,15 @@ def evaluate_cell(controller: Mapping[str, Any], tables: np.ndarray, world: str,
                   repeats: int, progress: bool = False) -> list[dict[str, Any]]:
     """One training's controllers in one world: its trials x ``repeats`` as the trials of one
     network (trial ``r*n + k``: controller ``k``, repeat ``r``), learning off; one row each.
-    Runs here or on a Dask worker (everything it takes is picklable)."""
+    Runs here or on a Dask worker (everything it takes is picklable). The populations the
+    training added are built too: its network."""
     here = in_world(trained_models(controller["settings"]), setting)
     n = len(tables)
     batch = np.concatenate([tables] * repeats)
-    result = simulate_closed_loop(here, seconds=seconds, seed=seed, n_trials=len(batch),
-                                  weights=batch, record_traces=False, spikes=("motor",),
-                                  progress=progress)
+    with added_populations(controller["settings"].get("populations")):
+        result = simulate_closed_loop(here, seconds=seconds, seed=seed, n_trials=len(batch),
+                                      weights=batch, record_traces=False, spikes=("motor",),
+                                      progress=progress)
     rows = []
     for b in range(len(batch)):
         r, k = divmod(b, n)

@@ -31,7 +31,7 @@ from ..outputs.weights import load_weights
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..runtime.resources import check_memory, estimate_bytes
 from ...models.compose import model_set
-from .settings import number
+from .settings import added_populations, number
 
 # The paper's figures, shown next to ours (not used in any computation).
 PAPER = {
@@ -92,7 +92,9 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
     if not settings.get("astrocytes", True):
         models = models.with_values({"astrocyte_regulation": 0.0})
     seed = int(manifest.get("seed", settings.get("seed", 1))) + trial
-    loop = build_closed_loop(models, n_trials=1, seed=seed, weights=weights)
+    # the network the table trained on: with the populations its training added
+    with added_populations(settings.get("populations")):
+        loop = build_closed_loop(models, n_trials=1, seed=seed, weights=weights)
     cpg, bridge = loop.cpg, loop.bridge
     L_max = models.value("L_max")
     bar = tqdm(total=sessions, unit="session", desc="power", disable=not progress)

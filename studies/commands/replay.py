@@ -27,6 +27,7 @@ from ...network.codegen import framework_target
 from ..outputs.folder import OutputFolder, as_path, refuse_in_use
 from ..outputs.result import Result
 from ..outputs.writing import read_manifest
+from .settings import added_populations
 from .train import SESSION_STARTS, TrainSettings, record_plan, train_from_start
 from ...models.compose import model_set
 
@@ -86,7 +87,8 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
     (a training folder, or a study's ``runs/<run id>/``) alone, with learning on, writing ``out``: a one-session training folder whose
     ``recordings/trial00_session0001/`` holds the session's spikes, traces and robot, and
     whose manifest's ``settings.replay_of`` names the training, trial, session and step.
-    Needs the Brian2 target the training ran with.
+    Needs the Brian2 target the training ran with. The populations the training added
+    (``settings.populations`` of its manifest) are built too.
 
     Returns the replay's Result (kind "train"); ``result.summary["replay"]`` gives the
     recorded and the replayed final x (``sessions.csv``'s text, 9 significant digits) and
@@ -109,17 +111,20 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
                              astrocytes=bool(recorded.get("astrocytes", True)),
                              overrides=list(recorded.get("overrides") or []),
                              equations=dict(recorded.get("equations") or {}),
-                             models=dict(recorded.get("models") or {}))
+                             models=dict(recorded.get("models") or {}),
+                             populations=dict(recorded.get("populations") or {}))
     models = model_set(settings.overrides, settings.equations, models=settings.models)
     out_path = as_path(out, "--out")
     OutputFolder(out_path, overwrite=overwrite, inputs=[*inputs, folder]).check()
-    plan = record_plan(1, record_stride, spikes, traces)
     row = recorded_row(folder, trial, session)
     origin = {"training": str(folder), "trial": trial, "session": session,
               "step": start.step, "seed": settings.seed,
               "recorded_final_x_m": None if row is None else row["final_x_m"]}
-    trainer = train_from_start(settings, out_path, plan, start, origin, models=models,
-                               progress=progress, overwrite=overwrite)
+    # the populations the training added: the same network, recorded like its own
+    with added_populations(settings.populations):
+        plan = record_plan(1, record_stride, spikes, traces)
+        trainer = train_from_start(settings, out_path, plan, start, origin, models=models,
+                                   progress=progress, overwrite=overwrite)
     result = Result.from_training(trainer, out_path)
     replayed = f"{trainer.training.memory.rows[0]['final_x_m']:.9g}"
     result.summary["replay"] = origin | {

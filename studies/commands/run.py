@@ -18,12 +18,14 @@ from ...reading import read_json
 from ...models import ModelSet
 from ..analysis.fall import fall_words, falls
 from ..outputs.folder import OutputFolder, verify
-from ..outputs.writing import file_sha256, save_npz, save_spikes_and_traces, write_manifest
+from ..outputs.writing import (file_sha256, read_manifest, save_npz, save_spikes_and_traces,
+                               write_manifest)
 from ..outputs.result import Result
 from ..outputs.weights import check_table, load_weights
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from ...network import populations as _table
-from .settings import number, population_rows, seed_number
+from .settings import (added_populations, number, population_rows, same_populations,
+                       seed_number)
 from ..runtime.resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
@@ -60,7 +62,9 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     traces to record (None: all). out: writes the folder ``astrocpg run`` writes. figure: also
     draw ``thigh_extensor_activity.png`` there (about a second; ``astrocpg plot OUT`` draws it
     and the other figures at any time later). populations: model files with a ``[population]``
-    table, populations added to the network for this call (docs/model-files.md). inputs: other
+    table, populations added to the network for this call (docs/model-files.md); with
+    ``weights`` a training folder, the populations that training added are built too (its
+    network, with its tables). inputs: other
     files the caller read (e.g. model
     files): ``out`` may not be or hold one, nor ``weights`` and ``robot`` (see
     :func:`~astrocpg.studies.outputs.folder.check_output_path`). session: with ``weights`` a
@@ -78,7 +82,9 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
             raise InputError("a replay runs the training's own network", culprit="--population")
         return _replay(locals())
 
-    rows, population_record = population_rows(populations)  # before any other check
+    # before any other check; a training's tables run on its network: its populations too
+    population_record = with_trained_populations(weights, population_rows(populations)[1])
+    rows = population_rows(population_record)[0]
     with _table.registered(*rows):
         from ...coupling.robot import A1Parameters, RobotLayout, load_robot
         from ...coupling.world import world_model
@@ -172,6 +178,26 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                       summary=run_results(result), robot=robot_arrays(result),
                                       models=models, folder=out)
+
+
+def with_trained_populations(weights: Any, given: dict[str, Any]) -> dict[str, Any]:
+    """``given`` (a record of ``--population`` files, :func:`population_rows`) with the
+    populations the training folder ``weights`` added (none for a weights file, an array or a
+    folder that recorded none); a file given for one of them that is not the training's is
+    refused, naming ``--population``."""
+    if not (isinstance(weights, (str, os.PathLike)) and Path(weights).is_dir()):
+        return given
+    settings = (read_manifest(Path(weights)) or {}).get("settings")
+    recorded = settings.get("populations") if isinstance(settings, dict) else None
+    if not isinstance(recorded, dict) or not recorded:
+        return given
+    clash = same_populations(recorded, {k: v for k, v in given.items() if k in recorded})
+    if clash is not None:
+        raise InputError(f"the training in {weights} added {clash} from another file (recorded "
+                         f"sha256 {recorded[clash]['sha256'][:12]}, given "
+                         f"{given[clash]['sha256'][:12]}); its tables run on its own network",
+                         culprit="--population")
+    return dict(recorded) | {k: v for k, v in given.items() if k not in recorded}
 
 
 def _summarise(result: SimulationResult, models: Any, start_x: float, robot_info: dict,
@@ -453,7 +479,7 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
     (independent network noise per run), by default the training's own seed, so that repeat 0
     runs each table on the network and noise it trained with. ``world``: ``NAME=VALUE`` world
     parameters (e.g. ``slope=0.17``) set over the training's own world. Returns the result and
-    the ``n`` tables (volt)."""
+    the ``n`` tables (volt). The populations the training added are built too: its network."""
     seconds = number(seconds, "--seconds", positive=True)
     check_duration(seconds, STEP)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
@@ -468,10 +494,11 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
                                 robot_stride=1),
                  culprit=f"--seconds {seconds:g} x {len(weights)} trained trial(s) x "
                          f"{repeats} repeat(s)")
-    result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
-                                  n_trials=len(weights) * repeats,
-                                  weights=np.concatenate([weights] * repeats),
-                                  record_traces=False, progress=progress)
+    with added_populations(training_settings(folder).get("populations")):
+        result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
+                                      n_trials=len(weights) * repeats,
+                                      weights=np.concatenate([weights] * repeats),
+                                      record_traces=False, progress=progress)
     return result, weights
 
 

@@ -46,7 +46,8 @@ from ..outputs.result import Result
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..runtime.resources import check_memory, estimate_bytes
 from ...models.compose import model_files_record, model_set, override_items
-from .settings import number, seed_number
+from .settings import (added_populations, number, population_rows, same_populations,
+                       seed_number)
 from .simulate import check_selection
 
 # Writing the outputs and the checkpoint costs time that grows with the sessions done (20 trials
@@ -69,13 +70,28 @@ class TrainSettings:
     equations: dict[str, str] = field(default_factory=dict)  # model -> equation text
     # model -> {"sha256", "content"} of a model file (TOML)
     models: dict[str, dict[str, str]] = field(default_factory=dict)
+    # population -> {"sha256", "content"} of the model file that added it (``--population``)
+    populations: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def fingerprint(self) -> str:
+        # an added population's file is part of what the checkpoint belongs to; a training
+        # without one keeps the fingerprint it always had
         text = repr((self.n_sessions, self.seed, self.n_trials, self.astrocytes,
                      sorted(self.overrides), sorted(self.equations.items()))
                     + ((sorted((k, v["sha256"]) for k, v in self.models.items()),)
-                       if self.models else ()))
+                       if self.models else ())
+                    + ((("populations", sorted((k, v["sha256"])
+                                               for k, v in self.populations.items())),)
+                       if self.populations else ()))
         return hashlib.sha256(text.encode()).hexdigest()
+
+    def record(self) -> dict[str, Any]:
+        """The settings as the manifest and the checkpoint record them (``populations`` only
+        where one was added: a training without one records what it always did)."""
+        out = dict(self.__dict__)
+        if not out["populations"]:
+            del out["populations"]
+        return out
 
 
 class TrainingStopped(RuntimeError):
@@ -211,7 +227,7 @@ class Trainer:
         tr, br = self.training, self.bridge
         payload = {
             "fingerprint": self.settings.fingerprint(),
-            "settings": self.settings.__dict__,
+            "settings": self.settings.record(),
             "codegen": self.cpg.codegen,
             "brian": brian_state,
             "mujoco": mj,
@@ -549,7 +565,7 @@ def check_belongs(out: Path, settings: TrainSettings) -> int:
             == settings.fingerprint()):
         return mine.n_sessions
     differ = [f"{k} {v!r} (folder: {recorded.get(k)!r})"
-              for k, v in settings.__dict__.items() if recorded.get(k) != v] or ["its fingerprint"]
+              for k, v in settings.record().items() if recorded.get(k) != v] or ["its fingerprint"]
     raise InputError(f"belongs to another training than its folder: {', '.join(differ[:3])}; "
                      f"a folder holds one run (resume the folder that checkpoint came from)",
                      culprit=out / CHECKPOINT)
@@ -666,7 +682,8 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
           record_every: int | None = None,
           record_stride: int | None = None, spikes: tuple[str, ...] | None = None,
           traces: tuple[str, ...] | None = None, overwrite: bool = False,
-          progress: bool = True, inputs: Sequence[str | os.PathLike] = ()) -> Result:
+          progress: bool = True, inputs: Sequence[str | os.PathLike] = (),
+          populations: Any = None) -> Result:
     """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
     each, writing ``out`` (sessions.csv, weights.npz, checkpoint.npz, manifest.json) after every
     session: what ``astrocpg train`` runs. ``astrocytes=False`` is the paper's ablation;
@@ -675,7 +692,10 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
     ... and each trial's last into ``out/recordings/`` (``record_stride`` steps between trace
     and robot samples; ``spikes``/``traces`` pick what). ``overwrite`` replaces only an astrocpg
     output folder that is none of ``inputs`` (files the caller read, e.g. model files) and
-    holds none of them.
+    holds none of them. ``populations``: model files with a ``[population]`` table (texts, or
+    ``{file: text}``), populations added to every session's network (docs/model-files.md, "A
+    new population"): recorded with the sessions, and their files kept with the settings, so
+    that :func:`resume` and the replays rebuild them.
 
     Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "train", read back from
     ``out`` (``sessions`` DataFrame, ``weights`` (trial, session, 8, 8) mV, ``recording(trial,
@@ -684,12 +704,14 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
     (continue with :func:`resume`)."""
     if out is None or (isinstance(out, str) and not out):
         raise InputError("is required (or --resume DIR)", culprit="--out")
+    population_record = population_rows(populations)[1]  # each file parsed and checked
     n_trials = number(trials, "--trials", integer=True, minimum=1)
     settings = TrainSettings(
         n_sessions=number(sessions, "--sessions", integer=True, minimum=1),
         seed=seed_number(seed, trials=n_trials), n_trials=n_trials,
         astrocytes=bool(astrocytes), overrides=override_items(overrides),
-        equations=dict(equations or {}), models=model_files_record(models))
+        equations=dict(equations or {}), models=model_files_record(models),
+        populations=population_record)
     # composed once, before any file is touched, and handed to the training
     models = model_set(settings.overrides, settings.equations, models=settings.models)
     out = as_path(out, "--out")
@@ -699,12 +721,13 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
                          f"replace it with --overwrite)", culprit=f"--out {out}")
     OutputFolder(out, overwrite=overwrite, inputs=inputs).check()
-    plan = record_plan(record_every, record_stride, spikes, traces)
-    check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
-                                sessions=settings.n_sessions),
-                 culprit=f"--sessions {settings.n_sessions} x --trials {settings.n_trials}")
-    return Result.from_training(_train(settings, out, plan, None, progress, replace=overwrite,
-                                       new=True, models=models), out)
+    with added_populations(settings.populations):  # recorded and built like the others
+        plan = record_plan(record_every, record_stride, spikes, traces)
+        check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
+                                    sessions=settings.n_sessions),
+                     culprit=f"--sessions {settings.n_sessions} x --trials {settings.n_trials}")
+        return Result.from_training(_train(settings, out, plan, None, progress,
+                                           replace=overwrite, new=True, models=models), out)
 
 
 def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = True,
@@ -714,15 +737,16 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
            trials: int | None = None, astrocytes: bool | None = None, overrides: Any = None,
            equations: Mapping[str, str] | None = None, models: Mapping[str, Any] | None = None,
            out: str | Path | None = None, overwrite: bool = False,
-           expect: dict[str, Any] | None = None) -> Result:
+           expect: dict[str, Any] | None = None, populations: Any = None) -> Result:
     """Continue the training in ``folder`` from its checkpoint (``astrocpg train --resume``)
     and end with the same files as a training never interrupted (what later commands derived
     from the earlier weights, e.g. ``evaluation/`` and ``figures/``, is removed: it would be
     stale).
 
-    A resumed training keeps the settings it started with. Options given again (``seed``,
-    ``trials``, ``astrocytes``, ``overrides``, ``equations``, ``models``, the recording
-    options; or the same in ``expect``) must agree with them, or the resume is refused
+    A resumed training keeps the settings it started with, the populations it added
+    included (rebuilt from the files its folder recorded). Options given again (``seed``,
+    ``trials``, ``astrocytes``, ``overrides``, ``equations``, ``models``, ``populations``, the
+    recording options; or the same in ``expect``) must agree with them, or the resume is refused
     with the option and both values named (:func:`~astrocpg.studies.commands.train.check_resume_options`): none is silently
     ignored. ``out`` may only name ``folder`` itself (a resume writes where it continues), and
     ``overwrite`` is refused (it would replace what the resume continues).
@@ -743,7 +767,7 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     if overwrite:  # never ignored: it would replace what --resume continues
         raise InputError("replaces a training, --resume continues one: use one of them",
                          culprit="--overwrite")
-    given = _given_again(seed, trials, astrocytes, overrides, equations, models) \
+    given = _given_again(seed, trials, astrocytes, overrides, equations, models, populations) \
         | dict(expect or {})
     asked = given.pop("sessions", None)
     if sessions is None:
@@ -780,15 +804,24 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     if not fresh:  # a checkpoint copied or linked in from another training
         # an extension stopped before its first checkpoint: the manifest plans more sessions
         planned = check_belongs(out, settings)
+    with added_populations(settings.populations):  # its recording plan may name them
+        return _resume_checked(out, settings, payload, fresh, planned, sessions, given,
+                               dict(record_every=record_every, record_stride=record_stride,
+                                    spikes=spikes, traces=traces), progress)
+
+
+def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any], fresh: bool,
+                    planned: int, sessions: int | None, given: dict[str, Any],
+                    recording: dict[str, Any], progress: bool) -> Result:
+    """:func:`resume` once the folder's settings are read (and its populations added): the
+    options given again checked against them, the sessions to train to, the training."""
     try:
         stored_plan = (None if payload.get("record_plan") is None
                        else RecordPlan.from_dict(payload["record_plan"]))
     except (TypeError, ValueError):
         raise InputError(f"{out / CHECKPOINT} is corrupt (its recording plan)",
                          culprit="--resume") from None
-    check_resume_options(settings, stored_plan, given | {
-        "record_every": record_every, "record_stride": record_stride, "spikes": spikes,
-        "traces": traces})
+    check_resume_options(settings, stored_plan, given | recording)
     if not fresh:
         _same_codegen(payload.get("codegen", "numpy"), codegen_target())
     if not fresh:  # its content passed every check above: is it the file its run wrote?
@@ -823,14 +856,15 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
 
 def _given_again(seed: int | None, trials: int | None, astrocytes: bool | None,
                  overrides: Any, equations: Mapping[str, str] | None,
-                 models: Mapping[str, Any] | None) -> dict[str, Any]:
+                 models: Mapping[str, Any] | None, populations: Any = None) -> dict[str, Any]:
     """The settings a resume was given again, as :func:`check_resume_options` compares them
     (None: not given)."""
     items = override_items(overrides)
     return {"seed": seed, "trials": trials,
             "astrocytes": None if astrocytes is None else bool(astrocytes),
             "overrides": sorted(items) or None, "equations": dict(equations or {}) or None,
-            "models": model_files_record(models) or None}
+            "models": model_files_record(models) or None,
+            "populations": population_rows(populations)[1] or None}
 
 
 def _check_extension(out: Path, sessions: int, target: int,
@@ -871,7 +905,8 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     (an InputError naming the option, the recorded value and the given one); an option given
     with the recorded value is accepted (the run continues with it). ``given``: ``sessions``,
     ``seed``, ``trials``, ``astrocytes`` (bool), ``models`` ({model: {"sha256", "content"}}),
-    ``equations`` ({model: text}), ``overrides`` (``NAME=VALUE`` items), ``record_every``,
+    ``equations`` ({model: text}), ``overrides`` (``NAME=VALUE`` items), ``populations``
+    ({name: {"sha256", "content"}} of ``--population`` files), ``record_every``,
     ``record_stride``, ``spikes``, ``traces``; None: not given.
 
     Parameter values are compared as quantities in SI (:data:`SAME_VALUE_RTOL`), not as
@@ -897,6 +932,7 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
                "that run trained without astrocytes (recorded: off, given: on)")
     for name, record in model_files_record(given.get("models")).items():  # texts or records
         _check_model_file(name, settings.models.get(name), record, refuse)
+    _check_populations(settings.populations, given.get("populations") or {}, refuse)
     if given.get("equations"):
         known = dict(model_set(models=settings.models).items())
     for name, text in (given.get("equations") or {}).items():
@@ -943,6 +979,22 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     if traces is not None and set(want_traces) != set(plan.traces):
         refuse("--traces", f"that run records the traces {_option_text(plan.traces)}, "
                            f"not {_option_text(want_traces)}")
+
+
+def _check_populations(recorded: dict[str, dict[str, str]], given: Mapping[str, Any],
+                       refuse: Callable[[str, str], NoReturn]) -> None:
+    """``--population FILE`` given to a resume: each must be a file the training added (the
+    same file, or one that defines the same population and model)."""
+    name = same_populations(recorded, given)
+    if name is None:
+        return
+    sha = given[name]["sha256"][:12]
+    if name not in recorded:
+        had = ", ".join(sorted(recorded)) or "none"
+        refuse("--population", f"that run did not add the population {name} (sha256 {sha}; "
+                               f"added: {had})")
+    refuse("--population", f"that run added {name} from another file (recorded sha256 "
+                           f"{recorded[name]['sha256'][:12]}, given {sha})")
 
 
 def _option_text(value: Any) -> str:
@@ -1045,29 +1097,32 @@ def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
     record_json = None if plan is None else dataclasses.asdict(plan)
     extra = {} if replay_of is None else {"replay_of": replay_of}
     manifest = dict(command="train", seed=settings.seed,
-                    settings=settings.__dict__ | {"record": record_json} | extra,
+                    settings=settings.record() | {"record": record_json} | extra,
                     models_json=trainer.models.to_json(), files=TRAIN_FILES,
                     invocation={"sessions": settings.n_sessions})
+    # the network's population rows (added ones included): the folder describes itself
+    layout = {"layout": trainer.cpg.layout.to_json()}
 
     def progress_manifest() -> None:  # the inventory follows every checkpoint
         done = trainer.training.sessions_done.tolist()
-        write_manifest(out, **manifest, results={"status": "running", "sessions_done": done},
+        write_manifest(out, **manifest,
+                       results={"status": "running", "sessions_done": done} | layout,
                        history=True)
 
     trainer.on_checkpoint = progress_manifest
     try:
         try:
-            write_manifest(out, **manifest, results={"status": "running"}, history=True)
+            write_manifest(out, **manifest, results={"status": "running"} | layout, history=True)
             wall = trainer.run()  # raises TrainingStopped (files written) when interrupted
         except KeyboardInterrupt:  # outside the network's run: stopped all the same
             raise TrainingStopped(int(trainer.training.sessions_done.sum()),
                                   settings.n_trials * settings.n_sessions) from None
     except TrainingStopped as e:
-        write_manifest(out, **manifest, results={"status": "interrupted", "error": str(e)},
+        write_manifest(out, **manifest, results={"status": "interrupted", "error": str(e)} | layout,
                        history=True)
         raise
     except Diverged as e:
-        write_manifest(out, **manifest, results={"status": "diverged", "error": e.line},
+        write_manifest(out, **manifest, results={"status": "diverged", "error": e.line} | layout,
                        history=True)
         raise
     rows = trainer.training.memory.rows
@@ -1076,5 +1131,5 @@ def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
     trainer.summary = summary
     write_manifest(out, **manifest,
                    results={"status": "finished", "wall_seconds_last_invocation": wall,
-                            "per_trial": summary["per_trial"]}, history=True)
+                            "per_trial": summary["per_trial"]} | layout, history=True)
     return trainer

@@ -13,6 +13,7 @@ diverge again (:data:`ENDED`).
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import os
@@ -31,6 +32,7 @@ from ...reading import read_json
 from ...network import exclusive
 from ..runtime.cells import run_cells
 from ...models.compose import model_set
+from ..commands.settings import added_populations
 from ..commands.train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
 from ..outputs.checkpoint import refuse_legacy
 from ..outputs.folder import FolderLock
@@ -114,8 +116,12 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
         {k: status[k] for k in ("attempts", "worker", "worker_name", "host", "pid", "started")}]
     t0 = time.perf_counter()
     manifest: dict[str, Any] = {}  # once written, the run's manifest says how it ended
+    layout: dict[str, Any] = {}  # the network's population rows, once it is built
+    # the populations the study adds, in the table from the run's build to its gaits' runs
+    added = contextlib.ExitStack()
     try:
         _write_status(out, status)
+        added.enter_context(added_populations(spec.populations))
         settings = spec.train_settings()
         payload = None
         refuse_legacy(out)  # an old pickled checkpoint is never loaded
@@ -129,9 +135,10 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
             trainer.restore(payload)
         status["sessions_at_start"] = int(trainer.training.sessions_done.sum())
         _write_status(out, status)
+        layout["layout"] = trainer.cpg.layout.to_json()
         manifest.update(command="study-run", seed=spec.seed, settings=asdict(spec),
                         models_json=trainer.models.to_json(), files=run_files())
-        write_manifest(out, **manifest, results={"status": "running"})
+        write_manifest(out, **manifest, results={"status": "running"} | layout)
         wall = trainer.run()
         _write_gaits(out, trainer)
         status.update({"state": "finished", "finished": time.time(),
@@ -141,7 +148,8 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
         # last: the manifest's inventory lists the run's files as they stay (status included)
         write_manifest(out, command="study-run", seed=spec.seed, settings=asdict(spec),
                        models_json=trainer.models.to_json(), files=run_files(),
-                       results={"status": "finished", "wall_seconds_last_attempt": wall})
+                       results={"status": "finished", "wall_seconds_last_attempt": wall}
+                       | layout)
         return status
     except TrainingStopped as e:
         status.update({"state": "stopped", "error": str(e), "finished": time.time()})
@@ -152,12 +160,14 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
     except Exception as e:  # recorded, not raised: the other runs go on
         status.update({"state": "failed", "error": f"{type(e).__name__}: {e}",
                        "traceback": traceback.format_exc(), "finished": time.time()})
+    finally:
+        added.close()
     _end_attempt(status)
     _write_status(out, status)
     if manifest:  # never left "running": the manifest says how the attempt ended
         ended = {"stopped": "interrupted"}.get(status["state"], status["state"])
         write_manifest(out, **manifest, results={"status": ended,
-                                                 "error": str(status.get("error", ""))})
+                                                 "error": str(status.get("error", ""))} | layout)
     return status
 
 

@@ -8,6 +8,9 @@ A study file::
     seeds = { first = 1, count = 20 } # or a list: seeds = [1, 2, 3]
     batch = 20                        # seeds trained together in one network (one run),
                                       # or "auto": chosen for the workers (batching.py)
+    populations = ["renshaw.toml"]    # optional: populations added to every run's network
+                                      # (model files with a [population] table, beside the
+                                      # study; its run folders record them, as a training does)
 
     [base]                            # parameter overrides for every run, with units
     L_max = "10*second"

@@ -26,13 +26,15 @@ from ...reading import loads_toml
 from ...models import DEFAULT_MODELS
 from ..runtime.resources import check_memory, estimate_bytes, estimate_wall_seconds
 from ...models.compose import model_files_record, model_set, read_model_files
-from ..commands.settings import MAX_GRID, MAX_SEED, check_grid
+from ..commands.settings import (MAX_GRID, MAX_SEED, added_populations, check_grid,
+                                 population_rows)
 from ..commands.simulate import STEP, check_duration
 from ..commands.train import TrainSettings
 
 MAX_SEEDS = MAX_GRID  # trainings of a study (and seeds): the bound of every grid
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
-_STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch", "record", "paired"}
+_STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch", "record", "paired",
+               "populations"}
 _CONDITION_KEYS = {"astrocytes", "set"}
 
 
@@ -60,6 +62,9 @@ class RunSpec:
     models: dict[str, dict[str, str]] = field(default_factory=dict)
     # the longest a session may last (L_max, seconds), for the run's cost estimate only
     session_s: float | None = None
+    # populations added to the run's network ([study] populations): {name: {"sha256",
+    # "content"}} of the model file that declares each
+    populations: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def estimated_seconds(self) -> float:
         """Wall seconds the run takes at most on one core (every session lasting L_max),
@@ -75,7 +80,7 @@ class RunSpec:
     def train_settings(self):
         return TrainSettings(n_sessions=self.n_sessions, seed=self.seed, n_trials=self.n_trials,
                              astrocytes=self.astrocytes, overrides=list(self.overrides),
-                             models=dict(self.models))
+                             models=dict(self.models), populations=dict(self.populations))
 
     def fingerprint(self) -> str:
         return self.train_settings().fingerprint()
@@ -282,14 +287,17 @@ def parse_study(text: str, p: Path, batch_given: int | None,
                              culprit="--seeds")
         seeds = list(range(seeds[0], seeds[0] + given.count))
     batch_setting, batch = _batch(head, seeds, n_sessions, batch_given, where)
-    record = _record_table(head.get("record"), where)
+    populations = _population_files(p, head.get("populations"), where)
+    with added_populations(populations):  # what the runs may record: theirs too
+        record = _record_table(head.get("record"), where)
     slots = {name for name, _ in DEFAULT_MODELS.items()}
     base_files, models, base = _base(doc, p, slots, where)
     names, axes, axis_files, points = _sweep(doc, p, slots, base_files, models, len(seeds),
                                              where)
     base = _apply_sets(doc, models, base, axes, given.sets, where)
     runs = _runs(doc, slots, base_files, models, base, axes, axis_files, points,
-                 _Runs(seeds=seeds, batch=batch, n_sessions=n_sessions, record=record), where)
+                 _Runs(seeds=seeds, batch=batch, n_sessions=n_sessions, record=record,
+                       populations=populations), where)
     evaluate = _evaluate_table(doc.get("evaluate"), p, where)
     if evaluate is not None:
         # its cells (runs x worlds) bounded now, not refused after the runs have trained
@@ -474,6 +482,7 @@ class _Runs:
     batch: int
     n_sessions: int
     record: dict[str, Any] | None
+    populations: dict[str, dict[str, str]] = field(default_factory=dict)
 
 
 def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], models,
@@ -540,7 +549,8 @@ def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], mode
                 runs.append(RunSpec(run_id=run_id, condition=cname, point=dict(point),
                                     seed=first, n_trials=n, n_sessions=shared.n_sessions,
                                     astrocytes=astro, overrides=overrides, record=shared.record,
-                                    models=files, session_s=session_s))
+                                    models=files, session_s=session_s,
+                                    populations=dict(shared.populations)))
     ids = [r.run_id for r in runs]
     if len(set(ids)) != len(ids):
         dup = next(i for i in ids if ids.count(i) > 1)
@@ -563,6 +573,38 @@ def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]
         path = resolve(file, "model") if resolve(file, "model").exists() else path
     text = read_model_files([f"{slot}={path}"], option=where)[slot]
     return model_files_record({slot: text})[slot]
+
+
+def _population_files(study: Path, files: Any, where: str) -> dict[str, dict[str, str]]:
+    """``[study] populations``: model files with a ``[population]`` table (paths relative to
+    the study file's folder, or a shipped model file's name when no such path exists, as
+    :func:`_model_file` reads them), each read and checked as ``--population FILE`` is; the
+    record ``{name: {"sha256", "content"}}`` every run of the study adds."""
+    if files is None:
+        return {}
+    culprit = f"{where} [study] populations"
+    if not isinstance(files, list) or not all(isinstance(f, str) and f for f in files):
+        raise InputError(f"must be a list of model files (paths relative to the study file), "
+                         f"got {files!r}", culprit=culprit)
+    from ...reading import read_text
+    from ...shipped import resolve
+
+    texts = {}
+    for file in files:
+        path = Path(file) if Path(file).is_absolute() else study.parent / file
+        if not path.exists() and not path.is_symlink():  # a shipped model file by its name
+            path = resolve(file, "model") if resolve(file, "model").exists() else path
+        try:
+            texts[file] = read_text(path, culprit=f"{culprit} {file}")
+        except InputError:
+            raise
+        except (OSError, ValueError) as e:
+            raise InputError(f"cannot be read ({type(e).__name__}: {e})",
+                             culprit=f"{culprit} {file}") from None
+    record = population_rows(texts, option=culprit)[1]
+    with added_populations(record):  # a name the table holds already is refused now
+        pass
+    return record
 
 
 _EVALUATE_KEYS = {"worlds", "seconds", "repeats", "conditions"}
@@ -611,8 +653,13 @@ def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
     if bad:
         raise InputError(f"[study] record has unknown key '{sorted(bad)[0]}' "
                          f"(keys: every, spikes, traces, stride)", culprit=where)
+    from ...network.populations import spike_populations, trace_sources
+
+    # by default every population and trace of the table, the study's added ones included
+    # (as a training's --record-every records them)
+    fields = {"spikes": spike_populations(), "traces": tuple(trace_sources())} | dict(doc)
     try:
-        plan = RecordPlan.from_dict(doc)
+        plan = RecordPlan.from_dict(fields)
     except (TypeError, ValueError) as e:
         raise InputError(f"[study] record: {e}", culprit=where) from None
     return {"every": plan.every, "spikes": list(plan.spikes), "traces": list(plan.traces),
