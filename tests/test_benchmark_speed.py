@@ -38,9 +38,10 @@ def test_speed_interleaves_mujoco_timings_with_the_loop(speed):
     assert loop.bridge.data[0].time == pytest.approx(0.3)
 
 
-def test_measure_gives_the_ratio_of_the_two_medians(speed):
-    r = speed.measure(2, 0.3, False, codegen="numpy", mj_seconds=0.05, every=50)
-    assert r["trials"] == 2 and r["mj_step_us"] > 0
+@pytest.mark.parametrize("runner", ["lean", "brian2"])
+def test_measure_gives_the_ratio_of_the_two_medians(speed, runner):
+    r = speed.measure(2, 0.3, False, codegen="numpy", mj_seconds=0.05, every=50, runner=runner)
+    assert r["trials"] == 2 and r["mj_step_us"] > 0 and r["runner"] == runner
     assert r["x_mj_step"] == pytest.approx(r["trial_step_us"] / r["mj_step_us"])
     assert r["cpu_per_sim_s"] == pytest.approx(r["trial_step_us"] * 2 / 1e3)
 
