@@ -143,6 +143,15 @@ class Bridge:
         self._hip_torque = models.hip_controller.compile()
         self.hip_integral = np.zeros((B, 4))
         self.dt = float(cpg.dt)
+        # the step's index arrays and buffers, made once (the step allocates little): the hips'
+        # qpos columns, their motors, the thighs' and calves' motors in the order of ``_h``
+        act = robots.act
+        self._hip_qpos = np.ascontiguousarray(robots.qa[:, 0])
+        self._hip_act = np.ascontiguousarray(act[:, 0])
+        self._leg_act = np.ascontiguousarray(act[:, [_THIGH, _CALF]].reshape(-1))
+        self._h_flat = self._h.reshape(B, 8)  # a view: (trial, leg x (thigh, calf))
+        self._hip_error = np.zeros((B, 4))
+        self._hip_step = np.zeros((B, 4))
         self.reset_all()
         if on_step is not None:
             self.add_hook("after_physics", "progress", lambda: on_step(self.step_count),
@@ -239,15 +248,18 @@ class Bridge:
         """One 1 ms step: torques, ``before_physics`` hooks, physics of every trial, divergence
         checks, senses and reward, ``after_physics`` hooks."""
         robots = self.robots
-        act = robots.act
-        q = self.qpos[:, robots.qa]  # (B, 4, 3) angles after the previous physics step
-        # 1. torques: traces to thigh and calf, PI to hips
-        hip_error = q[:, :, 0] - self._hip_target
-        self.hip_integral += hip_error * self.dt
+        # 1. torques: traces to thigh and calf, PI to hips (hip angles after the previous
+        # physics step); into buffers made once, the same arithmetic as
+        # ``hip_integral += (q_hip - target) * dt``
+        hip_error = self._hip_error
+        np.take(self.qpos, self._hip_qpos, axis=1, out=hip_error)
+        np.subtract(hip_error, self._hip_target, out=hip_error)
+        np.multiply(hip_error, self.dt, out=self._hip_step)
+        np.add(self.hip_integral, self._hip_step, out=self.hip_integral)
         ctrl = self.ctrl
-        ctrl[:, act[:, 0]] = self._hip_torque(error=hip_error, error_integral=self.hip_integral)
-        ctrl[:, act[:, _THIGH]] = self._h[:, :, 0]
-        ctrl[:, act[:, _CALF]] = self._h[:, :, 1]
+        ctrl[:, self._hip_act] = self._hip_torque(error=hip_error,
+                                                  error_integral=self.hip_integral)
+        ctrl[:, self._leg_act] = self._h_flat
         for fn in self._run["before_physics"]:
             fn()
         # 2. physics; MuJoCo's instability warnings are read the step they happen

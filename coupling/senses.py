@@ -170,6 +170,8 @@ class Senses:
     def __init__(self, cpg: CPG, robots: Robots, models: ModelSet) -> None:
         B = robots.n_trials
         self._qpos, self._qa, self._fq = robots.qpos, robots.qa, robots.fq
+        self._thigh_qpos = np.ascontiguousarray(robots.qa[:, _THIGH])  # made once: hot loop
+        self._thigh = np.zeros((B, len(self._thigh_qpos)))
         self._velocity, self._angular = robots.torso["velocity"], robots.torso["angular"]
         # cached raw views into the Brian2 state (numpy target: live arrays; with the limbs in
         # stages, buffers in trial-major order that sense copies into the pool group)
@@ -202,7 +204,7 @@ class Senses:
         _torso_speed(self._robots, self._speed)  # the one definition, also a bindable sense
         self._torso_speed[:] = self._speed[:, None, None]
         qpos = self._qpos
-        thigh = qpos[:, self._qa[:, _THIGH]]  # (B, 4)
+        thigh = np.take(qpos, self._thigh_qpos, axis=1, out=self._thigh)  # (B, 4)
         self._limit[:, :, _FLEXOR] = thigh < self._flexor_limit
         self._limit[:, :, _EXTENSOR] = thigh > self._extensor_limit
         self._speed_table.write()
