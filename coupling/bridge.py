@@ -146,12 +146,18 @@ class Bridge:
         # the step's index arrays and buffers, made once (the step allocates little): the hips'
         # qpos columns, their motors, the thighs' and calves' motors in the order of ``_h``
         act = robots.act
-        self._hip_qpos = np.ascontiguousarray(robots.qa[:, 0])
         self._hip_act = np.ascontiguousarray(act[:, 0])
         self._leg_act = np.ascontiguousarray(act[:, [_THIGH, _CALF]].reshape(-1))
-        self._h_flat = self._h.reshape(B, 8)  # a view: (trial, leg x (thigh, calf))
-        self._hip_error = np.zeros((B, 4))
+        self._h_flat = self._h.reshape(-1)  # a view: trial, leg, (thigh, calf)
         self._hip_step = np.zeros((B, 4))
+        # the same motors as flat indices into the robots' one state buffer (a 1-D fancy
+        # assignment is several times cheaper than ``ctrl[:, columns] = ...``)
+        state = robots.state
+        first = np.arange(B)[:, None] * state.shape[1] + (model.nq + model.nv)
+        self._state_flat = state.reshape(-1)  # a view (the buffer is C-contiguous)
+        self._hip_qpos = np.arange(B)[:, None] * state.shape[1] + robots.qa[:, 0]  # (B, 4)
+        self._hip_ctrl = (first + self._hip_act).reshape(-1)
+        self._leg_ctrl = (first + self._leg_act).reshape(-1)
         self.reset_all()
         if on_step is not None:
             self.add_hook("after_physics", "progress", lambda: on_step(self.step_count),
@@ -251,15 +257,17 @@ class Bridge:
         # 1. torques: traces to thigh and calf, PI to hips (hip angles after the previous
         # physics step); into buffers made once, the same arithmetic as
         # ``hip_integral += (q_hip - target) * dt``
-        hip_error = self._hip_error
-        np.take(self.qpos, self._hip_qpos, axis=1, out=hip_error)
+        hip_error = self._state_flat[self._hip_qpos]  # (B, 4), qpos being the first columns
         np.subtract(hip_error, self._hip_target, out=hip_error)
         np.multiply(hip_error, self.dt, out=self._hip_step)
         np.add(self.hip_integral, self._hip_step, out=self.hip_integral)
-        ctrl = self.ctrl
-        ctrl[:, self._hip_act] = self._hip_torque(error=hip_error,
-                                                  error_integral=self.hip_integral)
-        ctrl[:, self._leg_act] = self._h_flat
+        tau = self._hip_torque(error=hip_error, error_integral=self.hip_integral)
+        flat = self._state_flat
+        if type(tau) is np.ndarray and tau.shape == hip_error.shape:
+            flat[self._hip_ctrl] = tau.reshape(-1)
+        else:  # a controller that gives a scalar or a row: broadcast as numpy does
+            self.ctrl[:, self._hip_act] = tau
+        flat[self._leg_ctrl] = self._h_flat
         for fn in self._run["before_physics"]:
             fn()
         # 2. physics; MuJoCo's instability warnings are read the step they happen
