@@ -20,9 +20,13 @@ processes on the machine drops out):
   figures are per call, not a simulation;
 * whole steps of the closed loop with each runner (``Network.run`` and the lean one), CPU time
   between the first and the last step of a run (the run's start-up left out), and MuJoCo's
-  ``mj_step`` alone on a copy of one trial's state. What is left of a step once the trials'
-  ``mj_step`` and Brian2's compiled code are taken out is the step's Python (the runner, the
-  bridge's Python and its numpy calls).
+  ``mj_step`` alone on a copy of one trial's state;
+* the Python of a step: whole steps with every code object's compiled code and the physics
+  replaced by no-ops, so that what is left is the Python the step runs (the runner, the
+  network operations, the bridge and its numpy calls on arrays of the trials' sizes; on the
+  numpy target the generated code, Python too, counts as compiled code here). The
+  compiled code and the physics cost more inside the loop than timed alone (cold caches, the
+  spikes of a running network): the whole step's figure says how much.
 """
 
 from __future__ import annotations
@@ -144,10 +148,11 @@ def dispatch(loop, seconds: float = 0.25, rounds: int = 6) -> None:
               f"replaced by no-ops): {python_alone[runner] * 1e6:.1f} us")
     for runner in ("brian2", "lean"):
         step_us = steps[runner] * 1e6
-        python = step_us - physics - code["compiled"] * 1e6
+        alone = physics + code["compiled"] * 1e6 + python_alone[runner] * 1e6
         print(f"whole step, {runner:>6} runner: {step_us:.1f} us = physics {physics:.1f} + "
-              f"compiled Brian2 code {code['compiled'] * 1e6:.1f} + Python {python:.1f} (the "
-              f"bridge {bridge_py:.1f}, the rest {python - bridge_py:.1f}); "
+              f"compiled Brian2 code {code['compiled'] * 1e6:.1f} + Python "
+              f"{python_alone[runner] * 1e6:.1f} (each timed alone) + {step_us - alone:.1f} "
+              f"(what the compiled parts cost more inside the loop: cold caches, spikes); "
               f"{step_us / trials / mj_us:.2f} x mj_step per trial-step")
 
 
