@@ -44,6 +44,7 @@ from brian2.codegen.codeobject import CodeObject
 from brian2.codegen.runtime.numpy_rt.numpy_rt import NumpyCodeObject
 from brian2.core.base import BrianObject, BrianObjectException
 from brian2.core.network import Network
+from brian2.core.network import logger as network_log  # Brian2's run messages, as its own
 from brian2.core.operations import NetworkOperation
 from brian2.devices.device import RuntimeDevice, get_device
 from brian2.groups.group import Group
@@ -61,19 +62,22 @@ _BRIAN_RUN = Network.run
 
 
 def lean_refusal(net: Network, duration: Any, report: Any = None, namespace: Any = None,
-                 profile: Any = None, level: int = 0, **other: Any) -> str | None:
+                 profile: Any = None, level: int = 0, report_period: Any = 10 * second,
+                 **other: Any) -> str | None:
     """Why :func:`run` hands this run to ``net.run`` (a short reason), or None when it runs it
     itself."""
     if other:
         return f"unknown arguments {sorted(other)}"
+    if not _is_time(report_period):
+        return "a report period without a time unit (Brian2 raises the error)"
     if type(net).run is not _BRIAN_RUN:
         return f"{type(net).__name__} has its own run"
     if report is not None:
         return "a report"
     if namespace is None:
         return "no namespace (Brian2 reads the caller's frame)"
-    if not isinstance(duration, Quantity) or duration.dim is not second.dim:
-        return "a duration without a time unit"
+    if not _is_time(duration):
+        return "a duration without a time unit (Brian2 raises the error)"
     device = get_device()
     if type(device) is not RuntimeDevice or hasattr(device, "network_run"):
         return f"device {type(device).__name__}"
@@ -86,12 +90,17 @@ def lean_refusal(net: Network, duration: Any, report: Any = None, namespace: Any
     return None
 
 
+def _is_time(value: Any) -> bool:
+    """What ``Network.run``'s ``check_units(duration=second)`` accepts without an error."""
+    return isinstance(value, Quantity) and value.dim == second.dim
+
+
 def run(net: Network, duration: Any, report: Any = None, report_period: Any = 10 * second,
         namespace: Any = None, profile: Any = None, level: int = 0) -> None:
     """``net.run(duration, ...)`` with the lean step loop (see the module's docstring); the
     same arguments. Falls back to ``net.run`` where :func:`lean_refusal` gives a reason."""
     if lean_refusal(net, duration, report=report, namespace=namespace, profile=profile,
-                    level=level) is not None:
+                    level=level, report_period=report_period) is not None:
         net.run(duration, report=report, report_period=report_period, namespace=namespace,
                 profile=profile, level=level + 1)
         return
@@ -119,6 +128,7 @@ def run(net: Network, duration: Any, report: Any = None, report_period: Any = 10
     if len(all_objects) == 0:
         return
     start_time = time.time()
+    network_log.debug(f"Simulating network '{net.name}' from time {t_start} to {t_end}.", "run")
     active = [obj for obj in all_objects if obj.active]
     if single_clock:
         clock = _single_clock_loop(net, clock, active)
@@ -140,6 +150,8 @@ def run(net: Network, duration: Any, report: Any = None, report_period: Any = 10
         if isinstance(obj, Group):
             obj._check_for_invalid_states()
     net.after_run()
+    network_log.debug(f"Finished simulating network '{net.name}' "
+                      f"(took {end_time - start_time:.2f}s)", "run")
     net._profiling_info = None
 
 

@@ -13,6 +13,7 @@ from brian2 import (Function, Network, NetworkOperation, NeuronGroup, SpikeMonit
 from brian2.codegen.codeobject import CodeObject
 from brian2.codegen.runtime.numpy_rt.numpy_rt import NumpyCodeObject
 from brian2.core.base import BrianObjectException
+from brian2.units.fundamentalunits import DimensionMismatchError
 
 from astrocpg.models import DEFAULT_MODELS
 from astrocpg.network import DivergenceCheck, build_cpg, run_network
@@ -173,6 +174,8 @@ def test_a_profile_run_falls_back_to_brian2(monkeypatch):
     assert lean_refusal(net, 5 * ms, namespace={}, profile=True) == "a profile run"
     assert lean_refusal(net, 5 * ms, namespace={}, report="stderr") == "a report"
     assert lean_refusal(net, 5 * ms) is not None  # no namespace: Brian2 reads the frames
+    with pytest.raises(DimensionMismatchError):  # Brian2's own check of the units
+        run_network(net, 0.005, namespace={})
     calls = Calls(monkeypatch)
     run_network(net, 5 * ms, namespace={}, profile=True)
     assert net.profiling_info and calls.n > 0  # Brian2's own loop ran, and timed each object
