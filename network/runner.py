@@ -56,8 +56,8 @@ try:  # Brian2 registers its Cython target only where Cython is installed
 except ImportError:  # pragma: no cover - Cython is a dependency of astrocpg
     CythonCodeObject = None  # type: ignore[assignment,misc]
 
-#: The original ``Network.run`` (its ``check_units`` and ``device_override`` wrappers removed):
-#: a network class whose ``run`` is not Brian2's is run by its own ``run``.
+#: Brian2's ``Network.run`` as the class defines it: a network class whose ``run`` is another
+#: (``MagicNetwork``, a subclass of the user's) is run by its own ``run``.
 _BRIAN_RUN = Network.run
 
 

@@ -13,6 +13,7 @@ from brian2 import (Function, Network, NetworkOperation, NeuronGroup, SpikeMonit
 from brian2.codegen.codeobject import CodeObject
 from brian2.codegen.runtime.numpy_rt.numpy_rt import NumpyCodeObject
 from brian2.core.base import BrianObjectException
+from brian2.core.magic import magic_network
 from brian2.units.fundamentalunits import DimensionMismatchError
 
 from astrocpg.models import DEFAULT_MODELS
@@ -174,6 +175,7 @@ def test_a_profile_run_falls_back_to_brian2(monkeypatch):
     assert lean_refusal(net, 5 * ms, namespace={}, profile=True) == "a profile run"
     assert lean_refusal(net, 5 * ms, namespace={}, report="stderr") == "a report"
     assert lean_refusal(net, 5 * ms) is not None  # no namespace: Brian2 reads the frames
+    assert lean_refusal(magic_network, 5 * ms, namespace={}) == "MagicNetwork has its own run"
     with pytest.raises(DimensionMismatchError):  # Brian2's own check of the units
         run_network(net, 0.005, namespace={})
     calls = Calls(monkeypatch)
