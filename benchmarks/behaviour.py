@@ -8,7 +8,10 @@ behaviour keeps them; a change of the model or of its noise changes them on purp
 
 ``tests/test_behaviour.py`` runs the check. The fingerprints hold for one platform and set of
 package versions (the stored file records them): numpy, Brian2 and MuJoCo releases may change
-the last bits of a floating-point result.
+the last bits of a floating-point result. They also depend on Brian2's code generation target
+(``ASTROCPG_CODEGEN``, numpy by default): the file holds one set per target, and ``--check``
+and ``--write`` use the set of the target in force (``ASTROCPG_CODEGEN=cython python
+benchmarks/behaviour.py --check``).
 """
 
 from __future__ import annotations
@@ -76,18 +79,32 @@ def _versions() -> dict[str, str]:
             "brian2": brian2.__version__, "mujoco": mujoco.__version__}
 
 
+def section() -> str:
+    """The key of the stored fingerprints of the code generation target in force:
+    ``fingerprints`` for numpy, ``fingerprints_cython`` for Cython."""
+    from astrocpg.network.codegen import codegen_target
+
+    target = codegen_target()
+    return "fingerprints" if target == "numpy" else f"fingerprints_{target}"
+
+
 def main(argv: list[str]) -> int:
+    key = section()
     now = fingerprints()
     if "--write" in argv:
-        STORED.write_text(json.dumps({"versions": _versions(), "fingerprints": now},
-                                     indent=1, sort_keys=True) + "\n")
-        print(f"wrote {STORED}")
+        stored = json.loads(STORED.read_text()) if STORED.exists() else {}
+        stored.update({"versions": _versions(), key: now})
+        STORED.write_text(json.dumps(stored, indent=1, sort_keys=True) + "\n")
+        print(f"wrote {STORED} ({key})")
         return 0
     if "--check" in argv:
         stored = json.loads(STORED.read_text())
-        diff = [f"{c}/{k}" for c in stored["fingerprints"]
-                for k in sorted(set(stored["fingerprints"][c]) | set(now.get(c, {})))
-                if stored["fingerprints"][c].get(k) != now.get(c, {}).get(k)]
+        if key not in stored:
+            print(f"no stored fingerprints for this target ({key}): store them with --write")
+            return 1
+        diff = [f"{c}/{k}" for c in stored[key]
+                for k in sorted(set(stored[key][c]) | set(now.get(c, {})))
+                if stored[key][c].get(k) != now.get(c, {}).get(k)]
         print("same behaviour" if not diff else "changed: " + ", ".join(diff))
         return 1 if diff else 0
     print(json.dumps(now, indent=1, sort_keys=True))

@@ -5,6 +5,7 @@ same robot, one process, one core, steady state.
                                [--mj-seconds 1] [--repeats 1] [--record] [--check-every N]
                                [--delays default authors] [--check-cost]
                                [--authors-command "CMD" --authors-seconds S]
+                               [--runner lean brian2]
 
 How it measures (so that the ratio holds on a machine whose speed drifts): one ``Network.run``
 per point, after a 0.1 s warm-up. Every ``--every`` steps (128: two of the numpy target's noise
@@ -25,7 +26,10 @@ first step) is reported apart: it is paid once per run. ``--record`` turns on wh
 run`` records by default. ``--check-every 0`` turns the bridge's CPG divergence check off;
 ``--check-cost`` also times the divergence checks alone, as a share of the loop.
 ``--delays default authors`` measures each point with the built-in inter-limb delays (1 ms) and
-with the authors' preset (``models/variants/interlimb_authors_delays.toml``).
+with the authors' preset (``models/variants/interlimb_authors_delays.toml``). ``--runner lean
+brian2`` measures each point with the step loop every run uses (``lean``: each step's compiled
+code called directly, :mod:`astrocpg.network.runner`) and with Brian2's ``Network.run``
+(``brian2``), the points interleaved.
 
 ``--authors-command`` runs a command that simulates ``--authors-seconds`` of one trial of the
 authors' code (which astrocpg does not ship), parsed as a shell would split it (not run by a
@@ -118,7 +122,7 @@ def delay_models(delays: str):
 def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
             check_cost: bool = False, codegen: str = "numpy",
             delays: str = "default", mj_seconds: float = 1.0, every: int = 128,
-            mj_step_guess_us: float = 15.0) -> dict[str, float]:
+            mj_step_guess_us: float = 15.0, runner: str = "lean") -> dict[str, float]:
     """One point: the loop's steady-state cost per trial-step and MuJoCo's step, interleaved
     in one run (:class:`Interleaved`)."""
     t_start = time.perf_counter()
@@ -129,7 +133,8 @@ def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
         n = int(round((seconds + 0.1) / float(cpg.dt)))
         loop.bridge.start_recording(n, 1)
         add_monitors(cpg, 1 * ms, True, n_steps=n)
-    loop.run(0.1)  # code generation and first steps
+    lean = {"lean": True, "brian2": False}[runner]
+    loop.run(0.1, lean=lean)  # code generation and first steps
     startup = time.perf_counter() - t_start
     steps = int(round(seconds / float(cpg.dt)))
     marks = max(1, steps // every)
@@ -137,7 +142,7 @@ def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
     timer = Interleaved(loop.bridge, every,
                         max(200, int(mj_seconds * 1e6 / mj_step_guess_us / marks) + 1))
     loop.bridge.add_hook("after_physics", "benchmark", timer, order=1e9)
-    loop.run(seconds)
+    loop.run(seconds, lean=lean)
     loop.bridge.remove_hook("benchmark")
     mj = float(np.median(timer.mj_chunks)) * 1e6
     cpu_step = float(np.median(timer.loop_chunks))  # s per step
@@ -147,7 +152,7 @@ def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
            "trial_step_us": per_trial_step_us, "x_mj_step": per_trial_step_us / mj,
            "wall_per_sim_s": timer.loop_wall / timer.loop_steps / sim,
            "cpu_per_sim_s": cpu_step / sim, "cpu_per_trial": cpu_step / sim / n_trials,
-           "startup_s": startup, "check_every": check_every}
+           "startup_s": startup, "check_every": check_every, "runner": runner}
     if check_cost:
         out.update(_check_cost(loop, cpu_step))
     return out
@@ -241,6 +246,9 @@ def main() -> None:
     ap.add_argument("--authors-seconds", type=float, nargs="+", default=None,
                     help="simulated s of the authors' run; two values (T1 T2) and {seconds} "
                          "in the command: their loop only, the slope between the two")
+    ap.add_argument("--runner", nargs="+", default=["lean"], choices=["lean", "brian2"],
+                    help="the step loop: lean (what every run uses) and/or Brian2's "
+                         "Network.run, interleaved per point")
     ap.add_argument("--json", default=None, metavar="FILE",
                     help="also write every repeat of every point to FILE")
     args = ap.parse_args()
@@ -255,14 +263,15 @@ def main() -> None:
           f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, affinity "
           f"{len(os.sched_getaffinity(0))}, {time.strftime('%Y-%m-%d')}")
     print(_row("point", list(COLUMNS)))
-    points = [(n, every, target, delays) for n in args.trials for every in args.check_every
-              for target in args.codegen for delays in args.delays]
+    points = [(n, every, target, delays, runner) for n in args.trials
+              for every in args.check_every for target in args.codegen for delays in args.delays
+              for runner in args.runner]
     results: dict[tuple, list[dict[str, float]]] = {p: [] for p in points}
     for _ in range(args.repeats):
         for point in points:
-            n, every, target, delays = point
+            n, every, target, delays, runner = point
             r = measure(n, args.seconds, args.record, every, args.check_cost, target, delays,
-                        mj_seconds=args.mj_seconds, every=args.every)
+                        mj_seconds=args.mj_seconds, every=args.every, runner=runner)
             results[point].append(r)
             print(_row(_label(point, args), [f"{r[k]:.3f}" if k.endswith("s") and "us" not in k
                                              else f"{r[k]:.2f}" for k in KEYS]), flush=True)
@@ -304,7 +313,8 @@ def main() -> None:
             "cpu_count": os.cpu_count(), "load_average": list(os.getloadavg()),
             "seconds": args.seconds, "authors_cpu_per_sim_s": authors,
             "points": [{"label": _label(point, args), "trials": point[0], "codegen": point[2],
-                        "repeats": rs} for point, rs in results.items()]}, indent=1))
+                        "runner": point[4], "repeats": rs}
+                       for point, rs in results.items()]}, indent=1))
     if authors is not None:
         print(f"authors' code: {authors:.3f} CPU s per simulated s (one trial"
               + (", their loop only: slope between two durations)"
@@ -312,12 +322,14 @@ def main() -> None:
 
 
 def _label(point: tuple, args: argparse.Namespace) -> str:
-    n, every, target, delays = point
+    n, every, target, delays, runner = point
     label = f"{target} {n} trial{'s' if n > 1 else ''}"
     if len(args.check_every) > 1:
         label += f" check {every or 'off'}"
     if len(args.delays) > 1:
         label += f" {delays} delays"
+    if len(args.runner) > 1:
+        label += f" {runner}"
     return label
 
 

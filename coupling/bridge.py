@@ -143,6 +143,21 @@ class Bridge:
         self._hip_torque = models.hip_controller.compile()
         self.hip_integral = np.zeros((B, 4))
         self.dt = float(cpg.dt)
+        # the step's index arrays and buffers, made once (the step allocates little): the hips'
+        # qpos columns, their motors, the thighs' and calves' motors in the order of ``_h``
+        act = robots.act
+        self._hip_act = np.ascontiguousarray(act[:, 0])
+        self._leg_act = np.ascontiguousarray(act[:, [_THIGH, _CALF]].reshape(-1))
+        self._h_flat = self._h.reshape(-1)  # a view: trial, leg, (thigh, calf)
+        self._hip_step = np.zeros((B, 4))
+        # the same motors as flat indices into the robots' one state buffer (a 1-D fancy
+        # assignment is several times cheaper than ``ctrl[:, columns] = ...``)
+        state = robots.state
+        first = np.arange(B)[:, None] * state.shape[1] + (model.nq + model.nv)
+        self._state_flat = state.reshape(-1)  # a view (the buffer is C-contiguous)
+        self._hip_qpos = np.arange(B)[:, None] * state.shape[1] + robots.qa[:, 0]  # (B, 4)
+        self._hip_ctrl = (first + self._hip_act).reshape(-1)
+        self._leg_ctrl = (first + self._leg_act).reshape(-1)
         self.reset_all()
         if on_step is not None:
             self.add_hook("after_physics", "progress", lambda: on_step(self.step_count),
@@ -239,15 +254,20 @@ class Bridge:
         """One 1 ms step: torques, ``before_physics`` hooks, physics of every trial, divergence
         checks, senses and reward, ``after_physics`` hooks."""
         robots = self.robots
-        act = robots.act
-        q = self.qpos[:, robots.qa]  # (B, 4, 3) angles after the previous physics step
-        # 1. torques: traces to thigh and calf, PI to hips
-        hip_error = q[:, :, 0] - self._hip_target
-        self.hip_integral += hip_error * self.dt
-        ctrl = self.ctrl
-        ctrl[:, act[:, 0]] = self._hip_torque(error=hip_error, error_integral=self.hip_integral)
-        ctrl[:, act[:, _THIGH]] = self._h[:, :, 0]
-        ctrl[:, act[:, _CALF]] = self._h[:, :, 1]
+        # 1. torques: traces to thigh and calf, PI to hips (hip angles after the previous
+        # physics step); into buffers made once, the same arithmetic as
+        # ``hip_integral += (q_hip - target) * dt``
+        hip_error = self._state_flat[self._hip_qpos]  # (B, 4), qpos being the first columns
+        np.subtract(hip_error, self._hip_target, out=hip_error)
+        np.multiply(hip_error, self.dt, out=self._hip_step)
+        np.add(self.hip_integral, self._hip_step, out=self.hip_integral)
+        tau = self._hip_torque(error=hip_error, error_integral=self.hip_integral)
+        flat = self._state_flat
+        if type(tau) is np.ndarray and tau.shape == hip_error.shape:
+            flat[self._hip_ctrl] = tau.reshape(-1)
+        else:  # a controller that gives a scalar or a row: broadcast as numpy does
+            self.ctrl[:, self._hip_act] = tau
+        flat[self._leg_ctrl] = self._h_flat
         for fn in self._run["before_physics"]:
             fn()
         # 2. physics; MuJoCo's instability warnings are read the step they happen

@@ -170,6 +170,10 @@ class Senses:
     def __init__(self, cpg: CPG, robots: Robots, models: ModelSet) -> None:
         B = robots.n_trials
         self._qpos, self._qa, self._fq = robots.qpos, robots.qa, robots.fq
+        # the thighs' angles as flat indices into the robots' one state buffer (qpos being its
+        # first columns): one cheap fancy index per step
+        self._state_flat = robots.state.reshape(-1)
+        self._thigh_qpos = np.arange(B)[:, None] * robots.state.shape[1] + robots.qa[:, _THIGH]
         self._velocity, self._angular = robots.torso["velocity"], robots.torso["angular"]
         # cached raw views into the Brian2 state (numpy target: live arrays; with the limbs in
         # stages, buffers in trial-major order that sense copies into the pool group)
@@ -177,6 +181,8 @@ class Senses:
         self._limit_table = cpg.table("pool", "limit_inhibition")
         self._torso_speed = self._speed_table.values.reshape(B, 4, len(POOLS))
         self._limit = self._limit_table.values.reshape(B, 4, len(POOLS))
+        self._limit_flexor = self._limit[:, :, _FLEXOR]  # views the step writes into
+        self._limit_extensor = self._limit[:, :, _EXTENSOR]
         # model-side constants, as plain floats
         margin = models.value("limit_margin")
         ranges = robots.layout.joint_range  # (4, 3, 2) from the robot model
@@ -191,24 +197,27 @@ class Senses:
         self.alive = np.ones(B, dtype=bool)
         self._robots = robots
         self._speed = np.zeros(B)
+        self._speed_cells = self._speed[:, None, None]  # broadcast over legs and pools
+        # the reward's inputs: live views of the robots' state, made once. The free joint's
+        # linear velocity is in the world frame, its angular velocity in the torso frame
+        v, omega = self._velocity, self._angular
+        self._reward_inputs = {"vel_x": v[:, 0], "omega_roll": omega[:, 0],
+                               "omega_pitch": omega[:, 1], "omega_yaw": omega[:, 2]}
         # robot senses bound by the neuron models (none by default)
         self._bound_readers, self._bound_writers = bind_senses(cpg, robots, models)
 
     def sense(self) -> None:
         """Read the robots' state after a physics step (or a reset) into the senses."""
         fq = self._fq
-        v = self._velocity  # free joint: linear velocity in the world frame
-        omega = self._angular  # angular velocity in the torso frame (= gyro)
         _torso_speed(self._robots, self._speed)  # the one definition, also a bindable sense
-        self._torso_speed[:] = self._speed[:, None, None]
+        self._torso_speed[:] = self._speed_cells
         qpos = self._qpos
-        thigh = qpos[:, self._qa[:, _THIGH]]  # (B, 4)
-        self._limit[:, :, _FLEXOR] = thigh < self._flexor_limit
-        self._limit[:, :, _EXTENSOR] = thigh > self._extensor_limit
+        thigh = self._state_flat[self._thigh_qpos]  # (B, 4)
+        np.less(thigh, self._flexor_limit, out=self._limit_flexor)  # 1.0 where inhibited
+        np.greater(thigh, self._extensor_limit, out=self._limit_extensor)
         self._speed_table.write()
         self._limit_table.write()
-        self.reward[:] = self._reward(vel_x=v[:, 0], omega_roll=omega[:, 0],
-                                      omega_pitch=omega[:, 1], omega_yaw=omega[:, 2])
+        self.reward[:] = self._reward(**self._reward_inputs)
         # alive: only the senses its model reads are computed
         self.alive[:] = self._alive(**{k: f(qpos, fq) for k, f in self._alive_senses})
         for read, out in self._bound_readers:

@@ -45,6 +45,7 @@ import numpy as np
 from ..errors import Diverged
 from .populations import BUILT_IN, PROJECTIONS, model_of_object
 from .runlock import exclusive
+from .runner import run as run_lean
 
 #: Beyond this magnitude (SI units) a state value is invalid: Brian2's own bound
 #: (``Group._check_for_invalid_values``), NaN and inf being invalid too.
@@ -200,9 +201,15 @@ def network_time(net: brian2.Network) -> float:
 
 
 @exclusive  # one Brian2 run at a time in a process (runlock.py)
-def run_network(net: brian2.Network, duration: Any, **kwargs: Any) -> None:
+def run_network(net: brian2.Network, duration: Any, *, lean: bool = True,
+                **kwargs: Any) -> None:
     """``net.run(duration, **kwargs)``, but a :class:`Diverged` raised inside the run (by the
     bridge or a :class:`DivergenceCheck`) comes out as itself, whatever Brian2 wrapped it in.
+
+    The run is :func:`astrocpg.network.runner.run` (``lean``, the default): Brian2's
+    preparation and schedule, each step's compiled code called without Brian2's Python layers
+    around each call, the same results as ``net.run`` (which it calls itself for a run it cannot
+    do the same way, e.g. ``profile=True``). ``lean=False``: ``net.run`` itself.
 
     Ctrl-C during the run: Brian2 stops it at the end of the step and logs "Simulation stop
     requested. Press Ctrl+C again to interrupt." on the console; the caller turns the early
@@ -212,7 +219,10 @@ def run_network(net: brian2.Network, duration: Any, **kwargs: Any) -> None:
     brian_log = logging.getLogger("brian2")
     brian_log.addFilter(_no_stop_chatter)
     try:
-        net.run(duration, **kwargs)
+        if lean:
+            run_lean(net, duration, **kwargs)
+        else:
+            net.run(duration, **kwargs)
     except Exception as e:
         found = find_diverged(e)
         if found is None or found is e:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -38,9 +39,10 @@ def test_speed_interleaves_mujoco_timings_with_the_loop(speed):
     assert loop.bridge.data[0].time == pytest.approx(0.3)
 
 
-def test_measure_gives_the_ratio_of_the_two_medians(speed):
-    r = speed.measure(2, 0.3, False, codegen="numpy", mj_seconds=0.05, every=50)
-    assert r["trials"] == 2 and r["mj_step_us"] > 0
+@pytest.mark.parametrize("runner", ["lean", "brian2"])
+def test_measure_gives_the_ratio_of_the_two_medians(speed, runner):
+    r = speed.measure(2, 0.3, False, codegen="numpy", mj_seconds=0.05, every=50, runner=runner)
+    assert r["trials"] == 2 and r["mj_step_us"] > 0 and r["runner"] == runner
     assert r["x_mj_step"] == pytest.approx(r["trial_step_us"] / r["mj_step_us"])
     assert r["cpu_per_sim_s"] == pytest.approx(r["trial_step_us"] * 2 / 1e3)
 
@@ -66,3 +68,33 @@ def test_the_authors_time_counts_their_loop_only(speed, tmp_path):
     assert with_start > loop_only + 0.2
     with pytest.raises(SystemExit, match="seconds"):
         speed.authors_speed(f"{sys.executable} {script} 1", [1.0, 2.0])
+
+
+def test_profile_step_times_a_steps_python_and_puts_everything_back():
+    """profile_step.py --dispatch: the Python of a step, with every compiled block and the
+    physics as no-ops, for both runners; the run afterwards is the same as without it."""
+    import sys
+
+    from astrocpg.coupling.assembly import build_closed_loop
+    from astrocpg.models import DEFAULT_MODELS
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        spec = importlib.util.spec_from_file_location("profile_step",
+                                                      ROOT / "benchmarks" / "profile_step.py")
+        profile_step = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(profile_step)
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    loop = build_closed_loop(DEFAULT_MODELS, n_trials=2, seed=1)
+    loop.run(0.02)
+    robots = loop.bridge.robots
+    physics = robots._compiled
+    python = profile_step._python_alone(loop, 0.02, 1)
+    assert set(python) == {"brian2", "lean"} and all(v > 0 for v in python.values())
+    assert robots._compiled is physics and "before_run" not in vars(loop.cpg.net)
+    # the no-ops are gone: the next run moves the network and the robots again
+    v, qpos = loop.cpg.array("motor", "v").copy(), loop.bridge.qpos.copy()
+    loop.run(0.02)
+    assert not np.array_equal(v, loop.cpg.array("motor", "v"))
+    assert not np.array_equal(qpos, loop.bridge.qpos)
