@@ -1,12 +1,13 @@
 """The three speed goals side by side, in one run, each from its own benchmark run as a user
 would type it, every figure with its repeats and their spread:
 
-    python benchmarks/goals.py [--repeats 3] [--json docs/benchmarks/goals.json]
+    python benchmarks/goals.py [--repeats 3] [--recorded-seconds 3 12] [--runs 2] [--seconds 6]
+                               [--json docs/benchmarks/goals.json]
                                [--markdown docs/benchmarks/goals.md]
 
 - **Recorded run** (``recorded_run_cost.py``): ``astrocpg run --trials 20 --codegen cython``
   with its default recording against the same command recording nothing, CPU of the command as
-  typed (writes included), slope between 2 s and 6 s runs. Goal: at most 1.25 x.
+  typed (writes included), slope between ``--recorded-seconds`` runs (3 s and 12 s). Goal: at most 1.25 x.
 - **Training step** (``training_cost.py``): a training step against a fixed-weight step of the
   same 20-trial batch, in one process, interleaved. Goal: at most 1.15 x.
 - **Trial-step** (``speed.py --trials 20``): a trial-step of the closed loop against MuJoCo's
@@ -54,6 +55,12 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--within", type=float, default=0.10, help="largest spread that counts")
+    ap.add_argument("--recorded-seconds", type=float, nargs=2, default=[3.0, 12.0],
+                    metavar=("S1", "S2"), help="the two durations of the recorded-run slope")
+    ap.add_argument("--runs", type=int, default=2,
+                    help="runs of each recorded-run command per repeat (the least CPU counts)")
+    ap.add_argument("--seconds", type=float, default=6.0,
+                    help="simulated s of each training-step and trial-step measurement")
     ap.add_argument("--json", default=None, metavar="FILE")
     ap.add_argument("--markdown", default=None, metavar="FILE")
     args = ap.parse_args()
@@ -61,16 +68,17 @@ def main() -> int:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         t = Path(tmp)
-        rec = _run("recorded_run_cost.py", "--repeats", str(args.repeats), "--runs", "1",
+        rec = _run("recorded_run_cost.py", "--repeats", str(args.repeats), "--runs",
+                   str(args.runs), "--seconds", *map(str, args.recorded_seconds),
                    json_out=t / "recorded.json")
         rows.append(_row("recorded run", "recorded / unrecorded CPU per trial-second",
                          [r["ratio"] for r in rec["repeats"]], 1.25, args.within))
-        tr = _run("training_cost.py", "--seconds", "3", "--repeats", str(args.repeats),
+        tr = _run("training_cost.py", "--seconds", str(args.seconds), "--repeats", str(args.repeats),
                   "--no-breakdown", json_out=t / "training.json")
         rows.append(_row("training step", "training / fixed-weight step",
                          [r["ratio"] for r in tr["repeats"]], 1.15, args.within))
         sp = _run("speed.py", "--trials", "20", "--codegen", "cython", "numpy", "--seconds",
-                  "3", "--repeats", str(args.repeats), json_out=t / "speed.json")
+                  str(args.seconds), "--repeats", str(args.repeats), json_out=t / "speed.json")
         for point in sp["points"]:
             target = {"cython": 2.0, "numpy": 3.5}[point["codegen"]]
             rows.append(_row(f"trial-step ({point['codegen']})", "trial-step / mj_step",
