@@ -11,8 +11,8 @@ does what ``Network.run`` does, in the same order, with the same objects:
 * each step, in Brian2's schedule (``net.sorted_objects``: ``when``/``order``, the active
   objects only, the objects of the clocks due in that step when there are several clocks,
   chosen by Brian2's own ``Network._nextclocks``), it calls a Cython code object's compiled
-  ``main(namespace)`` and execs a numpy code object's compiled code in its namespace, which is
-  what their ``run_block`` does. A code object whose namespace holds non-constant entries
+  ``main(namespace)``, which is what its ``run_block`` does, and a numpy code object's own
+  ``run_block("run")`` (what ``codeobj()`` comes down to). A code object whose namespace holds non-constant entries
   (dynamic arrays that a monitor resizes) is called as Brian2 calls it (``codeobj()``: the
   entries are refreshed first); a network operation is called as ``NetworkOperation.run`` calls
   it; an object whose ``run`` is its own (neither ``BrianObject.run`` nor
@@ -228,7 +228,9 @@ def step_calls(objects: list) -> tuple[list[Callable[[], Any]], list[Any]]:
                 if call is _NOTHING:
                     continue
                 calls.append(call)
-                owners.append(codeobj if call is not codeobj else None)
+                # Brian2 wraps the errors of codeobj() and of run_block itself
+                by_brian = call is codeobj or getattr(call, "func", None) == codeobj.run_block
+                owners.append(None if by_brian else codeobj)
         else:
             calls.append(obj.run)
             owners.append(None)
@@ -240,7 +242,7 @@ _NOTHING = object()
 
 def compiled_call(codeobj: Any) -> Any:
     """What ``codeobj()`` comes down to, as one call: its compiled ``main(namespace)``
-    (Cython) or ``exec(code, namespace)`` (numpy); ``codeobj`` itself where its namespace has
+    (Cython) or its ``run_block("run")`` (numpy); ``codeobj`` itself where its namespace has
     entries to refresh or its class is not one of Brian2's two runtime targets; ``_NOTHING``
     for an empty block (``run_block`` does nothing)."""
     cls = codeobj.__class__
@@ -253,9 +255,11 @@ def compiled_call(codeobj: Any) -> Any:
             and cls.run_block is CythonCodeObject.run_block \
             and cls.update_namespace is CythonCodeObject.update_namespace:
         return partial(block.main, codeobj.namespace) if block else _NOTHING
-    if issubclass(cls, NumpyCodeObject) and cls.run_block is NumpyCodeObject.run_block \
+    if issubclass(cls, NumpyCodeObject) \
             and cls.update_namespace is NumpyCodeObject.update_namespace:
-        return partial(exec, block, codeobj.namespace) if block else _NOTHING
+        # Brian2's own run_block executes the numpy code (the package never executes code
+        # itself: tests/test_checkpoint_format.py) and wraps its errors
+        return partial(codeobj.run_block, "run") if block else _NOTHING
     return codeobj
 
 
@@ -266,16 +270,6 @@ def _reraise(exc: Exception, codeobj: Any) -> None:
         raise exc
     message = (f"An exception occured during the execution of the 'run' block of code object "
                f"'{codeobj.name}'.\n")
-    if isinstance(codeobj, NumpyCodeObject):
-        message = (f"An exception occured during the execution of the 'run' block of code "
-                   f"object {codeobj.name}.\n")
-        tb = exc.__traceback__
-        while tb is not None and tb.tb_frame.f_code.co_filename != "(string)":
-            tb = tb.tb_next
-        if tb is not None:
-            lines = codeobj.code.run.split("\n")
-            message += ("The error was raised in the following line:\n"
-                        f"{lines[tb.tb_lineno - 1]}\n")
     raise BrianObjectException(message, codeobj.owner) from exc
 
 

@@ -7,6 +7,7 @@ so do a unit and a training in threads."""
 
 from __future__ import annotations
 
+import signal
 import subprocess
 import sys
 import textwrap
@@ -174,8 +175,11 @@ def test_brian2_first_imported_in_a_thread(command_line, tmp_path):
         np.savez(f"{{out}}/t0.npz", **{{f"{{p}}_{{k}}": a for p, ta in results[0].spikes.items()
                                      for k, a in enumerate(ta)}})
     """)
+    # a process started with SIGINT ignored (pytest run as a background job, `cmd &`) keeps
+    # it ignored, by design: the child starts with Python's own handler, as from a terminal
     proc = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True,
-                          text=True, timeout=300, cwd=tmp_path)
+                          text=True, timeout=300, cwd=tmp_path,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "signal only works" not in proc.stderr
     _assert_same_run(ac.load(tmp_path / "t1"), command_line)
