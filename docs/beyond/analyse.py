@@ -34,6 +34,9 @@
     # astrocpg evaluate's runs, controller by controller, with 95 % confidence intervals
     python docs/beyond/analyse.py worlds docs/beyond/robustness/evaluation.csv
 
+    # one condition's runs in one world, controller by controller (trot gait shares, reasons)
+    python docs/beyond/analyse.py controllers docs/beyond/robustness/evaluation.csv --world flat
+
     # each run of a study against a reference run, seed by seed: evaluated gait, rhythm, speed
     # and falls of the final tables, and the tables' weight structure (final_tables.py folders)
     python docs/beyond/analyse.py against docs/beyond/robustness/evaluation.csv:astrocytes__seeds1-20 \
@@ -456,6 +459,31 @@ def against(reference: str, reference_tables: Path, evaluation: str, tables: Pat
     return "\n".join(lines) + "\n"
 
 
+def controllers(path: str, world: str, condition: str) -> str:
+    """One condition's evaluation runs in one world, controller by controller: how many
+    controllers show a trot gait in at least one run and in most of theirs, and why the runs
+    without a gait have none (``gait_reason``), over all runs and over the upright ones."""
+    from collections import Counter
+
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f)
+                if r["world"] == world and r["condition"] == condition]
+    if not rows:
+        sys.exit(f"analyse.py: no runs of {condition!r} in world {world!r} in {path}")
+    per: dict[str, list[bool]] = {}
+    for r in rows:
+        per.setdefault(f'{r["source"]}:{r["seed"]}', []).append(r["gait"] == "trot")
+    shares = sorted(sum(v) / len(v) for v in per.values())
+    upright = [r for r in rows if r["fell"] == "0"]
+    reasons = Counter((r["gait_reason"] or r["gait"]).split(" at ")[0] for r in rows)
+    return (f"{condition}, {world}: {len(rows)} runs of {len(per)} controllers; trot gait in "
+            f"{sum(r['gait'] == 'trot' for r in rows)} runs ({sum(r['gait'] == 'trot' for r in upright)}"
+            f" of the {len(upright)} upright); per controller the share of its runs is "
+            f"{shares[0]:.1f} to {shares[-1]:.1f}: {sum(x > 0 for x in shares)} controllers trot "
+            f"in at least one run, {sum(x > 0.5 for x in shares)} in most; gait or reason for "
+            f"none: " + ", ".join(f"{k} {v}" for k, v in reasons.most_common()) + "\n")
+
+
 PANELS = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
           ("length_s", "session length (s)"))
 
@@ -560,6 +588,10 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("a")
     c.add_argument("b")
     c.add_argument("--column", required=True)
+    k = sub.add_parser("controllers")
+    k.add_argument("evaluation")
+    k.add_argument("--world", default="flat")
+    k.add_argument("--condition", default="astrocytes")
     g = sub.add_parser("against")
     g.add_argument("reference", help="EVALUATION.csv:RUN_ID, the reference run")
     g.add_argument("reference_tables", type=Path, help="its final_tables.py folder")
@@ -592,6 +624,8 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout.write(versus(args.ref, args.results, args.sessions, args.last, args.seeds))
     elif args.what == "columns":
         sys.stdout.write(columns(args.a, args.b, args.column))
+    elif args.what == "controllers":
+        sys.stdout.write(controllers(args.evaluation, args.world, args.condition))
     elif args.what == "against":
         sys.stdout.write(against(args.reference, args.reference_tables, args.evaluation,
                                  args.tables, args.world))
