@@ -507,6 +507,39 @@ def test_study_interrupted_continues_to_the_same_result(sig, children, tmp_path,
     c.no_debug_files()
 
 
+def test_a_run_killed_between_its_status_and_its_manifest_is_continued(children, tmp_path,
+                                                                       study_baseline):
+    """A run ends by writing status.json (finished), then its manifest: a study stopped between
+    the two (its worker killed) left a run whose status says finished and whose manifest still
+    says running, listing the files of its start. The next start of the study must not take it
+    as ended (the folder would not match its manifest): it continues the run from its
+    checkpoint and seals it, to the same results."""
+    from astrocpg.studies.parameter_studies.status import study_status
+
+    spec, expected, baseline = study_baseline
+    out = tmp_path / "out"
+    shutil.copytree(baseline, out)
+    run = out / "runs" / "astro__seed1"
+    manifest = json.loads((run / "manifest.json").read_text())
+    assert manifest["results"]["status"] == "finished"
+    manifest["results"] = {"status": "running"}
+    manifest["inventory"] = {"status.json": manifest["inventory"]["status.json"]}
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    (run / LOCK_NAME).write_bytes(b"")  # what the killed worker left: its lock does not block
+    with pytest.raises(Exception, match="checkpoint.npz is not listed"):
+        verify(run)
+    states = {r.run_id: r.state for r in study_status(out).runs}
+    assert states == {"astro__seed1": "stopped", "astro__seed2": "finished"}, states
+    again = children("study", spec, "--out", out, "--workers", "1", "--no-progress")
+    assert again.finish() == 0, again.stderr
+    assert results(out) == expected
+    for r in (out / "runs").iterdir():
+        verify(r)
+    status = json.loads((run / "status.json").read_text())
+    assert status["state"] == "finished" and status["attempts"] == 2, status
+    assert json.loads((out / "runs" / "astro__seed2" / "status.json").read_text())["attempts"] == 1
+
+
 @pytest.mark.slow
 def test_second_study_on_one_folder_is_refused(children, tmp_path, study_baseline):
     spec, _, _ = study_baseline

@@ -38,7 +38,7 @@ from ..outputs.checkpoint import refuse_legacy
 from ..outputs.folder import FolderLock
 from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write_manifest
 from ..outputs.weights import WEIGHTS
-from .layout import FAILURES, GAITS, STATUS, run_files
+from .layout import ENDED, FAILURES, GAITS, STATUS, as_it_stands, run_files
 from .study_file import RunSpec
 
 
@@ -46,7 +46,6 @@ from .study_file import RunSpec
 
 #: The states of a run that a study never runs again: finished, or diverged (its settings
 #: make it diverge; rerun, it would diverge again at the same step).
-ENDED = ("finished", "diverged")
 
 
 def ended_status(folder: Path) -> dict[str, Any] | None:
@@ -64,7 +63,7 @@ def read_status(folder: Path) -> dict[str, Any]:
         raise
     except (OSError, ValueError):
         return {}
-    return status if isinstance(status, dict) else {}
+    return as_it_stands(folder, status) if isinstance(status, dict) else {}
 
 
 def _write_status(folder: Path, status: dict[str, Any]) -> None:

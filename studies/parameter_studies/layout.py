@@ -8,6 +8,10 @@ one training folder per run under ``OUT/runs/<run id>/`` with its ``status.json`
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+from typing import Any
+
 from ..commands.train import TRAIN_FILES
 from ..outputs.study_index import INDEX
 
@@ -21,6 +25,32 @@ TIMELINE_COLUMNS = ("run_id", "attempt", "state", "worker", "worker_name", "host
 STUDY_COPY = "study.toml"
 STUDY_INDEX = INDEX  # "study.json"
 GAITS = "gait.csv"
+MANIFEST = "manifest.json"
+
+#: The states after which a run is never trained again: a diverged run is a function of its
+#: settings and would diverge again.
+ENDED = ("finished", "diverged")
+
+
+def as_it_stands(folder: Path, status: dict[str, Any]) -> dict[str, Any]:
+    """``status`` (a run's ``status.json``) as the run really stands. A run ends by writing its
+    status, then its manifest (whose inventory lists the status): a run whose status says it
+    ended (:data:`ENDED`) while its manifest does not say so was killed between the two writes
+    (its study stopped at that moment). Its attempt did not end: it is ``stopped``, continued
+    from its checkpoint by the next start of the study, which writes the manifest; never
+    skipped as ended, which would leave a folder that does not match its manifest."""
+    state = status.get("state")
+    if state not in ENDED:
+        return status
+    try:
+        manifest = json.loads((Path(folder) / MANIFEST).read_text())
+        sealed = manifest["results"]["status"] == state
+    except (OSError, ValueError, RecursionError, KeyError, TypeError):
+        sealed = False
+    if sealed:
+        return status
+    return {**status, "state": "stopped",
+            "error": f"stopped after its status said {state}, before its manifest did"}
 
 
 def run_files() -> dict[str, str]:

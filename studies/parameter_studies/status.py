@@ -35,7 +35,7 @@ from typing import Any
 
 from ...errors import InputError
 from ..outputs.study_index import read_current
-from .layout import RUNS, STATUS, TIMELINE
+from .layout import RUNS, STATUS, TIMELINE, as_it_stands
 
 #: the sessions of a seed whose mean length stands for the sessions it has left
 RECENT = 20
@@ -202,7 +202,7 @@ def _read_status(folder: Path) -> dict[str, Any]:
         status = json.loads((folder / STATUS).read_text())
     except (OSError, ValueError, RecursionError):
         return {}
-    return status if isinstance(status, dict) else {}
+    return as_it_stands(folder, status) if isinstance(status, dict) else {}
 
 
 def study_status(folder: str | Path, *, workers: int = 1,
