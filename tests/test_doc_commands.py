@@ -76,8 +76,8 @@ EXCEPTIONS = {
         "compares a training of 12 full-length sessions with the committed rows of the study: "
         "shortened, the training's rows differ by construction",
     "python docs/ablation/compare_seed.py out/hc_seed5":
-        "compares 12 full-length sessions of seed 5 with a study's rows; shortened, the study "
-        "trains one seed (seed 1) for 2 sessions of 1 s",
+        "compares a training of 12 full-length sessions of seed 5 with the committed rows of "
+        "the study: shortened, the training's rows differ by construction",
 }
 
 
@@ -321,7 +321,7 @@ def _python_paths(argv: list[str]) -> tuple[list[str], list[str]]:
             writes.append(argv[k + 1])
             k += 2
             continue
-        path = w.rsplit(":", 1)[0] if re.search(r":\w+$", w) else w
+        path = w.rsplit(":", 1)[0] if re.search(r":[\w.=-]+$", w) else w
         if "/" in path and not path.startswith("-"):
             reads.append(path)
         k += 1

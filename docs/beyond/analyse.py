@@ -459,17 +459,23 @@ def against(reference: str, reference_tables: Path, evaluation: str, tables: Pat
     return "\n".join(lines) + "\n"
 
 
-def controllers(path: str, world: str, condition: str) -> str:
+def controllers(path: str, world: str, condition: str, source: str | None = None) -> str:
     """One condition's evaluation runs in one world, controller by controller: how many
     controllers show a trot gait in at least one run and in most of theirs, and why the runs
-    without a gait have none (``gait_reason``), over all runs and over the upright ones."""
+    without a gait have none (``gait_reason``), over all runs and over the upright ones.
+    ``source``: only the runs of this run id (a study's run: one control, one dose), where a
+    condition holds several."""
     from collections import Counter
 
     with open(path, newline="") as f:
         rows = [r for r in csv.DictReader(f)
-                if r["world"] == world and r["condition"] == condition]
+                if r["world"] == world and r["condition"] == condition
+                and (source is None or r["source"] == source)]
     if not rows:
-        sys.exit(f"analyse.py: no runs of {condition!r} in world {world!r} in {path}")
+        what = f"{condition!r}" + (f" from {source!r}" if source else "")
+        sys.exit(f"analyse.py: no runs of {what} in world {world!r} in {path}")
+    if source:
+        condition = source
     per: dict[str, list[bool]] = {}
     for r in rows:
         per.setdefault(f'{r["source"]}:{r["seed"]}', []).append(r["gait"] == "trot")
@@ -592,6 +598,8 @@ def main(argv: list[str] | None = None) -> int:
     k.add_argument("evaluation")
     k.add_argument("--world", default="flat")
     k.add_argument("--condition", default="astrocytes")
+    k.add_argument("--source", help="RUN_ID: only this run's controllers (the evaluation's "
+                                    "source column)")
     g = sub.add_parser("against")
     g.add_argument("reference", help="EVALUATION.csv:RUN_ID, the reference run")
     g.add_argument("reference_tables", type=Path, help="its final_tables.py folder")
@@ -625,7 +633,7 @@ def main(argv: list[str] | None = None) -> int:
     elif args.what == "columns":
         sys.stdout.write(columns(args.a, args.b, args.column))
     elif args.what == "controllers":
-        sys.stdout.write(controllers(args.evaluation, args.world, args.condition))
+        sys.stdout.write(controllers(args.evaluation, args.world, args.condition, args.source))
     elif args.what == "against":
         sys.stdout.write(against(args.reference, args.reference_tables, args.evaluation,
                                  args.tables, args.world))
