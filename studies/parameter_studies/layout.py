@@ -35,7 +35,7 @@ ENDED = ("finished", "diverged")
 def as_it_stands(folder: Path, status: dict[str, Any]) -> dict[str, Any]:
     """``status`` (a run's ``status.json``) as the run really stands. A run ends by writing its
     status, then its manifest (whose inventory lists the status): a run whose status says it
-    ended (:data:`ENDED`) while its manifest does not say so was killed between the two writes
+    ended (:data:`ENDED`) while its manifest still says ``running`` was killed between the two writes
     (its study stopped at that moment). Its attempt did not end: it is ``stopped``, continued
     from its checkpoint by the next start of the study, which writes the manifest; never
     skipped as ended, which would leave a folder that does not match its manifest."""
@@ -44,10 +44,12 @@ def as_it_stands(folder: Path, status: dict[str, Any]) -> dict[str, Any]:
         return status
     try:
         manifest = json.loads((Path(folder) / MANIFEST).read_text())
-        sealed = manifest["results"]["status"] == state
+        # the window: the run's first manifest ("running", written before it trains) is still
+        # there; any other (a folder without one, made by hand or by a tool) leaves the status
+        unsealed = manifest["results"]["status"] == "running"
     except (OSError, ValueError, RecursionError, KeyError, TypeError):
-        sealed = False
-    if sealed:
+        unsealed = False
+    if not unsealed:
         return status
     return {**status, "state": "stopped",
             "error": f"stopped after its status said {state}, before its manifest did"}
