@@ -44,10 +44,6 @@ from .study_file import RunSpec
 
 # ---------------------------------------------------------------- one run (on a worker)
 
-#: The states of a run that a study never runs again: finished, or diverged (its settings
-#: make it diverge; rerun, it would diverge again at the same step).
-
-
 def ended_status(folder: Path) -> dict[str, Any] | None:
     """The status of the run in ``folder`` if it ended (:data:`ENDED`: it is never run again),
     else None: the store the runtime's engine reads to leave a study's ended runs out

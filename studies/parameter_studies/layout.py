@@ -8,11 +8,11 @@ one training folder per run under ``OUT/runs/<run id>/`` with its ``status.json`
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 from ..commands.train import TRAIN_FILES
+from ..outputs.writing import read_manifest
 from ..outputs.study_index import INDEX
 
 RUNS = "runs"
@@ -25,7 +25,6 @@ TIMELINE_COLUMNS = ("run_id", "attempt", "state", "worker", "worker_name", "host
 STUDY_COPY = "study.toml"
 STUDY_INDEX = INDEX  # "study.json"
 GAITS = "gait.csv"
-MANIFEST = "manifest.json"
 
 #: The states after which a run is never trained again: a diverged run is a function of its
 #: settings and would diverge again.
@@ -42,14 +41,11 @@ def as_it_stands(folder: Path, status: dict[str, Any]) -> dict[str, Any]:
     state = status.get("state")
     if state not in ENDED:
         return status
-    try:
-        manifest = json.loads((Path(folder) / MANIFEST).read_text())
-        # the window: the run's first manifest ("running", written before it trains) is still
-        # there; any other (a folder without one, made by hand or by a tool) leaves the status
-        unsealed = manifest["results"]["status"] == "running"
-    except (OSError, ValueError, RecursionError, KeyError, TypeError):
-        unsealed = False
-    if not unsealed:
+    # the window: the run's first manifest ("running", written before it trains) is still
+    # there; any other (a folder without one, made by hand or by a tool) leaves the status
+    manifest = read_manifest(Path(folder))
+    results = manifest.get("results") if isinstance(manifest, dict) else None
+    if not (isinstance(results, dict) and results.get("status") == "running"):
         return status
     return {**status, "state": "stopped",
             "error": f"stopped after its status said {state}, before its manifest did"}
