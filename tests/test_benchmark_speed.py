@@ -98,3 +98,21 @@ def test_profile_step_times_a_steps_python_and_puts_everything_back():
     loop.run(0.02)
     assert not np.array_equal(v, loop.cpg.array("motor", "v"))
     assert not np.array_equal(qpos, loop.bridge.qpos)
+
+
+def test_between_commits_reads_the_last_table_of_speed():
+    """between_commits.py takes the ratio to mj_step from speed.py's closing table, not from
+    the per-repeat table above it, and stops when a target's row is missing."""
+    spec = importlib.util.spec_from_file_location(
+        "between_commits", ROOT / "benchmarks" / "between_commits.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    out = "\n".join([
+        "numpy 20 trials                          1.416          0.07         1.450         70.82",
+        "point                            trial-step us    mj_step us     x mj_step        goal x",
+        "cython 20 trials                          50.4          20.3          2.49           1.5",
+        "numpy 20 trials                           70.8          17.2          4.12           2.5",
+    ])
+    assert module.ratios(out, ["cython", "numpy"]) == {"cython": 2.49, "numpy": 4.12}
+    with pytest.raises(SystemExit):
+        module.ratios(out.replace("cython", "other"), ["cython"])
