@@ -174,3 +174,57 @@ def test_a_run_whose_process_is_gone_is_shown_stopped(tmp_path):
     (run,) = study_status(out, now=1000.0).runs
     assert run.state == "stopped" and run.wall_s == 0.0 and run.unrecorded_attempts == 1
     assert study_status(out, now=1000.0).left_s is None  # no attempt whose cost is known
+
+
+def test_a_killed_attempt_counts_up_to_its_last_checkpoint(tmp_path):
+    """An attempt killed after a checkpoint noted ``last_seen`` counts up to it: the run's wall
+    time includes it, it is not 'stopped without a record', and the run is costed on all its
+    attempts; the study's timeline shows it as killed, ending there."""
+    import os
+    import socket
+
+    from astrocpg.studies.parameter_studies.tables import timeline
+
+    host = socket.gethostname()
+    history = [{"attempts": 1, "started": 0.0, "host": host, "pid": 1, "last_seen": 400.0},
+               {"attempts": 2, "started": 900.0, "host": host, "pid": os.getpid()}]
+    out = _study(tmp_path, {
+        # 8 sessions of 5 s by the first attempt's last checkpoint (400 s), 2 since (100 s):
+        # 500 s of wall for 50 simulated s; 10 sessions of 5 s left -> 500 s
+        "a": {"trials": 1, "sessions": 20, "state": "running",
+              "status": {"started": 900.0, "host": host, "pid": os.getpid(),
+                         "history": history, "sessions_at_start": 8},
+              "lengths": [[5] * 10]}})
+    p = study_status(out, workers=1, now=1000.0)
+    (run,) = p.runs
+    assert run.unrecorded_attempts == 0 and run.wall_s == pytest.approx(500.0)
+    assert p.left_s == pytest.approx(500.0)
+    assert "without a record" not in p.text()
+
+    class Study:
+        runs = [type("R", (), {"run_id": "a"})()]
+    rows = timeline(Study, out)
+    assert [r["state"] for r in rows] == ["killed", "interrupted"]
+    assert rows[0]["ended"] == 400.0 and rows[0]["duration_s"] == pytest.approx(400.0)
+    assert rows[1]["ended"] is None
+
+
+def test_a_run_notes_its_checkpoints_in_its_attempt(tmp_path):
+    """A study's run writes the time of each checkpoint into its attempt's line, which is what
+    lets a killed attempt count up to its last checkpoint."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from tiny_study import tiny_study
+
+    from astrocpg.studies.parameter_studies.study import load_study, run_study
+
+    sys.path.pop(0)
+    f = tmp_path / "tiny.toml"
+    f.write_text(tiny_study("tiny", sessions=2))
+    out = tmp_path / "out"
+    run_study(load_study(f), out, workers=1, progress=False)
+    (folder,) = (out / "runs").iterdir()
+    status = json.loads((folder / "status.json").read_text())
+    (attempt,) = status["history"]
+    assert attempt["started"] <= attempt["last_seen"] <= attempt["ended"]

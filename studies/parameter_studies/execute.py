@@ -126,6 +126,13 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
                 raise InputError("its checkpoint belongs to other settings", culprit=out)
         models = model_set(settings.overrides, {}, models=settings.models)
         trainer = Trainer(models, settings, out, progress=False, record=spec.record_plan())
+
+        def seen() -> None:
+            # at each checkpoint: the attempt's time so far, so that a killed attempt (no end
+            # written) still counts up to its last checkpoint in the study's wall time
+            status["history"][-1]["last_seen"] = time.time()
+            _write_status(out, status)
+        trainer.on_checkpoint = seen
         if payload is not None:
             trainer.restore(payload)
         status["sessions_at_start"] = int(trainer.training.sessions_done.sum())

@@ -14,8 +14,10 @@ seed did (sessions grow longer as a gait is learnt, so early in a training it is
 left are shared over ``workers`` processes.
 
 An attempt that was killed (the machine stopped, the process was ended) leaves no end in the
-run's history, so its wall time is not known. A run with such an attempt is costed on its
-current attempt alone: the wall time since that attempt started against the simulated time
+run's history. Each checkpoint notes the time in the attempt's line (``last_seen``), so such an
+attempt counts up to its last checkpoint: the sessions it trained after that are trained again
+and their time is lost to the count. An attempt killed before its first checkpoint has no known
+time; a run with such an attempt is costed on its current attempt alone: the wall time since that attempt started against the simulated time
 trained since (the sessions it found done are the first ``sessions_at_start`` rows of
 ``sessions.csv``). A run whose status says "running" while no process of that pid lives on this
 host is shown as "stopped".
@@ -160,6 +162,18 @@ def _attempt_seconds(out: Path) -> dict[str, float]:
     return spent
 
 
+def _attempt_wall(h: dict[str, Any]) -> float | None:
+    """Wall seconds of an attempt that is over: its recorded duration, or for one killed
+    without writing its end, the time up to its last checkpoint (its sessions after that are
+    trained again); None when it was killed before its first checkpoint."""
+    if isinstance(h.get("duration_s"), (int, float)):
+        return float(h["duration_s"])
+    seen, started = h.get("last_seen"), h.get("started")
+    if isinstance(seen, (int, float)) and isinstance(started, (int, float)):
+        return max(0.0, float(seen) - float(started))
+    return None
+
+
 def _alive(status: dict[str, Any]) -> bool:
     """Whether the attempt a status names still runs: its pid lives, where that can be known
     (the same host); an attempt on another host is taken at its word."""
@@ -224,17 +238,16 @@ def study_status(folder: str | Path, *, workers: int = 1,
         state = str(status.get("state", "not run"))
         done, lengths = _sessions(run_folder, n_trials)
         history = status.get("history") if isinstance(status.get("history"), list) else None
-        if history is not None:  # the run's own record of its attempts, ended or not
-            wall = sum(float(h["duration_s"]) for h in history
-                       if isinstance(h, dict) and isinstance(h.get("duration_s"), (int, float)))
-        else:  # older folders: the study's timeline, written when it ended
-            wall = ended_attempts.get(run_id, 0.0)
         running = state == "running" and isinstance(status.get("started"), (int, float))
         if running and not _alive(status):
             state, running = "stopped", False
-        unrecorded = 0 if history is None else sum(
-            1 for h in history[:-1 if running else None]
-            if isinstance(h, dict) and "duration_s" not in h)
+        ended_history = [h for h in (history or [])[:-1 if running else None]
+                         if isinstance(h, dict)]
+        if history is not None:  # the run's own record of its attempts, ended or not
+            wall = sum(_attempt_wall(h) or 0.0 for h in ended_history)
+        else:  # older folders: the study's timeline, written when it ended
+            wall = ended_attempts.get(run_id, 0.0)
+        unrecorded = sum(1 for h in ended_history if _attempt_wall(h) is None)
         current_wall = max(0.0, now - float(status["started"])) if running else 0.0
         wall += current_wall
         simulated = max((sum(x) for x in lengths), default=0.0)

@@ -50,17 +50,24 @@ def write_results(study: Study, out: Path) -> int:
 
 def timeline(study: Study, out: Path) -> list[dict[str, Any]]:
     """Every attempt of every run of ``study`` in ``out`` (from the runs' ``status.json``),
-    in the order they started; an attempt without an end has state ``interrupted``."""
+    in the order they started. An attempt killed without writing its end has state ``killed``
+    and ends at its last checkpoint (``last_seen``: its time is a lower bound), or, killed
+    before its first checkpoint, state ``interrupted`` and no end."""
     rows = []
     for r in study.runs:
         for h in read_status(out / RUNS / r.run_id).get("history", []):
-            ended = h.get("ended")
+            ended, duration, state = h.get("ended"), h.get("duration_s"), h.get("state")
+            if not ended:  # killed: known up to its last checkpoint, if it reached one
+                seen = h.get("last_seen")
+                ended = seen if isinstance(seen, (int, float)) else None
+                duration = None if ended is None else ended - h["started"]
+                state = "interrupted" if ended is None else "killed"
             rows.append({"run_id": r.run_id, "attempt": h.get("attempts"),
-                         "state": h.get("state", "interrupted") if ended else "interrupted",
+                         "state": state or "interrupted",
                          "worker": h.get("worker", ""), "worker_name": h.get("worker_name", ""),
                          "host": h.get("host", ""), "pid": h.get("pid"),
                          "started": h["started"], "ended": ended,
-                         "duration_s": h.get("duration_s"),
+                         "duration_s": duration,
                          "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ",
                                                       time.gmtime(h["started"]))})
     return sorted(rows, key=lambda row: row["started"])
