@@ -17,10 +17,10 @@ An attempt that was killed (the machine stopped, the process was ended) leaves n
 run's history. Each checkpoint notes the time in the attempt's line (``last_seen``), so such an
 attempt counts up to its last checkpoint: the sessions it trained after that are trained again
 and their time is lost to the count. An attempt killed before its first checkpoint has no known
-time; a run with such an attempt is costed on its current attempt alone: the wall time since that attempt started against the simulated time
-trained since (the sessions it found done are the first ``sessions_at_start`` rows of
-``sessions.csv``). A run whose status says "running" while no process of that pid lives on this
-host is shown as "stopped".
+time; a run with such an attempt is costed on its current attempt alone: the wall time since
+that attempt started against the simulated time trained since (the sessions it found done are
+the first ``sessions_at_start`` rows of ``sessions.csv``). A run whose status says "running"
+while no process of that pid lives on this host is shown as "stopped".
 """
 
 from __future__ import annotations
