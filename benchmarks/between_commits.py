@@ -4,10 +4,10 @@
                                          [--codegen cython numpy] [--json FILE]
 
 Each commit's own ``benchmarks/speed.py --trials 20`` is run in a fresh process against that
-commit's own package: BEFORE from a temporary ``git worktree`` (imported first on ``PYTHONPATH``,
-so the installed package is not used), AFTER from this checkout (or a worktree too, when it is
-named). The runs alternate (before, after, before, ...), so a slow spell of the machine lands on
-both. Printed: each repeat's trial-step / ``mj_step`` ratio per code generation target, the
+commit's own package, imported first on ``PYTHONPATH`` (so the installed package is not used):
+BEFORE from a temporary ``git worktree``, AFTER from this checkout (or a worktree too, when it
+is named). The runs alternate (before, after, before, ...), so a slow spell of the machine lands
+on both. Printed: each repeat's trial-step / ``mj_step`` ratio per code generation target, the
 medians, their spread (max/min - 1) and the change after/before. The ratio to MuJoCo's own step,
 measured in the same process, is steadier than a time on a shared machine; still, read a change
 smaller than the spread as no change.
@@ -33,15 +33,21 @@ def _git(*args: str) -> str:
                           text=True).stdout.strip()
 
 
-def checkout(rev: str, where: Path) -> tuple[Path, Path]:
-    """A worktree of ``rev`` and a folder to put first on ``PYTHONPATH`` (holding ``astrocpg``,
-    a link to the worktree: the package maps to the repository's root)."""
-    tree = where / f"tree_{rev[:12]}"
-    _git("worktree", "add", "--detach", "-f", str(tree), rev)
-    path = where / f"path_{rev[:12]}"
+def importable(tree: Path, where: Path, name: str) -> Path:
+    """A folder to put first on ``PYTHONPATH`` so that ``import astrocpg`` is ``tree``'s code
+    (it holds ``astrocpg``, a link to the tree: the package maps to the repository's root),
+    whatever package is installed."""
+    path = where / f"path_{name}"
     path.mkdir()
     (path / "astrocpg").symlink_to(tree, target_is_directory=True)
-    return tree, path
+    return path
+
+
+def checkout(rev: str, where: Path) -> tuple[Path, Path]:
+    """A worktree of ``rev`` and its :func:`importable` folder."""
+    tree = where / f"tree_{rev[:12]}"
+    _git("worktree", "add", "--detach", "-f", str(tree), rev)
+    return tree, importable(tree, where, rev[:12])
 
 
 def ratios(stdout: str, codegens: list[str]) -> dict[str, float]:
@@ -60,11 +66,9 @@ def ratios(stdout: str, codegens: list[str]) -> dict[str, float]:
     return out
 
 
-def measure(tree: Path, path: Path | None, codegens: list[str], seconds: float) -> dict:
+def measure(tree: Path, path: Path, codegens: list[str], seconds: float) -> dict:
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
-    if path is not None:
-        env["PYTHONPATH"] = os.pathsep.join([str(path)] + [p for p in
-                                                           [env.get("PYTHONPATH")] if p])
+    env["PYTHONPATH"] = os.pathsep.join([str(path)] + [p for p in [env.get("PYTHONPATH")] if p])
     cmd = [sys.executable, str(tree / "benchmarks" / "speed.py"), "--trials", "20",
            "--codegen", *codegens, "--seconds", f"{seconds:g}"]
     done = subprocess.run(cmd, env=env, cwd=tempfile.gettempdir(), capture_output=True,
@@ -94,8 +98,9 @@ def main() -> int:
     started = time.time()
     with tempfile.TemporaryDirectory(prefix="between_commits_") as name:
         tmp = Path(name)
-        trees: dict[str, tuple[Path, Path | None]] = {"before": checkout(revs["before"], tmp)}
-        trees["after"] = checkout(revs["after"], tmp) if args.after else (ROOT, None)
+        trees = {"before": checkout(revs["before"], tmp)}
+        trees["after"] = checkout(revs["after"], tmp) if args.after else \
+            (ROOT, importable(ROOT, tmp, "checkout"))
         try:
             for k in range(args.repeats):
                 for label in ("before", "after"):

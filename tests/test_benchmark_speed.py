@@ -116,3 +116,27 @@ def test_between_commits_reads_the_last_table_of_speed():
     assert module.ratios(out, ["cython", "numpy"]) == {"cython": 2.49, "numpy": 4.12}
     with pytest.raises(SystemExit):
         module.ratios(out.replace("cython", "other"), ["cython"])
+
+
+@pytest.mark.slow
+def test_between_commits_runs_as_the_performance_page_shows(tmp_path):
+    """The command of the performance page, shortened: HEAD against this checkout (a worktree
+    made and removed), one repeat, numpy; its JSON names both commits and both figures."""
+    import json
+    import subprocess
+    import sys
+
+    if not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout")
+    out = tmp_path / "b.json"
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "between_commits.py"),
+                           "HEAD", "--repeats", "1", "--seconds", "0.2", "--codegen", "numpy",
+                           "--json", str(out)], capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    result = json.loads(out.read_text())
+    numpy_ = result["results"]["numpy"]
+    assert len(numpy_["before"]) == len(numpy_["after"]) == 1
+    assert numpy_["before"][0] > 1 and numpy_["after"][0] > 1  # a trial-step costs > mj_step
+    listed = subprocess.run(["git", "-C", str(ROOT), "worktree", "list"], capture_output=True,
+                            text=True).stdout
+    assert "between_commits_" not in listed  # its worktree is removed

@@ -131,23 +131,30 @@ def test_status_refuses_an_option_it_would_ignore(tmp_path, capsys, extra):
     assert len(err.splitlines()) == 1 and extra[0] in err and "does not apply" in err, err
 
 
-def test_a_killed_attempt_is_not_costed_as_if_it_took_no_time(tmp_path):
-    """A machine that stopped leaves attempts without an end: the run is then costed on its
-    current attempt alone (wall since it started against the simulated time since), not on all
-    its sessions against the current attempt's minutes."""
+def _killed_then_running(tmp_path: Path, killed: dict) -> Path:
+    """One run of 20 sessions of 5 s: a first attempt killed without an end (``killed``: more
+    fields of its history line), a second one running in this process since 900 s, having
+    found 8 sessions done and trained 2 more."""
     import os
     import socket
 
     host = socket.gethostname()
-    history = [{"attempts": 1, "started": 0.0, "host": host, "pid": 1},      # killed: no end
+    history = [{"attempts": 1, "started": 0.0, "host": host, "pid": 1} | killed,
                {"attempts": 2, "started": 900.0, "host": host, "pid": os.getpid()}]
-    out = _study(tmp_path, {
-        # 8 sessions of 5 s done before this attempt (40 s), 2 since (10 s) in 100 s of wall:
-        # 10 s of wall per simulated s; 10 sessions of 5 s left -> 500 s
+    return _study(tmp_path, {
         "a": {"trials": 1, "sessions": 20, "state": "running",
               "status": {"started": 900.0, "host": host, "pid": os.getpid(),
                          "history": history, "sessions_at_start": 8},
               "lengths": [[5] * 10]}})
+
+
+def test_a_killed_attempt_is_not_costed_as_if_it_took_no_time(tmp_path):
+    """A machine that stopped leaves attempts without an end: the run is then costed on its
+    current attempt alone (wall since it started against the simulated time since), not on all
+    its sessions against the current attempt's minutes."""
+    # 8 sessions of 5 s done before this attempt (40 s), 2 since (10 s) in 100 s of wall:
+    # 10 s of wall per simulated s; 10 sessions of 5 s left -> 500 s
+    out = _killed_then_running(tmp_path, {})
     p = study_status(out, workers=1, now=1000.0)
     (run,) = p.runs
     assert run.state == "running" and run.unrecorded_attempts == 1
@@ -180,21 +187,11 @@ def test_a_killed_attempt_counts_up_to_its_last_checkpoint(tmp_path):
     """An attempt killed after a checkpoint noted ``last_seen`` counts up to it: the run's wall
     time includes it, it is not 'stopped without a record', and the run is costed on all its
     attempts; the study's timeline shows it as killed, ending there."""
-    import os
-    import socket
-
     from astrocpg.studies.parameter_studies.tables import timeline
 
-    host = socket.gethostname()
-    history = [{"attempts": 1, "started": 0.0, "host": host, "pid": 1, "last_seen": 400.0},
-               {"attempts": 2, "started": 900.0, "host": host, "pid": os.getpid()}]
-    out = _study(tmp_path, {
-        # 8 sessions of 5 s by the first attempt's last checkpoint (400 s), 2 since (100 s):
-        # 500 s of wall for 50 simulated s; 10 sessions of 5 s left -> 500 s
-        "a": {"trials": 1, "sessions": 20, "state": "running",
-              "status": {"started": 900.0, "host": host, "pid": os.getpid(),
-                         "history": history, "sessions_at_start": 8},
-              "lengths": [[5] * 10]}})
+    # 8 sessions of 5 s by the first attempt's last checkpoint (400 s), 2 since (100 s):
+    # 500 s of wall for 50 simulated s; 10 sessions of 5 s left -> 500 s
+    out = _killed_then_running(tmp_path, {"last_seen": 400.0})
     p = study_status(out, workers=1, now=1000.0)
     (run,) = p.runs
     assert run.unrecorded_attempts == 0 and run.wall_s == pytest.approx(500.0)
