@@ -160,7 +160,9 @@ def projected_ablation(targets: list[str], workers: int, run_with_s: float,
         cost = measure_trial_cost(target, progress=False)
         groups = [(seeds, run_with_s), (seeds, run_without_s)]
         auto = choose_batch(groups, workers=workers, cost=cost, split=consecutive_groups)
-        lines.append(f"{'':>7}  batch auto chooses {auto['batch']} per run ({auto['runs']} runs), "
+        split = "".join(f", group {g} in runs of {n}" for g, n in auto["split"].items())
+        lines.append(f"{'':>7}  batch auto chooses {auto['batch']} per run{split} "
+                     f"({auto['runs']} runs), "
                      f"from {cost.fixed:.3f} s + {cost.per_trial:.4f} s per trial per simulated "
                      f"s (CPU, at {', '.join(map(str, cost.measured))} trials)")
     return lines

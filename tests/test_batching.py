@@ -77,6 +77,36 @@ def test_memory_limits_the_batch() -> None:
                         fits=lambda n: False)["batch"] is None
 
 
+def test_an_odd_group_is_split_so_that_no_worker_idles_at_the_end() -> None:
+    """3 conditions x 20 seeds on 2 workers: one run per condition leaves a worker idle while
+    the third runs alone; splitting every condition in two pays the fixed cost six times.
+    Two runs of 20 and the third condition as two runs of 10 end sooner than either."""
+    c = choose_batch(_groups(3, 20), workers=2, cost=COST, split=consecutive_groups)
+    assert c["batch"] == 20 and c["split"] == {0: 10} and c["runs"] == 4
+    per_run = {n: 4000 * (1.64 + 0.126 * n) for n in (10, 20)}
+    assert c["projected_s"] == pytest.approx(per_run[20] + per_run[10])
+    # better than the best single batch for every group (20 or 10)
+    assert c["projected_s"] < 0.9 * min(c["candidates"].values())
+    assert c["uniform_projected_s"] == pytest.approx(2 * per_run[20])
+
+
+def test_groups_that_share_out_evenly_are_not_split() -> None:
+    for n_groups in (2, 4):
+        assert choose_batch(_groups(n_groups, 20), workers=2, cost=COST,
+                            split=consecutive_groups)["split"] == {}
+    # the ablation's measured lengths (astrocytes' sessions longer): splitting the longer run
+    # would pay its fixed cost twice for less than it saves, so one worker idles at the end
+    c = choose_batch([(list(range(1, 21)), 3673.0), (list(range(1, 21)), 2660.0)], workers=2,
+                     cost=COST, split=consecutive_groups)
+    assert c["batch"] == 20 and c["split"] == {}
+
+
+def test_a_split_respects_memory() -> None:
+    c = choose_batch(_groups(3, 20), workers=2, cost=COST, split=consecutive_groups,
+                     fits=lambda n: n in (20, 7))
+    assert set(c["split"].values()) <= {7} and c["batch"] in (20, 7)
+
+
 def test_the_fit_is_a_line_through_the_measurements() -> None:
     cost = tc.TrialCost.fit({1: 2.0, 4: 3.5, 10: 6.5, 20: 11.5}, codegen="numpy", key="k")
     assert cost.fixed == pytest.approx(1.5) and cost.per_trial == pytest.approx(0.5)
@@ -129,6 +159,34 @@ def test_a_study_chooses_its_batch_and_the_folder_keeps_it(tmp_path, stored_cost
     assert "recorded" in again.batch_choice["reason"]
     # --overwrite starts afresh
     assert prepare_study(study, out, workers=2, overwrite=True, progress=False).batch == 32
+
+
+def test_a_study_splits_one_group_and_the_folder_keeps_the_split(tmp_path, stored_cost) -> None:
+    p = tmp_path / "auto.toml"
+    p.write_text(AUTO.format(seeds=20) + "[conditions.constant]\nastrocytes = true\n"
+                 "set = { eta_ADO = \"9*nvolt\" }\n")
+    study = load_study(p)
+    out = tmp_path / "out"
+    planned = prepare_study(study, out, workers=2, progress=False)
+    assert planned.batch == 20 and planned.split == {"astrocytes": 10}
+    assert sorted((r.run_id, r.n_trials) for r in planned.runs) == [
+        ("astrocytes__seeds1-10", 10), ("astrocytes__seeds11-20", 10),
+        ("constant__seeds1-20", 20), ("no-astrocytes__seeds1-20", 20)]
+    # every seed once, in each condition
+    for cond in ("astrocytes", "constant", "no_astrocytes"):
+        seeds = [s for r in planned.runs if r.condition == cond
+                 for s in range(r.seed, r.seed + r.n_trials)]
+        assert sorted(seeds) == list(range(1, 21))
+    from astrocpg.studies.parameter_studies.api import plan_lines
+
+    assert any("astrocytes: 10 seeds per run" in line for line in plan_lines(planned, out))
+    # the folder records batch and split; on 4 workers a rerun resumes the same runs
+    out.mkdir()
+    (out / "study.json").write_text(json.dumps({"name": "auto", "runs": {}, "specs": {},
+                                                "batch": 20, "split": {"astrocytes": 10}}))
+    (out / "manifest.json").write_text(json.dumps({"astrocpg_command": "study"}))
+    again = resolve_batch(study, out, workers=4, progress=False)
+    assert [r.run_id for r in again.runs] == [r.run_id for r in planned.runs]
 
 
 def test_an_older_folder_without_a_recorded_batch_keeps_its_runs(tmp_path, stored_cost) -> None:
@@ -193,7 +251,7 @@ def test_an_auto_study_runs_and_records_its_choice(tmp_path, stored_cost) -> Non
     res = run_study(load_study(p), out, workers=2, progress=False)
     assert res["failed"] == [] and res["rows"] == 2 * 2 * 2
     index = json.loads((out / "study.json").read_text())
-    assert index["batch"] == 2 and index["batch_setting"] == "auto"
+    assert index["batch"] == 2 and index["batch_setting"] == "auto" and index["split"] == {}
     assert index["batch_choice"]["workers"] == 2
     settings = json.loads((out / "manifest.json").read_text())["settings"]
     assert settings["batch"] == 2 and settings["batch_choice"]["runs"] == 2

@@ -66,6 +66,9 @@ def plan_lines(study: Any, out: Path) -> list[str]:
                                   f"every session lasts L_max, on this machine's measured cost "
                                   f"per trial")
         lines.append(f"batch auto: {study.batch} seeds per run ({how})")
+        for group, n in sorted(study.split.items()):
+            lines.append(f"  {group}: {n} seeds per run (split so that no worker idles at the "
+                         f"end)")
     n_trials = sum(r.n_trials for r in study.runs)
     lines.append(f"study {study.name}: {len(study.runs)} runs ({n_trials} trials x "
                  f"{study.n_sessions} sessions) -> {out}/")

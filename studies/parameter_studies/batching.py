@@ -1,17 +1,26 @@
-"""``batch = "auto"`` in a study file: the number of seeds per run that finishes the study
-soonest on the workers at hand.
+"""``batch = "auto"`` in a study file: the seeds per run that finish the study soonest on the
+workers at hand.
 
 For each candidate batch size the study's seeds are split into runs as they would be
 (consecutive seeds, per condition and sweep point), each run costed with the machine's measured
 :class:`~astrocpg.studies.runtime.trial_cost.TrialCost` and its longest possible sessions
 (``sessions x L_max``), and the runs scheduled longest first on the workers, the way the study
 dispatches them (a free worker takes the next run). The batch with the shortest projected
-wall time wins; within 2 % of it the largest batch wins (it spends the least CPU). Every run is
-costed at its longest: how much shorter one condition's sessions will be is not known before
-it has run. With ``--scheduler`` the cost is measured where the command runs, not on the
-cluster's machines. Only the ratio of the fixed part to a trial's part matters to the choice,
-but that ratio does vary between machines (about 5 and about 14 on two sittings of the same
-2-core machine), so on a cluster unlike the submitting machine give ``batch`` a number.
+wall time wins; within 2 % of it the largest batch wins (it spends the least CPU).
+
+One batch for every group leaves a core idle at the end when the groups do not share out
+evenly (5 conditions on 2 workers: the fifth runs alone). So the choice is then refined group by
+group: a group may be split into smaller runs than the others when that shortens the projected
+wall time by more than 2 % (5 conditions of 20 seeds on 2 workers: four runs of 20 and one
+condition as two runs of 10, about 12 % sooner than five runs of 20). Splitting never comes
+free: each run pays the fixed part of the cost again, which is why two conditions on two
+workers stay one run each even when one of them trains longer.
+
+Every run is costed at its longest: how much shorter one condition's sessions will be is not
+known before it has run. With ``--scheduler`` the cost is measured where the command runs, not
+on the cluster's machines. Only the ratio of the fixed part to a trial's part matters to the
+choice, but that ratio does vary between machines (about 5 and about 14 on two sittings of the
+same 2-core machine), so on a cluster unlike the submitting machine give ``batch`` a number.
 """
 
 from __future__ import annotations
@@ -44,25 +53,68 @@ def choose_batch(groups: Sequence[tuple[Sequence[int], float]], *, workers: int,
 
     split(seeds, batch): the runs ``(first seed, n)`` a batch size gives (the study's own
     rule); fits(n): whether a run of ``n`` trials fits in memory alongside the others. Returns
-    ``batch``, ``workers``, ``projected_s`` (wall), ``cpu_s``, ``runs`` and, for comparison,
-    ``candidates``: ``{batch: projected wall s}``.
-    """
-    largest = max(len(seeds) for seeds, _ in groups)
+    ``batch`` (seeds per run), ``split`` (``{group index: seeds per run}`` for the groups split
+    into smaller runs than ``batch``: :func:`refine_groups`), ``workers``, ``projected_s``
+    (wall), ``cpu_s``, ``runs`` and, for comparison, ``candidates`` (``{batch: projected wall
+    s}``, one batch for every group) and ``uniform_projected_s`` (``batch`` for every group)."""
     n_groups = len(groups)
     # batch sizes that give different splits, from one run per group to ~8 runs per worker
     most_runs = max(1, math.ceil(MAX_RUNS_PER_WORKER * workers / n_groups))
-    candidates = sorted({math.ceil(largest / k) for k in range(1, min(largest, most_runs) + 1)})
-    table: dict[int, tuple[float, float, int]] = {}
-    for b in candidates:
-        if not fits(b):
-            continue
+
+    def sizes(n_seeds: int, pieces: int = most_runs) -> list[int]:
+        return sorted({math.ceil(n_seeds / k) for k in range(1, min(n_seeds, pieces) + 1)})
+
+    def costed(batches: Sequence[int]) -> tuple[float, float, int]:
         runs = [cost.run_seconds(n, simulated)
-                for seeds, simulated in groups for _, n in split(seeds, b)]
-        table[b] = (longest_first_makespan(runs, workers)[0], sum(runs), len(runs))
+                for (seeds, simulated), b in zip(groups, batches) for _, n in split(seeds, b)]
+        return longest_first_makespan(runs, workers)[0], sum(runs), len(runs)
+
+    largest = max(len(seeds) for seeds, _ in groups)
+    table: dict[int, tuple[float, float, int]] = {}
+    for b in sizes(largest):
+        if fits(b):
+            table[b] = costed([b] * n_groups)
     if not table:
         return {"batch": None}
-    best = min(wall for wall, _, _ in table.values())
-    batch = max(b for b, (wall, _, _) in table.items() if wall <= best * (1 + TIE))
-    wall, cpu, n_runs = table[batch]
+    # each uniform batch refined group by group (a group split in up to as many runs as there
+    # are workers, or the uniform candidates' most); the shortest projected wall wins, and
+    # within 2 % of it the plan that spends the least CPU
+    plans = []
+    for b in table:
+        batches = refine_groups(groups, [b] * n_groups, costed,
+                                lambda n: sizes(n, max(most_runs, workers)), fits)
+        wall, cpu, n_runs = costed(batches)
+        plans.append((wall, cpu, -b, batches, n_runs))
+    best = min(p[0] for p in plans)
+    wall, cpu, neg_b, batches, n_runs = min((p for p in plans if p[0] <= best * (1 + TIE)),
+                                            key=lambda p: (p[1], p[2]))
+    batch = -neg_b
     return {"batch": batch, "workers": workers, "projected_s": wall, "cpu_s": cpu,
-            "runs": n_runs, "candidates": {b: round(t[0], 1) for b, t in table.items()}}
+            "runs": n_runs, "candidates": {b: round(t[0], 1) for b, t in table.items()},
+            "uniform_projected_s": table[batch][0],
+            "split": {i: b for i, b in enumerate(batches) if b != batch}}
+
+
+def refine_groups(groups: Sequence[tuple[Sequence[int], float]], batches: list[int],
+                  costed: Callable[[Sequence[int]], tuple[float, float, int]],
+                  sizes: Callable[[int], list[int]],
+                  fits: Callable[[int], bool]) -> list[int]:
+    """``batches`` (one per group) with single groups split into smaller runs, one change at a
+    time, while a change shortens the projected wall time by more than ``TIE``; among equal
+    walls the change that spends the least CPU. Batches only shrink, so this ends."""
+    batches = list(batches)
+    wall, cpu, _ = costed(batches)
+    while True:
+        best: tuple[float, float, int, int] | None = None
+        for g, (seeds, _) in enumerate(groups):
+            for b in sizes(len(seeds)):
+                if b >= min(batches[g], len(seeds)) or not fits(b):
+                    continue
+                trial = batches[:g] + [b] + batches[g + 1:]
+                w, c, _ = costed(trial)
+                if w < wall * (1 - TIE) and (best is None or (w, c) < best[:2]):
+                    best = (w, c, g, b)
+        if best is None:
+            return batches
+        wall, cpu, g, b = best
+        batches[g] = b

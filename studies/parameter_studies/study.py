@@ -78,7 +78,8 @@ from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write
 from ..runtime.cells import pending
 from .execute import dispatch, ended_status, read_status, write_failures
 from .layout import FAILURES, RUNS, STUDY_COPY, STUDY_INDEX, study_files
-from .study_file import RunSpec, Study, StudyOverrides, consecutive_groups, parse_study
+from .study_file import (RunSpec, Study, StudyOverrides, consecutive_groups, parse_study,
+                         run_group)
 from .tables import write_results, write_timeline
 
 
@@ -112,18 +113,18 @@ def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
     is returned as it is."""
     if not study.batch_pending:
         return study
-    recorded = _recorded_batch(out) if out is not None else None
+    recorded, recorded_split = _recorded_batch(out) if out is not None else (None, {})
     if recorded is not None:
-        chosen = {"batch": recorded, "reason": f"recorded in {STUDY_INDEX} when the study began"}
+        chosen = {"batch": recorded, "split": recorded_split,
+                  "reason": f"recorded in {STUDY_INDEX} when the study began"}
     else:
         from ..runtime.trial_cost import trial_cost
         from .batching import choose_batch
 
         n_workers = _cluster_threads(scheduler) if scheduler else (workers or os.cpu_count() or 1)
-        groups: dict[tuple[str, str], tuple[list[int], float]] = {}
+        groups: dict[str, tuple[list[int], float]] = {}
         for r in study.runs:  # one run per (condition, point) until the batch is chosen
-            groups[(r.condition, json.dumps(r.point, sort_keys=True))] = (
-                study.seeds, r.n_sessions * (r.session_s or 1.0))
+            groups[run_group(r.run_id)] = (study.seeds, r.n_sessions * (r.session_s or 1.0))
 
         def fits(n: int) -> bool:
             runs_at_once = min(n_workers, len(groups) * math.ceil(len(study.seeds) / n))
@@ -134,6 +135,8 @@ def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
         cost = trial_cost(progress=progress)
         chosen = choose_batch(list(groups.values()), workers=n_workers, cost=cost,
                               split=consecutive_groups, fits=fits)
+        names = list(groups)
+        chosen["split"] = {names[i]: b for i, b in chosen.get("split", {}).items()}
         if chosen["batch"] is None:
             raise InputError("batch = \"auto\": not even one seed per run fits in memory "
                              f"on {n_workers} workers", culprit=f"study {study.path.name}")
@@ -141,22 +144,27 @@ def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
                           "per_trial_s_per_sim_s": cost.per_trial,
                           "measured": cost.measured, "codegen": cost.codegen,
                           "when": cost.when}
-    resolved = parse_study(study.text, study.path, int(chosen["batch"]), study.overrides)
+    resolved = parse_study(study.text, study.path, int(chosen["batch"]), study.overrides,
+                           split_given=chosen.get("split") or {})
     resolved.batch_choice = chosen
     return resolved
 
 
-def _recorded_batch(out: Path) -> int | None:
-    """The batch a study folder was started with (its index), or None for a new folder."""
+def _recorded_batch(out: Path) -> tuple[int | None, dict[str, int]]:
+    """The batch a study folder was started with and its groups split otherwise (its index),
+    or (None, {}) for a new folder."""
     try:
         index = read_json(Path(out) / STUDY_INDEX)
     except (OSError, ValueError):
-        return None
+        return None, {}
+    split = index.get("split") if isinstance(index.get("split"), dict) else {}
+    split = {str(k): v for k, v in split.items()
+             if isinstance(v, int) and not isinstance(v, bool) and v >= 1}
     if isinstance(index.get("batch"), int) and index["batch"] >= 1:
-        return index["batch"]
+        return index["batch"], split
     sizes = [s.get("n_trials") for s in index.get("specs", {}).values()]  # an older index
     sizes = [n for n in sizes if isinstance(n, int) and n >= 1]
-    return max(sizes) if sizes else None
+    return (max(sizes) if sizes else None), {}
 
 
 def _cluster_threads(scheduler: str) -> int:
@@ -250,7 +258,8 @@ def _save_index(study: Study, out: Path) -> None:
     save_json(index_path, {"name": study.name, "overrides": study.overrides.record(),
                            "sweep": study.sweep, "runs": known,
                            "specs": specs, "current": [r.run_id for r in study.runs],
-                           "batch": study.batch, "paired": study.paired,
+                           "batch": study.batch, "split": study.split,
+                           "paired": study.paired,
                            "batch_setting": study.batch_setting,
                            "batch_choice": study.batch_choice})
     data = study.text.encode()

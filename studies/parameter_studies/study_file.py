@@ -213,6 +213,9 @@ class Study:
     # says how; runs are split by ``batch`` only once it is chosen)
     batch_setting: int | str = 0
     batch_choice: dict[str, Any] | None = None
+    # "auto" only: the groups (run ids without their seeds, :func:`run_group`) split into
+    # smaller runs than ``batch`` so that no worker idles at the end ({group: seeds per run})
+    split: dict[str, int] = field(default_factory=dict)
     # what the command line changed in the file's study (recorded in the study folder)
     overrides: StudyOverrides = field(default_factory=StudyOverrides)
     # paired = true: the report compares seed k of one condition with seed k of another
@@ -246,11 +249,13 @@ def _slug(text: str) -> str:
 
 
 def parse_study(text: str, p: Path, batch_given: int | None,
-                overrides: StudyOverrides | None = None) -> Study:
+                overrides: StudyOverrides | None = None,
+                split_given: dict[str, int] | None = None) -> Study:
     """The :class:`Study` of the TOML ``text`` read from ``p``, every key checked in the order
     the file is read (the first mistake is the one reported); ``batch_given``: seeds per run,
     instead of the file's ``batch``; ``overrides``: the command line's changes, applied to the
-    study as read (a mistake names the option)."""
+    study as read (a mistake names the option); ``split_given``: with ``batch_given``, the
+    groups (:func:`run_group`) split into runs of other sizes (``batch = "auto"``'s choice)."""
     given = overrides or StudyOverrides()
     try:
         doc = loads_toml(text, f"study {p}")  # nesting bounded before tomllib recurses
@@ -296,7 +301,8 @@ def parse_study(text: str, p: Path, batch_given: int | None,
                                              where)
     base = _apply_sets(doc, models, base, axes, given.sets, where)
     runs = _runs(doc, slots, base_files, models, base, axes, axis_files, points,
-                 _Runs(seeds=seeds, batch=batch, n_sessions=n_sessions, record=record,
+                 _Runs(seeds=seeds, batch=batch, split=dict(split_given or {}),
+                       n_sessions=n_sessions, record=record,
                        populations=populations), where)
     evaluate = _evaluate_table(doc.get("evaluate"), p, where)
     if evaluate is not None:
@@ -322,7 +328,7 @@ def parse_study(text: str, p: Path, batch_given: int | None,
                  evaluate=evaluate, batch_setting=batch_setting,
                  batch_choice=None if batch_setting != "auto" or batch_given is None
                  else {"batch": batch_given, "reason": "given by the caller"},
-                 overrides=given)
+                 overrides=given, split=dict(split_given or {}))
 
 
 def _apply_sets(doc: dict[str, Any], models, base: list[str], axes: dict[str, list[str]],
@@ -483,6 +489,7 @@ class _Runs:
     n_sessions: int
     record: dict[str, Any] | None
     populations: dict[str, dict[str, str]] = field(default_factory=dict)
+    split: dict[str, int] = field(default_factory=dict)  # {group: seeds per run}, else batch
 
 
 def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], models,
@@ -496,7 +503,6 @@ def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], mode
     if not isinstance(conditions, dict) or not conditions:
         raise InputError("[conditions] must name at least one condition", culprit=where)
     runs: list[RunSpec] = []
-    groups = consecutive_groups(shared.seeds, shared.batch)
     for cname, cond in conditions.items():
         cw = f"{where} [conditions.{cname}]"
         if not isinstance(cond, dict):
@@ -543,9 +549,11 @@ def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], mode
                     from None
             session_s = run_models.value("L_max")
             tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
-            for first, n in groups:
+            group = "__".join(x for x in (_slug(cname), tag) if x)
+            for first, n in consecutive_groups(shared.seeds,
+                                               shared.split.get(group, shared.batch)):
                 seeds_tag = f"seed{first}" if n == 1 else f"seeds{first}-{first + n - 1}"
-                run_id = "__".join(x for x in (_slug(cname), tag, seeds_tag) if x)
+                run_id = f"{group}__{seeds_tag}"
                 runs.append(RunSpec(run_id=run_id, condition=cname, point=dict(point),
                                     seed=first, n_trials=n, n_sessions=shared.n_sessions,
                                     astrocytes=astro, overrides=overrides, record=shared.record,
@@ -664,6 +672,15 @@ def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
         raise InputError(f"[study] record: {e}", culprit=where) from None
     return {"every": plan.every, "spikes": list(plan.spikes), "traces": list(plan.traces),
             "stride": plan.stride}
+
+
+_SEEDS_TAG = re.compile(r"__seeds?\d+(?:-\d+)?$")
+
+
+def run_group(run_id: str) -> str:
+    """The condition and sweep point a run belongs to: its id without the seeds
+    (``astrocytes__eta_ADO=9-nvolt__seeds1-20`` -> ``astrocytes__eta_ADO=9-nvolt``)."""
+    return _SEEDS_TAG.sub("", run_id)
 
 
 def consecutive_groups(seeds: Sequence[int], batch: int) -> list[tuple[int, int]]:
