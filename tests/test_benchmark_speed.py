@@ -140,3 +140,26 @@ def test_between_commits_runs_as_the_performance_page_shows(tmp_path):
     listed = subprocess.run(["git", "-C", str(ROOT), "worktree", "list"], capture_output=True,
                             text=True).stdout
     assert "between_commits_" not in listed  # its worktree is removed
+
+
+@pytest.mark.slow
+def test_dask_overhead_prints_both_settings_with_the_lean_workers_cheaper(tmp_path):
+    """The benchmark behind the performance page's Dask figures, shortened: one worker, one
+    repeat. Dask's profiler alone costs a worker a few percent of a core, so the lean
+    settings must show less of Dask in the worker."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "dask_overhead.py"),
+                          "--workers", "1", "--seconds", "1", "--repeats", "1",
+                          "--codegen", "numpy"],
+                         capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr[-2000:]
+    rows = {line.split("  ")[0]: line.split() for line in out.stdout.splitlines()
+            if line.startswith(("Dask's defaults", "astrocpg's"))}
+    assert set(rows) == {"Dask's defaults", "astrocpg's (LEAN_DASK)"}
+
+    def share(row: list[str], k: int) -> float:
+        return float([x for x in row if x.endswith("%")][k].rstrip("%"))
+
+    assert share(rows["astrocpg's (LEAN_DASK)"], 0) < share(rows["Dask's defaults"], 0)

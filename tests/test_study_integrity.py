@@ -233,6 +233,28 @@ def test_a_running_dask_scheduler_passes_the_probe_quickly():
         cluster.close()
 
 
+def test_a_local_clusters_workers_run_without_dasks_profiler_and_fast_ticks():
+    """The settings reach the worker processes (set when the nannies start them) and the
+    scheduler; outside the cluster Dask's own defaults are left as they were."""
+    import dask
+    import distributed  # noqa: F401  (its settings join dask.config on import)
+
+    from astrocpg.studies.runtime.cluster import LEAN_DASK, connect_cluster
+
+    before = dask.config.get("distributed.worker.profile.enabled")
+    client, cluster = connect_cluster(1, None)
+    try:
+        seen = client.run(lambda: (dask.config.get("distributed.worker.profile.enabled"),
+                                   dask.config.get("distributed.admin.tick.interval")))
+        assert list(seen.values()) == [(False, LEAN_DASK["distributed.admin.tick.interval"])]
+        # the scheduler's event-loop check runs once a second, not every 20 ms
+        assert cluster.scheduler._tick_interval == pytest.approx(1.0)
+    finally:
+        client.close()
+        cluster.close()
+    assert dask.config.get("distributed.worker.profile.enabled") == before
+
+
 def test_frame_count_is_the_number_of_frames_made():
     from astrocpg.coupling.render import frame_count, frame_samples
 

@@ -225,3 +225,19 @@ def test_a_run_notes_its_checkpoints_in_its_attempt(tmp_path):
     status = json.loads((folder / "status.json").read_text())
     (attempt,) = status["history"]
     assert attempt["started"] <= attempt["last_seen"] <= attempt["ended"]
+
+
+def test_the_progress_bar_counts_a_runs_rows_again_when_its_file_is_replaced(tmp_path):
+    import os
+
+    from astrocpg.studies.parameter_studies.execute import _SessionsDone
+
+    count = _SessionsDone()
+    assert count(tmp_path) == 0  # no sessions.csv yet
+    (tmp_path / "sessions.csv").write_text("trial,session\n0,1\n1,1\n")
+    assert count(tmp_path) == 2
+    assert count(tmp_path) == 2  # unchanged: the cached count
+    new = tmp_path / "new.csv"  # as a checkpoint writes it: a new file moved into place
+    new.write_text("trial,session\n0,1\n1,1\n0,2\n1,2\n0,3\n")
+    os.replace(new, tmp_path / "sessions.csv")
+    assert count(tmp_path) == 5
