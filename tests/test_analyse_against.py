@@ -69,3 +69,29 @@ def test_against_pairs_seeds_and_corrects_over_the_table(tmp_path):
     assert rows["weights above 0.9 w_max (share)"][1] == "1.000"
     # 12 sign flips: the smallest two-sided p is 2/2**12, reported as such
     assert rows["falls (share of runs)"][2].startswith("+0.000")
+
+
+def test_response_orders_the_runs_and_points_by_value_with_intervals(tmp_path):
+    n = 6
+    study = tmp_path / "study.csv"
+    runs = {"astrocytes__eta_ADO=36-nvolt__seeds1-6": 0.6,
+            "astrocytes__eta_ADO=4.5-nvolt__seeds1-6": 1.0}
+    parts = []
+    for run, speed in runs.items():
+        _evaluation(tmp_path / f"{speed}.csv", run, np.full(n, speed), np.ones(n, bool))
+        _tables(tmp_path / "tables", run, saturated=False, n=n)
+        parts.append((tmp_path / f"{speed}.csv").read_text().splitlines())
+    study.write_text("\n".join(parts[0] + parts[1][1:]) + "\n")
+    _evaluation(tmp_path / "ref.csv", "astro", np.full(n, 0.8), np.zeros(n, bool))
+    _tables(tmp_path / "ref_tables", "astro", saturated=True, n=n)
+    out = tmp_path / "response.png"
+    text = _analyse().response(str(study), tmp_path / "tables", "eta_ADO", "nV",
+                               [f"18={tmp_path / 'ref.csv'}:astro@{tmp_path / 'ref_tables'}"],
+                               "flat", out)
+    header = next(line for line in text.splitlines() if line.startswith("| measure"))
+    assert header.split(" | ")[1:] == ["4.5 nV (n=6)", "18 nV (n=6)", "36 nV (n=6) |"]
+    speed = next(line for line in text.splitlines() if line.startswith("| speed"))
+    assert speed.split(" | ")[1:] == ["1 [1, 1]", "0.8 [0.8, 0.8]", "0.6 [0.6, 0.6] |"]
+    gait = next(line for line in text.splitlines() if line.startswith("| trot gait"))
+    assert gait.split(" | ")[2] == "0 [0, 0]"  # the point had no trot gait
+    assert out.stat().st_size > 0

@@ -43,6 +43,14 @@
         docs/ablation/faster_loop/tables docs/beyond/homeostatic_control/evaluation.csv \
         docs/beyond/homeostatic_control/tables --world flat
 
+    # a measure against a swept parameter: each run of a study and reference points (runs of
+    # other evaluations, at the values given), mean and 95 % bootstrap interval over seeds
+    python docs/beyond/analyse.py response docs/beyond/adenosine_dose/evaluation.csv \
+        docs/beyond/adenosine_dose/tables --axis eta_ADO --unit nV \
+        --point "0=docs/beyond/robustness/evaluation.csv:no-astrocytes__seeds1-20@docs/ablation/faster_loop/tables" \
+        --point "18=docs/beyond/robustness/evaluation.csv:astrocytes__seeds1-20@docs/ablation/faster_loop/tables" \
+        --out docs/beyond/adenosine_dose/response.png
+
 ``worlds`` averages each controller's repeats first (the repeats of one controller are not
 independent samples of the condition), then gives per condition and world the mean over
 controllers of the falls, the forward speed and the trot with a 95 % bootstrap interval
@@ -459,6 +467,76 @@ def against(reference: str, reference_tables: Path, evaluation: str, tables: Pat
     return "\n".join(lines) + "\n"
 
 
+def _bootstrap_mean(x: np.ndarray, rng: np.random.Generator) -> tuple[float, float, float]:
+    """Mean of ``x`` and its 95 % bootstrap interval (10 000 resamples)."""
+    means = x[rng.integers(0, len(x), (10000, len(x)))].mean(axis=1)
+    return float(x.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+
+def response(evaluation: str, tables: Path, axis: str, unit: str, points: list[str],
+             world: str, out: Path | None) -> str:
+    """The measures of AGAINST at each value of a swept parameter: every run of the study
+    (its value read from the run id, ``AXIS=VALUE-UNIT``) and each ``--point
+    VALUE=EVALUATION.csv:RUN_ID@TABLES`` (a run of another evaluation standing for that value).
+    Per value: the mean over seeds (each seed's repeats averaged first) with its 95 % bootstrap
+    interval over seeds. Described only: no test (``against`` tests each run against the
+    reference). With ``out``, one panel per measure."""
+    import re
+
+    at: list[tuple[float, str, str, Path]] = []  # value, evaluation, run, tables
+    for run in _evaluated(evaluation, world):
+        m = re.search(rf"(?:^|__|_){re.escape(axis)}=([0-9.]+)", run)
+        if not m:
+            sys.exit(f"analyse.py: run {run!r} names no {axis}=VALUE")
+        at.append((float(m.group(1)), evaluation, run, tables))
+    for spec in points:
+        value, _, rest = spec.partition("=")
+        source, _, table_dir = rest.rpartition("@")
+        ev, _, run = source.rpartition(":")
+        if not (value and ev and run and table_dir):
+            sys.exit(f"analyse.py: --point {spec!r} is not VALUE=EVALUATION.csv:RUN_ID@TABLES")
+        at.append((float(value), ev, run, Path(table_dir)))
+    at.sort()
+    rng = np.random.default_rng(1)
+    table: list[tuple[float, int, list[tuple[float, float, float]]]] = []
+    for value, ev, run, tdir in at:
+        evaluated = _evaluated(ev, world)
+        if run not in evaluated:
+            sys.exit(f"analyse.py: no run {run!r} in {ev}")
+        structure = _structures(tdir, run)
+        seeds = sorted(set(evaluated[run]) & set(structure))
+        cells = [_bootstrap_mean(np.array([float({**evaluated[run][s], **structure[s]}[key])
+                                           for s in seeds]), rng) for _, key in AGAINST]
+        table.append((value, len(seeds), cells))
+    lines = [f"Each measure against {axis} ({unit}), world {world!r}: mean over seeds [95 % "
+             "bootstrap interval over seeds]; each seed's repeats averaged first. Described "
+             "only, no test.", "",
+             f"| measure | " + " | ".join(f"{v:g} {unit} (n={n})" for v, n, _ in table) + " |",
+             "|---|" + "---|" * len(table)]
+    for k, (label, _) in enumerate(AGAINST):
+        lines.append(f"| {label} | " + " | ".join(
+            f"{c[k][0]:.3g} [{c[k][1]:.3g}, {c[k][2]:.3g}]" for _, _, c in table) + " |")
+    if out is not None:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, axes = plt.subplots(1, len(AGAINST), figsize=(3.0 * len(AGAINST), 3.0))
+        x = np.arange(len(table))
+        for k, (ax, (label, _)) in enumerate(zip(axes, AGAINST)):
+            mean = np.array([c[k][0] for _, _, c in table])
+            err = np.array([[c[k][0] - c[k][1], c[k][2] - c[k][0]] for _, _, c in table]).T
+            ax.errorbar(x, mean, yerr=err, fmt="o-", color="tab:red", capsize=3)
+            ax.set_xticks(x, [f"{v:g}" for v, _, _ in table])
+            ax.set_xlabel(f"{axis} ({unit})")
+            ax.set_title(label, fontsize=9)
+        fig.tight_layout()
+        fig.savefig(out, dpi=120)
+        plt.close(fig)
+        lines += ["", f"wrote {out}"]
+    return "\n".join(lines) + "\n"
+
+
 def controllers(path: str, world: str, condition: str, source: str | None = None) -> str:
     """One condition's evaluation runs in one world, controller by controller: how many
     controllers show a trot gait in at least one run and in most of theirs, and why the runs
@@ -606,6 +684,15 @@ def main(argv: list[str] | None = None) -> int:
     g.add_argument("evaluation", help="the study's evaluation.csv")
     g.add_argument("tables", type=Path, help="the study's final_tables.py folder")
     g.add_argument("--world", default="flat")
+    q = sub.add_parser("response")
+    q.add_argument("evaluation", help="the study's evaluation.csv")
+    q.add_argument("tables", type=Path, help="the study's final_tables.py folder")
+    q.add_argument("--axis", required=True, help="the swept parameter, as in the run ids")
+    q.add_argument("--unit", default="", help="its unit, for the labels")
+    q.add_argument("--point", action="append", default=[],
+                   help="VALUE=EVALUATION.csv:RUN_ID@TABLES: another run at that value")
+    q.add_argument("--world", default="flat")
+    q.add_argument("--out", type=Path, help="a figure, one panel per measure")
     args = ap.parse_args(argv)
     if args.what == "fig3c":
         if len(args.titles) != len(args.results):
@@ -634,6 +721,9 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout.write(columns(args.a, args.b, args.column))
     elif args.what == "controllers":
         sys.stdout.write(controllers(args.evaluation, args.world, args.condition, args.source))
+    elif args.what == "response":
+        sys.stdout.write(response(args.evaluation, args.tables, args.axis, args.unit, args.point,
+                                  args.world, args.out))
     elif args.what == "against":
         sys.stdout.write(against(args.reference, args.reference_tables, args.evaluation,
                                  args.tables, args.world))
