@@ -377,3 +377,21 @@ def test_a_log_record_during_a_bar_is_shown_after_it() -> None:
         assert stream.getvalue().endswith("no bar open\n")
     finally:
         log.removeHandler(handler)
+
+
+def test_a_bar_written_to_a_file_draws_a_line_every_interval_not_every_postfix():
+    """A long run's log (``astrocpg study ... 2> log``): tqdm redraws on every postfix, which
+    wrote a line per second (a study) or per session (a training) into the file."""
+    import io
+
+    from astrocpg.studies.runtime.progress import Bar
+
+    log = io.StringIO()
+    with Bar(total=1000, file=log) as bar:
+        for i in range(1000):
+            bar.update(1)
+            bar.set_postfix_str(f"runs done {i}")
+            bar.set_postfix(speed=f"{i}")
+    drawn = [line for line in log.getvalue().replace("\r", "\n").splitlines() if line.strip()]
+    assert len(drawn) <= 3  # the first draw, the last on closing
+    assert "1000/1000" in drawn[-1] and "speed=999" in drawn[-1]

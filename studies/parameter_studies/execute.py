@@ -249,9 +249,7 @@ def dispatch(study, pending, folders, client, progress, total_sessions, n_done_b
     done_sessions = sum(sessions_done(f) for f in folders.values())
     bar = tqdm(total=total_sessions, initial=done_sessions, unit="session",
                desc=f"study {study.name}", disable=not progress, dynamic_ncols=True,
-               smoothing=0.05,
-               # a log file (not a terminal) gets a line every 30 s, not every second
-               mininterval=0.5 if sys.stderr.isatty() else 30.0)
+               smoothing=0.05, **({"mininterval": 0.5} if sys.stderr.isatty() else {}))
 
     def ended(run_id: str, future: Any) -> None:
         counts["finished"] += 1

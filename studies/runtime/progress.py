@@ -17,6 +17,7 @@ seconds with ``unit_scale`` (:func:`time_bar`).
 from __future__ import annotations
 
 import logging
+import sys
 import warnings
 import weakref
 from typing import Any
@@ -101,16 +102,46 @@ def _closed(bar: "Bar") -> None:
             hold.handler.handle(record)
 
 
+#: Seconds between two lines of a bar written to a file (a log of a long run), not a terminal.
+LOG_INTERVAL = 30.0
+
+
+def _to_terminal(kwargs: dict[str, Any]) -> bool:
+    """Whether the bar is redrawn in place: a terminal, or a notebook's widget (tqdm.auto chose
+    the notebook's bar when this module was imported in a notebook)."""
+    if tqdm.__module__.startswith("tqdm.notebook"):
+        return True
+    stream = kwargs.get("file") or sys.stderr
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):  # closed or not a real stream
+        return False
+
+
 class Bar(tqdm):
     """tqdm's bar (terminal or notebook); warnings and console log records shown while it is
     open wait until every bar has closed (see the module's docstring). Close it (``with`` or
     ``close()``); closed by an exception in a ``with``, it erases itself (the error's one line
-    stands alone)."""
+    stands alone). Written to a file (``command 2> log``), it writes a line at most every
+    :data:`LOG_INTERVAL` seconds, its postfix included: a night's training leaves a log of a
+    few hundred lines, not one per session."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
+        self._terminal = _to_terminal(kwargs)
+        if not self._terminal and "mininterval" not in kwargs:
+            kwargs["mininterval"] = LOG_INTERVAL
         super().__init__(*args, **kwargs)
         if not self.disable:
             _opened(self)
+
+    def set_postfix(self, ordered_dict: Any = None, refresh: bool = True,
+                    **kwargs: Any) -> None:
+        # tqdm redraws on every postfix: on a file, the next update's redraw (rate-limited)
+        # shows it instead
+        super().set_postfix(ordered_dict, refresh=refresh and self._terminal, **kwargs)
+
+    def set_postfix_str(self, s: str = "", refresh: bool = True) -> None:
+        super().set_postfix_str(s, refresh=refresh and self._terminal)
 
     def close(self) -> None:
         try:
