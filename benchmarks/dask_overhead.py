@@ -91,9 +91,10 @@ def main() -> None:
           f"{'study process':>16}")
     for name, rows in got.items():
         med = {k: statistics.median(r[k] for r in rows) for k in rows[0]}
+        tasks = ", ".join(f"{r['task_cpu_per_sim_s']:.3f}" for r in rows)
         spread = ", ".join(f"{r['worker_overhead']:.1%}" for r in rows)
         print(f"{name:<24}{med['task_cpu_per_sim_s']:>18.3f}{med['worker_overhead']:>18.1%}"
-              f"{med['parent_overhead']:>16.1%}   (workers: {spread})")
+              f"{med['parent_overhead']:>16.1%}   (repeats: task {tasks}; Dask {spread})")
     print("Dask in a worker: its CPU beyond the task's thread, as a share of one core while "
           "the tasks ran; study process: the scheduler, nannies and client, the same way")
 
