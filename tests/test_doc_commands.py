@@ -75,6 +75,9 @@ EXCEPTIONS = {
     "python docs/ablation/compare_seed.py out/la_rough_seed5":
         "compares a training of 12 full-length sessions with the committed rows of the study: "
         "shortened, the training's rows differ by construction",
+    "python docs/ablation/compare_seed.py out/dose_seed5":
+        "compares a training of 12 full-length sessions of seed 5 at 4.5 nV with the committed "
+        "rows of the study: shortened, the training's rows differ by construction",
     "python docs/ablation/compare_seed.py out/hc_seed5":
         "compares a training of 12 full-length sessions of seed 5 with the committed rows of "
         "the study: shortened, the training's rows differ by construction",
@@ -321,9 +324,13 @@ def _python_paths(argv: list[str]) -> tuple[list[str], list[str]]:
             writes.append(argv[k + 1])
             k += 2
             continue
-        path = w.rsplit(":", 1)[0] if re.search(r":[\w.=-]+$", w) else w
-        if "/" in path and not path.startswith("-"):
-            reads.append(path)
+        # VALUE=EVALUATION.csv:RUN@TABLES (analyse.py response --point): two paths
+        for part in w.split("@") if not w.startswith("-") else [w]:
+            if re.match(r"^[\w.]+=", part) and "/" in part.split("=", 1)[1]:
+                part = part.split("=", 1)[1]
+            path = part.rsplit(":", 1)[0] if re.search(r":[\w.=-]+$", part) else part
+            if "/" in path and not path.startswith("-"):
+                reads.append(path)
         k += 1
     return reads, writes
 
