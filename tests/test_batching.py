@@ -88,6 +88,11 @@ def test_an_odd_group_is_split_so_that_no_worker_idles_at_the_end() -> None:
     # better than the best single batch for every group (20 or 10)
     assert c["projected_s"] < 0.9 * min(c["candidates"].values())
     assert c["uniform_projected_s"] == pytest.approx(2 * per_run[20])
+    # 5 conditions (the adenosine dose's 5 levels): four runs of 20, one condition in two of 10
+    five = choose_batch(_groups(5, 20), workers=2, cost=COST, split=consecutive_groups)
+    assert five["batch"] == 20 and list(five["split"].values()) == [10]
+    assert five["projected_s"] == pytest.approx(2 * per_run[20] + per_run[10])
+    assert five["projected_s"] < 0.91 * five["uniform_projected_s"]  # 10 % sooner
 
 
 def test_groups_that_share_out_evenly_are_not_split() -> None:

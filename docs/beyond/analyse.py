@@ -295,6 +295,12 @@ def table(specs: list[str], sessions: int | None, last: int, seeds: str | None) 
     return "\n".join(lines) + "\n"
 
 
+def _bootstrap_mean(x: np.ndarray, rng: np.random.Generator) -> tuple[float, float, float]:
+    """Mean of ``x`` and its 95 % bootstrap interval (10 000 resamples)."""
+    means = x[rng.integers(0, len(x), (10000, len(x)))].mean(axis=1)
+    return float(x.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+
+
 def worlds(path: str) -> str:
     """astrocpg evaluate's runs, controller by controller: per condition and world, the mean over
     controllers (each controller's repeats averaged first) of falls, speed, and the share of
@@ -328,8 +334,7 @@ def worlds(path: str) -> str:
         return np.array([np.mean(v, axis=0) for v in table[c][w].values()])
 
     def ci(x: np.ndarray) -> tuple[float, float]:
-        means = x[rng.integers(0, len(x), (10000, len(x)))].mean(axis=1)
-        return float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
+        return _bootstrap_mean(x, rng)[1:]
 
     n = {c: len(next(iter(table[c].values()))) for c in conditions}
     reps = {c: len(next(iter(next(iter(table[c].values())).values()))) for c in conditions}
@@ -465,12 +470,6 @@ def against(reference: str, reference_tables: Path, evaluation: str, tables: Pat
         lines.append(f"| {label} | {t['mean_b']:.3f} | {t['mean_a']:.3f} | {d} | {p} | "
                      f"{p_text(adj) if adj is not None else '–'} |")
     return "\n".join(lines) + "\n"
-
-
-def _bootstrap_mean(x: np.ndarray, rng: np.random.Generator) -> tuple[float, float, float]:
-    """Mean of ``x`` and its 95 % bootstrap interval (10 000 resamples)."""
-    means = x[rng.integers(0, len(x), (10000, len(x)))].mean(axis=1)
-    return float(x.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
 
 def response(evaluation: str, tables: Path, axis: str, unit: str, points: list[str],

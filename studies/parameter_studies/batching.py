@@ -11,8 +11,9 @@ wall time wins; within 2 % of it the largest batch wins (it spends the least CPU
 One batch for every group leaves a core idle at the end when the groups do not share out
 evenly (5 conditions on 2 workers: the fifth runs alone). So the choice is then refined group by
 group: a group may be split into smaller runs than the others when that shortens the projected
-wall time by more than 2 % (5 conditions of 20 seeds on 2 workers: four runs of 20 and one
-condition as two runs of 10, about 12 % sooner than five runs of 20). Splitting never comes
+wall time by more than 2 % (on the 2-core machine's measured cost shape, 3 conditions of 20
+seeds on 2 workers: runs of 20, 20, 10 and 10, 15 % sooner than three runs of 20; 5
+conditions: four runs of 20 and one condition as two runs of 10, 10 % sooner). Splitting never comes
 free: each run pays the fixed part of the cost again, which is why two conditions on two
 workers stay one run each even when one of them trains longer.
 

@@ -20,12 +20,12 @@ MAX_WORKERS_PER_CORE = 4
 
 #: Dask's settings for a local cluster. Its defaults serve an interactive dashboard and cost a
 #: study CPU on every core: each worker's statistical profiler walks the running task's stack
-#: every 10 ms (taking the GIL from the training), and every server (the scheduler, each nanny
-#: and worker) wakes every 20 ms to check that its event loop is not blocked, every 500 ms to
-#: sample the system and every 100 ms to read its workers' memory. A study hands a worker one
-#: long run at a time and reads its progress from the run folders, so none of it is used: off
-#: or slower, Dask's own CPU on 3 workers running tasks fell from about 5 % of a core in the
-#: study's process and 3.5 % in each worker to under 1 % in all
+#: every 10 ms, and every server (the scheduler, each nanny and worker) wakes every 20 ms to
+#: check that its event loop is not blocked, every 500 ms to sample the system and every 100 ms
+#: to read its workers' memory. A study hands a worker one long run at a time and reads its
+#: progress from the run folders, so none of it is used. Off or slower, Dask's own CPU beside
+#: 2 workers' tasks fell from 4.9 % of a core in each worker and 4.8 % in the study's process to
+#: 0.4 % and 1.0 %; the tasks' own CPU did not change measurably
 #: (``python benchmarks/dask_overhead.py``). A ``--scheduler`` cluster keeps its own settings.
 LEAN_DASK: dict[str, Any] = {
     "distributed.worker.profile.enabled": False,
