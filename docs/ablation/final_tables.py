@@ -13,35 +13,20 @@ For each finished or stopped run of the study folder (``runs/<run_id>/``), write
 
 and ``OUT/<run_id>.json``: the run's settings (condition, sweep point, models, overrides), its
 first seed, the package versions, the code version (git commit) and the machine, copied from the
-run's manifest, with the file's sha256. ``benchmarks/gait_false_positives.py --no-astrocytes``
-and ``numpy.load`` read the ``.npz``; ``final_weights_mV[k]`` is seed ``seeds[k]``'s table.
+run's manifest, with the file's sha256 (``astrocpg.studies.outputs.kept_tables``).
+``astrocpg evaluate OUT [--session S]`` evaluates these tables as it evaluates a study's runs;
+``benchmarks/gait_false_positives.py --no-astrocytes`` and ``numpy.load`` read the ``.npz``;
+``final_weights_mV[k]`` is seed ``seeds[k]``'s table.
 """
 
 from __future__ import annotations
 
 import argparse
-import hashlib
-import json
 import sys
 from pathlib import Path
 
-import numpy as np
-
-KEPT = ("settings", "seed", "models", "package_versions", "codegen", "git", "machine", "created")
-
-
-def tables(run: Path, sessions: list[int]) -> dict[str, np.ndarray]:
-    manifest = json.loads((run / "manifest.json").read_text(encoding="utf-8"))
-    with np.load(run / "weights.npz", allow_pickle=False) as w:
-        data = {k: w[k] for k in w.files}
-    n = data["final_weights_mV"].shape[0]
-    first = int(manifest.get("seed", manifest.get("settings", {}).get("seed", 1)))
-    out = {"final_weights_mV": data["final_weights_mV"], "labels": data["labels"],
-           "seeds": np.arange(first, first + n), "sessions_done": data["sessions_done"]}
-    for s in sessions:
-        if int(data["sessions_done"].min()) >= s:
-            out[f"weights_mV_after_{s}"] = data["weights_mV"][:, s - 1]
-    return out
+from astrocpg.errors import InputError
+from astrocpg.studies.outputs.kept_tables import keep_tables
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -51,21 +36,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sessions", type=int, nargs="*", default=[],
                     help="also keep the tables after these sessions")
     args = ap.parse_args(argv)
-    runs = sorted(p for p in (args.study / "runs").glob("*") if (p / "weights.npz").is_file())
-    if not runs:
-        sys.exit(f"final_tables.py: no run with a weights.npz under {args.study / 'runs'}")
-    args.out.mkdir(parents=True, exist_ok=True)
-    for run in runs:
-        arrays = tables(run, args.sessions)
-        npz = args.out / f"{run.name}.npz"
-        np.savez(npz, **arrays)
-        manifest = json.loads((run / "manifest.json").read_text(encoding="utf-8"))
-        meta = {k: manifest[k] for k in KEPT if k in manifest}
-        meta["tables"] = {"file": npz.name,
-                          "sha256": hashlib.sha256(npz.read_bytes()).hexdigest(),
-                          "arrays": {k: list(v.shape) for k, v in arrays.items()}}
-        (args.out / f"{run.name}.json").write_text(json.dumps(meta, indent=1) + "\n",
-                                                   encoding="utf-8")
+    try:
+        written = keep_tables(args.study, args.out, args.sessions)
+    except InputError as e:
+        sys.exit(f"final_tables.py: {e}")
+    for npz, arrays in written:
         print(f"{npz}: {len(arrays['seeds'])} seeds, sessions "
               f"{int(arrays['sessions_done'].min())}-{int(arrays['sessions_done'].max())}")
     return 0

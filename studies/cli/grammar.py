@@ -139,7 +139,8 @@ def add_evaluate(sub: Subparsers) -> None:
     """``astrocpg evaluate``: trained controllers in other worlds."""
     ev = sub.add_parser("evaluate", help="trained controllers, learning off, in other worlds "
                                          "(slopes, terrain, friction, pushes, payloads)")
-    ev.add_argument("dir", help="a training folder or a study folder (its finished runs)")
+    ev.add_argument("dir", help="a training folder, a study folder (its finished runs) or a "
+                    "folder of a study's kept tables (docs/ablation/final_tables.py)")
     ev.add_argument("--worlds", default="robustness",
                     help="a worlds file (TOML: [worlds.NAME] tables of world parameters, "
                          "and/or [grid.AXIS] with values = [...] and, for factors, scale = "

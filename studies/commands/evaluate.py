@@ -46,6 +46,7 @@ from ..outputs.parts import PARTS_SUFFIX, CellParts
 from ..outputs.study_index import INDEX as STUDY_INDEX, read_current
 from ..outputs.writing import write_manifest
 from ..outputs.weights import load_weights
+from ..outputs.kept_tables import is_kept_tables, kept_controllers, kept_weights
 from ..runtime.resources import check_memory, estimate_bytes
 from .run import trained_models, training_settings
 from .settings import added_populations, check_grid, number, seed_number
@@ -207,19 +208,23 @@ def in_world(models: ModelSet, world: Mapping[str, Any]) -> ModelSet:
 
 
 def _controllers(folder: Path) -> list[dict[str, Any]]:
-    """The trained trainings under ``folder``: itself (a training), or the finished runs its
-    study file now names (a study), each with its settings and what identifies its trials
-    (condition, swept point, seeds)."""
+    """The trained trainings under ``folder``: itself (a training), the finished runs its
+    study file now names (a study), or the runs of a kept-tables folder
+    (:mod:`~astrocpg.studies.outputs.kept_tables`), each with its settings and what identifies
+    its trials (condition, swept point, seeds)."""
     if (folder / "weights.npz").is_file():
         settings = training_settings(folder)
         return [{"folder": folder, "settings": settings, "condition":
                  "astrocytes" if settings.get("astrocytes", True) else "no_astrocytes",
                  "point": "", "first_seed": int(settings.get("seed", 1))}]
     runs = folder / "runs"
+    if not (folder / STUDY_INDEX).exists() and is_kept_tables(folder):
+        return kept_controllers(folder)
     check_regular(folder / STUDY_INDEX)  # a FIFO is refused, never waited on
     if not runs.is_dir() or not (folder / STUDY_INDEX).is_file():
-        raise InputError(f"is neither a training (weights.npz) nor a study folder (runs/ and "
-                         f"{STUDY_INDEX})", culprit=str(folder))
+        raise InputError(f"is neither a training (weights.npz), a study folder (runs/ and "
+                         f"{STUDY_INDEX}) nor a folder of kept tables (RUN.json and RUN.npz)",
+                         culprit=str(folder))
     found = []
     # the runs the study file now names, not the runs/ of an earlier version of it
     for run in sorted(runs / run_id for run_id in read_current(folder, str(folder))):
@@ -274,7 +279,7 @@ def evaluate_cell(controller: Mapping[str, Any], tables: np.ndarray, world: str,
     rows = []
     for b in range(len(batch)):
         r, k = divmod(b, n)
-        rows.append({"source": Path(controller["folder"]).name,
+        rows.append({"source": controller.get("source", Path(controller["folder"]).name),
                      "condition": controller["condition"], "point": controller["point"],
                      "seed": controller["first_seed"] + k, "world": world, **grid,
                      "repeat": r, "run_seed": seed + b, **_trial_rows(result, b, seconds)})
@@ -344,9 +349,12 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
         controllers = [c for c in controllers if c["condition"] in conditions]
     plans = []
     for c in controllers:
-        verify(c["folder"], strict=False)
-        plans.append((c, load_weights(c["folder"], culprit="", session=session),
-                      trained_models(c["settings"])))
+        if "kept" in c:  # a kept table: its .npz is the one its .json names (sha256)
+            tables = kept_weights(c, session)
+        else:
+            verify(c["folder"], strict=False)
+            tables = load_weights(c["folder"], culprit="", session=session)
+        plans.append((c, tables, trained_models(c["settings"])))
     world_set = read_worlds(worlds, plans[0][2])
     check_grid(len(plans) * len(world_set.worlds),
                f"cells ({len(plans)} training(s) x {len(world_set.worlds)} world(s))",
