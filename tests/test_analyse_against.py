@@ -95,3 +95,46 @@ def test_response_orders_the_runs_and_points_by_value_with_intervals(tmp_path):
     gait = next(line for line in text.splitlines() if line.startswith("| trot gait"))
     assert gait.split(" | ")[2] == "0 [0, 0]"  # the point had no trot gait
     assert out.stat().st_size > 0
+
+
+def test_against_at_a_kept_session_reads_those_tables_and_only_those_evaluations(tmp_path):
+    """--session S: the weight structure of both sides' tables after S; an evaluation whose
+    manifest says it ran other tables is refused; --describe gives intervals and no test."""
+    import pytest
+
+    n = 6
+    for name, run in (("ref", "astro"), ("study", "drive")):
+        _evaluation(tmp_path / f"{name}.csv", run, np.full(n, 1.0), np.ones(n, bool))
+        _tables(tmp_path / f"{name}_tables", run, saturated=False, n=n)
+        npz = tmp_path / f"{name}_tables" / f"{run}.npz"
+        with np.load(npz) as z:
+            arrays = {k: z[k] for k in z.files}
+        # after session 2 the study's tables were all at w_max, the reference's at half of it
+        arrays["weights_mV_after_2"] = np.full((n, 8, 8), 0.05 if name == "study" else 0.025)
+        arrays["sessions_done"] = np.full(n, 4)
+        np.savez(npz, **arrays)
+    analyse = _analyse()
+    args = (f"{tmp_path / 'ref.csv'}:astro", tmp_path / "ref_tables", str(tmp_path / "study.csv"),
+            tmp_path / "study_tables", "flat")
+    text = analyse.against(*args, session=2, describe=True)
+    above = next(line for line in text.splitlines() if "above 0.9 w_max" in line)
+    assert [c.strip() for c in above.split("|")[2:4]] == ["0.000", "1.000"]
+    assert above.split("|")[4].strip().startswith("+1.000")
+    assert "no test" in text and "Holm p" not in text and "after session 2" in text
+    final = analyse.against(*args)  # the final tables: no difference in structure
+    assert next(line for line in final.splitlines()
+                if "above 0.9 w_max" in line).split("|")[4].strip().startswith("+0.000")
+    with pytest.raises(SystemExit, match="keeps no tables after session 5"):
+        analyse.against(*args, session=5)
+    (tmp_path / "manifest.json").write_text(json.dumps({"settings": {"tables": "final"}}))
+    with pytest.raises(SystemExit, match="ran the tables final, not after session 2"):
+        analyse.against(*args, session=2)
+    (tmp_path / "sub").mkdir()
+    for name in ("study.csv", "ref.csv"):
+        (tmp_path / "sub" / name).write_text((tmp_path / name).read_text())
+    (tmp_path / "sub" / "manifest.json").write_text(
+        json.dumps({"settings": {"tables": "after session 3"}}))
+    with pytest.raises(SystemExit, match="ran the tables after session 3, not after session 2"):
+        analyse.against(f"{tmp_path / 'sub' / 'ref.csv'}:astro", tmp_path / "ref_tables",
+                        str(tmp_path / "sub" / "study.csv"), tmp_path / "study_tables", "flat",
+                        session=2)

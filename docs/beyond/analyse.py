@@ -42,6 +42,8 @@
     python docs/beyond/analyse.py against docs/beyond/robustness/evaluation.csv:astrocytes__seeds1-20 \
         docs/ablation/faster_loop/tables docs/beyond/homeostatic_control/evaluation.csv \
         docs/beyond/homeostatic_control/tables --world flat
+    # ... at a kept session (both evaluations of it: astrocpg evaluate --session 120), intervals
+    # only: --session 120 --describe
 
     # a measure against a swept parameter: each run of a study and reference points (runs of
     # other evaluations, at the values given), mean and 95 % bootstrap interval over seeds
@@ -402,9 +404,25 @@ def _evaluated(path: str, world: str) -> dict[str, dict[int, dict[str, float]]]:
                   for seed, v in seeds.items()} for run, seeds in runs.items()}
 
 
-def _structures(tables: Path, run: str) -> dict[int, dict[str, float]]:
-    """seed -> weight structure of its final table (``final_tables.py``'s ``RUN.npz``), with the
-    bounds of the model the run trained with."""
+def _check_session(evaluation: str, session: int | None) -> None:
+    """An evaluation of other tables than those compared is refused: the manifest beside
+    ``evaluation`` (``astrocpg evaluate``'s) says which tables it ran."""
+    import json
+
+    manifest = Path(evaluation).with_name("manifest.json")
+    if not manifest.is_file():
+        return
+    ran = json.loads(manifest.read_text()).get("settings", {}).get("tables", "final")
+    want = "final" if session is None else f"after session {session}"
+    if ran != want:
+        sys.exit(f"analyse.py: {evaluation} ran the tables {ran}, not {want} "
+                 f"({'--session ' + str(session) if session else 'no --session'})")
+
+
+def _structures(tables: Path, run: str, session: int | None = None) -> dict[int, dict[str, float]]:
+    """seed -> weight structure of its final table (``final_tables.py``'s ``RUN.npz``), or with
+    ``session`` of its table after that session (kept, or final where every seed did exactly
+    that many), with the bounds of the model the run trained with."""
     import json
 
     from astrocpg.models import DEFAULT_MODELS
@@ -419,29 +437,40 @@ def _structures(tables: Path, run: str) -> dict[int, dict[str, float]]:
         sys.exit(f"analyse.py: {run} trained with its own weight bounds; not supported here")
     w_max, w_min = (float(DEFAULT_MODELS.value(k)) * 1e3 for k in ("w_max", "w_min"))  # mV
     with np.load(npz, allow_pickle=False) as f:
+        done = f["sessions_done"] if "sessions_done" in f.files else np.array([-1])
+        if session is None or (done.min() == done.max() == session):
+            key = "final_weights_mV"
+        elif f"weights_mV_after_{session}" in f.files:
+            key = f"weights_mV_after_{session}"
+        else:
+            sys.exit(f"analyse.py: {npz} keeps no tables after session {session}")
         return {int(seed): weight_structure(table, w_max, w_min)
-                for seed, table in zip(f["seeds"], f["final_weights_mV"])}
+                for seed, table in zip(f["seeds"], f[key])}
 
 
 def against(reference: str, reference_tables: Path, evaluation: str, tables: Path,
-            world: str) -> str:
+            world: str, session: int | None = None, describe: bool = False) -> str:
     """Each run of a study against a reference run, seed by seed, on the measures of AGAINST:
     B − A per seed with its 95 % bootstrap interval over seeds, the two-sided sign-flip
     permutation p, and that p Holm-adjusted over every run and measure of the table. The pairing
-    is real: a seed has the same initial weights and noise draws in every study of this page."""
+    is real: a seed has the same initial weights and noise draws in every study of this page.
+    ``session``: the weight structure of both sides' tables after that session (their
+    evaluations must be of the same session); ``describe``: the intervals only, no test."""
     from astrocpg.studies.analysis.compare import compare, holm, p_text
 
     ref_eval, _, ref_run = reference.rpartition(":")
+    for ev in (ref_eval, evaluation):
+        _check_session(ev, session)
     ref_runs = _evaluated(ref_eval, world)
     if ref_run not in ref_runs:
         sys.exit(f"analyse.py: no run {ref_run!r} in {ref_eval} (runs: {', '.join(ref_runs)})")
-    ref_structure = _structures(reference_tables, ref_run)
+    ref_structure = _structures(reference_tables, ref_run, session)
     ref = {s: {**v, **ref_structure[s]} for s, v in ref_runs[ref_run].items()
            if s in ref_structure}
     runs = _evaluated(evaluation, world)
     results = []
     for run, seeds_eval in runs.items():
-        structure = _structures(tables, run)
+        structure = _structures(tables, run, session)
         seeds = sorted(set(seeds_eval) & set(ref) & set(structure))
         for label, key in AGAINST:
             a = [float(ref[s][key]) for s in seeds]
@@ -449,37 +478,42 @@ def against(reference: str, reference_tables: Path, evaluation: str, tables: Pat
             # compare(b, a): its mean_a is B's, mean_b A's and difference B − A
             results.append((run, label, seeds, compare(b, a, paired=True)))
     adjusted = holm([t["perm_p"] for *_, t in results])
+    when = "final tables" if session is None else f"tables after session {session}"
     lines = [f"A = {ref_run} ({ref_eval}, tables {reference_tables}); B = each run of "
-             f"{evaluation} (tables {tables}); world {world!r}. Each seed's repeats averaged "
-             "first. B − A per seed: mean [95 % bootstrap interval over seeds]; p: two-sided "
-             "sign-flip permutation test of the per-seed differences; Holm: adjusted over all "
-             f"{len(results)} tests of this table.", ""]
+             f"{evaluation} (tables {tables}); {when}; world {world!r}. Each seed's repeats "
+             "averaged first. B − A per seed: mean [95 % bootstrap interval over seeds]; "
+             + ("described only, no test." if describe else
+                "p: two-sided sign-flip permutation test of the per-seed differences; Holm: "
+                f"adjusted over all {len(results)} tests of this table."), ""]
     current = None
     for (run, label, seeds, t), adj in zip(results, adjusted):
         if run != current:
             current = run
             lines += [""] * bool(lines[-1]) + [f"**{run}** ({len(seeds)} seeds: "
-                      f"{seeds[0]}–{seeds[-1]})", "",
-                      "| measure | A: mean | B: mean | B − A per seed [95 % interval] | p "
-                      "| Holm p |", "|---|---|---|---|---|---|"]
+                      f"{seeds[0]}–{seeds[-1]})", ""] + (
+                      ["| measure | A: mean | B: mean | B − A per seed [95 % interval] |",
+                       "|---|---|---|---|"] if describe else
+                      ["| measure | A: mean | B: mean | B − A per seed [95 % interval] | p "
+                       "| Holm p |", "|---|---|---|---|---|---|"])
         if t["difference_low"] is not None:
             d = f"{t['difference']:+.3f} [{t['difference_low']:+.3f}, {t['difference_high']:+.3f}]"
             p = p_text(t["perm_p"], t["perm_p_min"], bool(t["perm_bound"]))
         else:
             d, p = f"{t['difference']:+.3f} ({t['note']})", "–"
-        lines.append(f"| {label} | {t['mean_b']:.3f} | {t['mean_a']:.3f} | {d} | {p} | "
-                     f"{p_text(adj) if adj is not None else '–'} |")
+        lines.append(f"| {label} | {t['mean_b']:.3f} | {t['mean_a']:.3f} | {d} |" + (
+            "" if describe else f" {p} | {p_text(adj) if adj is not None else '–'} |"))
     return "\n".join(lines) + "\n"
 
 
 def response(evaluation: str, tables: Path, axis: str, unit: str, points: list[str],
-             world: str, out: Path | None) -> str:
+             world: str, out: Path | None, session: int | None = None) -> str:
     """The measures of AGAINST at each value of a swept parameter: every run of the study
     (its value read from the run id, ``AXIS=VALUE-UNIT``) and each ``--point
     VALUE=EVALUATION.csv:RUN_ID@TABLES`` (a run of another evaluation standing for that value).
     Per value: the mean over seeds (each seed's repeats averaged first) with its 95 % bootstrap
     interval over seeds. Described only: no test (``against`` tests each run against the
-    reference). With ``out``, one panel per measure."""
+    reference). With ``out``, one panel per measure. ``session``: the weight structure of the
+    tables after that session, as their evaluations were."""
     import re
 
     at: list[tuple[float, str, str, Path]] = []  # value, evaluation, run, tables
@@ -499,15 +533,17 @@ def response(evaluation: str, tables: Path, axis: str, unit: str, points: list[s
     rng = np.random.default_rng(1)
     table: list[tuple[float, int, list[tuple[float, float, float]]]] = []
     for value, ev, run, tdir in at:
+        _check_session(ev, session)
         evaluated = _evaluated(ev, world)
         if run not in evaluated:
             sys.exit(f"analyse.py: no run {run!r} in {ev}")
-        structure = _structures(tdir, run)
+        structure = _structures(tdir, run, session)
         seeds = sorted(set(evaluated[run]) & set(structure))
         cells = [_bootstrap_mean(np.array([float({**evaluated[run][s], **structure[s]}[key])
                                            for s in seeds]), rng) for _, key in AGAINST]
         table.append((value, len(seeds), cells))
-    lines = [f"Each measure against {axis} ({unit}), world {world!r}: mean over seeds [95 % "
+    when = "final tables" if session is None else f"tables after session {session}"
+    lines = [f"Each measure against {axis} ({unit}), {when}, world {world!r}: mean over seeds [95 % "
              "bootstrap interval over seeds]; each seed's repeats averaged first. Described "
              "only, no test.", "",
              f"| measure | " + " | ".join(f"{v:g} {unit} (n={n})" for v, n, _ in table) + " |",
@@ -683,6 +719,9 @@ def main(argv: list[str] | None = None) -> int:
     g.add_argument("evaluation", help="the study's evaluation.csv")
     g.add_argument("tables", type=Path, help="the study's final_tables.py folder")
     g.add_argument("--world", default="flat")
+    g.add_argument("--session", type=int, help="the tables after this session (both sides' "
+                                               "evaluations must be of it: evaluate --session)")
+    g.add_argument("--describe", action="store_true", help="intervals only, no test")
     q = sub.add_parser("response")
     q.add_argument("evaluation", help="the study's evaluation.csv")
     q.add_argument("tables", type=Path, help="the study's final_tables.py folder")
@@ -692,6 +731,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="VALUE=EVALUATION.csv:RUN_ID@TABLES: another run at that value")
     q.add_argument("--world", default="flat")
     q.add_argument("--out", type=Path, help="a figure, one panel per measure")
+    q.add_argument("--session", type=int, help="the tables after this session")
     args = ap.parse_args(argv)
     if args.what == "fig3c":
         if len(args.titles) != len(args.results):
@@ -722,10 +762,10 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout.write(controllers(args.evaluation, args.world, args.condition, args.source))
     elif args.what == "response":
         sys.stdout.write(response(args.evaluation, args.tables, args.axis, args.unit, args.point,
-                                  args.world, args.out))
+                                  args.world, args.out, args.session))
     elif args.what == "against":
         sys.stdout.write(against(args.reference, args.reference_tables, args.evaluation,
-                                 args.tables, args.world))
+                                 args.tables, args.world, args.session, args.describe))
     return 0
 
 
