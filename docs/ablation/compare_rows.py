@@ -1,12 +1,16 @@
-"""Two runs of a study compared row by row: did they train the same, session by session?
+"""Two runs of a study, or two evaluations, compared row by row: the same rows, column by column?
 
     python docs/ablation/compare_rows.py out/ablation/results.csv \
         docs/ablation/faster_loop/results.csv.gz
+    python docs/ablation/compare_rows.py out/ablation_eval/evaluation.csv \
+        docs/beyond/robustness/evaluation.csv
 
-Reads both ``results.csv`` (or their ``.gz``), matches rows by (condition, seed, session) and
-compares every other column as written (text), except ``run_id`` (the run's name depends on the
-batch). Prints the rows each holds, the rows compared and the differences per column; exits 1
-when there is one.
+Reads both CSV files (or their ``.gz``) and matches rows by (condition, seed, session) for a
+study's ``results.csv``, or by (condition, point, seed, world, repeat) for ``astrocpg
+evaluate``'s ``evaluation.csv``; compares every other column as written (text), except the
+names that depend on how the seeds were batched or where the tables were read from (``run_id``,
+``trial``, ``source``). Prints the rows each holds, the rows compared and the differences per
+column; exits 1 when there is one, or when no row is in both.
 """
 
 from __future__ import annotations
@@ -18,14 +22,22 @@ import io
 import sys
 from pathlib import Path
 
-IGNORED = ("run_id", "trial")  # names that depend on how the seeds were batched
+IGNORED = ("run_id", "trial", "source")  # names that depend on how the seeds were batched
+STUDY_KEY = ("condition", "seed", "session")
+EVALUATION_KEY = ("condition", "point", "seed", "world", "repeat")
 
 
-def rows(path: Path) -> dict[tuple[str, str, str], dict[str, str]]:
+def rows(path: Path) -> tuple[tuple[str, ...], dict[tuple[str, ...], dict[str, str]]]:
+    """The key columns of the file's kind, and its rows by key."""
     raw = path.read_bytes()
     text = gzip.decompress(raw).decode() if path.suffix == ".gz" else raw.decode()
-    return {(r["condition"], r["seed"], r["session"]): r
-            for r in csv.DictReader(io.StringIO(text))}
+    table = list(csv.DictReader(io.StringIO(text)))
+    key = STUDY_KEY if table and "session" in table[0] else EVALUATION_KEY
+    return key, {tuple(r[k] for k in key): r for r in table}
+
+
+def _order(key: tuple[str, ...]) -> tuple:
+    return tuple(int(v) if v.isdigit() else v for v in key)
 
 
 def main() -> int:
@@ -33,9 +45,14 @@ def main() -> int:
     ap.add_argument("first", type=Path)
     ap.add_argument("second", type=Path)
     args = ap.parse_args()
-    a, b = rows(args.first), rows(args.second)
-    common = sorted(set(a) & set(b), key=lambda k: (k[0], int(k[1]), int(k[2])))
-    columns = [c for c in next(iter(a.values())) if c not in IGNORED]
+    (names, a), (names_b, b) = rows(args.first), rows(args.second)
+    if names != names_b:
+        sys.exit(f"compare_rows.py: {args.first} and {args.second} are not the same kind of table")
+    common = sorted(set(a) & set(b), key=_order)
+    if not common:
+        print(f"{len(a)} rows in {args.first}, {len(b)} in {args.second}; none in both")
+        return 1
+    columns = [c for c in a[common[0]] if c not in IGNORED and c not in names]
     differences: dict[str, int] = {}
     first: dict[str, tuple] = {}
     for key in common:
@@ -50,8 +67,8 @@ def main() -> int:
         return 0
     for c, n in differences.items():
         key, x, y = first[c]
-        print(f"{c}: {n} rows differ (first: condition {key[0]}, seed {key[1]}, session "
-              f"{key[2]}: {x} against {y})")
+        where = ", ".join(f"{k} {v}" for k, v in zip(names, key))
+        print(f"{c}: {n} rows differ (first: {where}: {x} against {y})")
     return 1
 
 
