@@ -470,6 +470,8 @@ def against(reference: str, reference_tables: Path, evaluation: str, tables: Pat
     runs = _evaluated(evaluation, world)
     results = []
     for run, seeds_eval in runs.items():
+        if run == ref_run and Path(evaluation).resolve() == Path(ref_eval).resolve():
+            continue  # the reference against itself: not a test
         structure = _structures(tables, run, session)
         seeds = sorted(set(seeds_eval) & set(ref) & set(structure))
         for label, key in AGAINST:
