@@ -138,3 +138,15 @@ def test_against_at_a_kept_session_reads_those_tables_and_only_those_evaluations
         analyse.against(f"{tmp_path / 'sub' / 'ref.csv'}:astro", tmp_path / "ref_tables",
                         str(tmp_path / "sub" / "study.csv"), tmp_path / "study_tables", "flat",
                         session=2)
+
+
+def test_response_keeps_only_the_seeds_named(tmp_path):
+    n = 6
+    run = "astrocytes__eta_ADO=36-nvolt__seeds1-6"
+    _evaluation(tmp_path / "study.csv", run, np.arange(n, dtype=float), np.ones(n, bool))
+    _tables(tmp_path / "tables", run, saturated=False, n=n)
+    text = _analyse().response(str(tmp_path / "study.csv"), tmp_path / "tables", "eta_ADO", "nV",
+                               [], "flat", None, seeds="2-4")
+    assert "36 nV (n=3)" in text
+    speed = next(line for line in text.splitlines() if line.startswith("| speed"))
+    assert speed.split(" | ")[1].startswith("2 [")  # seeds 2-4: speeds 1, 2, 3

@@ -81,6 +81,9 @@ EXCEPTIONS = {
     "python docs/ablation/compare_rows.py out/ablation_final/evaluation.csv":
         "compares an evaluation of 5 runs x 10 s per table with the committed robustness "
         "evaluation: shortened (1 run x 4 s), its rows differ by construction",
+    "python docs/ablation/compare_seed.py out/drive_seed5":
+        "compares a training of 12 full-length sessions of seed 5 at 0.8 x the drive with the "
+        "committed rows of the study: shortened, the training's rows differ by construction",
     "python docs/ablation/compare_seed.py out/hc_seed5":
         "compares a training of 12 full-length sessions of seed 5 with the committed rows of "
         "the study: shortened, the training's rows differ by construction",
@@ -317,6 +320,11 @@ def reads_writes(argv: list[str]) -> tuple[list[tuple[str, str]], list[str]]:
     return reads, [w for w in writes if w]
 
 
+NOT_PATHS = ("--unit",)
+"""Options of the pages' scripts whose values are not paths (``analyse.py response --unit
+mV/s``)."""
+
+
 def _python_paths(argv: list[str]) -> tuple[list[str], list[str]]:
     """Paths a ``python SCRIPT ...`` command reads and writes (``--out X`` writes X)."""
     reads, writes = [], []
@@ -325,6 +333,9 @@ def _python_paths(argv: list[str]) -> tuple[list[str], list[str]]:
         w = argv[k]
         if w == "--out" and k + 1 < len(argv):
             writes.append(argv[k + 1])
+            k += 2
+            continue
+        if w in NOT_PATHS and k + 1 < len(argv):  # a value with a slash that is no path
             k += 2
             continue
         # VALUE=EVALUATION.csv:RUN@TABLES (analyse.py response --point): two paths

@@ -18,14 +18,14 @@
 
     # per run of each study, the measures over the sessions all its seeds have done
     python docs/beyond/analyse.py table docs/ablation/streams/results.csv.gz:astrocytes \
-        docs/beyond/drive_sweep/rows.csv.gz --sessions 120 --seeds 1-8
+        docs/beyond/drive_full/results.csv.gz --sessions 120 --seeds 1-12
 
     # the rows of a study folder as they stand (finished or not), as one table
     python docs/beyond/analyse.py rows out/load_afferent --out docs/beyond/load_afferent/rows.csv.gz
 
     # one reference against each run of a study, unpaired, over the same sessions and seeds
     python docs/beyond/analyse.py versus docs/ablation/streams/results.csv.gz:astrocytes \
-        docs/beyond/drive_sweep/results.csv.gz --sessions 120 --seeds 1-8
+        docs/beyond/drive_full/results.csv.gz --sessions 120 --seeds 1-12
 
     # one column (a value per seed) of two CSV files, unpaired
     python docs/beyond/analyse.py columns docs/variants/delays/gait_interlimb-authors-delays.csv \
@@ -508,14 +508,16 @@ def against(reference: str, reference_tables: Path, evaluation: str, tables: Pat
 
 
 def response(evaluation: str, tables: Path, axis: str, unit: str, points: list[str],
-             world: str, out: Path | None, session: int | None = None) -> str:
+             world: str, out: Path | None, session: int | None = None,
+             seeds: str | None = None) -> str:
     """The measures of AGAINST at each value of a swept parameter: every run of the study
     (its value read from the run id, ``AXIS=VALUE-UNIT``) and each ``--point
     VALUE=EVALUATION.csv:RUN_ID@TABLES`` (a run of another evaluation standing for that value).
     Per value: the mean over seeds (each seed's repeats averaged first) with its 95 % bootstrap
     interval over seeds. Described only: no test (``against`` tests each run against the
     reference). With ``out``, one panel per measure. ``session``: the weight structure of the
-    tables after that session, as their evaluations were."""
+    tables after that session, as their evaluations were. ``seeds``: ``FIRST-LAST``, only these
+    seeds at every value (a reference of 20 seeds beside a study of 12)."""
     import re
 
     at: list[tuple[float, str, str, Path]] = []  # value, evaluation, run, tables
@@ -540,10 +542,13 @@ def response(evaluation: str, tables: Path, axis: str, unit: str, points: list[s
         if run not in evaluated:
             sys.exit(f"analyse.py: no run {run!r} in {ev}")
         structure = _structures(tdir, run, session)
-        seeds = sorted(set(evaluated[run]) & set(structure))
+        kept = sorted(set(evaluated[run]) & set(structure))
+        if seeds:
+            first, _, last = seeds.partition("-")
+            kept = [s for s in kept if int(first) <= s <= int(last or first)]
         cells = [_bootstrap_mean(np.array([float({**evaluated[run][s], **structure[s]}[key])
-                                           for s in seeds]), rng) for _, key in AGAINST]
-        table.append((value, len(seeds), cells))
+                                           for s in kept]), rng) for _, key in AGAINST]
+        table.append((value, len(kept), cells))
     when = "final tables" if session is None else f"tables after session {session}"
     lines = [f"Each measure against {axis} ({unit}), {when}, world {world!r}: mean over seeds [95 % "
              "bootstrap interval over seeds]; each seed's repeats averaged first. Described "
@@ -570,7 +575,7 @@ def response(evaluation: str, tables: Path, axis: str, unit: str, points: list[s
         fig.tight_layout()
         fig.savefig(out, dpi=120)
         plt.close(fig)
-        lines += ["", f"wrote {out}"]
+        print(f"wrote {out}", file=sys.stderr)  # stdout is the table alone
     return "\n".join(lines) + "\n"
 
 
@@ -734,6 +739,7 @@ def main(argv: list[str] | None = None) -> int:
     q.add_argument("--world", default="flat")
     q.add_argument("--out", type=Path, help="a figure, one panel per measure")
     q.add_argument("--session", type=int, help="the tables after this session")
+    q.add_argument("--seeds", help="FIRST-LAST: only these seeds at every value")
     args = ap.parse_args(argv)
     if args.what == "fig3c":
         if len(args.titles) != len(args.results):
@@ -764,7 +770,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout.write(controllers(args.evaluation, args.world, args.condition, args.source))
     elif args.what == "response":
         sys.stdout.write(response(args.evaluation, args.tables, args.axis, args.unit, args.point,
-                                  args.world, args.out, args.session))
+                                  args.world, args.out, args.session, args.seeds))
     elif args.what == "against":
         sys.stdout.write(against(args.reference, args.reference_tables, args.evaluation,
                                  args.tables, args.world, args.session, args.describe))
