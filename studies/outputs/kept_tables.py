@@ -32,7 +32,7 @@ import numpy as np
 from ...errors import InputError
 from ...reading import check_regular, read_bytes, read_json
 from .folder import MANIFEST
-from .weights import _by_labels
+from .weights import by_labels
 
 KEPT = ("settings", "seed", "models", "package_versions", "codegen", "git", "machine", "created")
 """What a kept table's ``.json`` copies from its run's manifest."""
@@ -159,5 +159,5 @@ def kept_weights(controller: dict[str, Any], session: int | None = None) -> np.n
         raise InputError("contains non-finite values", culprit=where)
     if "labels" in arrays:  # one order for rows and columns: read by it
         labels = [str(x) for x in arrays["labels"]]
-        w = np.stack([_by_labels(t, labels, labels, where) for t in w])
+        w = np.stack([by_labels(t, labels, labels, where) for t in w])
     return w * 1e-3

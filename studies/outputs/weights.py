@@ -75,7 +75,7 @@ def load_weights(path: str | Path, trial: int | None = None, *,
                     w = z["weights_mV"] if "weights_mV" in z else z["weights"]
                     labels = [str(x) for x in z["labels"]] if "labels" in z.files else None
                 if labels is not None:  # one order for rows and columns: read by it
-                    w = _by_labels(np.asarray(w, dtype=float), labels, labels, where)
+                    w = by_labels(np.asarray(w, dtype=float), labels, labels, where)
             elif p.suffix == ".json":
                 obj = loads_json(raw, where)
                 w = obj["weights_mV"] if isinstance(obj, dict) else obj
@@ -119,7 +119,7 @@ def _label(text: str) -> str:
     return " ".join(text.split())
 
 
-def _by_labels(w: np.ndarray, rows: list[str], columns: list[str], where: str) -> np.ndarray:
+def by_labels(w: np.ndarray, rows: list[str], columns: list[str], where: str) -> np.ndarray:
     """The (8, 8) table ``w`` (rows and columns labelled) in the canonical order."""
     order = interlimb_labels()
     index = {name: k for k, name in enumerate(order)}
@@ -184,8 +184,8 @@ def read_csv_table(text: str, where: str) -> np.ndarray:
     w = np.array([numbers(r[1:], f"row {r[0]!r}") for r in body])
     labels = [r[0] for r in body]
     if DIRECTIONS[direction]:  # rows are targets: read by the labels, as sources x targets
-        return _by_labels(w.T, columns, labels, where)
-    return _by_labels(w, labels, columns, where)
+        return by_labels(w.T, columns, labels, where)
+    return by_labels(w, labels, columns, where)
 
 
 def _is_number(text: str) -> bool:
