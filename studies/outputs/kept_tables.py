@@ -32,7 +32,7 @@ import numpy as np
 from ...errors import InputError
 from ...reading import check_regular, read_bytes, read_json
 from .folder import MANIFEST
-from .weights import by_labels
+from .weights import WEIGHTS, by_labels
 
 KEPT = ("settings", "seed", "models", "package_versions", "codegen", "git", "machine", "created")
 """What a kept table's ``.json`` copies from its run's manifest."""
@@ -42,7 +42,7 @@ AFTER = "weights_mV_after_{}"
 
 def _run_tables(run: Path, sessions: Sequence[int]) -> dict[str, np.ndarray]:
     manifest = read_json(run / MANIFEST)
-    with np.load(run / "weights.npz", allow_pickle=False) as w:
+    with np.load(run / WEIGHTS, allow_pickle=False) as w:
         data = {k: w[k] for k in w.files}
     n = data[FINAL].shape[0]
     first = int(manifest.get("seed", manifest.get("settings", {}).get("seed", 1)))
@@ -61,7 +61,7 @@ def keep_tables(study: str | Path, out: str | Path,
     final table and its tables after each of ``sessions`` that every seed reached. Returns
     [(npz path, arrays)]."""
     study, out = Path(study), Path(out)
-    runs = sorted(p for p in (study / "runs").glob("*") if (p / "weights.npz").is_file())
+    runs = sorted(p for p in (study / "runs").glob("*") if (p / WEIGHTS).is_file())
     if not runs:
         raise InputError(f"no run with a weights.npz under {study / 'runs'}", culprit=str(study))
     out.mkdir(parents=True, exist_ok=True)
