@@ -150,3 +150,49 @@ def test_response_keeps_only_the_seeds_named(tmp_path):
     assert "36 nV (n=3)" in text
     speed = next(line for line in text.splitlines() if line.startswith("| speed"))
     assert speed.split(" | ")[1].startswith("2 [")  # seeds 2-4: speeds 1, 2, 3
+
+
+def test_map_names_a_gait_only_where_most_runs_of_two_seeds_have_it(tmp_path):
+    """Section 5's rules: a seed's gait is named in more than half of its runs; a point's gait
+    is found (bold) with at least 2 of its 3 seeds; per drive, seeds with each, Wilson."""
+    runs = {(1104, 0.6): {1: ["pace"] * 3 + ["none"] * 2, 2: ["pace"] * 2 + ["none"] * 3,
+                          3: ["none"] * 5},
+            (1104, 1.4): {1: ["pace"] * 3 + ["none"] * 2, 2: ["pace"] * 4 + ["trot"],
+                          3: ["none"] * 5},
+            (1380, 0.6): {s: ["trot"] * 5 for s in (1, 2, 3)},
+            (1380, 1.4): {1: ["trot", "pace"] * 2 + ["none"], 2: ["none"] * 5,
+                          3: ["none"] * 5}}
+    rows = []
+    for (drive, gain), seeds in runs.items():
+        run = f"astrocytes__I_background_0={drive}-mV-second_torque_gain={gain}__seeds1-3"
+        _tables(tmp_path / "tables", run, saturated=drive == 1380, n=3)
+        for seed, gaits in seeds.items():
+            for repeat, g in enumerate(gaits):
+                rows.append({"source": run, "condition": "astrocytes", "point": "",
+                             "seed": seed, "world": "flat", "repeat": repeat,
+                             "mean_speed_m_per_s": drive / 1000, "fell": int(g == "none"),
+                             "rhythm": "trot", "gait": g})
+    with open(tmp_path / "evaluation.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w.writeheader()
+        w.writerows(rows)
+    out = tmp_path / "map.png"
+    text = _analyse().gait_map(str(tmp_path / "evaluation.csv"), tmp_path / "tables",
+                               ["I_background_0", "torque_gain"], "mV/s", "flat", out)
+    assert out.is_file() and out.stat().st_size > 1000
+    gait = text.split("**Gait**")[1].split("**Rhythm**")[0]
+    cells = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
+             for line in gait.splitlines() if line.startswith("| 1")}
+    # seed 2 has pace in 2 of 5 runs only: one seed, a lead, not bold
+    assert cells["1104"][0] == "pace 1/3 (runs: pace 5/15)"
+    assert cells["1104"][1] == "**pace 2/3** (runs: trot 1/15, pace 7/15)"
+    assert cells["1380"][0] == "**trot 3/3** (runs: trot 15/15)"
+    assert cells["1380"][1] == "none 3/3 (runs: trot 2/15, pace 2/15)"
+    per_drive = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
+                 for line in text.split("**Per I_background_0**")[1].splitlines()
+                 if line.startswith("| 1")}
+    assert per_drive["1104"][:3] == ["6", "0 (0%, 0%–39%)", "3 (50%, 19%–81%)"]
+    assert per_drive["1380"][:3] == ["6", "3 (50%, 19%–81%)", "0 (0%, 0%–39%)"]
+    point = [line for line in text.split("**Per point**")[1].splitlines()
+             if line.startswith("| 1380 | 0.6 |")][0]
+    assert "| 1.38 (1.38 – 1.38) | 0.00 (0.00 – 0.00) |" in point

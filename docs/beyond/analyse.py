@@ -53,6 +53,12 @@
         --point "18=docs/beyond/robustness/evaluation.csv:astrocytes__seeds1-20@docs/ablation/faster_loop/tables" \
         --out docs/beyond/adenosine_dose/response.png
 
+    # a study over two swept parameters, point by point (docs/beyond section 5's rules): the
+    # seeds with a gait in most of their runs, the runs, speed, falls and the tables' structure
+    python docs/beyond/analyse.py map docs/beyond/gait_map_trained/evaluation.csv \
+        docs/beyond/gait_map_trained/tables --axes I_background_0 torque_gain --unit mV/s \
+        --out docs/beyond/gait_map_trained/gait_map.png
+
 ``worlds`` averages each controller's repeats first (the repeats of one controller are not
 independent samples of the condition), then gives per condition and world the mean over
 controllers of the falls, the forward speed and the trot with a 95 % bootstrap interval
@@ -610,6 +616,130 @@ def controllers(path: str, world: str, condition: str, source: str | None = None
             f"none: " + ", ".join(f"{k} {v}" for k, v in reasons.most_common()) + "\n")
 
 
+NAMED = ("trot", "pace", "bound", "walk")  # the patterns both classifiers name
+
+
+def _majority(labels: list[str]) -> str:
+    """The label named in more than half of a seed's runs, else ``none``."""
+    from collections import Counter
+
+    label, n = Counter(labels).most_common(1)[0]
+    return label if label in NAMED and n > len(labels) / 2 else "none"
+
+
+def _cell_words(majorities: list[str], runs: list[str]) -> str:
+    """``trot 2/3 (runs: trot 9/15)``: the seeds with each named label (or ``none 3/3``), then
+    the runs with each named label where any run has one."""
+    from collections import Counter
+
+    n, seeds, per_run = len(majorities), Counter(majorities), Counter(runs)
+    head = ", ".join(f"**{g} {seeds[g]}/{n}**" if seeds[g] >= 2 else f"{g} {seeds[g]}/{n}"
+                     for g in NAMED if seeds[g]) or f"none {n}/{n}"
+    tail = ", ".join(f"{g} {per_run[g]}/{len(runs)}" for g in NAMED if per_run[g])
+    return head + (f" (runs: {tail})" if tail else "")
+
+
+def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: str,
+             out: Path | None) -> str:
+    """A study swept over two axes, read by the rules of docs/beyond section 5: per point, the
+    seeds whose runs name a gait (and a rhythm) in most of their runs, the runs with each, the
+    speed, the falls and the final tables' structure; per value of the first axis, the seeds
+    with a trot gait and with any other gait, with Wilson 95 % intervals. Described only."""
+    import re
+    from collections import defaultdict
+
+    from astrocpg.studies.analysis.share import wilson_interval
+
+    with open(evaluation, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["world"] == world]
+    if not rows:
+        sys.exit(f"analyse.py: no runs in world {world!r} in {evaluation}")
+    if "rhythm" not in rows[0]:
+        sys.exit(f"analyse.py: {evaluation} predates the gait read from the feet")
+    _check_session(evaluation, None)
+    ya, xa = axes
+    by_run: dict[str, dict[int, list[dict[str, str]]]] = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        by_run[r["source"]][int(r["seed"])].append(r)
+    point: dict[tuple[float, float], str] = {}
+    for run in by_run:
+        values = []
+        for axis in axes:
+            m = re.search(rf"(?:^|__|_){re.escape(axis)}=([0-9.]+)", run)
+            if not m:
+                sys.exit(f"analyse.py: run {run!r} names no {axis}=VALUE")
+            values.append(float(m.group(1)))
+        point[(values[0], values[1])] = run
+    ys = sorted({y for y, _ in point})
+    xs = sorted({x for _, x in point})
+    cells: dict[tuple[float, float], dict[str, object]] = {}
+    for key, run in point.items():
+        structure = _structures(tables, run)
+        seeds = sorted(by_run[run])
+        gaits = [[r["gait"] for r in by_run[run][s]] for s in seeds]
+        rhythms = [[r["rhythm"] for r in by_run[run][s]] for s in seeds]
+        per_seed = {name: [float(np.mean([float(r[col]) for r in by_run[run][s]])) for s in seeds]
+                    for name, col in (("speed", "mean_speed_m_per_s"), ("falls", "fell"))}
+        for name in ("mixed_limb_pairs", "share_above_0.9_w_max", "share_below_0.9_w_min"):
+            per_seed[name] = [float(structure[s][name]) for s in seeds]
+        cells[key] = {"run": run, "seeds": seeds, "gait": [_majority(g) for g in gaits],
+                      "rhythm": [_majority(g) for g in rhythms],
+                      "gait_runs": [x for g in gaits for x in g],
+                      "rhythm_runs": [x for g in rhythms for x in g], **per_seed}
+    repeats = sorted({len(v) for run in by_run.values() for v in run.values()})
+    head = (f"| {ya} ({unit}) \\ {xa} | " + " | ".join(f"{x:g}" for x in xs) + " |",
+            "|---|" + "---|" * len(xs))
+    lines = [f"Each seed's final table, world {world!r}, {'/'.join(map(str, repeats))} runs per "
+             "seed, learning off. A seed's gait (rhythm) is the one named in more than half "
+             "of its runs; bold: found (at least 2 seeds of the point). Described only, no "
+             "test.", "", "**Gait** (the feet, while the robot stands): seeds with each gait, "
+             "then the runs with each", "", *head]
+    for measure in ("gait", "rhythm"):
+        if measure == "rhythm":
+            lines += ["", "**Rhythm** (the CPG's phase pattern): seeds with each rhythm, then "
+                      "the runs with each", "", *head]
+        for y in ys:
+            lines.append(f"| {y:g} | " + " | ".join(
+                _cell_words(cells[(y, x)][measure], cells[(y, x)][f"{measure}_runs"])
+                if (y, x) in cells else "–" for x in xs) + " |")
+    lines += ["", "**Per point**: mean over seeds (lowest – highest seed); each seed's runs "
+              "averaged first", "", f"| {ya} ({unit}) | {xa} | seeds | speed (m/s) | falls "
+              "(share of runs) | mixed limb pairs (of 12) | weights above 0.9 w_max | "
+              "weights below 0.9 w_min |", "|---|---|---|---|---|---|---|---|"]
+    for (y, x), c in sorted(cells.items()):
+        vals = " | ".join(f"{np.mean(c[k]):.2f} ({min(c[k]):.2f} – {max(c[k]):.2f})"
+                          for k in ("speed", "falls", "mixed_limb_pairs",
+                                    "share_above_0.9_w_max", "share_below_0.9_w_min"))
+        lines.append(f"| {y:g} | {x:g} | {len(c['seeds'])} | {vals} |")
+    lines += ["", f"**Per {ya}** (all {xa} values pooled): seeds with a gait, Wilson 95 % "
+              "interval over seeds", "", f"| {ya} ({unit}) | seeds | trot gait | other gait "
+              "(pace, bound, walk) | trot rhythm | other rhythm |", "|---|---|---|---|---|---|"]
+
+    def share(k: int, n: int) -> str:
+        lo, hi = wilson_interval(k, n)
+        return f"{k} ({k / n:.0%}, {lo:.0%}–{hi:.0%})"
+
+    for y in ys:
+        row = [c for (yy, _), c in cells.items() if yy == y]
+        n = sum(len(c["seeds"]) for c in row)
+        counts = [sum(sum(m == g for m in c[measure]) for c in row) if g == "trot" else
+                  sum(sum(m in NAMED[1:] for m in c[measure]) for c in row)
+                  for measure in ("gait", "rhythm") for g in ("trot", "other")]
+        lines.append(f"| {y:g} | {n} | " + " | ".join(share(k, n) for k in counts) + " |")
+    if out is not None:
+        from astrocpg.studies.figures.gait_map import gait_map_figures
+        from astrocpg.studies.figures.save import save_figure
+
+        grid = [{**r, "grid_" + ya: f"{y:g}", "grid_" + xa: f"{x:g}",
+                 "mean_speed_m_per_s": float(r["mean_speed_m_per_s"]), "fell": float(r["fell"])}
+                for (y, x), run in point.items() for seed in by_run[run].values() for r in seed]
+        figure = gait_map_figures(grid, [(ya, [f"{y:g}" for y in ys]), (xa, [f"{x:g}" for x in xs])],
+                                  {ya: f"{ya} ({unit})", xa: xa})["gait_map.png"]
+        save_figure(figure, out)
+        print(f"wrote {out}", file=sys.stderr)  # stdout is the table alone
+    return "\n".join(lines) + "\n"
+
+
 PANELS = (("mean_reward", "mean reward"), ("final_x_m", "final x (m)"),
           ("length_s", "session length (s)"))
 
@@ -740,6 +870,14 @@ def main(argv: list[str] | None = None) -> int:
     q.add_argument("--out", type=Path, help="a figure, one panel per measure")
     q.add_argument("--session", type=int, help="the tables after this session")
     q.add_argument("--seeds", help="FIRST-LAST: only these seeds at every value")
+    m = sub.add_parser("map")
+    m.add_argument("evaluation", help="the study's evaluation.csv")
+    m.add_argument("tables", type=Path, help="the study's final_tables.py folder")
+    m.add_argument("--axes", nargs=2, required=True, metavar=("ROWS", "COLUMNS"),
+                   help="the two swept parameters, as in the run ids")
+    m.add_argument("--unit", default="", help="the first axis's unit, for the labels")
+    m.add_argument("--world", default="flat")
+    m.add_argument("--out", type=Path, help="the gait map (most common gait per point)")
     args = ap.parse_args(argv)
     if args.what == "fig3c":
         if len(args.titles) != len(args.results):
@@ -771,6 +909,9 @@ def main(argv: list[str] | None = None) -> int:
     elif args.what == "response":
         sys.stdout.write(response(args.evaluation, args.tables, args.axis, args.unit, args.point,
                                   args.world, args.out, args.session, args.seeds))
+    elif args.what == "map":
+        sys.stdout.write(gait_map(args.evaluation, args.tables, args.axes, args.unit,
+                                  args.world, args.out))
     elif args.what == "against":
         sys.stdout.write(against(args.reference, args.reference_tables, args.evaluation,
                                  args.tables, args.world, args.session, args.describe))
