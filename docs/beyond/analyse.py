@@ -57,7 +57,7 @@
     # seeds with a gait in most of their runs, the runs, speed, falls and the tables' structure
     python docs/beyond/analyse.py map docs/beyond/gait_map_trained/evaluation.csv \
         docs/beyond/gait_map_trained/tables --axes I_background_0 torque_gain --unit mV/s \
-        --out docs/beyond/gait_map_trained/gait_map.png
+        --out docs/beyond/gait_map_trained/map.png
 
 ``worlds`` averages each controller's repeats first (the repeats of one controller are not
 independent samples of the condition), then gives per condition and world the mean over
@@ -734,7 +734,9 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
                  "mean_speed_m_per_s": float(r["mean_speed_m_per_s"]), "fell": float(r["fell"])}
                 for (y, x), run in point.items() for seed in by_run[run].values() for r in seed]
         figure = gait_map_figures(grid, [(ya, [f"{y:g}" for y in ys]), (xa, [f"{x:g}" for x in xs])],
-                                  {ya: f"{ya} ({unit})", xa: xa})["gait_map.png"]
+                                  {ya: f"{ya} ({unit})", xa: xa},
+                                  (("gait", "gait (feet)"),
+                                   ("rhythm", "rhythm (thigh bursts)")))["gait_map.png"]
         save_figure(figure, out)
         print(f"wrote {out}", file=sys.stderr)  # stdout is the table alone
     return "\n".join(lines) + "\n"
@@ -877,7 +879,7 @@ def main(argv: list[str] | None = None) -> int:
                    help="the two swept parameters, as in the run ids")
     m.add_argument("--unit", default="", help="the first axis's unit, for the labels")
     m.add_argument("--world", default="flat")
-    m.add_argument("--out", type=Path, help="the gait map (most common gait per point)")
+    m.add_argument("--out", type=Path, help="the map: most common gait and rhythm per point")
     args = ap.parse_args(argv)
     if args.what == "fig3c":
         if len(args.titles) != len(args.results):

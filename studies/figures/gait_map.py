@@ -15,9 +15,11 @@ _COLOURS = {"trot": "#4c9a2a", "pace": "#2a6f9a", "bound": "#9a2a6f", "walk": "#
 
 
 def gait_grid(rows: Sequence[Mapping[str, Any]], axes: Sequence[tuple[str, Sequence[str]]],
-              condition: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+              condition: str, key: str = "gait"
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """For one condition: (label index into GAITS, share of that label, mean speed m/s, fall
-    share) per cell (axis 0 along y, axis 1 along x); NaN/-1 where no row fell in the cell."""
+    share) per cell (axis 0 along y, axis 1 along x); NaN/-1 where no row fell in the cell.
+    ``key``: the rows' label read (``gait``, from the feet, or ``rhythm``, the CPG's)."""
     (ya, yv), (xa, xv) = axes
     shape = (len(yv), len(xv))
     label = np.full(shape, -1)
@@ -28,7 +30,7 @@ def gait_grid(rows: Sequence[Mapping[str, Any]], axes: Sequence[tuple[str, Seque
                     and r.get(f"grid_{ya}") == y and r.get(f"grid_{xa}") == x]
             if not cell:
                 continue
-            counts = Counter(r["gait"] for r in cell)
+            counts = Counter(r[key] for r in cell)
             top, n = max(counts.items(), key=lambda kv: (kv[1], -GAITS.index(kv[0])
                                                            if kv[0] in GAITS else 0))
             label[i, j] = GAITS.index(top) if top in GAITS else GAITS.index("none")
@@ -40,8 +42,12 @@ def gait_grid(rows: Sequence[Mapping[str, Any]], axes: Sequence[tuple[str, Seque
 
 def gait_map_figures(rows: Sequence[Mapping[str, Any]],
                      axes: Sequence[tuple[str, Sequence[str]]],
-                     labels: Mapping[str, str] | None = None) -> dict[str, Any]:
-    """``{"gait_map.png": Figure}``: one panel per condition; ``labels``: axis titles."""
+                     labels: Mapping[str, str] | None = None,
+                     measures: Sequence[tuple[str, str]] = (("gait", "gait"),)
+                     ) -> dict[str, Any]:
+    """``{"gait_map.png": Figure}``: one panel per condition and measure; ``labels``: axis
+    titles; ``measures``: (the rows' key, its name in the titles) per panel of a condition,
+    e.g. ``(("gait", "gait (feet)"), ("rhythm", "rhythm (thigh bursts)"))``."""
     labels = dict(labels or {})
     from matplotlib.colors import ListedColormap
     from matplotlib.figure import Figure
@@ -49,11 +55,12 @@ def gait_map_figures(rows: Sequence[Mapping[str, Any]],
 
     conditions = sorted({r["condition"] for r in rows})
     (ya, yv), (xa, xv) = axes
-    fig = Figure(figsize=(5.2 * len(conditions) + 1.6, 4.6), layout="constrained")
-    panels = np.atleast_1d(fig.subplots(1, len(conditions), squeeze=False)[0])
+    shown_panels = [(c, m) for c in conditions for m in measures]
+    fig = Figure(figsize=(5.2 * len(shown_panels) + 1.6, 4.6), layout="constrained")
+    panels = np.atleast_1d(fig.subplots(1, len(shown_panels), squeeze=False)[0])
     cmap = ListedColormap([_COLOURS[g] for g in GAITS])
-    for ax, condition in zip(panels, conditions):
-        label, share, speed, falls = gait_grid(rows, axes, condition)
+    for ax, (condition, (key, name)) in zip(panels, shown_panels):
+        label, share, speed, falls = gait_grid(rows, axes, condition, key)
         shown = np.ma.masked_less(label, 0)
         ax.imshow(shown, cmap=cmap, vmin=-0.5, vmax=len(GAITS) - 0.5, origin="lower",
                   aspect="auto")
@@ -71,10 +78,10 @@ def gait_map_figures(rows: Sequence[Mapping[str, Any]],
         ax.set_yticks(range(len(yv)), list(yv))
         ax.set_xlabel(labels.get(xa, xa))
         ax.set_ylabel(labels.get(ya, ya))
-        ax.set_title(f"{condition}: most common gait (share), mean speed (contours)",
+        ax.set_title(f"{condition}: most common {name} (share), mean speed (contours)",
                      fontsize=9)
     fig.legend(handles=[Patch(color=_COLOURS[g], label=g) for g in GAITS], loc="outside right",
-               fontsize=8, title="gait")
+               fontsize=8, title=" / ".join(name.split(" (")[0] for _, name in measures))
     return {"gait_map.png": fig}
 
 
