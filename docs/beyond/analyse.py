@@ -616,7 +616,11 @@ def controllers(path: str, world: str, condition: str, source: str | None = None
             f"none: " + ", ".join(f"{k} {v}" for k, v in reasons.most_common()) + "\n")
 
 
-NAMED = ("trot", "pace", "bound", "walk")  # the patterns both classifiers name
+def _named() -> tuple[str, ...]:
+    """The patterns both classifiers name, in the code's order."""
+    from astrocpg.studies.analysis.gait import NAMED
+
+    return tuple(NAMED)
 
 
 def _majority(labels: list[str]) -> str:
@@ -624,7 +628,7 @@ def _majority(labels: list[str]) -> str:
     from collections import Counter
 
     label, n = Counter(labels).most_common(1)[0]
-    return label if label in NAMED and n > len(labels) / 2 else "none"
+    return label if label in _named() and n > len(labels) / 2 else "none"
 
 
 def _cell_words(majorities: list[str], runs: list[str]) -> str:
@@ -634,8 +638,8 @@ def _cell_words(majorities: list[str], runs: list[str]) -> str:
 
     n, seeds, per_run = len(majorities), Counter(majorities), Counter(runs)
     head = ", ".join(f"**{g} {seeds[g]}/{n}**" if seeds[g] >= 2 else f"{g} {seeds[g]}/{n}"
-                     for g in NAMED if seeds[g]) or f"none {n}/{n}"
-    tail = ", ".join(f"{g} {per_run[g]}/{len(runs)}" for g in NAMED if per_run[g])
+                     for g in _named() if seeds[g]) or f"none {n}/{n}"
+    tail = ", ".join(f"{g} {per_run[g]}/{len(runs)}" for g in _named() if per_run[g])
     return head + (f" (runs: {tail})" if tail else "")
 
 
@@ -723,7 +727,7 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
         row = [c for (yy, _), c in cells.items() if yy == y]
         n = sum(len(c["seeds"]) for c in row)
         counts = [sum(sum(m == g for m in c[measure]) for c in row) if g == "trot" else
-                  sum(sum(m in NAMED[1:] for m in c[measure]) for c in row)
+                  sum(sum(m in _named() and m != "trot" for m in c[measure]) for c in row)
                   for measure in ("gait", "rhythm") for g in ("trot", "other")]
         lines.append(f"| {y:g} | {n} | " + " | ".join(share(k, n) for k in counts) + " |")
     if out is not None:
