@@ -393,14 +393,21 @@ evaluation runs of each seed's final table (each averaged over the seed's repeat
 from the table itself (:func:`astrocpg.studies.analysis.gait.weight_structure`)."""
 
 
-def _evaluated(path: str, world: str) -> dict[str, dict[int, dict[str, float]]]:
-    """run id -> seed -> the evaluation measures of AGAINST, each seed's repeats averaged."""
+def _evaluation_rows(path: str, world: str) -> list[dict[str, str]]:
+    """The rows of ``astrocpg evaluate``'s evaluation.csv in ``world``; refused when there are
+    none or they predate the gait read from the feet."""
     with open(path, newline="") as f:
         rows = [r for r in csv.DictReader(f) if r["world"] == world]
     if not rows:
         sys.exit(f"analyse.py: no runs in world {world!r} in {path}")
     if "rhythm" not in rows[0]:
         sys.exit(f"analyse.py: {path} predates the gait read from the feet (no rhythm column)")
+    return rows
+
+
+def _evaluated(path: str, world: str) -> dict[str, dict[int, dict[str, float]]]:
+    """run id -> seed -> the evaluation measures of AGAINST, each seed's repeats averaged."""
+    rows = _evaluation_rows(path, world)
     runs: dict[str, dict[int, list[list[float]]]] = {}
     for r in rows:
         runs.setdefault(r["source"], {}).setdefault(int(r["seed"]), []).append(
@@ -654,12 +661,7 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
 
     from astrocpg.studies.analysis.share import wilson_interval
 
-    with open(evaluation, newline="") as f:
-        rows = [r for r in csv.DictReader(f) if r["world"] == world]
-    if not rows:
-        sys.exit(f"analyse.py: no runs in world {world!r} in {evaluation}")
-    if "rhythm" not in rows[0]:
-        sys.exit(f"analyse.py: {evaluation} predates the gait read from the feet")
+    rows = _evaluation_rows(evaluation, world)
     _check_session(evaluation, None)
     ya, xa = axes
     by_run: dict[str, dict[int, list[dict[str, str]]]] = defaultdict(lambda: defaultdict(list))
