@@ -659,6 +659,26 @@ def _files(root: Path) -> Iterator[tuple[str, Path]]:
                 yield rel, path
 
 
+#: sha256 of files this process wrote, hashed as their bytes went out (writing.save_npz), by
+#: (device, inode, size, mtime_ns): the inventory takes the hash from here instead of reading
+#: the file back, which after a write that bypassed the page cache would read it from disk.
+#: A file changed since (size or mtime) is hashed again; a renamed one keeps its inode.
+_WRITTEN: dict[tuple[int, int, int, int], str] = {}
+_WRITTEN_MAX = 256
+
+
+def remember_sha256(path: str | os.PathLike, sha256: str) -> None:
+    """Record the sha256 of the file just written at ``path`` (its bytes as written)."""
+    st = os.stat(path)
+    if len(_WRITTEN) >= _WRITTEN_MAX:
+        _WRITTEN.pop(next(iter(_WRITTEN)))
+    _WRITTEN[(st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)] = sha256
+
+
+def _written_sha256(st: os.stat_result) -> str | None:
+    return _WRITTEN.get((st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns))
+
+
 def file_sha256(path: str | os.PathLike) -> str:
     """sha256 of a file, streamed."""
     h = hashlib.sha256()
@@ -685,7 +705,7 @@ def inventory(folder: str | os.PathLike,
             if old and old.get("bytes") == st.st_size and old.get("mtime_ns") == st.st_mtime_ns:
                 sha = old["sha256"]
             else:
-                sha = file_sha256(path)
+                sha = _written_sha256(st) or file_sha256(path)
             out[rel] = {"bytes": st.st_size, "sha256": sha, "mtime_ns": st.st_mtime_ns}
     except OSError as e:
         raise EnvironmentFault.from_os_error(e, e.filename or path, "cannot read") from None

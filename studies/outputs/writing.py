@@ -5,8 +5,12 @@ temporary name, then renamed), so an interrupted run never leaves a half-written
 
 from __future__ import annotations
 
+import errno
 import functools
+import hashlib
+import io
 import json
+import mmap
 import os
 import platform
 import subprocess
@@ -21,8 +25,8 @@ import numpy as np
 
 from ...errors import InputError
 from ...reading import read_json
-from .folder import (MANIFEST, clean_stale_temporaries, file_sha256, inventory, temp_prefix,
-                     temp_suffix)
+from .folder import (MANIFEST, clean_stale_temporaries, file_sha256, inventory, remember_sha256,
+                     temp_prefix, temp_suffix)
 
 _STARTED = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # when this process started (history entries)
 PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
@@ -149,6 +153,119 @@ def atomic_write(path: Path, write: Callable[[Any], Any]) -> None:
     atomic_path(path, to)
 
 
+#: An uncompressed ``.npz`` of at least this many bytes of arrays is written past the page cache
+#: (:class:`DirectFile`): a run's traces are hundreds of MiB that nobody reads in this process,
+#: and copying them into the page cache costs the kernel as much as it takes to allocate as
+#: many fresh pages (on a virtual machine that returns freed memory to its host, about 3 ms of
+#: system CPU per MiB: more than recording the traces in the run did).
+DIRECT_BYTES = 8 << 20
+_BLOCK = 4096  # O_DIRECT's alignment: of the buffer, the file offset and each write's length
+_STAGE = 8 << 20  # bytes staged per write (a whole number of blocks)
+
+
+class DirectFile:
+    """A write-only, non-seekable binary file whose bytes go to disk past the page cache.
+
+    Written bytes are staged in a page-aligned buffer (one, reused) and written in whole blocks
+    with ``O_DIRECT``; the last block is padded and the file cut back to its length. The sha256
+    of every byte is kept (:meth:`close` returns it), so nobody has to read the file back to
+    list it. Where ``O_DIRECT`` is refused (a file system without it, such as tmpfs; a system
+    without it) the same bytes are written as an ordinary file. Not seekable: ``zipfile`` then
+    writes each member's CRC and sizes after its data (data descriptors), which every zip
+    reader, ``np.load`` included, reads from the central directory."""
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC
+        direct = getattr(os, "O_DIRECT", 0)
+        self.fd = -1
+        if direct:
+            try:
+                self.fd = os.open(path, flags | direct, 0o600)
+            except OSError:  # EINVAL: this file system has no O_DIRECT
+                self.fd = -1
+        self.direct = self.fd >= 0
+        if not self.direct:
+            self.fd = os.open(path, flags, 0o600)
+        self._stage = mmap.mmap(-1, _STAGE)  # anonymous: page-aligned, as O_DIRECT needs
+        self._view = memoryview(self._stage)
+        self._filled = 0
+        self._written = 0
+        self._sha = hashlib.sha256()
+
+    def write(self, data: Any) -> int:
+        view = memoryview(data).cast("B")
+        n = len(view)
+        self._sha.update(view)
+        k = 0
+        while k < n:
+            take = min(n - k, _STAGE - self._filled)
+            self._view[self._filled:self._filled + take] = view[k:k + take]
+            self._filled += take
+            k += take
+            if self._filled == _STAGE:
+                self._drain(_STAGE)
+                self._filled = 0
+        self._written += n
+        return n
+
+    def _drain(self, length: int) -> None:
+        """Write the stage's first ``length`` bytes."""
+        done = 0
+        while done < length:
+            try:
+                done += os.write(self.fd, self._view[done:length])
+            except OSError as e:
+                # refused at the first write, or a short write left the offset unaligned:
+                # the rest goes through the page cache
+                if e.errno != errno.EINVAL or not self.direct:
+                    raise
+                import fcntl
+
+                fcntl.fcntl(self.fd, fcntl.F_SETFL,
+                            fcntl.fcntl(self.fd, fcntl.F_GETFL) & ~os.O_DIRECT)
+                self.direct = False
+
+    def tell(self) -> int:
+        return self._written
+
+    def read(self, *args: Any) -> bytes:  # np.savez takes an object with read() for a file
+        raise io.UnsupportedOperation("read")
+
+    def seekable(self) -> bool:
+        return False
+
+    def seek(self, *args: Any) -> int:
+        raise io.UnsupportedOperation("seek")
+
+    def flush(self) -> None:
+        pass
+
+    def close(self) -> str:
+        """Write what is staged, sync to disk, close; the sha256 of the file's bytes."""
+        try:
+            tail = self._filled
+            if tail and self.direct:
+                padded = -(-tail // _BLOCK) * _BLOCK
+                self._view[tail:padded] = bytes(padded - tail)
+                self._drain(padded)
+                os.ftruncate(self.fd, self._written)  # the padding cut off
+            elif tail:
+                self._drain(tail)
+            self._filled = 0
+            os.fsync(self.fd)
+        finally:
+            self.abandon()
+        return self._sha.hexdigest()
+
+    def abandon(self) -> None:
+        """Close without writing what is staged (the file is being thrown away)."""
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
+            self._view.release()
+            self._stage.close()
+
+
 def save_npz(path: Path, arrays: Mapping[str, np.ndarray], *, compressed: bool = False) -> None:
     """``arrays`` as one ``.npz`` (``np.load`` reads it), written atomically.
 
@@ -156,9 +273,23 @@ def save_npz(path: Path, arrays: Mapping[str, np.ndarray], *, compressed: bool =
     quarter at about 30 times the CPU of writing them as they are (for 20 trials of 6 s, 5 s
     against 0.2 s: as much as the simulation itself), and a reader gets them back without
     inflating them. ``compressed`` for a file made to be sent (``astrocpg export --format npz``).
-    Folders written compressed by earlier versions read the same."""
-    save = np.savez_compressed if compressed else np.savez
-    atomic_write(path, lambda f: save(f, **arrays))
+    Folders written compressed by earlier versions read the same. From :data:`DIRECT_BYTES` of
+    arrays on, the file is written past the page cache (:class:`DirectFile`), its sha256 taken
+    on the way for the folder's inventory."""
+    if compressed or sum(np.asarray(a).nbytes for a in arrays.values()) < DIRECT_BYTES:
+        save = np.savez_compressed if compressed else np.savez
+        atomic_write(path, lambda f: save(f, **arrays))
+        return
+
+    def to(tmp: Path) -> None:
+        out = DirectFile(tmp)
+        try:
+            np.savez(out, **arrays)
+        except BaseException:
+            out.abandon()
+            raise
+        remember_sha256(tmp, out.close())  # the inode and mtime survive the rename
+    atomic_path(path, to)
 
 
 def save_spikes_and_traces(out: Path, spikes: Mapping[str, tuple[np.ndarray, np.ndarray]],
