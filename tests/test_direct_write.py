@@ -118,3 +118,15 @@ def test_small_and_compressed_files_are_written_as_before(tmp_path) -> None:
     _check(tmp_path / "sent.npz", _arrays())
     with zipfile.ZipFile(tmp_path / "sent.npz") as z:
         assert all(i.compress_type == zipfile.ZIP_DEFLATED for i in z.infolist())
+
+
+def test_a_full_disk_is_an_error_naming_the_file_and_leaves_nothing(tmp_path, monkeypatch) -> None:
+    import errno
+
+    def full(fd, data):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    monkeypatch.setattr(writing.os, "write", full)
+    with pytest.raises(OSError) as e:
+        save_npz(tmp_path / "traces.npz", _arrays())
+    assert e.value.errno == errno.ENOSPC and e.value.filename == os.fspath(tmp_path / "traces.npz")
+    assert os.listdir(tmp_path) == []

@@ -259,11 +259,17 @@ class DirectFile:
 
     def abandon(self) -> None:
         """Close without writing what is staged (the file is being thrown away)."""
-        if self.fd >= 0:
-            os.close(self.fd)
-            self.fd = -1
+        if self.fd < 0:
+            return
+        fd, self.fd = self.fd, -1
+        os.close(fd)
+        try:
             self._view.release()
             self._stage.close()
+        except BufferError:
+            # a failed write's traceback still holds a slice of the stage: the buffer is
+            # freed with it, and the error being raised is the one that counts
+            pass
 
 
 def save_npz(path: Path, arrays: Mapping[str, np.ndarray], *, compressed: bool = False) -> None:
