@@ -393,6 +393,16 @@ evaluation runs of each seed's final table (each averaged over the seed's repeat
 from the table itself (:func:`astrocpg.studies.analysis.gait.weight_structure`)."""
 
 
+def _axis_value(run: str, axis: str) -> float:
+    """The value of the swept parameter ``axis`` in a run id (``...AXIS=VALUE-UNIT...``)."""
+    import re
+
+    m = re.search(rf"(?:^|__|_){re.escape(axis)}=([0-9.]+)", run)
+    if not m:
+        sys.exit(f"analyse.py: run {run!r} names no {axis}=VALUE")
+    return float(m.group(1))
+
+
 def _evaluation_rows(path: str, world: str) -> list[dict[str, str]]:
     """The rows of ``astrocpg evaluate``'s evaluation.csv in ``world``; refused when there are
     none or they predate the gait read from the feet."""
@@ -531,14 +541,10 @@ def response(evaluation: str, tables: Path, axis: str, unit: str, points: list[s
     reference). With ``out``, one panel per measure. ``session``: the weight structure of the
     tables after that session, as their evaluations were. ``seeds``: ``FIRST-LAST``, only these
     seeds at every value (a reference of 20 seeds beside a study of 12)."""
-    import re
 
     at: list[tuple[float, str, str, Path]] = []  # value, evaluation, run, tables
     for run in _evaluated(evaluation, world):
-        m = re.search(rf"(?:^|__|_){re.escape(axis)}=([0-9.]+)", run)
-        if not m:
-            sys.exit(f"analyse.py: run {run!r} names no {axis}=VALUE")
-        at.append((float(m.group(1)), evaluation, run, tables))
+        at.append((_axis_value(run, axis), evaluation, run, tables))
     for spec in points:
         value, _, rest = spec.partition("=")
         source, _, table_dir = rest.rpartition("@")
@@ -656,7 +662,6 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
     seeds whose runs name a gait (and a rhythm) in most of their runs, the runs with each, the
     speed, the falls and the final tables' structure; per value of the first axis, the seeds
     with a trot gait and with any other gait, with Wilson 95 % intervals. Described only."""
-    import re
     from collections import defaultdict
 
     from astrocpg.studies.analysis.share import wilson_interval
@@ -669,13 +674,7 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
         by_run[r["source"]][int(r["seed"])].append(r)
     point: dict[tuple[float, float], str] = {}
     for run in by_run:
-        values = []
-        for axis in axes:
-            m = re.search(rf"(?:^|__|_){re.escape(axis)}=([0-9.]+)", run)
-            if not m:
-                sys.exit(f"analyse.py: run {run!r} names no {axis}=VALUE")
-            values.append(float(m.group(1)))
-        point[(values[0], values[1])] = run
+        point[(_axis_value(run, ya), _axis_value(run, xa))] = run
     ys = sorted({y for y, _ in point})
     xs = sorted({x for _, x in point})
     cells: dict[tuple[float, float], dict[str, object]] = {}
@@ -721,9 +720,9 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
               "interval over seeds", "", f"| {ya} ({unit}) | seeds | trot gait | other gait "
               "(pace, bound, walk) | trot rhythm | other rhythm |", "|---|---|---|---|---|---|"]
 
-    def share(k: int, n: int) -> str:
+    def share(k: int, n: int, digits: int = 0) -> str:
         lo, hi = wilson_interval(k, n)
-        return f"{k} ({k / n:.0%}, {lo:.0%}–{hi:.0%})"
+        return f"{k} ({k / n:.{digits}%}, {lo:.{digits}%}–{hi:.{digits}%})"
 
     for y in ys:
         row = [c for (yy, _), c in cells.items() if yy == y]
@@ -732,6 +731,14 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
                   sum(sum(m in _named() and m != "trot" for m in c[measure]) for c in row)
                   for measure in ("gait", "rhythm") for g in ("trot", "other")]
         lines.append(f"| {y:g} | {n} | " + " | ".join(share(k, n) for k in counts) + " |")
+    runs = {m: [x for c in cells.values() for x in c[f"{m}_runs"]] for m in ("gait", "rhythm")}
+    lines += ["", "**All points**: runs with each named pattern, Wilson 95 % interval over runs "
+              "(runs of one seed are not independent: a description, not an estimate)", "",
+              "| measure | runs | " + " | ".join(_named()) + " |",
+              "|---|---|" + "---|" * len(_named())]
+    for m, name in (("gait", "gait (feet)"), ("rhythm", "rhythm (thigh bursts)")):
+        lines.append(f"| {name} | {len(runs[m])} | " + " | ".join(
+            share(sum(x == g for x in runs[m]), len(runs[m]), 1) for g in _named()) + " |")
     if out is not None:
         from astrocpg.studies.figures.gait_map import gait_map_figures
         from astrocpg.studies.figures.save import save_figure
