@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -240,3 +241,26 @@ def test_run_draws_its_figure_only_when_asked(tmp_path, capsys):
     manifest = json.loads((drawn / "manifest.json").read_text())
     assert "thigh_extensor_activity.png" in manifest["files"]
     assert manifest["settings"]["figure"] is True
+
+
+HUGEPAGES = ("import os, sys\nimport numpy as np\n"
+             "from astrocpg.studies.cli import main\n"
+             "main(['describe', 'world'])\n"
+             "core = getattr(np, '_core', None) or np.core\n"
+             "print('advice', core.multiarray._set_madvise_hugepage(True),"
+             " os.environ.get('NUMPY_MADVISE_HUGEPAGE'), file=sys.stderr)\n")
+
+
+@pytest.mark.parametrize("user, advice, env", [(None, "False", "0"), ("1", "True", "1"),
+                                               ("0", "False", "0")])
+def test_a_command_puts_large_arrays_on_small_pages_unless_the_user_chose(user, advice, env):
+    """numpy's huge-page advice made a recorded run's fresh traces cost about twice their system
+    CPU on the 2-core machine: a command turns it off for itself and (through the environment)
+    its workers, and leaves a value the user set as numpy read it."""
+    environ = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    if user is not None:
+        environ["NUMPY_MADVISE_HUGEPAGE"] = user
+    p = subprocess.run([sys.executable, "-c", HUGEPAGES], capture_output=True, text=True,
+                       timeout=300, env=environ)
+    assert p.returncode == 0, p.stderr
+    assert p.stderr.split()[-3:] == ["advice", advice, env], p.stderr

@@ -138,6 +138,34 @@ def _main(argv: Sequence[str] | None) -> int:
         quiet.__exit__(None, None, None)
 
 
+#: numpy's switch for advising the kernel to back large arrays with transparent huge pages
+HUGEPAGE_ENV = "NUMPY_MADVISE_HUGEPAGE"
+
+
+def _small_pages_for_large_arrays() -> None:
+    """Large arrays on ordinary 4 KiB pages, unless the user chose otherwise.
+
+    numpy asks the kernel for huge pages (``madvise``) for every array of 4 MiB or more. Where
+    the kernel honours that request by compacting memory when a fault first touches the array
+    (transparent huge pages with ``defrag`` set to ``madvise``, a common default), a fresh
+    array can cost several times its size in system CPU: a default recorded run of 6 s x 20
+    trials, whose traces are about 200 MiB of fresh memory, spent 0.7-0.9 s of system CPU with
+    the advice and 0.4 s without it, on the 2-core machine of the performance page (kernel
+    6.18, THP ``madvise``; ``benchmarks/recorded_run_cost.py``). The arrays a run touches every
+    step are small, so the loop does not depend on huge pages. Set in the environment too, so
+    a study's worker processes start the same way; a value the user set
+    (``NUMPY_MADVISE_HUGEPAGE=1``) is left as numpy read it."""
+    if os.environ.get(HUGEPAGE_ENV) is not None:
+        return
+    os.environ[HUGEPAGE_ENV] = "0"
+    import numpy as np
+
+    core = getattr(np, "_core", None) or getattr(np, "core", None)
+    switch = getattr(getattr(core, "multiarray", None), "_set_madvise_hugepage", None)
+    if switch is not None:  # numpy read the variable at its import, before this: told again
+        switch(False)
+
+
 def _run_command(args: argparse.Namespace) -> int:
     # only the main thread may set handlers (main() called in another thread: none of ours)
     in_main = threading.current_thread() is threading.main_thread()
@@ -148,6 +176,7 @@ def _run_command(args: argparse.Namespace) -> int:
     try:
         try:
             check_environment()  # a switch that is not a boolean: refused before anything runs
+            _small_pages_for_large_arrays()
             if getattr(args, "codegen", None) is not None:
                 _choose_codegen(args.codegen)
             code = COMMANDS[args.command](args)
