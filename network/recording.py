@@ -28,6 +28,49 @@ TRACE_DTYPES = ("float32", "float64")
 STAGED_SAMPLES = 64
 
 
+class SpikeRecorder(brian2.SpikeMonitor):
+    """Brian2's ``SpikeMonitor``, the same spikes in the same arrays, its per-step growth made
+    cheaper.
+
+    Every step with a spike, the monitor's compiled code calls :meth:`resize` from C, and
+    Brian2's own goes through the monitor's variables and the device to each dynamic array
+    (about 28,000 such calls in a 12 s, 20-trial run: a few percent of the recorded run). On
+    Brian2's runtime device (numpy and Cython targets) that path ends in the arrays' own
+    ``resize``; this one calls those directly, looked up once. Elsewhere (another device), and
+    until the arrays exist, it is Brian2's."""
+
+    _dynamic: tuple[Any, ...] | None = None
+
+    def resize(self, new_size: int) -> None:
+        arrays = self._dynamic
+        if not arrays:
+            arrays = _runtime_arrays(self, self.record_variables)
+            if not arrays:  # not Brian2's runtime device, or nothing recorded: Brian2's path
+                super().resize(new_size)
+                return
+            self._dynamic = arrays
+        for array in arrays:
+            array.resize(new_size)
+
+
+def _runtime_arrays(monitor: Any, names: Any) -> tuple[Any, ...]:
+    """The dynamic arrays behind ``names`` of ``monitor`` on Brian2's runtime device, whose
+    ``resize`` is all its device's does for them; () where that is not so."""
+    from brian2.devices.device import RuntimeDevice, get_device
+
+    device = get_device()
+    if type(device).resize is not RuntimeDevice.resize:
+        return ()
+    out = []
+    for name in names:
+        var = monitor.variables[name]
+        array = device.arrays.get(var)
+        if array is None or var.resize_along_first or not hasattr(array, "resize"):
+            return ()
+        out.append(array)
+    return tuple(out)
+
+
 class TraceRecorder:
     """Samples ``traces`` of ``cpg`` every ``stride`` steps for ``n_steps`` steps from the
     network's time at construction; :meth:`operation` is the ``NetworkOperation`` to add.
@@ -160,4 +203,4 @@ def overflow_words(overflow: dict[str, dict[str, Any]]) -> str:
             f"the finite values: record again with --trace-dtype float64 to keep them")
 
 
-__all__ = ["TraceRecorder", "TRACE_DTYPES", "STAGED_SAMPLES", "overflowed", "overflow_words"]
+__all__ = ["SpikeRecorder", "TraceRecorder", "TRACE_DTYPES", "STAGED_SAMPLES", "overflowed", "overflow_words"]

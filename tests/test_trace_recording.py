@@ -119,3 +119,37 @@ def test_a_default_run_keeps_at_most_2_mib_per_trial_per_simulated_second():
     estimate = estimate_bytes(trials=trials, seconds=seconds, traces=tuple(trace_sources()),
                               robot_stride=1)
     assert estimate >= traces + spikes + robot  # the estimate a run is refused by covers it
+
+
+@pytest.mark.parametrize("codegen", ["numpy", pytest.param("cython", marks=pytest.mark.slow)])
+def test_the_spike_recorder_records_what_brian2s_spike_monitor_records(codegen):
+    """SpikeRecorder grows its arrays through the dynamic arrays themselves, not through
+    Brian2's variables and device: every spike, time and count is Brian2's own."""
+    import brian2
+
+    from astrocpg.network.recording import SpikeRecorder
+
+    if codegen == "cython":
+        pytest.importorskip("Cython")
+    was = brian2.prefs.codegen.target
+    brian2.prefs.codegen.target = codegen
+    try:
+        brian2.start_scope()
+        group = brian2.NeuronGroup(50, "dv/dt = (1.2 - v) / (10*ms) + 0.3*xi/sqrt(ms) : 1",
+                                   threshold="v > 1", reset="v = 0", method="euler")
+        group.v = "rand()"
+        theirs, ours = brian2.SpikeMonitor(group), SpikeRecorder(group)
+        part = brian2.SpikeMonitor(group[10:30])  # a subgroup: only its spikes, renumbered
+        ours_part = SpikeRecorder(group[10:30])
+        net = brian2.Network(group, theirs, ours, part, ours_part)
+        net.run(200 * ms)
+        net.run(100 * ms)  # a second run appends to the same arrays
+    finally:
+        brian2.prefs.codegen.target = was
+    assert ours._dynamic and ours_part._dynamic  # the direct path was taken
+    assert theirs.num_spikes > 1000 and part.num_spikes > 300
+    for a, b in ((theirs, ours), (part, ours_part)):
+        np.testing.assert_array_equal(a.i[:], b.i[:])
+        np.testing.assert_array_equal(a.t_[:], b.t_[:])
+        np.testing.assert_array_equal(a.count[:], b.count[:])
+        assert a.num_spikes == b.num_spikes

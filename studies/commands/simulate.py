@@ -11,7 +11,7 @@ from typing import Any
 
 import mujoco
 import numpy as np
-from brian2 import NetworkOperation, SpikeMonitor, ms, second
+from brian2 import NetworkOperation, ms, second
 
 from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import ORDER_MEASURE
@@ -23,7 +23,7 @@ from ...models.units import whole_steps
 from ...network import (CPG, DivergenceCheck, build_cpg, check_runs, exclusive,
                         network_time, run_network)
 from ...network.populations import BUILT_IN, spike_populations, trace_sources
-from ...network.recording import TRACE_DTYPES, TraceRecorder
+from ...network.recording import TRACE_DTYPES, SpikeRecorder, TraceRecorder
 from ..runtime.progress import time_bar
 
 
@@ -96,7 +96,7 @@ def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
     ``trace_dtype``; all added to the network."""
     mons: dict[str, Any] = {}
     for p in spikes:
-        ms = tuple(SpikeMonitor(part.obj, name=f"spikes_{part.name}") for part in cpg.parts(p))
+        ms = tuple(SpikeRecorder(part.obj, name=f"spikes_{part.name}") for part in cpg.parts(p))
         mons[p] = ms[0] if len(ms) == 1 else ms
     cpg.net.add(*(m for ms in mons.values() for m in (ms if isinstance(ms, tuple) else (ms,))))
     if record_traces and traces:
@@ -342,8 +342,12 @@ def firing_rates(result: SimulationResult) -> dict[str, Any]:
             out[row.name] = np.bincount(idx // n, minlength=L.n_trials) / (n * T)
             continue
         labels = row.labels(L.pool_size)
-        label_of = np.array(labels * L.n_legs)[idx % n]
-        for label in dict.fromkeys(labels):
-            counts = np.bincount(idx[label_of == label] // n, minlength=L.n_trials)
-            out[label] = counts / (L.n_legs * labels.count(label) * T)
+        kinds = list(dict.fromkeys(labels))
+        # each cell's pool type as a number, and one count of (type, trial) pairs: a pass over
+        # the spikes in integers (a run of 12 s x 20 trials has millions of motor spikes)
+        kind_of = np.array([kinds.index(label) for label in labels] * L.n_legs, dtype=np.intp)
+        counts = np.bincount(kind_of[idx % n] * L.n_trials + idx // n,
+                             minlength=len(kinds) * L.n_trials).reshape(len(kinds), L.n_trials)
+        for k, label in enumerate(kinds):
+            out[label] = counts[k] / (L.n_legs * labels.count(label) * T)
     return {k: np.asarray(v) for k, v in out.items()}
