@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import Diverged
 from ..network import invalid
-from .compiled import step_all
+from .compiled import gather_sensors, step_all
 from .robot import RobotLayout, reset
 
 # MuJoCo's instability warnings: the robot's numbers left the finite range (MuJoCo resets the
@@ -73,10 +73,20 @@ class Robots:
         self._mj = [(d, d.ctrl, d.qpos, d.qvel, memoryview(d.warning.number))
                     for d in self.data]
         self._touch: list[np.ndarray] | None = None  # touch_views(), made at first use
+        self._touch_batch: tuple | None = None  # touch_into()'s buffer and gather
         # every trial's step in one call of compiled code where it can be built (compiled.py);
         # the same MuJoCo calls and copies as the loop in physics(), so the same results
         self._compiled = step_all(model, self.data, self.state)
         self._warned = 0  # the compiled step's report of instability warnings
+        # touch_into(): a buffer of every trial's touch sensors, gathered by compiled code in
+        # one call where the step is compiled and the sensors are contiguous (the built-in A1)
+        touch = layout.touch_adr
+        if touch is not None:
+            a, k = int(touch[0]), len(touch)
+            buf = np.zeros((B, k))
+            gather = (gather_sensors(self.data, a, k, buf) if self._compiled is not None
+                      and np.array_equal(touch, np.arange(a, a + k)) else None)
+            self._touch_batch = (buf, gather)
 
     def touch_views(self) -> list[np.ndarray] | None:
         """Per trial, its feet's touch sensors (4,) in MjData's sensordata: live views where
@@ -91,6 +101,22 @@ class Robots:
             else:  # scattered addresses: a copy each call (user robots)
                 return [d.sensordata[touch] for d in self.data]
         return self._touch
+
+    def touch_into(self, out: np.ndarray) -> bool:
+        """Every trial's feet touch sensors, (trials, 4), written into ``out`` (a view allowed);
+        False (nothing written) when the robot has none. Where the four are contiguous (the
+        built-in A1) the batch is gathered by compiled code in one call (the same values as
+        :meth:`touch_views`), else trial by trial."""
+        if self._touch_batch is None:
+            return False
+        buf, gather = self._touch_batch
+        if gather is None:
+            for b, sensed in enumerate(self.touch_views()):
+                out[b] = sensed
+            return True
+        gather()
+        np.copyto(out, buf)
+        return True
 
     def reset(self, b: int) -> None:
         """Reset trial ``b``'s robot to its start pose and read its state."""

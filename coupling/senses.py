@@ -61,8 +61,7 @@ def _joint_velocity(j: int) -> Callable[[Robots, np.ndarray], None]:
 
 def _foot_force(robots: Robots, out: np.ndarray) -> None:
     # the feet's touch sensors, computed by mj_step (the robot model must have them)
-    for b, sensed in enumerate(robots.touch_views()):
-        out[b] = sensed
+    robots.touch_into(out)
 
 
 def _foot_contact(robots: Robots, out: np.ndarray) -> None:

@@ -196,3 +196,27 @@ def test_the_command_line_says_when_the_physics_fell_back(own_cache, monkeypatch
     assert "warning: the compiled physics cannot be used" in out, out
     env = json.loads((tmp_path / "o" / "manifest.json").read_text())["environment"]
     assert env["physics"].startswith("python (the compiled physics cannot be used")
+
+
+def test_the_feet_touch_sensors_gathered_by_compiled_code_are_the_trials_own(monkeypatch):
+    """``touch_into`` copies every trial's four touch sensors in one compiled call (recorders and
+    senses read them every step): the values are each MjData's own, as the Python copy gives."""
+    if compiled.library() is None:
+        pytest.skip("no C compiler here")
+    fast, slow = _robots(monkeypatch, True, n=4), _robots(monkeypatch, False, n=4)
+    rng = np.random.default_rng(1)
+    act = fast.act.ravel()
+    seen_contact = False
+    for step in range(300):
+        torques = rng.uniform(-20, 20, size=(4, len(act)))
+        for r in (fast, slow):
+            r.ctrl[:, act] = torques
+            r.physics()
+        got_fast, got_slow = np.full((4, 4), np.nan), np.full((4, 4), np.nan)
+        assert fast.touch_into(got_fast) and slow.touch_into(got_slow)
+        assert fast._touch_batch[1] is not None and slow._touch_batch[1] is None
+        want = np.array([d.sensordata[fast.layout.touch_adr] for d in fast.data])
+        np.testing.assert_array_equal(got_fast, want)
+        np.testing.assert_array_equal(got_slow, want)
+        seen_contact |= bool((want > 0).any())
+    assert seen_contact  # the feet touched the ground: the copy was not of zeros only
