@@ -26,7 +26,10 @@ processes on the machine drops out):
   network operations, the bridge and its numpy calls on arrays of the trials' sizes; on the
   numpy target the generated code, Python too, counts as compiled code here). The
   compiled code and the physics cost more inside the loop than timed alone (cold caches, the
-  spikes of a running network): the whole step's figure says how much.
+  spikes of a running network): the whole step's figure says how much;
+* the step with the robots' compiled physics a no-op (the robots frozen): the network and the
+  Python as they cost inside the loop, and by difference the physics inside the loop. Less
+  the Python of a step, the whole step is what this design costs with no Python at all.
 """
 
 from __future__ import annotations
@@ -146,6 +149,7 @@ def dispatch(loop, seconds: float = 0.25, rounds: int = 6) -> None:
     for runner in ("brian2", "lean"):
         print(f"Python of a step, {runner:>6} runner (the compiled code and the physics "
               f"replaced by no-ops): {python_alone[runner] * 1e6:.1f} us")
+    without_physics = _without_physics(loop, seconds, rounds)
     for runner in ("brian2", "lean"):
         step_us = steps[runner] * 1e6
         alone = physics + code["compiled"] * 1e6 + python_alone[runner] * 1e6
@@ -154,6 +158,14 @@ def dispatch(loop, seconds: float = 0.25, rounds: int = 6) -> None:
               f"{python_alone[runner] * 1e6:.1f} (each timed alone) + {step_us - alone:.1f} "
               f"(what the compiled parts cost more inside the loop: cold caches, spikes); "
               f"{step_us / trials / mj_us:.2f} x mj_step per trial-step")
+    if without_physics is not None:
+        lean, python = steps["lean"] * 1e6, python_alone["lean"] * 1e6
+        in_loop = lean - without_physics * 1e6
+        print(f"inside the loop (lean runner): the physics of the {trials} trials {in_loop:.1f} us "
+              f"({in_loop / trials / mj_us:.2f} x mj_step per trial), the network and the "
+              f"Python {without_physics * 1e6:.1f} us (the step with the physics a no-op); "
+              f"with no Python at all a trial-step would still cost "
+              f"{(lean - python) / trials / mj_us:.2f} x mj_step")
 
 
 def _python_alone(loop, seconds: float, rounds: int) -> dict[str, float]:
@@ -194,6 +206,36 @@ def _python_alone(loop, seconds: float, rounds: int) -> dict[str, float]:
         del net.before_run
         for blocks, block in reversed(swapped):
             blocks["run"] = block
+        robots._compiled = physics
+
+
+def _without_physics(loop, seconds: float, rounds: int) -> float | None:
+    """CPU s per step of the closed loop (lean runner) with the robots' compiled physics a
+    no-op, the robots frozen: the network and the Python as they cost inside the loop. None
+    where the physics is not compiled (stepped from Python, it cannot be stubbed alone)."""
+    robots = loop.bridge.robots
+    physics = robots._compiled
+    if physics is None:
+        return None
+    robots._compiled = lambda: 0
+    try:
+        marks: list[float] = []
+        from brian2 import NetworkOperation
+
+        net = loop.cpg.net
+        op = NetworkOperation(lambda: marks.append(time.process_time()), clock=loop.cpg.clock,
+                              when="start", name="profile_step_marks_frozen")
+        net.add(op)
+        best = float("inf")
+        try:
+            for _ in range(rounds):
+                marks.clear()
+                loop.run(seconds, lean=True)
+                best = min(best, (marks[-1] - marks[0]) / (len(marks) - 1))
+        finally:
+            net.remove(op)
+        return best
+    finally:
         robots._compiled = physics
 
 
