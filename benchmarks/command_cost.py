@@ -1,0 +1,188 @@
+"""What ``run``, ``train`` and ``study`` cost end to end, as a user types them, per simulated
+trial-second.
+
+    python benchmarks/command_cost.py [--trials 20] [--codegen cython] [--repeats 3]
+        [--run-seconds 3 12] [--sessions 2 6] [--json FILE]
+
+Each command runs in a fresh process, exactly as typed (start-up, network build, the loop, every
+file written and hashed, the process's end), and its CPU time is taken (user + system of the
+process and the processes it waited for, ``getrusage(RUSAGE_CHILDREN)``; a study's worker
+processes are its children). Each command runs at two sizes and the figure is the slope
+between them, CPU seconds per simulated trial-second: what each further simulated second costs,
+the start-up cancelled.
+
+- ``run``: ``astrocpg run --trials 20 --codegen cython --seconds S --out DIR`` recording
+  nothing (``--spikes none --traces none --robot-stride S*1000``): the fixed-weight closed loop
+  as typed; and the same with its default recording (every spike, every trace, the robot every
+  step, written and hashed);
+- ``train``: ``astrocpg train --trials 20 --sessions K --codegen cython --seed 1 --out DIR``,
+  the simulated time read from its ``sessions.csv`` (the sum of every session's length): every
+  trial trains its own sessions, and the batch steps until its last trial has trained its K;
+- ``study``: ``astrocpg study FILE --out DIR --workers 1 --codegen cython`` of a study file of
+  one condition (astrocytes), 20 seeds in one run of K sessions, the simulated time read from
+  its ``results.csv``: the study's scheduling, its worker process and its files included.
+
+``train / run`` and ``study / run`` compare each with the fixed loop as typed, per trained
+trial-second (what the user gets) and per stepped trial-second (``stepped``: what the batch
+stepped, the trials that had finished their sessions idling until the last one had: the
+training's own cost, the goal of at most 1.15 x); ``recorded / run`` is the recorded run (goal:
+at most 1.25 x). The commands of a repeat run interleaved (a burst of other work on the machine
+falls on one of them, not on one kind), ``--repeats`` times; the median is the figure and the
+spread (max / min - 1) says how steady it is. Train and study train the same seeds, so their
+sessions (and simulated seconds) are the same.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import datetime
+import json
+import os
+import platform
+import shutil
+import statistics
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from recorded_run_cost import astrocpg_command, child_cpu, git_commit, versions  # noqa: E402
+
+STUDY = """[study]
+name = "command_cost"
+description = "one condition, {trials} seeds in one run, {sessions} sessions (benchmark)"
+sessions = {sessions}
+seeds = {{ first = 1, count = {trials} }}
+batch = {trials}
+
+[conditions.astrocytes]
+astrocytes = true
+"""
+
+
+def simulated_trial_seconds(table: Path) -> tuple[float, float]:
+    """From a ``sessions.csv`` or a study's ``results.csv`` of one run: the trained
+    trial-seconds (the sum of every session's length) and the stepped ones (the batch steps
+    until its last trial has trained all its sessions, the others idle meanwhile: the longest
+    trial's sum of lengths, times the trials)."""
+    per_trial: dict[tuple[str, str], float] = {}
+    with open(table, newline="") as f:
+        for row in csv.DictReader(f):
+            key = (row.get("run_id", ""), row["trial"])
+            per_trial[key] = per_trial.get(key, 0.0) + float(row["length_s"])
+    return sum(per_trial.values()), max(per_trial.values()) * len(per_trial)
+
+
+def run_cmd(seconds: float, trials: int, codegen: str, out: Path, record: bool) -> list[str]:
+    cmd = astrocpg_command() + ["run", "--trials", str(trials), "--codegen", codegen,
+                                "--seconds", f"{seconds:g}", "--out", str(out)]
+    if not record:
+        cmd += ["--spikes", "none", "--traces", "none",
+                "--robot-stride", str(int(round(seconds * 1000)))]
+    return cmd
+
+
+def measure(kind: str, size: float, args: argparse.Namespace,
+            tmp: Path) -> tuple[float, float, float]:
+    """(CPU s, simulated trial-s, stepped trial-s) of one command of ``kind`` at ``size``
+    (seconds or sessions)."""
+    out = tmp / f"{kind}_{size:g}"
+    shutil.rmtree(out, ignore_errors=True)
+    if kind in ("run", "recorded"):
+        cpu = child_cpu(run_cmd(size, args.trials, args.codegen, out, kind == "recorded"))
+        simulated = stepped = size * args.trials
+    elif kind == "train":
+        cpu = child_cpu(astrocpg_command() + [
+            "train", "--trials", str(args.trials), "--sessions", f"{size:g}", "--codegen",
+            args.codegen, "--seed", "1", "--out", str(out)])
+        simulated, stepped = simulated_trial_seconds(out / "sessions.csv")
+    else:
+        spec = tmp / f"study_{size:g}.toml"
+        spec.write_text(STUDY.format(trials=args.trials, sessions=int(size)))
+        cpu = child_cpu(astrocpg_command() + ["study", str(spec), "--out", str(out),
+                                              "--workers", "1", "--codegen", args.codegen])
+        simulated, stepped = simulated_trial_seconds(out / "results.csv")
+    shutil.rmtree(out, ignore_errors=True)  # the disk kept free for the next command
+    return cpu, simulated, stepped
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--trials", type=int, default=20)
+    ap.add_argument("--codegen", default="cython", choices=["numpy", "cython"])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--run-seconds", type=float, nargs=2, default=[3.0, 12.0], metavar="S")
+    ap.add_argument("--sessions", type=int, nargs=2, default=[2, 6], metavar="K")
+    ap.add_argument("--kinds", nargs="+", default=["run", "recorded", "train", "study"],
+                    choices=["run", "recorded", "train", "study"])
+    ap.add_argument("--json", default=None, metavar="FILE")
+    args = ap.parse_args()
+    if "run" not in args.kinds:
+        ap.error("--kinds needs run: the other commands are compared with it")
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    sizes = {k: (sorted(args.run_seconds) if k in ("run", "recorded") else
+                 sorted(map(float, args.sessions))) for k in args.kinds}
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="command_cost_") as name:
+        tmp = Path(name)
+        child_cpu(run_cmd(0.1, 1, args.codegen, tmp / "warm", True))  # build or find extensions
+        print(f"{'repeat':<7}" + "".join(f"{k + ' ms':>13}" for k in args.kinds)
+              + "".join(f"{k + '/run':>14}" for k in args.kinds if k != "run")
+              + "".join(f"{k + ' stepped':>16}" for k in args.kinds if k in ("train", "study")),
+              flush=True)
+        for r in range(args.repeats):
+            points: dict[str, dict[float, tuple[float, float, float]]] = {k: {} for k in args.kinds}
+            for size_index in range(2):  # interleaved: each kind's small, then large sizes
+                for kind in args.kinds:
+                    size = sizes[kind][size_index]
+                    points[kind][size] = measure(kind, size, args, tmp)
+            # CPU per trained trial-second, and per stepped trial-second (idle trials included)
+            slope, stepped = {}, {}
+            for kind, p in points.items():
+                (c1, s1, q1), (c2, s2, q2) = (p[k] for k in sorted(p))
+                slope[kind] = (c2 - c1) / (s2 - s1)
+                stepped[kind] = (c2 - c1) / (q2 - q1)
+            row = {"points": {k: {f"{size:g}": {"cpu_s": round(c, 3), "trial_s": round(s, 3),
+                                                "stepped_trial_s": round(q, 3)}
+                                  for size, (c, s, q) in p.items()} for k, p in points.items()},
+                   "ms_per_trial_s": {k: round(1e3 * v, 2) for k, v in slope.items()},
+                   "ratio_to_run": {k: round(v / slope["run"], 3) for k, v in slope.items()
+                                    if k != "run"},
+                   "ms_per_stepped_trial_s": {k: round(1e3 * v, 2) for k, v in stepped.items()},
+                   "stepped_ratio_to_run": {k: round(v / stepped["run"], 3)
+                                            for k, v in stepped.items() if k != "run"}}
+            rows.append(row)
+            print(f"{r:<7}" + "".join(f"{row['ms_per_trial_s'][k]:>13.1f}" for k in args.kinds)
+                  + "".join(f"{row['ratio_to_run'][k]:>14.3f}" for k in args.kinds if k != "run")
+                  + "".join(f"{row['stepped_ratio_to_run'][k]:>16.3f}" for k in args.kinds
+                            if k in ("train", "study")), flush=True)
+    summary = {}
+    for kind in args.kinds:
+        if kind == "run":
+            continue
+        for key, label in (("ratio_to_run", ""), ("stepped_ratio_to_run", " stepped")):
+            values = [row[key][kind] for row in rows]
+            if kind == "recorded" and label:
+                continue
+            summary[kind + label.replace(" ", "_")] = entry = {
+                "ratios": values, "median": round(statistics.median(values), 3),
+                "spread": round(max(values) / min(values) - 1, 3)}
+            print(f"{kind}{label} / run: median {entry['median']:.3f}, spread "
+                  f"{100 * entry['spread']:.0f} %")
+    if args.json:
+        doc = {"benchmark": "benchmarks/command_cost.py", "argv": sys.argv,
+               "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+               "machine": {"platform": platform.platform(),
+                           "processor": platform.processor() or platform.machine(),
+                           "cpu_count": os.cpu_count(), "load_average": list(os.getloadavg())},
+               "versions": versions(), "astrocpg_commit": git_commit(),
+               "trials": args.trials, "codegen": args.codegen, "sizes": sizes,
+               "summary": summary, "repeats": rows}
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(json.dumps(doc, indent=1) + "\n")
+        print(f"wrote {args.json}")
+
+
+if __name__ == "__main__":
+    main()
