@@ -13,7 +13,7 @@ simulated second (``studies.runtime.resources`` counts it before a run starts).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable, Protocol
 
 import brian2
 import numpy as np
@@ -71,6 +71,87 @@ def _runtime_arrays(monitor: Any, names: Any) -> tuple[Any, ...]:
     return tuple(out)
 
 
+#: A trace of at least this many bytes goes to disk as the run goes (where the recorder is given
+#: somewhere to put it): held in memory, a 12 s, 20-trial run's motor_Ca is 293 MiB of fresh
+#: memory, which costs the system more to hand out than the recording costs the loop.
+SPILL_BYTES = 8 << 20
+
+
+class Sink(Protocol):
+    """Where a spilled trace's bytes go (``write``, then ``close`` or ``abandon``)."""
+
+    def write(self, data: Any) -> int: ...
+
+    def close(self) -> Any: ...
+
+    def abandon(self) -> None: ...
+
+
+class SpilledTrace:
+    """A trace written to a file as the run went, not held in memory: ``samples`` rows of
+    ``columns`` values of ``dtype`` (the rows of the ``.npy`` it becomes, nothing else in the
+    file), with the counts :func:`overflowed` needs, taken on the way. ``path``: the file."""
+
+    is_spilled_trace = True  # how the writers (which do not import the network) know one
+    npz_offset: int | None = None  # where its data starts in the .npz it was copied into
+
+    def __init__(self, name: str, path: Any, sink: Sink, columns: int, dtype: np.dtype,
+                 rows: int) -> None:
+        self.name, self.path, self.sink = name, path, sink
+        self.columns, self.dtype = int(columns), np.dtype(dtype)
+        self.samples = 0
+        self.inf_values = 0  # values beyond float32's range, stored as inf
+        self.inf_samples = 0  # samples (rows) holding one
+        self.block = np.zeros((rows, self.columns), dtype=self.dtype)  # one rounded block
+        #: each column's largest value so far, NaN ignored (a run's summary reads the peaks
+        #: without reading the file back)
+        self.column_max = np.full(self.columns, np.nan)
+        self._block_max = np.empty(self.columns, dtype=self.dtype)
+        self.closed = False
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.samples, self.columns)
+
+    @property
+    def nbytes(self) -> int:
+        return self.samples * self.columns * self.dtype.itemsize
+
+    @property
+    def size(self) -> int:
+        return self.samples * self.columns
+
+    def append(self, stage: np.ndarray) -> None:
+        """Round the float64 rows ``stage`` to the trace's dtype and write them."""
+        n = len(stage)
+        block = self.block[:n]
+        with np.errstate(over="ignore"):
+            np.copyto(block, stage, casting="same_kind")
+        if self.dtype == np.float32:
+            # a finite sum means no infinity: the values are counted only where one may be
+            with np.errstate(over="ignore", invalid="ignore"):
+                maybe = not np.isfinite(block.sum())
+            if maybe:
+                bad = np.isinf(block)
+                self.inf_values += int(bad.sum())
+                self.inf_samples += int(bad.any(axis=1).sum())
+        if n:
+            np.fmax.reduce(block, axis=0, out=self._block_max)
+            np.fmax(self.column_max, self._block_max, out=self.column_max)
+        self.sink.write(block)
+        self.samples += n
+
+    def close(self) -> None:
+        if not self.closed:
+            self.closed = True
+            self.sink.close()
+
+    def abandon(self) -> None:
+        if not self.closed:
+            self.closed = True
+            self.sink.abandon()
+
+
 class TraceRecorder:
     """Samples ``traces`` of ``cpg`` every ``stride`` steps for ``n_steps`` steps from the
     network's time at construction; :meth:`operation` is the ``NetworkOperation`` to add.
@@ -79,10 +160,17 @@ class TraceRecorder:
     stored unit; :meth:`collected` gives ``{name: (t, values)}`` of the samples taken. Kept as
     float32, the latest samples (up to :data:`STAGED_SAMPLES`) wait in a float64 block until
     it is full or :meth:`collected` (or :meth:`flush`) is called: the same product, rounded
-    once to float32, as if each sample had been rounded when taken."""
+    once to float32, as if each sample had been rounded when taken.
+
+    With ``spill`` (``spill(name) -> (path, sink)``), a trace whose samples would take
+    ``spill_bytes`` (default :data:`SPILL_BYTES`) or more is not held: each rounded block is
+    written to its sink as it is flushed (:attr:`spilled`, a :class:`SpilledTrace` per such
+    trace), the same bytes its ``.npy`` would hold."""
 
     def __init__(self, cpg: Any, traces: tuple[str, ...], *, stride: int, n_steps: int,
-                 dtype: str = "float32") -> None:
+                 dtype: str = "float32",
+                 spill: Callable[[str], tuple[Any, Sink]] | None = None,
+                 spill_bytes: int | None = None) -> None:
         if dtype not in TRACE_DTYPES:
             raise ValueError(f"trace dtype must be one of {', '.join(TRACE_DTYPES)}, "
                              f"got {dtype!r}")
@@ -98,22 +186,39 @@ class TraceRecorder:
         staged = self.dtype != np.float64
         #: float64 blocks of the samples not yet rounded into values (float32 only)
         self._stage: dict[str, np.ndarray] = {}
+        #: the traces written to disk as the run goes (their samples are not in values)
+        self.spilled: dict[str, SpilledTrace] = {}
         self._flushed = 0  # samples already in values
-        for name in traces:
-            group, var, scale, _ = trace_sources()[name]
-            table = cpg.table(group, var)
-            # the table's values as one flat view, cached (read() refreshes it in place)
-            self.sources[name] = (table, table.values.reshape(-1), float(scale))
-            # written through once here: the memory is taken now, not page by page in the run
-            self.values[name] = np.empty((self.n_samples, table.values.size), dtype=self.dtype)
-            self.values[name].fill(0)
-            if staged:
-                self._stage[name] = np.zeros((min(STAGED_SAMPLES, max(self.n_samples, 1)),
-                                              table.values.size))
+        rows = min(STAGED_SAMPLES, max(self.n_samples, 1))
+        if spill_bytes is None:
+            spill_bytes = SPILL_BYTES
+        try:
+            for name in traces:
+                group, var, scale, _ = trace_sources()[name]
+                table = cpg.table(group, var)
+                columns = table.values.size
+                # the table's values as one flat view, cached (read() refreshes it in place)
+                self.sources[name] = (table, table.values.reshape(-1), float(scale))
+                if spill is not None and \
+                        self.n_samples * columns * self.dtype.itemsize >= spill_bytes:
+                    path, sink = spill(name)
+                    self.spilled[name] = SpilledTrace(name, path, sink, columns, self.dtype, rows)
+                    self._stage[name] = np.zeros((rows, columns))
+                    continue
+                # written through once here: the memory is taken now, not page by page in the
+                # run
+                self.values[name] = np.empty((self.n_samples, columns), dtype=self.dtype)
+                self.values[name].fill(0)
+                if staged:
+                    self._stage[name] = np.zeros((rows, columns))
+        except BaseException:
+            self.abandon()
+            raise
         # what sample() does per trace, looked up once: the tables to refresh (a live view of
         # Brian2's array needs none), then (flat view, scale, where the sample goes)
         self._reads = [table.read for table, _, _ in self.sources.values() if not table.live]
-        self._plan = [(flat, scale, self._stage.get(name), self.values[name])
+        self._rows = rows  # samples per float64 block
+        self._plan = [(flat, scale, self._stage.get(name), self.values.get(name))
                       for name, (_, flat, scale) in self.sources.items()]
 
     def operation(self) -> brian2.NetworkOperation:
@@ -134,7 +239,7 @@ class TraceRecorder:
             np.multiply(flat, scale, out=values[k] if stage is None else stage[j])
         self.samples = k + 1
         self._next += self.stride
-        if self._stage and j + 1 == len(next(iter(self._stage.values()))):
+        if self._stage and j + 1 == self._rows:
             self.flush()
 
     def flush(self) -> None:
@@ -146,22 +251,42 @@ class TraceRecorder:
         # marked in the manifest and the summary, so numpy's warning would only repeat it
         with np.errstate(over="ignore"):
             for name, stage in self._stage.items():
-                self.values[name][self._flushed:self.samples] = stage[:n]
+                spilled = self.spilled.get(name)
+                if spilled is not None:
+                    spilled.append(stage[:n])
+                else:
+                    self.values[name][self._flushed:self.samples] = stage[:n]
         self._flushed = self.samples
 
     def times(self) -> np.ndarray:
         """Sampling times (s): the start of each sampled step."""
         return (self.first_step + np.arange(self.samples) * self.stride) * self.dt
 
-    def collected(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        """``{trace: (t, values)}`` of the samples taken so far (views, not copies)."""
+    def collected(self) -> dict[str, tuple[np.ndarray, Any]]:
+        """``{trace: (t, values)}`` of the samples taken so far (views, not copies), in the
+        order the traces were asked for; a spilled trace's values are its
+        :class:`SpilledTrace`, its file closed (nothing more is recorded into it)."""
         self.flush()
         t = self.times()
-        return {name: (t, v[:self.samples]) for name, v in self.values.items()}
+        out: dict[str, tuple[np.ndarray, Any]] = {}
+        for name in self.sources:
+            spilled = self.spilled.get(name)
+            if spilled is not None:
+                spilled.close()
+                out[name] = (t, spilled)
+            else:
+                out[name] = (t, self.values[name][:self.samples])
+        return out
+
+    def abandon(self) -> None:
+        """Throw away what was spilled (the run will not be written)."""
+        for spilled in self.spilled.values():
+            spilled.abandon()
 
     def nbytes(self) -> int:
         return sum(v.nbytes for v in self.values.values()) + \
-            sum(v.nbytes for v in self._stage.values())
+            sum(v.nbytes for v in self._stage.values()) + \
+            sum(s.block.nbytes for s in self.spilled.values())
 
 
 def overflowed(traces: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, dict[str, Any]]:
@@ -175,6 +300,12 @@ def overflowed(traces: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, di
     (``--trace-dtype float64`` is the remedy, named wherever the mark is shown)."""
     out: dict[str, dict[str, Any]] = {}
     for name, (_, v) in traces.items():
+        if isinstance(v, SpilledTrace):  # counted as it was written
+            if v.dtype == np.float32 and v.inf_values:
+                out[name] = {"dtype": "float32", "values": v.inf_values,
+                             "of": v.samples * v.columns, "samples": v.inf_samples,
+                             "of_samples": v.samples}
+            continue
         v = np.asarray(v)
         if v.dtype != np.float32 or not v.size:
             continue
@@ -203,4 +334,5 @@ def overflow_words(overflow: dict[str, dict[str, Any]]) -> str:
             f"the finite values: record again with --trace-dtype float64 to keep them")
 
 
-__all__ = ["SpikeRecorder", "TraceRecorder", "TRACE_DTYPES", "STAGED_SAMPLES", "overflowed", "overflow_words"]
+__all__ = ["SpikeRecorder", "TraceRecorder", "SpilledTrace", "SPILL_BYTES", "Sink",
+            "TRACE_DTYPES", "STAGED_SAMPLES", "overflowed", "overflow_words"]

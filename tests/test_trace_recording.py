@@ -153,3 +153,88 @@ def test_the_spike_recorder_records_what_brian2s_spike_monitor_records(codegen):
         np.testing.assert_array_equal(a.t_[:], b.t_[:])
         np.testing.assert_array_equal(a.count[:], b.count[:])
         assert a.num_spikes == b.num_spikes
+
+
+def _spill_run(tmp_path, monkeypatch, spill_bytes, name, **kw):
+    import astrocpg
+    from astrocpg.network import recording
+    from astrocpg.studies.outputs import writing
+
+    monkeypatch.setattr(recording, "SPILL_BYTES", spill_bytes)
+    # every file written past the page cache, as a run's large files are (a spilled trace's
+    # .npz always is): the same writer on both sides
+    monkeypatch.setattr(writing, "DIRECT_BYTES", 0)
+    return astrocpg.run(seconds=0.3, trials=2, seed=3, progress=False, out=tmp_path / name, **kw)
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_a_run_that_spills_its_traces_to_disk_writes_the_same_folder(tmp_path, monkeypatch,
+                                                                     dtype):
+    """A run that writes a folder puts its large traces on disk as it goes: every trace spilled
+    (threshold 0 bytes), the folder's files are byte for byte those of the same run holding its
+    traces, the result reads the same values, and no spill file is left."""
+    held = _spill_run(tmp_path, monkeypatch, 1 << 60, "held", trace_dtype=dtype)
+    spilled = _spill_run(tmp_path, monkeypatch, 0, "spilled", trace_dtype=dtype)
+    for f in ("traces.npz", "spikes.npz", "robot.npz"):
+        assert (tmp_path / "held" / f).read_bytes() == (tmp_path / "spilled" / f).read_bytes(), f
+    for name, (t, v) in held.traces.items():
+        t2, v2 = spilled.traces[name]
+        assert isinstance(v2, np.memmap) and v2.dtype == np.dtype(dtype)
+        np.testing.assert_array_equal(t, t2)
+        np.testing.assert_array_equal(v, v2)
+    assert held.summary["mechanisms"] == spilled.summary["mechanisms"]
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_spilled_traces_that_overflow_float32_are_counted_as_held_ones(tmp_path, monkeypatch):
+    held = _spill_run(tmp_path, monkeypatch, 1 << 60, "held", overrides={"r_Ca": 1e45})
+    spilled = _spill_run(tmp_path, monkeypatch, 0, "spilled", overrides={"r_Ca": 1e45})
+    over = held.summary["trace_overflow"]
+    assert over and over == spilled.summary["trace_overflow"]
+    assert (tmp_path / "held" / "traces.npz").read_bytes() == \
+        (tmp_path / "spilled" / "traces.npz").read_bytes()
+
+
+def test_a_run_stopped_by_divergence_or_an_interrupt_leaves_no_spill(tmp_path, monkeypatch):
+    """Diverged: the folder keeps what ran, its spilled traces copied in; interrupted: nothing
+    written. Either way the spill files beside the folder are gone."""
+    import astrocpg
+    from astrocpg.errors import Diverged
+    from astrocpg.network import recording
+
+    monkeypatch.setattr(recording, "SPILL_BYTES", 0)
+    with pytest.raises(Diverged):
+        astrocpg.run(seconds=0.5, trials=2, seed=3, progress=False, out=tmp_path / "diverged",
+                     overrides={"r_Ca": 1e60})
+    with np.load(tmp_path / "diverged" / "traces.npz") as z:
+        n = len(z["motor_Ca_t"])
+        assert 0 < n < 500 and z["motor_Ca"].shape[0] == n
+    calls = []
+
+    def interrupt(self, *args):  # the fourth flush of the recorder: mid-run
+        calls.append(1)
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        return flush(self, *args)
+
+    flush = recording.TraceRecorder.flush
+    monkeypatch.setattr(recording.TraceRecorder, "flush", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        astrocpg.run(seconds=0.5, trials=2, seed=3, progress=False, out=tmp_path / "stopped")
+    assert not (tmp_path / "stopped").exists()
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_the_memory_a_run_needs_leaves_out_the_traces_it_spills():
+    """A run that writes its folder holds no trace of SPILL_BYTES or more: the memory check
+    counts only the traces it holds (60 s x 20 trials: motor_Ca alone is 1.4 GiB)."""
+    from astrocpg.network.recording import SPILL_BYTES
+
+    names = tuple(trace_sources())
+    held = estimate_bytes(trials=20, seconds=60, traces=names)
+    spilled = estimate_bytes(trials=20, seconds=60, traces=names, spill_bytes=SPILL_BYTES)
+    none = estimate_bytes(trials=20, seconds=60)
+    assert spilled == none < held and held - none > 1.5 * 2 ** 30
+    # a short run's traces stay in memory (each under the threshold)
+    assert estimate_bytes(trials=1, seconds=1, traces=names, spill_bytes=SPILL_BYTES) == \
+        estimate_bytes(trials=1, seconds=1, traces=names)

@@ -13,12 +13,14 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import Diverged, InputError
+from ...network import recording
 from ...network.recording import overflow_words, overflowed
 from ...reading import read_json
 from ...models import ModelSet
 from ..analysis.fall import fall_words, falls
 from ..outputs.folder import OutputFolder, verify
-from ..outputs.writing import (file_sha256, read_manifest, save_npz, save_spikes_and_traces,
+from ..outputs.writing import (file_sha256, read_manifest, remove_files, save_npz,
+                               save_spikes_and_traces, spill_files,
                                write_manifest)
 from ..outputs.result import Result
 from ..outputs.weights import check_table, load_weights
@@ -114,7 +116,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         pops, names = check_selection(spikes, traces)
         check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
                                     traces=names, spikes=bool(pops), robot_stride=robot_stride,
-                                    trace_bytes=np.dtype(trace_dtype).itemsize),
+                                    trace_bytes=np.dtype(trace_dtype).itemsize,
+                                    spill_bytes=None if out is None else recording.SPILL_BYTES),
                      culprit=f"--seconds {seconds:g} x --trials {trials}")
         files = model_files_record(models)
         models = model_set(overrides, equations, models=models)
@@ -160,24 +163,55 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
                       else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
         start_x = layout.reset_qpos[layout.free_qpos_adr]
+        # a run that writes a folder puts its large traces on disk as it goes (read_spilled)
+        spill, spilled = spill_files(nearest_folder(Path(out))) if out is not None else (None, [])
         try:
-            result = simulate_closed_loop(models, model, layout, seconds=seconds, seed=seed,
-                                          n_trials=trials, weights=table, trace_dt=trace_dt * ms,
-                                          robot_stride=robot_stride, spikes=spikes, traces=traces,
-                                          progress=progress, trace_dtype=trace_dtype)
-        except Diverged as e:  # the folder keeps what ran, and says it diverged
-            if out is not None and getattr(e, "result", None) is not None:
-                _summarise(e.result, models, start_x, robot_info, table, e)
+            try:
+                result = simulate_closed_loop(
+                    models, model, layout, seconds=seconds, seed=seed, n_trials=trials,
+                    weights=table, trace_dt=trace_dt * ms, robot_stride=robot_stride, spikes=spikes,
+                    traces=traces, progress=progress, trace_dtype=trace_dtype, spill=spill)
+            except Diverged as e:  # the folder keeps what ran, and says it diverged
+                if out is not None and getattr(e, "result", None) is not None:
+                    _summarise(e.result, models, start_x, robot_info, table, e)
+                    with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
+                        write_run_folder(folder, e.result, settings, figure=figure)
+                raise
+            _summarise(result, models, start_x, robot_info, table)
+            summary = run_results(result)  # before the spilled traces are read from the folder
+            if out is not None:
+                # whole, or nothing
                 with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
-                    write_run_folder(folder, e.result, settings, figure=figure)
-            raise
-        _summarise(result, models, start_x, robot_info, table)
-        if out is not None:
-            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:  # whole, or nothing
-                write_run_folder(folder, result, settings, figure=figure)
+                    write_run_folder(folder, result, settings, figure=figure, results=summary)
+                result.traces = read_spilled(result.traces, Path(out) / "traces.npz")
+        finally:
+            remove_files(spilled)
         return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
-                                      summary=run_results(result), robot=robot_arrays(result),
+                                      summary=summary, robot=robot_arrays(result),
                                       models=models, folder=out)
+
+
+def nearest_folder(path: Path) -> Path:
+    """The nearest existing folder at or above ``path``'s parent (where a run's spilled traces
+    wait: on the file system the folder will be written to, nothing created early)."""
+    parent = path.absolute().parent
+    while not parent.is_dir() and parent != parent.parent:
+        parent = parent.parent
+    return parent
+
+
+def read_spilled(traces: dict[str, tuple[np.ndarray, Any]],
+                 npz: Path) -> dict[str, tuple[np.ndarray, Any]]:
+    """``traces`` with each spilled trace read from the ``.npz`` it was copied into: a
+    read-only memory map of its data there (read from disk as it is used, not held). A run
+    that writes a folder spills (beside it, hidden) the traces too large to hold in fresh
+    memory; the files are removed once copied into ``traces.npz``."""
+    out = dict(traces)
+    for name, (t, v) in traces.items():
+        if getattr(type(v), "is_spilled_trace", False):
+            out[name] = (t, np.memmap(npz, dtype=v.dtype, mode="r", offset=v.npz_offset,
+                                      shape=v.shape) if v.size else np.empty(v.shape, v.dtype))
+    return out
 
 
 def with_trained_populations(weights: Any, given: dict[str, Any]) -> dict[str, Any]:
@@ -300,8 +334,11 @@ def mechanisms(result: SimulationResult, initial_weights: np.ndarray | None) -> 
     peaks = []
     for name, unit in (("astrocyte_ADO", "a.u."), ("astrocyte_Ca", "uM")):
         if name in result.traces and result.traces[name][1].size:
-            v = result.traces[name][1].reshape(len(result.traces[name][0]), n, -1)
-            peak = np.nanmax(v, axis=(0, 2))
+            v = result.traces[name][1]
+            if getattr(type(v), "is_spilled_trace", False):  # on disk: its columns' peaks kept
+                peak = np.nanmax(v.column_max.reshape(n, -1), axis=1)
+            else:
+                peak = np.nanmax(v.reshape(len(result.traces[name][0]), n, -1), axis=(0, 2))
             out[f"peak_{name}"] = peak
             label = "[ADO]" if name.endswith("ADO") else "[Ca2+]"
             peaks.append(f"peak {label} {_per_trial(peak, '.3g')} {unit}")
@@ -341,9 +378,10 @@ def robot_arrays(result: SimulationResult) -> dict[str, np.ndarray]:
 
 
 def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str, Any], *,
-                     figure: bool = False) -> None:
+                     figure: bool = False, results: Mapping[str, Any] | None = None) -> None:
     """spikes.npz, traces.npz, robot.npz, manifest.json and, with ``figure``, the thigh-extensor
-    figure (matplotlib's import and one figure cost about a second: ten times a 0.1 s run)."""
+    figure (matplotlib's import and one figure cost about a second: ten times a 0.1 s run).
+    ``results``: the manifest's results (:func:`run_results`, computed here if not given)."""
     files = save_spikes_and_traces(out, result.spikes, result.traces)
     save_npz(out / "robot.npz", robot_arrays(result))
     files["robot.npz"] = ROBOT_FILE
@@ -356,7 +394,7 @@ def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str,
         files["thigh_extensor_activity.png"] = "thigh-extensor activity of the 4 limbs (trial 0)"
     write_manifest(out, command="run", seed=int(settings.get("seed", 1)), settings=settings,
                    models_json=result.extra["models"].to_json(), files=files,
-                   results=run_results(result))
+                   results=run_results(result) if results is None else results)
 
 
 #: run settings a replay takes from the training, with their defaults

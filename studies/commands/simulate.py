@@ -88,12 +88,14 @@ TRACES: tuple[str, ...] = tuple(trace_sources(BUILT_IN))
 def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
                  spikes: tuple[str, ...] = POPULATIONS,
                  traces: tuple[str, ...] = TRACES, *, n_steps: int,
-                 trace_dtype: str = "float32") -> dict[str, Any]:
+                 trace_dtype: str = "float32", spill: Any = None) -> dict[str, Any]:
     """Spike monitors of ``spikes`` (Brian2's, by population: a monitor, or a tuple of them,
     one per stage, where the limbs integrate in stages: :meth:`CPG.parts`) and, under
     ``"traces"``, a :class:`~astrocpg.network.recording.TraceRecorder` of ``traces`` sampled
     every ``trace_dt`` for the next ``n_steps`` steps (the run's length), kept as
-    ``trace_dtype``; all added to the network."""
+    ``trace_dtype``; all added to the network. ``spill``: where the recorder puts the traces
+    too large to hold in memory as the run goes (:class:`~astrocpg.network.recording.TraceRecorder`),
+    None to hold every trace."""
     mons: dict[str, Any] = {}
     for p in spikes:
         ms = tuple(SpikeRecorder(part.obj, name=f"spikes_{part.name}") for part in cpg.parts(p))
@@ -102,7 +104,7 @@ def add_monitors(cpg: CPG, trace_dt: Any, record_traces: bool,
     if record_traces and traces:
         stride = int(round(float(trace_dt) / float(cpg.dt)))
         recorder = TraceRecorder(cpg, tuple(traces), stride=stride, n_steps=int(n_steps),
-                                 dtype=trace_dtype)
+                                 dtype=trace_dtype, spill=spill)
         cpg.net.add(recorder.operation())
         mons["traces"] = recorder
     return mons
@@ -214,9 +216,11 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
                          robot_stride: int = 1, record_traces: bool = True,
                          record_spikes: bool = True, spikes: tuple[str, ...] | None = None,
                          traces: tuple[str, ...] | None = None,
-                         progress: bool = True, trace_dtype: str = "float32") -> SimulationResult:
+                         progress: bool = True, trace_dtype: str = "float32",
+                         spill: Any = None) -> SimulationResult:
     """The whole CPG driving ``n_trials`` robots (default: the project's A1) for ``seconds``,
-    inter-limb weights fixed (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero)."""
+    inter-limb weights fixed (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero).
+    ``spill``: see :func:`add_monitors` (a run that writes its folder)."""
     check_duration(seconds)
     bar = _Progress(seconds, f"run ({n_trials} trial{'s' if n_trials > 1 else ''})",
                     progress and seconds * n_trials > 3)
@@ -229,7 +233,7 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
     bridge.add_hook("after_physics", "limit_count", limit, order=ORDER_MEASURE)
     selection = check_selection(spikes, traces)
     mons = add_monitors(cpg, trace_dt, record_traces, *selection, n_steps=n_steps,
-                        trace_dtype=trace_dtype) if record_spikes else {}
+                        trace_dtype=trace_dtype, spill=spill) if record_spikes else {}
     t0 = time.perf_counter()
     try:
         wall = _run(cpg, seconds, bar)
@@ -237,6 +241,10 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
     except Diverged as e:  # keep what was recorded up to the divergence, for its folder
         e.result = _partial(cpg, mons, rec.truncated(bridge.step_count), t0,
                             extra={"bridge": bridge, "limit_inhibition": limit.counts()})
+        raise
+    except BaseException:  # interrupted, or a bug: nothing will be written
+        if "traces" in mons:
+            mons["traces"].abandon()
         raise
     spikes, traces = _collect(cpg, mons) if mons else ({}, {})
     return SimulationResult(cpg=cpg, seconds=seconds, spikes=spikes, traces=traces, robot=rec,

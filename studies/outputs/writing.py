@@ -174,7 +174,10 @@ class DirectFile:
     writes each member's CRC and sizes after its data (data descriptors), which every zip
     reader, ``np.load`` included, reads from the central directory."""
 
-    def __init__(self, path: str | os.PathLike) -> None:
+    def __init__(self, path: str | os.PathLike, *, stage: int = _STAGE,
+                 sha256: bool = True) -> None:
+        if stage <= 0 or stage % _BLOCK:
+            raise ValueError(f"stage must be a positive multiple of {_BLOCK} bytes, got {stage}")
         flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC
         direct = getattr(os, "O_DIRECT", 0)
         self.fd = -1
@@ -186,24 +189,26 @@ class DirectFile:
         self.direct = self.fd >= 0
         if not self.direct:
             self.fd = os.open(path, flags, 0o600)
-        self._stage = mmap.mmap(-1, _STAGE)  # anonymous: page-aligned, as O_DIRECT needs
+        self._size = stage
+        self._stage = mmap.mmap(-1, stage)  # anonymous: page-aligned, as O_DIRECT needs
         self._view = memoryview(self._stage)
         self._filled = 0
         self._written = 0
-        self._sha = hashlib.sha256()
+        self._sha = hashlib.sha256() if sha256 else None
 
     def write(self, data: Any) -> int:
         view = memoryview(data).cast("B")
         n = len(view)
-        self._sha.update(view)
-        k = 0
+        if self._sha is not None:
+            self._sha.update(view)
+        k, size = 0, self._size
         while k < n:
-            take = min(n - k, _STAGE - self._filled)
+            take = min(n - k, size - self._filled)
             self._view[self._filled:self._filled + take] = view[k:k + take]
             self._filled += take
             k += take
-            if self._filled == _STAGE:
-                self._drain(_STAGE)
+            if self._filled == size:
+                self._drain(size)
                 self._filled = 0
         self._written += n
         return n
@@ -240,8 +245,9 @@ class DirectFile:
     def flush(self) -> None:
         pass
 
-    def close(self) -> str:
-        """Write what is staged, sync to disk, close; the sha256 of the file's bytes."""
+    def close(self) -> str | None:
+        """Write what is staged, sync to disk, close; the sha256 of the file's bytes (None when
+        made with ``sha256=False``)."""
         try:
             tail = self._filled
             if tail and self.direct:
@@ -252,10 +258,11 @@ class DirectFile:
             elif tail:
                 self._drain(tail)
             self._filled = 0
-            os.fsync(self.fd)
+            if self._sha is not None:  # a result file; a spill is read once and removed
+                os.fsync(self.fd)
         finally:
             self.abandon()
-        return self._sha.hexdigest()
+        return None if self._sha is None else self._sha.hexdigest()
 
     def abandon(self) -> None:
         """Close without writing what is staged (the file is being thrown away)."""
@@ -282,7 +289,11 @@ def save_npz(path: Path, arrays: Mapping[str, np.ndarray], *, compressed: bool =
     Folders written compressed by earlier versions read the same. From :data:`DIRECT_BYTES` of
     arrays on, the file is written past the page cache (:class:`DirectFile`), its sha256 taken
     on the way for the folder's inventory."""
-    if compressed or sum(np.asarray(a).nbytes for a in arrays.values()) < DIRECT_BYTES:
+    spilled = any(_is_spilled(a) for a in arrays.values())
+    if spilled and compressed:
+        raise ValueError("a spilled trace is written uncompressed")
+    if not spilled and (compressed or sum(np.asarray(a).nbytes for a in arrays.values())
+                        < DIRECT_BYTES):
         save = np.savez_compressed if compressed else np.savez
         atomic_write(path, lambda f: save(f, **arrays))
         return
@@ -290,12 +301,115 @@ def save_npz(path: Path, arrays: Mapping[str, np.ndarray], *, compressed: bool =
     def to(tmp: Path) -> None:
         out = DirectFile(tmp)
         try:
-            np.savez(out, **arrays)
+            if spilled:
+                _savez_streaming(out, arrays)
+            else:
+                np.savez(out, **arrays)
         except BaseException:
             out.abandon()
             raise
         remember_sha256(tmp, out.close())  # the inode and mtime survive the rename
     atomic_path(path, to)
+
+
+def _is_spilled(value: Any) -> bool:
+    """Is ``value`` a :class:`~astrocpg.network.recording.SpilledTrace` (told by its class's
+    mark: this module does not import the network, which imports Brian2)?"""
+    return getattr(type(value), "is_spilled_trace", False) is True
+
+
+def _savez_streaming(out: DirectFile, arrays: Mapping[str, Any]) -> None:
+    """What ``np.savez(out, **arrays)`` writes, byte for byte, where some values are
+    :class:`~astrocpg.network.recording.SpilledTrace`: each of those is copied from its file
+    into its ``.npy`` member (the offset of its data in the ``.npz`` kept as ``npz_offset``)."""
+    import zipfile
+
+    fmt = np.lib.format
+    with zipfile.ZipFile(out, mode="w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for key, value in arrays.items():
+            with zf.open(key + ".npy", "w", force_zip64=True) as member:
+                if not _is_spilled(value):
+                    fmt.write_array(member, np.asanyarray(value), allow_pickle=False)
+                    continue
+                header = {"descr": fmt.dtype_to_descr(value.dtype), "fortran_order": False,
+                          "shape": value.shape}
+                fmt.write_array_header_1_0(member, header)  # as write_array writes it
+                value.npz_offset = out.tell()
+                copied = copy_spilled(value.path, member, value.nbytes)
+                if copied != value.nbytes:
+                    raise OSError(errno.EIO, f"the spilled trace {value.name} holds {copied} "
+                                  f"bytes, not {value.nbytes}", os.fspath(value.path))
+
+
+def copy_spilled(path: str | os.PathLike, to: Any, nbytes: int) -> int:
+    """Copy the first ``nbytes`` of the file at ``path`` into ``to`` (a writable file object),
+    read past the page cache where the file system allows it (the file was written so, and is
+    read once): the bytes copied."""
+    direct = getattr(os, "O_DIRECT", 0)
+    fd = -1
+    if direct:
+        try:
+            fd = os.open(path, os.O_RDONLY | direct)
+        except OSError:
+            fd = -1
+    if fd < 0:
+        fd = os.open(path, os.O_RDONLY)
+    buf = mmap.mmap(-1, _STAGE)  # page-aligned, reused
+    view = memoryview(buf)
+    done = 0
+    try:
+        while done < nbytes:
+            try:
+                n = os.preadv(fd, [view], done)
+            except OSError as e:  # O_DIRECT refused at read: the rest through the page cache
+                if e.errno != errno.EINVAL or not direct:
+                    raise
+                import fcntl
+
+                fcntl.fcntl(fd, fcntl.F_SETFL, fcntl.fcntl(fd, fcntl.F_GETFL) & ~os.O_DIRECT)
+                direct = 0
+                continue
+            if n <= 0:
+                break
+            n = min(n, nbytes - done)
+            to.write(view[:n])
+            done += n
+    finally:
+        os.close(fd)
+        view.release()
+        buf.close()
+    return done
+
+
+#: bytes a spill stages before it writes (whole blocks); one per spilled trace
+SPILL_STAGE = 1 << 20
+
+
+def spill_files(folder: str | os.PathLike) -> tuple[Callable[[str], tuple[Path, DirectFile]],
+                                                      list[Path]]:
+    """Where a run's large traces go as it runs (the ``spill`` of
+    :class:`~astrocpg.network.recording.TraceRecorder`): hidden temporaries in ``folder`` (pid-tagged: what a killed run left is removed
+    by the next write there), written past the page cache. Returns the factory and the list of
+    the files it made, which the caller removes once they are copied (:func:`remove_files`)."""
+    made: list[Path] = []
+    folder = Path(folder)
+
+    def spill(name: str) -> tuple[Path, DirectFile]:
+        suffix = ".spill"
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=temp_prefix(name, suffix=suffix),
+                                   suffix=suffix)
+        os.close(fd)
+        made.append(Path(tmp))
+        return Path(tmp), DirectFile(tmp, stage=SPILL_STAGE, sha256=False)
+    return spill, made
+
+
+def remove_files(paths: list[Path]) -> None:
+    for p in paths:
+        try:
+            os.unlink(p)
+        except FileNotFoundError:
+            pass
 
 
 def save_spikes_and_traces(out: Path, spikes: Mapping[str, tuple[np.ndarray, np.ndarray]],

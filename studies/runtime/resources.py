@@ -61,15 +61,21 @@ def trace_columns_per_trial(trace: str) -> int:
 
 def estimate_bytes(*, trials: int, seconds: float, dt: float = 1e-3, trace_dt: float = 1e-3,
                    robot_stride: int | None = None, traces: tuple[str, ...] = (),
-                   spikes: bool = True, sessions: int = 0, trace_bytes: int = 4) -> int:
+                   spikes: bool = True, sessions: int = 0, trace_bytes: int = 4,
+                   spill_bytes: int | None = None) -> int:
     """Bytes a simulation of ``trials`` for ``seconds`` holds at its end (state + records),
     or a training of ``sessions`` sessions per trial (its rows and tables). ``trace_bytes``:
-    per trace value (4: float32, the default; 8: float64)."""
+    per trace value (4: float32, the default; 8: float64). ``spill_bytes``: a run that writes
+    its folder puts each trace of at least this many bytes on disk as it goes
+    (:data:`~astrocpg.network.recording.SPILL_BYTES`): such a trace is not held."""
     steps = seconds / dt
     per_trial = float(BYTES_PER_TRIAL) + float(SESSION_BYTES_PER_TRIAL) * sessions
     if spikes:
         per_trial += SPIKE_BYTES_PER_TRIAL_S * seconds
-    per_trial += sum(trace_columns_per_trial(t) for t in traces) * trace_bytes * seconds / trace_dt
+    for t in traces:
+        held = trace_columns_per_trial(t) * trace_bytes * seconds / trace_dt
+        if spill_bytes is None or held * trials < spill_bytes:
+            per_trial += held
     if robot_stride:
         per_trial += ROBOT_FLOATS_PER_STEP * 8 * steps / robot_stride
     return int(per_trial * trials)
