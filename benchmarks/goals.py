@@ -15,9 +15,9 @@ would type it, every figure with its repeats and their spread:
 - **Commands end to end** (``command_cost.py``): ``astrocpg train`` and ``astrocpg study`` as
   typed against ``astrocpg run`` recording nothing (the fixed-weight loop as typed), CPU per
   stepped trial-second (the batch's steps, trials that finished their sessions idling
-  included), slopes between 2 and 6 sessions and 3 and 12 s. Goal: the training step's, at most
-  1.15 x. Per trained trial-second (what the user gets: the idle trials' steps not counted)
-  beside it, described.
+  included), slopes between 2 and 6 sessions and 3 and 12 s, each command ``--runs`` times
+  (the least CPU). Goal: the training step's, at most 1.15 x. Per trained trial-second (what
+  the user gets: the idle trials' steps not counted) beside it, described.
 
 Each benchmark runs ``--repeats`` times inside its own script (interleaved where the script
 interleaves); ``spread`` is max/min - 1 over the repeats, and a figure counts as measured when
@@ -66,7 +66,8 @@ def main() -> int:
     ap.add_argument("--recorded-seconds", type=float, nargs=2, default=[3.0, 12.0],
                     metavar=("S1", "S2"), help="the two durations of the recorded-run slope")
     ap.add_argument("--runs", type=int, default=2,
-                    help="runs of each recorded-run command per repeat (the least CPU counts)")
+                    help="runs of each command per repeat, for the recorded run and the "
+                         "commands end to end (the least CPU counts)")
     ap.add_argument("--seconds", type=float, default=6.0,
                     help="simulated s of each training-step and trial-step measurement")
     ap.add_argument("--json", default=None, metavar="FILE")
@@ -91,8 +92,8 @@ def main() -> int:
             target = {"cython": 2.0, "numpy": 3.5}[point["codegen"]]
             rows.append(_row(f"trial-step ({point['codegen']})", "trial-step / mj_step",
                              [r["x_mj_step"] for r in point["repeats"]], target, args.within))
-        cc = _run("command_cost.py", "--repeats", str(args.repeats), "--kinds", "run", "train",
-                  "study", json_out=t / "commands.json")
+        cc = _run("command_cost.py", "--repeats", str(args.repeats), "--runs", str(args.runs),
+                  "--kinds", "run", "train", "study", json_out=t / "commands.json")
         for kind, what in (("train", "`astrocpg train`"), ("study", "`astrocpg study`")):
             rows.append(_row(f"{kind} command", f"{what} / `astrocpg run` per stepped "
                              "trial-second, end to end",

@@ -163,3 +163,26 @@ def test_dask_overhead_prints_both_settings_with_the_lean_workers_cheaper(tmp_pa
         return float([x for x in row if x.endswith("%")][k].rstrip("%"))
 
     assert share(rows["astrocpg's (LEAN_DASK)"], 0) < share(rows["Dask's defaults"], 0)
+
+
+def test_command_cost_reads_trained_and_stepped_trial_seconds(tmp_path):
+    """benchmarks/command_cost.py: a training's trained trial-seconds are the sum of its
+    sessions' lengths; its stepped ones the longest trial's sum times the trials (the batch
+    steps until its last trial is done), per run of a study's rows."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        spec = importlib.util.spec_from_file_location("command_cost",
+                                                      ROOT / "benchmarks" / "command_cost.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    sessions = tmp_path / "sessions.csv"
+    sessions.write_text("trial,session,length_s\n0,1,1.5\n1,1,4.0\n0,2,2.0\n1,2,0.5\n")
+    assert module.simulated_trial_seconds(sessions) == pytest.approx((8.0, 9.0))
+    rows = tmp_path / "results.csv"
+    rows.write_text("run_id,trial,session,length_s\na,0,1,1.0\na,1,1,3.0\nb,0,1,2.0\n")
+    # run a: 1 + 3 trained, its batch stepped 3 s x 2 trials; run b: 2 and 2 x 1
+    assert module.simulated_trial_seconds(rows) == pytest.approx((6.0, 8.0))
