@@ -12,15 +12,24 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def benchmark(name: str):
+    """The script ``benchmarks/<name>.py`` as a module (its folder on the path while it loads:
+    the scripts import one another)."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    return module
+
+
 @pytest.fixture(scope="module")
 def speed():
-    import sys
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    spec = importlib.util.spec_from_file_location("speed", ROOT / "benchmarks" / "speed.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    yield module
-    sys.path.remove(str(ROOT / "benchmarks"))
+    return benchmark("speed")
 
 
 def test_speed_interleaves_mujoco_timings_with_the_loop(speed):
@@ -73,19 +82,10 @@ def test_the_authors_time_counts_their_loop_only(speed, tmp_path):
 def test_profile_step_times_a_steps_python_and_puts_everything_back():
     """profile_step.py --dispatch: the Python of a step, with every compiled block and the
     physics as no-ops, for both runners; the run afterwards is the same as without it."""
-    import sys
-
     from astrocpg.coupling.assembly import build_closed_loop
     from astrocpg.models import DEFAULT_MODELS
 
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        spec = importlib.util.spec_from_file_location("profile_step",
-                                                      ROOT / "benchmarks" / "profile_step.py")
-        profile_step = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(profile_step)
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+    profile_step = benchmark("profile_step")
     loop = build_closed_loop(DEFAULT_MODELS, n_trials=2, seed=1)
     loop.run(0.02)
     robots = loop.bridge.robots
@@ -169,16 +169,7 @@ def test_command_cost_reads_trained_and_stepped_trial_seconds(tmp_path):
     """benchmarks/command_cost.py: a training's trained trial-seconds are the sum of its
     sessions' lengths; its stepped ones the longest trial's sum times the trials (the batch
     steps until its last trial is done), per run of a study's rows."""
-    import sys
-
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        spec = importlib.util.spec_from_file_location("command_cost",
-                                                      ROOT / "benchmarks" / "command_cost.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+    module = benchmark("command_cost")
     sessions = tmp_path / "sessions.csv"
     sessions.write_text("trial,session,length_s\n0,1,1.5\n1,1,4.0\n0,2,2.0\n1,2,0.5\n")
     assert module.simulated_trial_seconds(sessions) == pytest.approx((8.0, 9.0))

@@ -254,9 +254,9 @@ HUGEPAGES = ("import os, sys\nimport numpy as np\n"
 @pytest.mark.parametrize("user, advice, env", [(None, "False", "0"), ("1", "True", "1"),
                                                ("0", "False", "0")])
 def test_a_command_puts_large_arrays_on_small_pages_unless_the_user_chose(user, advice, env):
-    """numpy's huge-page advice made a recorded run's fresh traces cost about twice their system
-    CPU on the 2-core machine: a command turns it off for itself and (through the environment)
-    its workers, and leaves a value the user set as numpy read it."""
+    """numpy's huge-page advice made a fresh array's first touch now and then cost a compaction
+    (benchmarks/fresh_memory.py): a command turns it off for itself and (through the
+    environment) its workers, and leaves a value the user set as numpy read it."""
     environ = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
     if user is not None:
         environ["NUMPY_MADVISE_HUGEPAGE"] = user

@@ -146,15 +146,15 @@ def _small_pages_for_large_arrays() -> None:
     """Large arrays on ordinary 4 KiB pages, unless the user chose otherwise.
 
     numpy asks the kernel for huge pages (``madvise``) for every array of 4 MiB or more. Where
-    the kernel honours that request by compacting memory when a fault first touches the array
+    the kernel may compact memory to honour that request when a fault first touches the array
     (transparent huge pages with ``defrag`` set to ``madvise``, a common default), a fresh
-    array can cost several times its size in system CPU: a default recorded run of 6 s x 20
-    trials, whose traces are about 200 MiB of fresh memory, spent 0.7-0.9 s of system CPU with
-    the advice and 0.4 s without it, on the 2-core machine of the performance page (kernel
-    6.18, THP ``madvise``; ``benchmarks/recorded_run_cost.py``). The arrays a run touches every
-    step are small, so the loop does not depend on huge pages. Set in the environment too, so
-    a study's worker processes start the same way; a value the user set
-    (``NUMPY_MADVISE_HUGEPAGE=1``) is left as numpy read it."""
+    array's cost is a gamble: usually less than on 4 KiB pages, now and then a compaction that
+    costs many times more (``benchmarks/fresh_memory.py``: 320 MiB, 0.01-0.02 s of system CPU
+    most times, 0.5-0.7 s in 2 of 8; 0.09-0.12 s every time on 4 KiB pages). A recorded run's
+    cost was unsteady from it. The arrays a run touches every step are small, so the loop does
+    not depend on huge pages. Set in the environment too, so a study's worker processes start
+    the same way; a value the user set (``NUMPY_MADVISE_HUGEPAGE=1``) is left as numpy read
+    it."""
     if os.environ.get(HUGEPAGE_ENV) is not None:
         return
     os.environ[HUGEPAGE_ENV] = "0"
