@@ -184,7 +184,7 @@ def test_a_study_splits_one_group_and_the_folder_keeps_the_split(tmp_path, store
         assert sorted(seeds) == list(range(1, 21))
     from astrocpg.studies.parameter_studies.api import plan_lines
 
-    assert any("astrocytes: 10 seeds per run" in line for line in plan_lines(planned, out))
+    assert any("astrocytes: runs of 10 + 10 seeds" in line for line in plan_lines(planned, out))
     # the folder records batch and split; on 4 workers a rerun resumes the same runs
     out.mkdir()
     (out / "study.json").write_text(json.dumps({"name": "auto", "runs": {}, "specs": {},
@@ -262,3 +262,141 @@ def test_an_auto_study_runs_and_records_its_choice(tmp_path, stored_cost) -> Non
     assert settings["batch"] == 2 and settings["batch_choice"]["runs"] == 2
     assert sorted(p.name for p in (out / "runs").iterdir()) == [
         "astrocytes__seeds1-2", "no-astrocytes__seeds1-2"]
+
+
+# ---------------------------------------------------------------- --plan-from
+# the Cython shape measured on the 2-core machine (2026-12-05): a fixed part about 5 trials'
+CYTHON = tc.TrialCost(fixed=0.114, per_trial=0.0218, measured={1: 0.114, 20: 0.537},
+                      codegen="cython", key="test", when="now")
+# each seed's training in the paper's ablation (400 sessions): with astrocytes the robots walk
+# and their sessions run longer (3410-3673 s a seed) than without (2492-2660 s)
+LONG = {s: 3410.0 + 13.0 * (s - 1) + (10.0 if s == 20 else 0.0) for s in range(1, 21)}
+SHORT = {s: 2492.0 + 8.8 * (s - 1) for s in range(1, 21)}
+
+
+def test_measured_lengths_split_the_longer_condition_so_no_worker_idles() -> None:
+    """Costed at L_max both conditions look alike and stay one run each, and the worker of
+    the shorter one idles for a quarter of the study; costed at the lengths they trained, the
+    longer condition gives its last seed to that worker: sooner, and both busy to the end."""
+    seeds = list(range(1, 21))
+    bound = choose_batch([(seeds, 4000.0), (seeds, 4000.0)], workers=2, cost=CYTHON,
+                         split=consecutive_groups)
+    assert bound["split"] == {}
+    c = choose_batch([(seeds, LONG), (seeds, SHORT)], workers=2, cost=CYTHON,
+                     split=consecutive_groups)
+    assert c["batch"] == 20 and c["split"] == {0: 19} and c["runs"] == 3
+    runs = {(g, first): s for g, first, s in c["run_seconds"]}
+    assert runs[(0, 1)] == pytest.approx(max(LONG[s] for s in range(1, 20)) * (0.114 + 0.0218 * 19))
+    assert runs[(0, 20)] == pytest.approx(LONG[20] * (0.114 + 0.0218))
+    loads = longest_first_makespan(list(runs.values()), 2)
+    assert loads[1] > 0.95 * loads[0]  # no worker idle for more than 5 % of the wall time
+    assert c["projected_s"] < 0.98 * c["uniform_projected_s"]  # and sooner than one run each
+    # the split is paid in CPU: seed 20's run pays the fixed part again
+    assert c["cpu_s"] > c["projected_s"] + runs[(1, 1)] - 1.0
+    unsplit = choose_batch([(seeds, LONG), (seeds, SHORT)], workers=2, cost=COST,
+                           split=consecutive_groups)
+    # where a run's fixed part is 13 trials' (numpy), the split would cost more than it saves
+    assert unsplit["split"] == {}
+
+
+def _results(folder: Path, lengths: dict[str, dict[int, float]], sessions: int = 4) -> None:
+    """A study's results table: each group's seeds in one run, ``sessions`` equal sessions."""
+    folder.mkdir(parents=True, exist_ok=True)
+    lines = ["run_id,condition,seed,trial,session,length_s,final_x_m"]
+    for group, seeds in lengths.items():
+        for s, total in seeds.items():
+            for k in range(1, sessions + 1):
+                lines.append(f"{group}__seeds1-{len(seeds)},{group},{s},{s - 1},{k},"
+                             f"{total / sessions},0.1")
+    (folder / "results.csv").write_text("\n".join(lines) + "\n")
+
+
+def test_a_study_plans_its_runs_from_an_earlier_one(tmp_path, stored_cost, monkeypatch) -> None:
+    from astrocpg.studies.parameter_studies.api import plan_lines
+    from astrocpg.studies.parameter_studies.execute import _projection
+    from astrocpg.studies.parameter_studies.measured import measured_lengths
+
+    monkeypatch.setattr(tc, "stored_trial_cost", lambda codegen, note=None: CYTHON)
+    earlier = tmp_path / "earlier"
+    _results(earlier, {"astrocytes": {s: v / 100 for s, v in LONG.items()},
+                       "no-astrocytes": {s: v / 100 for s, v in SHORT.items()}})
+    assert measured_lengths(earlier)["astrocytes"][20] == (pytest.approx(LONG[20] / 100), 4)
+    p = tmp_path / "fixed.toml"  # a file that gives a number: the plan chooses all the same
+    p.write_text(AUTO.format(seeds=20).replace('batch = "auto"', "batch = 20")
+                 .replace("sessions = 400", "sessions = 4"))
+    study = load_study(p)
+    out = tmp_path / "out"
+    assert prepare_study(study, out, workers=2, progress=False).runs == study.runs
+    planned = prepare_study(study, out, workers=2, progress=False, plan_from=earlier)
+    assert [(r.run_id, r.n_trials) for r in planned.runs] == [
+        ("astrocytes__seeds1-19", 19), ("astrocytes__seed20", 1),
+        ("no-astrocytes__seeds1-20", 20)]
+    choice = planned.batch_choice
+    assert choice["plan_from"] == str(earlier)
+    assert choice["measured_groups"] == ["astrocytes", "no-astrocytes"]
+    # the dispatcher starts them longest first by the projection, not by their bound
+    order = sorted(planned.runs, key=_projection(planned, planned.runs), reverse=True)
+    assert [r.run_id for r in order] == ["astrocytes__seeds1-19", "no-astrocytes__seeds1-20",
+                                         "astrocytes__seed20"]
+    assert any("as long as it trained in" in line for line in plan_lines(planned, out))
+    assert any("astrocytes: runs of 19 + 1 seeds" in line for line in plan_lines(planned, out))
+    # the folder keeps the plan: a rerun without --plan-from resumes the same runs
+    out.mkdir()
+    (out / "study.json").write_text(json.dumps({"name": "auto", "runs": {}, "specs": {},
+                                                "batch": 20, "split": {"astrocytes": 19},
+                                                "batch_choice": choice}))
+    (out / "manifest.json").write_text(json.dumps({"astrocpg_command": "study"}))
+    again = prepare_study(study, out, workers=2, progress=False)
+    assert [r.run_id for r in again.runs] == [r.run_id for r in planned.runs]
+    assert "recorded" in again.batch_choice["reason"]
+    assert again.batch_choice["plan_from"] == str(earlier)
+
+
+def test_a_group_or_seed_not_measured_is_costed_at_its_bound(tmp_path) -> None:
+    from astrocpg.studies.parameter_studies.measured import measured_lengths, planned_lengths
+
+    _results(tmp_path / "e", {"astrocytes": {1: 8.0, 2: 4.0}}, sessions=2)
+    m = measured_lengths(tmp_path / "e")
+    # seed 1: 2 sessions of 4 s -> 10 sessions of 4 s; seed 2 at most the bound; seed 3 unknown
+    assert planned_lengths(m["astrocytes"], [1, 2, 3], 10, 30.0) == {1: 30.0, 2: 20.0, 3: 30.0}
+    assert planned_lengths(None, [1], 10, 30.0) == {1: 30.0}
+
+
+@pytest.mark.parametrize("content, message", [
+    (None, "no such study folder or results table"),
+    ("", "holds no results table"),
+    ("run_id,seed\nx__seeds1-2,1\n", "no column length_s"),
+    ("run_id,seed,length_s\nx__seeds1-2,one,2.0\n", "line 2: seed 'one'"),
+    ("run_id,seed,length_s\nx__seeds1-2,1,nan\n", "not a finite length"),
+    ("run_id,seed,length_s\n", "holds no sessions"),
+])
+def test_a_bad_plan_source_is_named(tmp_path, content, message) -> None:
+    from astrocpg.studies.parameter_studies.measured import measured_lengths
+
+    target = tmp_path / "earlier"
+    if content == "":
+        target.mkdir()
+    elif content is not None:
+        target.mkdir()
+        (target / "results.csv").write_text(content)
+    with pytest.raises(InputError) as e:
+        measured_lengths(target)
+    assert message in str(e.value) and "--plan-from" in str(e.value)
+
+
+def test_the_command_line_names_a_missing_plan_source(tmp_path) -> None:
+    import subprocess
+    import sys
+
+    p = tmp_path / "fixed.toml"
+    p.write_text(AUTO.format(seeds=2).replace('batch = "auto"', "batch = 2"))
+    r = subprocess.run([sys.executable, "-m", "astrocpg", "study", str(p), "--out",
+                        str(tmp_path / "out"), "--plan-from", str(tmp_path / "nothing")],
+                       capture_output=True, text=True)
+    assert r.returncode == 2, r.stderr
+    assert "--plan-from" in r.stderr and "no such study folder" in r.stderr
+    assert not (tmp_path / "out").exists()
+    r = subprocess.run([sys.executable, "-m", "astrocpg", "study", "--status",
+                        str(tmp_path / "out"), "--plan-from", str(tmp_path)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "--plan-from does not apply" in r.stderr

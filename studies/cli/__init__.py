@@ -10,7 +10,7 @@
     astrocpg video DIR [--trial K] [--start S] [--stop S] [--fps F] [--speed X] [--size W H]
                        [--panel] [--out FILE]
     astrocpg study FILE [--seeds 1-3] [--sessions N] [--set NAME=VALUE] [--out DIR]
-                        [--workers N] [--scheduler ADDRESS]
+                        [--workers N] [--scheduler ADDRESS] [--plan-from DIR]
     astrocpg report DIR
     astrocpg export DIR [--format nwb|npz] [--experimenter 'LAST, FIRST'] [--institution TEXT]
     astrocpg describe [MODEL|PARAMETER] [--format markdown|latex]

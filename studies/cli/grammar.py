@@ -247,6 +247,12 @@ def add_study(sub: Subparsers) -> None:
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (default: "
                             "a local cluster)")
+    study.add_argument("--plan-from", metavar="DIR",
+                       help="an earlier study of the same conditions (its folder or results "
+                            "table): each seed's training length there costs the runs when "
+                            "the seeds are split into runs, so that a condition that trains "
+                            "longer is split to keep every worker busy to the end (default: "
+                            "every session at L_max); recorded in the folder")
     add_no_progress(study)
     add_codegen_option(study)
     add_overwrite(study)

@@ -177,6 +177,7 @@ def _study_status(args: argparse.Namespace) -> int:
     given = [option for option, value in (
         ("--out", args.out), ("--seeds", args.seeds), ("--sessions", args.sessions),
         ("--set", args.overrides), ("--scheduler", args.scheduler), ("--codegen", args.codegen),
+        ("--plan-from", args.plan_from),
         ("--overwrite", args.overwrite), ("--no-progress", args.no_progress)) if value]
     if given:
         raise InputError(f"reads a study folder and runs nothing: {given[0]} does not apply "
@@ -198,7 +199,8 @@ def study_command(args: argparse.Namespace) -> int:
     try:
         res = study(args.file, out=args.out or None, seeds=args.seeds, sessions=args.sessions,
                     overrides=args.overrides, workers=args.workers, scheduler=args.scheduler,
-                    overwrite=args.overwrite, progress=not args.no_progress, announce=print)
+                    plan_from=args.plan_from, overwrite=args.overwrite,
+                    progress=not args.no_progress, announce=print)
     except KeyboardInterrupt:
         sys.stderr.write("astrocpg: study interrupted; run the same command again to "
                          "continue (finished runs are kept)\n")

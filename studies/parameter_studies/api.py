@@ -21,7 +21,8 @@ def _path(value: Any, culprit: str) -> Path:
 def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
           seeds: str | int | list[int] | None = None, sessions: int | None = None,
           overrides: Any = None,
-          workers: int | None = None, scheduler: str | None = None, overwrite: bool = False,
+          workers: int | None = None, scheduler: str | None = None,
+          plan_from: str | os.PathLike | None = None, overwrite: bool = False,
           progress: bool = True,
           announce: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Run the parameter study ``file`` (a study file, or a built-in study's name: quick,
@@ -31,7 +32,10 @@ def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
     or a list of ints), ``sessions`` per trial and ``overrides`` (``["NAME=VALUE", ...]`` or
     {name: value}, in place of the file's ``[base]``) change the study as loaded, like
     ``--seeds``, ``--sessions`` and ``--set``; the study folder records them, and a second
-    call into it must give the same. ``announce`` is called, before the runs start, with each
+    call into it must give the same. ``plan_from`` (``--plan-from``): an earlier study of the
+    same conditions, its folder or results table, whose seeds' training lengths cost the runs
+    when the seeds are split into runs (the batch is then chosen as ``batch = "auto"`` chooses
+    it, even where the file gives a number). ``announce`` is called, before the runs start, with each
     line that says what the study will run (its runs, trials and sessions, and how ``batch =
     "auto"`` chose; ``astrocpg study`` prints them). Returns the counts of runs by status, the
     rows of the results table, the runs not finished (``failed``) and their errors, with the
@@ -45,12 +49,13 @@ def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
     given = study_overrides(seeds, sessions, overrides)
     loaded = load_study(_path(file, "file"), overrides=given)
     folder = Path("out") / loaded.name if out is None else _path(out, "out")
+    plan = None if plan_from is None else _path(plan_from, "plan_from")
     loaded = prepare_study(loaded, folder, workers=workers, scheduler=scheduler,
-                           overwrite=overwrite, progress=progress)
+                           overwrite=overwrite, progress=progress, plan_from=plan)
     for line in plan_lines(loaded, folder) if announce is not None else ():
         announce(line)
     res = run_study(loaded, folder, workers=workers, scheduler=scheduler, progress=progress,
-                    overwrite=overwrite)
+                    overwrite=overwrite, plan_from=plan)
     return res | {"name": loaded.name, "runs": len(loaded.runs), "out": folder}
 
 
@@ -58,17 +63,21 @@ def plan_lines(study: Any, out: Path) -> list[str]:
     """What a prepared ``study`` will run into ``out``: how ``batch = "auto"`` chose (when it
     did), then its runs, trials and sessions."""
     lines = []
-    if study.batch_setting == "auto":
-        c = study.batch_choice or {}
+    c = study.batch_choice or {}
+    if study.batch_setting == "auto" or "plan_from" in c:
         projected = c.get("projected_s", 0.0)
         span = f"{projected / 60:.0f} min" if projected >= 120 else f"{projected:.0f} s"
+        lengths = (f"each seed as long as it trained in {c['plan_from']}" if "plan_from" in c
+                   else "every session lasts L_max")
         how = c.get("reason") or (f"{c['runs']} runs on {c['workers']} workers: {span} if "
-                                  f"every session lasts L_max, on this machine's measured cost "
-                                  f"per trial")
+                                  f"{lengths}, on this machine's measured cost per trial")
         lines.append(f"batch auto: {study.batch} seeds per run ({how})")
-        for group, n in sorted(study.split.items()):
-            lines.append(f"  {group}: {n} seeds per run (split so that no worker idles at the "
-                         f"end)")
+        from .study_file import run_group
+
+        for group in sorted(study.split):
+            sizes = [str(r.n_trials) for r in study.runs if run_group(r.run_id) == group]
+            lines.append(f"  {group}: runs of {' + '.join(sizes)} seeds (split so that no "
+                         f"worker idles at the end)")
     n_trials = sum(r.n_trials for r in study.runs)
     lines.append(f"study {study.name}: {len(study.runs)} runs ({n_trials} trials x "
                  f"{study.n_sessions} sessions) -> {out}/")

@@ -23,7 +23,7 @@ import time
 import traceback
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -242,7 +242,7 @@ def dispatch(study, pending, folders, client, progress, total_sessions, n_done_b
     that could not write their status (their folder was held by another process): {run_id:
     error}."""
     unwritten: dict[str, str] = {}
-    waiting = sorted(pending, key=lambda r: r.estimated_seconds(), reverse=True)
+    waiting = sorted(pending, key=_projection(study, pending), reverse=True)
     by_id = {r.run_id: r for r in waiting}
     counts = {"failed": 0, "finished": 0}
     sessions_done = _SessionsDone()
@@ -265,6 +265,15 @@ def dispatch(study, pending, folders, client, progress, total_sessions, n_done_b
     run_cells(execute_run, [(r.run_id, (r, str(folders[r.run_id]))) for r in waiting], ended,
               bar=bar, client=client, tick=tick)
     return unwritten
+
+
+def _projection(study: Any, pending: list[RunSpec]) -> Callable[[RunSpec], float]:
+    """What orders the runs, longest first: the seconds ``batch = "auto"`` projected for each
+    (measured lengths with ``--plan-from``), else each run's bound (every session at L_max)."""
+    planned = (study.batch_choice or {}).get("run_seconds")
+    if isinstance(planned, dict) and all(r.run_id in planned for r in pending):
+        return lambda r: float(planned[r.run_id])
+    return lambda r: r.estimated_seconds()
 
 
 def _collect(future: Any, spec: RunSpec, folder: Path, unwritten: dict[str, str]) -> bool:

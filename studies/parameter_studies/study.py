@@ -105,66 +105,100 @@ def load_study(path: str | os.PathLike, *, batch: int | None = None,
 
 
 def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
-                  scheduler: str | None = None, progress: bool = True) -> Study:
+                  scheduler: str | None = None, progress: bool = True,
+                  plan_from: Path | None = None) -> Study:
     """``batch = "auto"``: the study split into runs of the batch that finishes it soonest on
-    these workers (:func:`~astrocpg.studies.parameter_studies.batching.choose_batch`, with this machine's
-    measured cost per trial). A folder that already holds the study keeps the batch it was
-    started with, whatever the workers now, so a rerun resumes the same runs. Any other study
-    is returned as it is."""
-    if not study.batch_pending:
+    these workers (:func:`~astrocpg.studies.parameter_studies.batching.choose_batch`, with this
+    machine's measured cost per trial). ``plan_from``: an earlier study's folder (or results
+    table) whose seeds' training lengths cost the runs in place of ``sessions x L_max``
+    (:mod:`~astrocpg.studies.parameter_studies.measured`); the batch is then chosen so even in a
+    study file that gives a number. A folder that already holds the study keeps the batch and
+    split it was started with, whatever the workers and options now, so a rerun resumes the
+    same runs. Any other study is returned as it is."""
+    if "plan_from" in (study.batch_choice or {}):  # planned already (prepare, then run)
         return study
-    recorded, recorded_split = _recorded_batch(out) if out is not None else (None, {})
-    if recorded is not None:
-        chosen = {"batch": recorded, "split": recorded_split,
+    recorded, recorded_split, recorded_choice = _recorded_batch(out) if out is not None \
+        else (None, {}, {})
+    if not (study.batch_pending or plan_from is not None or "plan_from" in recorded_choice):
+        return study
+    if recorded is not None:  # what it was planned from and the runs' order stay recorded
+        chosen = {**recorded_choice, "batch": recorded, "split": recorded_split,
                   "reason": f"recorded in {STUDY_INDEX} when the study began"}
     else:
-        from ..runtime.trial_cost import trial_cost
-        from .batching import choose_batch
-
-        n_workers = _cluster_threads(scheduler) if scheduler else (workers or os.cpu_count() or 1)
-        groups: dict[str, tuple[list[int], float]] = {}
-        for r in study.runs:  # one run per (condition, point) until the batch is chosen
-            groups[run_group(r.run_id)] = (study.seeds, r.n_sessions * (r.session_s or 1.0))
-
-        def fits(n: int) -> bool:
-            runs_at_once = min(n_workers, len(groups) * math.ceil(len(study.seeds) / n))
-            return estimate_bytes(trials=n, seconds=0.0, spikes=False,
-                                  sessions=study.n_sessions) * runs_at_once \
-                <= available_memory()
-
-        cost = trial_cost(progress=progress)
-        chosen = choose_batch(list(groups.values()), workers=n_workers, cost=cost,
-                              split=consecutive_groups, fits=fits)
-        names = list(groups)
-        chosen["split"] = {names[i]: b for i, b in chosen.get("split", {}).items()}
-        if chosen["batch"] is None:
-            raise InputError("batch = \"auto\": not even one seed per run fits in memory "
-                             f"on {n_workers} workers", culprit=f"study {study.path.name}")
-        chosen["cost"] = {"fixed_s_per_sim_s": cost.fixed,
-                          "per_trial_s_per_sim_s": cost.per_trial,
-                          "measured": cost.measured, "codegen": cost.codegen,
-                          "when": cost.when}
+        chosen = _choose_batch(study, workers=workers, scheduler=scheduler, progress=progress,
+                               plan_from=plan_from)
     resolved = parse_study(study.text, study.path, int(chosen["batch"]), study.overrides,
                            split_given=chosen.get("split") or {})
+    if isinstance(chosen.get("run_seconds"), list):  # [(group, first seed, s)] -> by run id
+        by_start = {(group, first): s for group, first, s in chosen["run_seconds"]}
+        chosen["run_seconds"] = {r.run_id: by_start[(run_group(r.run_id), r.seed)]
+                                 for r in resolved.runs}
     resolved.batch_choice = chosen
     return resolved
 
 
-def _recorded_batch(out: Path) -> tuple[int | None, dict[str, int]]:
-    """The batch a study folder was started with and its groups split otherwise (its index),
-    or (None, {}) for a new folder."""
+def _choose_batch(study: Study, *, workers: int | None, scheduler: str | None, progress: bool,
+                  plan_from: Path | None) -> dict[str, Any]:
+    """:func:`resolve_batch`'s choice for a new folder, with what it was made from (the cost,
+    the lengths measured) and each run's projected CPU seconds by run id."""
+    from ..runtime.trial_cost import trial_cost
+    from .batching import choose_batch
+    from .measured import measured_lengths, planned_lengths
+
+    measured = measured_lengths(plan_from) if plan_from is not None else {}
+    n_workers = _cluster_threads(scheduler) if scheduler else (workers or os.cpu_count() or 1)
+    groups: dict[str, tuple[list[int], Any]] = {}
+    for r in study.runs:  # one group per (condition, point), whatever the runs now
+        group = run_group(r.run_id)
+        bound = r.n_sessions * (r.session_s or 1.0)
+        groups[group] = (study.seeds, planned_lengths(measured[group], study.seeds,
+                                                      r.n_sessions, bound)
+                         if group in measured else bound)
+
+    def fits(n: int) -> bool:
+        runs_at_once = min(n_workers, len(groups) * math.ceil(len(study.seeds) / n))
+        return estimate_bytes(trials=n, seconds=0.0, spikes=False,
+                              sessions=study.n_sessions) * runs_at_once \
+            <= available_memory()
+
+    cost = trial_cost(progress=progress)
+    chosen = choose_batch(list(groups.values()), workers=n_workers, cost=cost,
+                          split=consecutive_groups, fits=fits)
+    if chosen["batch"] is None:
+        raise InputError("batch = \"auto\": not even one seed per run fits in memory "
+                         f"on {n_workers} workers", culprit=f"study {study.path.name}")
+    names = list(groups)
+    chosen["split"] = {names[i]: b for i, b in chosen.get("split", {}).items()}
+    # each run's projected CPU seconds, for the dispatcher's order (longest first)
+    chosen["run_seconds"] = [(names[g], first, round(s, 1))
+                             for g, first, s in chosen["run_seconds"]]
+    chosen["cost"] = {"fixed_s_per_sim_s": cost.fixed,
+                      "per_trial_s_per_sim_s": cost.per_trial,
+                      "measured": cost.measured, "codegen": cost.codegen,
+                      "when": cost.when}
+    if plan_from is not None:
+        chosen["plan_from"] = str(plan_from)
+        chosen["measured_groups"] = sorted(g for g in groups if g in measured)
+    return chosen
+
+
+def _recorded_batch(out: Path) -> tuple[int | None, dict[str, int], dict[str, Any]]:
+    """The batch a study folder was started with, its groups split otherwise (its index) and
+    the choice recorded with them (``plan_from`` in it: planned from an earlier study's
+    lengths), or (None, {}, {}) for a new folder."""
     try:
         index = read_json(Path(out) / STUDY_INDEX)
     except (OSError, ValueError):
-        return None, {}
+        return None, {}, {}
     split = index.get("split") if isinstance(index.get("split"), dict) else {}
     split = {str(k): v for k, v in split.items()
              if isinstance(v, int) and not isinstance(v, bool) and v >= 1}
+    choice = index.get("batch_choice") if isinstance(index.get("batch_choice"), dict) else {}
     if isinstance(index.get("batch"), int) and index["batch"] >= 1:
-        return index["batch"], split
+        return index["batch"], split, choice
     sizes = [s.get("n_trials") for s in index.get("specs", {}).values()]  # an older index
     sizes = [n for n in sizes if isinstance(n, int) and n >= 1]
-    return (max(sizes) if sizes else None), {}
+    return (max(sizes) if sizes else None), {}, choice
 
 
 def _cluster_threads(scheduler: str) -> int:
@@ -268,9 +302,10 @@ def _save_index(study: Study, out: Path) -> None:
 
 def prepare_study(study: Study, out: Path, *, workers: int | None = None,
                   scheduler: str | None = None, overwrite: bool = False,
-                  progress: bool = True) -> Study:
+                  progress: bool = True, plan_from: Path | None = None) -> Study:
     """The checks of :func:`run_study` that need no cluster, and ``batch = "auto"`` chosen
-    (:func:`resolve_batch`): the study as it will run. Writes nothing."""
+    (:func:`resolve_batch`; with ``plan_from``, from an earlier study's lengths): the study as
+    it will run. Writes nothing."""
     if scheduler is None:  # a local cluster of that many processes: bounded by the cores
         check_workers(workers)
     elif workers is not None and workers < 1:
@@ -288,21 +323,28 @@ def prepare_study(study: Study, out: Path, *, workers: int | None = None,
     check_output_path(out, inputs, culprit=f"--out {out}")
     if overwrite and holds_results(out):
         check_replaceable(out, culprit=f"--out {out}")
+    if plan_from is not None:  # named now, also where a resumed folder keeps its plan
+        from .measured import results_table
+
+        results_table(Path(plan_from), "--plan-from")
     # --overwrite starts afresh: the batch the old folder began with does not count
     return resolve_batch(study, None if overwrite else out, workers=workers,
-                         scheduler=scheduler, progress=progress)
+                         scheduler=scheduler, progress=progress,
+                         plan_from=None if plan_from is None else Path(plan_from))
 
 
 def run_study(study: Study, out: Path, *, workers: int | None = None,
               scheduler: str | None = None, progress: bool = True,
-              overwrite: bool = False) -> dict[str, Any]:
+              overwrite: bool = False, plan_from: Path | None = None) -> dict[str, Any]:
     """Run every unfinished run of ``study`` on Dask; write the results table. Returns counts
     of runs by state and the paths written. Nothing is written before the folder is known to
     belong to this study and the cluster is reachable; while it runs, the study owns its folder
-    (a second process on it is refused). ``overwrite`` replaces the folder whole."""
+    (a second process on it is refused). ``overwrite`` replaces the folder whole.
+    ``plan_from``: an earlier study whose seeds' training lengths plan the runs
+    (:func:`resolve_batch`)."""
     out = Path(out)
     study = prepare_study(study, out, workers=workers, scheduler=scheduler,
-                          overwrite=overwrite, progress=progress)
+                          overwrite=overwrite, progress=progress, plan_from=plan_from)
     if out.exists() and not overwrite:
         _check_folder(study, out)
     created = not out.exists()
