@@ -7,7 +7,8 @@ Large batches spend less CPU per trial; small ones give a study more runs to spr
 workers. The cost of a run is modelled as ``fixed + per_trial * n`` seconds per simulated
 second, fitted to the closed loop measured at a few batch sizes under the current Brian2 target.
 
-The measurement takes under a minute (longer on a busy machine) and is stored in
+The measurement takes under a minute (3.5 simulated seconds at each of four batch sizes; longer
+on a busy machine) and is stored in
 ``trial_cost.json`` in astrocpg's cache folder (``$ASTROCPG_CACHE``, default
 ``~/.cache/astrocpg``), keyed by machine, code-generation target and package versions, so it is
 paid once per machine. CPU time, not wall time, is measured, so a busy machine gives the same
@@ -36,7 +37,11 @@ from .caches import cache_dir
 
 COST_FILE = "trial_cost.json"
 SIZES = (1, 4, 10, 20)  # batch sizes measured: the fit is a straight line through them
-SECONDS = 1.0  # simulated seconds per size, after 0.1 s of warm-up
+SECONDS = 3.0  # simulated seconds per size, after WARM_UP
+# the first half second after a build is dearer than what follows (the robots land on the floor,
+# many contacts at once): with 0.1 s of warm-up and 1 s timed, the fixed part came out 5.6-9.3
+# trials' on the 2-core machine, 3.2-4.5 with 0.5 s and 3 s (three measurements each)
+WARM_UP = 0.5
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -87,7 +92,9 @@ def machine_key(codegen: str) -> str:
             versions.append(f"{package}={metadata.version(package)}")
         except metadata.PackageNotFoundError:
             versions.append(f"{package}=none")
+    # the way it is measured too: a cost measured otherwise (an older warm-up) is measured again
     return " ".join([f"host={platform.node()}", f"cpus={os.cpu_count()}",
+                     f"timed={WARM_UP:g}+{SECONDS:g}s",
                      f"machine={platform.machine()}",
                      f"python={platform.python_version()}", f"codegen={codegen}", *versions])
 
@@ -199,7 +206,7 @@ def _measure(target: str, sizes: tuple[int, ...], seconds: float, progress: bool
                              f"(once per machine; sizes {', '.join(map(str, sizes))})")
             sys.stderr.flush()
         loop = build_closed_loop(DEFAULT_MODELS, n_trials=n, seed=1, codegen=target)
-        loop.run(0.1)  # code generation and first steps
+        loop.run(WARM_UP)  # code generation, the first steps and the landing
         c0 = time.process_time()
         loop.run(seconds)
         measured[n] = (time.process_time() - c0) / seconds
