@@ -1,10 +1,13 @@
 """How busy a study keeps its workers: runs a small study on a local Dask cluster (or a study
-file of yours) and prints its timeline, the utilisation (run seconds / (workers x wall)) and the
-seconds workers sat free while runs had not started (idle while pending).
+file of yours), or reads the timeline of a study that ran (``--folder``), and prints its
+timeline, the utilisation (run seconds / (workers x wall)), the seconds workers sat free while
+runs had not started (idle while pending) and each worker's idle share of the wall (first start
+to last end: waiting, or done before the last run ended).
 
     python benchmarks/study_utilisation.py [--workers 8] [--runs 16] [--sessions 2]
                                            [--batch 1] [--session-length 1*second]
                                            [--study FILE] [--out DIR]
+    python benchmarks/study_utilisation.py --folder out/ablation [--workers 2]
 
 The default is 8 workers x 16 runs of one seed (half with astrocytes, half without), which
 reproduces on two cores the shape of the 16-worker x 32-run study of issue 13 (runs <= 2 x
@@ -15,6 +18,7 @@ but a worker that is free while runs wait shows as idle all the same.
 from __future__ import annotations
 
 import argparse
+import csv
 import os
 import tempfile
 import time
@@ -51,16 +55,54 @@ def measure(path: Path, out: Path, workers: int) -> tuple[float, list, dict]:
     return total, rows, utilisation(rows, workers)
 
 
+def read_timeline(folder: Path) -> list[dict]:
+    """The rows of a study folder's ``timeline.csv``, times as numbers (``ended`` None for an
+    attempt that has not ended)."""
+    with open(folder / "timeline.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    for r in rows:
+        r["started"] = float(r["started"])
+        r["ended"] = float(r["ended"]) if r["ended"] else None
+    return rows
+
+
+def show(rows: list, stats: dict, workers: int, total: float | None) -> None:
+    first = min(r["started"] for r in rows)
+    names: dict[str, str] = {}
+    print(f"{'run':44s} {'worker':>6s} {'start':>7s} {'end':>7s}")
+    for r in rows:
+        w = names.setdefault(r["worker"], f"w{len(names)}")
+        end = r["ended"] - first if r["ended"] is not None else float("nan")
+        print(f"{r['run_id']:44s} {w:>6s} {r['started'] - first:7.1f} {end:7.1f}")
+    command = f"command {total:.1f} s, " if total is not None else ""
+    print(f"\n{len(rows)} runs on {workers} workers ({len(names)} ran a run): {command}"
+          f"first start to last end {stats['wall_s']:.1f} s")
+    print(f"utilisation {stats['utilisation']:.0%}; idle while runs waited: "
+          f"{stats['idle_pending_s']:.1f} worker-seconds, longest stretch "
+          f"{stats['longest_idle_pending_s']:.1f} s")
+    for w, share in stats["worker_idle_share"].items():
+        print(f"worker {names.get(w, w)}: busy {stats['worker_busy_s'][w]:.1f} s, idle "
+              f"{share:.1%} of the wall")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--workers", type=int, default=8)
+    ap.add_argument("--workers", type=int, default=None,
+                    help="workers (default 8; with --folder, those that ran a run)")
     ap.add_argument("--runs", type=int, default=16, help="runs (even: two conditions)")
     ap.add_argument("--sessions", type=int, default=2)
     ap.add_argument("--batch", type=int, default=1)
     ap.add_argument("--session-length", default="1*second", help="L_max of every session")
     ap.add_argument("--study", help="a study file instead of the generated one")
     ap.add_argument("--out", help="study folder (default: a temporary one)")
+    ap.add_argument("--folder", help="read this study folder's timeline.csv; run nothing")
     args = ap.parse_args()
+    if args.folder:
+        rows = read_timeline(Path(args.folder))
+        stats = utilisation(rows, args.workers or 0)
+        show(rows, stats, stats["workers"], None)
+        return
+    workers = args.workers or 8
     with tempfile.TemporaryDirectory(prefix="astrocpg-utilisation-") as tmp:
         if args.study:
             path = Path(args.study)
@@ -69,19 +111,9 @@ def main() -> None:
             path.write_text(STUDY.format(sessions=args.sessions, seeds=args.runs // 2 * args.batch,
                                          batch=args.batch, length=args.session_length))
         out = Path(args.out) if args.out else Path(tmp) / "out"
-        total, rows, stats = measure(path, out, args.workers)
-        first = min(r["started"] for r in rows)
-        names: dict[str, str] = {}
-        print(f"{'run':44s} {'worker':>6s} {'start':>7s} {'end':>7s}")
-        for r in rows:
-            w = names.setdefault(r["worker"], f"w{len(names)}")
-            end = r["ended"] - first if r["ended"] is not None else float("nan")
-            print(f"{r['run_id']:44s} {w:>6s} {r['started'] - first:7.1f} {end:7.1f}")
-        print(f"\n{len(rows)} runs on {args.workers} workers ({len(names)} ran a run): command "
-              f"{total:.1f} s, first start to last end {stats['wall_s']:.1f} s")
-        print(f"utilisation {stats['utilisation']:.0%}; idle while runs waited: "
-              f"{stats['idle_pending_s']:.1f} worker-seconds, longest stretch "
-              f"{stats['longest_idle_pending_s']:.1f} s")
+        total, rows, stats = measure(path, out, workers)
+        show(rows, stats, workers, total)
+
 
 if __name__ == "__main__":
     main()

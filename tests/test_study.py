@@ -429,6 +429,9 @@ def test_runs_are_ordered_longest_first_and_idle_is_measured(tmp_path: Path) -> 
     assert u["idle_pending_s"] == pytest.approx(0.5 + 0.2 + 0.3)
     assert u["wall_s"] == pytest.approx(15)
     assert u["utilisation"] == pytest.approx((10 + 3.5 + 7.8 + 4.7) / 30)
+    # each worker's share of the wall it ran nothing (waiting, or done before the end)
+    assert u["worker_busy_s"] == pytest.approx({"A": 14.7, "B": 11.3})
+    assert u["worker_idle_share"] == pytest.approx({"A": 0.3 / 15, "B": 3.7 / 15})
     # B free from 4 to 9 while the last run waited; a third worker that ran nothing counts
     # as free from the first start to the last
     idle = [row("A", 0, 10), row("B", 0, 4), row("B", 9, 12), row("A", 10, None)]

@@ -77,8 +77,10 @@ def utilisation(rows: Sequence[dict[str, Any]], n_workers: int = 0) -> dict[str,
     """How busy the workers were, from a :func:`timeline`: ``wall_s`` (first start to last
     end), ``utilisation`` (run seconds / (workers x wall)), ``idle_pending_s`` (seconds workers
     were free while a run had not started yet, summed over workers), ``longest_idle_pending_s``
-    (the longest such stretch of one worker) and ``worker_gaps`` (per worker, those stretches
-    as (from, to) seconds after the first start). With ``n_workers`` more than the workers in
+    (the longest such stretch of one worker), ``worker_gaps`` (per worker, those stretches
+    as (from, to) seconds after the first start), ``worker_busy_s`` (per worker, the seconds
+    it ran runs) and ``worker_idle_share`` (per worker, the share of the wall it ran none:
+    waiting for a run, or done before the last run ended). With ``n_workers`` more than the workers in
     ``rows``, the others ran nothing: they count as free throughout. A worker is its address
     (or host:pid)."""
     def who(row):
@@ -88,7 +90,8 @@ def utilisation(rows: Sequence[dict[str, Any]], n_workers: int = 0) -> dict[str,
     n = max(n_workers, len(names))
     if not rows:
         return {"runs": 0, "workers": n, "wall_s": 0.0, "utilisation": 0.0,
-                "idle_pending_s": 0.0, "longest_idle_pending_s": 0.0, "worker_gaps": {}}
+                "idle_pending_s": 0.0, "longest_idle_pending_s": 0.0, "worker_gaps": {},
+                "worker_busy_s": {}, "worker_idle_share": {}}
     t0 = min(r["started"] for r in rows)
     last_start = max(r["started"] for r in rows)  # after it, no run waits
     t1 = max([r["ended"] for r in rows if r["ended"] is not None] + [last_start])
@@ -109,10 +112,14 @@ def utilisation(rows: Sequence[dict[str, Any]], n_workers: int = 0) -> dict[str,
         gaps[f"(no run {k + 1})"] = [(0.0, last_start - t0)]
     every = [b - a for g in gaps.values() for a, b in g]
     wall = t1 - t0
+    worker_busy = {w: sum((r["ended"] if r["ended"] is not None else t1) - r["started"]
+                          for r in rows if who(r) == w) for w in gaps}
     return {"runs": len(rows), "workers": n, "wall_s": wall,
             "utilisation": busy / (n * wall) if wall > 0 else 1.0,
             "idle_pending_s": sum(every), "longest_idle_pending_s": max(every, default=0.0),
-            "worker_gaps": gaps}
+            "worker_gaps": gaps, "worker_busy_s": worker_busy,
+            "worker_idle_share": {w: (1.0 - b / wall if wall > 0 else 0.0)
+                                  for w, b in worker_busy.items()}}
 
 
 def write_timeline(study: Study, out: Path) -> int:

@@ -40,7 +40,7 @@ SIZES = (1, 4, 10, 20)  # batch sizes measured: the fit is a straight line throu
 SECONDS = 3.0  # simulated seconds per size, after WARM_UP
 # the first half second after a build is dearer than what follows (the robots land on the floor,
 # many contacts at once): with 0.1 s of warm-up and 1 s timed, the fixed part came out 5.6-9.3
-# trials' on the 2-core machine, 3.2-4.5 with 0.5 s and 3 s (three measurements each)
+# trials' on the 2-core machine (three measurements), 3.2-4.5 with 0.5 s and 3 s (four)
 WARM_UP = 0.5
 
 
