@@ -338,7 +338,8 @@ def test_a_study_plans_its_runs_from_an_earlier_one(tmp_path, stored_cost, monke
     order = sorted(planned.runs, key=_projection(planned, planned.runs), reverse=True)
     assert [r.run_id for r in order] == ["astrocytes__seeds1-19", "no-astrocytes__seeds1-20",
                                          "astrocytes__seed20"]
-    assert any("as long as it trained in" in line for line in plan_lines(planned, out))
+    assert any("as long as it trained in" in line and "measured there" not in line
+               for line in plan_lines(planned, out))
     assert any("astrocytes: runs of 19 + 1 seeds" in line for line in plan_lines(planned, out))
     # the folder keeps the plan: a rerun without --plan-from resumes the same runs
     out.mkdir()
@@ -350,6 +351,21 @@ def test_a_study_plans_its_runs_from_an_earlier_one(tmp_path, stored_cost, monke
     assert [r.run_id for r in again.runs] == [r.run_id for r in planned.runs]
     assert "recorded" in again.batch_choice["reason"]
     assert again.batch_choice["plan_from"] == str(earlier)
+
+
+def test_a_plan_says_which_groups_it_did_not_measure(tmp_path, stored_cost,
+                                                   monkeypatch) -> None:
+    from astrocpg.studies.parameter_studies.api import plan_lines
+
+    monkeypatch.setattr(tc, "stored_trial_cost", lambda codegen, note=None: CYTHON)
+    _results(tmp_path / "e", {"astrocytes": {s: 30.0 for s in range(1, 5)}})
+    p = tmp_path / "auto.toml"
+    p.write_text(AUTO.format(seeds=4).replace("sessions = 400", "sessions = 4"))
+    planned = prepare_study(load_study(p), tmp_path / "out", workers=2, progress=False,
+                            plan_from=tmp_path / "e")
+    assert planned.batch_choice["measured_groups"] == ["astrocytes"]
+    assert any("1 of 2 conditions and points measured there" in line
+               for line in plan_lines(planned, tmp_path / "out"))
 
 
 def test_a_group_or_seed_not_measured_is_costed_at_its_bound(tmp_path) -> None:

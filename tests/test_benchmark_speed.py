@@ -177,3 +177,25 @@ def test_command_cost_reads_trained_and_stepped_trial_seconds(tmp_path):
     rows.write_text("run_id,trial,session,length_s\na,0,1,1.0\na,1,1,3.0\nb,0,1,2.0\n")
     # run a: 1 + 3 trained, its batch stepped 3 s x 2 trials; run b: 2 and 2 x 1
     assert module.simulated_trial_seconds(rows) == pytest.approx((6.0, 8.0))
+
+
+def test_the_committed_ablation_timeline_reads_as_its_page_says() -> None:
+    """``benchmarks/study_utilisation.py --folder`` on the committed planned ablation prints
+    the committed utilisation.txt (a stale file, or a changed reading, fails), and the idle
+    shares are those the run's page gives: 0 % and 6.5 % of the wall."""
+    import subprocess
+    import sys
+
+    folder = ROOT / "docs" / "ablation" / "planned"
+    done = subprocess.run([sys.executable, "benchmarks/study_utilisation.py", "--folder",
+                           "docs/ablation/planned"], cwd=ROOT, capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == (folder / "utilisation.txt").read_text()
+    from astrocpg.studies.parameter_studies.tables import utilisation
+
+    rows = benchmark("study_utilisation").read_timeline(folder)
+    u = utilisation(rows)
+    assert sorted(round(100 * s, 1) for s in u["worker_idle_share"].values()) == [0.0, 6.5]
+    assert u["wall_s"] == pytest.approx(1694.1, abs=0.1)
+    assert "idle for the last 111 s (6.5 % of that wall)" in (folder / "README.md").read_text()

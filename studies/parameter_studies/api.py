@@ -69,11 +69,16 @@ def plan_lines(study: Any, out: Path) -> list[str]:
         span = f"{projected / 60:.0f} min" if projected >= 120 else f"{projected:.0f} s"
         lengths = (f"each seed as long as it trained in {c['plan_from']}" if "plan_from" in c
                    else "every session lasts L_max")
+        from .study_file import run_group
+
+        groups = sorted({run_group(r.run_id) for r in study.runs})
+        measured = c.get("measured_groups")
+        if isinstance(measured, list) and len(measured) < len(groups):
+            lengths += (f" ({len(measured)} of {len(groups)} conditions and points measured "
+                        f"there; the others as if every session lasts L_max)")
         how = c.get("reason") or (f"{c['runs']} runs on {c['workers']} workers: {span} if "
                                   f"{lengths}, on this machine's measured cost per trial")
         lines.append(f"batch auto: {study.batch} seeds per run ({how})")
-        from .study_file import run_group
-
         for group in sorted(study.split):
             sizes = [str(r.n_trials) for r in study.runs if run_group(r.run_id) == group]
             lines.append(f"  {group}: runs of {' + '.join(sizes)} seeds (split so that no "
