@@ -26,8 +26,9 @@ conditions of equal length on two workers stay one run each.
 
 With ``--scheduler`` the cost is measured where the command runs, not on the cluster's machines.
 Only the ratio of the fixed part to a trial's part matters to the choice, but that ratio does
-vary between machines and sittings (about 5 and about 14 on the same 2-core machine), so on a
-cluster unlike the submitting machine give ``batch`` a number.
+vary between machines, targets and sittings (3.2-4.5 trials' with Cython, about 13 with numpy,
+on the same 2-core machine), so on a cluster unlike the submitting machine give ``batch`` a
+number.
 """
 
 from __future__ import annotations

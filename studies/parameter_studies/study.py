@@ -140,7 +140,8 @@ def resolve_batch(study: Study, out: Path | None, *, workers: int | None = None,
 def _choose_batch(study: Study, *, workers: int | None, scheduler: str | None, progress: bool,
                   plan_from: Path | None) -> dict[str, Any]:
     """:func:`resolve_batch`'s choice for a new folder, with what it was made from (the cost,
-    the lengths measured) and each run's projected CPU seconds by run id."""
+    the lengths measured) and each run's projected CPU seconds as ``[(group, first seed, s)]``
+    (:func:`resolve_batch` keys them by run id once the runs are named)."""
     from ..runtime.trial_cost import trial_cost
     from .batching import choose_batch
     from .measured import measured_lengths, planned_lengths
