@@ -2,7 +2,9 @@
 file of yours), or reads the timeline of a study that ran (``--folder``), and prints its
 timeline, the utilisation (run seconds / (workers x wall)), the seconds workers sat free while
 runs had not started (idle while pending) and each worker's idle share of the wall (first start
-to last end: waiting, or done before the last run ended).
+to last end: waiting, or done before the last run ended); with ``--folder``, also each run's
+busiest seed's simulated seconds (from the folder's results table), its wall seconds per
+simulated second and the CPU seconds the plan projected for it.
 
     python benchmarks/study_utilisation.py [--workers 8] [--runs 16] [--sessions 2]
                                            [--batch 1] [--session-length 1*second]
@@ -19,7 +21,9 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import os
+import re
 import tempfile
 import time
 from pathlib import Path
@@ -66,6 +70,48 @@ def read_timeline(folder: Path) -> list[dict]:
     return rows
 
 
+def run_costs(folder: Path, rows: list) -> list[str]:
+    """Per run of a study folder that kept its results table: the simulated seconds of its
+    busiest seed (what its wall time follows), its seconds per simulated second and, where
+    the folder's study.json holds a plan (``batch = "auto"``, ``--plan-from``), the CPU
+    seconds it was projected to take."""
+    from astrocpg.studies.parameter_studies.measured import TABLES, measured_lengths
+    from astrocpg.studies.parameter_studies.study_file import run_group
+
+    if not any((folder / name).is_file() for name in TABLES):
+        return []
+    lengths = measured_lengths(folder, culprit=str(folder))
+    try:
+        index = json.loads((folder / "study.json").read_text())
+        projected = (index.get("batch_choice") or {}).get("run_seconds") or {}
+        specs = index.get("specs") or {}
+    except (OSError, ValueError):
+        projected, specs = {}, {}
+    lines = [f"{'run':44s} {'trials':>6s} {'busiest s':>10s} {'s per sim s':>11s} "
+             f"{'projected s':>11s}"]
+    for r in rows:
+        spec = specs.get(r["run_id"]) or _seeds_of(r["run_id"])
+        if r["ended"] is None or spec is None:
+            continue
+        seeds = range(spec["seed"], spec["seed"] + spec["n_trials"])
+        busiest = max(lengths[run_group(r["run_id"])][s][0] for s in seeds)
+        wall = r["ended"] - r["started"]
+        plan = projected.get(r["run_id"]) if isinstance(projected, dict) else None
+        lines.append(f"{r['run_id']:44s} {spec['n_trials']:6d} {busiest:10.1f} "
+                     f"{wall / busiest:11.3f} {'' if plan is None else f'{plan:.1f}':>11s}")
+    return lines
+
+
+def _seeds_of(run_id: str) -> dict | None:
+    """A run's first seed and trials from its id (``..__seeds1-20``, ``..__seed20``), for a
+    folder that kept no study.json."""
+    m = re.search(r"__seeds?(\d+)(?:-(\d+))?$", run_id)
+    if m is None:
+        return None
+    first = int(m.group(1))
+    return {"seed": first, "n_trials": int(m.group(2) or first) - first + 1}
+
+
 def show(rows: list, stats: dict, workers: int, total: float | None) -> None:
     first = min(r["started"] for r in rows)
     names: dict[str, str] = {}
@@ -101,6 +147,10 @@ def main() -> None:
         rows = read_timeline(Path(args.folder))
         stats = utilisation(rows, args.workers or 0)
         show(rows, stats, stats["workers"], None)
+        costs = run_costs(Path(args.folder), rows)
+        if costs:
+            print()
+            print("\n".join(costs))
         return
     workers = args.workers or 8
     with tempfile.TemporaryDirectory(prefix="astrocpg-utilisation-") as tmp:

@@ -208,7 +208,7 @@ def read_spilled(traces: dict[str, tuple[np.ndarray, Any]],
     memory; the files are removed once copied into ``traces.npz``."""
     out = dict(traces)
     for name, (t, v) in traces.items():
-        if getattr(type(v), "is_spilled_trace", False):
+        if isinstance(v, recording.SpilledTrace):
             out[name] = (t, np.memmap(npz, dtype=v.dtype, mode="r", offset=v.npz_offset,
                                       shape=v.shape) if v.size else np.empty(v.shape, v.dtype))
     return out
@@ -335,7 +335,7 @@ def mechanisms(result: SimulationResult, initial_weights: np.ndarray | None) -> 
     for name, unit in (("astrocyte_ADO", "a.u."), ("astrocyte_Ca", "uM")):
         if name in result.traces and result.traces[name][1].size:
             v = result.traces[name][1]
-            if getattr(type(v), "is_spilled_trace", False):  # on disk: its columns' peaks kept
+            if isinstance(v, recording.SpilledTrace):  # on disk: its columns' peaks kept
                 peak = np.nanmax(v.column_max.reshape(n, -1), axis=1)
             else:
                 peak = np.nanmax(v.reshape(len(result.traces[name][0]), n, -1), axis=(0, 2))

@@ -26,7 +26,7 @@ conditions of equal length on two workers stay one run each.
 
 With ``--scheduler`` the cost is measured where the command runs, not on the cluster's machines.
 Only the ratio of the fixed part to a trial's part matters to the choice, but that ratio does
-vary between machines, targets and sittings (3.2-4.5 trials' with Cython, about 13 with numpy,
+vary between machines, targets and sittings (about 4 trials' with Cython, about 13 with numpy,
 on the same 2-core machine), so on a cluster unlike the submitting machine give ``batch`` a
 number.
 """
@@ -84,8 +84,8 @@ def choose_batch(groups: Sequence[tuple[Sequence[int], Lengths]], *, workers: in
     # batch sizes that give different splits, from one run per group to ~8 runs per worker
     most_runs = max(1, math.ceil(MAX_RUNS_PER_WORKER * workers / n_groups))
 
-    def sizes(n_seeds: int, pieces: int = most_runs) -> list[int]:
-        return sorted({math.ceil(n_seeds / k) for k in range(1, min(n_seeds, pieces) + 1)})
+    def sizes(n_seeds: int) -> list[int]:  # the uniform candidates
+        return sorted({math.ceil(n_seeds / k) for k in range(1, min(n_seeds, most_runs) + 1)})
 
     def planned(batches: Sequence[int]) -> list[tuple[int, int, float]]:
         return [(g, first, cost.run_seconds(n, run_simulated(lengths, first, n)))

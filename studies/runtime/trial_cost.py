@@ -39,8 +39,8 @@ COST_FILE = "trial_cost.json"
 SIZES = (1, 4, 10, 20)  # batch sizes measured: the fit is a straight line through them
 SECONDS = 3.0  # simulated seconds per size, after WARM_UP
 # the first half second after a build is dearer than what follows (the robots land on the floor,
-# many contacts at once): with 0.1 s of warm-up and 1 s timed, the fixed part came out 5.6-9.3
-# trials' on the 2-core machine (three measurements), 3.2-4.5 with 0.5 s and 3 s (four)
+# many contacts at once), which inflates a run's fixed part when little is timed after it
+# (benchmarks/trial_cost_timing.py measures both timings side by side; docs/performance.md)
 WARM_UP = 0.5
 
 
@@ -181,23 +181,26 @@ def store_trial_cost(cost: TrialCost) -> Path | None:
 
 
 def measure_trial_cost(codegen: str | None = None, *, sizes: tuple[int, ...] = SIZES,
-                       seconds: float = SECONDS, progress: bool = True) -> TrialCost:
-    """Run the closed loop (default models, fixed weights) for ``seconds`` at each batch size
-    in ``sizes`` and fit :class:`TrialCost` to the CPU time per simulated second."""
+                       seconds: float = SECONDS, warm_up: float = WARM_UP,
+                       progress: bool = True) -> TrialCost:
+    """Run the closed loop (default models, fixed weights) for ``warm_up`` untimed, then
+    ``seconds`` timed, at each batch size in ``sizes`` and fit :class:`TrialCost` to the CPU
+    time per simulated second."""
     from ...network import RUN_LOCK
     from ...network.codegen import codegen_target
 
     target = codegen_target(codegen)
     with RUN_LOCK:  # one Brian2 build-and-run at a time per process (network/runlock.py)
-        return _measure(target, sizes, seconds, progress)
+        return _measure(target, sizes, seconds, warm_up, progress)
 
 
-def _measure(target: str, sizes: tuple[int, ...], seconds: float, progress: bool) -> TrialCost:
+def _measure(target: str, sizes: tuple[int, ...], seconds: float, warm_up: float,
+             progress: bool) -> TrialCost:
     from ...coupling.assembly import build_closed_loop
     from ...models import DEFAULT_MODELS
 
-    if len(set(sizes)) < 2 or min(sizes) < 1 or not seconds > 0:
-        raise InputError("needs two or more batch sizes >= 1 and seconds > 0",
+    if len(set(sizes)) < 2 or min(sizes) < 1 or not seconds > 0 or not warm_up > 0:
+        raise InputError("needs two or more batch sizes >= 1, seconds > 0 and warm_up > 0",
                          culprit="trial cost measurement")
     measured: dict[int, float] = {}
     for n in sorted(set(sizes)):
@@ -206,7 +209,7 @@ def _measure(target: str, sizes: tuple[int, ...], seconds: float, progress: bool
                              f"(once per machine; sizes {', '.join(map(str, sizes))})")
             sys.stderr.flush()
         loop = build_closed_loop(DEFAULT_MODELS, n_trials=n, seed=1, codegen=target)
-        loop.run(WARM_UP)  # code generation, the first steps and the landing
+        loop.run(warm_up)  # code generation, the first steps and the landing
         c0 = time.process_time()
         loop.run(seconds)
         measured[n] = (time.process_time() - c0) / seconds
