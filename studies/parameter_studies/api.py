@@ -76,8 +76,12 @@ def plan_lines(study: Any, out: Path) -> list[str]:
         if isinstance(measured, list) and len(measured) < len(groups):
             lengths += (f" ({len(measured)} of {len(groups)} conditions and points measured "
                         f"there; the others as if every session lasts L_max)")
+        cost = c.get("cost") if isinstance(c.get("cost"), dict) else {}
+        on = ("on the cost per trial fitted to " + str(cost.get("note"))
+              if cost.get("source") == "timeline" else "on this machine's measured cost per trial"
+              + (f" ({c['plan_from']}: {cost['note']})" if cost.get("note") else ""))
         how = c.get("reason") or (f"{c['runs']} runs on {c['workers']} workers: {span} if "
-                                  f"{lengths}, on this machine's measured cost per trial")
+                                  f"{lengths}, {on}")
         lines.append(f"batch auto: {study.batch} seeds per run ({how})")
         for group in sorted(study.split):
             sizes = [str(r.n_trials) for r in study.runs if run_group(r.run_id) == group]

@@ -9,6 +9,12 @@ fall sooner (about 2,600 s). Before a study has run nothing says which condition
 longer; a finished study of the same conditions does. A seed's trajectory does not depend on
 the batch it runs in, so on the same settings the lengths read here are the ones the new study
 will train.
+
+The same folder's ``timeline.csv`` gives what each of its runs cost in wall seconds on the
+workers it had: :func:`fitted_cost` fits the cost per simulated second (a fixed part and a part
+per trial) to those runs when they are of two or more sizes, so that the plan is made with
+what runs cost in a study (two runs sharing the machine's memory and caches) rather than
+with the cost measured on an idle machine, one process at a time.
 """
 
 from __future__ import annotations
@@ -16,9 +22,15 @@ from __future__ import annotations
 import csv
 import gzip
 import io
+import json
+import os
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ...errors import InputError
+from ..runtime.trial_cost import TrialCost
+from .layout import TIMELINE
 from .study_file import run_group
 
 #: the results table of a study folder (``results.csv``; also read gzip-compressed)
@@ -38,13 +50,10 @@ def results_table(path: Path, culprit: str) -> Path:
     raise InputError("no such study folder or results table", culprit=culprit)
 
 
-def measured_lengths(path: str | Path, *, culprit: str = "--plan-from"
-                     ) -> dict[str, dict[int, tuple[float, int]]]:
-    """``{group: {seed: (simulated seconds trained, sessions)}}`` from the results table of the
-    study folder ``path`` (or the table itself): per condition and sweep point
-    (:func:`~astrocpg.studies.parameter_studies.study_file.run_group`), each seed's summed
-    session lengths and its number of sessions. A table that is not a study's results (a
-    column missing, a value that is not a number) is refused naming the file and the row."""
+def _sessions_by_run(path: Path, culprit: str) -> dict[str, dict[int, tuple[float, int]]]:
+    """``{run id: {seed: (simulated seconds trained, sessions)}}`` from the results table
+    ``path`` names (a study folder or the table), refused naming the file and the row where it
+    is not a study's results."""
     table = results_table(Path(path), culprit)
     where = f"{culprit} {table}"
     try:
@@ -60,7 +69,7 @@ def measured_lengths(path: str | Path, *, culprit: str = "--plan-from"
     if missing:
         raise InputError(f"is not a study's results table (no column "
                          f"{', '.join(sorted(missing))})", culprit=where)
-    lengths: dict[str, dict[int, tuple[float, int]]] = {}
+    runs: dict[str, dict[int, tuple[float, int]]] = {}
     for line, row in enumerate(reader, start=2):
         try:
             seed, length = int(row["seed"]), float(row["length_s"])
@@ -70,12 +79,119 @@ def measured_lengths(path: str | Path, *, culprit: str = "--plan-from"
         if not (length >= 0.0 and length != float("inf")):
             raise InputError(f"line {line}: length_s {row['length_s']!r} is not a finite "
                              f"length", culprit=where)
-        seeds = lengths.setdefault(run_group(row["run_id"]), {})
+        seeds = runs.setdefault(row["run_id"], {})
         total, n = seeds.get(seed, (0.0, 0))
         seeds[seed] = (total + length, n + 1)
-    if not lengths:
+    if not runs:
         raise InputError("holds no sessions", culprit=where)
+    return runs
+
+
+def measured_lengths(path: str | Path, *, culprit: str = "--plan-from"
+                     ) -> dict[str, dict[int, tuple[float, int]]]:
+    """``{group: {seed: (simulated seconds trained, sessions)}}`` from the results table of the
+    study folder ``path`` (or the table itself): per condition and sweep point
+    (:func:`~astrocpg.studies.parameter_studies.study_file.run_group`), each seed's summed
+    session lengths and its number of sessions. A table that is not a study's results (a
+    column missing, a value that is not a number) is refused naming the file and the row."""
+    lengths: dict[str, dict[int, tuple[float, int]]] = {}
+    for run_id, seeds in _sessions_by_run(Path(path), culprit).items():
+        group = lengths.setdefault(run_group(run_id), {})
+        for seed, (total, n) in seeds.items():
+            before, k = group.get(seed, (0.0, 0))
+            group[seed] = (before + total, k + n)
     return lengths
+
+
+@dataclass(frozen=True)
+class RunCost:
+    """One run of an earlier study as it cost: its trials, its busiest seed's simulated
+    seconds (the run steps until that seed is done) and the wall seconds it ran."""
+
+    run_id: str
+    n_trials: int
+    busiest_s: float
+    wall_s: float
+
+    @property
+    def per_simulated_s(self) -> float:
+        return self.wall_s / self.busiest_s
+
+
+def measured_run_costs(path: str | Path, *, culprit: str = "--plan-from") -> list[RunCost]:
+    """The runs of the study folder ``path`` that finished in one attempt, with what each
+    cost (its ``timeline.csv``; its trials and busiest seed from the results table). A run
+    resumed after a stop is left out (its wall time includes starting again); a folder
+    without a timeline (or a bare table) gives none."""
+    path = Path(path)
+    timeline = path / TIMELINE
+    if not (path.is_dir() and timeline.is_file()):
+        return []
+    runs = _sessions_by_run(path, culprit)
+    try:
+        rows = list(csv.DictReader(io.StringIO(timeline.read_text(encoding="utf-8"))))
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise InputError(f"cannot read the timeline ({e})", culprit=f"{culprit} {timeline}") \
+            from None
+    attempts: dict[str, list[dict[str, str]]] = {}
+    for row in rows:
+        attempts.setdefault(str(row.get("run_id")), []).append(row)
+    out = []
+    for run_id, tried in attempts.items():
+        seeds = runs.get(run_id)
+        if len(tried) != 1 or tried[0].get("state") != "finished" or not seeds:
+            continue
+        try:
+            wall = float(tried[0].get("duration_s") or "nan")
+        except ValueError:
+            continue
+        busiest = max(total for total, _ in seeds.values())
+        if wall > 0.0 and wall != float("inf") and busiest > 0.0:
+            out.append(RunCost(run_id, len(seeds), busiest, wall))
+    return out
+
+
+def _study_manifest(path: Path) -> dict[str, Any] | None:
+    """The study folder's manifest (``manifest.json``; ``study_manifest.json`` where the
+    folder is a copy beside a report's), or None."""
+    for name in ("manifest.json", "study_manifest.json"):
+        try:
+            manifest = json.loads((path / name).read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        if isinstance(manifest, dict) and manifest.get("astrocpg_command") == "study":
+            return manifest
+    return None
+
+
+def fitted_cost(path: str | Path, *, codegen: str, workers: int,
+                culprit: str = "--plan-from") -> tuple[TrialCost | None, str]:
+    """The cost per simulated second fitted to the runs of the study in ``path``
+    (:func:`measured_run_costs`; the mean per size where several runs have one), and what it
+    was fitted to; or ``(None, why not)``: the folder's runs ran with another Brian2 target,
+    number of workers or of cores (their costs would not hold here), or are all of one size
+    (a fixed part cannot be told from a per-trial part)."""
+    path = Path(path)
+    runs = measured_run_costs(path, culprit=culprit)
+    if not runs:
+        return None, "it has no timeline of finished runs"
+    manifest = _study_manifest(path) or {}
+    settings = manifest.get("settings") if isinstance(manifest.get("settings"), dict) else {}
+    machine = manifest.get("machine") if isinstance(manifest.get("machine"), dict) else {}
+    ran = (manifest.get("codegen"), settings.get("workers"), machine.get("cpu_count"))
+    here = (codegen, workers, os.cpu_count())
+    if ran != here:
+        return None, (f"its runs ran with codegen, workers, cores = {ran[0]}, {ran[1]}, "
+                      f"{ran[2]}, not {here[0]}, {here[1]}, {here[2]}")
+    by_size: dict[int, list[float]] = {}
+    for r in runs:
+        by_size.setdefault(r.n_trials, []).append(r.per_simulated_s)
+    if len(by_size) < 2:
+        return None, f"its runs are all of {runs[0].n_trials} trials"
+    measured = {n: sum(v) / len(v) for n, v in by_size.items()}
+    key = (f"fitted to {len(runs)} runs of {path} (codegen={codegen}, workers={workers}, "
+           f"cpus={os.cpu_count()})")
+    return TrialCost.fit(measured, codegen=codegen, key=key), f"{len(runs)} runs of {path}"
 
 
 def planned_lengths(measured: dict[int, tuple[float, int]] | None, seeds: list[int],

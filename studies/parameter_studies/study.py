@@ -144,7 +144,8 @@ def _choose_batch(study: Study, *, workers: int | None, scheduler: str | None, p
     (:func:`resolve_batch` keys them by run id once the runs are named)."""
     from ..runtime.trial_cost import trial_cost
     from .batching import choose_batch
-    from .measured import measured_lengths, planned_lengths
+    from ...network.codegen import codegen_target
+    from .measured import fitted_cost, measured_lengths, planned_lengths
 
     measured = measured_lengths(plan_from) if plan_from is not None else {}
     n_workers = _cluster_threads(scheduler) if scheduler else (workers or os.cpu_count() or 1)
@@ -162,7 +163,14 @@ def _choose_batch(study: Study, *, workers: int | None, scheduler: str | None, p
                               sessions=study.n_sessions) * runs_at_once \
             <= available_memory()
 
-    cost = trial_cost(progress=progress)
+    # with an earlier study of runs of several sizes on the same workers, what its runs cost
+    # there (memory shared by the workers' runs included); else the cost measured here
+    cost, fitted_to = None, None
+    if plan_from is not None:
+        cost, fitted_to = fitted_cost(plan_from, codegen=codegen_target(None),
+                                      workers=n_workers)
+    if cost is None:
+        cost = trial_cost(progress=progress)
     chosen = choose_batch(list(groups.values()), workers=n_workers, cost=cost,
                           split=consecutive_groups, fits=fits)
     if chosen["batch"] is None:
@@ -176,7 +184,8 @@ def _choose_batch(study: Study, *, workers: int | None, scheduler: str | None, p
     chosen["cost"] = {"fixed_s_per_sim_s": cost.fixed,
                       "per_trial_s_per_sim_s": cost.per_trial,
                       "measured": cost.measured, "codegen": cost.codegen,
-                      "when": cost.when}
+                      "when": cost.when, "source": "timeline" if cost.key.startswith("fitted")
+                      else "measured here", "note": fitted_to or ""}
     if plan_from is not None:
         chosen["plan_from"] = str(plan_from)
         chosen["measured_groups"] = sorted(g for g in groups if g in measured)
