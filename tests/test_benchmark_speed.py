@@ -179,6 +179,29 @@ def test_command_cost_reads_trained_and_stepped_trial_seconds(tmp_path):
     assert module.simulated_trial_seconds(rows) == pytest.approx((6.0, 8.0))
 
 
+def test_the_ablation_planned_from_its_runs_reads_as_its_page_says() -> None:
+    """The same for the ablation planned from the planned one's runs (docs/ablation/fitted):
+    idle 2.2 % and 0 %, the plan made with the cost fitted to that folder's timeline."""
+    import json
+    import subprocess
+    import sys
+
+    folder = ROOT / "docs" / "ablation" / "fitted"
+    done = subprocess.run([sys.executable, "benchmarks/study_utilisation.py", "--folder",
+                           "docs/ablation/fitted"], cwd=ROOT, capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == (folder / "utilisation.txt").read_text()
+    from astrocpg.studies.parameter_studies.tables import utilisation
+
+    u = utilisation(benchmark("study_utilisation").read_timeline(folder))
+    assert sorted(round(100 * s, 1) for s in u["worker_idle_share"].values()) == [0.0, 2.2]
+    assert max(u["worker_idle_share"].values()) <= 0.05
+    choice = json.loads((folder / "study.json").read_text())["batch_choice"]
+    assert choice["cost"]["source"] == "timeline" and choice["split"] == {"astrocytes": 18}
+    assert "idle for the last 37 s (2.2 % of that wall)" in (folder / "README.md").read_text()
+
+
 def test_the_committed_ablation_timeline_reads_as_its_page_says() -> None:
     """``benchmarks/study_utilisation.py --folder`` on the committed planned ablation prints
     the committed utilisation.txt (a stale file, or a changed reading, fails), and the idle
