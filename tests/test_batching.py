@@ -357,7 +357,8 @@ def test_a_study_plans_its_runs_from_an_earlier_one(tmp_path, stored_cost, monke
 
 
 def _timed_study(folder: Path, runs: dict[str, tuple[int, float, float]], *, workers: int = 2,
-                 codegen: str = "cython", attempts: dict[str, int] | None = None) -> None:
+                 codegen: str = "cython", attempts: dict[str, int] | None = None,
+                 manifest: bool = True) -> None:
     """A finished study folder: ``{run id: (trials, busiest seed's simulated s, wall s)}``
     (every seed of a run trains as long as its busiest, in 4 sessions), its timeline (one
     finished attempt per run, or ``attempts[run id]``) and its manifest."""
@@ -378,9 +379,10 @@ def _timed_study(folder: Path, runs: dict[str, tuple[int, float, float]], *, wor
             timeline.append(f"{run_id},{a},{state},w,0,vm,1,0.0,{wall},{wall},x")
     (folder / "results.csv").write_text("\n".join(results) + "\n")
     (folder / "timeline.csv").write_text("\n".join(timeline) + "\n")
-    (folder / "manifest.json").write_text(json.dumps({
-        "astrocpg_command": "study", "codegen": codegen, "settings": {"workers": workers},
-        "machine": {"cpu_count": os.cpu_count()}}))
+    if manifest:
+        (folder / "manifest.json").write_text(json.dumps({
+            "astrocpg_command": "study", "codegen": codegen, "settings": {"workers": workers},
+            "machine": {"cpu_count": os.cpu_count()}}))
 
 
 def test_the_cost_is_fitted_to_an_earlier_studys_runs(tmp_path) -> None:
@@ -406,6 +408,7 @@ def test_the_cost_is_fitted_to_an_earlier_studys_runs(tmp_path) -> None:
     ({"runs": {"a__seeds1-20": (20, 10.0, 5.0), "b__seeds1-20": (20, 10.0, 5.0)}},
      "its runs are all of 20 trials"),
     ({"attempts": {"a__seed3": 2}}, "its runs are all of 2 trials"),  # a resumed run: left out
+    ({"manifest": False}, "it has no study manifest"),
 ])
 def test_a_cost_is_not_fitted_to_runs_that_would_not_hold_here(tmp_path, change, why) -> None:
     from astrocpg.studies.parameter_studies.measured import fitted_cost

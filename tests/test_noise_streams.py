@@ -57,6 +57,39 @@ def test_numpy_blocks_are_the_definition() -> None:
         noise.uniform_reference(int(seed[e]), site, per, int(cell[e]), 107) for e in some]
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("order", ["in order", "scattered"])
+def test_cython_draws_are_the_definition(order) -> None:
+    """The Cython draw function gives the defined draw of every element at every step, whether
+    the elements draw in cell order (a block's four cells one after the other) or scattered: a
+    group of 2 trials x 37 cells (a partial last block), each element's cell taken in order or
+    shuffled, over steps across several blocks of counters."""
+    from brian2 import Network, NeuronGroup, ms, prefs
+
+    per, seeds = 37, [5, 2**40 + 9]
+    numbers = np.arange(per * len(seeds))
+    if order == "scattered":
+        numbers = np.random.default_rng(1).permutation(numbers)
+    seed, cell = noise.trial_major(numbers, per, seeds)
+    draws = noise.Rewriter("testpop")
+    code = draws("x = rand()")
+    functions = draws.bind(seed, cell, per, np.zeros(1, dtype=np.int64)).functions
+    before = prefs.codegen.target
+    prefs.codegen.target = "cython"
+    try:
+        group = NeuronGroup(len(numbers), "x : 1", namespace=dict(functions), dt=1 * ms)
+        group.run_regularly(code, when="start")
+        net = Network(group)
+        site = noise.site_id("testpop", 0)
+        for step in range(6):
+            net.run(1 * ms, namespace={})
+            want = [noise.uniform_reference(int(s), site, per, int(c), step)
+                    for s, c in zip(seed, cell)]
+            assert group.x[:].tolist() == want, step
+    finally:
+        prefs.codegen.target = before
+
+
 def test_sites_depend_on_the_population_and_position_only() -> None:
     assert noise.site_id("motor", 0) == noise.site_id("motor", 0)
     ids = {noise.site_id(p, k, s) for p in ("motor", "interneuron") for k in range(3)

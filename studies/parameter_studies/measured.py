@@ -167,15 +167,19 @@ def _study_manifest(path: Path) -> dict[str, Any] | None:
 def fitted_cost(path: str | Path, *, codegen: str, workers: int,
                 culprit: str = "--plan-from") -> tuple[TrialCost | None, str]:
     """The cost per simulated second fitted to the runs of the study in ``path``
-    (:func:`measured_run_costs`; the mean per size where several runs have one), and what it
-    was fitted to; or ``(None, why not)``: the folder's runs ran with another Brian2 target,
-    number of workers or of cores (their costs would not hold here), or are all of one size
-    (a fixed part cannot be told from a per-trial part)."""
+    (:func:`measured_run_costs`; the mean per size where several runs have one: runs of
+    different conditions with as many trials are pooled), and what it was fitted to; or
+    ``(None, why not)``: the folder's runs ran with another Brian2 target, number of workers
+    or of cores, or its manifest does not say (their costs would not hold here), or they are
+    all of one size (a fixed part cannot be told from a per-trial part). The costs are a
+    worker's wall seconds, one worker per core, as the plan's projections are."""
     path = Path(path)
     runs = measured_run_costs(path, culprit=culprit)
     if not runs:
         return None, "it has no timeline of finished runs"
-    manifest = _study_manifest(path) or {}
+    manifest = _study_manifest(path)
+    if manifest is None:
+        return None, "it has no study manifest to say where its runs ran"
     settings = manifest.get("settings") if isinstance(manifest.get("settings"), dict) else {}
     machine = manifest.get("machine") if isinstance(manifest.get("machine"), dict) else {}
     ran = (manifest.get("codegen"), settings.get("workers"), machine.get("cpu_count"))

@@ -169,6 +169,7 @@ def _choose_batch(study: Study, *, workers: int | None, scheduler: str | None, p
     if plan_from is not None:
         cost, fitted_to = fitted_cost(plan_from, codegen=codegen_target(None),
                                       workers=n_workers)
+    fitted = cost is not None
     if cost is None:
         cost = trial_cost(progress=progress)
     chosen = choose_batch(list(groups.values()), workers=n_workers, cost=cost,
@@ -184,8 +185,8 @@ def _choose_batch(study: Study, *, workers: int | None, scheduler: str | None, p
     chosen["cost"] = {"fixed_s_per_sim_s": cost.fixed,
                       "per_trial_s_per_sim_s": cost.per_trial,
                       "measured": cost.measured, "codegen": cost.codegen,
-                      "when": cost.when, "source": "timeline" if cost.key.startswith("fitted")
-                      else "measured here", "note": fitted_to or ""}
+                      "when": cost.when, "source": "timeline" if fitted else "measured here",
+                      "note": fitted_to or ""}
     if plan_from is not None:
         chosen["plan_from"] = str(plan_from)
         chosen["measured_groups"] = sorted(g for g in groups if g in measured)
