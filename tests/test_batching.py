@@ -421,6 +421,17 @@ def test_a_cost_is_not_fitted_to_runs_that_would_not_hold_here(tmp_path, change,
     assert fitted_cost(tmp_path / "bare", codegen="cython", workers=2)[0] is None
 
 
+def test_a_bad_timeline_is_named(tmp_path) -> None:
+    from astrocpg.studies.parameter_studies.measured import fitted_cost
+
+    _timed_study(tmp_path / "e", {"a__seeds1-2": (2, 10.0, 2.0), "a__seed3": (1, 10.0, 1.5)})
+    timeline = tmp_path / "e" / "timeline.csv"
+    timeline.write_text(timeline.read_text().replace(",1.5,1.5,", ",1.5,soon,"))
+    with pytest.raises(InputError) as e:
+        fitted_cost(tmp_path / "e", codegen="cython", workers=2)
+    assert "line 3: duration_s 'soon'" in str(e.value) and "timeline.csv" in str(e.value)
+
+
 def test_the_ablation_planned_from_its_own_runs(tmp_path, stored_cost, monkeypatch) -> None:
     """The committed ablation planned from its lengths (docs/ablation/planned: runs of 19 and
     1 seeds with astrocytes, 20 without) and its runs' costs: 18 + 2 seeds, the workers

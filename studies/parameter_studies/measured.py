@@ -133,20 +133,25 @@ def measured_run_costs(path: str | Path, *, culprit: str = "--plan-from") -> lis
     except (OSError, UnicodeDecodeError, csv.Error) as e:
         raise InputError(f"cannot read the timeline ({e})", culprit=f"{culprit} {timeline}") \
             from None
-    attempts: dict[str, list[dict[str, str]]] = {}
-    for row in rows:
-        attempts.setdefault(str(row.get("run_id")), []).append(row)
+    attempts: dict[str, list[tuple[int, dict[str, str]]]] = {}
+    for line, row in enumerate(rows, start=2):
+        attempts.setdefault(str(row.get("run_id")), []).append((line, row))
     out = []
     for run_id, tried in attempts.items():
         seeds = runs.get(run_id)
-        if len(tried) != 1 or tried[0].get("state") != "finished" or not seeds:
+        if len(tried) != 1 or tried[0][1].get("state") != "finished" or not seeds:
             continue
+        line, row = tried[0]
         try:
-            wall = float(tried[0].get("duration_s") or "nan")
+            wall = float(row.get("duration_s") or "")
         except ValueError:
-            continue
+            wall = float("nan")
+        if not (wall > 0.0 and wall != float("inf")):  # a finished run took some time
+            raise InputError(f"line {line}: duration_s {row.get('duration_s')!r} of a finished "
+                             f"run is not a positive number of seconds",
+                             culprit=f"{culprit} {timeline}")
         busiest = max(total for total, _ in seeds.values())
-        if wall > 0.0 and wall != float("inf") and busiest > 0.0:
+        if busiest > 0.0:
             out.append(RunCost(run_id, len(seeds), busiest, wall))
     return out
 
