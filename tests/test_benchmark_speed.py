@@ -179,22 +179,30 @@ def test_command_cost_reads_trained_and_stepped_trial_seconds(tmp_path):
     assert module.simulated_trial_seconds(rows) == pytest.approx((6.0, 8.0))
 
 
-def test_the_ablation_planned_from_its_runs_reads_as_its_page_says() -> None:
-    """The same for the ablation planned from the planned one's runs (docs/ablation/fitted):
-    idle 2.2 % and 0 %, the plan made with the cost fitted to that folder's timeline."""
-    import json
+def _committed_utilisation(name: str) -> tuple[Path, dict]:
+    """``benchmarks/study_utilisation.py --folder docs/ablation/NAME`` prints the committed
+    utilisation.txt (a stale file, or a changed reading, fails); the folder and its
+    workers' utilisation."""
     import subprocess
     import sys
 
-    folder = ROOT / "docs" / "ablation" / "fitted"
+    from astrocpg.studies.parameter_studies.tables import utilisation
+
+    folder = ROOT / "docs" / "ablation" / name
     done = subprocess.run([sys.executable, "benchmarks/study_utilisation.py", "--folder",
-                           "docs/ablation/fitted"], cwd=ROOT, capture_output=True, text=True,
+                           f"docs/ablation/{name}"], cwd=ROOT, capture_output=True, text=True,
                           timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout == (folder / "utilisation.txt").read_text()
-    from astrocpg.studies.parameter_studies.tables import utilisation
+    return folder, utilisation(benchmark("study_utilisation").read_timeline(folder))
 
-    u = utilisation(benchmark("study_utilisation").read_timeline(folder))
+
+def test_the_ablation_planned_from_its_runs_reads_as_its_page_says() -> None:
+    """The ablation planned from the planned one's runs (docs/ablation/fitted): idle 2.2 % and
+    0 %, the plan made with the cost fitted to that folder's timeline."""
+    import json
+
+    folder, u = _committed_utilisation("fitted")
     assert sorted(round(100 * s, 1) for s in u["worker_idle_share"].values()) == [0.0, 2.2]
     assert max(u["worker_idle_share"].values()) <= 0.05
     choice = json.loads((folder / "study.json").read_text())["batch_choice"]
@@ -203,22 +211,9 @@ def test_the_ablation_planned_from_its_runs_reads_as_its_page_says() -> None:
 
 
 def test_the_committed_ablation_timeline_reads_as_its_page_says() -> None:
-    """``benchmarks/study_utilisation.py --folder`` on the committed planned ablation prints
-    the committed utilisation.txt (a stale file, or a changed reading, fails), and the idle
-    shares are those the run's page gives: 0 % and 6.5 % of the wall."""
-    import subprocess
-    import sys
-
-    folder = ROOT / "docs" / "ablation" / "planned"
-    done = subprocess.run([sys.executable, "benchmarks/study_utilisation.py", "--folder",
-                           "docs/ablation/planned"], cwd=ROOT, capture_output=True, text=True,
-                          timeout=120)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout == (folder / "utilisation.txt").read_text()
-    from astrocpg.studies.parameter_studies.tables import utilisation
-
-    rows = benchmark("study_utilisation").read_timeline(folder)
-    u = utilisation(rows)
+    """The committed planned ablation (docs/ablation/planned) reads as its page says: idle
+    0 % and 6.5 % of the wall."""
+    folder, u = _committed_utilisation("planned")
     assert sorted(round(100 * s, 1) for s in u["worker_idle_share"].values()) == [0.0, 6.5]
     assert u["wall_s"] == pytest.approx(1694.1, abs=0.1)
     assert "idle for the last 111 s (6.5 % of that wall)" in (folder / "README.md").read_text()
