@@ -3,8 +3,8 @@ file of yours), or reads the timeline of a study that ran (``--folder``), and pr
 timeline, the utilisation (run seconds / (workers x wall)), the seconds workers sat free while
 runs had not started (idle while pending) and each worker's idle share of the wall (first start
 to last end: waiting, or done before the last run ended); with ``--folder``, also each run's
-busiest seed's simulated seconds (from the folder's results table), its wall seconds per
-simulated second and the CPU seconds the plan projected for it.
+busiest seed's simulated seconds (from the folder's results table; the runs that finished in
+one attempt), its wall seconds per simulated second and the CPU seconds the plan projected.
 
     python benchmarks/study_utilisation.py [--workers 8] [--runs 16] [--sessions 2]
                                            [--batch 1] [--session-length 1*second]
@@ -20,10 +20,8 @@ but a worker that is free while runs wait shows as idle all the same.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
-import re
 import tempfile
 import time
 from pathlib import Path
@@ -60,56 +58,35 @@ def measure(path: Path, out: Path, workers: int) -> tuple[float, list, dict]:
 
 
 def read_timeline(folder: Path) -> list[dict]:
-    """The rows of a study folder's ``timeline.csv``, times as numbers (``ended`` None for an
-    attempt that has not ended)."""
-    with open(folder / "timeline.csv", newline="") as f:
-        rows = list(csv.DictReader(f))
-    for r in rows:
-        r["started"] = float(r["started"])
-        r["ended"] = float(r["ended"]) if r["ended"] else None
-    return rows
+    """The rows of a study folder's ``timeline.csv``, times as numbers."""
+    from astrocpg.studies.parameter_studies.tables import read_timeline as read
+
+    return read(folder, culprit="--folder")
 
 
-def run_costs(folder: Path, rows: list) -> list[str]:
-    """Per run of a study folder that kept its results table: the simulated seconds of its
-    busiest seed (what its wall time follows), its seconds per simulated second and, where
-    the folder's study.json holds a plan (``batch = "auto"``, ``--plan-from``), the CPU
-    seconds it was projected to take."""
-    from astrocpg.studies.parameter_studies.measured import TABLES, measured_lengths
-    from astrocpg.studies.parameter_studies.study_file import run_group
+def run_costs(folder: Path) -> list[str]:
+    """Per run of a study folder that kept its results table and ran in one attempt
+    (:func:`~astrocpg.studies.parameter_studies.measured.measured_run_costs`, what
+    ``--plan-from`` fits the cost to): the simulated seconds of its busiest seed (what its
+    wall time follows), its wall seconds per simulated second and, where the folder's
+    study.json holds a plan (``batch = "auto"``, ``--plan-from``), the CPU seconds it was
+    projected to take."""
+    from astrocpg.studies.parameter_studies.measured import TABLES, measured_run_costs
 
     if not any((folder / name).is_file() for name in TABLES):
         return []
-    lengths = measured_lengths(folder, culprit=str(folder))
     try:
         index = json.loads((folder / "study.json").read_text())
         projected = (index.get("batch_choice") or {}).get("run_seconds") or {}
-        specs = index.get("specs") or {}
     except (OSError, ValueError):
-        projected, specs = {}, {}
+        projected = {}
     lines = [f"{'run':44s} {'trials':>6s} {'busiest s':>10s} {'s per sim s':>11s} "
              f"{'projected s':>11s}"]
-    for r in rows:
-        spec = specs.get(r["run_id"]) or _seeds_of(r["run_id"])
-        if r["ended"] is None or spec is None:
-            continue
-        seeds = range(spec["seed"], spec["seed"] + spec["n_trials"])
-        busiest = max(lengths[run_group(r["run_id"])][s][0] for s in seeds)
-        wall = r["ended"] - r["started"]
-        plan = projected.get(r["run_id"]) if isinstance(projected, dict) else None
-        lines.append(f"{r['run_id']:44s} {spec['n_trials']:6d} {busiest:10.1f} "
-                     f"{wall / busiest:11.3f} {'' if plan is None else f'{plan:.1f}':>11s}")
+    for r in measured_run_costs(folder, culprit="--folder"):
+        plan = projected.get(r.run_id) if isinstance(projected, dict) else None
+        lines.append(f"{r.run_id:44s} {r.n_trials:6d} {r.busiest_s:10.1f} "
+                     f"{r.per_simulated_s:11.3f} {'' if plan is None else f'{plan:.1f}':>11s}")
     return lines
-
-
-def _seeds_of(run_id: str) -> dict | None:
-    """A run's first seed and trials from its id (``..__seeds1-20``, ``..__seed20``), for a
-    folder that kept no study.json."""
-    m = re.search(r"__seeds?(\d+)(?:-(\d+))?$", run_id)
-    if m is None:
-        return None
-    first = int(m.group(1))
-    return {"seed": first, "n_trials": int(m.group(2) or first) - first + 1}
 
 
 def show(rows: list, stats: dict, workers: int, total: float | None) -> None:
@@ -147,7 +124,7 @@ def main() -> None:
         rows = read_timeline(Path(args.folder))
         stats = utilisation(rows, args.workers or 0)
         show(rows, stats, stats["workers"], None)
-        costs = run_costs(Path(args.folder), rows)
+        costs = run_costs(Path(args.folder))
         if costs:
             print()
             print("\n".join(costs))

@@ -100,6 +100,23 @@ def test_profile_step_times_a_steps_python_and_puts_everything_back():
     assert not np.array_equal(qpos, loop.bridge.qpos)
 
 
+def test_recording_breakdown_times_each_recorder_and_puts_them_back(tmp_path):
+    """recording_breakdown.measure: the recorded run's in-loop parts and phases are timed, the
+    unrecorded run has no recorder's time, and the wrapped functions are the originals after."""
+    from astrocpg.coupling.robot_recording import Recording
+    from astrocpg.network import recording
+
+    rb = benchmark("recording_breakdown")
+    before = recording.TraceRecorder.sample, Recording.take
+    got = rb.measure(0.2, 2, True, tmp_path / "rec")
+    assert {"TraceRecorder.sample", "Recording.take", "SpikeRecorder.resize", "_run",
+            "write_run_folder"} <= set(got) and all(v >= 0 for v in got.values())
+    assert got["_run"] > 0
+    off = rb.measure(0.2, 2, False, tmp_path / "off")
+    assert "TraceRecorder.sample" not in off and "SpikeRecorder.resize" not in off
+    assert (recording.TraceRecorder.sample, Recording.take) == before
+
+
 def test_between_commits_reads_the_last_table_of_speed():
     """between_commits.py takes the ratio to mj_step from speed.py's closing table, not from
     the per-repeat table above it, and stops when a target's row is missing."""

@@ -22,15 +22,17 @@ from __future__ import annotations
 import csv
 import gzip
 import io
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ...errors import InputError
+from ...reading import read_json
+from ..outputs.writing import read_manifest
 from ..runtime.trial_cost import TrialCost
 from .layout import TIMELINE
+from .tables import read_timeline
 from .study_file import run_group
 
 #: the results table of a study folder (``results.csv``; also read gzip-compressed)
@@ -124,17 +126,11 @@ def measured_run_costs(path: str | Path, *, culprit: str = "--plan-from") -> lis
     resumed after a stop is left out (its wall time includes starting again); a folder
     without a timeline (or a bare table) gives none."""
     path = Path(path)
-    timeline = path / TIMELINE
-    if not (path.is_dir() and timeline.is_file()):
+    if not (path.is_dir() and (path / TIMELINE).is_file()):
         return []
     runs = _sessions_by_run(path, culprit)
-    try:
-        rows = list(csv.DictReader(io.StringIO(timeline.read_text(encoding="utf-8"))))
-    except (OSError, UnicodeDecodeError, csv.Error) as e:
-        raise InputError(f"cannot read the timeline ({e})", culprit=f"{culprit} {timeline}") \
-            from None
-    attempts: dict[str, list[tuple[int, dict[str, str]]]] = {}
-    for line, row in enumerate(rows, start=2):
+    attempts: dict[str, list[tuple[int, dict[str, Any]]]] = {}
+    for line, row in enumerate(read_timeline(path, culprit=culprit), start=2):
         attempts.setdefault(str(row.get("run_id")), []).append((line, row))
     out = []
     for run_id, tried in attempts.items():
@@ -142,14 +138,10 @@ def measured_run_costs(path: str | Path, *, culprit: str = "--plan-from") -> lis
         if len(tried) != 1 or tried[0][1].get("state") != "finished" or not seeds:
             continue
         line, row = tried[0]
-        try:
-            wall = float(row.get("duration_s") or "")
-        except ValueError:
-            wall = float("nan")
-        if not (wall > 0.0 and wall != float("inf")):  # a finished run took some time
-            raise InputError(f"line {line}: duration_s {row.get('duration_s')!r} of a finished "
-                             f"run is not a positive number of seconds",
-                             culprit=f"{culprit} {timeline}")
+        wall = row["duration_s"]
+        if not (wall is not None and 0.0 < wall < float("inf")):  # a finished run took time
+            raise InputError(f"line {line}: duration_s {wall!r} of a finished run is not a "
+                             f"positive number of seconds", culprit=f"{culprit} {path / TIMELINE}")
         busiest = max(total for total, _ in seeds.values())
         if busiest > 0.0:
             out.append(RunCost(run_id, len(seeds), busiest, wall))
@@ -159,14 +151,14 @@ def measured_run_costs(path: str | Path, *, culprit: str = "--plan-from") -> lis
 def _study_manifest(path: Path) -> dict[str, Any] | None:
     """The study folder's manifest (``manifest.json``; ``study_manifest.json`` where the
     folder is a copy beside a report's), or None."""
-    for name in ("manifest.json", "study_manifest.json"):
+    manifest = read_manifest(path)
+    if not (isinstance(manifest, dict) and manifest.get("astrocpg_command") == "study"):
         try:
-            manifest = json.loads((path / name).read_text(encoding="utf-8"))
+            manifest = read_json(path / "study_manifest.json")
         except (OSError, ValueError):
-            continue
-        if isinstance(manifest, dict) and manifest.get("astrocpg_command") == "study":
-            return manifest
-    return None
+            return None
+    return manifest if isinstance(manifest, dict) and \
+        manifest.get("astrocpg_command") == "study" else None
 
 
 def fitted_cost(path: str | Path, *, codegen: str, workers: int,

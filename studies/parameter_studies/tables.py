@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from ...coupling.training import SESSION_COLUMNS
+from ...errors import InputError
 from ..outputs.writing import atomic_write
 from .execute import read_status
 from .layout import GAITS, RESULTS, RUNS, TIMELINE, TIMELINE_COLUMNS
@@ -120,6 +121,30 @@ def utilisation(rows: Sequence[dict[str, Any]], n_workers: int = 0) -> dict[str,
             "worker_gaps": gaps, "worker_busy_s": worker_busy,
             "worker_idle_share": {w: (1.0 - b / wall if wall > 0 else 0.0)
                                   for w, b in worker_busy.items()}}
+
+
+def read_timeline(folder: Path, *, culprit: str = "timeline") -> list[dict[str, Any]]:
+    """The rows of the ``timeline.csv`` in ``folder`` (what :func:`write_timeline` wrote), its
+    times as numbers: ``started``, and ``ended`` and ``duration_s`` (None where the attempt did
+    not end). A value that is not a number is refused naming the file and the line."""
+    path = Path(folder) / TIMELINE
+    where = f"{culprit} {path}"
+    try:
+        rows = list(csv.DictReader(path.read_text(encoding="utf-8").splitlines()))
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        raise InputError(f"cannot read the timeline ({e})", culprit=where) from None
+    for line, row in enumerate(rows, start=2):
+        for key in ("started", "ended", "duration_s"):
+            value = row.get(key)
+            if key != "started" and not value:
+                row[key] = None
+                continue
+            try:
+                row[key] = float(value)  # type: ignore[arg-type]
+            except (TypeError, ValueError):
+                raise InputError(f"line {line}: {key} {value!r} is not a number",
+                                 culprit=where) from None
+    return rows
 
 
 def write_timeline(study: Study, out: Path) -> int:
