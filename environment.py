@@ -1,6 +1,7 @@
 """The environment variables astrocpg reads, parsed in one place.
 
-A switch (``ASTROCPG_COMPILED_PHYSICS``, ``ASTROCPG_DEBUG``) is a boolean: ``1``, ``true``,
+A switch (``ASTROCPG_COMPILED_PHYSICS``, ``ASTROCPG_COMPILED_RECORDING``, ``ASTROCPG_DEBUG``)
+is a boolean: ``1``, ``true``,
 ``yes``, ``on`` or ``0``, ``false``, ``no``, ``off`` (any case, spaces around ignored; unset
 or empty: its default). Any other value is an :class:`~astrocpg.errors.InputError` naming the
 variable, never a guess: ``ASTROCPG_COMPILED_PHYSICS=false`` once meant "on", since only ``0``
@@ -21,16 +22,20 @@ TRUE = ("1", "true", "yes", "on")
 FALSE = ("0", "false", "no", "off")
 
 #: The boolean switches astrocpg reads, with their defaults.
-SWITCHES = {"ASTROCPG_COMPILED_PHYSICS": True, "ASTROCPG_DEBUG": False}
+SWITCHES = {"ASTROCPG_COMPILED_PHYSICS": True, "ASTROCPG_COMPILED_RECORDING": True,
+            "ASTROCPG_DEBUG": False}
 
 #: The variables that choose how a result is computed, kept in every manifest as set (None:
 #: unset). ASTROCPG_CODEGEN: Brian2's code-generation target (numpy or cython: the same
 #: equations, rounding may differ in the last bits). ASTROCPG_COMPILED_PHYSICS: whether the
 #: robots' physics steps in one compiled C loop or from Python; both make the same MuJoCo calls
 #: in the same order, so the results are bit-identical (tests/test_compiled_physics.py checks
-#: it), and it is kept as part of the environment all the same. MUJOCO_GL: the renderer of
-#: videos (not of any number).
-RECORDED = ("ASTROCPG_CODEGEN", "ASTROCPG_COMPILED_PHYSICS", "MUJOCO_GL")
+#: it), and it is kept as part of the environment all the same. ASTROCPG_COMPILED_RECORDING:
+#: whether a run's traces are sampled by compiled C or by numpy (the same bytes:
+#: tests/test_trace_recorder.py), kept likewise. MUJOCO_GL: the renderer of videos (not of any
+#: number).
+RECORDED = ("ASTROCPG_CODEGEN", "ASTROCPG_COMPILED_PHYSICS", "ASTROCPG_COMPILED_RECORDING",
+            "MUJOCO_GL")
 
 
 def flag(name: str, default: bool | None = None,

@@ -8,8 +8,8 @@ recording, in this process after the imports, and times with CPU clocks:
 
 - per step, inside the loop (thread CPU time of each call, microseconds per step): the trace
   recorder's sample (``TraceRecorder.sample``, its block rounding and spilling included), the
-  spilled traces' block writes alone (``SpilledTrace.append``), the robot recording
-  (``Recording.take``) and the spike monitors' growth (``SpikeRecorder.resize``);
+  spilled traces' block writes alone (``SpilledTrace.append``), the robot recording (the
+  bridge's ``recording`` hook, ``Bridge._record``) and the spike monitors' growth (``SpikeRecorder.resize``);
 - per run (process CPU seconds): the loop (``_run``), the summary (``_summarise``) and the
   folder's files with their hashes (``write_run_folder``).
 
@@ -32,11 +32,11 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import astrocpg.studies.commands.run as run_command  # noqa: E402
 import astrocpg.studies.commands.simulate as simulate  # noqa: E402
-from astrocpg.coupling.robot_recording import Recording  # noqa: E402
+from astrocpg.coupling.bridge import Bridge  # noqa: E402
 from astrocpg.network import recording  # noqa: E402
 
-IN_LOOP = [(recording.TraceRecorder, "sample"), (recording.SpilledTrace, "append"),
-           (Recording, "take"), (recording.SpikeRecorder, "resize")]
+IN_LOOP = [(recording.TraceRecorder, "sample"), (recording.SpilledTrace, "write_block"),
+           (Bridge, "_record"), (recording.SpikeRecorder, "resize")]
 PHASES = [(simulate, "_run"), (run_command, "_summarise"), (run_command, "write_run_folder")]
 
 

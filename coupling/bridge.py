@@ -327,12 +327,13 @@ class Bridge:
         return self.robots.sample(trials)
 
     def _record(self) -> None:
-        self.recording.take(self.step_count, self.robots, self.senses)
+        self._take(self.step_count)
 
     def start_recording(self, n_steps: int, stride: int = 1) -> Recording:
         """Record the robot every ``stride`` steps for the next ``n_steps`` steps of the bridge
         (from its start: ``step_count`` 0); a hook named ``recording``."""
         self.recording = Recording.allocate(self.n_trials, n_steps, stride, self.dt)
+        self._take = self.recording.taker(self.robots, self.senses)
         if "recording" not in self._hooks:
             self.add_hook("after_physics", "recording", self._record, order=ORDER_RECORDING)
         return self.recording

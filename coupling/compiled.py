@@ -20,12 +20,8 @@ warning says so and the robots are stepped from Python.
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import logging
-import os
 import subprocess
-import sysconfig
-import tempfile
 import warnings
 from pathlib import Path
 from typing import Any, Callable
@@ -34,6 +30,7 @@ import mujoco
 import numpy as np
 
 from ..environment import flag
+from ..network import native
 
 log = logging.getLogger("astrocpg.compiled")
 
@@ -60,6 +57,53 @@ int astrocpg_step_all(const mjModel* m, mjData** d, int n, double* state, int ro
     return warned;
 }
 
+/* Where one sample of every trial's robot goes (the run's recording, robot_recording.py): each
+   output is sample-major, sample k of trial b at row k * n + b of a `width`-wide table. */
+typedef struct {
+    int n, row, nq, nv, nj;          /* trials; doubles per state row; joints recorded */
+    const long long* qa;             /* the joints' offsets in qpos */
+    const long long* act;            /* their motors' offsets in ctrl */
+    const double* lo;                /* the motors' ctrlrange: what MuJoCo applies */
+    const double* hi;
+    int fq, fv;                      /* the free joint's qpos and dof addresses */
+    const double* state;             /* the robots' state rows: qpos, qvel, ctrl */
+    const double* reward;            /* (n,) this step's reward */
+    const unsigned char* alive;      /* (n,) numpy bools */
+    mjData** d;                      /* NULL: the touch sensors are not gathered here */
+    int touch_adr, touch_k;
+    double *angles, *torques, *position, *velocity, *quaternion, *reward_out, *touch;
+    unsigned char* alive_out;
+} astrocpg_take_plan;
+
+/* Sample k of every trial: joint angles, applied torques (ctrl clamped to ctrlrange as
+   np.clip clamps it: NaN stays NaN), torso position, velocity and quaternion, reward, alive and
+   the feet's touch sensors: what Recording.take writes with numpy, in one call. */
+void astrocpg_take(const astrocpg_take_plan* p, long k) {
+    int n = p->n, nj = p->nj;
+    size_t s = (size_t)k * n;
+    for (int b = 0; b < n; b++) {
+        const double* q = p->state + (size_t)b * p->row;
+        const double* v = q + p->nq;
+        const double* c = v + p->nv;
+        double* ang = p->angles + (s + b) * nj;
+        double* tor = p->torques + (s + b) * nj;
+        for (int j = 0; j < nj; j++) {
+            double u = c[p->act[j]];
+            u = u < p->lo[j] ? p->lo[j] : u;
+            tor[j] = u > p->hi[j] ? p->hi[j] : u;
+            ang[j] = q[p->qa[j]];
+        }
+        memcpy(p->position + (s + b) * 3, q + p->fq, sizeof(double) * 3);
+        memcpy(p->quaternion + (s + b) * 4, q + p->fq + 3, sizeof(double) * 4);
+        memcpy(p->velocity + (s + b) * 3, v + p->fv, sizeof(double) * 3);
+        p->reward_out[s + b] = p->reward[b];
+        p->alive_out[s + b] = p->alive[b];
+        if (p->d)
+            memcpy(p->touch + (s + b) * p->touch_k, p->d[b]->sensordata + p->touch_adr,
+                   sizeof(mjtNum) * p->touch_k);
+    }
+}
+
 /* k values of every trial's sensordata from address adr into row b of `out` (k apart): the
    feet's touch sensors of a batch in one call instead of one copy per trial from Python. */
 void astrocpg_gather_sensors(mjData** d, int n, int adr, int k, double* out) {
@@ -72,9 +116,14 @@ _LIBRARY: Any = None  # the loaded library, False once building it failed
 #: why a bad cached library could not be replaced (None: no such problem in this process)
 PROBLEM: str | None = None
 
-
-def _cache_dir() -> Path:
-    return Path(os.environ.get("ASTROCPG_CACHE", Path.home() / ".cache" / "astrocpg"))
+#: the library's functions and their signatures (``native.load`` sets them)
+FUNCTIONS: dict[str, native.Signature] = {
+    "astrocpg_step_all": ([ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p,
+                           ctypes.c_int], ctypes.c_int),
+    "astrocpg_gather_sensors": ([ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                                 ctypes.c_void_p], None),
+    "astrocpg_take": ([ctypes.c_void_p, ctypes.c_long], None),
+}
 
 
 def _mujoco_library() -> tuple[Path, Path]:
@@ -86,83 +135,26 @@ def _mujoco_library() -> tuple[Path, Path]:
     return libs[0], root / "include"
 
 
-class BadLibrary(OSError):
-    """A cached library that cannot be loaded or lacks ``astrocpg_step_all``."""
-
-
 def _target() -> Path:
     library, _ = _mujoco_library()
-    key = hashlib.sha256(f"{SOURCE}{mujoco.__version__}{library}".encode()).hexdigest()[:16]
-    return _cache_dir() / f"physics_{key}{sysconfig.get_config_var('SHLIB_SUFFIX') or '.so'}"
+    return native.target("physics", SOURCE, mujoco.__version__, str(library))
 
 
 def _load(target: Path) -> ctypes.CDLL:
-    """The library at ``target`` with its loop's signature set; BadLibrary when the file is
-    not a loadable library or has no loop (the handle is closed again: a later load of a
-    rebuilt file at the same path must not get this one back from the loader's cache)."""
-    try:
-        lib = ctypes.CDLL(str(target))
-    except OSError as e:
-        raise BadLibrary(f"cannot load {target}: {e}") from None
-    try:
-        fn, gather = lib.astrocpg_step_all, lib.astrocpg_gather_sensors
-    except AttributeError:
-        _close(lib)
-        raise BadLibrary(f"{target} has no astrocpg_step_all or astrocpg_gather_sensors") \
-            from None
-    fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p,
-                   ctypes.c_int]
-    fn.restype = ctypes.c_int
-    gather.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_int,
-                       ctypes.c_void_p]
-    gather.restype = None
-    return lib
+    return native.load(target, FUNCTIONS)
 
 
-def _close(lib: ctypes.CDLL) -> None:
-    try:
-        import _ctypes
-
-        _ctypes.dlclose(lib._handle)  # POSIX only; elsewhere the rebuilt file is loaded anew
-    except (ImportError, AttributeError, OSError):
-        pass
+def _compile(target: Path) -> None:
+    library, include = _mujoco_library()
+    native.compile_source(target, SOURCE, [f"-I{include}", str(library),
+                                           f"-Wl,-rpath,{library.parent}"])
 
 
 def _build() -> ctypes.CDLL:
     """The compiled loop: the cached library, else built now; a cached one that is bad is
     removed and built again once (BadLibrary if that one is bad too)."""
-    target = _target()
-    if not target.is_file():
-        _compile(target)
-        return _load(target)
-    try:
-        return _load(target)
-    except BadLibrary as e:
-        bad = e
-    log.info("rebuilding the compiled physics: %s", bad)
-    try:
-        target.unlink()
-    except FileNotFoundError:
-        pass
-    try:
-        _compile(target)
-    except (OSError, subprocess.SubprocessError) as e:
-        raise BadLibrary(f"{bad}; building it again failed: {type(e).__name__}") from None
-    return _load(target)
-
-
-def _compile(target: Path) -> None:
-    library, include = _mujoco_library()
-    if not target.is_file():
-        target.parent.mkdir(parents=True, exist_ok=True)
-        cc = (sysconfig.get_config_var("CC") or "cc").split()
-        with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
-            src, out = Path(tmp) / "physics.c", Path(tmp) / target.name
-            src.write_text(SOURCE)
-            subprocess.run([*cc, "-O2", "-shared", "-fPIC", f"-I{include}", "-o", str(out),
-                            str(src), str(library), f"-Wl,-rpath,{library.parent}"],
-                           check=True, capture_output=True, timeout=120)
-            os.replace(out, target)  # whole or not at all, whoever builds it at the same time
+    return native.build(_target(), lambda target: _compile(target), _load,
+                        "the compiled physics")
 
 
 def library() -> ctypes.CDLL | None:
@@ -174,7 +166,7 @@ def library() -> ctypes.CDLL | None:
     if _LIBRARY is None:
         try:
             _LIBRARY = _build()
-        except BadLibrary as e:  # a cached library was bad, and so is the one built now
+        except native.BadLibrary as e:  # a cached library was bad, and so is the one built now
             PROBLEM = (f"the compiled physics cannot be used ({e}); the robots are stepped "
                        f"from Python (slower, the same results)")
             warnings.warn(PROBLEM, RuntimeWarning, stacklevel=2)
@@ -243,4 +235,67 @@ def gather_sensors(data: list[mujoco.MjData], adr: int, k: int,
     return gather
 
 
-__all__ = ["step_all", "gather_sensors", "library", "state", "SOURCE", "PROBLEM"]
+class _TakePlan(ctypes.Structure):
+    """``astrocpg_take_plan`` of :data:`SOURCE`, field for field."""
+
+    _fields_ = [(name, ctypes.c_int) for name in ("n", "row", "nq", "nv", "nj")] + [
+        ("qa", ctypes.c_void_p), ("act", ctypes.c_void_p), ("lo", ctypes.c_void_p),
+        ("hi", ctypes.c_void_p), ("fq", ctypes.c_int), ("fv", ctypes.c_int),
+        ("state", ctypes.c_void_p), ("reward", ctypes.c_void_p), ("alive", ctypes.c_void_p),
+        ("d", ctypes.c_void_p), ("touch_adr", ctypes.c_int), ("touch_k", ctypes.c_int)] + [
+        (name, ctypes.c_void_p) for name in ("angles", "torques", "position", "velocity",
+                                             "quaternion", "reward_out", "touch", "alive_out")]
+
+
+def take_robots(data: list[mujoco.MjData], state: np.ndarray, nq: int, nv: int,
+                qa: np.ndarray, act: np.ndarray, lo: np.ndarray, hi: np.ndarray, fq: int,
+                fv: int, reward: np.ndarray, alive: np.ndarray, touch: tuple[int, int] | None,
+                out: dict[str, np.ndarray]) -> Callable[[int], None] | None:
+    """A function ``take(k)`` that writes sample ``k`` of every trial's robot into ``out``
+    (``angles``, ``torques``: nj values per trial; ``position``, ``velocity``: 3;
+    ``quaternion``: 4; ``touch``: the sensors' count; ``reward``; ``alive``, bool: each the
+    samples of a run, C-contiguous, sample-major: ``out[name][k, b]`` trial b's sample k) from the robots' ``state`` rows
+    (qpos, qvel, ctrl) and the senses' ``reward`` and ``alive``, the torques clamped to
+    [``lo``, ``hi``] as MuJoCo applies them; ``touch``: (address, count) of the feet's sensors
+    in every MjData's ``sensordata``, or None to leave ``out["touch"]`` alone. The same values
+    as the numpy copies of ``Recording.take``, in one call; None where the compiled loop is not
+    available or an array is not laid out as this needs."""
+    lib = library()
+    n = len(data)
+    shapes = {"angles": (qa.size,), "torques": (qa.size,), "position": (3,),
+              "velocity": (3,), "quaternion": (4,), "reward": (), "alive": (),
+              "touch": (4 if touch is None else touch[1],)}
+    if lib is None or state.dtype != np.float64 or not state.flags.c_contiguous \
+            or reward.dtype != np.float64 or alive.dtype != np.bool_ \
+            or reward.shape != (n,) or alive.shape != (n,) or act.size != qa.size:
+        return None
+    for name, tail in shapes.items():
+        a = out[name]
+        if a.ndim < 2 or a.shape[1] != n or int(np.prod(a.shape[2:])) != int(np.prod(tail)) \
+                or not a.flags.c_contiguous or \
+                a.dtype != (np.bool_ if name == "alive" else np.float64):
+            return None
+    index = [np.ascontiguousarray(x, dtype=np.int64).reshape(-1) for x in (qa, act)]
+    bounds = [np.ascontiguousarray(x, dtype=np.float64).reshape(-1) for x in (lo, hi)]
+    pointers = np.array([d._address for d in data], dtype=np.uintp)
+    plan = _TakePlan(n=n, row=state.shape[1], nq=nq, nv=nv, nj=qa.size,
+                     qa=index[0].ctypes.data, act=index[1].ctypes.data,
+                     lo=bounds[0].ctypes.data, hi=bounds[1].ctypes.data, fq=fq, fv=fv,
+                     state=state.ctypes.data, reward=reward.ctypes.data,
+                     alive=alive.ctypes.data,
+                     d=None if touch is None else pointers.ctypes.data,
+                     touch_adr=0 if touch is None else touch[0],
+                     touch_k=0 if touch is None else touch[1],
+                     **{("reward_out" if k == "reward" else "alive_out" if k == "alive" else k):
+                        out[k].ctypes.data for k in shapes})
+    fn, ref = lib.astrocpg_take, ctypes.byref(plan)
+    keep = (data, state, reward, alive, index, bounds, pointers, out, plan)
+
+    def take(k: int) -> None:
+        fn(ref, k)
+
+    take.keep = keep  # type: ignore[attr-defined]
+    return take
+
+
+__all__ = ["step_all", "gather_sensors", "take_robots", "library", "state", "SOURCE", "PROBLEM"]

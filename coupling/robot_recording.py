@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -69,6 +69,25 @@ class Recording:
             foot_force=full((n_trials, n, 4), np.nan),
             torso_quaternion=full((n_trials, n, 4), np.array([1.0, 0.0, 0.0, 0.0])),
         )
+
+    def taker(self, robots: "Robots", senses: "Senses") -> Callable[[int], None]:
+        """``take(step_count)``: :meth:`take` of these robots and senses, made once; every
+        trial's sample written by one call of compiled code where it can be
+        (:func:`~astrocpg.coupling.compiled.take_robots`: the same values), else :meth:`take`."""
+        fast = robots.take_into(senses.reward, senses.alive, {
+            "angles": self.joint_angles, "torques": self.torques,
+            "position": self.torso_position, "velocity": self.torso_velocity,
+            "quaternion": self.torso_quaternion, "reward": self.reward, "alive": self.alive,
+            "touch": self.foot_force})
+        if fast is None:
+            return lambda step_count: self.take(step_count, robots, senses)
+        stride, n = self.stride, len(self.t)
+
+        def take(step_count: int) -> None:
+            k, r = divmod(step_count - 1, stride)  # sample of the step just done
+            if not r and k < n:
+                fast(k)
+        return take
 
     def take(self, step_count: int, robots: "Robots", senses: "Senses") -> None:
         """The sample of the step just done (``step_count`` steps counted), if it is one."""

@@ -14,13 +14,14 @@ trials (MjData) only.
 from __future__ import annotations
 
 import math
+from typing import Callable
 
 import mujoco
 import numpy as np
 
 from ..errors import Diverged
 from ..network import invalid
-from .compiled import gather_sensors, step_all
+from .compiled import gather_sensors, step_all, take_robots
 from .robot import RobotLayout, reset
 
 # MuJoCo's instability warnings: the robot's numbers left the finite range (MuJoCo resets the
@@ -170,6 +171,26 @@ class Robots:
                     else ("ctrl", k - nq - nv))
         return Diverged(f"{self.state[b, k]} in {which}[{i}] of trial {b} at "
                         f"t = {t:.3f} s", culprit=f"robot {which}", t=t, trial=b)
+
+    def take_into(self, reward: np.ndarray, alive: np.ndarray,
+                  out: dict[str, np.ndarray]) -> Callable[[int], None] | None:
+        """``take(k)``: every trial's sample k (joint angles, applied torques, torso position,
+        velocity and quaternion, ``reward``, ``alive``, touch sensors) into ``out``'s
+        trial-major arrays ((trials, samples, ...), held sample-major:
+        :meth:`Recording.allocate <astrocpg.coupling.robot_recording.Recording.allocate>`) in
+        one call of compiled code; None where that cannot be (no compiled step, sensors not
+        contiguous, arrays laid out otherwise): the caller copies with numpy."""
+        if self._compiled is None:
+            return None
+        touch = None
+        if self._touch_batch is not None:
+            if self._touch_batch[1] is None:  # scattered sensors: gathered trial by trial
+                return None
+            touch = (int(self.layout.touch_adr[0]), len(self.layout.touch_adr))
+        samples = {k: a.swapaxes(0, 1) for k, a in out.items()}
+        return take_robots(self.data, self.state, self.model.nq, self.model.nv, self.qa,
+                           self.act, self._ctrl_lo, self._ctrl_hi, self.fq, self.fv, reward,
+                           alive, touch, samples)
 
     def joints_into(self, angles: np.ndarray, torques: np.ndarray) -> None:
         """Every trial's joint angles and applied torques, (trials, 4 legs, 3 joints), written

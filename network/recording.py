@@ -13,11 +13,16 @@ simulated second (``studies.runtime.resources`` counts it before a run starts).
 
 from __future__ import annotations
 
+import ctypes
+import mmap
+import warnings
 from typing import Any, Callable, Protocol
 
 import brian2
 import numpy as np
 
+from ..environment import flag
+from . import native
 from .populations import trace_sources
 
 #: What a trace may be kept as: float32 (default) or float64 (Brian2's own resolution).
@@ -26,6 +31,113 @@ TRACE_DTYPES = ("float32", "float64")
 #: Samples computed in float64 before they are rounded to float32 together: one cast of a block
 #: instead of a cast (and a check of numpy's overflow flag) per sample and trace.
 STAGED_SAMPLES = 64
+
+
+#: One step's samples of every trace in one call (:class:`TraceRecorder`, where a C compiler is
+#: found and ``ASTROCPG_COMPILED_RECORDING`` is on): the float64 product of the network's value
+#: and the trace's scale rounded to float32 (or kept as float64) as numpy rounds it, so the
+#: same bytes as the numpy path, and for a spilled trace the counts of infinities and each
+#: column's largest value, taken on the way instead of in a pass over each block.
+KERNEL_SOURCE = r"""
+#include <string.h>
+
+typedef struct {
+    const double* src;      /* the network's values, flat, in the files' column order */
+    long n;                 /* values per sample */
+    double scale;           /* to the stored unit */
+    char* dst;              /* row 0 of where samples go: the held values or a spill block */
+    long row_bytes;
+    int f32;                /* kept as float32 (else float64) */
+    int in_block;           /* its rows are the block's (j), not the run's (k) */
+    void* top;              /* NULL, or each column's largest value so far (the trace's own
+                               type: float32 compared four at a time), NaN ignored */
+    long long* inf;         /* NULL, or (values beyond float32's range, samples holding one) */
+} astrocpg_trace;
+
+void astrocpg_sample_traces(const astrocpg_trace* t, int m, long k, long j) {
+    for (int i = 0; i < m; i++, t++) {
+        const double* s = t->src;
+        char* row = t->dst + (t->in_block ? j : k) * t->row_bytes;
+        long n = t->n, bad = 0;
+        /* each pass is a loop without branches, vectorised (one loop doing both is not) */
+        if (t->f32) {
+            float* d = (float*)row;
+            float* top = (float*)t->top;
+            for (long c = 0; c < n; c++)
+                d[c] = (float)(s[c] * t->scale);
+            if (t->inf) {
+                unsigned int b = 0;  /* an infinity's bits, compared as integers */
+                for (long c = 0; c < n; c++) {
+                    unsigned int u;
+                    memcpy(&u, d + c, sizeof u);
+                    b += (u & 0x7fffffffu) == 0x7f800000u;
+                }
+                bad = b;
+            }
+            if (top)
+                for (long c = 0; c < n; c++) {
+                    float f = d[c], m = top[c];
+                    top[c] = ((f == f) & !(f <= m)) ? f : m;
+                }
+        } else {
+            double* d = (double*)row;
+            double* top = (double*)t->top;
+            for (long c = 0; c < n; c++)
+                d[c] = s[c] * t->scale;
+            if (top)
+                for (long c = 0; c < n; c++) {
+                    double v = d[c], m = top[c];
+                    top[c] = ((v == v) & !(v <= m)) ? v : m;
+                }
+        }
+        if (bad && t->inf) {
+            t->inf[0] += bad;
+            t->inf[1] += 1;
+        }
+    }
+}
+"""
+
+
+class _Trace(ctypes.Structure):
+    """``astrocpg_trace`` of :data:`KERNEL_SOURCE`, field for field."""
+
+    _fields_ = [("src", ctypes.c_void_p), ("n", ctypes.c_long), ("scale", ctypes.c_double),
+                ("dst", ctypes.c_void_p), ("row_bytes", ctypes.c_long), ("f32", ctypes.c_int),
+                ("in_block", ctypes.c_int), ("top", ctypes.c_void_p),
+                ("inf", ctypes.c_void_p)]
+
+
+KERNEL = native.Library("recording", KERNEL_SOURCE, {
+    "astrocpg_sample_traces": ([ctypes.c_void_p, ctypes.c_int, ctypes.c_long, ctypes.c_long],
+                               None)}, "the compiled trace recorder", flags=("-O3",))
+
+
+def kernel() -> Any:
+    """The compiled trace sampler, or None (off: ``ASTROCPG_COMPILED_RECORDING``; no C
+    compiler; a bad cached library that could not be rebuilt: :attr:`KERNEL.problem
+    <astrocpg.network.native.Library.problem>`, warned once): the recorder then samples with
+    numpy, the same values."""
+    if not flag("ASTROCPG_COMPILED_RECORDING"):
+        return None
+    first = KERNEL.lib is None
+    lib = KERNEL.get()
+    if lib is None and first and KERNEL.problem:
+        warnings.warn(f"{KERNEL.problem}; traces are sampled with numpy (slower, the same "
+                      f"values)", RuntimeWarning, stacklevel=2)
+    return None if lib is None else lib.astrocpg_sample_traces
+
+
+def kernel_state() -> str:
+    """How this process samples traces, for a manifest: ``compiled``, ``numpy
+    (ASTROCPG_COMPILED_RECORDING off)``, ``numpy (<why>)`` or ``not used yet``."""
+    if not flag("ASTROCPG_COMPILED_RECORDING"):
+        return "numpy (ASTROCPG_COMPILED_RECORDING off)"
+    if KERNEL.lib is None:
+        return "not used yet"
+    if KERNEL.lib is False:
+        return f"numpy ({KERNEL.problem or 'the compiled sampler could not be built here'})"
+    return "compiled"
 
 
 class SpikeRecorder(brian2.SpikeMonitor):
@@ -100,14 +212,32 @@ class SpilledTrace:
         self.name, self.path, self.sink = name, path, sink
         self.columns, self.dtype = int(columns), np.dtype(dtype)
         self.samples = 0
-        self.inf_values = 0  # values beyond float32's range, stored as inf
-        self.inf_samples = 0  # samples (rows) holding one
-        self.block = np.zeros((rows, self.columns), dtype=self.dtype)  # one rounded block
-        #: each column's largest value so far, NaN ignored (a run's summary reads the peaks
-        #: without reading the file back)
-        self.column_max = np.full(self.columns, np.nan)
+        #: values beyond float32's range (stored as inf), samples (rows) holding one
+        self.inf_counts = np.zeros(2, dtype=np.int64)
+        # one rounded block, page-aligned (anonymous memory): a sink that writes past the page
+        # cache takes it as it is (studies/outputs/writing.DirectFile), without a copy
+        nbytes = max(rows * self.columns * self.dtype.itemsize, 1)
+        self.block = np.frombuffer(mmap.mmap(-1, nbytes), dtype=np.uint8, count=nbytes
+                                   ).view(self.dtype).reshape(rows, self.columns)
+        #: each column's largest value so far, NaN ignored, in the trace's dtype
+        #: (:attr:`column_max`)
+        self.top = np.full(self.columns, np.nan, dtype=self.dtype)
         self._block_max = np.empty(self.columns, dtype=self.dtype)
         self.closed = False
+
+    @property
+    def column_max(self) -> np.ndarray:
+        """Each column's largest value (float64), NaN where all were NaN or none was written:
+        a run's summary reads the peaks without reading the file back."""
+        return self.top.astype(np.float64)
+
+    @property
+    def inf_values(self) -> int:
+        return int(self.inf_counts[0])
+
+    @property
+    def inf_samples(self) -> int:
+        return int(self.inf_counts[1])
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -133,12 +263,16 @@ class SpilledTrace:
                 maybe = not np.isfinite(block.sum())
             if maybe:
                 bad = np.isinf(block)
-                self.inf_values += int(bad.sum())
-                self.inf_samples += int(bad.any(axis=1).sum())
+                self.inf_counts += (int(bad.sum()), int(bad.any(axis=1).sum()))
         if n:
             np.fmax.reduce(block, axis=0, out=self._block_max)
-            np.fmax(self.column_max, self._block_max, out=self.column_max)
-        self.sink.write(block)
+            np.fmax(self.top, self._block_max, out=self.top)
+        self.write_block(n)
+
+    def write_block(self, n: int) -> None:
+        """Write the first ``n`` rows of :attr:`block`, rounded and counted (by
+        :meth:`append`, or by the compiled recorder as it sampled them)."""
+        self.sink.write(self.block[:n])
         self.samples += n
 
     def close(self) -> None:
@@ -183,8 +317,7 @@ class TraceRecorder:
         self.dt = float(cpg.dt)
         self.sources: dict[str, tuple[Any, np.ndarray, float]] = {}
         self.values: dict[str, np.ndarray] = {}
-        staged = self.dtype != np.float64
-        #: float64 blocks of the samples not yet rounded into values (float32 only)
+        #: float64 blocks of the samples not yet rounded into values (float32 only, numpy path)
         self._stage: dict[str, np.ndarray] = {}
         #: the traces written to disk as the run goes (their samples are not in values)
         self.spilled: dict[str, SpilledTrace] = {}
@@ -203,14 +336,17 @@ class TraceRecorder:
                         self.n_samples * columns * self.dtype.itemsize >= spill_bytes:
                     path, sink = spill(name)
                     self.spilled[name] = SpilledTrace(name, path, sink, columns, self.dtype, rows)
-                    self._stage[name] = np.zeros((rows, columns))
                     continue
                 # written through once here: the memory is taken now, not page by page in the
                 # run
                 self.values[name] = np.empty((self.n_samples, columns), dtype=self.dtype)
                 self.values[name].fill(0)
-                if staged:
-                    self._stage[name] = np.zeros((rows, columns))
+            #: every trace's sample of a step in one call of compiled code (None: numpy)
+            self._compiled = self._compiled_sampler()
+            if self._compiled is None:
+                for name, (_, flat, _) in self.sources.items():
+                    if name in self.spilled or self.dtype != np.float64:
+                        self._stage[name] = np.zeros((rows, flat.size))
         except BaseException:
             self.abandon()
             raise
@@ -220,6 +356,34 @@ class TraceRecorder:
         self._rows = rows  # samples per float64 block
         self._plan = [(flat, scale, self._stage.get(name), self.values.get(name))
                       for name, (_, flat, scale) in self.sources.items()]
+
+    def _compiled_sampler(self) -> Callable[[int, int], None] | None:
+        """``sample(k, j)``: every trace's sample k (row j of a spilled trace's block) by the
+        compiled kernel (:func:`kernel`); None where there is none or a source is not one
+        float64 array that the table refreshes in place."""
+        fn = kernel()
+        if fn is None:
+            return None
+        traces = []
+        for name, (table, flat, scale) in self.sources.items():
+            if flat.dtype != np.float64 or not flat.flags.c_contiguous \
+                    or not np.shares_memory(flat, table.values):
+                return None
+            spilled = self.spilled.get(name)
+            dst = self.values[name] if spilled is None else spilled.block
+            f32 = self.dtype == np.float32
+            traces.append(_Trace(
+                src=flat.ctypes.data, n=flat.size, scale=scale, dst=dst.ctypes.data,
+                row_bytes=dst.strides[0], f32=f32, in_block=spilled is not None,
+                top=None if spilled is None else spilled.top.ctypes.data,
+                inf=spilled.inf_counts.ctypes.data if spilled is not None and f32 else None))
+        plan, m = (_Trace * len(traces))(*traces), len(traces)
+
+        def sample(k: int, j: int) -> None:
+            fn(plan, m, k, j)
+        # the arrays the plan points into are this recorder's and its tables' own, held by it
+        sample.keep = plan  # type: ignore[attr-defined]
+        return sample
 
     def operation(self) -> brian2.NetworkOperation:
         """At the start of every step, on the network's clock (one clock: Brian2's single-clock
@@ -231,20 +395,29 @@ class TraceRecorder:
         if self._timestep[0] != self._next or self.samples >= self.n_samples:
             return
         k = self.samples
-        j = k - self._flushed  # its row in the float64 block (float32 traces)
+        j = k - self._flushed  # its row in the block (float64 stage, or a spilled trace's)
         for read in self._reads:
             read()
-        for flat, scale, stage, values in self._plan:
-            # the stored unit computed in float64, rounded to float32 with its block (flush)
-            np.multiply(flat, scale, out=values[k] if stage is None else stage[j])
+        if self._compiled is not None:
+            self._compiled(k, j)
+        else:
+            for flat, scale, stage, values in self._plan:
+                # the stored unit computed in float64, rounded to float32 with its block
+                # (flush)
+                np.multiply(flat, scale, out=values[k] if stage is None else stage[j])
         self.samples = k + 1
         self._next += self.stride
-        if self._stage and j + 1 == self._rows:
+        if j + 1 == self._rows and (self._stage or self.spilled):
             self.flush()
 
     def flush(self) -> None:
-        """Round the float64 block of the latest samples into :attr:`values` (float32)."""
+        """Round the float64 block of the latest samples into :attr:`values` (float32), or
+        write a spilled trace's block (its samples already rounded by the compiled kernel)."""
         n = self.samples - self._flushed
+        if n > 0 and self._compiled is not None:  # rounded and counted as they were sampled
+            for spilled in self.spilled.values():
+                spilled.write_block(n)
+            self._flushed = self.samples
         if n <= 0 or not self._stage:
             return
         # a value beyond float32's range becomes inf: counted after the run (overflowed()),

@@ -103,18 +103,18 @@ def test_profile_step_times_a_steps_python_and_puts_everything_back():
 def test_recording_breakdown_times_each_recorder_and_puts_them_back(tmp_path):
     """recording_breakdown.measure: the recorded run's in-loop parts and phases are timed, the
     unrecorded run has no recorder's time, and the wrapped functions are the originals after."""
-    from astrocpg.coupling.robot_recording import Recording
+    from astrocpg.coupling.bridge import Bridge
     from astrocpg.network import recording
 
     rb = benchmark("recording_breakdown")
-    before = recording.TraceRecorder.sample, Recording.take
+    before = recording.TraceRecorder.sample, Bridge._record
     got = rb.measure(0.2, 2, True, tmp_path / "rec")
-    assert {"TraceRecorder.sample", "Recording.take", "SpikeRecorder.resize", "_run",
+    assert {"TraceRecorder.sample", "Bridge._record", "SpikeRecorder.resize", "_run",
             "write_run_folder"} <= set(got) and all(v >= 0 for v in got.values())
     assert got["_run"] > 0
     off = rb.measure(0.2, 2, False, tmp_path / "off")
     assert "TraceRecorder.sample" not in off and "SpikeRecorder.resize" not in off
-    assert (recording.TraceRecorder.sample, Recording.take) == before
+    assert (recording.TraceRecorder.sample, Bridge._record) == before
 
 
 def test_between_commits_reads_the_last_table_of_speed():

@@ -220,3 +220,53 @@ def test_the_feet_touch_sensors_gathered_by_compiled_code_are_the_trials_own(mon
         np.testing.assert_array_equal(got_slow, want)
         seen_contact |= bool((want > 0).any())
     assert seen_contact  # the feet touched the ground: the copy was not of zeros only
+
+
+def test_the_compiled_robot_sample_is_what_numpy_copies(monkeypatch):
+    """A run's robot recording takes every trial's sample in one compiled call
+    (``Recording.taker``): joint angles, torques as applied (clamped to the motors' range, NaN
+    kept), torso position, velocity and quaternion, reward, alive and the feet's sensors are
+    what ``Recording.take`` copies with numpy, sample for sample, on a stride of 3."""
+    from types import SimpleNamespace
+
+    from astrocpg.coupling.robot_recording import Recording
+
+    if compiled.library() is None:
+        pytest.skip("no C compiler here")
+    robots = _robots(monkeypatch, True, n=4)
+    senses = SimpleNamespace(reward=np.zeros(4), alive=np.ones(4, dtype=bool))
+    fast_rec, slow_rec = (Recording.allocate(4, 300, 3, 0.001) for _ in range(2))
+    fast = fast_rec.taker(robots, senses)
+    assert "lambda" not in fast.__qualname__  # the compiled one, not the numpy fallback
+    rng = np.random.default_rng(2)
+    act = robots.act.ravel()
+    for step in range(1, 301):
+        robots.ctrl[:, act] = rng.uniform(-60, 60, size=(4, len(act)))  # beyond the range too
+        robots.physics()
+        if step % 50 == 0:  # NaN torques (the network diverging) are recorded as NaN
+            robots.ctrl[1, act[0]] = np.nan
+        senses.reward[:] = rng.normal(size=4)
+        senses.alive[:] = rng.random(4) < 0.5
+        fast(step)
+        slow_rec.take(step, robots, senses)
+    for name in ("joint_angles", "torques", "torso_position", "torso_velocity",
+                 "torso_quaternion", "reward", "alive", "foot_force"):
+        np.testing.assert_array_equal(getattr(fast_rec, name), getattr(slow_rec, name),
+                                      err_msg=name)
+    assert np.isnan(fast_rec.torques).any() and (fast_rec.foot_force > 0).any()
+    assert np.abs(fast_rec.torques[np.isfinite(fast_rec.torques)]).max() < 60
+
+
+def test_without_the_compiled_step_the_robot_sample_is_taken_with_numpy(monkeypatch):
+    from types import SimpleNamespace
+
+    from astrocpg.coupling.robot_recording import Recording
+
+    robots = _robots(monkeypatch, False, n=2)
+    senses = SimpleNamespace(reward=np.ones(2), alive=np.ones(2, dtype=bool))
+    rec = Recording.allocate(2, 10, 1, 0.001)
+    take = rec.taker(robots, senses)
+    robots.physics()
+    take(1)
+    np.testing.assert_array_equal(rec.torso_position[:, 0], robots.torso["position"])
+    assert rec.reward[:, 0].tolist() == [1.0, 1.0]

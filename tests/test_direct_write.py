@@ -75,6 +75,37 @@ def test_any_sequence_of_writes_gives_the_same_bytes(tmp_path, sizes) -> None:
     assert data == b"".join(pieces) and sha == file_sha256(tmp_path / "f")
 
 
+@pytest.mark.parametrize("sizes", [[8192, 100, 8192], [4096 * 300 + 17, 4096, 4096 * 3]])
+def test_page_aligned_writes_go_out_as_they_are_and_give_the_same_bytes(tmp_path, monkeypatch,
+                                                                        sizes) -> None:
+    """Page-aligned data (a spilled trace's block) is written from where it lies, not copied
+    into the stage, when nothing is staged: the same bytes and sha256 as any other writes,
+    whatever is staged between."""
+    import mmap
+
+    rng = np.random.default_rng(len(sizes))
+    pieces = []
+    for n in sizes:
+        a = np.frombuffer(mmap.mmap(-1, n), dtype=np.uint8)  # page-aligned
+        a[:] = rng.integers(0, 256, n, dtype=np.uint8)
+        pieces.append(a)
+    written = []
+    real_write = os.write
+
+    def watching(fd, data):
+        written.append(np.frombuffer(data, dtype=np.uint8).ctypes.data)
+        return real_write(fd, data)
+    monkeypatch.setattr(writing.os, "write", watching)
+    out = DirectFile(tmp_path / "f", stage=1 << 20)
+    for p in pieces:
+        assert out.write(p) == len(p)
+    direct = out.direct  # False where the file system refused O_DIRECT (tmpfs)
+    sha = out.close()
+    data = (tmp_path / "f").read_bytes()
+    assert data == b"".join(p.tobytes() for p in pieces) and sha == file_sha256(tmp_path / "f")
+    assert (pieces[0].ctypes.data in written) == direct  # the first went out from where it lay
+
+
 def test_without_o_direct_the_same_file_is_written(tmp_path, monkeypatch) -> None:
     """A system without O_DIRECT, and a file system that refuses it at the first write (as
     tmpfs does at open), get the same file through the page cache."""

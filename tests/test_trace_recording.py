@@ -238,3 +238,29 @@ def test_the_memory_a_run_needs_leaves_out_the_traces_it_spills():
     # a short run's traces stay in memory (each under the threshold)
     assert estimate_bytes(trials=1, seconds=1, traces=names, spill_bytes=SPILL_BYTES) == \
         estimate_bytes(trials=1, seconds=1, traces=names)
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_traces_sampled_by_compiled_code_are_numpys_byte_for_byte(tmp_path, monkeypatch, dtype):
+    """The compiled sampler (ASTROCPG_COMPILED_RECORDING, on by default) and numpy write the
+    same folder, traces held or spilled, the overflow counts and peaks of the summary
+    included (float32 traces beyond its range: inf, counted)."""
+    from astrocpg.network import recording
+
+    if recording.kernel() is None:
+        pytest.skip("no C compiler here: traces are sampled with numpy")
+    kw = {"trace_dtype": dtype}
+    if dtype == "float32":
+        kw["overrides"] = {"r_Ca": 1e45}
+    for where, spill_bytes in (("held", 1 << 60), ("spilled", 0)):
+        got = {}
+        for switch in ("1", "0"):
+            monkeypatch.setenv("ASTROCPG_COMPILED_RECORDING", switch)
+            got[switch] = _spill_run(tmp_path, monkeypatch, spill_bytes, f"{where}{switch}", **kw)
+        for f in ("traces.npz", "spikes.npz", "robot.npz"):
+            assert (tmp_path / f"{where}1" / f).read_bytes() == \
+                (tmp_path / f"{where}0" / f).read_bytes(), (where, f)
+        for key in ("trace_overflow", "mechanisms"):
+            assert got["1"].summary[key] == got["0"].summary[key], (where, key)
+    if dtype == "float32":
+        assert got["1"].summary["trace_overflow"]

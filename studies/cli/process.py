@@ -183,6 +183,10 @@ def _run_command(args: argparse.Namespace) -> int:
             compiled = sys.modules.get("astrocpg.coupling.compiled")
             if code == 0 and compiled is not None and compiled.PROBLEM:
                 print(f"warning: {compiled.PROBLEM}")  # warnings are off: said here once
+            traces = sys.modules.get("astrocpg.network.recording")
+            if code == 0 and traces is not None and traces.KERNEL.problem:
+                print(f"warning: {traces.KERNEL.problem}; traces were sampled with numpy "
+                      f"(slower, the same values)")
             return code
         except Exception as e:
             if _interrupted(e):  # cleanup that failed while an interrupt unwound the stack

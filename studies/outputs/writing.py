@@ -46,14 +46,18 @@ def brian2_target() -> str | None:
 
 def environment_record() -> dict[str, str | None]:
     """The environment variables that can change a result (:data:`astrocpg.environment.RECORDED`)
-    as set, and ``physics``: how the robots' physics stepped in this process (compiled or from
-    Python; absent where no robot was simulated)."""
+    as set, ``physics``: how the robots' physics stepped in this process (compiled or from
+    Python; absent where no robot was simulated), and ``trace_sampling``: how traces were
+    sampled (compiled or numpy; absent where none was recorded)."""
     from ...environment import recorded
 
     out: dict[str, str | None] = dict(recorded())
     compiled = sys.modules.get("astrocpg.coupling.compiled")  # loaded only where robots ran
     if compiled is not None:
         out["physics"] = compiled.state()
+    traces = sys.modules.get("astrocpg.network.recording")
+    if traces is not None and traces.kernel_state() != "not used yet":
+        out["trace_sampling"] = traces.kernel_state()
     return out
 
 
@@ -202,6 +206,12 @@ class DirectFile:
         if self._sha is not None:
             self._sha.update(view)
         k, size = 0, self._size
+        if not self._filled and self.direct and n >= _BLOCK \
+                and np.frombuffer(view, dtype=np.uint8).ctypes.data % _BLOCK == 0:
+            # page-aligned data (a spilled trace's block) goes to disk as it is, its whole
+            # blocks not copied into the stage first
+            k = n - n % _BLOCK
+            self._drain(k, view)
         while k < n:
             take = min(n - k, size - self._filled)
             self._view[self._filled:self._filled + take] = view[k:k + take]
@@ -213,12 +223,13 @@ class DirectFile:
         self._written += n
         return n
 
-    def _drain(self, length: int) -> None:
-        """Write the stage's first ``length`` bytes."""
+    def _drain(self, length: int, source: memoryview | None = None) -> None:
+        """Write the first ``length`` bytes of the stage (or of ``source``, page-aligned)."""
+        view = self._view if source is None else source
         done = 0
         while done < length:
             try:
-                done += os.write(self.fd, self._view[done:length])
+                done += os.write(self.fd, view[done:length])
             except OSError as e:
                 # refused at the first write, or a short write left the offset unaligned:
                 # the rest goes through the page cache
