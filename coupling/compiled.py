@@ -6,11 +6,12 @@ three array copies (the motors' torques in, the joint state out): about 2 us eac
 ``ctrl``, ``mj_step``, copy ``qpos`` and ``qvel`` out) in one C loop over the trials, so the
 results are the same, bit for bit. :func:`gather_sensors` copies the feet's touch sensors of
 every trial into one array the same way, for the recorders and senses that read them every
-step.
+step, and :func:`take_robots` writes every trial's sample of a run's robot recording (joints,
+applied torques, torso, reward, alive, feet) in one call: the values numpy's copies give.
 
 The loop is compiled once per MuJoCo version with the C compiler Python was built with,
 against the headers and the library that ship with the ``mujoco`` package, and kept in
-``~/.cache/astrocpg`` (``$ASTROCPG_CACHE``). Without a C compiler, or with
+``~/.cache/astrocpg`` (``$ASTROCPG_CACHE``; built and cached by :mod:`astrocpg.network.native`). Without a C compiler, or with
 ``ASTROCPG_COMPILED_PHYSICS`` off (``0``, ``false``, ``no``, ``off``), the robots are stepped
 from Python as before. A cached library that cannot be loaded (damaged, truncated, of another
 machine) or lacks the loop is removed and built again, once per process; if that fails too, a
