@@ -8,8 +8,9 @@ recording, in this process after the imports, and times with CPU clocks:
 
 - per step, inside the loop (thread CPU time of each call, microseconds per step): the trace
   recorder's sample (``TraceRecorder.sample``, its block rounding and spilling included), the
-  spilled traces' block writes alone (``SpilledTrace.append``), the robot recording (the
-  bridge's ``recording`` hook, ``Bridge._record``) and the spike monitors' growth (``SpikeRecorder.resize``);
+  spilled traces' block writes to disk alone (``SpilledTrace.write_block``), the robot
+  recording (the bridge's ``recording`` hook, ``Bridge._record``) and the spike monitors'
+  growth (``SpikeRecorder.resize``);
 - per run (process CPU seconds): the loop (``_run``), the summary (``_summarise``) and the
   folder's files with their hashes (``write_run_folder``).
 
