@@ -26,11 +26,15 @@ the start-up cancelled.
 trial-second (what the user gets) and per stepped trial-second (``stepped``: what the batch
 stepped, the trials that had finished their sessions idling until the last one had: the
 training's own cost, the goal of at most 1.15 x); ``recorded / run`` is the recorded run (goal:
-at most 1.25 x). The commands of a repeat run interleaved (a burst of other work on the machine
-falls on one of them, not on one kind), ``--repeats`` times, each command ``--runs`` times per
-repeat with its least CPU kept; the median is the figure and the spread (max / min - 1) says
-how steady it is. Train and study train the same seeds, so their
-sessions (and simulated seconds) are the same.
+at most 1.25 x). A pass runs every kind at its small size, then every kind at its large size
+(a burst of other work on the machine falls on one of them, not on one kind), and its ratios
+are taken within it: the commands of a ratio run minutes apart, so that a slow spell of the
+machine (on a VM, whole minutes at a few percent slower) slows both sides of it. A repeat is
+``--runs`` passes, its figure the median of their ratios; the median of the ``--repeats``
+repeats is the figure and their spread (max / min - 1) says how steady it is. (Before, each
+command's least CPU over the passes was kept and the ratio taken between those: on
+2026-12-05 a repeat whose three 24 s runs all fell in a slow spell moved the ratios by 9 %.)
+Train and study train the same seeds, so their sessions (and simulated seconds) are the same.
 """
 
 from __future__ import annotations
@@ -110,6 +114,36 @@ def measure(kind: str, size: float, args: argparse.Namespace,
     return cpu, simulated, stepped
 
 
+def _figures(points: dict[str, dict[float, tuple[float, float, float]]]) -> dict:
+    """One pass's slopes (CPU per trained and per stepped trial-second, each kind) and their
+    ratios to ``run``'s."""
+    slope, stepped = {}, {}
+    for kind, p in points.items():
+        (c1, s1, q1), (c2, s2, q2) = (p[k] for k in sorted(p))
+        slope[kind] = (c2 - c1) / (s2 - s1)
+        stepped[kind] = (c2 - c1) / (q2 - q1)
+    return {"points": {k: {f"{size:g}": {"cpu_s": round(c, 3), "trial_s": round(s, 3),
+                                         "stepped_trial_s": round(q, 3)}
+                           for size, (c, s, q) in p.items()} for k, p in points.items()},
+            "ms_per_trial_s": {k: 1e3 * v for k, v in slope.items()},
+            "ratio_to_run": {k: v / slope["run"] for k, v in slope.items() if k != "run"},
+            "ms_per_stepped_trial_s": {k: 1e3 * v for k, v in stepped.items()},
+            "stepped_ratio_to_run": {k: v / stepped["run"] for k, v in stepped.items()
+                                     if k != "run"}}
+
+
+def _repeat(passes: list[dict]) -> dict:
+    """A repeat's figures: the median over its passes of each pass's own figures (a ratio is
+    taken within a pass, between commands run minutes apart, so that a slow spell of the
+    machine slows both sides of it), each pass kept."""
+    row: dict = {"passes": [p["points"] for p in passes]}
+    for key in ("ms_per_trial_s", "ratio_to_run", "ms_per_stepped_trial_s",
+                "stepped_ratio_to_run"):
+        row[key] = {k: round(statistics.median(p[key][k] for p in passes), 3 if "ratio" in key
+                             else 2) for k in passes[0][key]}
+    return row
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--trials", type=int, default=20)
@@ -118,8 +152,8 @@ def main() -> None:
     ap.add_argument("--run-seconds", type=float, nargs=2, default=[3.0, 12.0], metavar="S")
     ap.add_argument("--sessions", type=int, nargs=2, default=[2, 6], metavar="K")
     ap.add_argument("--runs", type=int, default=1,
-                    help="runs of each command per repeat, the least CPU kept (default 1): "
-                         "another program on the same core slows a run, never speeds it")
+                    help="passes per repeat (each runs every command at both sizes); a "
+                         "repeat's figure is the median of its passes' (default 1)")
     ap.add_argument("--kinds", nargs="+", default=["run", "recorded", "train", "study"],
                     choices=["run", "recorded", "train", "study"])
     ap.add_argument("--json", default=None, metavar="FILE")
@@ -138,29 +172,16 @@ def main() -> None:
               + "".join(f"{k + ' stepped':>16}" for k in args.kinds if k in ("train", "study")),
               flush=True)
         for r in range(args.repeats):
-            points: dict[str, dict[float, tuple[float, float, float]]] = {k: {} for k in args.kinds}
-            for _ in range(args.runs):  # the least CPU of each command counts
+            passes = []  # each pass: every kind at both sizes, run within a few minutes
+            for _ in range(args.runs):
+                points: dict[str, dict[float, tuple[float, float, float]]] = \
+                    {k: {} for k in args.kinds}
                 for size_index in range(2):  # interleaved: each kind's small, then large sizes
                     for kind in args.kinds:
                         size = sizes[kind][size_index]
-                        got = measure(kind, size, args, tmp)
-                        if size not in points[kind] or got[0] < points[kind][size][0]:
-                            points[kind][size] = got
-            # CPU per trained trial-second, and per stepped trial-second (idle trials included)
-            slope, stepped = {}, {}
-            for kind, p in points.items():
-                (c1, s1, q1), (c2, s2, q2) = (p[k] for k in sorted(p))
-                slope[kind] = (c2 - c1) / (s2 - s1)
-                stepped[kind] = (c2 - c1) / (q2 - q1)
-            row = {"points": {k: {f"{size:g}": {"cpu_s": round(c, 3), "trial_s": round(s, 3),
-                                                "stepped_trial_s": round(q, 3)}
-                                  for size, (c, s, q) in p.items()} for k, p in points.items()},
-                   "ms_per_trial_s": {k: round(1e3 * v, 2) for k, v in slope.items()},
-                   "ratio_to_run": {k: round(v / slope["run"], 3) for k, v in slope.items()
-                                    if k != "run"},
-                   "ms_per_stepped_trial_s": {k: round(1e3 * v, 2) for k, v in stepped.items()},
-                   "stepped_ratio_to_run": {k: round(v / stepped["run"], 3)
-                                            for k, v in stepped.items() if k != "run"}}
+                        points[kind][size] = measure(kind, size, args, tmp)
+                passes.append(_figures(points))
+            row = _repeat(passes)
             rows.append(row)
             print(f"{r:<7}" + "".join(f"{row['ms_per_trial_s'][k]:>13.1f}" for k in args.kinds)
                   + "".join(f"{row['ratio_to_run'][k]:>14.3f}" for k in args.kinds if k != "run")

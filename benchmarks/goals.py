@@ -12,13 +12,18 @@ would type it, every figure with its repeats and their spread:
 - **Training step** (``training_cost.py``): a training step against a fixed-weight step of the
   same 20-trial batch, in one process, interleaved. Goal: at most 1.15 x.
 - **Trial-step** (``speed.py --trials 20``): a trial-step of the closed loop against MuJoCo's
-  own step of the same robot, Cython and numpy. Goals: at most 2.0 x on Cython, 3.5 x on numpy.
+  own step of the same states (every trial's state as the loop left it, stepped alone), Cython
+  and numpy. Goals: at most 2.0 x on Cython, 3.5 x on numpy. Beside each, described, the ratio
+  to ``mj_step`` with held controls (hundreds of steps in a row from one trial's state: the
+  robot settles, and MuJoCo's solver needs fewer iterations than on the loop's states), the
+  denominator of the tables before 2026-12-05 11:00.
 - **Commands end to end** (``command_cost.py``): ``astrocpg train`` and ``astrocpg study`` as
   typed against ``astrocpg run`` recording nothing (the fixed-weight loop as typed), CPU per
   stepped trial-second (the batch's steps, trials that finished their sessions idling
-  included), slopes between 2 and 10 sessions and 3 and 24 s, each command ``--runs`` times
-  (the least CPU). Goal: the training step's, at most 1.15 x. Per trained trial-second (what
-  the user gets: the idle trials' steps not counted) beside it, described.
+  included), slopes between 2 and 10 sessions and 3 and 24 s, ``--runs`` passes per repeat
+  (the median of the passes' ratios, each taken within its pass). Goal: the training step's,
+  at most 1.15 x. Per trained trial-second (what the user gets: the idle trials' steps not
+  counted) beside it, described.
 
 Each benchmark runs ``--repeats`` times inside its own script (interleaved where the script
 interleaves); ``spread`` is max/min - 1 over the repeats, and a figure counts as measured when
@@ -26,9 +31,10 @@ its spread is within ``--within`` (default 10 %). Other programs on the machine 
 widen the spread: run it on a quiet machine (the load average is recorded). A command's CPU
 varies by a few percent from run to run on a VM (fresh memory costs more some runs than
 others), and a slope is the difference of two commands: the longer sizes (24 s, 10 sessions)
-and the least of three runs keep that variation small against the slope; the training-step
-and trial-step measurements run 12 simulated seconds each (with 6 s the training step's
-repeats spread by 13 % on 2026-12-05). About 30 minutes for the whole table (1662 s on the
+keep that variation small against the slope, the least of three runs the recorded run's, and
+ratios taken within a pass the commands' (a slow spell of minutes slows both sides); the
+training-step and trial-step measurements run 12 simulated seconds each (with 6 s the training
+step's repeats spread by 13 % on 2026-12-05). About 30 minutes for the whole table (1662 s on the
 2-core machine).
 """
 
@@ -79,8 +85,8 @@ def main() -> int:
                     metavar=("K1", "K2"), help="the two session counts of `train`'s and "
                     "`study`'s slopes")
     ap.add_argument("--runs", type=int, default=3,
-                    help="runs of each command per repeat, for the recorded run and the "
-                         "commands end to end (the least CPU counts)")
+                    help="runs per repeat: of each command of the recorded run (the least CPU "
+                         "counts), and passes of the commands end to end (the median ratio)")
     ap.add_argument("--seconds", type=float, default=12.0,
                     help="simulated s of each training-step and trial-step measurement")
     ap.add_argument("--json", default=None, metavar="FILE")
@@ -103,8 +109,12 @@ def main() -> int:
                   str(args.seconds), "--repeats", str(args.repeats), json_out=t / "speed.json")
         for point in sp["points"]:
             target = {"cython": 2.0, "numpy": 3.5}[point["codegen"]]
-            rows.append(_row(f"trial-step ({point['codegen']})", "trial-step / mj_step",
-                             [r["x_mj_step"] for r in point["repeats"]], target, args.within))
+            rows.append(_row(f"trial-step ({point['codegen']})", "trial-step / mj_step on the "
+                             "loop's states", [r["x_mj_step"] for r in point["repeats"]], target,
+                             args.within))
+            rows.append(_row(f"trial-step ({point['codegen']}, held)", "trial-step / mj_step "
+                             "with held controls", [r["x_mj_step_held"] for r in point["repeats"]],
+                             None, args.within))
         cc = _run("command_cost.py", "--repeats", str(args.repeats), "--runs", str(args.runs),
                   "--kinds", "run", "train", "study", "--run-seconds",
                   *map(str, args.command_seconds), "--sessions", *map(str, args.command_sessions),

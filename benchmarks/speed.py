@@ -9,14 +9,20 @@ same robot, one process, one core, steady state.
 
 How it measures (so that the ratio holds on a machine whose speed drifts): one ``Network.run``
 per point, after a 0.1 s warm-up. Every ``--every`` steps (128: two of the numpy target's noise
-blocks of 64 steps in every stretch) a hook inside the run stops the loop's
-clock and times ``mj_step`` alone on a copy of one trial's state (the trials in turn), then
-starts the loop's clock again; the loop's CPU time is taken over the stretches between these
-marks, so it leaves out ``Network.run``'s fixed cost per call and the timing itself. MuJoCo is
-timed for ``--mj-seconds`` (at least 1 s) in all, spread evenly over the run. Both figures are
+blocks of 64 steps in every stretch) a hook inside the run stops the loop's clock and times
+MuJoCo's ``mj_step`` alone (:class:`Interleaved`), then starts the loop's clock again; the
+loop's CPU time is taken over the stretches between these marks, so it leaves out
+``Network.run``'s fixed cost per call and the timing itself. ``mj_step`` is timed on the
+loop's own states: at each mark every trial's state is copied, set into a scratch MjData and
+stepped once, the batch repeated (the cost of setting the states taken off). Beside it, as
+earlier tables timed it, ``mj_step`` with held controls: hundreds of steps in a row from a copy
+of one trial's state (the trials in turn), its controls held, the robot drifting away from the
+loop's states (``constraints`` and ``iterations``: MuJoCo's ``nefc`` and solver iterations of a
+step, loop / held, the held ones where each held run ends). Each
+is timed for ``--mj-seconds`` (at least 1 s) in all, spread evenly over the run. All figures are
 medians over their stretches (a burst of other work on the machine lands in a few of them).
 ``x mj_step`` is a trial-step's CPU time (the loop's per step divided by the trials) over
-``mj_step``'s. Goals:
+``mj_step``'s on the loop's states; ``x held`` over the held-control figure. Goals:
 2.0 x on Cython and 3.5 x on numpy at 20 trials (the floor of this design is about 1.7 x:
 MuJoCo plus the compiled model with no Python at all).
 
@@ -59,9 +65,19 @@ from astrocpg.studies.commands.simulate import add_monitors  # noqa: E402
 
 class Interleaved:
     """A bridge hook (last of its stage) that, every ``every`` steps, closes a stretch of the
-    loop's CPU and wall time and times ``mj_step`` alone for ``mj_steps`` steps on a copy of
-    one trial's state (the trials in turn). Stretches start at the first mark, so the run's
-    fixed cost before its first steps is left out."""
+    loop's CPU and wall time and times MuJoCo's step alone, two ways:
+
+    - **on the loop's states** (the ratio's denominator): every trial's state as the loop left
+      it is copied, then each is set into a scratch MjData and stepped once, the batch repeated
+      ``mj_steps // trials`` times (the cost of setting the states, timed the same way without
+      the steps, taken off): MuJoCo's own cost for the very states the loop steps, its data
+      warm in the cache;
+    - **with held controls** (the figure of earlier tables): ``mj_steps`` steps in a row from a
+      copy of one trial's state (the trials in turn), its controls held, so the robot drifts
+      away from the loop's states for hundreds of steps.
+
+    Stretches start at the first mark, so the run's fixed cost before its first steps is left
+    out."""
 
     def __init__(self, bridge, every: int, mj_steps: int) -> None:
         import mujoco
@@ -70,13 +86,21 @@ class Interleaved:
         self.model = bridge.model
         self.scratch = mujoco.MjData(self.model)
         self.spec = mujoco.mjtState.mjSTATE_INTEGRATION
-        self.state = np.empty(mujoco.mj_stateSize(self.model, self.spec))
+        size = mujoco.mj_stateSize(self.model, self.spec)
+        self.state = np.empty(size)
+        self.rows = [np.empty(size) for _ in range(bridge.n_trials)]
+        self.replays = max(3, self.mj_steps // bridge.n_trials)
         self.loop_cpu = self.loop_wall = self.mj_cpu = 0.0
         self.loop_steps = self.mj_total = self.marks = 0
         # per stretch: CPU s per step of the loop, and of mj_step alone (medians: a burst of
         # another process's work on the machine lands in a few stretches, not in the median)
         self.loop_chunks: list[float] = []
-        self.mj_chunks: list[float] = []
+        self.mj_chunks: list[float] = []  # on the loop's states
+        self.held_chunks: list[float] = []  # controls held, mj_steps in a row
+        # MuJoCo's constraints (nefc) and solver iterations of a step: the loop's states, and
+        # where each held run ends
+        self.loop_work: list[tuple[int, int]] = []
+        self.held_work: list[tuple[int, int]] = []
         self._cpu = self._wall = None
         self._at = 0
 
@@ -92,18 +116,40 @@ class Interleaved:
             self.loop_wall += wall - self._wall
             self.loop_steps += n - self._at
             self.loop_chunks.append((cpu - self._cpu) / (n - self._at))
+        model, scratch, spec = self.model, self.scratch, self.spec
+        step, set_state, clock = mujoco.mj_step, mujoco.mj_setState, time.process_time
+        for row, d in zip(self.rows, self.bridge.data):
+            mujoco.mj_getState(model, d, row, spec)
+            self.loop_work.append((int(d.nefc), int(d.solver_niter[0])))
         b = self.marks % self.bridge.n_trials
         self.marks += 1
-        mujoco.mj_getState(self.model, self.bridge.data[b], self.state, self.spec)
-        mujoco.mj_setState(self.model, self.scratch, self.state, self.spec)
-        step, model, d = mujoco.mj_step, self.model, self.scratch
-        c0 = time.process_time()
+        # controls held: mj_steps steps in a row from trial b's state
+        set_state(model, scratch, self.rows[b], spec)
+        c0 = clock()
         for _ in range(self.mj_steps):
-            step(model, d)
-        spent = time.process_time() - c0
-        self.mj_cpu += spent
-        self.mj_chunks.append(spent / self.mj_steps)
-        self.mj_total += self.mj_steps
+            step(model, scratch)
+        spent = clock() - c0
+        self.held_chunks.append(spent / self.mj_steps)
+        self.held_work.append((int(scratch.nefc), int(scratch.solver_niter[0])))
+        # the loop's states: each trial's state set and stepped once, the batch repeated; the
+        # same sets without the steps timed alike and taken off (medians over the repeats)
+        stepped, set_only = [], []
+        rows = self.rows
+        for _ in range(self.replays):
+            c0 = clock()
+            for row in rows:
+                set_state(model, scratch, row, spec)
+                step(model, scratch)
+            c1 = clock()
+            for row in rows:
+                set_state(model, scratch, row, spec)
+            c2 = clock()
+            stepped.append(c1 - c0)
+            set_only.append(c2 - c1)
+        per_step = (float(np.median(stepped)) - float(np.median(set_only))) / len(rows)
+        self.mj_chunks.append(per_step)
+        self.mj_cpu += spent + sum(stepped)
+        self.mj_total += self.mj_steps + self.replays * len(rows)
         self._at, self._cpu, self._wall = n, time.process_time(), time.perf_counter()
 
 
@@ -145,11 +191,17 @@ def measure(n_trials: int, seconds: float, record: bool, check_every: int = 10,
     loop.run(seconds, lean=lean)
     loop.bridge.remove_hook("benchmark")
     mj = float(np.median(timer.mj_chunks)) * 1e6
+    held = float(np.median(timer.held_chunks)) * 1e6
     cpu_step = float(np.median(timer.loop_chunks))  # s per step
     per_trial_step_us = cpu_step / n_trials * 1e6
     sim = float(cpg.dt)
     out = {"trials": n_trials, "codegen": codegen, "mj_step_us": mj, "mj_seconds": timer.mj_cpu,
            "trial_step_us": per_trial_step_us, "x_mj_step": per_trial_step_us / mj,
+           "mj_step_held_us": held, "x_mj_step_held": per_trial_step_us / held,
+           "constraints_loop": float(np.mean([w[0] for w in timer.loop_work])),
+           "constraints_held": float(np.mean([w[0] for w in timer.held_work])),
+           "iterations_loop": float(np.mean([w[1] for w in timer.loop_work])),
+           "iterations_held": float(np.mean([w[1] for w in timer.held_work])),
            "wall_per_sim_s": timer.loop_wall / timer.loop_steps / sim,
            "cpu_per_sim_s": cpu_step / sim, "cpu_per_trial": cpu_step / sim / n_trials,
            "startup_s": startup, "check_every": check_every, "runner": runner}
@@ -212,9 +264,9 @@ def authors_speed(command: str, seconds: float | list[float]) -> float:
 
 
 COLUMNS = ("CPU s/sim s", "per trial", "wall s/sim s", "trial-step us", "mj_step us",
-           "x mj_step", "start-up s")
+           "x mj_step", "held us", "x held", "start-up s")
 KEYS = ("cpu_per_sim_s", "cpu_per_trial", "wall_per_sim_s", "trial_step_us", "mj_step_us",
-        "x_mj_step", "startup_s")
+        "x_mj_step", "mj_step_held_us", "x_mj_step_held", "startup_s")
 
 
 def _row(label: str, values: list[str]) -> str:
@@ -228,7 +280,8 @@ def main() -> None:
     ap.add_argument("--codegen", nargs="+", default=["numpy", "cython"],
                     choices=["numpy", "cython"], help="Brian2 targets, interleaved per point")
     ap.add_argument("--mj-seconds", type=float, default=1.0,
-                    help="CPU seconds of mj_step timed alone per point (at least 1)")
+                    help="CPU seconds of mj_step timed alone per point, each way (on the "
+                         "loop's states, with held controls; at least 1)")
     ap.add_argument("--every", type=int, default=128,
                     help="steps between two timings of mj_step inside the run")
     ap.add_argument("--repeats", type=int, default=1,
@@ -286,7 +339,8 @@ def main() -> None:
     print()
     print("side by side (medians" + (f" of {args.repeats} repeats; spread = max/min - 1"
                                      if args.repeats > 1 else "") + "):")
-    head = ["trial-step us", "mj_step us", "x mj_step", "goal x", "s/sim s/trial"]
+    head = ["trial-step us", "mj_step us", "x mj_step", "goal x", "x held", "constraints",
+            "iterations", "s/sim s/trial"]
     if args.repeats > 1:
         head.append("spread x")
     if authors is not None:
@@ -297,6 +351,11 @@ def main() -> None:
         goal = {"cython": 2.0, "numpy": 3.5}[point[2]] if point[0] >= 16 else None
         cells = [f"{med['trial_step_us']:.1f}", f"{med['mj_step_us']:.1f}",
                  f"{med['x_mj_step']:.2f}", "" if goal is None else f"{goal:.1f}",
+                 f"{med['x_mj_step_held']:.2f}",
+                 "{:.0f} / {:.0f}".format(*(np.median([r[k] for r in rs]) for k in
+                                            ("constraints_loop", "constraints_held"))),
+                 "{:.1f} / {:.1f}".format(*(np.median([r[k] for r in rs]) for k in
+                                            ("iterations_loop", "iterations_held"))),
                  f"{med['cpu_per_trial']:.4f}"]
         if args.repeats > 1:
             xs = [r["x_mj_step"] for r in rs]

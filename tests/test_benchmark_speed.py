@@ -42,10 +42,20 @@ def test_speed_interleaves_mujoco_timings_with_the_loop(speed):
     loop.run(0.3)
     # marks at steps 50, 100, ..., 300: five stretches of 50 steps between six marks
     assert timer.marks == 6 and timer.loop_steps == 250 and len(timer.loop_chunks) == 5
-    assert timer.mj_total == 6 * 200 and len(timer.mj_chunks) == 6
-    assert all(c > 0 for c in timer.loop_chunks + timer.mj_chunks)
-    # MuJoCo timed on a scratch copy: the trials' robots are where the loop left them
+    # each mark: 200 steps with held controls, and both trials' states stepped 100 times
+    assert timer.replays == 100 and timer.mj_total == 6 * (200 + 100 * 2)
+    assert len(timer.mj_chunks) == len(timer.held_chunks) == 6
+    assert all(c > 0 for c in timer.loop_chunks + timer.mj_chunks + timer.held_chunks)
+    assert len(timer.loop_work) == 6 * 2 and len(timer.held_work) == 6
+    # MuJoCo timed on a scratch copy: the trials' robots are where the loop left them, and the
+    # replayed states are theirs at the last mark (the end of the run)
     assert loop.bridge.data[0].time == pytest.approx(0.3)
+    import mujoco
+
+    for row, d in zip(timer.rows, loop.bridge.data):
+        here = np.empty_like(row)
+        mujoco.mj_getState(loop.bridge.model, d, here, timer.spec)
+        assert np.array_equal(row, here)
 
 
 @pytest.mark.parametrize("runner", ["lean", "brian2"])
@@ -53,6 +63,8 @@ def test_measure_gives_the_ratio_of_the_two_medians(speed, runner):
     r = speed.measure(2, 0.3, False, codegen="numpy", mj_seconds=0.05, every=50, runner=runner)
     assert r["trials"] == 2 and r["mj_step_us"] > 0 and r["runner"] == runner
     assert r["x_mj_step"] == pytest.approx(r["trial_step_us"] / r["mj_step_us"])
+    assert r["x_mj_step_held"] == pytest.approx(r["trial_step_us"] / r["mj_step_held_us"])
+    assert r["iterations_loop"] >= 1 and r["constraints_loop"] >= 0
     assert r["cpu_per_sim_s"] == pytest.approx(r["trial_step_us"] * 2 / 1e3)
 
 
@@ -133,6 +145,9 @@ def test_between_commits_reads_the_last_table_of_speed():
     assert module.ratios(out, ["cython", "numpy"]) == {"cython": 2.49, "numpy": 4.12}
     with pytest.raises(SystemExit):
         module.ratios(out.replace("cython", "other"), ["cython"])
+    # the closing table says how mj_step was timed: an x held column beside, the loop's states
+    assert module.denominator(out) == "held controls"
+    assert module.denominator(out.replace("goal x", "goal x        x held")) == "the loop's states"
 
 
 @pytest.mark.slow
@@ -194,6 +209,27 @@ def test_command_cost_reads_trained_and_stepped_trial_seconds(tmp_path):
     rows.write_text("run_id,trial,session,length_s\na,0,1,1.0\na,1,1,3.0\nb,0,1,2.0\n")
     # run a: 1 + 3 trained, its batch stepped 3 s x 2 trials; run b: 2 and 2 x 1
     assert module.simulated_trial_seconds(rows) == pytest.approx((6.0, 8.0))
+
+
+def test_command_cost_takes_each_ratio_within_a_pass():
+    """A repeat's ratio is the median of its passes' ratios, each taken between the commands
+    of one pass: a pass run wholly in a slow spell (every command 10 % dearer) gives the same
+    ratio, where keeping each command's least CPU over the passes would mix spells."""
+    module = benchmark("command_cost")
+
+    def points(slow: float) -> dict:
+        # run: 1 s + 25 ms per trial-second; train: 2 s + 30 ms per stepped trial-second
+        return {"run": {3.0: (slow * (1 + 0.025 * 60), 60, 60),
+                        24.0: (slow * (1 + 0.025 * 480), 480, 480)},
+                "train": {2.0: (slow * (2 + 0.030 * 400), 200, 400),
+                          10.0: (slow * (2 + 0.030 * 1600), 1000, 1600)}}
+
+    passes = [module._figures(points(s)) for s in (1.0, 1.1, 1.0)]
+    assert [p["stepped_ratio_to_run"]["train"] for p in passes] == pytest.approx([1.2] * 3)
+    row = module._repeat(passes)
+    assert row["stepped_ratio_to_run"]["train"] == pytest.approx(1.2)
+    assert row["ms_per_trial_s"]["run"] == pytest.approx(25.0)
+    assert len(row["passes"]) == 3
 
 
 def _committed_utilisation(name: str) -> tuple[Path, dict]:
