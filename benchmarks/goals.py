@@ -37,8 +37,8 @@ command's variation does not grow with its length (from pass to pass in the two 
 2026-12-05 11:00 the 3 s run's CPU moved by 0.24 s and 0.60 s, the 24 s run's by 0.75 s and
 1.8 s), so ``run``'s slope goes to 48 s, where that part weighs half as much against it. The
 training-step and trial-step measurements run 12 simulated seconds each (with 6 s the training
-step's repeats spread by 13 % on 2026-12-05). About 30 minutes for the whole table (1662 s on
-the 2-core machine).
+step's repeats spread by 13 % on 2026-12-05). About 30 minutes for the whole table (1770 s on
+the 2-core machine, 2026-12-05 12:00).
 """
 
 from __future__ import annotations
