@@ -3,6 +3,7 @@ trial-second.
 
     python benchmarks/command_cost.py [--trials 20] [--codegen cython] [--repeats 3]
         [--run-seconds 3 12] [--sessions 2 6] [--runs 1] [--json FILE]
+    python benchmarks/command_cost.py --passes FILE [FILE ...]
 
 Each command runs in a fresh process, exactly as typed (start-up, network build, the loop, every
 file written and hashed, the process's end), and its CPU time is taken (user + system of the
@@ -35,6 +36,11 @@ repeats is the figure and their spread (max / min - 1) says how steady it is. (B
 command's least CPU over the passes was kept and the ratio taken between those: on
 2026-12-05 a repeat whose three 24 s runs all fell in a slow spell moved the ratios by 9 %.)
 Train and study train the same seeds, so their sessions (and simulated seconds) are the same.
+
+``--passes FILE ...`` measures nothing: it reads the passes kept in earlier results (this
+script's ``--json``, or ``benchmarks/goals.py``'s, whose ``commands`` part it is) and prints,
+over all their passes, each command's CPU range at each size and each ratio's range and
+standard deviation relative to its mean: how much one pass varies on the machine.
 """
 
 from __future__ import annotations
@@ -144,6 +150,44 @@ def _repeat(passes: list[dict]) -> dict:
     return row
 
 
+def pass_statistics(docs: list[dict]) -> dict:
+    """Over every pass of ``docs`` (this script's JSON, or goals.py's with a ``commands``
+    part): per kind and size the CPU seconds' range, and per ratio (per stepped trial-second,
+    to ``run``) its values' range and standard deviation over their mean."""
+    passes = [p for doc in docs for r in doc.get("commands", doc)["repeats"]
+              for p in r["passes"]]
+    if not passes:
+        raise SystemExit("no passes in these files (written before passes were kept)")
+    cpu: dict[str, dict[str, list[float]]] = {}
+    ratios: dict[str, list[float]] = {}
+    for points in passes:
+        for kind, sizes in points.items():
+            for size, point in sizes.items():
+                cpu.setdefault(kind, {}).setdefault(size, []).append(point["cpu_s"])
+        p = {kind: {float(size): (v["cpu_s"], v["trial_s"], v["stepped_trial_s"])
+                    for size, v in sizes.items()} for kind, sizes in points.items()}
+        for kind, value in _figures(p)["stepped_ratio_to_run"].items():
+            ratios.setdefault(kind, []).append(value)
+    return {"passes": len(passes),
+            "cpu_s": {k: {size: [min(v), max(v)] for size, v in by.items()}
+                      for k, by in cpu.items()},
+            "ratios": {k: {"min": min(v), "max": max(v),
+                           "relative_sd": statistics.stdev(v) / statistics.mean(v)
+                           if len(v) > 1 else 0.0} for k, v in ratios.items()}}
+
+
+def _print_passes(files: list[str]) -> None:
+    stats = pass_statistics([json.loads(Path(f).read_text()) for f in files])
+    print(f"{stats['passes']} passes of {', '.join(files)}")
+    for kind, by in stats["cpu_s"].items():
+        print(f"{kind:<9}" + "  ".join(f"{size} {lo:.2f}-{hi:.2f} s (range {hi - lo:.2f})"
+                                       for size, (lo, hi) in sorted(by.items(),
+                                                                    key=lambda x: float(x[0]))))
+    for kind, r in stats["ratios"].items():
+        print(f"{kind} stepped / run, one pass: {r['min']:.3f}-{r['max']:.3f}, standard "
+              f"deviation {100 * r['relative_sd']:.1f} % of the mean")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--trials", type=int, default=20)
@@ -157,7 +201,12 @@ def main() -> None:
     ap.add_argument("--kinds", nargs="+", default=["run", "recorded", "train", "study"],
                     choices=["run", "recorded", "train", "study"])
     ap.add_argument("--json", default=None, metavar="FILE")
+    ap.add_argument("--passes", nargs="+", default=None, metavar="FILE",
+                    help="measure nothing: the passes of earlier results, summarised")
     args = ap.parse_args()
+    if args.passes:
+        _print_passes(args.passes)
+        return
     if "run" not in args.kinds:
         ap.error("--kinds needs run: the other commands are compared with it")
     os.environ.setdefault("OMP_NUM_THREADS", "1")

@@ -34,8 +34,9 @@ others), and a slope is the difference of two commands: the longer sizes (24 s, 
 keep that variation small against the slope, the least of three runs the recorded run's, and
 ratios taken within a pass the commands' (a slow spell of minutes slows both sides). Part of a
 command's variation does not grow with its length (from pass to pass in the two tables of
-2026-12-05 11:00 the 3 s run's CPU moved by 0.24 s and 0.60 s, the 24 s run's by 0.75 s and
-1.8 s), so ``run``'s slope goes to 48 s, where that part weighs half as much against it. The
+2026-12-05 10:45 and 11:20 the 3 s run's CPU moved by 0.24 s and 0.60 s, the 24 s run's by
+0.75 s and 1.8 s: ``python benchmarks/command_cost.py --passes docs/benchmarks/goals_1045.json``,
+then ``goals_1120.json``), so ``run``'s slope goes to 48 s, where that part weighs half as much against it. The
 training-step and trial-step measurements run 12 simulated seconds each (with 6 s the training
 step's repeats spread by 13 % on 2026-12-05). About 30 minutes for the whole table (1770 s on
 the 2-core machine, 2026-12-05 12:00).

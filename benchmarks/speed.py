@@ -18,11 +18,11 @@ stepped once, the batch repeated (the cost of setting the states taken off). Bes
 earlier tables timed it, ``mj_step`` with held controls: hundreds of steps in a row from a copy
 of one trial's state (the trials in turn), its controls held, the robot drifting away from the
 loop's states (``constraints`` and ``iterations``: MuJoCo's ``nefc`` and solver iterations of a
-step, loop / held, the held ones where each held run ends). Each
-is timed for ``--mj-seconds`` (at least 1 s) in all, spread evenly over the run. All figures are
-medians over their stretches (a burst of other work on the machine lands in a few of them).
-``x mj_step`` is a trial-step's CPU time (the loop's per step divided by the trials) over
-``mj_step``'s on the loop's states; ``x held`` over the held-control figure. Goals:
+step, loop / held, the held ones where each held run ends). Each is timed for ``--mj-seconds``
+(at least 1 s) in all, spread evenly over the run. All figures are medians over their
+stretches (a burst of other work on the machine lands in a few of them). ``x mj_step`` is a
+trial-step's CPU time (the loop's per step divided by the trials) over ``mj_step``'s on the
+loop's states; ``x held`` over the held-control figure. Goals:
 2.0 x on Cython and 3.5 x on numpy at 20 trials (the floor of this design is about 1.7 x:
 MuJoCo plus the compiled model with no Python at all).
 
@@ -87,7 +87,6 @@ class Interleaved:
         self.scratch = mujoco.MjData(self.model)
         self.spec = mujoco.mjtState.mjSTATE_INTEGRATION
         size = mujoco.mj_stateSize(self.model, self.spec)
-        self.state = np.empty(size)
         self.rows = [np.empty(size) for _ in range(bridge.n_trials)]
         self.replays = max(3, self.mj_steps // bridge.n_trials)
         self.loop_cpu = self.loop_wall = self.mj_cpu = 0.0

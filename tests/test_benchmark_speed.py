@@ -232,6 +232,54 @@ def test_command_cost_takes_each_ratio_within_a_pass():
     assert len(row["passes"]) == 3
 
 
+def test_command_cost_passes_reads_the_committed_tables_as_the_page_says():
+    """``command_cost.py --passes`` over the two committed tables of 10:45 and 11:20: 18
+    passes, one pass's ratio varying by 4 % (train) and 8 % (study) of its mean, as the
+    performance page says; the 3 s and 24 s runs' CPU ranges that goals.py's docstring cites."""
+    import json
+
+    module = benchmark("command_cost")
+    docs = [json.loads((ROOT / "docs" / "benchmarks" / f"goals_{t}.json").read_text())
+            for t in ("1045", "1120")]
+    both = module.pass_statistics(docs)
+    assert both["passes"] == 18
+    assert round(100 * both["ratios"]["train"]["relative_sd"]) == 4
+    assert round(100 * both["ratios"]["study"]["relative_sd"]) == 8
+    ranges = [module.pass_statistics([d])["cpu_s"]["run"] for d in docs]
+    assert [round(r["3"][1] - r["3"][0], 2) for r in ranges] == [0.24, 0.60]
+    assert [round(r["24"][1] - r["24"][0], 2) for r in ranges] == [0.75, 1.81]
+    with pytest.raises(SystemExit, match="no passes"):
+        module.pass_statistics([{"repeats": []}])
+
+
+@pytest.mark.slow
+def test_command_cost_runs_its_passes_as_typed(tmp_path):
+    """command_cost.py as typed, shortened (2 trials, run and train, two passes of one
+    repeat): the JSON keeps both passes and the repeat's ratio is their median."""
+    import json
+    import statistics
+    import subprocess
+    import sys
+
+    out = tmp_path / "cc.json"
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "command_cost.py"),
+                           "--trials", "2", "--repeats", "1", "--runs", "2", "--run-seconds",
+                           "0.5", "3", "--sessions", "1", "2", "--kinds", "run", "train",
+                           "--json", str(out)], capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    repeat = json.loads(out.read_text())["repeats"][0]
+    assert len(repeat["passes"]) == 2
+    module = benchmark("command_cost")
+    per_pass = [module._figures({k: {float(size): (v["cpu_s"], v["trial_s"],
+                                                   v["stepped_trial_s"])
+                                     for size, v in sizes.items()}
+                                 for k, sizes in p.items()})["stepped_ratio_to_run"]["train"]
+                for p in repeat["passes"]]
+    # the JSON's CPU seconds are rounded to the millisecond: the ratio up to that
+    assert repeat["stepped_ratio_to_run"]["train"] == pytest.approx(
+        statistics.median(per_pass), rel=0.02)
+
+
 def _committed_utilisation(name: str) -> tuple[Path, dict]:
     """``benchmarks/study_utilisation.py --folder docs/ablation/NAME`` prints the committed
     utilisation.txt (a stale file, or a changed reading, fails); the folder and its
