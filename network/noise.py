@@ -49,6 +49,15 @@ _CALL = re.compile(r"\b(randn|rand)\s*\(\s*\)")
 #: that it is the comparison's whole right side): rewritten into one Bernoulli call
 _BERNOULLI = re.compile(r"^\s*rand\s*\(\s*\)\s*<\s*((?:(?!\brandn?\b|\band\b|\bor\b|\bnot\b)"
                         r"[^<>=!\n:])+)$")
+#: p of such a condition written as the sigmoid 0.5*(1 + tanh(x)) (the models' spike
+#: probability): its Bernoulli call takes x, so that C needs no tanh where the outcome is certain
+_SIGMOID = re.compile(r"^\s*0?\.5\s*\*\s*\(\s*1(?:\.0*)?\s*\+\s*tanh\s*\((.+)\)\s*\)\s*$")
+#: |x| from which the C library's tanh(x) is exactly +-1.0 (glibc's and musl's tanh return
+#: +-1.0 there by construction; mathematically 1 - |tanh(x)| < 2e-19, below half an ulp of 1)
+TANH_SATURATED = 22.0
+#: How far 1/(1 + exp(-2x)) may be from 0.5*(1 + tanh(x)) before the exact p is computed: both
+#: are within a few ulps (< 1e-15) of the true sigmoid, so this margin is never crossed wrongly
+SIGMOID_MARGIN = 1e-12
 #: How the next networks draw: "streams" (the framework's, always outside measurements) or
 #: "brian" (Brian2's own generator, what astrocpg drew from before the streams). Only
 #: ``benchmarks/noise_cost.py`` changes it, to compare what the two cost within a step.
@@ -254,6 +263,66 @@ cdef bint {name}(int64_t step, double p, size_t _idx):
     return f
 
 
+def _balanced(text: str) -> bool:
+    """Whether ``text``'s parentheses pair up within it (so that ``tanh(text)`` is one call)."""
+    depth = 0
+    for ch in text:
+        depth += (ch == "(") - (ch == ")")
+        if depth < 0:
+            return False
+    return depth == 0
+
+
+def sigmoid_argument(p: str) -> str | None:
+    """``x`` where ``p`` is written ``0.5*(1 + tanh(x))``, else None."""
+    m = _SIGMOID.match(p)
+    return m.group(1).strip() if m and _balanced(m.group(1)) else None
+
+
+def _sigmoid_bernoulli_function(name: str, streams: list[SiteStream]) -> Function:
+    """``rand() < 0.5*(1 + tanh(x))`` as one call of ``x``: the same uniform and the same
+    outcome, bit for bit, as the comparison (numpy computes it as written). C decides without
+    ``tanh``, the costliest part of a stochastic threshold, wherever the outcome is certain:
+
+    * ``|x| >= 22``: the C library's tanh is exactly +-1.0, so p is 1 or 0 and no draw is made
+      (as :func:`_bernoulli_function` skips it); NaN gives no spike, as ``p > 0`` fails for it;
+    * otherwise the uniform ``u`` is drawn and compared with ``q = 1/(1 + exp(-2x))``, the same
+      sigmoid through ``exp`` (a few times cheaper than ``tanh``): ``u < q - margin`` is a spike,
+      ``u >= q + margin`` none, and only between (a chance of about 2e-12 a draw) is p computed
+      as written, ``0.5*(1 + tanh(x))``, and compared.
+
+    The margin (:data:`SIGMOID_MARGIN`, 1e-12) is a thousand times the largest possible
+    difference between q and the written p (each within a few ulps of the true sigmoid)."""
+    s = streams[0]
+
+    def numpy_bernoulli(step: Any, x: Any, idx: Any) -> np.ndarray:
+        return s.uniform(step, idx) < 0.5 * (1.0 + np.tanh(x))
+
+    f = Function(pyfunc=lambda step, x: False, arg_units=[1, 1], return_unit=bool,
+                 arg_types=["integer", "float"], return_type="boolean", stateless=False,
+                 auto_vectorise=True)
+    f.implementations.add_implementation("numpy", numpy_bernoulli, name=name)
+    code = _cython_uniform(name, s.site, s.width) + f'''
+cdef bint {name}(int64_t step, double x, size_t _idx):
+    cdef double u, q
+    if x >= {TANH_SATURATED!r}:
+        return True
+    if not x > -{TANH_SATURATED!r}:
+        return False
+    u = {name}_word(step, _idx)
+    q = 1.0 / (1.0 + exp(-2.0 * x))
+    if u < q - {SIGMOID_MARGIN!r}:
+        return True
+    if u >= q + {SIGMOID_MARGIN!r}:
+        return False
+    return u < 0.5 * (1.0 + tanh(x))
+'''
+    f.implementations.add_implementation("cython", code=code, name=name,
+                                         namespace=s.namespace(),
+                                         dependencies={"_astrocpg_philox": _philox_dependency})
+    return f
+
+
 def box_muller(u1: np.ndarray, u2: np.ndarray) -> np.ndarray:
     """Standard normals from two uniforms in [0, 1) (the C code of ``randn()`` is the same)."""
     return np.sqrt(-2.0 * np.log1p(-u1)) * np.cos(2.0 * np.pi * u2)
@@ -310,8 +379,13 @@ class Rewriter:
         if whole:  # "rand() < p" (a stochastic threshold): one call that may skip the draw
             position = len(self.sites)
             name = RAND_NAME.format(position)
+            p = whole.group(1).strip()
+            x = sigmoid_argument(p)
+            if x is not None:  # p = 0.5*(1 + tanh(x)): the call takes x (C may skip tanh)
+                self.sites.append(("sigmoid", name, position))
+                return f"{name}(t_in_timesteps, {x})"
             self.sites.append(("bernoulli", name, position))
-            return f"{name}(t_in_timesteps, {whole.group(1).strip()})"
+            return f"{name}(t_in_timesteps, {p})"
 
         def one(match: re.Match) -> str:
             kind = match.group(1)
@@ -339,6 +413,8 @@ class Rewriter:
                 out.functions[name] = _uniform_function(name, [stream(False)])
             elif kind == "bernoulli":
                 out.functions[name] = _bernoulli_function(name, [stream(False)])
+            elif kind == "sigmoid":
+                out.functions[name] = _sigmoid_bernoulli_function(name, [stream(False)])
             else:
                 out.functions[name] = _normal_function(name, [stream(False), stream(True)])
         return out

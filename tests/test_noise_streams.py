@@ -278,9 +278,22 @@ def test_cython_seed_alone_equals_its_trial_and_agrees_with_numpy(tmp_path: Path
 # ---- a stochastic threshold drawn only where its probability is open
 def test_a_threshold_rand_below_p_is_one_bernoulli_call_of_the_same_stream() -> None:
     draws = noise.Rewriter("motor")
-    code = draws("rand() < 0.5*(1 + tanh((v - v_th)/S))")
-    assert code == "rand_stream_0(t_in_timesteps, 0.5*(1 + tanh((v - v_th)/S)))"
+    code = draws("rand() < p_spike*(1 + v/mV)")
+    assert code == "rand_stream_0(t_in_timesteps, p_spike*(1 + v/mV))"
     assert [(k, n, p) for k, n, p in draws.sites] == [("bernoulli", "rand_stream_0", 0)]
+    # p written as the sigmoid 0.5*(1 + tanh(x)): the call takes x
+    draws = noise.Rewriter("motor")
+    code = draws("rand() < 0.5*(1 + tanh((v - v_th)/S))")
+    assert code == "rand_stream_0(t_in_timesteps, (v - v_th)/S)"
+    assert [(k, n, p) for k, n, p in draws.sites] == [("sigmoid", "rand_stream_0", 0)]
+    for text in ("rand() < 0.5 * (1.0 + tanh(x))", "rand()<.5*(1+tanh(a*(b+c)))"):
+        assert noise.Rewriter("motor")(text).startswith("rand_stream_0(t_in_timesteps, "), text
+    # a p that only looks like the sigmoid stays a plain Bernoulli call of p
+    for p in ("0.5*(1 + tanh(a) * tanh(b))", "0.5*(1 + tanh(a)) * b", "0.4*(1 + tanh(a))",
+              "0.5*(2 + tanh(a))", "0.5*(1 - tanh(a))"):
+        other = noise.Rewriter("motor")
+        assert other(f"rand() < {p}") == f"rand_stream_0(t_in_timesteps, {p})", p
+        assert [k for k, _, _ in other.sites] == ["bernoulli"], p
     # anything else is left to the plain draw: a conjunction, a second draw, a reversed test
     for text in ("rand() < p and v > 0*mV", "rand() < rand()", "p > rand()",
                  "(rand() < p)"):
@@ -310,3 +323,80 @@ def test_the_bernoulli_threshold_spikes_exactly_as_the_comparison(codegen, monke
     np.testing.assert_array_equal(a[0], b[0])
     np.testing.assert_array_equal(a[1], b[1])
 
+
+
+def test_the_c_librarys_tanh_is_one_from_22_on() -> None:
+    """What the sigmoid threshold's C shortcut rests on (Python's math.tanh is the C
+    library's): tanh is exactly +-1.0 for |x| >= 22, so p there is exactly 1 or 0."""
+    import math
+    for x in (22.0, 22.5, 30.0, 1e3, float("inf")):
+        assert math.tanh(x) == 1.0 and math.tanh(-x) == -1.0
+        assert 0.5 * (1.0 + math.tanh(x)) == 1.0 and 0.5 * (1.0 + math.tanh(-x)) == 0.0
+    assert noise.TANH_SATURATED == 22.0
+
+
+def _sigmoid_cases(seeds: list[int], per: int, site: int) -> np.ndarray:
+    """x of each of ``len(seeds) * per`` cells: the edges of the shortcut (+-22, where the C
+    library's tanh reaches +-1 exactly, and just inside), the saturated tails, NaN and the
+    infinities, ordinary values, and cells whose p = 0.5*(1 + tanh(x)) is their own draw at
+    step 0 to within rounding (the outcome decided by the exact p, not the margin)."""
+    edges = [22.0, -22.0, np.nextafter(22.0, 0.0), np.nextafter(-22.0, 0.0), 19.5, -19.5,
+             30.0, -30.0, 700.0, -700.0, np.nan, np.inf, -np.inf, 0.0, -0.0, 1e-300]
+    rng = np.random.default_rng(7)
+    # p near 0 and 1, where a shortcut taken too early would decide many cells wrongly
+    x = np.concatenate([edges, rng.uniform(-4, 4, 40), rng.uniform(-25, 25, 40),
+                        rng.uniform(1.2, 3, 50), rng.uniform(-3, -1.2, 50)])
+    n = len(seeds) * per
+    x = np.resize(x, n)
+    for e in range(0, n, 3):  # every third cell: p on its own step-0 draw
+        seed, cell = seeds[e // per], e % per
+        u = noise.uniform_reference(seed, site, per, cell, 0)
+        x[e] = np.arctanh(2.0 * u - 1.0)
+    return x
+
+
+@pytest.mark.parametrize("codegen", ["numpy", pytest.param("cython", marks=pytest.mark.slow)])
+def test_the_sigmoid_threshold_decides_as_the_written_comparison(codegen) -> None:
+    """``rand() < 0.5*(1 + tanh(x))`` taken as one call of x (C skips tanh where the outcome is
+    certain) spikes, cell for cell and step for step, as the same comparison written so that it
+    stays a plain draw of the same stream: at the shortcut's edges, on NaN and the infinities,
+    and where p lies on the cell's draw."""
+    from brian2 import Network, NeuronGroup, SpikeMonitor, ms, prefs
+
+    per, seeds = 101, [3, 2**33 + 1]
+    numbers = np.arange(per * len(seeds))
+    seed, cell = noise.trial_major(numbers, per, seeds)
+    x = _sigmoid_cases(seeds, per, noise.site_id("sigmoidpop", 0))
+    written = "rand() < 0.5*(1 + tanh(x))"
+    spikes = {}
+    before = prefs.codegen.target
+    prefs.codegen.target = codegen
+    try:
+        for label, text in (("sigmoid", written), ("plain", f"({written})")):
+            draws = noise.Rewriter("sigmoidpop")
+            code = draws(text)
+            assert [k for k, _, _ in draws.sites] == [label if label == "sigmoid" else "rand"]
+            functions = draws.bind(seed, cell, per, np.zeros(1, dtype=np.int64)).functions
+            group = NeuronGroup(len(numbers), "x : 1 (constant)", threshold=code,
+                                namespace=dict(functions), dt=1 * ms)
+            group.x = x
+            monitor = SpikeMonitor(group)
+            Network(group, monitor).run(5 * ms, namespace={})
+            spikes[label] = (np.asarray(monitor.t_[:]), np.asarray(monitor.i[:]))
+    finally:
+        prefs.codegen.target = before
+    t, i = spikes["sigmoid"]
+    assert 20 < len(i) < 5 * len(numbers)  # both outcomes occur
+    np.testing.assert_array_equal(t, spikes["plain"][0])
+    np.testing.assert_array_equal(i, spikes["plain"][1])
+    # and as the definition: the cell's draw below the written p, with the target's tanh (the
+    # C library's on Cython, as Python's math.tanh; numpy's own on numpy: their last bits differ)
+    import math
+    with np.errstate(invalid="ignore"):
+        p = (0.5 * (1.0 + np.tanh(x)) if codegen == "numpy"
+             else np.array([0.5 * (1.0 + math.tanh(v)) for v in x]))
+    site = noise.site_id("sigmoidpop", 0)
+    want = [(k, e) for k in range(5) for e in range(len(numbers))
+            if noise.uniform_reference(int(seed[e]), site, per, int(cell[e]), k) < p[e]]
+    got = sorted(zip(np.round(t * 1e3).astype(int).tolist(), i.tolist()))
+    assert got == want
