@@ -1,6 +1,6 @@
 """Where a step of the closed loop goes: Brian2's per-object profile and Python's cProfile of
-one run of the CPG + A1 at a trial count (issue 13, goal 3: what stands between a trial-step
-and 2.0 x MuJoCo's step).
+one run of the CPG + A1 at a trial count: what stands between a trial-step and 2.0 x MuJoCo's
+step.
 
     python benchmarks/profile_step.py [--trials 20] [--seconds 2] [--codegen cython]
 

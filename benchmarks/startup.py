@@ -1,6 +1,5 @@
 """Start-up of the commands against the import of Brian2 + MuJoCo, medians of interleaved
-repeats (issue 13, goal 4: ``run --seconds 0.1`` within 1.3 x the import; ``describe`` under
-0.5 s).
+repeats (the goal: ``run --seconds 0.1`` within 1.3 x the import; ``describe`` under 0.5 s).
 
     python benchmarks/startup.py [--repeats 5]
 

@@ -12,7 +12,7 @@ one attempt), its wall seconds per simulated second and the CPU seconds the plan
     python benchmarks/study_utilisation.py --folder out/ablation [--workers 2]
 
 The default is 8 workers x 16 runs of one seed (half with astrocytes, half without), which
-reproduces on two cores the shape of the 16-worker x 32-run study of issue 13 (runs <= 2 x
+reproduces on two cores the shape of a 16-worker x 32-run study (runs <= 2 x
 workers: Dask does not treat them as root tasks). Oversubscribed cores make every run slower,
 but a worker that is free while runs wait shows as idle all the same.
 """

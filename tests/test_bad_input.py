@@ -977,7 +977,7 @@ case("run-readme-delay-example-as-the-error-suggests", lambda e: S(
     "run", "--set", "delay_FR_FL=0*ms", "--set", "delay_FR_RR=0*ms", "--set",
     "delay_FR_RL=0*ms", "--out", out(e)), 0, None, "complete", out)
 
-# ---- names that shadow, labels that lie (issue 20, classes 4 and 5)
+# ---- names that shadow, labels that lie
 def _astro_file(e: Env, line: str, name: str = "astro.toml") -> Path:
     """The built-in astrocyte as a model file with ``line`` added to its [parameters]."""
     from astrocpg.models import DEFAULT_MODELS
@@ -1181,7 +1181,7 @@ case("unit-large-but-valid", lambda e: S("unit", "--seconds", "0.02", "--set",
                                          "IP3_star=1e40*nM", "--out", out(e)),
      0, None, "complete", out)
 
-# ---- checkpoints are data (a planted pickle runs nothing) and resume options (issue 20: 2, 8)
+# ---- checkpoints are data (a planted pickle runs nothing) and resume options
 class _Unpickled:
     """Unpickling (or an eval of) what this pickles into touches EVIL_FLAG."""
 
@@ -1323,7 +1323,7 @@ for option, value in (("--sessions", "1"), ("--trials", "2"), ("--no-astrocytes"
                                         *([v] if v else [])), 2, option, "unchanged",
          lambda e: e.copy("train"))
 
-# ---- study integrity, bounds on work, one line always (studyint: issue 20, classes 7, 9, 10)
+# ---- study integrity, bounds on work, one line always (studyint)
 _HOLDERS: list[subprocess.Popen] = []
 
 

@@ -1,4 +1,4 @@
-"""A checkpoint is data, never code (issue 20, class 2), and a resume honours or refuses every
+"""A checkpoint is data, never code, and a resume honours or refuses every
 option given again, never ignores one (class 8).
 
 * the codec (:mod:`astrocpg.studies.outputs.checkpoint`) stores every kind of value a training's

@@ -195,7 +195,7 @@ ENTRY = ("import atexit, sys\n"
                                         (["describe", "no_such_model"], 2)])
 def test_the_command_ends_at_once_with_its_code_its_output_whole_and_exit_handlers_run(
         tmp_path, argv, code):
-    """``entry`` ends the process without the interpreter's teardown (start-up, issue 13): the
+    """``entry`` ends the process without the interpreter's teardown (start-up): the
     exit code stands, piped output is flushed whole and atexit handlers still run."""
     marker = tmp_path / "atexit.txt"
     p = subprocess.run([sys.executable, "-c", ENTRY, str(marker), *argv], capture_output=True,

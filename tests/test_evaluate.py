@@ -114,7 +114,7 @@ def test_evaluate_a_training_in_two_worlds(tmp_path):
         ("0.9", "0.8"), ("0.9", "1.2"), ("1.1", "0.8"), ("1.1", "1.2")}
 
 
-# ---- resumable, and on Dask (issue 12: "everything runs on Dask and resumes")
+# ---- resumable, and on Dask (everything runs on Dask and resumes)
 WORLDS3 = '[worlds.flat]\n[worlds.uphill]\nslope = "0.1"\n[worlds.slippery]\nfriction = "0.4"\n'
 
 

@@ -1,4 +1,4 @@
-"""Names that shadow and labels that lie (issue 20, classes 4 and 5).
+"""Names that shadow and labels that lie.
 
 Names: a model parameter named like a Brian2 special name, a unit, a function, a constant or
 one of the model's own variables is refused when the model is made (one check,

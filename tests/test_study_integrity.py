@@ -1,4 +1,4 @@
-"""A study's integrity and the one line (issue 20, classes 7, 9 and 10) beyond the bad-input
+"""A study's integrity and the one line beyond the bad-input
 table: the stored cost of a trial (validated, a bad one ignored with a note naming the file),
 a report of a partial study (the groups without data named), a study's worker owning its run
 folder while it trains it, the probe of ``--scheduler``, and commands whose one line needs a

@@ -187,7 +187,7 @@ def run_on_cluster(client: Any, fn: Callable[..., Any], items: Sequence[tuple[st
     at most twice as many tasks as threads is not "root-ish" to Dask, so submitted at once
     they were assigned two per worker up front, and when the first worker fell idle work
     stealing moved every waiting task onto it (measured with 8 workers x 16 study runs: 7 runs
-    queued on one worker while the others sat idle, issue 13). With at most one task per thread
+    queued on one worker while the others sat idle). With at most one task per thread
     in flight, no task ever waits on a busy worker while another is free, whatever the
     scheduler's settings (``--scheduler`` clusters included), and a freed thread gets the next
     task at once. Interrupted, the tasks in flight are released (they stop with the cluster).
