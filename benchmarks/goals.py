@@ -21,7 +21,8 @@ would type it, every figure with its repeats and their spread:
   typed against ``astrocpg run`` recording nothing (the fixed-weight loop as typed), CPU per
   stepped trial-second (the batch's steps, trials that finished their sessions idling
   included), slopes between 2 and 10 sessions and 3 and 48 s, ``--runs`` passes per repeat
-  (the median of the passes' ratios, each taken within its pass). Goal: the training step's,
+  (the median of the passes' ratios, each taken within its pass, ``run`` between ``train``
+  and ``study``). Goal: the training step's,
   at most 1.15 x. Per trained trial-second (what the user gets: the idle trials' steps not
   counted) beside it, described.
 

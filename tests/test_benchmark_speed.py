@@ -252,6 +252,28 @@ def test_command_cost_passes_reads_the_committed_tables_as_the_page_says():
         module.pass_statistics([{"repeats": []}])
 
 
+def test_command_cost_runs_run_between_the_commands_it_divides():
+    """Within a pass ``run`` runs in the middle of the kinds, so that each ratio's two sides
+    run next to each other (``train``, ``run``, ``study``); the pass-to-pass spread its
+    docstring gives for the old order (``run`` first) is that of the three tables of
+    2026-12-05."""
+    import json
+
+    module = benchmark("command_cost")
+    assert module.pass_order(["run", "train", "study"]) == ["train", "run", "study"]
+    assert module.pass_order(["run", "train"]) == ["run", "train"]
+    assert module.pass_order(["run", "recorded", "train", "study"]) == [
+        "recorded", "run", "train", "study"]
+    docs = [json.loads((ROOT / "docs" / "benchmarks" / f"goals_{t}.json").read_text())
+            for t in ("1045", "1120", "1200")]
+    assert all(d["commands"]["argv"][d["commands"]["argv"].index("--kinds") + 1:][:3]
+               == ["run", "train", "study"] for d in docs)  # run first, study two after
+    three = module.pass_statistics(docs)
+    assert three["passes"] == 27
+    assert round(100 * three["ratios"]["train"]["relative_sd"]) == 6
+    assert round(100 * three["ratios"]["study"]["relative_sd"]) == 9
+
+
 @pytest.mark.slow
 def test_command_cost_runs_its_passes_as_typed(tmp_path):
     """command_cost.py as typed, shortened (2 trials, run and train, two passes of one
