@@ -39,8 +39,8 @@ command's variation does not grow with its length (from pass to pass in the two 
 0.75 s and 1.8 s: ``python benchmarks/command_cost.py --passes docs/benchmarks/goals_1045.json``,
 then ``goals_1120.json``), so ``run``'s slope goes to 48 s, where that part weighs half as much against it. The
 training-step and trial-step measurements run 12 simulated seconds each (with 6 s the training
-step's repeats spread by 13 % on 2026-12-05). About 30 minutes for the whole table (1770 s on
-the 2-core machine, 2026-12-05 12:00).
+step's repeats spread by 13 % on 2026-12-05). About 30 minutes for the whole table (1737 s on
+the 2-core machine, 2026-12-05 13:49).
 """
 
 from __future__ import annotations

@@ -245,20 +245,25 @@ def _bernoulli_function(name: str, streams: list[SiteStream]) -> Function:
     def numpy_bernoulli(step: Any, p: Any, idx: Any) -> np.ndarray:
         return s.uniform(step, idx) < p
 
-    f = Function(pyfunc=lambda step, p: False, arg_units=[1, 1], return_unit=bool,
-                 arg_types=["integer", "float"], return_type="boolean", stateless=False,
-                 auto_vectorise=True)
-    f.implementations.add_implementation("numpy", numpy_bernoulli, name=name)
-    code = _cython_uniform(name, s.site, s.width) + f'''
+    return _decision_function(name, s, numpy_bernoulli, f'''
 cdef bint {name}(int64_t step, double p, size_t _idx):
     if p >= 1.0:
         return True
     if not p > 0.0:
         return False
     return {name}_word(step, _idx) < p
-'''
-    f.implementations.add_implementation("cython", code=code, name=name,
-                                         namespace=s.namespace(),
+''')
+
+
+def _decision_function(name: str, s: SiteStream, numpy_code: Any, cython_code: str) -> Function:
+    """A draw's Bernoulli decision as a Brian2 function of (the step, one float): ``numpy_code``
+    on numpy, ``cython_code`` (which calls the site's ``{name}_word``) on Cython."""
+    f = Function(pyfunc=lambda step, value: False, arg_units=[1, 1], return_unit=bool,
+                 arg_types=["integer", "float"], return_type="boolean", stateless=False,
+                 auto_vectorise=True)
+    f.implementations.add_implementation("numpy", numpy_code, name=name)
+    f.implementations.add_implementation("cython", code=_cython_uniform(name, s.site, s.width)
+                                         + cython_code, name=name, namespace=s.namespace(),
                                          dependencies={"_astrocpg_philox": _philox_dependency})
     return f
 
@@ -298,11 +303,7 @@ def _sigmoid_bernoulli_function(name: str, streams: list[SiteStream]) -> Functio
     def numpy_bernoulli(step: Any, x: Any, idx: Any) -> np.ndarray:
         return s.uniform(step, idx) < 0.5 * (1.0 + np.tanh(x))
 
-    f = Function(pyfunc=lambda step, x: False, arg_units=[1, 1], return_unit=bool,
-                 arg_types=["integer", "float"], return_type="boolean", stateless=False,
-                 auto_vectorise=True)
-    f.implementations.add_implementation("numpy", numpy_bernoulli, name=name)
-    code = _cython_uniform(name, s.site, s.width) + f'''
+    return _decision_function(name, s, numpy_bernoulli, f'''
 cdef bint {name}(int64_t step, double x, size_t _idx):
     cdef double u, q
     if x >= {TANH_SATURATED!r}:
@@ -316,11 +317,7 @@ cdef bint {name}(int64_t step, double x, size_t _idx):
     if u >= q + {SIGMOID_MARGIN!r}:
         return False
     return u < 0.5 * (1.0 + tanh(x))
-'''
-    f.implementations.add_implementation("cython", code=code, name=name,
-                                         namespace=s.namespace(),
-                                         dependencies={"_astrocpg_philox": _philox_dependency})
-    return f
+''')
 
 
 def box_muller(u1: np.ndarray, u2: np.ndarray) -> np.ndarray:
