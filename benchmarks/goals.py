@@ -1,7 +1,8 @@
 """The three speed goals side by side, in one run, each from its own benchmark run as a user
 would type it, every figure with its repeats and their spread:
 
-    python benchmarks/goals.py [--repeats 3] [--recorded-seconds 3 24] [--runs 3] [--seconds 12]
+    python benchmarks/goals.py [--repeats 3] [--recorded-seconds 3 24] [--runs 3] [--passes 5]
+                               [--seconds 12]
                                [--command-seconds 3 48] [--command-sessions 2 10]
                                [--json docs/benchmarks/goals.json]
                                [--markdown docs/benchmarks/goals.md]
@@ -20,7 +21,7 @@ would type it, every figure with its repeats and their spread:
 - **Commands end to end** (``command_cost.py``): ``astrocpg train`` and ``astrocpg study`` as
   typed against ``astrocpg run`` recording nothing (the fixed-weight loop as typed), CPU per
   stepped trial-second (the batch's steps, trials that finished their sessions idling
-  included), slopes between 2 and 10 sessions and 3 and 48 s, ``--runs`` passes per repeat
+  included), slopes between 2 and 10 sessions and 3 and 48 s, ``--passes`` passes per repeat
   (the median of the passes' ratios, each taken within its pass, ``run`` between ``train``
   and ``study``). Goal: the training step's,
   at most 1.15 x. Per trained trial-second (what the user gets: the idle trials' steps not
@@ -39,8 +40,8 @@ command's variation does not grow with its length (from pass to pass in the two 
 0.75 s and 1.8 s: ``python benchmarks/command_cost.py --passes docs/benchmarks/goals_1045.json``,
 then ``goals_1120.json``), so ``run``'s slope goes to 48 s, where that part weighs half as much against it. The
 training-step and trial-step measurements run 12 simulated seconds each (with 6 s the training
-step's repeats spread by 13 % on 2026-12-05). About 30 minutes for the whole table (1737 s on
-the 2-core machine, 2026-12-05 13:49).
+step's repeats spread by 13 % on 2026-12-05). About 40 minutes for the whole table with five
+passes (28 minutes with three: 1664 s on the 2-core machine, 2026-12-05 14:40).
 """
 
 from __future__ import annotations
@@ -90,8 +91,12 @@ def main() -> int:
                     metavar=("K1", "K2"), help="the two session counts of `train`'s and "
                     "`study`'s slopes")
     ap.add_argument("--runs", type=int, default=3,
-                    help="runs per repeat: of each command of the recorded run (the least CPU "
-                         "counts), and passes of the commands end to end (the median ratio)")
+                    help="runs per repeat of each command of the recorded run (the least CPU "
+                         "counts)")
+    ap.add_argument("--passes", type=int, default=5,
+                    help="passes per repeat of the commands end to end (the median ratio; "
+                         "with 3, one pass varying by about 5 %%, the train and study rows' "
+                         "repeats spread by more than 10 %% in three of five tables)")
     ap.add_argument("--seconds", type=float, default=12.0,
                     help="simulated s of each training-step and trial-step measurement")
     ap.add_argument("--json", default=None, metavar="FILE")
@@ -120,7 +125,7 @@ def main() -> int:
             rows.append(_row(f"trial-step ({point['codegen']}, held)", "trial-step / mj_step "
                              "with held controls", [r["x_mj_step_held"] for r in point["repeats"]],
                              None, args.within))
-        cc = _run("command_cost.py", "--repeats", str(args.repeats), "--runs", str(args.runs),
+        cc = _run("command_cost.py", "--repeats", str(args.repeats), "--runs", str(args.passes),
                   "--kinds", "run", "train", "study", "--run-seconds",
                   *map(str, args.command_seconds), "--sessions", *map(str, args.command_sessions),
                   json_out=t / "commands.json")

@@ -21,6 +21,12 @@ Both Brian2 targets give the same uniform bits: numpy fills blocks of ``BLOCK_ST
 per trial with NumPy's own Philox (C speed, one call per trial, site and block), Cython computes
 the same words in C (``PHILOX_C``). ``randn()`` goes through ``log`` and ``cos``, whose
 last bit may differ between NumPy's and the C library's implementations.
+
+A stochastic threshold ``rand() < p`` is one call that decides it: C draws only where ``p``
+leaves the outcome open, and for ``p`` written ``0.5*(1 + tanh(x))`` computes ``tanh`` only
+where the draw lies within 1e-12 of the same sigmoid through ``exp``; the outcome is the
+written comparison's, bit for bit (``_bernoulli_function``,
+``_sigmoid_bernoulli_function``).
 """
 
 from __future__ import annotations
