@@ -43,18 +43,23 @@ class RecordPlan:
         release).
     traces: traces kept (motor_Ca, astrocyte_Ca, astrocyte_IP3, astrocyte_AG, astrocyte_ADO).
     stride: physics steps between two samples of the traces and of the robot.
+    dtype: what the traces are kept as, "float32" (7 significant digits; a value beyond about
+        3.4e38 is kept as inf, and the session's manifest counts them) or "float64".
     """
 
     every: int
     spikes: tuple[str, ...] = POPULATIONS
     traces: tuple[str, ...] = TRACES
     stride: int = 1
+    dtype: str = "float32"
 
     def __post_init__(self) -> None:
         if self.every < 1:
             raise ValueError(f"RecordPlan.every must be at least 1, got {self.every}")
         if self.stride < 1:
             raise ValueError(f"RecordPlan.stride must be at least 1, got {self.stride}")
+        if self.dtype not in ("float32", "float64"):
+            raise ValueError(f"RecordPlan.dtype must be float32 or float64, got {self.dtype!r}")
         for p in self.spikes:
             if p not in spike_populations():
                 raise ValueError(f"RecordPlan.spikes: unknown population '{p}'")
@@ -110,7 +115,7 @@ class SessionRecorder:
         self.session[b] = session
         self.buffers[b] = {
             "spikes": {p: [] for p in self.plan.spikes},  # (step, indices) per step with spikes
-            "traces": {name: np.zeros((n, table.values.shape[1]), dtype=np.float32)
+            "traces": {name: np.zeros((n, table.values.shape[1]), dtype=self.plan.dtype)
                        for name, (table, _) in self._traces.items()},
             "joint_angles": np.zeros((n,) + angles.shape),
             "torques": np.zeros((n,) + torques.shape),
@@ -171,8 +176,9 @@ class SessionRecorder:
                     for table, _ in self._traces.values():
                         table.read()
                     sampled = True
-                for name, (table, scale) in self._traces.items():
-                    buf["traces"][name][k] = table.values[b] * scale
+                with np.errstate(over="ignore"):  # beyond float32: inf, counted when written
+                    for name, (table, scale) in self._traces.items():
+                        buf["traces"][name][k] = table.values[b] * scale
                 (buf["joint_angles"][k], buf["torques"][k], buf["torso_position"][k],
                  buf["torso_velocity"][k]) = br.robot_sample(b)
                 if "torso_quaternion" in buf:

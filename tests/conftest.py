@@ -44,9 +44,24 @@ def site(tmp_path_factory) -> Path:
     return out / "html"
 
 
+class _CheckoutIsAFolder:
+    """The checkout's root is the package's source (``package-dir``), so it holds an
+    ``__init__.py``, and pytest would collect it as a package named after the clone's folder:
+    a clone in ``copy/`` shadows the standard library's ``copy`` and one in ``my-clone/`` has
+    its ``__init__`` imported as a loose module. The tests import the installed ``astrocpg``
+    instead, so the root is collected as a plain folder, whatever its name."""
+
+    @pytest.hookimpl(tryfirst=True)
+    def pytest_collect_directory(self, path: Path, parent: pytest.Collector):
+        if path == Path(__file__).resolve().parents[1]:
+            return pytest.Dir.from_parent(parent, path=path)
+        return None
+
+
 def pytest_configure(config: pytest.Config) -> None:
     """``python -m pytest`` runs the fast tests (pyproject: ``-m 'not slow'``); with CI=true
     (as ``.ci/run`` runs it) the same command runs every test, the slow ones too."""
+    config.pluginmanager.register(_CheckoutIsAFolder(), "astrocpg-checkout-is-a-folder")
     if os.environ.get("CI", "").lower() in ("1", "true", "yes") \
             and config.option.markexpr == "not slow":
         config.option.markexpr = ""

@@ -48,19 +48,22 @@ def test_a_wrong_argument_is_an_input_error_naming_it(kw, culprit):
     assert "--" not in str(e.value), str(e.value)  # the API's keywords, not the options
 
 
-@pytest.mark.parametrize("weights", [np.zeros((8, 8)).tolist(),
+@pytest.mark.parametrize("weights", [np.zeros((8, 8)), np.zeros((8, 8)).tolist(),
                                      [np.zeros(8).tolist() for _ in range(8)],
                                      tuple(tuple(row) for row in np.zeros((8, 8)))])
-def test_weights_as_nested_lists_in_volt(weights):
-    r = ac.run(**CHEAP, weights=weights)
-    assert r.n_trials == 1
+def test_weights_of_plain_numbers_are_refused_asking_for_a_unit(weights):
+    with pytest.raises(ac.InputError) as e:
+        ac.run(**CHEAP, weights=weights)
+    assert e.value.culprit == "weights" and "* mV" in str(e.value)
 
 
-def test_weights_as_lists_equal_weights_as_an_array():
+def test_weights_in_mV_equal_the_same_weights_in_volt():
+    from brian2 import mV, volt
+
     table = np.zeros((8, 8))
-    table[0, 2] = table[4, 6] = 0.5e-3  # across limbs (same-limb blocks stay zero)
-    a = ac.run(**CHEAP, seed=2, weights=table, traces="none")
-    b = ac.run(**CHEAP, seed=2, weights=table.tolist(), traces="none")
+    table[0, 2] = table[4, 6] = 0.04  # mV, across limbs (same-limb blocks stay zero)
+    a = ac.run(**CHEAP, seed=2, weights=table * mV, traces="none")
+    b = ac.run(**CHEAP, seed=2, weights=(table * 1e-3) * volt, traces="none")
     assert np.array_equal(a.spike_times("motor"), b.spike_times("motor"))
 
 

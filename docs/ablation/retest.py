@@ -48,6 +48,14 @@ def read_rows(path: Path) -> pd.DataFrame:
     if missing:
         raise InputError(f"not a study's rows (no column {', '.join(missing)})",
                          culprit=str(path))
+    # a blank or NaN cell is refused, never dropped: a seed's figures would silently rest on
+    # fewer sessions than the other seeds', and the conditions be compared on different rows
+    blank = rows[list(COLUMNS)].isna()
+    if blank.to_numpy().any():
+        row, column = np.argwhere(blank.to_numpy())[0]
+        raise InputError(f"line {int(row) + 2} has no value in column {COLUMNS[int(column)]} "
+                         f"({int(blank.to_numpy().any(axis=1).sum())} such row(s))",
+                         culprit=str(path))
     return rows
 
 

@@ -34,6 +34,12 @@ SEED = 20231215
 gives the same intervals and p-values every time it is made."""
 
 
+def _finite(x: np.ndarray, y: np.ndarray) -> bool:
+    """Every value of both groups a number: a NaN or an infinity makes a test's statistic
+    undefined, and counting relabellings against it would give a small, false p."""
+    return bool(np.all(np.isfinite(x)) and np.all(np.isfinite(y)))
+
+
 def bootstrap_interval(a: Sequence[float], b: Sequence[float], *, paired: bool = False,
                        n_boot: int = N_BOOT, seed: int = SEED,
                        level: float = 0.95) -> tuple[float, float]:
@@ -41,7 +47,7 @@ def bootstrap_interval(a: Sequence[float], b: Sequence[float], *, paired: bool =
     within each group (``paired``: pairs (a_k, b_k) resampled together); (nan, nan) with
     fewer than two values on a side."""
     x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    if len(x) < 2 or len(y) < 2:
+    if len(x) < 2 or len(y) < 2 or not _finite(x, y):
         return math.nan, math.nan
     rng = np.random.default_rng(seed)
     if paired:
@@ -65,6 +71,8 @@ def permutation_test(a: Sequence[float], b: Sequence[float], *, paired: bool = F
     1/(n_perm + 1)) and ``bound`` (True when no Monte Carlo draw reached the observed
     difference: p is then ``< p_min``-style, written ``<= 1/(n_perm+1)``)."""
     x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if not _finite(x, y):  # a NaN reaches no observed difference: p would read as tiny
+        return {"p": math.nan, "exact": False, "n": 0, "p_min": math.nan, "bound": False}
     tol = 1e-12 * max(1.0, float(np.abs(np.concatenate([x, y])).max(initial=0.0)))
     if paired:
         d = x - y
@@ -105,10 +113,12 @@ def mann_whitney(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
     2 / C(n_x + n_y, n_x)."""
     from scipy import stats
 
+    p_min = min(1.0, 2.0 / math.comb(len(x) + len(y), len(x)))
+    if not _finite(np.asarray(x, dtype=float), np.asarray(y, dtype=float)):
+        return math.nan, math.nan, p_min  # no ranks for a NaN: no test, never a small p
     pooled = np.concatenate([x, y])
     method = "exact" if len(np.unique(pooled)) == len(pooled) else "asymptotic"
     u = stats.mannwhitneyu(x, y, alternative="two-sided", method=method)
-    p_min = min(1.0, 2.0 / math.comb(len(x) + len(y), len(x)))
     # the normal approximation may go below what any ordering of these n values can give
     return float(u.statistic), max(float(u.pvalue), p_min), p_min
 

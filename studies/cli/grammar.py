@@ -47,7 +47,9 @@ def add_run(sub: Subparsers) -> None:
     """``astrocpg run``: the closed loop (and the replay of a training's session)."""
     run = sub.add_parser("run", help="the closed loop: CPG drives the A1 (fixed weights)",
                          epilog=EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_simulation_options(run, seconds=10.0)
+    add_simulation_options(run, seconds=10.0,
+                           seed_help="default 1; with --weights DIR, the seed the table trained "
+                                     "with, so it runs on its own network")
     run.add_argument("--weights", metavar="FILE|DIR",
                      help="8x8 inter-limb table in mV (.npy, .csv/.txt, .json), or a training "
                           "folder (its final weights); default: all zero, limbs uncoupled")
@@ -105,6 +107,10 @@ def add_train(sub: Subparsers) -> None:
     train.add_argument("--record-stride", type=int, default=None, metavar="STEPS",
                        help="with --record-every: physics steps (1 ms) between trace and robot "
                             "samples (default 1)")
+    train.add_argument("--trace-dtype", default=None, choices=("float32", "float64"),
+                       help="with --record-every: what the recorded traces are kept as, float32 "
+                            "(default, 7 significant digits; a value beyond 3.4e38 is kept as inf "
+                            "and counted) or float64")
     add_record_options(train)
     add_model_options(train)
     add_population_option(train, "; the training keeps its file: --resume rebuilds it (a "

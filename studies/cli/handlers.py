@@ -46,13 +46,14 @@ def unit_command(args: argparse.Namespace) -> int:
     from ...network.recording import overflow_words
     from ..commands.unit import format_rhythm, unit
 
-    result = unit(seconds=args.seconds, seed=args.seed, trials=args.trials,
+    seed = 1 if args.seed is None else args.seed
+    result = unit(seconds=args.seconds, seed=seed, trials=args.trials,
                   trace_dt=args.trace_dt, trace_dtype=args.trace_dtype, out=args.out,
                   overwrite=args.overwrite, progress=not args.no_progress,
                   inputs=input_files(args), **_recording(args), **model_args(args),
                   **population_args(args))
     for b, s in enumerate(result.summary["rhythm"]):
-        print(format_rhythm(b, args.seed + b, s))
+        print(format_rhythm(b, seed + b, s))
     if result.summary.get("trace_overflow"):
         print("warning: " + overflow_words(result.summary["trace_overflow"]))
     print(f"wrote {args.out}/")
@@ -75,7 +76,7 @@ def run_command(args: argparse.Namespace) -> int:
         print("\n".join(format_replay(result)))
         print(f"wrote {args.out}/ (the session: {args.out}/recordings/trial00_session0001/)")
         return 0
-    print("\n".join(format_run(result, args.seed)))
+    print("\n".join(format_run(result, result.seed)))
     print(f"wrote {args.out}/" + ("" if args.figure else f" (figures: astrocpg plot {args.out})"))
     return 0
 
@@ -91,7 +92,8 @@ def train_command(args: argparse.Namespace) -> int:
         ("astrocytes", None if args.no_astrocytes is None else not args.no_astrocytes))
         if value is not None}
     common = dict(record_every=args.record_every, record_stride=args.record_stride,
-                  progress=not args.no_progress, **_recording(args), **given)
+                  trace_dtype=args.trace_dtype, progress=not args.no_progress,
+                  **_recording(args), **given)
     try:
         if args.resume:
             result = resume(args.resume, out=args.out or None, overwrite=args.overwrite,

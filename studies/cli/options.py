@@ -145,11 +145,12 @@ def add_codegen_option(p: argparse.ArgumentParser) -> None:
                         "cached). Default: $ASTROCPG_CODEGEN, else numpy")
 
 
-def add_simulation_options(p: argparse.ArgumentParser, seconds: float) -> None:
+def add_simulation_options(p: argparse.ArgumentParser, seconds: float,
+                           seed_help: str = "default 1") -> None:
     p.add_argument("--seconds", type=float, default=seconds,
                    help=f"simulated time in s, a whole number of 1 ms steps (default "
                         f"{seconds:g} s)")
-    p.add_argument("--seed", type=int, default=1, help="seed of trial 0 (default 1)")
+    p.add_argument("--seed", type=int, default=None, help=f"seed of trial 0 ({seed_help})")
     p.add_argument("--trials", type=int, default=1,
                    help="independent trials, seeds K, K+1, ... (default 1)")
     p.add_argument("--trace-dt", type=float, default=1.0, metavar="MS",

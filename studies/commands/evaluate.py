@@ -26,6 +26,7 @@ import json
 import math
 import os
 import tomllib
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -45,8 +46,8 @@ from ..outputs.folder import OutputFolder, as_path, verify
 from ..outputs.parts import PARTS_SUFFIX, CellParts
 from ..outputs.study_index import INDEX as STUDY_INDEX, read_current
 from ..outputs.writing import write_manifest
-from ..outputs.weights import load_weights
-from ..outputs.kept_tables import is_kept_tables, kept_controllers, kept_weights
+from ..outputs.weights import load_weights, tables_state
+from ..outputs.kept_tables import is_kept_tables, kept_controllers, kept_state, kept_weights
 from ..runtime.resources import check_memory, estimate_bytes
 from .run import trained_models, training_settings
 from .settings import added_populations, check_grid, number, seed_number
@@ -246,6 +247,23 @@ def _controllers(folder: Path) -> list[dict[str, Any]]:
     return found
 
 
+def _tables_label(controllers: Sequence[Mapping[str, Any]], session: int | None) -> str:
+    """What the evaluated tables are: "after session S" with ``session``; "final" when every
+    training did all its sessions; otherwise the sessions they are after, with a warning for
+    each training that is still running or stopped early (never called final)."""
+    if session is not None:
+        return f"after session {session}"
+    labels = []
+    for c in controllers:
+        state = kept_state(c) if "kept" in c else tables_state(c["folder"])
+        if state["warning"]:
+            warnings.warn(state["warning"], UserWarning, stacklevel=3)
+        labels.append(state["label"])
+    if all(label == "final" for label in labels):
+        return "final"
+    return "latest: " + ", ".join(sorted(set(labels), key=labels.index))
+
+
 def _trial_rows(result: Any, b: int, seconds: float) -> dict[str, Any]:
     """What one trial did: distance, speed, fall, upright share, and its rhythm and gait over
     its second half (:func:`~astrocpg.studies.analysis.gait.trial_measures`)."""
@@ -355,6 +373,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
             verify(c["folder"], strict=False)
             tables = load_weights(c["folder"], culprit="", session=session)
         plans.append((c, tables, trained_models(c["settings"])))
+    tables_label = _tables_label(controllers, session)
     world_set = read_worlds(worlds, plans[0][2])
     check_grid(len(plans) * len(world_set.worlds),
                f"cells ({len(plans)} training(s) x {len(world_set.worlds)} world(s))",
@@ -391,7 +410,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     settings = {"folder": str(folder), **world_set.to_json(),
                 "worlds_source": str(worlds), "seconds": seconds, "repeats": repeats,
                 "seed": seed, "conditions": list(conditions or []),
-                "tables": "final" if session is None else f"after session {session}",
+                "tables": tables_label,
                 "trainings": [str(c["folder"]) for c, _, _ in plans],
                 "workers": workers, "scheduler": scheduler,
                 "cells_reused": len(cells) - len(todo)}

@@ -81,12 +81,13 @@ def recorded_row(folder: Path, trial: int, session: int) -> dict[str, str] | Non
 def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int = 1,
            out: str | os.PathLike, record_stride: int = 1,
            spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
-           overwrite: bool = False, progress: bool = True,
+           trace_dtype: str = "float32", overwrite: bool = False, progress: bool = True,
            inputs: Sequence[str | os.PathLike] = ()) -> Result:
     """Replay session ``session`` (1-based) of trial ``trial`` of the training in ``training``
     (a training folder, or a study's ``runs/<run id>/``) alone, with learning on, writing ``out``: a one-session training folder whose
     ``recordings/trial00_session0001/`` holds the session's spikes, traces and robot, and
     whose manifest's ``settings.replay_of`` names the training, trial, session and step.
+    ``trace_dtype``: the recorded traces kept as float32 (default) or float64.
     Needs the Brian2 target the training ran with. The populations the training added
     (``settings.populations`` of its manifest) are built too.
 
@@ -122,7 +123,7 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
               "recorded_final_x_m": None if row is None else row["final_x_m"]}
     # the populations the training added: the same network, recorded like its own
     with added_populations(settings.populations):
-        plan = record_plan(1, record_stride, spikes, traces)
+        plan = record_plan(1, record_stride, spikes, traces, trace_dtype)
         trainer = train_from_start(settings, out_path, plan, start, origin, models=models,
                                    progress=progress, overwrite=overwrite)
     result = Result.from_training(trainer, out_path)

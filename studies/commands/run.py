@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -23,7 +24,7 @@ from ..outputs.writing import (file_sha256, read_manifest, remove_files, save_np
                                save_spikes_and_traces, spill_files,
                                write_manifest)
 from ..outputs.result import Result
-from ..outputs.weights import check_table, load_weights
+from ..outputs.weights import check_table, load_weights, tables_state
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from ...network import populations as _table
 from .settings import (added_populations, number, population_rows, same_populations,
@@ -39,7 +40,7 @@ ROBOT_FILE = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t
               "(trial, t); foot_force (trial, t, leg) N; interlimb_weights_mV (trial, 8, 8)")
 
 
-def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
+def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
         overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
         models: Mapping[str, Any] | None = None,
         weights: str | Path | np.ndarray | None = None, trial: int | None = None,
@@ -56,9 +57,12 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     overrides: parameter values with units, ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
     equations: ``{model: equation text}`` replacing a model's Brian2 equation string.
     models: ``{model: model file text}`` (TOML, ``astrocpg models dump``) replacing whole models.
+    seed: trial 0's seed (trial b runs with seed + b); default: with ``weights`` a training
+    folder, the seed its tables trained with (plus ``trial``), else 1.
     weights: an 8x8 table in mV as a file (.npy/.npz/.json/.csv) or a training folder (its final
-    tables; ``trial`` picks one), or an array in volt of shape (8, 8) or (trials, 8, 8); default
-    zero. robot: an MJCF file with the A1's joint and actuator names (default: the project's
+    tables, or its latest with a warning while it runs or after it stopped early; ``trial``
+    picks one), or an array with a unit, ``table * mV``, of shape (8, 8) or (trials, 8, 8)
+    (range-checked as a file is; a plain array of numbers is refused); default zero. robot: an MJCF file with the A1's joint and actuator names (default: the project's
     A1). trace_dt in ms; trace_dtype: the traces kept as float32 (default) or float64 (full
     resolution); robot_stride in physics steps. spikes / traces: which populations and
     traces to record (None: all). out: writes the folder ``astrocpg run`` writes. figure: also
@@ -102,6 +106,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
 
         seconds = number(seconds, "--seconds", positive=True)
         trials = number(trials, "--trials", integer=True, minimum=1)
+        seed = trained_seed(weights, trial, seed)
         seed = seed_number(seed, trials=trials)
         trace_dt = number(trace_dt, "--trace-dt", positive=True)
         check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
@@ -121,22 +126,21 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
                      culprit=f"--seconds {seconds:g} x --trials {trials}")
         files = model_files_record(models)
         models = model_set(overrides, equations, models=models)
+        tables_label = None
         if weights is None:
             table = None
         elif isinstance(weights, (str, os.PathLike)):
             table = load_weights(weights, trial)
             if not Path(weights).is_dir():  # a user's table: in the synapse's range, or refused
                 check_table(table, models, f"--weights {weights}")
-        else:  # an array, or nested lists of numbers: tables in volt
-            try:
-                table = np.asarray(weights, dtype=float)
-            except (TypeError, ValueError):
-                raise InputError(f"expected a file, a training folder or 8x8 tables of numbers in "
-                                 f"volt, got {type(weights).__name__}", culprit="weights") from None
-            if table.ndim not in (2, 3) or table.shape[-2:] != (8, 8) \
-                    or not np.all(np.isfinite(table)):
-                raise InputError(f"expected finite 8x8 tables in volt, got shape {table.shape}",
-                                 culprit="weights")
+            else:  # a training's: its final tables, or said to be otherwise
+                state = tables_state(weights)
+                tables_label = state["label"]
+                if state["warning"]:
+                    warnings.warn(state["warning"], UserWarning, stacklevel=2)
+        else:  # an array with a unit (mV, like every file and ac.load(...).weights)
+            table = array_table(weights)
+            check_table(table, models, "weights")  # in the synapse's range, as a file's is
             weights = table
         if table is not None and table.ndim == 3 and table.shape[0] != trials:
             raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
@@ -155,6 +159,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
             "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
             "weights": None if weights is None or isinstance(weights, np.ndarray)
             else str(weights), "trial": trial, "robot": None if robot is None else str(robot),
+            **({} if tables_label is None else {"tables": tables_label}),
             "figure": bool(figure)}
         if files:
             settings["models"] = files  # each model file's content and sha256
@@ -189,6 +194,58 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                       summary=summary, robot=robot_arrays(result),
                                       models=models, folder=out)
+
+
+def array_table(weights: Any) -> np.ndarray:
+    """Tables given as an array (``ac.run(weights=...)``), in volt: a Brian2 quantity of
+    voltage (``table * mV``, ``table * volt``). A plain array of numbers is refused: files and
+    ``ac.load(...).weights`` are in mV, Brian2's own unit is the volt, and a table read in the
+    wrong one is silently clipped by the synapse, so the unit must be said."""
+    from brian2 import Quantity, volt
+    from brian2.units.fundamentalunits import fail_for_dimension_mismatch, DimensionMismatchError
+
+    if not isinstance(weights, Quantity):
+        try:
+            np.asarray(weights, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"expected a file, a training folder or 8x8 tables with a unit "
+                             f"(table * mV), got {type(weights).__name__}",
+                             culprit="weights") from None
+        raise InputError("an array of plain numbers has no unit: give it with one, "
+                         "weights=table * mV (a training's tables, ac.load(...).weights, and "
+                         "every weights file are in mV)", culprit="weights")
+    try:
+        fail_for_dimension_mismatch(weights, volt)
+    except DimensionMismatchError:
+        raise InputError(f"expected a voltage (table * mV), got a quantity in "
+                         f"{weights.dim}", culprit="weights") from None
+    table = np.asarray(weights / volt, dtype=float)
+    if table.ndim not in (2, 3) or table.shape[-2:] != (8, 8) or not np.all(np.isfinite(table)):
+        raise InputError(f"expected finite 8x8 tables, got shape {table.shape}",
+                         culprit="weights")
+    return table
+
+
+def trained_seed(weights: Any, trial: int | None, seed: int | None) -> int:
+    """The seed of a run: ``seed`` as given; with ``weights`` a training folder and no seed,
+    the seed its table(s) trained with (the training's seed, plus ``trial``), so that a table
+    runs on the network and noise it learnt on; otherwise 1. A given seed that differs from the
+    training's is run, with a warning."""
+    learnt = None
+    if isinstance(weights, (str, os.PathLike)) and Path(weights).is_dir() \
+            and (Path(weights) / "manifest.json").is_file():
+        try:
+            learnt = int(training_settings(weights).get("seed", 1)) + (trial or 0)
+        except (InputError, TypeError, ValueError):
+            learnt = None
+    if seed is None:
+        return 1 if learnt is None else learnt
+    if learnt is not None and isinstance(seed, int) and seed != learnt:
+        what = f"trial {trial}'s table" if trial is not None else "its tables"
+        warnings.warn(f"{weights}: {what} trained with seed {learnt}; running with seed {seed} "
+                      f"(another network and noise; leave the seed out to use {learnt})",
+                      UserWarning, stacklevel=3)
+    return seed
 
 
 def nearest_folder(path: Path) -> Path:
@@ -398,9 +455,9 @@ def write_run_folder(out: Path, result: SimulationResult, settings: Mapping[str,
 
 
 #: run settings a replay takes from the training, with their defaults
-REPLAY_FIXED = {"seconds": 10.0, "seed": 1, "trials": 1, "overrides": None, "equations": None,
-                "models": None, "robot": None, "robot_stride": 1, "figure": False,
-                "trace_dtype": "float32"}
+REPLAY_FIXED = {"seconds": 10.0, "seed": None, "trials": 1, "overrides": None,
+                "equations": None, "models": None, "robot": None, "robot_stride": 1,
+                "figure": False}
 
 
 def _replay(given: dict[str, Any]) -> Result:
@@ -425,7 +482,8 @@ def _replay(given: dict[str, Any]) -> Result:
     stride = whole_steps(float(given["trace_dt"]) * 1e-3, 1e-3, culprit="--trace-dt")
     return replay_session(weights, trial=given["trial"] or 0, session=given["session"],
                           out=given["out"], record_stride=stride, spikes=given["spikes"],
-                          traces=given["traces"], overwrite=given["overwrite"],
+                          traces=given["traces"], trace_dtype=given["trace_dtype"],
+                          overwrite=given["overwrite"],
                           progress=given["progress"], inputs=given["inputs"])
 
 
@@ -526,6 +584,9 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
     seed = seed_number(seed)
     verify(folder, strict=False)  # its files are what its manifest lists
     weights = load_weights(folder, culprit="")
+    state = tables_state(folder)  # final, or said to be otherwise (running, stopped early)
+    if state["warning"]:
+        warnings.warn(state["warning"], UserWarning, stacklevel=2)
     models = trained_models(training_settings(folder))
     models = in_world_settings(models, world)
     check_memory(estimate_bytes(trials=len(weights) * repeats, seconds=seconds, dt=STEP,

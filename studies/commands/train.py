@@ -21,6 +21,7 @@ import os
 import re
 import shutil
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, NoReturn, Sequence
@@ -35,6 +36,7 @@ from ...coupling.training import SESSION_COLUMNS, SessionMemory, SessionStart, T
 from ...errors import Diverged, EnvironmentFault, InputError
 from ...models import ModelSet
 from ...network import codegen_target, exclusive, interlimb_labels, run_network
+from ...network.recording import overflow_words, overflowed
 from ..outputs.checkpoint import (CHECKPOINT, LEGACY_CHECKPOINT, holds_checkpoint,
                                refuse_legacy, write_checkpoint as write_checkpoint_file)
 from ..outputs.checkpoint import read_checkpoint as read_checkpoint_file
@@ -48,7 +50,7 @@ from ..runtime.resources import check_memory, estimate_bytes
 from ...models.compose import model_files_record, model_set, override_items
 from .settings import (added_populations, number, population_rows, same_populations,
                        seed_number)
-from .simulate import check_selection
+from .simulate import check_selection, check_trace_dtype
 
 # Writing the outputs and the checkpoint costs time that grows with the sessions done (20 trials
 # x 400 sessions: about 0.2 s a write, and with 20 trials a session ends about twice per
@@ -118,6 +120,8 @@ class Trainer:
         self.training = Training(self.cpg, self.bridge, models, n_sessions=settings.n_sessions,
                                  on_session=self._on_session)
         self.recorder = None
+        # recorded session folder -> the traces that overflowed float32 there
+        self.trace_overflow: dict[str, dict[str, Any]] = {}
         if record is not None:
             self.recorder = SessionRecorder(
                 self.cpg, self.bridge, record, n_sessions=settings.n_sessions,
@@ -171,6 +175,14 @@ class Trainer:
         folder = self.out / "recordings" / f"trial{trial:02d}_session{session:04d}"
         folder.mkdir(parents=True, exist_ok=True)
         files = save_spikes_and_traces(folder, arrays["spikes"], arrays["traces"])
+        # never silent: the traces that lost values to float32 (stored as inf), how many
+        over = overflowed(arrays["traces"])
+        if over:
+            if not self.trace_overflow:  # said once; every such session is in the manifest
+                warnings.warn(f"{folder}: " + overflow_words(over) + " (every session that "
+                              f"does is listed in the training's manifest.json)", UserWarning,
+                              stacklevel=2)
+            self.trace_overflow[folder.name] = over
         robot = {k: (v if k == "t" else v[None]) for k, v in arrays["robot"].items()}
         save_npz(folder / "robot.npz", robot | {"legs": np.array(list(self.cpg.layout.legs)),
                                                 "joints": np.array(["hip", "thigh", "calf"])})
@@ -187,7 +199,8 @@ class Trainer:
                                                    "joint); torso_position, torso_velocity "
                                                    "(1, t, xyz); torso_quaternion (1, t, "
                                                    "wxyz)"},
-                       results={"layout": layout.to_json(), "dt_s": float(self.cpg.dt)})
+                       results={"layout": layout.to_json(), "dt_s": float(self.cpg.dt),
+                                **({"trace_overflow": over} if over else {})})
 
     def write_outputs(self) -> None:
         rows = self.training.memory.rows
@@ -588,7 +601,8 @@ TRAIN_FILES = {
 
 def record_plan(every: int | None, stride: int | None = None,
                 spikes: tuple[str, ...] | None = None,
-                traces: tuple[str, ...] | None = None) -> RecordPlan | None:
+                traces: tuple[str, ...] | None = None,
+                trace_dtype: str | None = None) -> RecordPlan | None:
     """The new training's RecordPlan from the options (a resumed one keeps its own:
     :func:`~astrocpg.studies.commands.train.check_resume_options`)."""
     if every is None:
@@ -598,6 +612,9 @@ def record_plan(every: int | None, stride: int | None = None,
         if spikes is not None or traces is not None:
             raise InputError("a training records spikes and traces only with --record-every N",
                              culprit="--spikes/--traces")
+        if trace_dtype is not None:
+            raise InputError("a training records traces only with --record-every N",
+                             culprit="--trace-dtype")
         return None
     stride = 1 if stride is None else stride
     if every < 1:
@@ -605,7 +622,8 @@ def record_plan(every: int | None, stride: int | None = None,
     if stride < 1:
         raise InputError(f"must be at least 1, got {stride}", culprit="--record-stride")
     spikes, traces = check_selection(spikes, traces)
-    return RecordPlan(every=every, spikes=spikes, traces=traces, stride=stride)
+    dtype = "float32" if trace_dtype is None else check_trace_dtype(trace_dtype)
+    return RecordPlan(every=every, spikes=spikes, traces=traces, stride=stride, dtype=dtype)
 
 
 def _last(n: int, of: int) -> str:
@@ -681,7 +699,8 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
           equations: dict[str, str] | None = None, models: dict[str, str] | None = None,
           record_every: int | None = None,
           record_stride: int | None = None, spikes: tuple[str, ...] | None = None,
-          traces: tuple[str, ...] | None = None, overwrite: bool = False,
+          traces: tuple[str, ...] | None = None, trace_dtype: str | None = None,
+          overwrite: bool = False,
           progress: bool = True, inputs: Sequence[str | os.PathLike] = (),
           populations: Any = None) -> Result:
     """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
@@ -690,7 +709,8 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
     overrides/equations as for :func:`~astrocpg.run` (e.g.
     ``["L_max=0.5*second"]`` for short sessions). ``record_every=N`` records sessions 1, 1+N,
     ... and each trial's last into ``out/recordings/`` (``record_stride`` steps between trace
-    and robot samples; ``spikes``/``traces`` pick what). ``overwrite`` replaces only an astrocpg
+    and robot samples; ``spikes``/``traces`` pick what; ``trace_dtype`` "float64" keeps the
+    traces at full precision, default float32). ``overwrite`` replaces only an astrocpg
     output folder that is none of ``inputs`` (files the caller read, e.g. model files) and
     holds none of them. ``populations``: model files with a ``[population]`` table (texts, or
     ``{file: text}``), populations added to every session's network (docs/model-files.md, "A
@@ -722,7 +742,7 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
                          f"replace it with --overwrite)", culprit=f"--out {out}")
     OutputFolder(out, overwrite=overwrite, inputs=inputs).check()
     with added_populations(settings.populations):  # recorded and built like the others
-        plan = record_plan(record_every, record_stride, spikes, traces)
+        plan = record_plan(record_every, record_stride, spikes, traces, trace_dtype)
         check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
                                     sessions=settings.n_sessions),
                      culprit=f"--sessions {settings.n_sessions} x --trials {settings.n_trials}")
@@ -733,7 +753,8 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
 def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = True,
            record_every: int | None = None,
            record_stride: int | None = None, spikes: tuple[str, ...] | None = None,
-           traces: tuple[str, ...] | None = None, seed: int | None = None,
+           traces: tuple[str, ...] | None = None, trace_dtype: str | None = None,
+           seed: int | None = None,
            trials: int | None = None, astrocytes: bool | None = None, overrides: Any = None,
            equations: Mapping[str, str] | None = None, models: Mapping[str, Any] | None = None,
            out: str | Path | None = None, overwrite: bool = False,
@@ -807,7 +828,8 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     with added_populations(settings.populations):  # its recording plan may name them
         return _resume_checked(out, settings, payload, fresh, planned, sessions, given,
                                dict(record_every=record_every, record_stride=record_stride,
-                                    spikes=spikes, traces=traces), progress)
+                                    spikes=spikes, traces=traces, trace_dtype=trace_dtype),
+                               progress)
 
 
 def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any], fresh: bool,
@@ -961,15 +983,19 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
                                         f"{value_text(value)}")
     every, stride = given.get("record_every"), given.get("record_stride")
     spikes, traces = given.get("spikes"), given.get("traces")
+    dtype = given.get("trace_dtype")
     if plan is None:
         for option, value in (("--record-every", every), ("--record-stride", stride),
-                              ("--spikes", spikes), ("--traces", traces)):
+                              ("--spikes", spikes), ("--traces", traces),
+                              ("--trace-dtype", dtype)):
             if value is not None:
                 refuse(option, f"that run records no sessions (given {option} "
                                f"{_option_text(value)})")
         return
     if every is not None and every != plan.every:
         refuse("--record-every", f"that run records every {plan.every} sessions, not {every}")
+    if dtype is not None and dtype != plan.dtype:
+        refuse("--trace-dtype", f"that run keeps its traces as {plan.dtype}, not {dtype}")
     if stride is not None and stride != plan.stride:
         refuse("--record-stride", f"that run records every {plan.stride} steps, not {stride}")
     want_spikes, want_traces = check_selection(spikes, traces)
@@ -1129,7 +1155,22 @@ def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
     L_max = trainer.models.value("L_max")
     summary = train_summary(rows, settings.n_trials, L_max)
     trainer.summary = summary
+    over = recorded_overflow(out)
     write_manifest(out, **manifest,
                    results={"status": "finished", "wall_seconds_last_invocation": wall,
-                            "per_trial": summary["per_trial"]} | layout, history=True)
+                            "per_trial": summary["per_trial"]} | layout
+                   | ({"trace_overflow": over} if over else {}), history=True)
     return trainer
+
+
+def recorded_overflow(out: Path) -> dict[str, dict[str, Any]]:
+    """``{recorded session folder: {trace: counts}}`` of the training's recordings whose
+    traces overflowed float32 (their manifests say so), read from the folder so that it holds
+    across resumes."""
+    found: dict[str, dict[str, Any]] = {}
+    for folder in sorted((out / "recordings").glob("trial*_session*")):
+        manifest = read_manifest(folder) or {}
+        over = (manifest.get("results") or {}).get("trace_overflow")
+        if over:
+            found[folder.name] = over
+    return found

@@ -61,6 +61,9 @@ def keep_tables(study: str | Path, out: str | Path,
     final table and its tables after each of ``sessions`` that every seed reached. Returns
     [(npz path, arrays)]."""
     study, out = Path(study), Path(out)
+    for s in sessions:  # "after session 0" would be the last session's tables, mislabelled
+        if isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 1:
+            raise InputError(f"a session is counted from 1, got {s}", culprit="--sessions")
     runs = sorted(p for p in (study / "runs").glob("*") if (p / WEIGHTS).is_file())
     if not runs:
         raise InputError(f"no run with a weights.npz under {study / 'runs'}", culprit=str(study))
@@ -72,9 +75,15 @@ def keep_tables(study: str | Path, out: str | Path,
         np.savez(npz, **arrays)
         manifest = read_json(run / MANIFEST)
         meta = {k: manifest[k] for k in KEPT if k in manifest}
+        done = arrays["sessions_done"]
+        planned = (manifest.get("settings") or {}).get("n_sessions")
         meta["tables"] = {"file": npz.name,
                           "sha256": hashlib.sha256(npz.read_bytes()).hexdigest(),
-                          "arrays": {k: list(v.shape) for k, v in arrays.items()}}
+                          "arrays": {k: list(v.shape) for k, v in arrays.items()},
+                          # final_weights_mV are final only where every seed did its sessions
+                          "sessions_done": [int(done.min()), int(done.max())],
+                          "final": planned is not None
+                          and int(done.min()) == int(done.max()) == int(planned)}
         (out / f"{run.name}.json").write_text(json.dumps(meta, indent=1) + "\n",
                                               encoding="utf-8")
         written.append((npz, arrays))
@@ -117,6 +126,35 @@ def kept_controllers(folder: Path) -> list[dict[str, Any]]:
         raise InputError("holds no kept tables (<run>.json with a \"tables\" entry, beside its "
                          ".npz)", culprit=str(folder))
     return found
+
+
+def kept_state(controller: dict[str, Any]) -> dict[str, Any]:
+    """Whether a kept run's ``final_weights_mV`` are final: ``{"final", "label", "warning"}``
+    as :func:`~astrocpg.studies.outputs.weights.tables_state` gives for a training. They are
+    final only when every seed did the sessions its run planned (its settings' ``n_sessions``);
+    a run kept after it stopped early holds each seed's last tables, labelled by the sessions
+    they are after."""
+    meta = _meta(Path(controller["kept"])) or {}
+    done = (meta.get("tables") or {}).get("sessions_done")
+    if done is None:  # kept before the .json said: read the .npz
+        try:
+            with np.load(Path(controller["folder"]), allow_pickle=False) as z:
+                d = np.asarray(z["sessions_done"])
+            done = [int(d.min()), int(d.max())]
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error):
+            done = None
+    try:
+        planned = int((meta.get("settings") or {}).get("n_sessions"))
+    except (TypeError, ValueError):
+        planned = None
+    lo, hi = (None, None) if not done else (int(done[0]), int(done[1]))
+    final = planned is not None and lo is not None and lo == hi == planned
+    after = ("after session ?" if lo is None else
+             f"after session {lo}" if lo == hi else f"after sessions {lo}-{hi}")
+    warning = "" if final else (
+        f"{controller['kept']}: its run stopped before its end; its tables are those {after}"
+        + (f" of {planned}" if planned else ""))
+    return {"final": final, "label": "final" if final else after, "warning": warning}
 
 
 def kept_weights(controller: dict[str, Any], session: int | None = None) -> np.ndarray:

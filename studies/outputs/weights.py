@@ -228,3 +228,44 @@ def check_table(table: Any, models: Any, where: str) -> None:
                 raise InputError(f"{labels[i]} -> {labels[j]}{trial(b)} is {t[i, j] * 1e3:g} "
                                  f"mV, {name} = {bound * 1e3:g} mV (the inter-limb synapse's "
                                  f"bound; the table is in mV)", culprit=where)
+
+
+def tables_state(folder: str | Path) -> dict[str, Any]:
+    """What a training folder's current tables are: ``{"final": bool, "running": bool,
+    "sessions_done": [min, max], "sessions": planned, "label": str, "warning": str}``.
+
+    The tables :func:`load_weights` reads from a folder are each trial's tables after its last
+    finished session. They are the *final* tables only when the training is not running and
+    every trial has done the sessions it was asked for; otherwise they are labelled by the
+    sessions they are after, and ``warning`` says why (a training still running, or one stopped
+    before its end), so that no output calls them final."""
+    from .folder import holder_of
+
+    p = Path(folder)
+    planned = None
+    try:
+        manifest = loads_json(read_bytes(p / MANIFEST, str(p / MANIFEST)), str(p / MANIFEST))
+        planned = int((manifest.get("settings") or {}).get("n_sessions"))
+    except (InputError, OSError, ValueError, TypeError, AttributeError):
+        planned = None
+    try:
+        with np.load(p / WEIGHTS, allow_pickle=False) as z:
+            done = np.asarray(z["sessions_done"]) if "sessions_done" in z.files else None
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error):
+        done = None
+    lo, hi = (int(done.min()), int(done.max())) if done is not None and done.size else (None, None)
+    running = holder_of(p) is not None
+    final = (not running and planned is not None and lo is not None and lo == hi == planned)
+    after = ("after session ?" if lo is None else
+             f"after session {lo}" if lo == hi else f"after sessions {lo}-{hi}")
+    label = "final" if final else after
+    warning = ""
+    if running:
+        warning = (f"{p} is still training: its tables are those {after}"
+                   + (f" of {planned}" if planned else "") + ", not final")
+    elif not final:
+        warning = (f"{p} stopped before its end: its tables are those {after}"
+                   + (f" of {planned}" if planned else "")
+                   + " (continue it with astrocpg train --resume)")
+    return {"final": final, "running": running, "sessions_done": [lo, hi], "sessions": planned,
+            "label": label, "warning": warning}
