@@ -1279,7 +1279,8 @@ case("train-out-on-an-old-format-folder",
 for option, value, words in (("--record-stride", "5", "--record-stride"),
                              ("--record-every", "2", "--record-every"),
                              ("--spikes", "motor,astrocyte", "--spikes"),
-                             ("--traces", "astrocyte_Ca", "--traces")):
+                             ("--traces", "astrocyte_Ca", "--traces"),
+                             ("--trace-dtype", "float64", "--trace-dtype")):
     case(f"train-resume-{option[2:]}-differs",
          lambda e, o=option, v=value: S("train", "--resume", _recorded(e), o, v), 2, words,
          "unchanged", lambda e: _recorded(e))
@@ -1289,6 +1290,15 @@ for option, value, words in (("--record-stride", "5", "--record-stride"),
 case("train-resume-record-stride-same", lambda e: S("train", "--resume", _recorded(e),
                                                     "--record-stride", "10"), 2,
      "already finished", "unchanged", lambda e: _recorded(e))
+case("train-trace-dtype-without-record-every",
+     lambda e: S("train", "--trace-dtype", "float64", "--out", out(e)), 2, "--trace-dtype",
+     "absent", out)
+case("train-trace-dtype-float16", lambda e: S("train", "--record-every", "1", "--trace-dtype",
+                                              "float16", "--out", out(e)), 2, "--trace-dtype",
+     "absent", out)
+case("run-session-trace-dtype-float16",
+     lambda e: S("run", "--weights", e.copy("train"), "--session", "1", "--trace-dtype",
+                 "float16", "--out", out(e)), 2, "--trace-dtype", "absent", out)
 case("train-record-stride-without-record-every",
      lambda e: S("train", "--record-stride", "5", "--out", out(e)), 2, "--record-stride",
      "absent", out)
