@@ -14,9 +14,9 @@
 # so the machine's own SLURM or munge (if any) is left alone. SLURM's commands find this
 # cluster with SLURM_CONF=DIR/slurm.conf (printed as the last line of `start`).
 #
-# Exit status: 0 done; 77 slurm cannot be installed here (not root, no apt-get, or apt failed:
-# the reason is printed; the tests skip, naming it); 1 installed but the cluster did not come up
-# (the daemons' logs are printed).
+# Exit status: 0 done; 77 slurm cannot be installed or started here (not root, no apt-get, or
+# apt failed: the reason is printed; the tests skip, naming it); 1 installed but the cluster did
+# not come up (the daemons' logs are printed).
 set -uo pipefail
 
 CMD=${1:-start}
@@ -57,8 +57,12 @@ node_state() {  # the node's state as sinfo reports it (empty when slurmctld doe
     timeout 10 sinfo -h -N -p "$PARTITION" -o %T 2>/dev/null | head -1
 }
 
-alive() {  # the daemon whose pid file is $1 runs
-    [ -s "$1" ] && kill -0 "$(cat "$1")" 2>/dev/null
+alive() {  # the daemon whose pid file is $1 runs (a pid file left by a daemon that died, its
+            # pid since reused by another program, does not count)
+    local pid
+    [ -s "$1" ] || return 1
+    pid=$(cat "$1")
+    [ "$(cat "/proc/$pid/comm" 2>/dev/null)" = "$(basename "$1" .pid)" ]
 }
 
 up() {
@@ -137,6 +141,10 @@ start() {
         say "already running (SLURM_CONF=$SLURM_CONF)"
         echo "SLURM_CONF=$SLURM_CONF"
         return 0
+    fi
+    if [ "$(id -u)" != 0 ]; then  # slurmd runs the jobs as their users: it must be root
+        say "cannot start slurmctld and slurmd: not root (uid $(id -u))"
+        exit 77
     fi
     alive "$DIR/slurmctld.pid" || alive "$DIR/slurmd.pid" || write_config
     start_munge || { say "munged did not start"; logs; exit 1; }
