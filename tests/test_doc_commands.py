@@ -61,6 +61,13 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 SHELL_LANGS = {"bash", "console", "shell", "sh"}
 
+# the studies page's SLURM recipe: tests/test_slurm.py runs these two commands (the script,
+# then the study on the scheduler it starts) on a SLURM cluster it starts on this machine
+SLURM_CLUSTER = "python docs/cluster/slurm_cluster.py"
+SLURM_STUDY = ("astrocpg study studies/parameter_studies/ablation.toml --out /scratch/$USER/ablation "
+               "--scheduler tcp://NODE:PORT")
+SLURM_RUN_BY = "run by tests/test_slurm.py on a one-machine SLURM cluster"
+
 # command text (as joined from the page) -> why the slow test does not run it
 EXCEPTIONS = {
     "python3 -m venv .venv": "makes a virtual environment and installs from the package index "
@@ -69,9 +76,9 @@ EXCEPTIONS = {
     "python -m sphinx -W -n -b html docs docs/_build/html":
         "builds the manual (minutes); tests/test_docs.py runs it",
     "python -m build": "builds the wheel and sdist; tests/test_wheel.py does",
-    "astrocpg study studies/parameter_studies/ablation.toml --out /scratch/$USER/ablation --scheduler "
-    "tcp://NODE:PORT": "needs a Dask scheduler on a SLURM cluster (NODE:PORT is yours)",
-    "slurm_cluster.py": "needs dask-jobqueue and a SLURM cluster",
+    # run by tests/test_slurm.py on a SLURM cluster of this machine, with its values
+    SLURM_STUDY: f"{SLURM_RUN_BY}: with the address its slurm_cluster.py prints",
+    SLURM_CLUSTER: f"{SLURM_RUN_BY}, with its partition, 2 jobs, 2GB and 00:30:00",
     "python docs/ablation/compare_seed.py out/la_rough_seed5":
         "compares a training of 12 full-length sessions with the committed rows of the study: "
         "shortened, the training's rows differ by construction",
