@@ -341,3 +341,40 @@ def test_every_quoted_error_line_is_one_the_code_prints() -> None:
                          + (f" is printed as 'astrocpg: {other[0]}: ...'" if other else
                             " is no message the code raises"))
     assert not wrong, wrong
+
+
+# --- the README on a code host ---------------------------------------------------------------
+
+ROLE = re.compile(r"\{[a-z:]+\}`")
+DIRECTIVE = re.compile(r"^(`{3,}|~{3,})\{(?!code-cell\})[^}]+\}", re.M)
+
+
+def _first_screen(text: str) -> str:
+    """A page's first 40 lines (front matter left out), to the end of their paragraph."""
+    text = re.sub(r"\A---\n.*?\n---\n", "", text, flags=re.S)
+    lines = text.split("\n")
+    n = 40
+    while n < len(lines) and lines[n].strip():
+        n += 1
+    return "\n".join(lines[:n])
+
+
+def test_the_readmes_links_resolve_and_open_on_plain_markdown() -> None:
+    """A code host renders Markdown, not MyST: every page README.md links to exists, and a
+    Markdown page it links opens with a first screen free of MyST roles (``{term}`...```) and
+    directives (an executed code cell still reads as code)."""
+    readme = _text(ROOT / "README.md")
+    links = [m for m in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", readme)
+             if not re.match(r"[a-z]+:", m)]
+    assert links
+    missing = [link for link in links if not (ROOT / link).exists()]
+    assert not missing, missing
+    myst = []
+    for link in links:
+        if link.endswith(".md"):
+            first = _first_screen(_text(ROOT / link))
+            found = ROLE.findall(first) + DIRECTIVE.findall(first)
+            if found:
+                myst.append(f"{link}: {found}")
+    assert not myst, ("pages linked from README.md whose first screen a code host shows as "
+                      f"MyST markup: {myst}")
