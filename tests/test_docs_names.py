@@ -378,3 +378,23 @@ def test_the_readmes_links_resolve_and_open_on_plain_markdown() -> None:
                 myst.append(f"{link}: {found}")
     assert not myst, ("pages linked from README.md whose first screen a code host shows as "
                       f"MyST markup: {myst}")
+
+
+# --- the authors' code ----------------------------------------------------------------------
+
+AUTHORS_CODE = re.compile(r"github\.com/NeuroCompLab-psu/Astrocyte_Regulated_Gait_Search/"
+                          r"(?:tree|blob)/[0-9a-f]{40}")
+
+
+def test_every_page_that_leans_on_the_authors_code_cites_it_at_a_commit() -> None:
+    """A page that cites what the authors' code does links their repository at the commit the
+    claim was read from (the manual's pages; docs/benchmarks/ holds benchmark output)."""
+    uncited = []
+    for page in PAGES:
+        if "benchmarks" in page.relative_to(DOCS if page.is_relative_to(DOCS) else ROOT).parts:
+            continue
+        text = _text(page)
+        if re.search(r"authors' (code|model|scheme|table|delays|order|formulation|preset|"
+                     r"counter|command line|choices)", text) and not AUTHORS_CODE.search(text):
+            uncited.append(str(page.relative_to(ROOT)))
+    assert not uncited, f"pages citing the authors' code without its repository and commit: {uncited}"
