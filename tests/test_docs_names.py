@@ -398,3 +398,28 @@ def test_every_page_that_leans_on_the_authors_code_cites_it_at_a_commit() -> Non
                      r"counter|command line|choices)", text) and not AUTHORS_CODE.search(text):
             uncited.append(str(page.relative_to(ROOT)))
     assert not uncited, f"pages citing the authors' code without its repository and commit: {uncited}"
+
+
+# --- model files -----------------------------------------------------------------------------
+
+def test_every_population_table_of_the_manual_is_the_recipes_file() -> None:
+    """A ``[population]`` table shown in the pages uses only the keys the population reader
+    accepts, each with the value of the recipe's file (tests/data/renshaw_population.toml,
+    which tests/test_new_population.py runs)."""
+    from astrocpg.network.populations import _ROW_KEYS
+
+    recipe = tomllib.loads((ROOT / "tests" / "data" / "renshaw_population.toml")
+                           .read_text(encoding="utf-8"))["population"]
+    shown = 0
+    for page in PAGES:
+        for m in FENCE.finditer(_text(page)):
+            if m.group(2).strip() != "toml" or not re.search(r"^\[population\]", m.group(3),
+                                                             re.M):
+                continue
+            shown += 1
+            table = tomllib.loads(m.group(3))["population"]
+            assert set(table) <= _ROW_KEYS, (page, sorted(set(table) - _ROW_KEYS))
+            differ = {k: v for k, v in table.items() if recipe.get(k) != v}
+            assert not differ, (f"{page.relative_to(ROOT)}: the [population] table differs from "
+                                f"the recipe's file: {differ}")
+    assert shown, "no [population] table in the pages"
