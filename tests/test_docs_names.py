@@ -397,7 +397,8 @@ def test_every_page_that_leans_on_the_authors_code_cites_it_at_a_commit() -> Non
         if re.search(r"authors' (code|model|scheme|table|delays|order|formulation|preset|"
                      r"counter|command line|choices)", text) and not AUTHORS_CODE.search(text):
             uncited.append(str(page.relative_to(ROOT)))
-    assert not uncited, f"pages citing the authors' code without its repository and commit: {uncited}"
+    assert not uncited, ("pages citing the authors' code without its repository and commit: "
+                         f"{uncited}")
 
 
 # --- model files -----------------------------------------------------------------------------
