@@ -151,9 +151,10 @@ def test_between_commits_reads_the_last_table_of_speed():
 
 
 @pytest.mark.slow
-def test_between_commits_runs_as_the_performance_page_shows(tmp_path):
-    """The command of the performance page, shortened: HEAD against this checkout (a worktree
-    made and removed), one repeat, numpy; its JSON names both commits and both figures."""
+def test_between_commits_runs_as_the_benchmarks_record_shows(tmp_path):
+    """The command of benchmarks/README.md ("Did a change slow the loop?"), shortened: HEAD
+    against this checkout (a worktree made and removed), one repeat, numpy; its JSON names
+    both commits and both figures."""
     import json
     import subprocess
     import sys
@@ -176,7 +177,7 @@ def test_between_commits_runs_as_the_performance_page_shows(tmp_path):
 
 @pytest.mark.slow
 def test_dask_overhead_prints_both_settings_with_the_lean_workers_cheaper(tmp_path):
-    """The benchmark behind the performance page's Dask figures, shortened: one worker, one
+    """The benchmark behind the Dask figures of benchmarks/README.md, shortened: one worker, one
     repeat. Dask's profiler alone costs a worker a few percent of a core, so the lean
     settings must show less of Dask in the worker."""
     import subprocess
@@ -235,7 +236,8 @@ def test_command_cost_takes_each_ratio_within_a_pass():
 def test_command_cost_passes_reads_the_committed_tables_as_the_page_says():
     """``command_cost.py --passes`` over the two committed tables of 10:45 and 11:20: 18
     passes, one pass's ratio varying by 4 % (train) and 8 % (study) of its mean, as the
-    performance page says; the 3 s and 24 s runs' CPU ranges that goals.py's docstring cites."""
+    measurement record (benchmarks/README.md) says; the 3 s and 24 s runs' CPU ranges that
+    goals.py's docstring cites."""
     import json
 
     module = benchmark("command_cost")

@@ -17,7 +17,7 @@ docs/beyond/README.md run for real on the committed tables (seconds).
 
 The slow test runs them all, in page order, in a temporary copy of the working tree that is
 also the package imported (so the shipped studies and worlds are the copy's), with this
-shortening rule (the manual states it too, docs/index.md, "How the manual is tested"):
+shortening rule (the manual states it too, docs/reproducibility.md, "How this manual is checked"):
 
 - ``--seconds`` at most 4 (a run of 30 s or 10 s runs 4 s; ``unit``, ``run``, ``gait``,
   ``evaluate``, and ``plot`` of a training get ``--seconds 4`` where their default is longer);

@@ -1,7 +1,7 @@
 """Acceptance: a trained controller whose robot falls early keeps its rhythm and has no gait.
 
-``docs/benchmarks/trained_astrocytes/`` is a training with astrocytes (105 sessions; its
-command in its manifest) whose tables drive a trot rhythm at about 1 m/s on flat ground
+``docs/benchmarks/trained_astrocytes/`` is a training with astrocytes (4 trials stopped after
+100-113 sessions; its command in its manifest) whose tables drive a trot rhythm at about 1 m/s on flat ground
 without a fall (their footfalls are not periodic enough for a gait label: each is ``none``,
 ``not periodic``, not a fall). On a 0.45 rad slope the robot falls within about 2 s: every command that names a gait (``astrocpg gait``, ``astrocpg evaluate`` and a
 study's rows, :func:`final_gaits`) must give the run a rhythm label from the thigh pools and no

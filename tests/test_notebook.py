@@ -1,5 +1,7 @@
 """docs/tutorial.ipynb runs from top to bottom (nbclient, this interpreter as the kernel, in an
-empty working folder), and is stored without outputs."""
+empty working folder), and is stored with the outputs of one such run, so that a code host
+shows them: every code cell run once, in order, without an error, the file small and free of
+the paths of the machine that ran it."""
 
 from __future__ import annotations
 
@@ -14,13 +16,23 @@ NOTEBOOK = Path(__file__).resolve().parents[1] / "docs" / "tutorial.ipynb"
 KERNEL = "astrocpg-tutorial-test"
 
 
-def test_tutorial_is_stored_without_outputs():
-    nb = json.loads(NOTEBOOK.read_text(encoding="utf-8"))
+def test_tutorial_is_stored_with_its_outputs():
+    """Run it with nbclient in an empty folder (as test_tutorial_executes does) and commit the
+    result, without nbclient's per-cell timing metadata."""
+    text = NOTEBOOK.read_text(encoding="utf-8")
+    nb = json.loads(text)
     code = [c for c in nb["cells"] if c["cell_type"] == "code"]
     assert code, "no code cells"
-    for cell in code:
-        assert cell.get("outputs") == [], "clear the outputs before committing"
-        assert cell.get("execution_count") is None, "clear the execution counts"
+    assert [c.get("execution_count") for c in code] == list(range(1, len(code) + 1)), \
+        "every code cell run once, top to bottom, in one kernel"
+    outputs = [o for c in code for o in c.get("outputs", [])]
+    assert sum(bool(c.get("outputs")) for c in code) >= len(code) // 2, "outputs missing"
+    assert not [o for o in outputs if o["output_type"] == "error"]
+    assert not [o for o in outputs if o.get("name") == "stderr"], "a warning in the outputs"
+    assert not [c for c in code if "execution" in c.get("metadata", {})], "timing metadata"
+    assert len(text) < 200_000, f"{len(text)} characters: outputs too large to commit"
+    for folder in ("/tmp/", "/home/", "/root/", "/work/", "/Users/"):
+        assert folder not in text, f"a path of the machine that ran it ({folder})"
 
 
 def _kernel_dir(root: Path) -> Path:

@@ -1,59 +1,58 @@
-"""Parameter studies: a TOML file of conditions, sweep axes and seeds, run on Dask.
+"""Parameter studies: a TOML file of conditions, sweep axes and seeds, trained on Dask.
 
-A study file::
+A study file (the manual's "Study files" page gives every key with its unit and default)::
 
     [study]
-    name = "ablation"
-    sessions = 400                    # training sessions per trial
-    seeds = { first = 1, count = 20 } # or a list: seeds = [1, 2, 3]
-    batch = 20                        # seeds trained together in one network (one run),
-                                      # or "auto": chosen for the workers (batching.py)
+    name = "my_study"                 # the default folder, out/my_study
+    description = "adenosine strength, with and without astrocytes"
+    sessions = 20                     # training sessions per trial
+    seeds = { first = 1, count = 4 }  # or a list: seeds = [1, 4, 9]
+    batch = 2                         # seeds trained together in one network (one run),
+                                      # or "auto": chosen for the workers at hand
+    paired = true                     # the report compares seed k with seed k
+    record = { every = 10, spikes = ["motor"], traces = ["astrocyte_Ca"], stride = 10 }
+                                      # sessions 1, 11, ... and the last; stride in 1 ms steps
     populations = ["renshaw.toml"]    # optional: populations added to every run's network
-                                      # (model files with a [population] table, beside the
-                                      # study; its run folders record them, as a training does)
 
-    [base]                            # parameter overrides for every run, with units
-    L_max = "10*second"
+    [base]                            # parameter values of every run, with units
+    L_max = "5*second"
 
-    [models]                          # optional: model files (TOML, `astrocpg models dump`)
-    astrocyte = "my_astrocyte.toml"   # replacing a model in every run (path beside the study)
+    [models]                          # optional: model files replacing a model in every
+    astrocyte = "my_astrocyte.toml"   # run (beside the study file, or a shipped name)
 
-    [sweep]                           # optional axes; every combination ("grid") or
-    mode = "grid"                     # element by element ("zip")
+    [sweep]
+    mode = "grid"                     # every combination; "zip": element by element
     [sweep.axes]
-    eta_ADO = ["0.5", "1.0"]
+    eta_ADO = ["9*nvolt", "18*nvolt"]
     astrocyte = ["li_rinzel.toml", "variant.toml"]  # an axis named by a model: model files
 
-    [conditions.astrocytes]           # at least one condition
+    [conditions.astrocytes]           # one table per condition
     astrocytes = true
     [conditions.no_astrocytes]
-    astrocytes = false
-    set = { }                         # overrides of this condition only
+    astrocytes = false                # trained without the astrocytes' adenosine term
+    set = { }                         # parameter values of this condition only
 
-Every (condition, sweep point) is trained for every seed. Consecutive seeds of one point run as
-one *run*: ``batch`` trials in one network. Trial ``b`` of a run that starts at seed ``s`` is
-seed ``s + b`` alone: its network and every draw of its noise come from that seed
-(:mod:`astrocpg.network.noise`), so a seed's trajectory and rows do not depend on ``batch``
-(docs/reproducibility.md, "Seeds and batches"); ``batch`` changes only the wall time.
+    [evaluate]                        # optional: the trained controllers in other worlds
+    worlds = "robustness"             # or a worlds file beside the study file
+    seconds = 5                       # simulated seconds per evaluation run
+    repeats = 2                       # runs per controller and world
+    conditions = ["astrocytes"]       # default: every condition
 
-Each run lives in ``OUT/runs/<run id>/`` as an ordinary training folder (``sessions.csv``,
-``weights.npz``, ``checkpoint.npz``, ``manifest.json``) plus ``status.json``. A run whose
-status is ``finished`` is never run again, nor is one that ``diverged`` (its settings make it
-diverge: it would again; the study then ends with exit 3 and its report shows the run's group
-as diverged, never as a result); any other run resumes from its checkpoint, so
-repeating the command after a crash, a killed worker or Ctrl-C continues where it stopped.
-The study is what its file names now: a study file edited to fewer seeds or points and run
-again into the same folder keeps the runs of the earlier version there, but its tables, report
-and evaluation read only the runs it now names (``study.json``'s ``current``). A
-checkpoint is data, never code (:func:`~astrocpg.studies.outputs.checkpoint.read_checkpoint`): before any worker
-starts, the checkpoints of the runs to resume are checked, and one that is not a checkpoint of
-this format (an old pickled ``checkpoint.pkl`` included, which is never loaded) refuses the
-study, naming the file.
+Every (condition, sweep point) is trained for every seed. Consecutive seeds of one point train
+together as one *run* of ``batch`` trials. Trial ``b`` of a run that starts at seed ``s`` is
+seed ``s + b`` alone: its network and every draw of its noise come from that seed, so a seed's
+results do not depend on ``batch``, which changes only the wall time.
 
-The study's rooms: ``study_file.py`` reads and checks the file, ``execute.py`` trains the runs
-on the workers, ``tables.py`` gathers the results and the timeline, ``layout.py`` names the
-folder's files; this module is the driver (``load_study``, ``prepare_study``, ``run_study``)
-and keeps every public name of those modules importable from here.
+Each run is an ordinary training folder under ``OUT/runs/<run id>/`` with a ``status.json``.
+A finished run is never run again, nor is one that diverged (the study then ends with exit 3
+and its report shows that group as diverged); any other run resumes from its checkpoint, so
+the same command after a crash, a killed worker or Ctrl-C continues where the study stopped.
+A study file edited to name fewer seeds or points and run again into the same folder keeps the
+earlier runs there, but its tables, report and evaluation read only the runs it now names; an
+edit that changes a run's settings is refused on that folder.
+
+``load_study`` reads and checks a file, ``prepare_study`` plans its runs and ``run_study``
+trains them (:func:`astrocpg.study` does all three).
 """
 
 from __future__ import annotations
