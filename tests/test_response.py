@@ -55,7 +55,7 @@ def test_a_model_file_and_a_set_reach_the_astrocyte():
 def test_the_graded_astrocyte_meets_its_criterion():
     """At least a two-fold range of release rate between the 0.8 x and the 1.2 x drives' pool
     rates, and its mean [ADO] at the 1.0 x rate that of the paper's astrocyte (within 10 %)."""
-    graded = response(rates=[RATE_08, RATE_10, RATE_12], seconds=30, warmup=120,
+    graded = response(rates=[RATE_08, RATE_10, RATE_12], seconds=60, warmup=200,
                       replicates=2, models={"astrocyte": GRADED}, progress=False).rows
     paper = response(rates=[RATE_10], seconds=6, warmup=10, replicates=1, progress=False).rows
     low, mid, high = (row["releases_per_s"] for row in graded)
