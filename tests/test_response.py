@@ -49,6 +49,13 @@ def test_a_model_file_and_a_set_reach_the_astrocyte():
     r = response(rates=[540], seconds=2, warmup=1, replicates=1, progress=False,
                  models={"astrocyte": GRADED}, overrides=["r_ADO=0"])
     assert r.rows[0]["mean_ADO"] == 0 and r.settings["models"]["astrocyte"]["content"] == GRADED
+    from astrocpg.models.compose import model_set
+    from astrocpg.models.files import model_to_toml
+
+    silent = model_set().astrocyte.replace(threshold="", reset="", refractory="")
+    r = response(rates=[540], seconds=1, warmup=0, replicates=1, progress=False,
+                 models={"astrocyte": model_to_toml(silent)})
+    assert r.rows[0]["releases_per_s"] == 0 and r.summary["release_limit_per_s"] is None
 
 
 @pytest.mark.slow

@@ -173,17 +173,18 @@ def simulate_response(model: Any, rates: Sequence[float], *, seconds: float, war
     draw = source.run_regularly("n = poisson(rate*dt)", when="start", name="poisson_draw")
     add = source.run_regularly("ADO_sum += ADO_seen", when="end", name="ado_sum")
     add.active = False
-    releases = SpikeMonitor(astro, record=False, name="releases")
-    net = Network(source, astro, draw, add, releases)
+    # a model without a threshold never releases: nothing to count
+    releases = SpikeMonitor(astro, record=False, name="releases") if model.threshold else None
+    net = Network(source, astro, draw, add, *([releases] if releases is not None else []))
     bar = time_bar(check_duration(warmup + seconds), STEP, "response", progress)
     try:
         _run_in_chunks(net, warmup, bar)
-        before = np.array(releases.count[:], dtype=float)
+        before = _counts(releases, n)
         add.active = True
         _run_in_chunks(net, seconds, bar)
     finally:
         bar.close()
-    counts = np.array(releases.count[:], dtype=float) - before
+    counts = _counts(releases, n) - before
     steps = check_duration(seconds)
     mean_ado = np.asarray(source.ADO_sum[:], dtype=float) / steps
     for var in ("ADO",):
@@ -193,6 +194,11 @@ def simulate_response(model: Any, rates: Sequence[float], *, seconds: float, war
     shape = (len(rates), replicates)
     return {"releases_per_s": (counts / seconds).reshape(shape),
             "mean_ADO": mean_ado.reshape(shape)}
+
+
+def _counts(releases: Any, n: int) -> np.ndarray:
+    """Releases so far per astrocyte (zeros without a monitor: a model without threshold)."""
+    return np.zeros(n) if releases is None else np.array(releases.count[:], dtype=float)
 
 
 def _run_in_chunks(net: Any, seconds: float, bar: Any, chunk: float = 10.0) -> None:
