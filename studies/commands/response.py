@@ -51,7 +51,7 @@ _RANGE = re.compile(r"^\s*([0-9.eE+-]+)\s*:\s*([0-9.eE+-]+)\s*:\s*([0-9.eE+-]+)\
 
 @dataclass(frozen=True)
 class Response:
-    """What :func:`response` measured: ``summary`` (the rows, the release limit, the marks
+    """What :func:`~astrocpg.response` measured: ``summary`` (the rows, the release limit, the marks
     read off the curve), the checked ``settings``, the model set used and the folder written
     (None when nothing was)."""
 
@@ -259,9 +259,9 @@ def response(model: str = "astrocyte", *, rates: Any = "0:1000:50", seconds: flo
     a folder that holds files only with ``overwrite``, never one of ``inputs``, the files the
     caller read). progress: a bar over the simulated time.
 
-    Returns a :class:`Response` whose ``summary`` holds the rows, the release limit the
-    refractory period allows and each mark's values. Bad input: InputError naming the culprit,
-    before anything runs."""
+    Returns a :class:`~astrocpg.studies.commands.response.Response` whose ``summary`` holds
+    the rows, the release limit the refractory period allows and each mark's values. Bad
+    input: InputError naming the culprit, before anything runs."""
     if model not in RESPONSE_MODELS:
         raise InputError(f"no response for '{model}' (models: {', '.join(RESPONSE_MODELS)})",
                          culprit="response MODEL")
