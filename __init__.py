@@ -14,7 +14,7 @@ The Python API (what the ``astrocpg`` commands call)::
 Every ``astrocpg`` command has its function, its options as keyword arguments: ``unit``,
 ``run``, ``train`` (and ``resume``, and ``replay_session``: one session of a training run
 again alone), ``gait``, ``evaluate``, ``power``, ``study`` (and ``study_status``), ``report``,
-``plot``, ``video``, ``export``, ``describe``, ``list_models`` and ``dump_model``
+``plot``, ``video``, ``response``, ``export``, ``describe``, ``list_models`` and ``dump_model``
 (``astrocpg models list/dump``), ``robot``; with ``load``, ``Result``
 and ``Trace`` they are imported on first use, so ``import astrocpg`` (and ``astrocpg --help``) does not
 load Brian2. See docs/tutorial.ipynb.
@@ -45,6 +45,7 @@ _API.update({name: "astrocpg.studies.parameter_studies.api" for name in ("study"
                                                                    "report")})
 _API.update({name: "astrocpg.studies.commands.view" for name in ("plot", "video")})
 _API["replay_session"] = "astrocpg.studies.commands.replay"
+_API["response"] = "astrocpg.studies.commands.response"
 _API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFault", "Diverged")})
 
 __all__ = sorted(_API)

@@ -555,11 +555,17 @@ def _place_motor_neurons(w: Wiring, seed: int) -> None:
         np.random.default_rng(s).uniform(0.0, 1.0, size=(L.motor_per_trial, 3))
         for s in trial_seeds(seed, L.n_trials)
     ])
+    # a motor-neuron model that declares ``leg`` gets each neuron's limb, numbered in LEGS'
+    # order whatever limbs the network holds (a per-limb parameter reads it: docs/model-files.md)
+    per_leg = len(POOLS) * L.pool_size
+    leg_number = np.array([LEGS.index(leg) for leg in L.legs], dtype=np.intp)
     for motor, number in zip(w.motors, w.motor_number):
         _require(motor, "x_position", "y_position", "z_position")
         motor.x_position = positions[number, 0]
         motor.y_position = positions[number, 1]
         motor.z_position = positions[number, 2]
+        if "leg" in motor.variables:
+            motor.leg = leg_number[(np.asarray(number) % L.motor_per_trial) // per_leg]
 
 
 def _link_pool_variables(w: Wiring) -> None:

@@ -109,6 +109,9 @@ COMMANDS: dict[str, Callable[[World], tuple[list[str], Path]]] = {
     "export": lambda w: (["export", str(w.r), "--format", "npz"], w.r),
     "study": lambda w: (["study", str(w.study_file), "--workers", "1", "--no-progress"], w.S),
     "report": lambda w: (["report", str(w.S)], w.S),
+    "response": lambda w: (["response", "astrocyte", "--rates", "100", "--seconds", "0.01",
+                            "--warmup", "0", "--replicates", "1", "--no-progress", "--model",
+                            f"astrocyte={w.model}"], w.r),
 }
 TARGETS: dict[str, Callable[[World, Path], str]] = {
     "user-files": lambda w, inp: str(w.user),

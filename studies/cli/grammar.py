@@ -309,6 +309,35 @@ def add_export(sub: Subparsers) -> None:
     add_overwrite(exp)
 
 
+def add_response(sub: Subparsers) -> None:
+    """``astrocpg response``: a model's own response curve (the astrocyte's to its pool)."""
+    resp = sub.add_parser("response", help="an astrocyte's adenosine release and mean [ADO] "
+                                           "against its pool's spike rate (Poisson input)")
+    resp.add_argument("model", metavar="MODEL", choices=("astrocyte",),
+                      help="the model whose response is drawn: astrocyte (the built-in one, "
+                           "or the file given with --model astrocyte=FILE)")
+    resp.add_argument("--rates", default="0:1000:50", metavar="START:STOP:STEP|A,B,...",
+                      help="pool spike rates in spikes/s (default 0:1000:50, STOP included)")
+    resp.add_argument("--seconds", type=float, default=100.0,
+                      help="measured time per astrocyte after the warm-up, in s (default 100)")
+    resp.add_argument("--warmup", type=float, default=200.0, metavar="S",
+                      help="time run before measuring, in s (default 200: near the onset of "
+                           "its Ca2+ oscillations an astrocyte settles over ~100 s)")
+    resp.add_argument("--replicates", type=int, default=4,
+                      help="astrocytes per rate, each with its own Poisson input (default 4)")
+    resp.add_argument("--seed", type=int, default=1, help="seed of the Poisson inputs "
+                                                          "(default 1)")
+    resp.add_argument("--mark", dest="marks", action="append", default=[],
+                      metavar="LABEL=RATE",
+                      help="a pool rate drawn beside the curve and read off it (e.g. a trained "
+                           "network's thigh-pool rate: --mark 1.0x=566); repeatable")
+    resp.add_argument("--out", required=True, metavar="DIR",
+                      help="output folder (response.csv, response.png, manifest.json; new or "
+                           "empty, --overwrite replaces it)")
+    add_overwrite(resp)
+    add_model_options(resp)
+
+
 def add_describe(sub: Subparsers) -> None:
     """``astrocpg describe``: equations and parameter tables."""
     desc = sub.add_parser("describe", help="a model's equations (sympy) and parameter table, "
@@ -353,4 +382,4 @@ def add_robot(sub: Subparsers) -> None:
 
 
 #: each command's grammar, in the order ``astrocpg --help`` lists them
-COMMAND_GRAMMARS = (add_unit, add_run, add_train, add_gait, add_evaluate, add_plot, add_video, add_study, add_report, add_power, add_export, add_describe, add_models, add_robot)
+COMMAND_GRAMMARS = (add_unit, add_run, add_train, add_gait, add_evaluate, add_plot, add_video, add_study, add_report, add_power, add_response, add_export, add_describe, add_models, add_robot)

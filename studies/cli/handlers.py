@@ -290,6 +290,19 @@ def power_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def response_command(args: argparse.Namespace) -> int:
+    """``astrocpg response MODEL``: the model's response curve, printed and written."""
+    from ..commands.response import format_response, response
+
+    result = response(args.model, rates=args.rates, seconds=args.seconds, warmup=args.warmup,
+                      replicates=args.replicates, seed=args.seed, marks=args.marks,
+                      out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
+                      inputs=input_files(args), **model_args(args))
+    print("\n".join(format_response(result)))
+    print(f"wrote {args.out}/ (response.csv, response.png, manifest.json)")
+    return 0
+
+
 def export_command(args: argparse.Namespace) -> int:
     from ..commands.api import export
 
@@ -359,4 +372,5 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "evaluate": evaluate_command,
     "plot": plot_command, "video": video_command, "robot": robot_command,
     "study": study_command, "report": report_command, "power": power_command,
+    "response": response_command,
     "export": export_command, "describe": describe_command, "models": models_command}
