@@ -309,6 +309,8 @@ def test_public_functions_have_docstrings():
     assert ac.Trace.column.__doc__
 
 
-def test_describe_returns_markdown():
+def test_describe_returns_plain_text_or_markdown():
     text = ac.describe("astrocyte", overrides={"tau_ADO": "2*second"})
-    assert text.startswith("## astrocyte") and "tau_ADO" in text and "2. s" in text
+    assert text.startswith("astrocyte\n") and "tau_ADO" in text and "2. s" in text
+    md = ac.describe("astrocyte", "markdown", overrides={"tau_ADO": "2*second"})
+    assert md.startswith("## astrocyte") and "| `tau_ADO` |" in md

@@ -310,7 +310,8 @@ def add_describe(sub: Subparsers) -> None:
     desc.add_argument("model", nargs="?", help="one model (default: all), a parameter's name "
                       "(e.g. tau_motor: its value, model and the equations using it), or "
                       "'senses': the robot senses a neuron model may bind")
-    desc.add_argument("--format", default="markdown", help="markdown or latex (default markdown)")
+    desc.add_argument("--format", default="text",
+                      help="text (for a terminal), markdown or latex (default text)")
     desc.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
                       help="describe MODEL with the equation string of FILE")
     desc.add_argument("--set", dest="overrides", action="append", default=[],

@@ -308,7 +308,7 @@ def describe_command(args: argparse.Namespace) -> int:
             return describe(args.model, args.format)
 
         name_ok = args.model is None or args.model.isidentifier()
-        if name_ok and args.format in ("markdown", "latex"):
+        if name_ok and args.format in ("text", "markdown", "latex"):
             sys.stdout.write(cached_text(args.model, args.format, render))
             return 0
     from ..commands.api import describe

@@ -49,14 +49,35 @@ from .train import resume, train
 from .unit import unit
 
 
-def describe(model: str | None = None, format: str = "markdown", *,
+def describe(model: str | None = None, format: str = "text", *,
              overrides: Overrides | None = None,
              equations: Mapping[str, str] | None = None,
              models: Mapping[str, Any] | None = None) -> str:
-    """The equations (rendered with sympy) and the parameter table of ``model`` (e.g.
-    "astrocyte"; None: every model; a parameter's name, e.g. "tau_motor": its value, the model
-    declaring it and the statements using it) as markdown or LaTeX text (``format``), with parameter
-    ``overrides`` and replaced ``equations`` applied: what ``astrocpg describe`` prints."""
+    """The equations and the parameter table of a model: what ``astrocpg describe`` prints.
+
+    Parameters
+    ----------
+    model : str or None
+        A model ("astrocyte"), a parameter's name ("tau_motor": its value, the model declaring
+        it and every statement using it), "senses" (the robot senses a neuron model may read),
+        or None: every model.
+    format : {"text", "markdown", "latex"}
+        Plain text for a terminal (the statements as the model file states them, in its order,
+        with their units; the parameters with units and symbols), Markdown, or LaTeX (the
+        equations rendered by sympy with the paper's symbols, terms in the order written).
+    overrides : mapping or sequence of str, optional
+        Parameter values with units (``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``):
+        the values described.
+    equations : mapping of str to str, optional
+        ``{model: equation text}`` replacing a model's Brian2 equation string.
+    models : mapping, optional
+        ``{model: model file text}`` replacing whole models.
+
+    Returns
+    -------
+    str
+        The text, ending in a newline.
+    """
     from ..figures.describe import describe as render
 
     return render(model, format, model_set(overrides, equations, models=models))
