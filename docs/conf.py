@@ -34,7 +34,8 @@ if Path(astrocpg.__file__).resolve().parent != ROOT.resolve():
 project = "astrocpg"
 author = "The astrocpg authors"
 copyright = "2026, The astrocpg authors"
-release = version = astrocpg.__version__
+# version: the release this manual follows; release: this copy's (a development build names its commit)
+version, release = astrocpg.RELEASE, astrocpg.__version__
 
 extensions = [
     "myst_nb",

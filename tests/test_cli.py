@@ -206,7 +206,7 @@ def test_the_command_ends_at_once_with_its_code_its_output_whole_and_exit_handle
     if code == 0:  # every model's section, to the last line
         full = subprocess.run([sys.executable, "-m", "astrocpg.studies.cli", *argv],
                               capture_output=True, text=True, timeout=300)
-        assert p.stdout == full.stdout and "## world" in p.stdout
+        assert p.stdout == full.stdout and "\nworld\n=====\n" in p.stdout
     else:
         assert p.stderr.count("\n") == 1 and "no_such_model" in p.stderr
 

@@ -351,10 +351,28 @@ def robot_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def docs_command(args: argparse.Namespace) -> int:
+    """``astrocpg docs`` (``ac.docs``): where the manual is; ``--path``: the folder of its pages
+    and of the files its recipes read; ``--open``: open it in a web browser."""
+    from ..commands.api import docs
+
+    where = docs(path=args.path, open=args.open)
+    if args.path:
+        print(where)
+        return 0
+    print(f"the manual: {where}")
+    if where.suffix == ".md":
+        print(f"(its pages as Markdown, in {where.parent}; the files its recipes read are there "
+              f"too, and astrocpg finds them by the manual's spelling, e.g. "
+              f"docs/examples/interlimb_table.csv, from any folder)")
+    return 0
+
+
 #: the handler of each command (``args.command``)
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "unit": unit_command, "run": run_command, "train": train_command, "gait": gait_command,
     "evaluate": evaluate_command,
     "plot": plot_command, "video": video_command, "robot": robot_command,
     "study": study_command, "report": report_command, "power": power_command,
-    "export": export_command, "describe": describe_command, "models": models_command}
+    "export": export_command, "describe": describe_command, "models": models_command,
+    "docs": docs_command}

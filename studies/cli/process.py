@@ -166,6 +166,23 @@ def _small_pages_for_large_arrays() -> None:
         switch(False)
 
 
+#: the options naming a file or folder a command reads (``run --weights``, ``gait DIR``,
+#: ``study --plan-from``): the manual's spelling of a file it ships finds the shipped one
+_INPUT_PATHS = ("dir", "weights", "plan_from")
+
+
+def _shipped_inputs(args: argparse.Namespace) -> None:
+    """An input path that does not exist, spelled as the manual spells a file or folder the
+    package ships (``docs/examples/interlimb_table.csv``), reads the shipped one: the manual's
+    recipes run from any folder with an installed wheel (:func:`astrocpg.shipped.resolve_data`)."""
+    from ...shipped import resolve_data
+
+    for name in _INPUT_PATHS:
+        value = getattr(args, name, None)
+        if isinstance(value, str) and value:
+            setattr(args, name, resolve_data(value))
+
+
 def _run_command(args: argparse.Namespace) -> int:
     # only the main thread may set handlers (main() called in another thread: none of ours)
     in_main = threading.current_thread() is threading.main_thread()
@@ -179,6 +196,7 @@ def _run_command(args: argparse.Namespace) -> int:
             _small_pages_for_large_arrays()
             if getattr(args, "codegen", None) is not None:
                 _choose_codegen(args.codegen)
+            _shipped_inputs(args)
             code = COMMANDS[args.command](args)
             compiled = sys.modules.get("astrocpg.coupling.compiled")
             if code == 0 and compiled is not None and compiled.PROBLEM:

@@ -249,3 +249,38 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
 
 __all__ = ["unit", "run", "train", "resume", "load", "describe", "export", "gait", "evaluate",
            "power", "list_models", "dump_model", "robot", "Result", "Trace"]
+
+
+def docs(*, path: bool = False, open: bool = False) -> Path:
+    """Where the manual is: it comes with the package. What ``astrocpg docs`` prints.
+
+    Parameters
+    ----------
+    path : bool
+        Return the folder of the manual's pages and of the files its recipes read
+        (``examples/interlimb_table.csv``, the trained tables under ``benchmarks/`` and
+        ``ablation/``), rather than its first page.
+    open : bool
+        Also open the manual in a web browser (where there is none, nothing opens).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder (``path``), or the manual's first page: the built manual's ``index.html``
+        where it was built (a checkout's ``docs/_build/html``, or astrocpg's cache folder's
+        ``manual/``), else the pages' ``index.md``.
+    """
+    from ...errors import EnvironmentFault
+    from ...shipped import DOCS
+    from ..runtime.caches import cache_dir
+
+    if not (DOCS / "index.md").is_file():
+        raise EnvironmentFault("this copy of astrocpg holds no manual (installed without its "
+                               "package data?)", culprit=str(DOCS))
+    built = [p for p in (DOCS / "_build" / "html" / "index.html",
+                         cache_dir() / "manual" / "index.html") if p.is_file()]
+    page = built[0] if built else DOCS / "index.md"
+    if open:
+        import webbrowser
+        webbrowser.open(page.as_uri())
+    return DOCS if path else page
