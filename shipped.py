@@ -74,3 +74,21 @@ def resolve_data(given: str | os.PathLike) -> str | os.PathLike:
     shipped_path = ROOT / p
     return str(shipped_path) if shipped_path.exists() else given
 
+
+
+def unreadable(given: str | os.PathLike, kind: str | None, err: OSError, culprit: str,
+               builtin: tuple[str, ...] = ()) -> Exception:
+    """The error for a file the user named that could not be read: a bare name (no folder, no
+    ``.toml``) that names no shipped file of ``kind`` is a misspelt name, an InputError (exit 2)
+    naming the closest shipped names (and ``builtin`` ones); a path that does not exist or
+    cannot be read is the environment's, an EnvironmentFault (exit 1), as docs/errors.md says."""
+    from .errors import EnvironmentFault, InputError, did_you_mean
+
+    p = Path(given)
+    if kind is not None and len(p.parts) == 1 and not p.suffix and isinstance(
+            err, FileNotFoundError):
+        names = [*builtin, *shipped(kind)]
+        return InputError(f"unknown {kind} '{given}'{did_you_mean(str(given), names)} (shipped "
+                          f"{kind} files: {', '.join(names)}; or a file's path)", culprit=culprit)
+    return EnvironmentFault(f"cannot read '{given}' ({err.strerror or type(err).__name__})",
+                            culprit=culprit)

@@ -18,7 +18,7 @@ import numpy as np
 from brian2 import Network, NeuronGroup, Synapses, linked_var, ms, second
 
 from .._quiet_brian import close_debug_files, mend_interrupt_handler
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 from ..models import DEFAULT_MODELS, ModelSet
 from ..models.base import BrianModel, NeuronModel, SynapseModel, brian_error_line
 from ..models.names import why_reserved
@@ -714,8 +714,8 @@ def build_cpg(
     legs = tuple(legs)
     for leg in legs:
         if leg not in LEGS:
-            raise InputError(f"unknown leg '{leg}' (legs are {', '.join(LEGS)})",
-                             culprit="build_cpg")
+            raise InputError(f"unknown leg '{leg}'{did_you_mean(leg, LEGS)} (legs are "
+                             f"{', '.join(LEGS)})", culprit="build_cpg")
     if int(n_trials) < 1:
         raise InputError(f"n_trials must be at least 1, got {n_trials}", culprit="build_cpg")
     pool_size = int(models.value("pool_size"))

@@ -254,7 +254,8 @@ def test_bad_trace_requests(unit2, training):
 
 
 def test_load_refuses_what_is_not_an_output_folder(tmp_path, run_folder):
-    with pytest.raises(InputError) as err:
+    from astrocpg.errors import EnvironmentFault
+    with pytest.raises(EnvironmentFault) as err:  # a missing input: the environment's, exit 1
         ac.load(tmp_path / "absent")
     _one_line(err, "absent", "no such folder")
     (tmp_path / "empty").mkdir()

@@ -13,6 +13,7 @@ with ``--no-deps``; the test checks that ``astrocpg`` is imported from the fresh
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import sysconfig
@@ -60,14 +61,27 @@ def recipe_inputs() -> list[str]:
             except SystemExit:
                 continue  # the doc-command test names it
             paths = [p for _, p in reads] + ([plan] if plan else [])
-            for path in paths:
-                if not path.startswith("docs/") or not (ROOT / path).exists():
-                    continue
-                target = ROOT / path
-                files = [target] if target.is_file() else [
-                    f for f in target.rglob("*") if f.is_file() and "__pycache__" not in f.parts]
-                out.update(f.relative_to(ROOT).as_posix() for f in files)
+            out.update(_files(paths))
+    # commands shown with their output (```text blocks) or in a sentence: a docs/ path after
+    # "astrocpg COMMAND" on the same line
+    for page in d.pages():
+        for line in page.read_text(encoding="utf-8").splitlines():
+            for m in re.finditer(r"astrocpg [a-z]+ [^`]*?(docs/[\w./-]+)", line):
+                out.update(_files([m.group(1).rstrip(".")]))
     return sorted(out)
+
+
+def _files(paths: list[str]) -> set[str]:
+    """The repository files of ``paths`` under docs/ (a folder: every file in it)."""
+    out = set()
+    for path in paths:
+        if not path.startswith("docs/") or not (ROOT / path).exists():
+            continue
+        target = ROOT / path
+        files = [target] if target.is_file() else [
+            f for f in target.rglob("*") if f.is_file() and "__pycache__" not in f.parts]
+        out.update(f.relative_to(ROOT).as_posix() for f in files)
+    return out
 
 
 def test_the_recipes_read_files_the_wheel_can_ship() -> None:

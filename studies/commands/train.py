@@ -32,7 +32,7 @@ from brian2 import Network, NetworkOperation, second
 from ...coupling.assembly import build_closed_loop
 from ...coupling.recorder import RecordPlan, SessionRecorder
 from ...coupling.training import SESSION_COLUMNS, SessionMemory, SessionStart, Training
-from ...errors import Diverged, EnvironmentFault, InputError
+from ...errors import Diverged, EnvironmentFault, InputError, did_you_mean
 from ...models import ModelSet
 from ...network import codegen_target, exclusive, interlimb_labels, run_network
 from ..outputs.checkpoint import (CHECKPOINT, LEGACY_CHECKPOINT, holds_checkpoint,
@@ -937,8 +937,8 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
         known = dict(model_set(models=settings.models).items())
     for name, text in (given.get("equations") or {}).items():
         if name not in known:
-            raise InputError(f"unknown model '{name}' (models: {', '.join(known)})",
-                             culprit="--equations")
+            raise InputError(f"unknown model '{name}'{did_you_mean(name, known)} (models: "
+                             f"{', '.join(known)})", culprit="--equations")
         recorded_text = settings.equations.get(name)
         if recorded_text is None:  # the model's own equations, as trained
             if text.strip() != known[name].code.strip():

@@ -26,7 +26,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ...errors import InputError, did_you_mean
+from ...errors import EnvironmentFault, InputError, did_you_mean
 from ...reading import open_regular, read_json
 from ...network.layout import LEGS, Layout
 from ...network.populations import spike_populations, trace_sources
@@ -407,9 +407,10 @@ def _check_folder(folder: Path) -> dict[str, Any]:
     """The folder's manifest, once its files are checked: against the manifest's inventory
     (sizes and sha256, :func:`~astrocpg.studies.outputs.folder.verify`); a folder written before
     manifests had an inventory: every file its ``files`` names is there."""
+    if not os.path.lexists(folder):  # a missing input: the environment's (exit 1)
+        raise EnvironmentFault("no such folder", culprit=str(folder))
     if not folder.is_dir():
-        raise InputError("no such folder" if not folder.exists() else "is not a folder",
-                         culprit=str(folder))
+        raise InputError("is not a folder", culprit=str(folder))
     manifest = _read_manifest(folder)
     if manifest is None:
         state = "no" if not (folder / MANIFEST).exists() else "no readable"

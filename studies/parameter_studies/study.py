@@ -92,12 +92,12 @@ def load_study(path: str | os.PathLike, *, batch: int | None = None,
     ``--seeds``, ``--sessions``, ``--set`` (:func:`study_overrides`), applied to the study as
     read."""
 
-    from ...shipped import resolve
+    from ...shipped import resolve, unreadable
     p = resolve(path, "study")  # `astrocpg study quick`: a shipped study by name
     try:
         text = read_bytes(p, f"study {p}").decode("utf-8")  # a FIFO: refused, not waited on
-    except OSError as e:
-        raise InputError(f"cannot read ({e.strerror})", culprit=f"study {p}") from None
+    except OSError as e:  # a misspelt name: its closest; a missing file: the environment's
+        raise unreadable(path, "study", e, culprit="study") from None
     except UnicodeDecodeError:
         raise InputError("not a UTF-8 text file (a study file is TOML)",
                          culprit=f"study {p}") from None
