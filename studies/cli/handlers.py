@@ -162,7 +162,8 @@ def video_command(args: argparse.Namespace) -> int:
                 out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
                 panel=args.panel, start=args.start, stop=args.stop)
     print(f"wrote {res['path']} ({res['frames']} frames at {res['fps']:g} fps, "
-          f"{res['seconds']:.1f} s; {res['start']:g} to {res['stop']:g} s of the recording)")
+          f"{res['seconds']:.1f} s; {seconds_text(res['start'])} to "
+          f"{seconds_text(res['stop'])} s of the recording)")
     return 0
 
 
@@ -349,6 +350,12 @@ def robot_command(args: argparse.Namespace) -> int:
 
     print(f"wrote {robot(args.path, overwrite=args.overwrite)}")
     return 0
+
+
+def seconds_text(seconds: float) -> str:
+    """A time in s for a person: to the microsecond at most, no float noise (``1.1e-16`` is
+    ``0``, ``3.9999999999`` is ``4``)."""
+    return f"{round(float(seconds), 6):g}"
 
 
 def docs_command(args: argparse.Namespace) -> int:
