@@ -128,3 +128,27 @@ def test_latex_still_works(capsys) -> None:
     assert r"\texttt{astrocyte\_regulation} & -- & 1.0" in text
     assert main(["describe", "astrocyte", "--format", "txt"]) == 2
     assert "did you mean text?" in capsys.readouterr().err
+
+
+def test_the_model_file_example_prints_its_new_parameter(tmp_path: Path) -> None:
+    """docs/examples/model_file.md through the API (no subprocess): the dumped astrocyte with a
+    new parameter; ``describe`` of that parameter prints its row and the equation using it."""
+    import astrocpg as ac
+
+    page = (Path(__file__).resolve().parents[1] / "docs/examples/model_file.md").read_text()
+    assert "subprocess" not in page and "ac.dump_model(" in page
+    text = ac.dump_model("astrocyte")
+    edited = text.replace("dAG/dt = -AG/tau_AG + r_AG*n_pool/dt : 1",
+                          "dAG/dt = -AG/tau_AG + r_AG*n_pool/dt + 1/tau_extra : 1")
+    edited = edited.replace("[parameters]\n", '[parameters]\ntau_extra = { value = "2*second", '
+                            'symbol = "\\\\tau_{extra}", meaning = "a constant 2-AG source", '
+                            'positive = true }\n', 1)
+    out = ac.describe("tau_extra", models={"astrocyte": edited})
+    assert re.search(r"^tau_extra\s+τ_extra\s+2\. s\s+a constant 2-AG source$", out, re.M), out
+    assert "astrocyte (equation): dAG/dt = -AG/tau_AG + r_AG*n_pool/dt + 1/tau_extra" in out
+
+
+def test_the_frames_example_reads_a_real_video() -> None:
+    """docs/examples/frames.md reads the frames of a video astrocpg wrote, not one it drew."""
+    page = (Path(__file__).resolve().parents[1] / "docs/examples/frames.md").read_text()
+    assert "ac.video(" in page and "ac.run(" in page and "get_writer" not in page
