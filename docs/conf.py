@@ -41,6 +41,7 @@ extensions = [
     "myst_nb",
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
+    "sphinx.ext.napoleon",      # the API's numpydoc Parameters / Returns sections
     "sphinx.ext.mathjax",
     "sphinx-mathjax-offline",   # MathJax 3 copied into _static/mathjax: equations need no network
     "sphinx_copybutton",
@@ -99,6 +100,8 @@ os.environ["JUPYTER_PATH"] = os.pathsep.join(
 # --- the API reference -----------------------------------------------------------------------
 autosummary_generate = False          # the pages hold the autodoc directives themselves
 autodoc_typehints = "none"            # signatures stay readable; docstrings say the types
+napoleon_google_docstring = False
+napoleon_numpy_docstring = True
 autodoc_member_order = "bysource"
 
 nitpicky = True

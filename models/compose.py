@@ -136,12 +136,13 @@ def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, 
 
 def model_set(overrides: Overrides | None = None,
               equations: Mapping[str, str] | None = None,
-              base: ModelSet = DEFAULT_MODELS,
+              base: ModelSet | None = None,
               models: Mapping[str, Any] | None = None, option: str = "--model") -> ModelSet:
     """The model set with whole models swapped in (``models``: ``{slot: model file text}`` or
     ``{slot: Model}``; a file may declare new parameters and variables but must keep the slot's
     interface), equation texts swapped in (``{model: text}``) and parameter values overridden
-    (``NAME=VALUE`` items or ``{name: value}``), validated. Errors about a model file name
+    (``NAME=VALUE`` items or ``{name: value}``), validated, over ``base`` (None: the built-in
+    models, :data:`~astrocpg.models.DEFAULT_MODELS`). Errors about a model file name
     ``<option> <model>``."""
     from . import INTERFACES, Model
     from .files import (check_interface, check_parameters_used, file_sha256,
@@ -154,7 +155,7 @@ def model_set(overrides: Overrides | None = None,
             raise InputError(f"expected a mapping {{model name: {value}}}, got "
                              f"{type(given).__name__}", culprit=what)
     files = models
-    models = base
+    models = DEFAULT_MODELS if base is None else base
     known = dict(models.items())
     for name, item in (files or {}).items():
         culprit = f"{option} {name}"

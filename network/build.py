@@ -688,7 +688,7 @@ WIRING_STEPS = (_wire_pool_activity, _wire_intra_pool, _wire_interneurons, _wire
 
 @exclusive  # Brian2's global seed and objects: one build or run at a time (runlock.py)
 def build_cpg(
-    models: ModelSet = DEFAULT_MODELS,
+    models: ModelSet | None = None,
     *,
     n_trials: int = 1,
     seed: int = 0,
@@ -708,9 +708,11 @@ def build_cpg(
     step's spikes drives this step's physics). The inter-limb input of the pools' spikes reaches
     the target neurons at the next step, like every other synapse.
 
+    ``models``: the model set (None: the built-in models, :data:`~astrocpg.models.DEFAULT_MODELS`).
     ``codegen``: Brian2's target, "numpy" or "cython" (default: $ASTROCPG_CODEGEN, else numpy;
     see :mod:`astrocpg.network.codegen`). It is stored as ``CPG.codegen``.
     """
+    models = DEFAULT_MODELS if models is None else models
     legs = tuple(legs)
     for leg in legs:
         if leg not in LEGS:

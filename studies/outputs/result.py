@@ -466,10 +466,28 @@ def _training_layout(manifest: Mapping[str, Any], folder: Path) -> Layout:
 
 
 def load(folder: str | os.PathLike) -> Result:
-    """Read an output folder of ``astrocpg unit``, ``run``, ``train`` (or a study's run) or a
-    recorded training session (``TRAINING/recordings/trialTT_sessionSSSS``) back into a
-    :class:`~astrocpg.studies.outputs.result.Result`. A folder that is not an astrocpg output folder, or whose files are missing,
-    changed or corrupt: InputError naming the folder."""
+    """Read an output folder back: what ``astrocpg unit``, ``run`` or ``train`` wrote.
+
+    Parameters
+    ----------
+    folder : path
+        An output folder of ``astrocpg unit``, ``run``, ``train`` (or a study's run), or a
+        recorded training session (``TRAINING/recordings/trialTT_sessionSSSS``).
+
+    Returns
+    -------
+    Result
+        Its :class:`~astrocpg.studies.outputs.result.Result`, every file checked against the
+        folder's manifest.
+
+    Raises
+    ------
+    EnvironmentFault
+        The folder does not exist.
+    InputError
+        It is not an astrocpg output folder, or its files are missing, changed or corrupt (the
+        folder named).
+    """
     folder = as_path(folder, "folder")
     manifest = _check_folder(folder)
     command = manifest.get("astrocpg_command")
