@@ -78,8 +78,12 @@ def test_non_positive_seconds(capsys, tmp_path, seconds):
 
 
 def test_missing_robot_file(capsys, tmp_path):
-    _fails_cleanly(capsys, ["run", "--seconds", "1", "--robot", str(tmp_path / "none.xml"),
-                            "--out", str(tmp_path / "o")], tmp_path / "o", "none.xml")
+    """A robot file that does not exist is the environment's: exit 1 (docs/errors.md)."""
+    assert main(["run", "--seconds", "1", "--robot", str(tmp_path / "none.xml"),
+                 "--out", str(tmp_path / "o")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("astrocpg: environment:") and "none.xml" in err
+    assert len(err.splitlines()) == 1 and not (tmp_path / "o").exists()
 
 
 def test_malformed_robot_file(capsys, tmp_path):

@@ -194,7 +194,12 @@ def test_the_wheel_runs_from_a_fresh_environment(dist: Path, tmp_path: Path) -> 
                            "--seconds", "0.2", "--no-progress", "--out", "out/mine"],
                           cwd=elsewhere, env=env, capture_output=True, text=True, timeout=600)
     assert mine.returncode == 0, mine.stderr[-3000:]
-    assert (elsewhere / "out" / "mine" / "manifest.json").is_file()
+    # the manifest names the version and the commit the wheel was built from, without git
+    import json
+    manifest = json.loads((elsewhere / "out" / "mine" / "manifest.json").read_text())
+    assert manifest["package_versions"]["astrocpg"] == info["version"]
+    assert manifest["git"]["commit"] == info["commit"]
+    assert manifest["git"]["source"] == "build"  # recorded by the build, read without git
     gait = subprocess.run([str(script), "gait", "docs/benchmarks/trained_astrocytes",
                            "--seconds", "0.2", "--repeats", "1", "--no-progress"],
                           cwd=elsewhere, env=env, capture_output=True, text=True, timeout=600)
