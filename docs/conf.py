@@ -41,7 +41,6 @@ extensions = [
     "myst_nb",
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
-    "sphinx.ext.napoleon",      # the API's numpydoc Parameters / Returns sections
     "sphinx.ext.mathjax",
     "sphinx-mathjax-offline",   # MathJax 3 copied into _static/mathjax: equations need no network
     "sphinx_copybutton",
@@ -100,8 +99,6 @@ os.environ["JUPYTER_PATH"] = os.pathsep.join(
 # --- the API reference -----------------------------------------------------------------------
 autosummary_generate = False          # the pages hold the autodoc directives themselves
 autodoc_typehints = "none"            # signatures stay readable; docstrings say the types
-napoleon_google_docstring = False
-napoleon_numpy_docstring = True
 autodoc_member_order = "bysource"
 
 nitpicky = True
@@ -156,6 +153,24 @@ nitpick_ignore = [("py:class", "Trainer"), ("py:class", "TrainingStopped"),
                   ("py:class", "Study"), ("py:class", "RunSpec")]
 
 
+_NUMPYDOC = re.compile(r"^\s*(Parameters|Returns|Raises)\n\s*-{3,}$", re.M)
+
+
+def _docstring(app, what, name, obj, options, lines):
+    """A docstring with numpydoc sections (the public functions: Parameters, Returns, Raises)
+    goes through napoleon's numpydoc reader, its types shown as text (not cross-references);
+    any other is the project's plain text (:func:`_plain_docstring`)."""
+    if not _NUMPYDOC.search("\n".join(lines)):
+        _plain_docstring(app, what, name, obj, options, lines)
+        return
+    from sphinx.ext.napoleon import Config
+    from sphinx.ext.napoleon.docstring import NumpyDocstring
+
+    config = Config(napoleon_use_param=False, napoleon_use_rtype=False,
+                    napoleon_preprocess_types=False, napoleon_google_docstring=False)
+    lines[:] = NumpyDocstring(lines, config, app, what, name, obj, options).lines()
+
+
 def setup(app):
     app.config.mathjax_path = MATHJAX_PATH
-    app.connect("autodoc-process-docstring", _plain_docstring)
+    app.connect("autodoc-process-docstring", _docstring)

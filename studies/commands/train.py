@@ -729,12 +729,9 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
     Result
         A :class:`~astrocpg.studies.outputs.result.Result` of kind "train", read back from
         ``out`` (``sessions`` DataFrame, ``weights`` (trial, session, 8, 8) mV,
-        ``recording(trial, session)``), with the live ``network`` and ``trainer``.
+        ``recording(trial, session)``), with the live ``network`` and ``trainer``. An
+        interrupted training raises ``TrainingStopped``; continue it with :func:`resume`.
 
-    Raises
-    ------
-    TrainingStopped
-        When interrupted; continue with :func:`resume`.
     """
     if out is None or (isinstance(out, str) and not out):
         raise InputError("is required (or --resume DIR)", culprit="--out")

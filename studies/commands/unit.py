@@ -79,7 +79,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
 
     Raises
     ------
-    InputError
+    ~astrocpg.errors.InputError
         Bad input, naming the culprit, before anything is simulated or written.
     """
     rows, population_record = population_rows(populations)  # before any other check

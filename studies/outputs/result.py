@@ -482,9 +482,9 @@ def load(folder: str | os.PathLike) -> Result:
 
     Raises
     ------
-    EnvironmentFault
+    ~astrocpg.errors.EnvironmentFault
         The folder does not exist.
-    InputError
+    ~astrocpg.errors.InputError
         It is not an astrocpg output folder, or its files are missing, changed or corrupt (the
         folder named).
     """
