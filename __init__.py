@@ -15,7 +15,7 @@ Every ``astrocpg`` command has its function, its options as keyword arguments: `
 ``run``, ``train`` (and ``resume``, and ``replay_session``: one session of a training run
 again alone), ``gait``, ``evaluate``, ``power``, ``study`` (and ``study_status``), ``report``,
 ``plot``, ``video``, ``response``, ``export``, ``describe``, ``list_models`` and ``dump_model``
-(``astrocpg models list/dump``), ``robot``; with ``load``, ``Result``
+(``astrocpg models list/dump``), ``robot``, ``docs`` (where the manual is); with ``load``, ``Result``
 and ``Trace`` they are imported on first use, so ``import astrocpg`` (and ``astrocpg --help``) does not
 load Brian2. See docs/tutorial.ipynb.
 
@@ -32,7 +32,10 @@ import importlib
 
 from . import _quiet_brian
 
-__version__ = "0.1.0"
+#: The release this code is or follows: the one version written by hand (the changelog and
+#: CITATION.cff name it). ``__version__`` is this copy's version: ``RELEASE`` itself, or a
+#: development build with its commit (``0.2.1.dev3+g1a2b3c4d5``), see :mod:`astrocpg._versioning`.
+RELEASE = "0.2.0"
 
 # Brian2's import leaves debug files in the temp folder if the process is killed during it.
 _quiet_brian.install()
@@ -40,7 +43,8 @@ _quiet_brian.install()
 # public name -> module that defines it (imported on first access)
 _API = {name: "astrocpg.studies.commands.api"
         for name in ("unit", "run", "train", "resume", "load", "describe", "export", "gait",
-                     "evaluate", "power", "list_models", "dump_model", "robot", "Result", "Trace")}
+                     "evaluate", "power", "list_models", "dump_model", "robot", "docs", "Result",
+                     "Trace")}
 _API.update({name: "astrocpg.studies.parameter_studies.api" for name in ("study", "study_status",
                                                                    "report")})
 _API.update({name: "astrocpg.studies.commands.view" for name in ("plot", "video")})
@@ -75,10 +79,27 @@ def _in_keywords(func):  # noqa: ANN001, ANN202
     return call
 
 
+def build_info() -> dict:
+    """This copy's ``version``, git ``commit`` (None where unknown) and ``dirty`` (uncommitted
+    changes), and their ``source``: "git" (a checkout), "build" (what the wheel or sdist was
+    built from) or "release" (neither: the commit is unknown). Computed once per process."""
+    global _BUILD
+    if _BUILD is None:
+        from ._versioning import build_info as compute
+        _BUILD = compute(RELEASE)
+    return dict(_BUILD)
+
+
+_BUILD: dict | None = None
+
+
 def __getattr__(name: str) -> object:
-    """Import the API's functions lazily (PEP 562): Brian2 loads on first use."""
+    """Import the API's functions lazily (PEP 562): Brian2 loads on first use; ``__version__``
+    is computed on first use (git, in a checkout)."""
     import inspect
 
+    if name == "__version__":
+        return build_info()["version"]
     module = _API.get(name)
     if module is None:
         raise AttributeError(f"module 'astrocpg' has no attribute {name!r}")
@@ -90,4 +111,4 @@ def __getattr__(name: str) -> object:
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_API))
+    return sorted(set(globals()) | set(_API) | {"__version__"})

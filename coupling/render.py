@@ -163,7 +163,8 @@ def recording_span(t: np.ndarray) -> tuple[float, float]:
     if len(t) == 0:
         return 0.0, 0.0
     step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    return max(0.0, float(t[0]) - step), float(t[-1])
+    # sample times are whole steps: rounded to the nanosecond, 0.001 - 0.001 is 0, not 1e-16
+    return round(max(0.0, float(t[0]) - step), 9), round(float(t[-1]), 9)
 
 
 def _window(t: np.ndarray, start: float | None, stop: float | None) -> tuple[float, float]:

@@ -18,7 +18,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ..errors import InputError
+from ..errors import EnvironmentFault, InputError
 from ..reading import check_regular
 
 def quiet_mujoco_log() -> None:
@@ -256,8 +256,10 @@ def load_robot(path: str | os.PathLike) -> mujoco.MjModel:
                          culprit="robot")
     p = Path(path)
     check_regular(p, f"--robot {p}")  # a FIFO is refused, never waited on
+    if not os.path.lexists(p):  # a missing input: the environment's (exit 1)
+        raise EnvironmentFault("no such file", culprit=f"--robot {p}")
     if not p.is_file():
-        raise InputError("no such file", culprit=f"--robot {p}")
+        raise InputError("is not a file", culprit=f"--robot {p}")
     try:
         model = mujoco.MjModel.from_xml_path(str(p))
     except Exception as e:  # MuJoCo raises ValueError with a multi-line message

@@ -34,7 +34,8 @@ if Path(astrocpg.__file__).resolve().parent != ROOT.resolve():
 project = "astrocpg"
 author = "The astrocpg authors"
 copyright = "2026, The astrocpg authors"
-release = version = astrocpg.__version__
+# version: the release this manual follows; release: this copy's (a development build names its commit)
+version, release = astrocpg.RELEASE, astrocpg.__version__
 
 extensions = [
     "myst_nb",
@@ -152,6 +153,24 @@ nitpick_ignore = [("py:class", "Trainer"), ("py:class", "TrainingStopped"),
                   ("py:class", "Study"), ("py:class", "RunSpec")]
 
 
+_NUMPYDOC = re.compile(r"^\s*(Parameters|Returns|Raises)\n\s*-{3,}$", re.M)
+
+
+def _docstring(app, what, name, obj, options, lines):
+    """A docstring with numpydoc sections (the public functions: Parameters, Returns, Raises)
+    goes through napoleon's numpydoc reader, its types shown as text (not cross-references);
+    any other is the project's plain text (:func:`_plain_docstring`)."""
+    if not _NUMPYDOC.search("\n".join(lines)):
+        _plain_docstring(app, what, name, obj, options, lines)
+        return
+    from sphinx.ext.napoleon import Config
+    from sphinx.ext.napoleon.docstring import NumpyDocstring
+
+    config = Config(napoleon_use_param=False, napoleon_use_rtype=False,
+                    napoleon_preprocess_types=False, napoleon_google_docstring=False)
+    lines[:] = NumpyDocstring(lines, config, app, what, name, obj, options).lines()
+
+
 def setup(app):
     app.config.mathjax_path = MATHJAX_PATH
-    app.connect("autodoc-process-docstring", _plain_docstring)
+    app.connect("autodoc-process-docstring", _docstring)

@@ -202,6 +202,31 @@ class ModelSet:
 
 DEFAULT_MODELS = ModelSet()
 
+
+class _BuiltIn:
+    """A default as a signature shows it: ``<built-in astrocyte>``, not the model's repr."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __repr__(self) -> str:
+        return f"<built-in {self.name}>"
+
+
+def _short_signature(cls: type) -> None:
+    """The class's signature with each model default shown by its name (the API reference
+    printed every built-in model's repr, 32,000 characters, in ``ModelSet(...)``); what the
+    class does is unchanged."""
+    import inspect
+
+    sig = inspect.signature(cls)
+    cls.__signature__ = sig.replace(parameters=[
+        p.replace(default=_BuiltIn(p.name)) if p.default is not inspect.Parameter.empty else p
+        for p in sig.parameters.values()])
+
+
+_short_signature(ModelSet)
+
 from . import astrocyte as _astrocyte, interlimb_synapse as _interlimb  # noqa: E402
 from . import motor_neuron as _motor, pool as _pool, torque as _torque  # noqa: E402
 from . import world as _world, alive as _alive, reward as _reward  # noqa: E402

@@ -438,7 +438,8 @@ class Model:
         target = _KINDS.get(kind) if isinstance(kind, str) else None
         if target is None or not issubclass(target, cls):
             kinds = ", ".join(k for k, c in _KINDS.items() if issubclass(c, cls))
-            raise InputError(f"unknown kind {kind!r} (kinds: {kinds})", culprit=f"{name}.kind")
+            raise InputError(f"unknown kind {kind!r}{did_you_mean(kind, kinds.split(', '))} "
+                             f"(kinds: {kinds})", culprit=f"{name}.kind")
         fields = {f.name for f in dataclasses.fields(target) if f.init}
         kwargs: dict[str, Any] = {}
         for key, value in data.items():
@@ -480,7 +481,8 @@ class BrianModel(Model):
         name = method_name(self.method)
         if name is None:
             raise InputError(
-                f"unknown integration method {self.method!r} (registered: "
+                f"unknown integration method {self.method!r}"
+                f"{did_you_mean(self.method, registered_methods())} (registered: "
                 f"{', '.join(registered_methods())})", culprit=f"{self.name}.method")
         object.__setattr__(self, "method", name)
         equations = self.brian_equations()

@@ -44,9 +44,12 @@ def _value_text(value: Any) -> str:
     return repr(value) if isinstance(value, float) else str(value)
 
 
-def read_equation_files(items: Sequence[str], option: str = "--equations") -> dict[str, str]:
-    """``MODEL=FILE`` items -> {model: text}; a file that cannot be read, is binary or not
-    UTF-8 is an InputError naming the option and the file."""
+def read_equation_files(items: Sequence[str], option: str = "--equations",
+                        kind: str | None = None) -> dict[str, str]:
+    """``MODEL=FILE`` items -> {model: text}; a file that is binary or not UTF-8 is an
+    InputError naming the option and the file; one that cannot be read an EnvironmentFault
+    (``kind``, of shipped files: a bare name that names none is an InputError naming the
+    closest)."""
     out: dict[str, str] = {}
     for item in items:
         name, sep, file = item.partition("=")
@@ -55,8 +58,8 @@ def read_equation_files(items: Sequence[str], option: str = "--equations") -> di
         try:
             raw = read_bytes(file, f"{option} {name}")  # a FIFO is refused, never waited on
         except OSError as e:
-            raise InputError(f"cannot read '{file}' ({e.strerror})",
-                             culprit=f"{option} {name}") from None
+            from ..shipped import unreadable
+            raise unreadable(file, kind, e, culprit=f"{option} {name}") from None
         try:
             text = raw.decode("utf-8")
         except UnicodeDecodeError:
@@ -81,7 +84,7 @@ def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str,
     from ..shipped import resolve
     items = [f"{name}={resolve(file, 'model')}" if sep and file else item  # a shipped name
              for item in items for name, sep, file in [item.partition("=")]]
-    texts = read_equation_files(items, option=option)
+    texts = read_equation_files(items, option=option, kind="model")
     slots = dict(DEFAULT_MODELS.items())
     for item in items:
         name, _, file = item.partition("=")
@@ -133,12 +136,13 @@ def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, 
 
 def model_set(overrides: Overrides | None = None,
               equations: Mapping[str, str] | None = None,
-              base: ModelSet = DEFAULT_MODELS,
+              base: ModelSet | None = None,
               models: Mapping[str, Any] | None = None, option: str = "--model") -> ModelSet:
     """The model set with whole models swapped in (``models``: ``{slot: model file text}`` or
     ``{slot: Model}``; a file may declare new parameters and variables but must keep the slot's
     interface), equation texts swapped in (``{model: text}``) and parameter values overridden
-    (``NAME=VALUE`` items or ``{name: value}``), validated. Errors about a model file name
+    (``NAME=VALUE`` items or ``{name: value}``), validated, over ``base`` (None: the built-in
+    models, :data:`~astrocpg.models.DEFAULT_MODELS`). Errors about a model file name
     ``<option> <model>``."""
     from . import INTERFACES, Model
     from .files import (check_interface, check_parameters_used, file_sha256,
@@ -151,7 +155,7 @@ def model_set(overrides: Overrides | None = None,
             raise InputError(f"expected a mapping {{model name: {value}}}, got "
                              f"{type(given).__name__}", culprit=what)
     files = models
-    models = base
+    models = DEFAULT_MODELS if base is None else base
     known = dict(models.items())
     for name, item in (files or {}).items():
         culprit = f"{option} {name}"

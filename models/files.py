@@ -27,7 +27,7 @@ from typing import Any, Mapping
 import numpy as np
 from brian2 import Quantity
 
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 from ..reading import loads_toml
 from .base import BrianModel, Interface, Model, Parameter, ParameterTable, model_kinds
 from .units import parse_value, unit_spelling
@@ -196,8 +196,8 @@ def model_from_toml(text: str, *, culprit: str, default: Model | None = None) ->
     kinds = model_kinds()
     target = kinds.get(kind) if isinstance(kind, str) else None
     if target is None:
-        raise InputError(f"unknown kind {kind!r} (kinds: {', '.join(kinds)})",
-                         culprit=f"{culprit}: kind")
+        raise InputError(f"unknown kind {kind!r}{did_you_mean(kind, kinds)} (kinds: "
+                         f"{', '.join(kinds)})", culprit=f"{culprit}: kind")
     fields = {f.name for f in dataclasses.fields(target) if f.init}
     kwargs: dict[str, Any] = {}
     for key, value in data.items():
@@ -218,8 +218,10 @@ def model_from_toml(text: str, *, culprit: str, default: Model | None = None) ->
                                      '"..." }', culprit=pwhere)
                 unknown = set(entry) - {"value", "symbol", "meaning", "positive"}
                 if unknown:
-                    raise InputError(f"unknown keys {sorted(unknown)} (value, symbol, meaning, "
-                                     f"positive)", culprit=pwhere)
+                    keys = ("value", "symbol", "meaning", "positive")
+                    first = sorted(unknown)[0]
+                    raise InputError(f"unknown keys {sorted(unknown)}{did_you_mean(first, keys)} "
+                                     f"({', '.join(keys)})", culprit=pwhere)
                 _typed(entry, "symbol", str, "text", pwhere)
                 _typed(entry, "meaning", str, "text", pwhere)
                 _typed(entry, "positive", bool, "true or false (a TOML boolean)", pwhere)
@@ -238,7 +240,9 @@ def model_from_toml(text: str, *, culprit: str, default: Model | None = None) ->
             for var, entry in value.items():
                 vwhere = f"{culprit}: initial_values.{var}"
                 if isinstance(entry, Mapping) and set(entry) - {"value", "expression"}:
-                    raise InputError(f"unknown keys {sorted(set(entry) - {'value', 'expression'})}"
+                    extra = sorted(set(entry) - {"value", "expression"})
+                    raise InputError(f"unknown keys {extra}"
+                                     f"{did_you_mean(extra[0], ('value', 'expression'))}"
                                      f" (value or expression)", culprit=vwhere)
                 if isinstance(entry, Mapping) and "expression" in entry:
                     _typed(entry, "expression", str, "text (a Brian2 expression)", vwhere)

@@ -90,7 +90,9 @@ def parse_binding(entry: Any, culprit: str) -> SenseBinding:
     elif isinstance(entry, Mapping):
         unknown = set(entry) - {"sense", "only"}
         if unknown:
-            raise InputError(f"unknown keys {sorted(unknown)} (sense, only)", culprit=culprit)
+            raise InputError(f"unknown keys {sorted(unknown)}"
+                             f"{did_you_mean(sorted(unknown)[0], ('sense', 'only'))} (sense, only)",
+                             culprit=culprit)
         name, only = entry.get("sense"), entry.get("only", ())
         if not isinstance(only, (list, tuple)) or not all(isinstance(x, str) and x
                                                           for x in only):

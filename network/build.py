@@ -18,7 +18,7 @@ import numpy as np
 from brian2 import Network, NeuronGroup, Synapses, linked_var, ms, second
 
 from .._quiet_brian import close_debug_files, mend_interrupt_handler
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 from ..models import DEFAULT_MODELS, ModelSet
 from ..models.base import BrianModel, NeuronModel, SynapseModel, brian_error_line
 from ..models.names import why_reserved
@@ -694,7 +694,7 @@ WIRING_STEPS = (_wire_pool_activity, _wire_intra_pool, _wire_interneurons, _wire
 
 @exclusive  # Brian2's global seed and objects: one build or run at a time (runlock.py)
 def build_cpg(
-    models: ModelSet = DEFAULT_MODELS,
+    models: ModelSet | None = None,
     *,
     n_trials: int = 1,
     seed: int = 0,
@@ -714,14 +714,16 @@ def build_cpg(
     step's spikes drives this step's physics). The inter-limb input of the pools' spikes reaches
     the target neurons at the next step, like every other synapse.
 
+    ``models``: the model set (None: the built-in models, :data:`~astrocpg.models.DEFAULT_MODELS`).
     ``codegen``: Brian2's target, "numpy" or "cython" (default: $ASTROCPG_CODEGEN, else numpy;
     see :mod:`astrocpg.network.codegen`). It is stored as ``CPG.codegen``.
     """
+    models = DEFAULT_MODELS if models is None else models
     legs = tuple(legs)
     for leg in legs:
         if leg not in LEGS:
-            raise InputError(f"unknown leg '{leg}' (legs are {', '.join(LEGS)})",
-                             culprit="build_cpg")
+            raise InputError(f"unknown leg '{leg}'{did_you_mean(leg, LEGS)} (legs are "
+                             f"{', '.join(LEGS)})", culprit="build_cpg")
     if int(n_trials) < 1:
         raise InputError(f"n_trials must be at least 1, got {n_trials}", culprit="build_cpg")
     pool_size = int(models.value("pool_size"))

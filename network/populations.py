@@ -36,7 +36,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from ..errors import InputError
+from ..errors import InputError, did_you_mean
 from ..reading import loads_toml
 from ..models import DEFAULT_MODELS, INTERFACES
 from ..models.base import TraceSource
@@ -375,8 +375,8 @@ def population_from_toml(text: str, *, culprit: str) -> Population:
         raise InputError("declares no population (a [population] table)", culprit=culprit)
     unknown = sorted(set(spec) - _ROW_KEYS)
     if unknown:
-        raise InputError(f"unknown key {unknown[0]} (keys: {', '.join(sorted(_ROW_KEYS))})",
-                         culprit=f"{culprit} [population]")
+        raise InputError(f"unknown key {unknown[0]}{did_you_mean(unknown[0], _ROW_KEYS)} (keys: "
+                         f"{', '.join(sorted(_ROW_KEYS))})", culprit=f"{culprit} [population]")
     model = model_from_toml(_without_population(text), culprit=culprit)
     if model.kind != "neuron":
         raise InputError(f"a population is built from a neuron model, not a {model.kind} model",

@@ -254,7 +254,8 @@ def test_bad_trace_requests(unit2, training):
 
 
 def test_load_refuses_what_is_not_an_output_folder(tmp_path, run_folder):
-    with pytest.raises(InputError) as err:
+    from astrocpg.errors import EnvironmentFault
+    with pytest.raises(EnvironmentFault) as err:  # a missing input: the environment's, exit 1
         ac.load(tmp_path / "absent")
     _one_line(err, "absent", "no such folder")
     (tmp_path / "empty").mkdir()
@@ -309,6 +310,8 @@ def test_public_functions_have_docstrings():
     assert ac.Trace.column.__doc__
 
 
-def test_describe_returns_markdown():
+def test_describe_returns_plain_text_or_markdown():
     text = ac.describe("astrocyte", overrides={"tau_ADO": "2*second"})
-    assert text.startswith("## astrocyte") and "tau_ADO" in text and "2. s" in text
+    assert text.startswith("astrocyte\n") and "tau_ADO" in text and "2. s" in text
+    md = ac.describe("astrocyte", "markdown", overrides={"tau_ADO": "2*second"})
+    assert md.startswith("## astrocyte") and "| `tau_ADO` |" in md

@@ -59,8 +59,8 @@ COMMANDS = sorted(_commands(build_parser()), key=lambda c: c[0])
 
 def test_every_command_of_help_is_walked():
     names = {path.split()[0] for path, _ in COMMANDS}
-    assert names == {"unit", "run", "train", "gait", "evaluate", "power", "response", "study", "report",
-                     "plot", "video", "export", "describe", "models", "robot"}
+    assert names == {"unit", "run", "train", "gait", "evaluate", "power", "response", "study",
+                     "report", "plot", "video", "export", "describe", "models", "robot", "docs"}
 
 
 @pytest.mark.parametrize("path,parser", COMMANDS, ids=[c[0] for c in COMMANDS])

@@ -435,7 +435,7 @@ case("run-weights-trial-negative", lambda e: S("run", "--weights", e.fx["train"]
 case("study-scheduler-refused", lambda e: S("study", e.study(study_text()), "--scheduler",
                                             "tcp://127.0.0.1:1", "--out", out(e)),
      2, "--scheduler", "absent", out)
-case("export-non-utf8-folder-name", lambda e: S("export", e.tmp / "no\udcffdir"), 2, "no",
+case("export-non-utf8-folder-name", lambda e: S("export", e.tmp / "no\udcffdir"), 1, "no",
      "absent", lambda e: e.tmp / "no\udcffdir", subprocess={})
 case("unit-out-non-utf8-name", lambda e: S("unit", "--out", e.tmp / "u\udcffx"), 0, None,
      "complete", lambda e: e.tmp / "u\udcffx", subprocess={}, marks=(pytest.mark.slow,))
@@ -448,7 +448,7 @@ case("run-set-negative-time-constant", lambda e: S("run", "--set", "tau_Ca=-5*ms
 for cmd in (UNIT, RUN):
     case(f"{cmd}-equations-missing-file",
          lambda e, c=cmd: S(c, "--equations", f"motor_neuron={e.tmp / 'none.txt'}", "--out",
-                            out(e)), 2, "none.txt", "absent", out)
+                            out(e)), 1, "none.txt", "absent", out)
 case("unit-equations-binary", lambda e: S("unit", "--equations",
                                           f"motor_neuron={e.file('eq.bin', bytes(range(256)))}",
                                           "--out", out(e)), 2, "eq.bin", "absent", out)
@@ -488,7 +488,7 @@ case("unit-equations-astrocyte-lacks-variable",
 
 # ---- run: weights and robot files
 case("run-weights-missing", lambda e: S("run", "--weights", e.tmp / "w.csv", "--out", out(e)),
-     2, "w.csv", "absent", out)
+     1, "w.csv", "absent", out)
 case("run-weights-wrong-shape", lambda e: S("run", "--weights", e.weights([[1, 2], [3, 4]]),
                                             "--out", out(e)), 2, "w.csv", "absent", out)
 case("run-weights-nan", lambda e: S("run", "--weights",
@@ -520,7 +520,7 @@ case("run-session-without-weights", lambda e: S("run", "--session", "1", "--out"
      "--session", "absent", out)
 case("plot-seconds-of-a-run-folder", lambda e: S("plot", e.copy("run"), "--seconds", "2",
                                                  "--out", out(e)), 2, "--seconds", "absent", out)
-case("run-robot-missing", lambda e: S("run", "--robot", e.tmp / "a1.xml", "--out", out(e)), 2,
+case("run-robot-missing", lambda e: S("run", "--robot", e.tmp / "a1.xml", "--out", out(e)), 1,
      "a1.xml", "absent", out)
 case("run-robot-binary", lambda e: S("run", "--robot", e.file("a1.xml", bytes(range(256)) * 4),
                                      "--out", out(e)), 2, "a1.xml", "absent", out)
@@ -551,7 +551,7 @@ case("train-out-holds-a-training", lambda e: S("train", "--sessions", "2", "--ou
      "unchanged", lambda e: e.copy("train"))
 case("train-out-not-empty", lambda e: S("train", "--sessions", "2", "--out", e.nonempty()), 2,
      lambda e: str(e.nonempty()), "unchanged", lambda e: e.nonempty())
-case("train-resume-missing", lambda e: S("train", "--resume", e.tmp / "none"), 2, "none",
+case("train-resume-missing", lambda e: S("train", "--resume", e.tmp / "none"), 1, "none",
      "absent", lambda e: e.tmp / "none")
 case("train-resume-finished", lambda e: S("train", "--resume", e.copy("train")), 2,
      "already finished", "unchanged", lambda e: e.copy("train"))
@@ -573,7 +573,7 @@ case("train-resume-empty-folder", lambda e: S("train", "--resume", e.empty()), 2
 
 # ---- gait, plot, power, video: a training folder (plot and video: any output folder)
 for cmd in ("gait", "plot", "power", "video"):
-    case(f"{cmd}-missing-folder", lambda e, c=cmd: S(c, e.tmp / "nosuch"), 2, "nosuch",
+    case(f"{cmd}-missing-folder", lambda e, c=cmd: S(c, e.tmp / "nosuch"), 1, "nosuch",
          "absent", lambda e: e.tmp / "nosuch")
 for cmd in ("gait", "power"):
     case(f"{cmd}-folder-without-weights", lambda e, c=cmd: S(c, e.copy("unit")), 2,
@@ -663,7 +663,7 @@ case("power-sessions-1e9", lambda e: S("power", e.copy("train"), "--sessions", "
      2, "memory", "unchanged", lambda e: e.copy("train"))
 
 # ---- study files
-case("study-missing-file", lambda e: S("study", e.tmp / "none.toml", "--out", out(e)), 2,
+case("study-missing-file", lambda e: S("study", e.tmp / "none.toml", "--out", out(e)), 1,
      "none.toml", "absent", out)
 case("study-binary-file", lambda e: S("study", e.study(bytes(range(256))), "--out", out(e)), 2,
      "s.toml", "absent", out)
@@ -707,7 +707,7 @@ case("study-out-of-another-study", lambda e: S("study", e.study(study_text()), "
      lambda e: e.copy("study"))
 
 # ---- report
-case("report-missing-folder", lambda e: S("report", e.tmp / "nosuch"), 2, "nosuch", "absent",
+case("report-missing-folder", lambda e: S("report", e.tmp / "nosuch"), 1, "nosuch", "absent",
      lambda e: e.tmp / "nosuch")
 case("report-not-a-study", lambda e: S("report", e.copy("unit")), 2,
      lambda e: str(e.copy("unit")), "unchanged", lambda e: e.copy("unit"))
@@ -729,10 +729,10 @@ case("report-tampered-weights",
                  out(e)), 2, "weights.npz", "absent", out)
 
 # ---- export
-case("export-missing-folder", lambda e: S("export", e.tmp / "nosuch"), 2, "nosuch", "absent",
+case("export-missing-folder", lambda e: S("export", e.tmp / "nosuch"), 1, "nosuch", "absent",
      lambda e: e.tmp / "nosuch")
 case("export-missing-folder-with-out", lambda e: S("export", e.tmp / "nosuch", "--out",
-                                                   e.tmp / "x.nwb"), 2, "nosuch", "absent",
+                                                   e.tmp / "x.nwb"), 1, "nosuch", "absent",
      lambda e: e.tmp / "x.nwb")
 case("export-a-training", lambda e: S("export", e.copy("train")), 2, "train", "unchanged",
      lambda e: e.copy("train"))
@@ -860,6 +860,28 @@ case("run-misspelt-model-file-slot",
      "absent", out)
 case("plot-misspelt-format", lambda e: S("plot", e.copy("run"), "--format", "pnj",
                                          "--no-progress"), 2, "did you mean png?", "none")
+# a shipped file's name misspelt (a name, not a path): bad input, the closest named
+case("study-misspelt-name", lambda e: S("study", "quik", "--out", out(e)), 2,
+     "study: unknown study 'quik' (did you mean quick?)", "absent", out)
+case("run-misspelt-model-file-name", lambda e: S("run", "--model", "astrocyte=li_rinzel_astrocyt",
+                                                 "--out", out(e)), 2,
+     "unknown model 'li_rinzel_astrocyt' (did you mean li_rinzel_astrocyte?)", "absent", out)
+case("evaluate-misspelt-worlds", lambda e: S("evaluate", e.copy("train"), "--worlds",
+                                             "robustnes", "--out", out(e)), 2,
+     "unknown worlds 'robustnes' (did you mean robustness?)", "absent", out)
+case("study-misspelt-key", lambda e: S("study", e.study('[study]\nname = "x"\nsesions = 2\n'),
+                                       "--out", out(e)), 2,
+     "unknown key 'sesions' (did you mean sessions?)", "absent", out)
+# a missing input file or folder is the environment's (exit 1), whatever reads it
+case("run-model-file-missing", lambda e: S("run", "--model", f"astrocyte={e.tmp / 'a.toml'}",
+                                           "--out", out(e)), 1, "a.toml", "absent", out)
+case("evaluate-worlds-missing", lambda e: S("evaluate", e.copy("train"), "--worlds",
+                                            e.tmp / "w.toml", "--out", out(e)), 1, "w.toml",
+     "absent", out)
+case("study-plan-from-missing", lambda e: S("study", "quick", "--plan-from", e.tmp / "nosuch",
+                                            "--out", out(e)), 1, "--plan-from", "absent", out)
+case("study-status-missing", lambda e: ["study", "--status", str(e.tmp / "nosuch")], 1,
+     "--status", "none")
 # a command group alone lists its commands: done, nothing on stderr
 case("models-alone", lambda e: ["models"], 0, None, "none")
 case("robot-alone", lambda e: ["robot"], 0, None, "none")

@@ -78,8 +78,12 @@ def test_non_positive_seconds(capsys, tmp_path, seconds):
 
 
 def test_missing_robot_file(capsys, tmp_path):
-    _fails_cleanly(capsys, ["run", "--seconds", "1", "--robot", str(tmp_path / "none.xml"),
-                            "--out", str(tmp_path / "o")], tmp_path / "o", "none.xml")
+    """A robot file that does not exist is the environment's: exit 1 (docs/errors.md)."""
+    assert main(["run", "--seconds", "1", "--robot", str(tmp_path / "none.xml"),
+                 "--out", str(tmp_path / "o")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("astrocpg: environment:") and "none.xml" in err
+    assert len(err.splitlines()) == 1 and not (tmp_path / "o").exists()
 
 
 def test_malformed_robot_file(capsys, tmp_path):
@@ -206,7 +210,7 @@ def test_the_command_ends_at_once_with_its_code_its_output_whole_and_exit_handle
     if code == 0:  # every model's section, to the last line
         full = subprocess.run([sys.executable, "-m", "astrocpg.studies.cli", *argv],
                               capture_output=True, text=True, timeout=300)
-        assert p.stdout == full.stdout and "## world" in p.stdout
+        assert p.stdout == full.stdout and "\nworld\n=====\n" in p.stdout
     else:
         assert p.stderr.count("\n") == 1 and "no_such_model" in p.stderr
 

@@ -23,13 +23,13 @@ def _describe(cache, *args):
 
 def test_second_describe_reads_the_cache_without_brian2(tmp_path):
     rc, brian, first = _describe(tmp_path)
-    assert rc == 0 and brian and "## astrocyte" in first
+    assert rc == 0 and brian and "\nastrocyte\n=========\n" in first
     rc, brian, second = _describe(tmp_path)
     assert rc == 0 and not brian
     assert second == first
     rc, brian, one = _describe(tmp_path, "world")
     rc, brian, again = _describe(tmp_path, "world")
-    assert not brian and again == one and one.startswith("## world")
+    assert not brian and again == one and one.startswith("world\n=====")
 
 
 def test_overrides_bypass_the_cache(tmp_path):
@@ -38,3 +38,15 @@ def test_overrides_bypass_the_cache(tmp_path):
     assert rc == 0 and brian and "2. s" in text
     rc, brian, text = _describe(tmp_path, "nope")
     assert rc == 2
+
+
+def test_a_new_renderer_gives_fresh_texts(tmp_path, monkeypatch):
+    """The cache is named by the renderer's source too: texts written by an older renderer
+    (e.g. Markdown where plain text is now the default) are not read back."""
+    from astrocpg.studies.runtime import describe_cache
+
+    before = describe_cache.models_key()
+    edited = tmp_path / "describe.py"
+    edited.write_bytes(describe_cache._RENDERER.read_bytes() + b"\n# edited\n")
+    monkeypatch.setattr(describe_cache, "_RENDERER", edited)
+    assert describe_cache.models_key() != before

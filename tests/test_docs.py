@@ -169,7 +169,8 @@ def test_the_citing_page_gives_citation_cff_as_bibtex(site: Path) -> None:
     import astrocpg
     text = html_lib.unescape(re.sub(r"<[^>]+>", "", (site / "citing.html").read_text(
         encoding="utf-8")))
-    assert "@software{astrocpg_" in text and f"{{{astrocpg.__version__}}}" in text
+    assert "@software{astrocpg_" in text and f"{{{astrocpg.RELEASE}}}" in text
+    assert "{{The astrocpg authors}}" in text and "{https://arxiv.org/abs/2312.15805}" in text
     assert "{10.48550/arXiv.2312.15805}" in text and "{Han, Zhuangyu and Sengupta, Abhronil}" in text
 
 

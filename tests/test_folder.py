@@ -334,7 +334,8 @@ def test_second_process_refused_then_lock_of_killed_holder_is_free(tmp_path, chi
 
 
 def test_lock_needs_the_folder(tmp_path):
-    with pytest.raises(InputError, match="no such folder"):
+    from astrocpg.errors import EnvironmentFault
+    with pytest.raises(EnvironmentFault, match="no such folder"):  # exit 1: the environment's
         FolderLock(tmp_path / "missing").acquire()
 
 

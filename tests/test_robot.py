@@ -175,8 +175,11 @@ def test_load_robot_errors(tmp_path, text, expected):
     path = tmp_path / "robot.xml"
     if text is not None:
         path.write_text(text)
-    with pytest.raises(InputError) as err:
+    from astrocpg.errors import AstrocpgError, EnvironmentFault
+    with pytest.raises(AstrocpgError) as err:
         load_robot(path)
+    # a missing file is the environment's (exit 1), a wrong one bad input (exit 2)
+    assert isinstance(err.value, EnvironmentFault if text is None else InputError)
     assert expected in str(err.value) and "robot.xml" in str(err.value)
     assert "\n" not in str(err.value)
 

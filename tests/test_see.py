@@ -295,3 +295,17 @@ def test_plot_and_video_of_a_training(tmp_path):
     assert "motor" in recording.spikes and "astrocyte_Ca" in recording.traces
     panel = GaitPanel(recording.robot, 0, 320, 240, result=recording)
     assert not _texts(panel.axes["activity"]) and not _texts(panel.axes["calcium"])
+
+
+def test_a_recordings_span_and_its_times_read_round() -> None:
+    """``video --panel`` said "1.10155e-16 to 4 s": the span of samples at whole 1 ms steps is
+    (0, 4) exactly, and a time is printed without float noise."""
+    import numpy as np
+
+    from astrocpg.coupling.render import recording_span
+    from astrocpg.studies.cli.handlers import seconds_text
+
+    t = np.cumsum(np.full(4000, 0.001))  # 0.001 .. 4.0 s, as a run samples its robot
+    assert recording_span(t) == (0.0, 4.0)
+    assert seconds_text(1.10155e-16) == "0" and seconds_text(3.9999999999) == "4"
+    assert seconds_text(2.5) == "2.5" and seconds_text(0.001) == "0.001"

@@ -52,3 +52,27 @@ def test_python_dash_m_astrocpg(elsewhere: Path) -> None:
                           text=True, env={**os.environ}, cwd=elsewhere, timeout=120)
     assert done.returncode == 0, done.stderr
     assert astrocpg.__version__ in done.stdout
+
+
+def test_astrocpg_docs_finds_the_manual_and_the_recipes_files(capsys, tmp_path, monkeypatch
+                                                              ) -> None:
+    """``astrocpg docs`` (``ac.docs``) says where the manual is; ``--path`` its folder, where
+    the files its recipes read are; a path the manual spells reads the shipped file from any
+    folder, and a missing input is the environment's (exit 1)."""
+    import astrocpg as ac
+    from astrocpg.shipped import DOCS, resolve_data
+    from astrocpg.studies.cli import main
+
+    monkeypatch.setenv("ASTROCPG_CACHE", str(tmp_path / "cache"))
+    page = ac.docs()
+    assert page.is_file() and page.name in ("index.md", "index.html")
+    assert main(["docs", "--path"]) == 0
+    folder = Path(capsys.readouterr().out.strip())
+    assert folder == DOCS and (folder / "examples" / "interlimb_table.csv").is_file()
+    monkeypatch.chdir(tmp_path)
+    assert resolve_data("docs/examples/interlimb_table.csv") == \
+        str(DOCS / "examples" / "interlimb_table.csv")
+    assert resolve_data("docs/no_such.csv") == "docs/no_such.csv"
+    assert resolve_data("../docs/examples/interlimb_table.csv").startswith("..")
+    assert main(["gait", "docs/no_such_training"]) == 1
+    assert "docs/no_such_training: no such file or folder" in capsys.readouterr().err

@@ -300,3 +300,29 @@ def test_a_broken_c_compiler_gives_one_line(tmp_path):
     lines = lines_of(err)
     assert code == 1 and len(lines) == 1, err
     assert "codegen cython" in lines[0] and "broken" not in err, err
+
+
+def test_an_edited_study_file_is_refused_naming_the_setting_and_both_values(tmp_path) -> None:
+    """A study folder keeps its runs' settings: the study file edited under it is refused,
+    naming each setting that changed with the value recorded and the value now."""
+    import pytest
+
+    from astrocpg.errors import InputError
+    from astrocpg.studies.parameter_studies.study import _check_folder, _save_index, load_study
+
+    text = ('[study]\nname = "edited"\nsessions = 1\nseeds = [1]\n'
+            '[base]\nL_max = "0.02*second"\nA_random = "0.25"\n')
+    f = tmp_path / "edited.toml"
+    f.write_text(text)
+    out = tmp_path / "out"
+    out.mkdir()
+    _save_index(load_study(str(f)), out)
+    _check_folder(load_study(str(f)), out)  # unchanged: accepted
+    f.write_text(text.replace("0.02*second", "0.03*second").replace("sessions = 1",
+                                                                     "sessions = 2"))
+    with pytest.raises(InputError) as err:
+        _check_folder(load_study(str(f)), out)
+    line = str(err.value)
+    assert "L_max was 0.02*second, is now 0.03*second" in line, line
+    assert "sessions was 1, is now 2" in line and "A_random" not in line, line
+    assert "session_s" not in line  # follows from L_max: not named twice

@@ -115,8 +115,8 @@ def test_the_command_and_the_api_say_the_same(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert printed.strip() == ac.study_status(out).text()
     assert "2 of 2 seed-sessions done (100.0%)" in printed
-    assert main(["study", "--status", str(tmp_path / "nosuch")]) == 2
-    assert "not a study folder" in capsys.readouterr().err
+    assert main(["study", "--status", str(tmp_path / "nosuch")]) == 1  # missing: environment
+    assert "nosuch: no such file or folder" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("extra", [["--out", "x"], ["--seeds", "1-2"], ["--sessions", "3"],

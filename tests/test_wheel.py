@@ -1,6 +1,8 @@
 """The release: ``python -m build`` gives an sdist and a wheel without leaving files in the
-source tree; the wheel holds the package data, and installed into a fresh virtual environment
-it runs ``astrocpg --version`` and a short ``astrocpg run`` from another folder.
+source tree; the wheel holds the package data (the manual's pages and the files its recipes
+read among them) and its version and commit, and installed into a fresh virtual environment it
+runs, from another folder, ``astrocpg --version`` (the version and the commit), ``astrocpg docs``
+(the manual is found) and the manual's recipes that read shipped files.
 
 To keep the test off the network for the dependencies, the fresh environment sees this
 environment's site-packages through a ``.pth`` line (a plain path: the ``.pth`` files there,
@@ -11,6 +13,7 @@ with ``--no-deps``; the test checks that ``astrocpg`` is imported from the fresh
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import sysconfig
@@ -35,6 +38,58 @@ PACKAGE_DATA = [
     "astrocpg/studies/commands/robustness.toml",
     "astrocpg/coupling/robot.py",
 ]
+
+
+def recipe_inputs() -> list[str]:
+    """Every file under docs/ that an ``astrocpg`` command of the manual reads (a folder: every
+    file in it), as the doc-command test extracts the commands: what the wheel must ship."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    try:
+        import test_doc_commands as d
+    finally:
+        sys.path.remove(str(ROOT / "tests"))
+    out: set[str] = set()
+    for cmd in d.commands():
+        if cmd.snippet:
+            continue
+        for argv in d.segments(cmd):
+            if argv[0] != "astrocpg":
+                continue
+            try:
+                reads, _ = d.reads_writes(argv[1:])
+                plan = getattr(d._parse(argv[1:]), "plan_from", None)
+            except SystemExit:
+                continue  # the doc-command test names it
+            paths = [p for _, p in reads] + ([plan] if plan else [])
+            out.update(_files(paths))
+    # commands shown with their output (```text blocks) or in a sentence: a docs/ path after
+    # "astrocpg COMMAND" on the same line
+    for page in d.pages():
+        for line in page.read_text(encoding="utf-8").splitlines():
+            for m in re.finditer(r"astrocpg [a-z]+ [^`]*?(docs/[\w./-]+)", line):
+                out.update(_files([m.group(1).rstrip(".")]))
+    return sorted(out)
+
+
+def _files(paths: list[str]) -> set[str]:
+    """The repository files of ``paths`` under docs/ (a folder: every file in it)."""
+    out = set()
+    for path in paths:
+        if not path.startswith("docs/") or not (ROOT / path).exists():
+            continue
+        target = ROOT / path
+        files = [target] if target.is_file() else [
+            f for f in target.rglob("*") if f.is_file() and "__pycache__" not in f.parts]
+        out.update(f.relative_to(ROOT).as_posix() for f in files)
+    return out
+
+
+def test_the_recipes_read_files_the_wheel_can_ship() -> None:
+    """The extraction finds the recipes' shipped inputs (a regression would pass vacuously)."""
+    found = recipe_inputs()
+    assert "docs/examples/interlimb_table.csv" in found
+    assert "docs/benchmarks/trained_astrocytes/weights.npz" in found
+    assert any(p.startswith("docs/ablation/faster_loop/tables/") for p in found)
 
 
 def _clean_env(**extra: str) -> dict[str, str]:
@@ -66,15 +121,23 @@ def test_build_gives_an_sdist_and_a_wheel_with_the_package_data(dist: Path) -> N
     metadata = zipfile.ZipFile(wheels[0]).read(
         next(n for n in names if n.endswith(".dist-info/METADATA"))).decode()
     import astrocpg
-    assert f"Version: {astrocpg.__version__}" in metadata
+    info = astrocpg.build_info()
+    assert f"Version: {info['version']}" in metadata
     assert "License-Expression: MIT" in metadata
-    assert "Author: " in metadata and "Project-URL: " in metadata
+    assert "Author: " in metadata and "Project-URL: Homepage, https://" in metadata
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
-    # the manual stays out of the wheel; its example model and study files ship (by name)
-    assert not any(n.startswith(("tests/", "docs/", "astrocpg/tests/")) for n in names)
-    docs = sorted(n for n in names if n.startswith("astrocpg/docs/"))
-    assert docs and all(n.startswith("astrocpg/docs/beyond/") and n.endswith(".toml")
-                        for n in docs), docs
+    # the version and commit the wheel was built from, for an install without git
+    built = zipfile.ZipFile(wheels[0]).read("astrocpg/_version.py").decode()
+    assert f"version = {info['version']!r}" in built and f"commit = {info['commit']!r}" in built
+    if info["source"] == "git":  # a development build names its commit
+        assert info["commit"] and (info["version"] == astrocpg.RELEASE
+                                   or f"+g{info['commit'][:9]}" in info["version"])
+    # the manual's pages ship (astrocpg docs), the tests and the benchmarks do not
+    assert not any(n.startswith(("tests/", "docs/", "astrocpg/tests/", "astrocpg/benchmarks/"))
+                   for n in names)
+    assert "astrocpg/docs/index.md" in names and "astrocpg/docs/training.md" in names
+    missing = [p for p in recipe_inputs() if f"astrocpg/{p}" not in names]
+    assert not missing, f"files the manual's recipes read, not in the wheel: {missing}"
     assert "astrocpg/shipped.py" in names and "astrocpg/__main__.py" in names
     sdist = set(tarfile.open(sdists[0]).getnames())
     for shown in ("CHANGELOG.md", "CITATION.cff", "docs/index.md", "benchmarks/all.py"):
@@ -105,10 +168,42 @@ def test_the_wheel_runs_from_a_fresh_environment(dist: Path, tmp_path: Path) -> 
 
     script = env_dir / ("Scripts" if os.name == "nt" else "bin") / "astrocpg"
     import astrocpg
+    info = astrocpg.build_info()
     version = subprocess.run([str(script), "--version"], cwd=elsewhere, env=env,
                              capture_output=True, text=True, timeout=120)
     assert version.returncode == 0, version.stderr
-    assert version.stdout.strip() == f"astrocpg {astrocpg.__version__}"
+    # the version and commit the wheel was built from, known without git
+    assert version.stdout.startswith(f"astrocpg {info['version']} ("), version.stdout
+    if info["commit"]:
+        assert f"commit {info['commit'][:12]}" in version.stdout, version.stdout
+    else:
+        assert "commit unknown" in version.stdout
+
+    # the manual comes with the package, found from any folder
+    docs = subprocess.run([str(script), "docs"], cwd=elsewhere, env=env, capture_output=True,
+                          text=True, timeout=120)
+    assert docs.returncode == 0, docs.stderr
+    page = Path(docs.stdout.splitlines()[0].split(": ", 1)[1])
+    assert page.is_file() and page.resolve().is_relative_to(env_dir.resolve()), docs.stdout
+    folder = subprocess.run([str(script), "docs", "--path"], cwd=elsewhere, env=env,
+                            capture_output=True, text=True, timeout=120).stdout.strip()
+    assert (Path(folder) / "examples" / "interlimb_table.csv").is_file()
+
+    # the manual's recipes that read shipped files, as the manual spells them (training.md)
+    mine = subprocess.run([str(script), "run", "--weights", "docs/examples/interlimb_table.csv",
+                           "--seconds", "0.2", "--no-progress", "--out", "out/mine"],
+                          cwd=elsewhere, env=env, capture_output=True, text=True, timeout=600)
+    assert mine.returncode == 0, mine.stderr[-3000:]
+    # the manifest names the version and the commit the wheel was built from, without git
+    import json
+    manifest = json.loads((elsewhere / "out" / "mine" / "manifest.json").read_text())
+    assert manifest["package_versions"]["astrocpg"] == info["version"]
+    assert manifest["git"]["commit"] == info["commit"]
+    assert manifest["git"]["source"] == "build"  # recorded by the build, read without git
+    gait = subprocess.run([str(script), "gait", "docs/benchmarks/trained_astrocytes",
+                           "--seconds", "0.2", "--repeats", "1", "--no-progress"],
+                          cwd=elsewhere, env=env, capture_output=True, text=True, timeout=600)
+    assert gait.returncode == 0, gait.stderr[-3000:]
 
     # a shipped variant by name: no models/ folder beside the working folder
     run = subprocess.run([str(script), "run", "--seconds", "0.2", "--no-progress", "--out",

@@ -13,9 +13,10 @@
                         [--workers N] [--scheduler ADDRESS] [--plan-from DIR]
     astrocpg report DIR
     astrocpg export DIR [--format nwb|npz] [--experimenter 'LAST, FIRST'] [--institution TEXT]
-    astrocpg describe [MODEL|PARAMETER] [--format markdown|latex]
+    astrocpg describe [MODEL|PARAMETER] [--format text|markdown|latex]
     astrocpg robot export PATH.xml
     astrocpg models list | models dump MODEL [--set NAME=VALUE] [--model MODEL=FILE]
+    astrocpg docs [--path] [--open]
 
 Common options: ``--set NAME=VALUE`` overrides a model parameter (with units),
 ``--model MODEL=FILE`` replaces a whole model by a model file (TOML: its equations, new

@@ -16,13 +16,33 @@ from .options import (DEFAULT_RUN_OUT, DESCRIPTION, EXIT_HELP, Parser, add_codeg
 Subparsers = Any
 
 
+def version_line() -> str:
+    """``astrocpg 0.2.0 (commit 1a2b3c4d5e6f)``: the version and, where known, the commit (from
+    git in a checkout, recorded by the build in an installed wheel) and uncommitted changes."""
+    from ... import build_info
+
+    info = build_info()
+    if info["commit"]:
+        where = f"commit {info['commit'][:12]}" + (", uncommitted changes" if info["dirty"] else "")
+    else:
+        where = "commit unknown"
+    return f"astrocpg {info['version']} ({where})"
+
+
+class _Version(argparse.Action):
+    """``--version``, its line made only when asked (git runs in a checkout)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):  # noqa: ANN001, ANN204
+        print(version_line())
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``astrocpg`` parser: the top level and every command's subparser."""
     parser = Parser(prog="astrocpg", description=DESCRIPTION, epilog=EXIT_HELP,
                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    from ... import __version__  # the package's one version (pyproject reads it too)
-    parser.add_argument("--version", action="version", version=f"astrocpg {__version__}",
-                        help="print the version and exit")
+    parser.add_argument("--version", action=_Version, nargs=0,
+                        help="print the version and the commit it was built from, and exit")
     sub = parser.add_subparsers(dest="command", required=False, parser_class=Parser,
                                 metavar="COMMAND", help="what to do (alone: lists the commands)")
     for add in COMMAND_GRAMMARS:
@@ -345,7 +365,8 @@ def add_describe(sub: Subparsers) -> None:
     desc.add_argument("model", nargs="?", help="one model (default: all), a parameter's name "
                       "(e.g. tau_motor: its value, model and the equations using it), or "
                       "'senses': the robot senses a neuron model may bind")
-    desc.add_argument("--format", default="markdown", help="markdown or latex (default markdown)")
+    desc.add_argument("--format", default="text",
+                      help="text (for a terminal), markdown or latex (default text)")
     desc.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
                       help="describe MODEL with the equation string of FILE")
     desc.add_argument("--set", dest="overrides", action="append", default=[],
@@ -382,4 +403,14 @@ def add_robot(sub: Subparsers) -> None:
 
 
 #: each command's grammar, in the order ``astrocpg --help`` lists them
-COMMAND_GRAMMARS = (add_unit, add_run, add_train, add_gait, add_evaluate, add_plot, add_video, add_study, add_report, add_power, add_response, add_export, add_describe, add_models, add_robot)
+def add_docs(sub: Subparsers) -> None:
+    """``astrocpg docs``: where the manual is."""
+    docs = sub.add_parser("docs", help="where the manual is (it comes with the package), or "
+                                       "open it")
+    docs.add_argument("--path", action="store_true",
+                      help="print only the folder of the manual's pages and of the files its "
+                           "recipes read (docs/examples/interlimb_table.csv, trained tables)")
+    docs.add_argument("--open", action="store_true", help="open it in a web browser")
+
+
+COMMAND_GRAMMARS = (add_unit, add_run, add_train, add_gait, add_evaluate, add_plot, add_video, add_study, add_report, add_power, add_response, add_export, add_describe, add_models, add_robot, add_docs)

@@ -164,7 +164,8 @@ def video_command(args: argparse.Namespace) -> int:
                 out=args.out, overwrite=args.overwrite, progress=not args.no_progress,
                 panel=args.panel, start=args.start, stop=args.stop)
     print(f"wrote {res['path']} ({res['frames']} frames at {res['fps']:g} fps, "
-          f"{res['seconds']:.1f} s; {res['start']:g} to {res['stop']:g} s of the recording)")
+          f"{res['seconds']:.1f} s; {seconds_text(res['start'])} to "
+          f"{seconds_text(res['stop'])} s of the recording)")
     return 0
 
 
@@ -323,7 +324,7 @@ def describe_command(args: argparse.Namespace) -> int:
             return describe(args.model, args.format)
 
         name_ok = args.model is None or args.model.isidentifier()
-        if name_ok and args.format in ("markdown", "latex"):
+        if name_ok and args.format in ("text", "markdown", "latex"):
             sys.stdout.write(cached_text(args.model, args.format, render))
             return 0
     from ..commands.api import describe
@@ -366,6 +367,29 @@ def robot_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def seconds_text(seconds: float) -> str:
+    """A time in s for a person: to the microsecond at most, no float noise (``1.1e-16`` is
+    ``0``, ``3.9999999999`` is ``4``)."""
+    return f"{round(float(seconds), 6):g}"
+
+
+def docs_command(args: argparse.Namespace) -> int:
+    """``astrocpg docs`` (``ac.docs``): where the manual is; ``--path``: the folder of its pages
+    and of the files its recipes read; ``--open``: open it in a web browser."""
+    from ..commands.api import docs
+
+    where = docs(path=args.path, open=args.open)
+    if args.path:
+        print(where)
+        return 0
+    print(f"the manual: {where}")
+    if where.suffix == ".md":
+        print(f"(its pages as Markdown, in {where.parent}; the files its recipes read are there "
+              f"too, and astrocpg finds them by the manual's spelling, e.g. "
+              f"docs/examples/interlimb_table.csv, from any folder)")
+    return 0
+
+
 #: the handler of each command (``args.command``)
 COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "unit": unit_command, "run": run_command, "train": train_command, "gait": gait_command,
@@ -373,4 +397,5 @@ COMMANDS: dict[str, Callable[[argparse.Namespace], int]] = {
     "plot": plot_command, "video": video_command, "robot": robot_command,
     "study": study_command, "report": report_command, "power": power_command,
     "response": response_command,
-    "export": export_command, "describe": describe_command, "models": models_command}
+    "export": export_command, "describe": describe_command, "models": models_command,
+    "docs": docs_command}

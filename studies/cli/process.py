@@ -166,6 +166,32 @@ def _small_pages_for_large_arrays() -> None:
         switch(False)
 
 
+#: the options naming a file or folder a command reads (``run --weights``, ``gait DIR``,
+#: ``study --plan-from``, ``train --resume``, ``study --status``): dest -> how a message names it
+_INPUT_PATHS = {"dir": "", "weights": "--weights", "plan_from": "--plan-from",
+                "resume": "--resume", "status": "--status", "robot": "--robot"}
+
+
+def _check_inputs(args: argparse.Namespace) -> None:
+    """The files and folders a command reads, before it starts: one spelled as the manual
+    spells a file or folder the package ships (``docs/examples/interlimb_table.csv``) reads the
+    shipped one, so the manual's recipes run from any folder with an installed wheel
+    (:func:`astrocpg.shipped.resolve_data`); one that does not exist is the environment's
+    (exit 1, docs/errors.md), named with its option."""
+    from ...errors import EnvironmentFault
+    from ...shipped import resolve_data
+
+    for name, option in _INPUT_PATHS.items():
+        value = getattr(args, name, None)
+        if not isinstance(value, str) or not value:
+            continue
+        value = resolve_data(value)
+        setattr(args, name, value)
+        if not os.path.lexists(value):
+            raise EnvironmentFault("no such file or folder",
+                                   culprit=f"{option} {value}".strip())
+
+
 def _run_command(args: argparse.Namespace) -> int:
     # only the main thread may set handlers (main() called in another thread: none of ours)
     in_main = threading.current_thread() is threading.main_thread()
@@ -179,6 +205,7 @@ def _run_command(args: argparse.Namespace) -> int:
             _small_pages_for_large_arrays()
             if getattr(args, "codegen", None) is not None:
                 _choose_codegen(args.codegen)
+            _check_inputs(args)
             code = COMMANDS[args.command](args)
             compiled = sys.modules.get("astrocpg.coupling.compiled")
             if code == 0 and compiled is not None and compiled.PROBLEM:

@@ -49,14 +49,35 @@ from .train import resume, train
 from .unit import unit
 
 
-def describe(model: str | None = None, format: str = "markdown", *,
+def describe(model: str | None = None, format: str = "text", *,
              overrides: Overrides | None = None,
              equations: Mapping[str, str] | None = None,
              models: Mapping[str, Any] | None = None) -> str:
-    """The equations (rendered with sympy) and the parameter table of ``model`` (e.g.
-    "astrocyte"; None: every model; a parameter's name, e.g. "tau_motor": its value, the model
-    declaring it and the statements using it) as markdown or LaTeX text (``format``), with parameter
-    ``overrides`` and replaced ``equations`` applied: what ``astrocpg describe`` prints."""
+    """The equations and the parameter table of a model: what ``astrocpg describe`` prints.
+
+    Parameters
+    ----------
+    model : str or None
+        A model ("astrocyte"), a parameter's name ("tau_motor": its value, the model declaring
+        it and every statement using it), "senses" (the robot senses a neuron model may read),
+        or None: every model.
+    format : {"text", "markdown", "latex"}
+        Plain text for a terminal (the statements as the model file states them, in its order,
+        with their units; the parameters with units and symbols), Markdown, or LaTeX (the
+        equations rendered by sympy with the paper's symbols, terms in the order written).
+    overrides : mapping or sequence of str, optional
+        Parameter values with units (``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``):
+        the values described.
+    equations : mapping of str to str, optional
+        ``{model: equation text}`` replacing a model's Brian2 equation string.
+    models : mapping, optional
+        ``{model: model file text}`` replacing whole models.
+
+    Returns
+    -------
+    str
+        The text, ending in a newline.
+    """
     from ..figures.describe import describe as render
 
     return render(model, format, model_set(overrides, equations, models=models))
@@ -65,12 +86,31 @@ def describe(model: str | None = None, format: str = "markdown", *,
 def export(folder: str | os.PathLike, format: str = "nwb",
            out: str | os.PathLike | None = None, *, overwrite: bool = False,
            experimenter: Sequence[str] = (), institution: str | None = None) -> Path:
-    """Write the unit, run or recorded session in ``folder`` as one NWB (``format="nwb"``) or
-    npz file, at ``out`` (default ``<folder>.<format>`` beside the folder; an existing file
-    only with ``overwrite``); returns its path. What ``astrocpg export`` does. ``experimenter``
-    (names as "Last, First") and ``institution`` are recorded in the file. Read the NWB file
-    with ``pynwb.NWBHDF5IO(path, "r").read()``; the cell of each trace column is in
-    ``processing["misc"]["astrocyte_trace_columns"]`` / ``["motor_trace_columns"]``."""
+    """Write a unit, run or recorded session as one NWB or npz file: what ``astrocpg export`` does.
+
+    Read the NWB file with ``pynwb.NWBHDF5IO(path, "r").read()``; the cell of each trace column
+    is in ``processing["misc"]["astrocyte_trace_columns"]`` / ``["motor_trace_columns"]``.
+
+    Parameters
+    ----------
+    folder : path or Result
+        The output folder (a Result written to a folder: its folder).
+    format : {"nwb", "npz"}
+        The file's format.
+    out : path, optional
+        The file (default ``<folder>.<format>`` beside the folder).
+    overwrite : bool
+        Replace an existing file.
+    experimenter : sequence of str
+        Names as "Last, First", recorded in the file.
+    institution : str, optional
+        Where it was run, recorded in the file.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
     if isinstance(folder, Result):  # a result written to a folder: that folder
         if folder.folder is None:
             raise InputError("this Result was not written to a folder (run it with out=...); "
@@ -111,12 +151,35 @@ def _path(value: Any, culprit: str) -> Path:
 def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
          seed: int | None = None, world: Sequence[str] = (), progress: bool = True,
          rows: bool = False) -> list[str] | list[dict[str, Any]]:
-    """Run each trained table of the training in ``folder`` ``repeats`` times for ``seconds``,
-    learning off (run ``b`` with seed ``seed + b``; by default the training's own seed;
-    ``world``: ``NAME=VALUE`` world parameters over the training's world) and name, per run,
-    its rhythm (thigh-extensor bursts) and its gait (footfalls), and per table the share of
-    runs with each (Wilson 95% intervals): the lines ``astrocpg gait`` prints; with ``rows``,
-    one dict per run instead (table, repeat, seed, speed, fall, rhythm and gait columns)."""
+    """The rhythm and the gait of a training's trained tables: what ``astrocpg gait`` prints.
+
+    Each trained table runs ``repeats`` times, learning off; each run's rhythm (thigh-extensor
+    bursts) and gait (footfalls) are named, and per table the share of runs with each (Wilson 95%
+    intervals).
+
+    Parameters
+    ----------
+    folder : path
+        A training folder.
+    seconds : float
+        Simulated time of each run, in s (rhythm and gait are read from its second half).
+    repeats : int
+        Runs per trained table, each with its own noise.
+    seed : int, optional
+        Seed of run 0; run b has seed ``seed + b`` (default: the training's own seed).
+    world : sequence of str
+        ``NAME=VALUE`` world parameters over the training's world.
+    progress : bool
+        A progress bar on stderr.
+    rows : bool
+        Return one dict per run instead of the lines.
+
+    Returns
+    -------
+    list of str, or list of dict
+        The lines ``astrocpg gait`` prints; with ``rows``, one dict per run (table, repeat, seed,
+        speed, fall, rhythm and gait columns).
+    """
     from .settings import number, seed_number
     from .trained_controller import describe_gait, gait_runs
 
@@ -137,11 +200,40 @@ def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustne
              conditions: Sequence[str] | None = None, out: str | os.PathLike | None = None,
              overwrite: bool = False, progress: bool = True, workers: int | None = None,
              scheduler: str | None = None, session: int | None = None) -> dict[str, Any]:
-    """The trained controllers under ``folder`` (a training, or a study's finished runs of
-    ``conditions``), learning off, in each world of ``worlds`` (a worlds file, or
-    "robustness"), ``repeats`` times each: what ``astrocpg evaluate`` does. ``session``: the
-    tables after that session instead of the final ones. Writes ``out`` (default
-    ``folder/evaluation``); returns its rows, summary and ``out``."""
+    """Trained controllers in a set of worlds, learning off: what ``astrocpg evaluate`` does.
+
+    Parameters
+    ----------
+    folder : path
+        A training, a study (its finished runs) or a folder of kept tables.
+    worlds : path or str
+        A worlds file, or a shipped worlds name ("robustness").
+    seconds : float
+        Simulated time of each run, in s.
+    repeats : int
+        Runs per controller and world.
+    seed : int
+        Seed of the first run.
+    conditions : sequence of str, optional
+        A study's conditions to evaluate (default: all).
+    out : path, optional
+        Where to write (default ``folder/evaluation``).
+    overwrite : bool
+        Replace an existing ``out`` (only a folder astrocpg wrote).
+    progress : bool
+        A progress bar on stderr.
+    workers : int, optional
+        Processes of a local Dask cluster.
+    scheduler : str, optional
+        The address of a running Dask scheduler.
+    session : int, optional
+        The tables after that session instead of the final ones.
+
+    Returns
+    -------
+    dict
+        Its ``rows``, ``summary`` and ``out``.
+    """
     from .evaluate import evaluate as evaluate_folder
 
     if isinstance(conditions, str):  # one condition, not its characters
@@ -164,11 +256,27 @@ def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustne
 def power(folder: str | os.PathLike, *, trial: int = 0, sessions: int = 10,
           overrides: Overrides | None = None,
           progress: bool = True) -> tuple[Path, dict[str, Any]]:
-    """The SNN vs RL power estimate of trial ``trial``'s trained controller in ``folder``,
-    measured over ``sessions`` sessions and written to ``folder/power_trial<K>.json``: what
-    ``astrocpg power`` does. ``overrides`` (``{"limit_margin": "0*radian"}``) set parameters
-    over the training's models for this measurement; the file is then
-    ``power_trial<K>_<NAME=VALUE>.json``. Returns that file's path and the figures."""
+    """The SNN vs RL power estimate of a trained controller: what ``astrocpg power`` does.
+
+    Parameters
+    ----------
+    folder : path
+        A training folder (or a study's run).
+    trial : int
+        The trial whose trained controller is measured.
+    sessions : int
+        Sessions the rates are measured over.
+    overrides : mapping or sequence of str, optional
+        Parameters set over the training's models for this measurement
+        (``{"limit_margin": "0*radian"}``); the file is then ``power_trial<K>_<NAME=VALUE>.json``.
+    progress : bool
+        A progress bar on stderr.
+
+    Returns
+    -------
+    tuple of (pathlib.Path, dict)
+        The file written (``folder/power_trial<K>.json``) and the figures.
+    """
     from ...models.compose import override_items
     from .power import power as measure_power
     from .settings import number
@@ -182,18 +290,49 @@ def power(folder: str | os.PathLike, *, trial: int = 0, sessions: int = 10,
 def list_models(*, overrides: Overrides | None = None,
                 equations: Mapping[str, str] | None = None,
                 models: Mapping[str, Any] | None = None) -> ModelSet:
-    """The models, as one :class:`~astrocpg.models.ModelSet` (``.items()``: each model's name
-    and model, its kind and parameters), with ``overrides``, replaced ``equations`` and model
-    files ``models`` applied: what ``astrocpg models list`` lists. (Not ``ac.models``: that is
-    the package :mod:`astrocpg.models`.)"""
+    """The models: what ``astrocpg models list`` lists.
+
+    (Not ``ac.models``: that is the package :mod:`astrocpg.models`.)
+
+    Parameters
+    ----------
+    overrides : mapping or sequence of str, optional
+        Parameter values with units: ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
+    equations : mapping of str to str, optional
+        ``{model: equation text}`` replacing a model's Brian2 equation string.
+    models : mapping, optional
+        ``{model: model file text}`` replacing whole models.
+
+    Returns
+    -------
+    ModelSet
+        One :class:`~astrocpg.models.ModelSet` (``.items()``: each model's name and model, its
+        kind and parameters), with the overrides, equations and model files applied.
+    """
     return model_set(overrides, equations, models=models)
 
 
 def dump_model(name: str, *, overrides: Overrides | None = None,
                equations: Mapping[str, str] | None = None,
                models: Mapping[str, Any] | None = None) -> str:
-    """Model ``name`` as a model file (TOML text), with ``overrides``, replaced ``equations``
-    and model files ``models`` applied: what ``astrocpg models dump NAME`` prints."""
+    """A model as a model file: what ``astrocpg models dump NAME`` prints.
+
+    Parameters
+    ----------
+    name : str
+        The model ("astrocyte"; ``list_models()`` names them).
+    overrides : mapping or sequence of str, optional
+        Parameter values with units: ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
+    equations : mapping of str to str, optional
+        ``{model: equation text}`` replacing a model's Brian2 equation string.
+    models : mapping, optional
+        ``{model: model file text}`` replacing whole models.
+
+    Returns
+    -------
+    str
+        The model file (TOML text).
+    """
     from ...errors import did_you_mean
     from ...models.files import model_to_toml
 
@@ -205,8 +344,20 @@ def dump_model(name: str, *, overrides: Overrides | None = None,
 
 
 def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
-    """Write the project's A1 model as an MJCF file at ``path`` (ending in .xml; an existing
-    file only with ``overwrite``) and return it: what ``astrocpg robot export PATH`` does."""
+    """Write the project's A1 model as an MJCF file: what ``astrocpg robot export PATH`` does.
+
+    Parameters
+    ----------
+    path : path
+        The file to write, ending in .xml.
+    overwrite : bool
+        Replace an existing file.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
     from ...coupling.robot import A1Parameters, export_xml
     from ..outputs.folder import refuse_in_use
     from ..outputs.writing import atomic_path
@@ -228,3 +379,38 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
 
 __all__ = ["unit", "run", "train", "resume", "load", "describe", "export", "gait", "evaluate",
            "power", "list_models", "dump_model", "robot", "Result", "Trace"]
+
+
+def docs(*, path: bool = False, open: bool = False) -> Path:
+    """Where the manual is: it comes with the package. What ``astrocpg docs`` prints.
+
+    Parameters
+    ----------
+    path : bool
+        Return the folder of the manual's pages and of the files its recipes read
+        (``examples/interlimb_table.csv``, the trained tables under ``benchmarks/`` and
+        ``ablation/``), rather than its first page.
+    open : bool
+        Also open the manual in a web browser (where there is none, nothing opens).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder (``path``), or the manual's first page: the built manual's ``index.html``
+        where it was built (a checkout's ``docs/_build/html``, or astrocpg's cache folder's
+        ``manual/``), else the pages' ``index.md``.
+    """
+    from ...errors import EnvironmentFault
+    from ...shipped import DOCS
+    from ..runtime.caches import cache_dir
+
+    if not (DOCS / "index.md").is_file():
+        raise EnvironmentFault("this copy of astrocpg holds no manual (installed without its "
+                               "package data?)", culprit=str(DOCS))
+    built = [p for p in (DOCS / "_build" / "html" / "index.html",
+                         cache_dir() / "manual" / "index.html") if p.is_file()]
+    page = built[0] if built else DOCS / "index.md"
+    if open:
+        import webbrowser
+        webbrowser.open(page.as_uri())
+    return DOCS if path else page

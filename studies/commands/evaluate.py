@@ -88,15 +88,15 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
     ``scale = ["P", ...]``, model parameters multiplied together by each factor (e.g. the
     descending drive ``I_background_0``, the torques per spike ``I_thigh`` and ``I_calf``).
     Every name and value is checked (units, parse) here, each error naming its place."""
-    from ...shipped import resolve
+    from ...shipped import resolve, unreadable
     path = BUILTIN_WORLDS.get(str(source)) or resolve(source, "worlds")
     where = f"--worlds {source}"
     try:
         # a regular file only (a FIFO is refused, never waited on), nesting bounded
         doc = loads_toml(read_bytes(path, where).decode("utf-8"), where)
-    except OSError as e:
-        raise InputError(f"cannot read it ({e.strerror}); built-in: "
-                         f"{', '.join(BUILTIN_WORLDS)}", culprit=where) from None
+    except OSError as e:  # a misspelt name: its closest; a missing file: the environment's
+        raise unreadable(source, "worlds", e, culprit=where,
+                         builtin=tuple(BUILTIN_WORLDS)) from None
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
         raise InputError(f"is not a TOML worlds file ({e})", culprit=where) from None
     worlds, grid = doc.get("worlds", {}), doc.get("grid", {})

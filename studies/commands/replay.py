@@ -83,17 +83,43 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
            spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
            trace_dtype: str = "float32", overwrite: bool = False, progress: bool = True,
            inputs: Sequence[str | os.PathLike] = ()) -> Result:
-    """Replay session ``session`` (1-based) of trial ``trial`` of the training in ``training``
-    (a training folder, or a study's ``runs/<run id>/``) alone, with learning on, writing ``out``: a one-session training folder whose
-    ``recordings/trial00_session0001/`` holds the session's spikes, traces and robot, and
-    whose manifest's ``settings.replay_of`` names the training, trial, session and step.
-    ``trace_dtype``: the recorded traces kept as float32 (default) or float64.
-    Needs the Brian2 target the training ran with. The populations the training added
-    (``settings.populations`` of its manifest) are built too.
+    """Replay one session of a training alone, learning on: ``astrocpg run --weights DIR --session N``.
 
-    Returns the replay's Result (kind "train"); ``result.summary["replay"]`` gives the
-    recorded and the replayed final x (``sessions.csv``'s text, 9 significant digits) and
-    whether they are the same."""
+    The replay is a one-session training folder whose ``recordings/trial00_session0001/`` holds
+    the session's spikes, traces and robot, and whose manifest's ``settings.replay_of`` names the
+    training, trial, session and step. It needs the Brian2 target the training ran with; the
+    populations the training added (``settings.populations`` of its manifest) are built too.
+
+    Parameters
+    ----------
+    training : path
+        A training folder, or a study's ``runs/<run id>/``.
+    trial : int
+        The trial whose session is replayed.
+    session : int
+        The session, 1-based.
+    out : path
+        The folder to write.
+    record_stride : int
+        Steps between the recorded trace and robot samples.
+    spikes, traces : tuple of str, optional
+        Which populations' spikes and which traces to record (None: all).
+    trace_dtype : str
+        The recorded traces kept as "float32" (default) or "float64" (full precision).
+    overwrite : bool
+        Replace an existing ``out`` (only a folder astrocpg wrote).
+    progress : bool
+        A progress bar on stderr.
+    inputs : sequence of path
+        Other files the caller read: ``out`` may not be or hold one.
+
+    Returns
+    -------
+    Result
+        The replay's Result (kind "train"); ``result.summary["replay"]`` gives the recorded and
+        the replayed final x (``sessions.csv``'s text, 9 significant digits) and whether they are
+        the same.
+    """
     folder = as_path(training, "--weights")
     refuse_in_use(folder, culprit=f"--weights {folder}")
     manifest = read_manifest(folder)

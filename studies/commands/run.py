@@ -51,36 +51,54 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
         figure: bool = False,
         inputs: Sequence[str | os.PathLike] = (), session: int | None = None,
         populations: Any = None) -> Result:
-    """Run the CPG driving ``trials`` A1 robots in MuJoCo for ``seconds`` (seeds seed,
-    seed+1, ...): the closed loop, what ``astrocpg run`` runs.
+    """Run the CPG driving A1 robots in MuJoCo: the closed loop, what ``astrocpg run`` runs.
 
-    overrides: parameter values with units, ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
-    equations: ``{model: equation text}`` replacing a model's Brian2 equation string.
-    models: ``{model: model file text}`` (TOML, ``astrocpg models dump``) replacing whole models.
-    seed: trial 0's seed (trial b runs with seed + b); default: with ``weights`` a training
-    folder, the seed its tables trained with (plus ``trial``), else 1.
-    weights: an 8x8 table in mV as a file (.npy/.npz/.json/.csv) or a training folder (its final
-    tables, or its latest with a warning while it runs or after it stopped early; ``trial``
-    picks one), or an array with a unit, ``table * mV``, of shape (8, 8) or (trials, 8, 8)
-    (range-checked as a file is; a plain array of numbers is refused); default zero. robot: an MJCF file with the A1's joint and actuator names (default: the project's
-    A1). trace_dt in ms; trace_dtype: the traces kept as float32 (default) or float64 (full
-    resolution); robot_stride in physics steps. spikes / traces: which populations and
-    traces to record (None: all). out: writes the folder ``astrocpg run`` writes. figure: also
-    draw ``thigh_extensor_activity.png`` there (about a second; ``astrocpg plot OUT`` draws it
-    and the other figures at any time later). populations: model files with a ``[population]``
-    table, populations added to the network for this call (docs/model-files.md); with
-    ``weights`` a training folder, the populations that training added are built too (its
-    network, with its tables). inputs: other
-    files the caller read (e.g. model
-    files): ``out`` may not be or hold one, nor ``weights`` and ``robot`` (see
-    :func:`~astrocpg.studies.outputs.folder.check_output_path`). session: with ``weights`` a
-    training folder, replay that session (1-based) of trial ``trial`` (default 0) exactly,
-    learning on (:func:`~astrocpg.replay_session`, which returns a
-    Result of kind "train"; ``out`` is required, and the run's own settings are the training's).
+    Parameters
+    ----------
+    seconds, seed, trials : float, int or None, int
+        Simulated time in s (whole 1 ms steps); seed of trial 0 (trial k: ``seed + k``; default:
+        with ``weights`` a training folder, the seed its tables trained with, plus ``trial``,
+        so that each table runs on its own network; else 1); robots.
+    overrides, equations, models : optional
+        Parameter values with units (``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``);
+        ``{model: equation text}``; ``{model: model file text}`` replacing whole models.
+    weights : path or array, optional
+        Inter-limb tables: an 8x8 table in mV as a file (.npy/.npz/.json/.csv) or a training
+        folder (its final tables, or its latest with a warning while it runs or after it
+        stopped early; ``trial`` picks one), or an array with a unit, ``table * mV``, of shape
+        (8, 8) or (trials, 8, 8), range-checked as a file is (a plain array of numbers is
+        refused); default zero.
+    trial : int, optional
+        With ``weights`` a training folder: its trial whose tables drive the robots.
+    robot : path, optional
+        An MJCF file with the A1's joint and actuator names (default: the project's A1).
+    trace_dt, trace_dtype, robot_stride : float, str, int
+        Trace sampling in ms; float32 or float64 (full resolution); physics steps between robot
+        samples.
+    spikes, traces : tuple of str, optional
+        Which populations' spikes and which traces to record (None: all).
+    out, overwrite, progress : optional
+        Write the folder ``astrocpg run`` writes (``overwrite``: replace one astrocpg wrote); a
+        progress bar on stderr.
+    figure : bool
+        Also draw ``thigh_extensor_activity.png`` into ``out`` (``astrocpg plot`` draws it later).
+    inputs : sequence of path
+        Files the caller read (e.g. model files): ``out`` may not be or hold one, nor ``weights``
+        and ``robot`` (:func:`~astrocpg.studies.outputs.folder.check_output_path`).
+    session : int, optional
+        With ``weights`` a training folder: replay that session (1-based) of trial ``trial``
+        exactly, learning on (:func:`~astrocpg.replay_session`; ``out`` required).
+    populations : sequence or mapping, optional
+        Model files with a ``[population]`` table, added to the network for this call
+        (docs/model-files.md); a training folder's own added populations are built too.
 
-    Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "run": spikes, traces, the
-    robot's arrays (``result.robot``) and ``summary`` (distance_m, mean_forward_speed_m_per_s,
-    upright_share, rate_per_neuron_Hz per trial)."""
+    Returns
+    -------
+    Result
+        A :class:`~astrocpg.studies.outputs.result.Result` of kind "run" ("train" for a replayed
+        ``session``): spikes, traces, the robot's arrays (``result.robot``) and ``summary``
+        (distance_m, mean_forward_speed_m_per_s, upright_share, rate_per_neuron_Hz per trial).
+    """
     from brian2 import ms
 
     if session is not None:
@@ -126,25 +144,7 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
                      culprit=f"--seconds {seconds:g} x --trials {trials}")
         files = model_files_record(models)
         models = model_set(overrides, equations, models=models)
-        tables_label = None
-        if weights is None:
-            table = None
-        elif isinstance(weights, (str, os.PathLike)):
-            table = load_weights(weights, trial)
-            if not Path(weights).is_dir():  # a user's table: in the synapse's range, or refused
-                check_table(table, models, f"--weights {weights}")
-            else:  # a training's: its final tables, or said to be otherwise
-                state = tables_state(weights)
-                tables_label = state["label"]
-                if state["warning"]:
-                    warnings.warn(state["warning"], UserWarning, stacklevel=2)
-        else:  # an array with a unit (mV, like every file and ac.load(...).weights)
-            table = array_table(weights)
-            check_table(table, models, "weights")  # in the synapse's range, as a file's is
-            weights = table
-        if table is not None and table.ndim == 3 and table.shape[0] != trials:
-            raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
-                             culprit=f"--weights {weights if not isinstance(weights, np.ndarray) else ''}")
+        table, weights, tables_label = _weights_table(weights, trial, trials, models)
         params = A1Parameters()
         model = world_model(models, params, load_robot(robot) if robot else None)
         if abs(model.opt.timestep - params.timestep) > 1e-12:
@@ -246,6 +246,38 @@ def trained_seed(weights: Any, trial: int | None, seed: int | None) -> int:
                       f"(another network and noise; leave the seed out to use {learnt})",
                       UserWarning, stacklevel=3)
     return seed
+
+
+def _weights_table(weights: Any, trial: int | None, trials: int, models: Any
+                   ) -> tuple[np.ndarray | None, Any, str | None]:
+    """``run``'s ``weights`` as tables in volt (None: none), as the settings record them (an
+    array given: the array), and, for a training folder, which of its tables they are
+    ("final", or "after session N" with a warning while it runs or after it stopped early): a
+    file's table checked against the synapse's range, a training folder's final tables
+    (``trial``: one), an array of 8x8 tables with a unit (:func:`array_table`), range-checked
+    too; as many tables as trials."""
+    tables_label = None
+    if weights is None:
+        table = None
+    elif isinstance(weights, (str, os.PathLike)):
+        table = load_weights(weights, trial)
+        if not Path(weights).is_dir():  # a user's table: in the synapse's range, or refused
+            check_table(table, models, f"--weights {weights}")
+        else:  # a training's: its final tables, or said to be otherwise
+            state = tables_state(weights)
+            tables_label = state["label"]
+            if state["warning"]:
+                warnings.warn(state["warning"], UserWarning, stacklevel=3)
+    else:  # an array with a unit (mV, like every file and ac.load(...).weights)
+        table = array_table(weights)
+        check_table(table, models, "weights")  # in the synapse's range, as a file's is
+        weights = table
+    if table is not None and table.ndim == 3 and table.shape[0] != trials:
+        raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
+                         culprit=f"--weights {weights if not isinstance(weights, np.ndarray) else ''}")
+    return table, weights, tables_label
+
+
 
 
 def nearest_folder(path: Path) -> Path:

@@ -33,7 +33,7 @@ from brian2 import Network, NetworkOperation, second
 from ...coupling.assembly import build_closed_loop
 from ...coupling.recorder import RecordPlan, SessionRecorder
 from ...coupling.training import SESSION_COLUMNS, SessionMemory, SessionStart, Training
-from ...errors import Diverged, EnvironmentFault, InputError
+from ...errors import Diverged, EnvironmentFault, InputError, did_you_mean
 from ...models import ModelSet
 from ...network import codegen_target, exclusive, interlimb_labels, run_network
 from ...network.recording import overflow_words, overflowed
@@ -703,25 +703,58 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
           overwrite: bool = False,
           progress: bool = True, inputs: Sequence[str | os.PathLike] = (),
           populations: Any = None) -> Result:
-    """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
-    each, writing ``out`` (sessions.csv, weights.npz, checkpoint.npz, manifest.json) after every
-    session: what ``astrocpg train`` runs. ``astrocytes=False`` is the paper's ablation;
-    overrides/equations as for :func:`~astrocpg.run` (e.g.
-    ``["L_max=0.5*second"]`` for short sessions). ``record_every=N`` records sessions 1, 1+N,
-    ... and each trial's last into ``out/recordings/`` (``record_stride`` steps between trace
-    and robot samples; ``spikes``/``traces`` pick what; ``trace_dtype`` "float64" keeps the
-    traces at full precision, default float32). ``overwrite`` replaces only an astrocpg
-    output folder that is none of ``inputs`` (files the caller read, e.g. model files) and
-    holds none of them. ``populations``: model files with a ``[population]`` table (texts, or
-    ``{file: text}``), populations added to every session's network (docs/model-files.md, "A
-    new population"): recorded with the sessions, and their files kept with the settings, so
-    that :func:`resume` and the replays rebuild them.
+    """Train inter-limb weights, writing ``out`` after every session: what ``astrocpg train`` runs.
 
-    Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "train", read back from
-    ``out`` (``sessions`` DataFrame, ``weights`` (trial, session, 8, 8) mV, ``recording(trial,
-    session)``), with the live ``network`` and ``trainer`` (the :class:`Trainer`:
-    ``trainer.training.memory.rows``, ``trainer.cpg``). Raises TrainingStopped if interrupted
-    (continue with :func:`resume`)."""
+    Parameters
+    ----------
+    out : path
+        The training folder: sessions.csv, weights.npz, checkpoint.npz and manifest.json,
+        rewritten after every session.
+    sessions : int
+        Sessions per trial.
+    seed : int
+        Seed of trial 0; trial k has seed ``seed + k``.
+    trials : int
+        Independent trials trained together.
+    astrocytes : bool
+        False: the paper's ablation (no adenosine term).
+    overrides : mapping or sequence of str, optional
+        Parameter values with units: ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
+    equations : mapping of str to str, optional
+        ``{model: equation text}`` replacing a model's Brian2 equation string.
+    models : mapping, optional
+        ``{model: model file text}`` (TOML, as ``astrocpg models dump`` writes) replacing whole
+        models.
+    record_every : int, optional
+        Record sessions 1, 1+N, ... and each trial's last into ``out/recordings/``.
+    record_stride : int, optional
+        Steps between the recorded trace and robot samples.
+    spikes, traces : tuple of str, optional
+        Which populations' spikes and which traces to record (None: all).
+    trace_dtype : str, optional
+        With ``record_every``: the recorded traces kept as "float32" (default; a value beyond
+        float32's range is kept as inf, counted and warned about) or "float64".
+    overwrite : bool
+        Replace an existing ``out``: only a folder astrocpg wrote, none of ``inputs`` and holding
+        none of them.
+    progress : bool
+        A progress bar on stderr.
+    inputs : sequence of path
+        Other files the caller read (e.g. model files).
+    populations : sequence or mapping, optional
+        Model files with a ``[population]`` table (texts, or ``{file: text}``), populations
+        added to every session's network: recorded with the sessions, their files kept with the
+        settings, so that :func:`resume` and the replays rebuild them.
+
+    Returns
+    -------
+    Result
+        A :class:`~astrocpg.studies.outputs.result.Result` of kind "train", read back from
+        ``out`` (``sessions`` DataFrame, ``weights`` (trial, session, 8, 8) mV,
+        ``recording(trial, session)``), with the live ``network`` and ``trainer``. An
+        interrupted training raises ``TrainingStopped``; continue it with :func:`resume`.
+
+    """
     if out is None or (isinstance(out, str) and not out):
         raise InputError("is required (or --resume DIR)", culprit="--out")
     population_record = population_rows(populations)[1]  # each file parsed and checked
@@ -759,28 +792,41 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
            equations: Mapping[str, str] | None = None, models: Mapping[str, Any] | None = None,
            out: str | Path | None = None, overwrite: bool = False,
            expect: dict[str, Any] | None = None, populations: Any = None) -> Result:
-    """Continue the training in ``folder`` from its checkpoint (``astrocpg train --resume``)
-    and end with the same files as a training never interrupted (what later commands derived
-    from the earlier weights, e.g. ``evaluation/`` and ``figures/``, is removed: it would be
-    stale).
+    """Continue the training in ``folder`` from its checkpoint: ``astrocpg train --resume``.
 
-    A resumed training keeps the settings it started with, the populations it added
-    included (rebuilt from the files its folder recorded). Options given again (``seed``,
-    ``trials``, ``astrocytes``, ``overrides``, ``equations``, ``models``, ``populations``, the
-    recording options; or the same in ``expect``) must agree with them, or the resume is refused
-    with the option and both values named (:func:`~astrocpg.studies.commands.train.check_resume_options`): none is silently
-    ignored. ``out`` may only name ``folder`` itself (a resume writes where it continues), and
-    ``overwrite`` is refused (it would replace what the resume continues).
+    It ends with the same files as a training never interrupted (what later commands derived
+    from the earlier weights, ``evaluation/`` and ``figures/``, is removed: it would be stale).
+    A resumed training keeps the settings it started with, the populations it added included;
+    options given again must agree with them, or the resume is refused with the option and both
+    values named (:func:`~astrocpg.studies.commands.train.check_resume_options`).
 
-    ``sessions`` more than the training's sessions per trial extends it (finished or not):
-    it goes on exactly as a training asked for ``sessions`` from the start would have, and its
-    manifest records the new number (its history: each invocation with the sessions it trained
-    to). Fewer than it has done, or than it plans, is refused naming both numbers. A training
-    of several trials can be extended only while no trial has run idle: a trial that finished
-    its sessions before the last trial did ran on with learning off until then, which a longer
-    training would not have done (refused, naming the trials; one trial never idles). A study's
-    run is not extended (its sessions are the study's). Returns the training's Result, like
-    :func:`train`."""
+    Parameters
+    ----------
+    folder : path
+        The training folder (or a study's run folder).
+    sessions : int, optional
+        More than the training's sessions per trial extends it, finished or not, exactly as a
+        training asked for ``sessions`` from the start would have gone on (its manifest records
+        the new number). Fewer than it has done or plans is refused. A training of several
+        trials is extended only while no trial ran idle; a study's run is not extended.
+    progress : bool
+        A progress bar on stderr.
+    record_every, record_stride, spikes, traces : optional
+        As for :func:`train`: given again, each must agree with the training's own.
+    seed, trials, astrocytes, overrides, equations, models, populations : optional
+        As for :func:`train`: given again, each must agree with the training's own.
+    out : path, optional
+        Only ``folder`` itself (a resume writes where it continues).
+    overwrite : bool
+        Refused when true (it would replace what the resume continues).
+    expect : dict, optional
+        The same checks, as ``{option: value}``.
+
+    Returns
+    -------
+    Result
+        The training's Result, as :func:`train` returns it.
+    """
     out_given = None if out is None else as_path(out, "--out")
     out = as_path(folder, "--resume")
     if out_given is not None and Path(out_given).resolve() != out.resolve():
@@ -959,8 +1005,8 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
         known = dict(model_set(models=settings.models).items())
     for name, text in (given.get("equations") or {}).items():
         if name not in known:
-            raise InputError(f"unknown model '{name}' (models: {', '.join(known)})",
-                             culprit="--equations")
+            raise InputError(f"unknown model '{name}'{did_you_mean(name, known)} (models: "
+                             f"{', '.join(known)})", culprit="--equations")
         recorded_text = settings.equations.get(name)
         if recorded_text is None:  # the model's own equations, as trained
             if text.strip() != known[name].code.strip():

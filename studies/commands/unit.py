@@ -35,24 +35,53 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
          overwrite: bool = False, progress: bool = True,
          inputs: Sequence[str | os.PathLike] = (), populations: Any = None) -> Result:
-    """Simulate ``trials`` independent locomotion units (the FR limb's CPG, open loop; seeds
-    seed, seed+1, ...) for ``seconds``; what ``astrocpg unit`` runs.
+    """Simulate locomotion units: the FR limb's CPG, open loop; what ``astrocpg unit`` runs.
 
-    overrides: parameter values with units, ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
-    equations: ``{model: equation text}`` (e.g. ``{"astrocyte": text}``) replacing a model's
-    Brian2 equation string. models: ``{model: model file text}`` replacing whole models.
-    trace_dt: sampling of the traces in ms; trace_dtype: kept as float32 (default) or float64
-    (full resolution). spikes / traces: which
-    populations and traces to record (None: all). out: writes the folder ``astrocpg unit``
-    writes, whole or nothing (its manifest records the checked settings; a folder that holds files is
-    refused unless ``overwrite``, which replaces only an astrocpg output folder that is none of
-    ``inputs``, the files the caller read, e.g. model files). progress: a progress bar for long
-    runs. populations: model files with a ``[population]`` table (texts, or ``{file: text}``),
-    populations added to the network for this call (docs/model-files.md, "A new population").
+    Parameters
+    ----------
+    seconds : float
+        Simulated time in s, a whole number of 1 ms steps.
+    seed : int
+        Seed of trial 0; trial k has seed ``seed + k``.
+    trials : int
+        Independent units simulated together.
+    overrides : mapping or sequence of str, optional
+        Parameter values with units: ``{"tau_motor": "9*ms"}`` or ``["tau_motor=9*ms"]``.
+    equations : mapping of str to str, optional
+        ``{model: equation text}`` replacing a model's Brian2 equation string.
+    models : mapping, optional
+        ``{model: model file text}`` (TOML, as ``astrocpg models dump`` writes) replacing whole
+        models.
+    trace_dt : float
+        Sampling interval of the traces, in ms.
+    trace_dtype : {"float32", "float64"}
+        How the traces are kept (float64: full resolution).
+    spikes, traces : tuple of str, optional
+        Which populations' spikes and which traces to record (None: all).
+    out : path, optional
+        Write the folder ``astrocpg unit`` writes, whole or nothing (its manifest records the
+        checked settings); a folder that holds files is refused unless ``overwrite``.
+    overwrite : bool
+        Replace an existing ``out``: only a folder astrocpg wrote, and none of ``inputs``.
+    progress : bool
+        A progress bar on stderr.
+    inputs : sequence of path
+        Other files the caller read (e.g. model files): ``out`` may not be or hold one.
+    populations : sequence or mapping, optional
+        Model files with a ``[population]`` table (texts, or ``{file: text}``): populations added
+        to the network (docs/model-files.md, "A new population").
 
-    Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "unit"; its
-    ``summary["rhythm"]`` holds each trial's period, phases and rates. Bad input: InputError
-    naming the culprit, before anything is simulated or written."""
+    Returns
+    -------
+    Result
+        A :class:`~astrocpg.studies.outputs.result.Result` of kind "unit"; its
+        ``summary["rhythm"]`` holds each trial's period, phases and rates.
+
+    Raises
+    ------
+    ~astrocpg.errors.InputError
+        Bad input, naming the culprit, before anything is simulated or written.
+    """
     rows, population_record = population_rows(populations)  # before any other check
     with _table.registered(*rows):
         from brian2 import ms

@@ -48,16 +48,40 @@ def _check_window(window: Any, span: tuple[float, float] | None) -> tuple[float,
 def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "png",
          seconds: float | None = None, out: str | Path | None = None,
          overwrite: bool = False, progress: bool = True) -> list[Path]:
-    """The figures of any output folder, into ``out`` (default ``folder/figures``, replaced
-    whole on every plot); returns the paths written.
+    """The figures of an output folder: what ``astrocpg plot`` draws.
 
-    unit, run, recorded training session: the trace figures of the recording (rasters, pool
-    activity, motor-neuron Ca2+, each astrocyte, joints, torso path, gait diagram; those the
-    recording allows), no new simulation. training (or a study's run): its figures from a run
-    of ``seconds`` (default 10) with its trained weights, and the trace figures of the trial's last recorded
-    session. ``window`` (T0, T1) in s; ``fmt``: png, pdf or svg. ``progress``: a bar on
-    stderr, a step per kind of figure drawn and per figure written (and the run's own bar, for
-    a training)."""
+    A unit, a run or a recorded training session: the trace figures of the recording (rasters,
+    pool activity, motor-neuron Ca2+, each astrocyte, joints, torso path, gait diagram; those the
+    recording allows), no new simulation. A training (or a study's run): its figures from a run
+    of ``seconds`` with its trained weights, and the trace figures of the trial's last recorded
+    session.
+
+    Parameters
+    ----------
+    folder : path
+        An output folder of unit, run, train or a study's run, or a recorded session.
+    trial : int
+        Which trial.
+    window : (float, float), optional
+        The time window (T0, T1) in s (default: the whole recording; a training: the last 2 s of
+        its run).
+    fmt : {"png", "pdf", "svg"}
+        The figures' format.
+    seconds : float, optional
+        A training: simulated time of the run with the trained weights (default 10 s).
+    out : path, optional
+        The figure folder (default ``folder/figures``, replaced whole on every plot).
+    overwrite : bool
+        Replace an existing ``out`` elsewhere (only a folder astrocpg wrote).
+    progress : bool
+        A bar on stderr: a step per kind of figure drawn and per figure written (and the run's
+        own bar, for a training).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written.
+    """
     if fmt not in FORMATS:
         raise InputError(f"unknown format{did_you_mean(fmt, FORMATS)} (formats: "
                          f"{', '.join(FORMATS)})",
@@ -189,17 +213,42 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
           size: Any = (640, 480), out: str | Path | None = None, overwrite: bool = False,
           progress: bool = True, panel: bool = False, start: float | None = None,
           stop: float | None = None) -> dict[str, Any]:
-    """Replay the robot recorded in ``folder`` (a run, a recorded training session, or a
-    training: its trial's last recorded session) as an MP4: the robot posed from the recorded
-    joint angles and torso pose, a camera tracking the trunk, ``fps`` frames per second of
-    video, ``speed`` simulated seconds per second of video (1: real time). ``out``: the file
-    (default ``folder/video_trialTT.mp4``, replaced on each video). ``panel``: a panel under
-    each frame (half its height, at least 240 pixels) with the time, forward speed and, in a
-    time window that scrolls with the frame (a line at "now"), a gait diagram, each leg's
-    thigh-pool activity and its astrocytes' Ca2+ (a row not recorded holds a note; see
-    :class:`~astrocpg.studies.figures.panel.GaitPanel`). ``start``/``stop``: only that window
-    of the recording, in simulated s from its start (0 to its length; default: all of it).
-    Returns {"path", "frames", "fps", "seconds", "start", "stop"}."""
+    """Replay a recorded robot as an MP4: what ``astrocpg video`` writes.
+
+    The robot is posed from the recorded joint angles and torso pose, a camera tracking the
+    trunk (MuJoCo's offscreen renderer: EGL or OSMesa).
+
+    Parameters
+    ----------
+    folder : path
+        A run, a recorded training session, or a training (its trial's last recorded session).
+    trial : int
+        Which trial.
+    fps : float
+        Frames per second of video.
+    speed : float
+        Simulated seconds per second of video (1: real time).
+    size : (int, int)
+        Width and height of a frame in pixels.
+    out : path, optional
+        The file (default ``folder/video_trialTT.mp4``, replaced on each video).
+    overwrite : bool
+        Replace an existing ``out`` elsewhere.
+    progress : bool
+        A progress bar on stderr.
+    panel : bool
+        A panel under each frame (half its height, at least 240 pixels): the time, forward speed
+        and, in a window that scrolls with the frame, a gait diagram, each leg's thigh-pool
+        activity and its astrocytes' Ca2+ (see :class:`~astrocpg.studies.figures.panel.GaitPanel`).
+    start, stop : float, optional
+        Only that window of the recording, in simulated s from its start (0 to its length;
+        default: all of it).
+
+    Returns
+    -------
+    dict
+        ``{"path", "frames", "fps", "seconds", "start", "stop"}``.
+    """
     import imageio.v2 as imageio
 
     from ...coupling.render import Replay, frame_count, frame_samples

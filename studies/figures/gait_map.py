@@ -4,6 +4,7 @@ contours. Used by ``astrocpg evaluate`` for a worlds file with a two-axis ``[gri
 
 from __future__ import annotations
 
+import re
 from collections import Counter
 from typing import Any, Mapping, Sequence
 
@@ -40,6 +41,37 @@ def gait_grid(rows: Sequence[Mapping[str, Any]], axes: Sequence[tuple[str, Seque
     return label, share, speed, falls
 
 
+_VALUE = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:\*\s*(.+?))?\s*")
+
+
+def axis_ticks(values: Sequence[str], label: str) -> tuple[list[str], str]:
+    """Tick labels and the axis label of a grid axis: values that are numbers with one same
+    unit (``1104*mV/second``) are ticked by their numbers, the unit going to the axis label
+    (once); other values as written."""
+    parsed = [_VALUE.fullmatch(str(v)) for v in values]
+    if not all(parsed) or len({m.group(2) for m in parsed}) != 1:
+        return [str(v) for v in values], label
+    unit = parsed[0].group(2)
+    if unit and unit not in label:
+        label = f"{label} ({unit})"
+    return [f"{float(m.group(1)):g}" for m in parsed], label
+
+
+def _cell_text(label: str, share: float, falls: float, room: tuple[float, float]
+               ) -> tuple[str, float]:
+    """What a cell says and its font size, fitted to the cell (``room``: its width and height in
+    points): the gait, its share and the falls on three lines, or less where that does not fit
+    at a readable size."""
+    full = [label, f"{share:.0%}"] + ([f"falls {falls:.0%}"] if falls > 0 else [])
+    size = 0.0
+    for lines in (full, full[:2], [f"{label} {share:.0%}"], [label]):
+        width = max(len(x) for x in lines) * 0.62  # a character's width, in font sizes
+        size = min(7.0, 0.9 * room[0] / width, 0.85 * room[1] / (1.25 * len(lines)))
+        if size >= 4.5:
+            break
+    return "\n".join(lines), max(size, 3.0)
+
+
 def gait_map_figures(rows: Sequence[Mapping[str, Any]],
                      axes: Sequence[tuple[str, Sequence[str]]],
                      labels: Mapping[str, str] | None = None,
@@ -47,7 +79,8 @@ def gait_map_figures(rows: Sequence[Mapping[str, Any]],
                      ) -> dict[str, Any]:
     """``{"gait_map.png": Figure}``: one panel per condition and measure; ``labels``: axis
     titles; ``measures``: (the rows' key, its name in the titles) per panel of a condition,
-    e.g. ``(("gait", "gait (feet)"), ("rhythm", "rhythm (thigh bursts)"))``."""
+    e.g. ``(("gait", "gait (feet)"), ("rhythm", "rhythm (thigh bursts)"))``. The panels grow
+    with the grid, and each cell's text is fitted to its cell, above the speed contours."""
     labels = dict(labels or {})
     from matplotlib.colors import ListedColormap
     from matplotlib.figure import Figure
@@ -55,10 +88,16 @@ def gait_map_figures(rows: Sequence[Mapping[str, Any]],
 
     conditions = sorted({r["condition"] for r in rows})
     (ya, yv), (xa, xv) = axes
+    xticks, xlabel = axis_ticks(xv, labels.get(xa, xa))
+    yticks, ylabel = axis_ticks(yv, labels.get(ya, ya))
     shown_panels = [(c, m) for c in conditions for m in measures]
-    fig = Figure(figsize=(5.2 * len(shown_panels) + 1.6, 4.6), layout="constrained")
+    # at least 0.75 in per column and 0.45 in per row of cells
+    panel_w, panel_h = max(4.0, 0.75 * len(xv)), max(3.4, 0.45 * len(yv))
+    fig = Figure(figsize=((panel_w + 1.2) * len(shown_panels) + 1.6, panel_h + 1.2),
+                 layout="constrained")
     panels = np.atleast_1d(fig.subplots(1, len(shown_panels), squeeze=False)[0])
     cmap = ListedColormap([_COLOURS[g] for g in GAITS])
+    room = (72 * panel_w / len(xv), 72 * panel_h / len(yv))
     for ax, (condition, (key, name)) in zip(panels, shown_panels):
         label, share, speed, falls = gait_grid(rows, axes, condition, key)
         shown = np.ma.masked_less(label, 0)
@@ -66,18 +105,21 @@ def gait_map_figures(rows: Sequence[Mapping[str, Any]],
                   aspect="auto")
         if np.isfinite(speed).sum() >= 4 and len(xv) > 1 and len(yv) > 1:
             cs = ax.contour(np.arange(len(xv)), np.arange(len(yv)), speed, colors="k",
-                            linewidths=0.8, levels=6)
-            ax.clabel(cs, fmt="%.2f m/s", fontsize=7)
+                            linewidths=0.8, levels=6, zorder=2)
+            ax.clabel(cs, fmt="%.2f m/s", fontsize=6, zorder=2)
         for i in range(len(yv)):
             for j in range(len(xv)):
                 if label[i, j] >= 0:
-                    ax.text(j, i, f"{GAITS[label[i, j]]}\n{share[i, j]:.0%}"
-                            + (f"\nfalls {falls[i, j]:.0%}" if falls[i, j] > 0 else ""),
-                            ha="center", va="center", fontsize=6.5)
-        ax.set_xticks(range(len(xv)), list(xv))
-        ax.set_yticks(range(len(yv)), list(yv))
-        ax.set_xlabel(labels.get(xa, xa))
-        ax.set_ylabel(labels.get(ya, ya))
+                    text, size = _cell_text(GAITS[label[i, j]], share[i, j], falls[i, j], room)
+                    ax.text(j, i, text, ha="center", va="center", fontsize=size, zorder=4,
+                            bbox={"boxstyle": "round,pad=0.15", "facecolor": "white",
+                                  "alpha": 0.75, "linewidth": 0})
+        long = max(len(t) for t in xticks) * 6 > 72 * panel_w / len(xv)
+        ax.set_xticks(range(len(xv)), xticks, rotation=30 if long else 0,
+                      ha="right" if long else "center")
+        ax.set_yticks(range(len(yv)), yticks)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
         ax.set_title(f"{condition}: most common {name} (share), mean speed (contours)",
                      fontsize=9)
     fig.legend(handles=[Patch(color=_COLOURS[g], label=g) for g in GAITS], loc="outside right",
@@ -85,7 +127,7 @@ def gait_map_figures(rows: Sequence[Mapping[str, Any]],
     return {"gait_map.png": fig}
 
 
-__all__ = ["GAITS", "gait_grid", "gait_map_figures", "world_bars"]
+__all__ = ["GAITS", "axis_ticks", "gait_grid", "gait_map_figures", "world_bars"]
 
 
 def world_bars(summary: Sequence[Mapping[str, Any]]) -> Any:

@@ -124,6 +124,13 @@ def plot_weights(table_mV: np.ndarray, *, trial: int = 0) -> Figure:
     return fig
 
 
+def session_ticks(ax: Any) -> None:
+    """Whole sessions on a session axis: a 3-session figure is ticked 1, 2, 3, not 1.25."""
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+
+
 def plot_training_curves(sessions_csv: Path) -> Figure:
     """Mean reward, final x and session length per session: mean +- std over trials (Fig. 3c)."""
     import csv
@@ -144,6 +151,7 @@ def plot_training_curves(sessions_csv: Path) -> Figure:
         ax.fill_between(x, mean - std, mean + std, alpha=0.3, lw=0)
         ax.set_ylabel(label)
     axes[-1].set_xlabel("session")
+    session_ticks(axes[-1])
     axes[0].set_title(f"Training ({len(trials)} trial(s), mean +- std)")
     fig.tight_layout()
     return fig

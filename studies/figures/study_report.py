@@ -15,6 +15,7 @@ import numpy as np
 
 from ...models import DEFAULT_MODELS
 from ..analysis.final_figures import CURVES, Measure, cell_stats
+from .plots import session_ticks
 from .sweep import Axis, measure_heatmap, measure_vs_value
 
 _NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:\*\s*(.+?))?\s*")
@@ -39,6 +40,7 @@ def fig3c(name: str, curves: Sequence[tuple[int, str, Sequence[tuple[np.ndarray,
             ax.set_ylabel(ylabel)
     axes[0].legend(fontsize=8, loc="best")
     axes[-1].set_xlabel("session")
+    session_ticks(axes[-1])
     axes[0].set_title(f"Study {name}: mean +- std across seeds "
                       f"(paper Fig. 3c)"
                       + (f", trailing mean over {smooth} sessions" if smooth > 1 else ""))

@@ -728,9 +728,10 @@ def verify(folder: str | os.PathLike, *, culprit: str | None = None,
     them the inventory lists), e.g. what a reader is about to read."""
     root = Path(folder)
     who = f"{culprit} {folder}" if culprit else str(folder)
+    if not os.path.lexists(root):  # a missing input: the environment's (exit 1)
+        raise EnvironmentFault("no such folder", culprit=who)
     if not root.is_dir():
-        raise InputError("no such folder" if not os.path.lexists(root) else "is not a folder",
-                         culprit=who)
+        raise InputError("is not a folder", culprit=who)
     try:
         manifest = read_json(root / MANIFEST)
     except FileNotFoundError:
@@ -943,9 +944,10 @@ class FolderLock:
     def acquire(self) -> "FolderLock":
         if self._lock is not None:
             return self
+        if not os.path.lexists(self.folder):  # a missing input: the environment's (exit 1)
+            raise EnvironmentFault("no such folder", culprit=self._who)
         if not self.folder.is_dir():
-            raise InputError("no such folder" if not os.path.lexists(self.folder)
-                             else "is not a folder", culprit=self._who)
+            raise InputError("is not a folder", culprit=self._who)
         # a folder inside one another process holds (a study's run folder while the study
         # runs) is that process's: refused as the folder itself would be
         refuse_in_use(self.folder, culprit=self._who, stop=self.inside)

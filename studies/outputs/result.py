@@ -26,7 +26,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ...errors import InputError, did_you_mean
+from ...errors import EnvironmentFault, InputError, did_you_mean
 from ...reading import open_regular, read_json
 from ...network.layout import LEGS, Layout
 from ...network.populations import spike_populations, trace_sources
@@ -407,9 +407,10 @@ def _check_folder(folder: Path) -> dict[str, Any]:
     """The folder's manifest, once its files are checked: against the manifest's inventory
     (sizes and sha256, :func:`~astrocpg.studies.outputs.folder.verify`); a folder written before
     manifests had an inventory: every file its ``files`` names is there."""
+    if not os.path.lexists(folder):  # a missing input: the environment's (exit 1)
+        raise EnvironmentFault("no such folder", culprit=str(folder))
     if not folder.is_dir():
-        raise InputError("no such folder" if not folder.exists() else "is not a folder",
-                         culprit=str(folder))
+        raise InputError("is not a folder", culprit=str(folder))
     manifest = _read_manifest(folder)
     if manifest is None:
         state = "no" if not (folder / MANIFEST).exists() else "no readable"
@@ -465,10 +466,28 @@ def _training_layout(manifest: Mapping[str, Any], folder: Path) -> Layout:
 
 
 def load(folder: str | os.PathLike) -> Result:
-    """Read an output folder of ``astrocpg unit``, ``run``, ``train`` (or a study's run) or a
-    recorded training session (``TRAINING/recordings/trialTT_sessionSSSS``) back into a
-    :class:`~astrocpg.studies.outputs.result.Result`. A folder that is not an astrocpg output folder, or whose files are missing,
-    changed or corrupt: InputError naming the folder."""
+    """Read an output folder back: what ``astrocpg unit``, ``run`` or ``train`` wrote.
+
+    Parameters
+    ----------
+    folder : path
+        An output folder of ``astrocpg unit``, ``run``, ``train`` (or a study's run), or a
+        recorded training session (``TRAINING/recordings/trialTT_sessionSSSS``).
+
+    Returns
+    -------
+    Result
+        Its :class:`~astrocpg.studies.outputs.result.Result`, every file checked against the
+        folder's manifest.
+
+    Raises
+    ------
+    ~astrocpg.errors.EnvironmentFault
+        The folder does not exist.
+    ~astrocpg.errors.InputError
+        It is not an astrocpg output folder, or its files are missing, changed or corrupt (the
+        folder named).
+    """
     folder = as_path(folder, "folder")
     manifest = _check_folder(folder)
     command = manifest.get("astrocpg_command")

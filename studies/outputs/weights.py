@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import io
+import os
 import zipfile
 import zlib
 from pathlib import Path
@@ -19,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import InputError, did_you_mean
+from ...errors import EnvironmentFault, InputError, did_you_mean
 from ...network import interlimb_labels
 from ...reading import check_regular, loads_json, read_bytes
 from .folder import MANIFEST, verify
@@ -64,8 +65,10 @@ def load_weights(path: str | Path, trial: int | None = None, *,
             raise InputError("a table file has no sessions: give a training folder",
                              culprit=f"--session {session}")
         check_regular(p, where)  # a FIFO, device or socket: refused, never waited on
+        if not os.path.lexists(p):  # a missing input: the environment's (exit 1)
+            raise EnvironmentFault("no such file or folder", culprit=where)
         if not p.is_file():
-            raise InputError("no such file or folder", culprit=where)
+            raise InputError("is not a file", culprit=where)
         try:
             raw = read_bytes(p, where)  # what was checked is what is read
             if p.suffix == ".npy":

@@ -13,7 +13,6 @@ import json
 import mmap
 import os
 import platform
-import subprocess
 import sys
 import tempfile
 import time
@@ -62,10 +61,15 @@ def environment_record() -> dict[str, str | None]:
 
 
 def package_versions() -> dict[str, str]:
+    """The versions of Python and the packages a result depends on; astrocpg's is this copy's
+    (a development build names its commit: ``0.2.1.dev3+g1a2b3c4d5``), not the one an editable
+    install recorded when it was installed."""
+    from ... import __version__
+
     out = {"python": platform.python_version()}
     for name in PACKAGES:
         try:
-            out[name] = metadata.version(name)
+            out[name] = __version__ if name == "astrocpg" else metadata.version(name)
         except metadata.PackageNotFoundError:
             out[name] = "not installed"
     return out
@@ -73,19 +77,16 @@ def package_versions() -> dict[str, str]:
 
 @functools.lru_cache(maxsize=1)
 def git_commit() -> dict[str, Any]:
-    """The commit of the astrocpg source tree, and whether it had uncommitted changes.
+    """The commit of the astrocpg code, and whether it had uncommitted changes: from git in a
+    checkout, from what the build recorded in an installed wheel (``source``: "git" or
+    "build"); None where neither knows.
 
     Read once per process: a long run records the code it started with, even if the tree
     changes while it runs."""
-    root = Path(__file__).resolve().parents[1]
-    try:
-        commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
-                                text=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain"],
-                               capture_output=True, text=True, timeout=10).stdout.strip() != ""
-        return {"commit": commit or None, "dirty": dirty if commit else None}
-    except (OSError, subprocess.SubprocessError):
-        return {"commit": None, "dirty": None}
+    from ... import build_info
+
+    info = build_info()
+    return {"commit": info["commit"], "dirty": info["dirty"], "source": info["source"]}
 
 
 def prepare_output_dir(path: str | os.PathLike) -> Path:

@@ -25,21 +25,46 @@ def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
           plan_from: str | os.PathLike | None = None, overwrite: bool = False,
           progress: bool = True,
           announce: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """Run the parameter study ``file`` (a study file, or a built-in study's name: quick,
-    ablation) on Dask into ``out`` (default ``out/<study name>``; a second call continues it),
-    on a local cluster of ``workers`` processes or the running ``scheduler``: what ``astrocpg
-    study`` does. ``seeds`` ("1-3", "1,4,9", or a count: that many from the file's first seed;
-    or a list of ints), ``sessions`` per trial and ``overrides`` (``["NAME=VALUE", ...]`` or
-    {name: value}, in place of the file's ``[base]``) change the study as loaded, like
-    ``--seeds``, ``--sessions`` and ``--set``; the study folder records them, and a second
-    call into it must give the same. ``plan_from`` (``--plan-from``): an earlier study of the
-    same conditions, its folder or results table, whose seeds' training lengths cost the runs
-    when the seeds are split into runs (the batch is then chosen as ``batch = "auto"`` chooses
-    it, even where the file gives a number). ``announce`` is called, before the runs start, with each
-    line that says what the study will run (its runs, trials and sessions, and how ``batch =
-    "auto"`` chose; ``astrocpg study`` prints them). Returns the counts of runs by status, the
-    rows of the results table, the runs not finished (``failed``) and their errors, with the
-    study's ``name``, its ``runs`` (how many) and its folder (``out``)."""
+    """Run a parameter study on Dask: what ``astrocpg study`` does.
+
+    Parameters
+    ----------
+    file : path or str
+        A study file, or a shipped study's name (quick, ablation, ...).
+    out : path, optional
+        The study folder (default ``out/<study name>``); a second call continues it.
+    seeds : str, int or list of int, optional
+        "1-3", "1,4,9", a count (that many from the file's first seed) or a list of ints, in
+        place of the file's seeds (``--seeds``).
+    sessions : int, optional
+        Sessions per trial, in place of the file's (``--sessions``).
+    overrides : sequence of str or mapping, optional
+        ``["NAME=VALUE", ...]`` or ``{name: value}``, over the file's ``[base]`` (``--set``).
+        The study folder records ``seeds``, ``sessions`` and ``overrides``; a second call into it
+        must give the same.
+    workers : int, optional
+        Processes of a local Dask cluster.
+    scheduler : str, optional
+        The address of a running Dask scheduler, instead of a local cluster.
+    plan_from : path, optional
+        An earlier study of the same conditions (its folder or results table) whose seeds'
+        training lengths cost the runs when the seeds are split into runs (the batch is then
+        chosen as ``batch = "auto"`` chooses it).
+    overwrite : bool
+        Replace an existing ``out`` (only a folder astrocpg wrote).
+    progress : bool
+        A progress bar on stderr.
+    announce : callable, optional
+        Called before the runs start with each line saying what the study will run (its runs,
+        trials and sessions, and how ``batch = "auto"`` chose); ``astrocpg study`` prints them.
+
+    Returns
+    -------
+    dict
+        The counts of runs by status, the rows of the results table, the runs not finished
+        (``failed``) and their errors, the study's ``name``, its ``runs`` (how many) and its
+        folder (``out``).
+    """
     from .study import load_study, prepare_study, run_study
     from .study_file import study_overrides
 
@@ -95,10 +120,29 @@ def plan_lines(study: Any, out: Path) -> list[str]:
 
 def report(folder: str | os.PathLike, *, smooth: int = 1, last: int = 50,
            out: str | os.PathLike | None = None, overwrite: bool = False) -> dict[str, Any]:
-    """The report of the study in ``folder`` (Fig. 3c curves, each seed's trailing mean over
-    ``smooth`` sessions; final figures averaged over the ``last`` sessions) into ``out``
-    (default ``folder/report``, replaced whole): what ``astrocpg report`` does. Returns the
-    files written, the rows, the text and the figures."""
+    """The report of a study, its figures and tables: what ``astrocpg report`` does.
+
+    The report holds the paper's Fig. 3c curves of each condition and the final figures of
+    every seed, with the tests between conditions.
+
+    Parameters
+    ----------
+    folder : path
+        The study folder.
+    smooth : int
+        Sessions of each seed's trailing mean in the curves.
+    last : int
+        Sessions the final figures average over.
+    out : path, optional
+        Where to write (default ``folder/report``, replaced whole).
+    overwrite : bool
+        Replace an existing ``out`` elsewhere (only a folder astrocpg wrote).
+
+    Returns
+    -------
+    dict
+        The files written, the rows, the text and the figures.
+    """
     from .report import report as write_report
 
     return write_report(_path(folder, "folder"),
@@ -109,11 +153,24 @@ def report(folder: str | os.PathLike, *, smooth: int = 1, last: int = 50,
 
 
 def study_status(folder: str | os.PathLike, *, workers: int = 1) -> Any:
-    """What the study in ``folder`` has done and what is left (``astrocpg study --status``):
-    a :class:`~astrocpg.studies.parameter_studies.status.StudyProgress` with each run's state and
-    sessions, and ``left_s``, a projection of the wall seconds left with ``workers``
-    processes (``.text()`` is what the command prints). Reads only: safe while the study
-    runs in another process."""
+    """What a study has done and what is left: ``astrocpg study --status``.
+
+    Reads only: safe while the study runs in another process.
+
+    Parameters
+    ----------
+    folder : path
+        The study folder.
+    workers : int
+        Processes the projection of the time left assumes.
+
+    Returns
+    -------
+    StudyProgress
+        A :class:`~astrocpg.studies.parameter_studies.status.StudyProgress`: each run's state and
+        sessions, and ``left_s``, the projected wall seconds left (``.text()`` is what the command
+        prints).
+    """
     from .status import study_status as progress
 
     return progress(_path(folder, "folder"),

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ...errors import InputError
+from ...errors import EnvironmentFault, InputError
 from ...reading import read_json
 from ..outputs.writing import read_manifest
 from ..runtime.trial_cost import TrialCost
@@ -49,7 +49,9 @@ def results_table(path: Path, culprit: str) -> Path:
                          f"study's folder", culprit=culprit)
     if path.is_file():
         return path
-    raise InputError("no such study folder or results table", culprit=culprit)
+    if not os.path.lexists(path):  # a missing input: the environment's (exit 1)
+        raise EnvironmentFault("no such study folder or results table", culprit=culprit)
+    raise InputError("is neither a study folder nor a results table", culprit=culprit)
 
 
 def _sessions_by_run(path: Path, culprit: str) -> dict[str, dict[int, tuple[float, int]]]:

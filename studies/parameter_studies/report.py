@@ -122,8 +122,9 @@ TESTS = "condition_tests.csv"
 
 def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = None,
            overwrite: bool = False) -> dict[str, Any]:
-    """Write the report of the study in ``folder`` into ``out`` (default ``folder/report``,
-    which each report replaces whole): ``fig3c.png``, ``final_figures.csv``, ``report.md``;
+    """Write the report of the study in ``folder``: its figures and tables.
+
+    Into ``out`` (default ``folder/report``, which each report replaces whole): ``fig3c.png``, ``final_figures.csv``, ``report.md``;
     for a sweep, the final figures against the swept values (``sweep_<axis>.png``, or one
     ``heatmap_<measure>.png`` per measure over two axes); for two or more conditions,
     ``condition_tests.csv``. Returns files, rows, text, figures ({file: Figure}), tests."""

@@ -91,12 +91,12 @@ def load_study(path: str | os.PathLike, *, batch: int | None = None,
     ``--seeds``, ``--sessions``, ``--set`` (:func:`study_overrides`), applied to the study as
     read."""
 
-    from ...shipped import resolve
+    from ...shipped import resolve, unreadable
     p = resolve(path, "study")  # `astrocpg study quick`: a shipped study by name
     try:
         text = read_bytes(p, f"study {p}").decode("utf-8")  # a FIFO: refused, not waited on
-    except OSError as e:
-        raise InputError(f"cannot read ({e.strerror})", culprit=f"study {p}") from None
+    except OSError as e:  # a misspelt name: its closest; a missing file: the environment's
+        raise unreadable(path, "study", e, culprit="study") from None
     except UnicodeDecodeError:
         raise InputError("not a UTF-8 text file (a study file is TOML)",
                          culprit=f"study {p}") from None
@@ -242,11 +242,56 @@ def _check_folder(study: Study, out: Path) -> None:
             raise InputError(f"belongs to study '{name}', not '{study.name}' "
                              f"(use a new --out)", culprit=f"--out {out}")
         _check_overrides(study, out, json.loads(index_path.read_text()).get("overrides") or {})
+    specs = {}
+    if index_path.exists():
+        try:
+            specs = read_json(index_path).get("specs") or {}
+        except (OSError, ValueError):
+            specs = {}
     for run in study.runs:
         fp = known.get(run.run_id)
         if fp is not None and fp != run.fingerprint():
+            changed = _what_changed(specs.get(run.run_id), json.loads(json.dumps(asdict(run))))
             raise InputError(f"run '{run.run_id}' there has other settings than "
-                             f"in {study.path.name} (use a new --out)", culprit=f"--out {out}")
+                             f"in {study.path.name}{changed} (use a new --out, or undo the "
+                             f"change to continue it)", culprit=f"--out {out}")
+
+
+def _assignments(items: Any) -> dict[str, str] | None:
+    """``["NAME=VALUE", ...]`` as {NAME: VALUE}; None where it is not such a list."""
+    if not isinstance(items, list) or not all(isinstance(x, str) and "=" in x for x in items):
+        return None
+    return {x.split("=", 1)[0].strip(): x.split("=", 1)[1].strip() for x in items}
+
+
+#: a run's settings as the study file spells them; settings that follow from others
+_FILE_KEYS = {"n_sessions": "sessions", "n_trials": "trials (batch)"}
+_DERIVED = {"session_s"}
+
+
+def _what_changed(recorded: Any, now: dict[str, Any]) -> str:
+    """``: L_max was 0.02*second, is now 0.03*second``: the settings of a run that differ
+    between the study folder's record and the study file as read now (each named with both
+    values; a parameter by its name); "" where the folder recorded none."""
+    if not isinstance(recorded, dict):
+        return ""
+    said = []
+    keys = sorted(set(recorded) | set(now))
+    for key in sorted(keys, key=lambda k: k in _DERIVED):
+        was, is_ = recorded.get(key, "(none)"), now.get(key, "(none)")
+        if was == is_ or (key in _DERIVED and said):  # follows from a change already named
+            continue
+        old, new = _assignments(was), _assignments(is_)
+        if old is not None and new is not None:  # overrides: by parameter
+            for name in sorted(set(old) | set(new)):
+                if old.get(name) != new.get(name):
+                    said.append(f"{name} was {old.get(name, '(not set)')}, is now "
+                                f"{new.get(name, '(not set)')}")
+        else:
+            said.append(f"{_FILE_KEYS.get(key, key)} was {json.dumps(was)}, is now "
+                        f"{json.dumps(is_)}")
+    return (": " + "; ".join(said[:3]) + (f"; and {len(said) - 3} more" if len(said) > 3
+                                          else "")) if said else ""
 
 
 def _check_overrides(study: Study, out: Path, recorded: dict[str, Any]) -> None:

@@ -264,13 +264,16 @@ def parse_study(text: str, p: Path, batch_given: int | None,
     where = f"study {p.name}"
     unknown = set(doc) - {"study", "base", "models", "sweep", "conditions", "evaluate"}
     if unknown:
-        raise InputError(f"unknown section [{sorted(unknown)[0]}] "
-                         f"(sections: study, base, models, sweep, conditions, evaluate)",
+        sections = ("study", "base", "models", "sweep", "conditions", "evaluate")
+        raise InputError(f"unknown section [{sorted(unknown)[0]}]"
+                         f"{did_you_mean(sorted(unknown)[0], sections)} "
+                         f"(sections: {', '.join(sections)})",
                          culprit=where)
     head = doc.get("study", {})
     bad = set(head) - _STUDY_KEYS
     if bad:
-        raise InputError(f"[study] has unknown key '{sorted(bad)[0]}' "
+        raise InputError(f"[study] has unknown key '{sorted(bad)[0]}'"
+                         f"{did_you_mean(sorted(bad)[0], _STUDY_KEYS)} "
                          f"(keys: {', '.join(sorted(_STUDY_KEYS))})", culprit=where)
     name = head.get("name", p.stem)
     if not isinstance(name, str) or not _NAME.fullmatch(name):
@@ -436,7 +439,8 @@ def _sweep(doc: dict[str, Any], p: Path, slots: set[str], base_files: dict[str, 
     sweep_doc = doc.get("sweep", {})
     bad = set(sweep_doc) - {"mode", "axes"}
     if bad:
-        raise InputError(f"[sweep] has unknown key '{sorted(bad)[0]}' "
+        raise InputError(f"[sweep] has unknown key '{sorted(bad)[0]}'"
+                         f"{did_you_mean(sorted(bad)[0], ('mode', 'axes'))} "
                          f"(keys: mode, axes)", culprit=where)
     mode = sweep_doc.get("mode", "grid")
     if mode not in ("grid", "zip"):
@@ -509,7 +513,9 @@ def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], mode
             raise InputError("must be a table", culprit=cw)
         bad = set(cond) - _CONDITION_KEYS
         if bad:
-            raise InputError(f"unknown key '{sorted(bad)[0]}' (keys: astrocytes, set)", culprit=cw)
+            raise InputError(f"unknown key '{sorted(bad)[0]}'"
+                             f"{did_you_mean(sorted(bad)[0], _CONDITION_KEYS)} "
+                             f"(keys: astrocytes, set)", culprit=cw)
         astro = cond.get("astrocytes", True)
         if not isinstance(astro, bool):
             raise InputError("astrocytes must be true or false", culprit=cw)
@@ -659,8 +665,10 @@ def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
                          culprit=where)
     bad = set(doc) - {"every", "spikes", "traces", "stride"}
     if bad:
-        raise InputError(f"[study] record has unknown key '{sorted(bad)[0]}' "
-                         f"(keys: every, spikes, traces, stride)", culprit=where)
+        keys = ("every", "spikes", "traces", "stride")
+        raise InputError(f"[study] record has unknown key '{sorted(bad)[0]}'"
+                         f"{did_you_mean(sorted(bad)[0], keys)} "
+                         f"(keys: {', '.join(keys)})", culprit=where)
     from ...network.populations import spike_populations, trace_sources
 
     # by default every population and trace of the table, the study's added ones included

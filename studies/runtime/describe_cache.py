@@ -21,11 +21,15 @@ from typing import Callable
 from .caches import cache_dir
 
 _MODELS = Path(__file__).resolve().parents[2] / "models"
+# the code that writes the texts: a new renderer gives fresh texts too
+_RENDERER = Path(__file__).resolve().parents[1] / "figures" / "describe.py"
 
 
 def models_key() -> str:
-    """sha256 over every model source file (path and bytes) and the text writers' versions."""
+    """sha256 over every model source file (path and bytes), the renderer's source and the text
+    writers' versions."""
     h = hashlib.sha256()
+    h.update(_RENDERER.read_bytes())
     for path in sorted(p for p in _MODELS.rglob("*") if p.is_file()
                        and p.suffix in (".py", ".toml")):
         h.update(str(path.relative_to(_MODELS)).encode())
