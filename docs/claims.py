@@ -450,6 +450,29 @@ def direction_follows(word: str, c: dict[str, float], margin: float | None) -> b
     raise BadInput(f"unknown direction {word!r} (one of {', '.join(DIRECTIONS)})")
 
 
+SAMENESS = re.compile(r"\b(the same (?:as|picture|place|trot|structure)|unchanged|do(?:es)? not differ|"
+                      r"did not differ|no difference|as often as|equal to|does what|do what|"
+                      r"within these intervals)\b", re.IGNORECASE)
+
+
+def unqualified_sameness(text: str) -> list[str]:
+    """Sentences of ``text`` that state a sameness ("do not differ", "unchanged", ...) without
+    saying it was not shown to differ: such a sentence needs an equivalence test (a claim
+    with direction ``same`` and a margin) or the words "not shown"."""
+    sentences = re.split(r"(?<=[.;:])\s+(?=[A-Z*(])", _words(text))
+    return [s for s in sentences if SAMENESS.search(s)
+            and not any(q in s for q in SAMENESS_QUALIFIED)]
+
+
+SAMENESS_QUALIFIED = (
+    "not shown",                        # the reading for a difference that was not found
+    "is shown",                         # "no difference ... is shown"
+    "does not show that",               # a sameness denied
+    "no difference in any column",      # a training repeated row for row: an identity
+    "every session the same as",        # the same, read from the rows
+)
+
+
 def check(claim: dict, pages: dict[str, str] | None = None) -> list[str]:
     """What is wrong with one claim; empty when it holds."""
     for key in ("page", "text", "compute", "values", "direction"):
@@ -471,6 +494,9 @@ def check(claim: dict, pages: dict[str, str] | None = None) -> list[str]:
             problems.append(f"figure {printed!r} not in the quoted text")
         if not printed_matches(str(printed), c[key], 1.0 if key in ("p", "holm") else scale):
             problems.append(f"{key}: printed {printed}, the table gives {c[key] * scale:.6g}")
+    if claim["direction"] != "same" and unqualified_sameness(text):
+        problems.append("states a sameness without an equivalence test: say 'not shown to "
+                        "differ' or declare a margin")
     if not direction_follows(claim["direction"], c, claim.get("margin")):
         problems.append(f"direction {claim['direction']!r} does not follow: "
                         + ", ".join(f"{k} {c[k]:.4g}" for k in ("d", "lo", "hi", "p", "holm")
