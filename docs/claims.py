@@ -450,8 +450,8 @@ def direction_follows(word: str, c: dict[str, float], margin: float | None) -> b
     raise BadInput(f"unknown direction {word!r} (one of {', '.join(DIRECTIONS)})")
 
 
-SAMENESS = re.compile(r"\b(the same (?:as|picture|place|trot|structure)|unchanged|do(?:es)? not differ|"
-                      r"did not differ|no difference|as often as|equal to|does what|do what|"
+SAMENESS = re.compile(r"\b(the same (?:as|picture|place|trot|structure)|unchanged|"
+                      r"do(?:es)? not differ|did not differ|no difference|as often as|equal to|does what|do what|"
                       r"within these intervals)\b", re.IGNORECASE)
 
 
@@ -504,6 +504,83 @@ def check(claim: dict, pages: dict[str, str] | None = None) -> list[str]:
     return problems
 
 
+def _md_rows(lines: list[str], start: int) -> dict[str, list[str]]:
+    """The rows of the markdown table whose header is ``lines[start]``, keyed by their first
+    cell (markup stripped); an empty first cell continues the row above (``label#2``, ...)."""
+    rows: dict[str, list[str]] = {}
+    last = ""
+    for line in lines[start + 1:]:
+        if not line.startswith("|"):
+            break
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if set(cells[0]) <= {"-"} and all(set(c) <= {"-", ":"} for c in cells):
+            continue
+        label = cells[0].replace("*", "").replace("`", "").strip()
+        if label:
+            last, key = label, label
+        else:
+            n = sum(k.startswith(last + "#") for k in rows)
+            key = f"{last}#{n + 1}"
+        rows[key] = cells
+    return rows
+
+
+def _figures(cell: str) -> list[tuple[str, float]]:
+    return [(x, float(x.replace("−", "-"))) for x in re.findall(_NUM, cell.replace("*", ""))]
+
+
+def check_table(spec: dict) -> list[str]:
+    """A table of a page against the committed table a command wrote: each figure of each
+    mapped cell equals the source cell's figure in the same place, to the precision of both."""
+    for key in ("page", "header", "source", "rows", "columns"):
+        if key not in spec:
+            raise BadInput(f"table {spec.get('id', '?')}: no {key!r}")
+    page = _path(spec["page"]).read_text().splitlines()
+    at = [k for k, line in enumerate(page) if line.startswith("|") and spec["header"] in line]
+    if "occurrence" in spec and len(at) > spec["occurrence"]:
+        at = [at[spec["occurrence"]]]
+    if len(at) != 1:
+        return [f"header {spec['header']!r} found {len(at)} times on {spec['page']}"]
+    mine = _md_rows(page, at[0])
+    source = _path(spec["source"]).read_text().splitlines()
+    problems = []
+    for page_row, source_row in spec["rows"].items():
+        if page_row not in mine:
+            problems.append(f"no row {page_row!r} on the page")
+            continue
+        for page_col, block, source_col in spec["columns"]:
+            lines = source
+            if block:
+                first = next((k for k, line in enumerate(source) if block in line), None)
+                if first is None:
+                    raise BadInput(f"{spec['source']}: no block {block!r}")
+                lines = source[first:]
+            head = next(k for k, line in enumerate(lines) if line.startswith("|"))
+            theirs = _md_rows(lines, head)
+            match = [v for k, v in theirs.items() if k.startswith(source_row)]
+            if not match:
+                raise BadInput(f"{spec['source']}: no row {source_row!r} in block {block!r}")
+            shown, given = _figures(mine[page_row][page_col]), _figures(match[0][source_col])
+            if not shown or len(shown) > len(given):
+                problems.append(f"{page_row!r} column {page_col}: {mine[page_row][page_col]!r} "
+                                f"against {match[0][source_col]!r}")
+                continue
+            for (text, value), (text2, value2) in zip(shown, given):
+                tol = sum(0.5 * 10 ** -(len(t.split(".")[1]) if "." in t else 0)
+                          for t in (text, text2))
+                if abs(value - value2) > tol + 1e-9:
+                    problems.append(f"{page_row!r} column {page_col}: printed {text}, "
+                                    f"{spec['source']} gives {text2}")
+    return problems
+
+
+def load_tables(path: Path = CLAIMS) -> list[dict]:
+    try:
+        return tomllib.loads(path.read_text()).get("table", [])
+    except (OSError, tomllib.TOMLDecodeError) as e:
+        raise BadInput(f"{path}: {e}") from None
+
+
 def load(path: Path = CLAIMS) -> list[dict]:
     try:
         claims = tomllib.loads(path.read_text())["claim"]
@@ -528,7 +605,14 @@ def main(argv: list[str]) -> int:
             failed += bool(problems)
             print(f"{'ok ' if not problems else 'NO '} {claim['id']}: {claim['direction']}"
                   + "".join(f"\n     {p}" for p in problems))
-        print(f"{len(claims) - failed} of {len(claims)} claims follow from their tables")
+        tables = load_tables(Path(argv[0]) if argv else CLAIMS)
+        for spec in tables:
+            problems = check_table(spec)
+            failed += bool(problems)
+            print(f"{'ok ' if not problems else 'NO '} table {spec['id']}"
+                  + "".join(f"\n     {p}" for p in problems))
+        n = len(claims) + len(tables)
+        print(f"{n - failed} of {n} claims and tables follow from their tables")
         return 3 if failed else 0
     except BadInput as e:
         print(f"claims.py: {e}", file=sys.stderr)

@@ -37,6 +37,29 @@ def test_claim_follows_from_its_table(claim):
     assert claims.check(claim) == []
 
 
+TABLES = claims.load_tables()
+
+
+@pytest.mark.parametrize("spec", TABLES, ids=[t["id"] for t in TABLES])
+def test_page_table_matches_the_table_its_command_wrote(spec):
+    assert claims.check_table(spec) == []
+
+
+def test_a_page_table_against_another_column_fails():
+    spec = copy.deepcopy(next(t for t in TABLES if t["id"] == "robustness-worlds"))
+    spec["columns"] = [[1, spec["columns"][0][1], 2]]      # astrocytes' falls against none's
+    assert any("printed" in p for p in claims.check_table(spec))
+
+
+def test_a_changed_page_figure_fails(tmp_path, monkeypatch):
+    spec = copy.deepcopy(next(t for t in TABLES if t["id"] == "dose-beyond"))
+    page = (ROOT / spec["page"]).read_text()
+    changed = tmp_path / "page.md"
+    changed.write_text(page.replace("0.27 [0.18, 0.36]", "0.29 [0.18, 0.36]", 1))
+    spec["page"] = str(changed)
+    assert any("printed 0.29" in p for p in claims.check_table(spec))
+
+
 def _first(direction: str, with_values: bool = True) -> dict:
     return copy.deepcopy(next(c for c in ALL if c["direction"] == direction
                               and (c["values"] or not with_values)))
