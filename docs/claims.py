@@ -12,6 +12,7 @@ A claim holds when (a) its quoted text is on its page (whitespace and line break
 each figure recomputed from the tables equals the figure printed, to the printed precision, and
 (c) its direction follows from the table: ``higher``/``lower``: the 95 % interval of the
 difference excludes 0 on that side (and its p, where the computation gives one, is below 0.05);
+``differ``: the interval excludes 0 or the (Holm) p is below 0.05;
 ``not shown to differ``: the interval holds 0 or the p is 0.05 or more; ``same``: only with a
 margin declared in the claim, and the whole 95 % interval inside (-margin, +margin) (two one-sided
 tests at 2.5 %); ``none``: a figure without a difference.
@@ -389,10 +390,24 @@ def c_md_cell(file: str, row: str, column: int, block: str = "") -> dict[str, fl
     return out
 
 
+def c_md_block(file: str, block: str) -> dict[str, float]:
+    """Every row of one block of a committed markdown table of tests (``analyse.py against``):
+    the largest and smallest Holm p (last column) and the rows; ``holm`` is the largest, so
+    a claim that every measure of the block differs is checked against it."""
+    lines = _path(file).read_text().splitlines()
+    start = next((k for k, line in enumerate(lines) if block in line), None)
+    if start is None:
+        raise BadInput(f"{file}: no block {block!r}")
+    head = next(k for k in range(start + 1, len(lines)) if lines[k].startswith("|"))
+    holms = [float(re.findall(_NUM, cells[-1])[0]) for cells in _md_rows(lines, head).values()
+             if re.search(_NUM, cells[-1])]
+    return {"holm": max(holms), "holm_min": min(holms), "rows": float(len(holms))}
+
+
 COMPUTE = {"share": c_share, "gait_threshold": c_gait_threshold,
            "tables_differ": c_tables_differ, "versus": c_versus,
            "world_minus_flat": c_world_minus_flat, "advantage_vs_flat": c_advantage_vs_flat,
-           "training": c_training, "md_cell": c_md_cell, "release": c_release,
+           "training": c_training, "md_cell": c_md_cell, "release": c_release, "md_block": c_md_block,
            "final": c_final}
 
 
@@ -412,7 +427,7 @@ def compute(claim: dict) -> dict[str, float]:
 
 # ---------------------------------------------------------------- checking
 
-DIRECTIONS = ("higher", "lower", "not shown to differ", "same", "none")
+DIRECTIONS = ("higher", "lower", "differ", "not shown to differ", "same", "none")
 
 
 def _words(text: str) -> str:
@@ -443,6 +458,8 @@ def direction_follows(word: str, c: dict[str, float], margin: float | None) -> b
         else:
             ok = c["d"] * sign > 0
         return ok and (p is None or p < 0.05)
+    if word == "differ":   # two-sided: the interval excludes 0, or p below 0.05
+        return (lo is not None and (lo > 0 or hi < 0)) or (p is not None and p < 0.05)
     if word == "not shown to differ":
         return (lo is not None and lo <= 0 <= hi) or (p is not None and p >= 0.05)
     if word == "same":
