@@ -390,6 +390,17 @@ def c_md_cell(file: str, row: str, column: int, block: str = "") -> dict[str, fl
     return out
 
 
+def c_separated(table: str, run: str, other_run: str, measure: str, last: int = 50
+                ) -> dict[str, float]:
+    """Is every seed of ``other_run`` above every seed of ``run`` in a training measure?
+    ``d``: the lowest of ``other_run`` minus the highest of ``run`` (above 0: separated)."""
+    if measure not in TRAINING:
+        raise BadInput(f"unknown training measure {measure!r}")
+    a = [training_measures(v, last)[measure] for v in training(table, run, None).values()]
+    b = [training_measures(v, last)[measure] for v in training(table, other_run, None).values()]
+    return {"d": float(min(b) - max(a))}
+
+
 def c_md_block(file: str, block: str) -> dict[str, float]:
     """Every row of one block of a committed markdown table of tests (``analyse.py against``):
     the largest and smallest Holm p (last column) and the rows; ``holm`` is the largest, so
@@ -408,6 +419,7 @@ COMPUTE = {"share": c_share, "gait_threshold": c_gait_threshold,
            "tables_differ": c_tables_differ, "versus": c_versus,
            "world_minus_flat": c_world_minus_flat, "advantage_vs_flat": c_advantage_vs_flat,
            "training": c_training, "md_cell": c_md_cell, "release": c_release, "md_block": c_md_block,
+           "separated": c_separated,
            "final": c_final}
 
 
