@@ -91,7 +91,9 @@ def test_a_quote_not_on_the_page_fails():
 
 @pytest.mark.parametrize("start, wrong", [("lower", "higher"), ("higher", "lower"),
                                           ("lower", "not shown to differ"),
-                                          ("not shown to differ", "higher")])
+                                          ("differ", "not shown to differ"),
+                                          ("not shown to differ", "higher"),
+                                          ("not shown to differ", "differ")])
 def test_a_direction_the_table_does_not_give_fails(start, wrong):
     claim = next(c for c in ALL if c["direction"] == start)
     claim = copy.deepcopy(claim)
