@@ -298,30 +298,43 @@ def c_advantage_vs_flat(table: str, source: str, other: str, world: str, measure
     return out
 
 
-def c_training(table: str, run: str, other_table: str, other_run: str, measure: str,
-               sessions: int | None = None, last: int = 20, family: int = 1
-               ) -> dict[str, float]:
-    """Training rows, ``other`` minus ``run`` seed by seed: the measures of
-    :func:`training_measures` (learnt by censored), each side's mean and never-learnt count,
-    and Holm's adjustment over this comparison's six measures times ``family``
-    comparisons (the p's of the other comparisons taken as this one's: a bound)."""
-    if measure not in TRAINING:
-        raise BadInput(f"unknown training measure {measure!r}")
+def _training_pairs(table: str, run: str, other_table: str, other_run: str,
+                    sessions: int | None, last: int) -> tuple[dict, dict, int]:
     a, b = training(table, run, sessions), training(other_table, other_run, sessions)
     seeds = sorted(set(a) & set(b))
     S = min(min(len(a[s]), len(b[s])) for s in seeds)
-    ma = {s: training_measures(a[s][:S], last) for s in seeds}
-    mb = {s: training_measures(b[s][:S], last) for s in seeds}
-    diffs = {m: np.array([mb[s][m] - ma[s][m] for s in seeds]) for m in TRAINING}
-    ps = [sign_flip(diffs[m]) for m in TRAINING]
-    out = {**effect(diffs[measure]), "mdd": mdd(diffs[measure]),
+    return ({s: training_measures(a[s][:S], last) for s in seeds},
+            {s: training_measures(b[s][:S], last) for s in seeds}, S)
+
+
+def c_training(table: str, run: str, other_table: str, other_run: str, measure: str,
+               sessions: int | None = None, last: int = 20, family: tuple = ()
+               ) -> dict[str, float]:
+    """Training rows, ``other`` minus ``run`` seed by seed: the measures of
+    :func:`training_measures` (learnt by censored), each side's mean and never-learnt count,
+    and Holm's adjustment over the six measures of this comparison and of the same comparison
+    for each run of ``other_table`` named in ``family``."""
+    if measure not in TRAINING:
+        raise BadInput(f"unknown training measure {measure!r}")
+    ma, mb, S = _training_pairs(table, run, other_table, other_run, sessions, last)
+    seeds = sorted(ma)
+
+    def diffs(a: dict, b: dict) -> dict[str, np.ndarray]:
+        return {m: np.array([b[s][m] - a[s][m] for s in sorted(a)]) for m in TRAINING}
+
+    mine = diffs(ma, mb)
+    ps = [sign_flip(mine[m]) for m in TRAINING]
+    for other in family:
+        if other != other_run:
+            ps += [sign_flip(d) for d in diffs(*_training_pairs(
+                table, run, other_table, other, sessions, last)[:2]).values()]
+    out = {**effect(mine[measure]), "mdd": mdd(mine[measure]),
            "a": float(np.mean([ma[s][measure] for s in seeds])),
            "b": float(np.mean([mb[s][measure] for s in seeds])),
            "never_a": float(sum(ma[s]["learnt_by"] > S for s in seeds)),
            "never_b": float(sum(mb[s]["learnt_by"] > S for s in seeds)),
-           "relative": float(diffs[measure].mean()
-                             / np.mean([ma[s][measure] for s in seeds]))}
-    out["holm"] = min(1.0, holm(ps)[TRAINING.index(measure)] * family)
+           "relative": float(mine[measure].mean() / np.mean([ma[s][measure] for s in seeds])),
+           "holm": holm(ps)[TRAINING.index(measure)], "tests": float(len(ps))}
     return out
 
 
@@ -434,7 +447,8 @@ def _compute(name: str, args: tuple) -> dict[str, float]:
 
 
 def compute(claim: dict) -> dict[str, float]:
-    return _compute(claim["compute"], tuple(sorted(claim.get("args", {}).items())))
+    args = {k: tuple(v) if isinstance(v, list) else v for k, v in claim.get("args", {}).items()}
+    return _compute(claim["compute"], tuple(sorted(args.items())))
 
 
 # ---------------------------------------------------------------- checking
@@ -687,7 +701,8 @@ def analyse() -> str:
     for name, run in CONTROL_RUNS.items():
         for m in TRAINING:
             c = c_training("docs/ablation/faster_loop/results.csv.gz", "astrocytes",
-                           "docs/beyond/homeostatic_control/results.csv.gz", run, m, family=2)
+                           "docs/beyond/homeostatic_control/results.csv.gz", run, m,
+                           family=tuple(CONTROL_RUNS.values()))
             out.append(f"| {name} | {m} | {c['a']:.3f} | {c['b']:.3f} | {_fmt(c, 3)} | "
                        f"{100 * c['relative']:+.1f} % | {c['holm']:.2g} | {c['mdd']:.3f} |")
     out += ["", "## Learnt by, never-learnt seeds counted (session after the last)", "",
