@@ -1,0 +1,212 @@
+"""The figures and stated differences of the README, docs/results.md and docs/beyond/README.md
+against the committed tables: docs/claims.toml lists them, docs/claims.py recomputes them. A
+claim fails when its text is not on its page, a figure no longer equals its recomputation to
+the printed precision, or its direction (higher, lower, not shown to differ, same) no longer
+follows from the table."""
+
+from __future__ import annotations
+
+import copy
+import csv
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _claims_module():
+    spec = importlib.util.spec_from_file_location("docs_claims", ROOT / "docs" / "claims.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+claims = _claims_module()
+ALL = claims.load()
+PAGES = ("README.md", "docs/results.md", "docs/beyond/README.md")
+
+
+@pytest.mark.parametrize("claim", ALL, ids=[c["id"] for c in ALL])
+def test_claim_follows_from_its_table(claim):
+    assert claims.check(claim) == []
+
+
+TABLES = claims.load_tables()
+
+
+@pytest.mark.parametrize("spec", TABLES, ids=[t["id"] for t in TABLES])
+def test_page_table_matches_the_table_its_command_wrote(spec):
+    assert claims.check_table(spec) == []
+
+
+def test_a_page_table_against_another_column_fails():
+    spec = copy.deepcopy(next(t for t in TABLES if t["id"] == "robustness-worlds"))
+    spec["columns"] = [[1, spec["columns"][0][1], 2]]      # astrocytes' falls against none's
+    assert any("printed" in p for p in claims.check_table(spec))
+
+
+def test_a_changed_page_figure_fails(tmp_path, monkeypatch):
+    spec = copy.deepcopy(next(t for t in TABLES if t["id"] == "dose-beyond"))
+    page = (ROOT / spec["page"]).read_text()
+    changed = tmp_path / "page.md"
+    changed.write_text(page.replace("0.27 [0.18, 0.36]", "0.29 [0.18, 0.36]", 1))
+    spec["page"] = str(changed)
+    assert any("printed 0.29" in p for p in claims.check_table(spec))
+
+
+def _first(direction: str, with_values: bool = True) -> dict:
+    return copy.deepcopy(next(c for c in ALL if c["direction"] == direction
+                              and (c["values"] or not with_values)))
+
+
+def test_a_changed_figure_fails():
+    claim = _first("lower")
+    key, printed = next(iter(claim["values"].items()))
+    shown = float(printed.replace("−", "-").lstrip("≤<= "))
+    wrong = f"{shown + 0.5:+.2f}"
+    claim["values"][key] = wrong
+    claim["text"] = claim["text"].replace(printed, wrong)
+    problems = claims.check(claim)
+    assert any(p.startswith(f"{key}: printed") for p in problems), problems
+
+
+def test_a_figure_not_in_the_quote_fails():
+    claim = _first("none")
+    key = next(iter(claim["values"]))
+    claim["values"][key] = "123.456"
+    assert any("not in the quoted text" in p for p in claims.check(claim))
+
+
+def test_a_quote_not_on_the_page_fails():
+    claim = _first("none")
+    claim["text"] += " and a sentence the page does not have"
+    assert any(p.startswith("text not on") for p in claims.check(claim))
+
+
+@pytest.mark.parametrize("start, wrong", [("lower", "higher"), ("higher", "lower"),
+                                          ("lower", "not shown to differ"),
+                                          ("differ", "not shown to differ"),
+                                          ("not shown to differ", "higher"),
+                                          ("not shown to differ", "differ")])
+def test_a_direction_the_table_does_not_give_fails(start, wrong):
+    claim = next(c for c in ALL if c["direction"] == start)
+    claim = copy.deepcopy(claim)
+    if start == "not shown to differ":   # one whose interval holds 0 on both sides
+        claim = copy.deepcopy(next(c for c in ALL if c["id"] == "rough-learnt-censored"))
+    claim["direction"] = wrong
+    assert any(p.startswith("direction") for p in claims.check(claim))
+
+
+def test_sameness_needs_a_margin_and_an_interval_inside_it():
+    c = {"d": 0.01, "lo": -0.03, "hi": 0.05, "p": 0.6}
+    assert not claims.direction_follows("same", c, None)       # no margin declared
+    assert not claims.direction_follows("same", c, 0.04)       # interval reaches past it
+    assert claims.direction_follows("same", c, 0.1)
+    assert claims.direction_follows("not shown to differ", c, None)
+
+
+def test_sameness_worded_without_a_test_fails():
+    claim = copy.deepcopy(next(c for c in ALL if c["id"] == "rough-tables-speed"))
+    claim["text"] = "speed and falls do not differ"
+    problems = claims.check(claim, {claim["page"]: "speed and falls do not differ"})
+    assert any("sameness" in p for p in problems)
+
+
+@pytest.mark.parametrize("page", PAGES)
+def test_no_page_states_a_sameness_without_a_test(page):
+    assert claims.unqualified_sameness((ROOT / page).read_text()) == []
+
+
+@pytest.mark.parametrize("page, text", [
+    ("README.md", "over-active pools"),
+    ("README.md", "a trot emerges (20 of 20 seeds"),
+    ("docs/beyond/README.md", "in opposite directions on the two grounds."),
+    ("docs/beyond/README.md", "it does not make the"),
+    ("docs/beyond/README.md", "−104 [−178, −31]"),
+    ("docs/beyond/README.md", "Every Holm-adjusted p is 1"),
+    ("docs/results.md", "every adjusted p is 1"),
+    ("docs/results.md", "17 of 20 tables trot"),
+    ("docs/beyond/README.md", "A payload helps"),
+])
+def test_the_audits_examples_are_gone(page, text):
+    assert text not in claims._words((ROOT / page).read_text())
+
+
+def test_learnt_by_counts_the_seeds_that_never_learnt():
+    """A side where half the seeds learn early and half never learn: dropping the never-learnt
+    seeds (the old reading) makes it look earlier than a side where every seed learns by
+    session 100; counting them as the session after the last makes it later."""
+    def series(first_full: int | None, sessions: int = 200) -> np.ndarray:
+        length = np.full(sessions, 5.0)
+        if first_full is not None:
+            length[first_full - 1:] = 10.0
+        return np.c_[length, length, length]
+
+    a = [claims.training_measures(series(93), 20)["learnt_by"] for _ in range(10)]
+    b = [claims.training_measures(series(23 if k % 2 else None), 20)["learnt_by"]
+         for k in range(10)]
+    assert a[0] == 100 and sorted(set(b)) == [30, 201]
+    dropped = np.mean([x for x in b if x <= 200]) - np.mean(a)
+    censored = np.mean(b) - np.mean(a)
+    assert dropped < 0 < censored
+
+
+def _evaluation(path: Path, trots: list[int], runs: int = 5) -> None:
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["source", "condition", "seed", "world", "gait",
+                                          "rhythm", "fell", "mean_speed_m_per_s"])
+        w.writeheader()
+        for seed, k in enumerate(trots, 1):
+            for r in range(runs):
+                w.writerow({"source": "s", "condition": "c", "seed": seed, "world": "flat",
+                            "gait": "trot" if r < k else "none", "rhythm": "trot",
+                            "fell": 0, "mean_speed_m_per_s": 1.0})
+
+
+def test_tables_differing_in_trot_share_are_found(tmp_path):
+    same, apart = tmp_path / "same.csv", tmp_path / "apart.csv"
+    _evaluation(same, [1, 2, 2, 1, 2, 1, 2, 2, 1, 2, 1, 2])   # one share, 0.3
+    _evaluation(apart, [0, 0, 0, 0, 0, 0, 5, 5, 5, 5, 5, 0])  # five tables always, the rest never
+    assert claims.c_tables_differ(str(same), "c", "flat")["p"] > 0.5
+    assert claims.c_tables_differ(str(apart), "c", "flat")["p"] < 0.001
+
+
+def test_a_share_is_over_tables_not_runs(tmp_path):
+    path = tmp_path / "e.csv"
+    _evaluation(path, [5, 0, 5, 0])
+    c = claims.c_share(str(path), "c", "flat", "gait")
+    assert c["tables"] == 4 and c["runs"] == 20 and c["mean"] == 0.5
+    assert c["lo"] == 0.0 and c["hi"] == 1.0   # 4 tables: the interval is wide, as it should be
+
+
+def _run(*argv: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(ROOT / "docs" / "claims.py"), *argv], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "MPLBACKEND": "Agg"})
+
+
+def test_the_command_exits_3_on_a_claim_that_does_not_follow(tmp_path):
+    one = tmp_path / "claims.toml"
+    text = (ROOT / "docs" / "claims.toml").read_text()
+    block = text[text.index('[[claim]]\nid = "readme-release-rate"'):]
+    block = block[:block.index("\n[[claim]]", 10)]
+    one.write_text(block.replace('rate_min = "3.332"', 'rate_min = "3.322"')
+                   .replace("(3.332 of", "(3.322 of"))
+    r = _run(str(one))
+    assert r.returncode == 3, r.stdout + r.stderr
+    assert "NO  readme-release-rate" in r.stdout
+    one.write_text(block)
+    assert _run(str(one)).returncode == 0
+
+
+def test_the_command_exits_2_on_a_bad_claims_file(tmp_path):
+    bad = tmp_path / "claims.toml"
+    bad.write_text('[[claim]]\nid = "x"\npage = "README.md"\n')
+    r = _run(str(bad))
+    assert r.returncode == 2 and "claims.py:" in r.stderr
