@@ -12,7 +12,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .compare import compare, holm
+from .compare import compare, holm, reading_words
 
 
 @dataclass(frozen=True)
@@ -129,14 +129,19 @@ def cell_stats(cells: list[list[float]]) -> tuple[np.ndarray, np.ndarray, np.nda
 def condition_tests(swept: list[str], conditions: list[str], per_seed: list[dict[str, Any]],
                      measures: list[Measure],
                      skip: set[tuple[str, tuple[str, ...]]] = frozenset(),
-                     paired: bool = False) -> list[dict[str, Any]]:
+                     paired: bool = False,
+                     margins: Mapping[str, float] | None = None) -> list[dict[str, Any]]:
     """Every pair of conditions (in the study's order, first minus second) at every sweep
     point, every final figure: :func:`~astrocpg.studies.analysis.compare.compare`. The final
     figures of one pair at one point are one family (one question: do the conditions
     differ?): their permutation and Mann-Whitney p-values are Holm-adjusted together
     (``perm_p_holm``, ``mwu_p_holm``). ``paired`` (the study file's ``paired = true``,
     declared before any run): seed k of one condition is compared with seed k of the
-    other, on the seeds both have."""
+    other, on the seeds both have. ``margins`` (the study file's ``[margins]``, declared
+    before any run): the equivalence test of each measure that has one; every test gives the
+    smallest difference it could detect (``detectable``) and ``reading``, what the numbers
+    support in words (:func:`~astrocpg.studies.analysis.compare.reading_words`)."""
+    margins = dict(margins or {})
     conditions = list(dict.fromkeys(conditions))
     points = list(dict.fromkeys(o["point"] for o in per_seed))
     out = []
@@ -157,9 +162,10 @@ def condition_tests(swept: list[str], conditions: list[str], per_seed: list[dict
                     va, vb = [sa[k] for k in common], [sb[k] for k in common]
                 else:
                     va, vb = list(sa.values()), list(sb.values())
+                t = compare(va, vb, paired=paired, margin=margins.get(m.key))
+                t["reading"] = reading_words(t)
                 family.append({**dict(zip(swept, point)), "condition_a": a, "condition_b": b,
-                               "measure": m.key, "unit": m.unit,
-                               **compare(va, vb, paired=paired)})
+                               "measure": m.key, "unit": m.unit, **t})
             for key in ("perm_p", "mwu_p"):
                 for t, adjusted in zip(family, holm([t[key] for t in family])):
                     t[f"{key}_holm"] = adjusted

@@ -157,6 +157,7 @@ def _no_gait(reason: str, share: float) -> dict[str, Any]:
     for leg in LEGS[1:]:
         row[f"gait_phase_{leg}"] = math.nan
         row[f"gait_locking_{leg}"] = math.nan
+    row["gait_locking_FR"] = row["gait_locking"] = math.nan
     return row
 
 
@@ -209,6 +210,8 @@ def footfall_gait(t: np.ndarray, alive: np.ndarray, foot_force: np.ndarray, t_st
     for leg in LEGS[1:]:
         row[f"gait_phase_{leg}"] = float(phases[leg])
         row[f"gait_locking_{leg}"] = float(locking[leg])
+    row["gait_locking_FR"] = float(locking["FR"])
+    row["gait_locking"] = float(min(locking.values()))
     return row
 
 
@@ -227,8 +230,34 @@ MEASURE_COLUMNS = ("rhythm", "gait", "gait_reason", "gait_share", "rhythm_period
                    "rhythm_phase_FL", "rhythm_phase_RR", "rhythm_phase_RL",
                    "rhythm_locking_FL", "rhythm_locking_RR", "rhythm_locking_RL",
                    "gait_period_s", "gait_duty_factor", "gait_phase_FL", "gait_phase_RR",
-                   "gait_phase_RL", "gait_locking_FL", "gait_locking_RR", "gait_locking_RL")
-"""The columns of :func:`trial_measures`, in table order."""
+                   "gait_phase_RL", "gait_locking_FL", "gait_locking_RR", "gait_locking_RL",
+                   "gait_locking_FR", "gait_locking")
+"""The columns of :func:`trial_measures`, in table order. ``gait_locking`` is the continuous
+measure the gait label thresholds: the smallest of the four feet's locking (the label needs
+every foot at least ``min_locking``, 0.7); nan where the run was not read that far (it fell,
+too few steps)."""
+
+THRESHOLDS = (0.5, 0.6, 0.7, 0.8)
+"""The locking thresholds at which every summary also gives the trot gait share (the label
+itself uses 0.7): a reader sees how much of the share the threshold sets."""
+
+
+def gait_at(row: dict[str, Any], min_locking: float) -> str:
+    """The gait label a run (a row of :func:`footfall_gait`) would get at another locking
+    threshold ``min_locking`` (0: the footfall phases alone, however loosely they lock);
+    ``none`` where the run was not read that far (it fell, too few steps, no rhythm)."""
+    def num(key: str) -> float:
+        try:
+            return float(row.get(key, math.nan))  # a CSV row's text too
+        except (TypeError, ValueError):
+            return math.nan
+
+    if not np.isfinite(num("gait_locking")):
+        return "none"
+    phases = {"FR": 0.0, **{leg: num(f"gait_phase_{leg}") for leg in LEGS[1:]}}
+    locking = {leg: num(f"gait_locking_{leg}") for leg in LEGS}
+    return phase_label(phases, locking, min_locking=min_locking)
+
 
 
 def phase_matrix(phases: dict[str, float]) -> np.ndarray:

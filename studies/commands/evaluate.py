@@ -39,8 +39,9 @@ from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
 from ..analysis.fall import first_fall
-from ..analysis.gait import MEASURE_COLUMNS, NAMED, trial_measures
-from ..analysis.share import label_shares, wilson_interval
+from ..analysis.gait import MEASURE_COLUMNS, NAMED, THRESHOLDS, gait_at, trial_measures
+from ..analysis.replication import group_by_table, interval_words, over_tables, \
+    share_over_tables, tables_differ
 from ..outputs.folder import OutputFolder, as_path, verify
 from ..outputs.parts import PARTS_SUFFIX, CellParts
 from ..outputs.study_index import INDEX as STUDY_INDEX, read_current
@@ -460,31 +461,66 @@ def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],
 
 
 def summarise(rows: list[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Mean and std over controllers and repeats per (condition, point, world)."""
+    """Per (condition, point, world): each trained table's figures over its repeats first,
+    then the mean over tables with a 95% interval over tables
+    (:mod:`~astrocpg.studies.analysis.replication`: the runs of one table are not independent
+    samples). ``n``: runs (``n_runs`` too), ``n_tables``: tables; ``<measure>_mean``, and
+    ``<measure>_low``/``_high`` over tables for distance, speed, falls and upright share
+    (``<measure>_std``: over runs, as before); each gait and rhythm share
+    (``<kind>_<label>_share``, ``_low``, ``_high``) over tables; ``gait_locking_mean``: the
+    continuous measure the gait label thresholds (the smallest foot locking, mean over tables
+    of the runs read that far); ``gait_trot_share_at_<x>``: the trot gait share at locking
+    thresholds :data:`~astrocpg.studies.analysis.gait.THRESHOLDS` (``_at_0``: the footfall
+    phases alone); ``gait_trot_tables_differ_p``: whether the tables differ from each other in
+    their trot gait share (:func:`~astrocpg.studies.analysis.replication.tables_differ`)."""
     groups: dict[tuple[str, str, str], list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault((r["condition"], r["point"], r["world"]), []).append(r)
     out = []
     for (condition, point, world), rs in groups.items():
+        tables = list(group_by_table(rs).values())
         entry: dict[str, Any] = {"condition": condition, "point": point, "world": world,
                                  **{k: v for k, v in rs[0].items() if k.startswith("grid_")},
-                                 "n": len(rs)}
+                                 "n": len(rs), "n_runs": len(rs), "n_tables": len(tables)}
         for key in ("distance_m", "mean_speed_m_per_s", "fell", "upright_share"):
             v = np.array([r[key] for r in rs], dtype=float)
-            entry[f"{key}_mean"] = float(v.mean())
+            s = over_tables([np.mean([float(r[key]) for r in t]) for t in tables],
+                            share=key in ("fell", "upright_share"))
+            entry[f"{key}_mean"] = s["mean"]
             entry[f"{key}_std"] = float(v.std(ddof=1)) if len(v) > 1 else math.nan
+            entry[f"{key}_low"], entry[f"{key}_high"] = s["low"], s["high"]
         falls = np.array([r["time_to_fall_s"] for r in rs], dtype=float)
         entry["time_to_fall_s_median"] = (float(np.nanmedian(falls))
                                           if np.isfinite(falls).any() else math.nan)
         for kind in ("gait", "rhythm"):  # the feet's gait and the CPG's rhythm, both named
-            shares = label_shares([r[kind] for r in rs], NAMED)
+            labels = [[r[kind] for r in t] for t in tables]
             for label in ("trot", "any"):
-                sh = shares.get(label, {"share": 0.0, **dict(zip(
-                    ("low", "high"), wilson_interval(0, len(rs))))})
-                entry[f"{kind}_{label}_share"] = sh["share"]
+                sh = share_over_tables(labels, set(NAMED) if label == "any" else label)
+                entry[f"{kind}_{label}_share"] = sh["mean"]
                 entry[f"{kind}_{label}_low"] = sh["low"]
                 entry[f"{kind}_{label}_high"] = sh["high"]
+        entry.update(gait_measures(tables))
         out.append(entry)
+    return out
+
+
+def gait_measures(tables: Sequence[Sequence[Mapping[str, Any]]]) -> dict[str, Any]:
+    """What a reader needs to weigh a trot gait share (runs grouped by table): the locking the
+    label thresholds (``gait_locking_mean``, over tables), the trot share at other thresholds
+    (``gait_trot_share_at_<x>``, 0: the footfall phases alone) and whether the tables differ
+    in their trot share (``gait_trot_tables_differ_chi2`` and ``_p``)."""
+    locks = []
+    for t in tables:
+        v = [float(r.get("gait_locking", math.nan)) for r in t]
+        v = [x for x in v if np.isfinite(x)]
+        locks.append(float(np.mean(v)) if v else math.nan)
+    out: dict[str, Any] = {"gait_locking_mean": over_tables(locks)["mean"]}
+    for x in (0.0, *THRESHOLDS):
+        labels = [[gait_at(r, x) for r in t] for t in tables]
+        out[f"gait_trot_share_at_{x:g}"] = share_over_tables(labels, "trot")["mean"]
+    differ = tables_differ([[r["gait"] for r in t] for t in tables], "trot")
+    out["gait_trot_tables_differ_chi2"] = differ["chi2"]
+    out["gait_trot_tables_differ_p"] = differ["p"]
     return out
 
 
@@ -498,15 +534,32 @@ def _csv(rows: list[Mapping[str, Any]], columns: tuple[str, ...]) -> str:
 
 
 def format_summary(summary: list[Mapping[str, Any]]) -> list[str]:
-    """One line per condition x point x world."""
+    """One line per condition x point x world, then what the trot gait share rests on: each
+    figure is the mean over trained tables (each table's runs first) with its 95% interval over
+    tables, n given as tables x runs."""
     lines = []
     for s in summary:
         where = f"{s['condition']}{' ' + s['point'] if s['point'] else ''}"
-        lines.append(f"{where:<28} {s['world']:<16} distance {s['distance_m_mean']:+.2f} "
-                     f"+- {s['distance_m_std']:.2f} m, speed {s['mean_speed_m_per_s_mean']:+.3f} "
-                     f"m/s, falls {s['fell_mean']:.0%}, gait (footfalls) trot "
-                     f"{s['gait_trot_share']:.0%} ({s['gait_trot_low']:.0%}-"
-                     f"{s['gait_trot_high']:.0%}), rhythm (thigh bursts) trot "
-                     f"{s['rhythm_trot_share']:.0%} ({s['rhythm_trot_low']:.0%}-"
-                     f"{s['rhythm_trot_high']:.0%}) (n = {s['n']} runs; 95% Wilson intervals)")
+
+        def iv(kind: str, fmt: str = ".0%") -> str:
+            return interval_words({"mean": s[f"{kind}_share"] if f"{kind}_share" in s
+                                   else s[f"{kind}_mean"], "low": s[f"{kind}_low"],
+                                   "high": s[f"{kind}_high"], "n_tables": s["n_tables"]}, fmt)
+
+        thresholds = ", ".join(f"{s[f'gait_trot_share_at_{x:g}']:.0%} at {x:g}"
+                               for x in THRESHOLDS)
+        differ = s["gait_trot_tables_differ_p"]
+        lines.append(
+            f"{where:<28} {s['world']:<16} distance {s['distance_m_mean']:+.2f} "
+            f"+- {s['distance_m_std']:.2f} m, speed {iv('mean_speed_m_per_s', '+.3f')} m/s, "
+            f"falls {iv('fell')}, gait (footfalls) trot {iv('gait_trot')}, rhythm (thigh "
+            f"bursts) trot {iv('rhythm_trot')} (n = {s['n_tables']} table"
+            f"{'s' if s['n_tables'] != 1 else ''} x {s['n_runs'] // max(s['n_tables'], 1)} "
+            f"runs; 95% intervals over tables)")
+        lines.append(
+            f"{'':<28} {'':<16} gait locking (the smallest foot's; the label needs 0.7) "
+            f"{s['gait_locking_mean']:.2f}; trot gait share by locking threshold: "
+            f"{thresholds}; footfall phases alone {s['gait_trot_share_at_0']:.0%}; do the tables "
+            + (f"differ in their trot share? permutation p = {differ:.2g}"
+               if np.isfinite(differ) else "differ? one table only"))
     return lines

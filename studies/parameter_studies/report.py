@@ -38,7 +38,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...reading import check_regular, read_json
-from ..analysis.compare import N_BOOT, N_PERM, SEED, p_text
+from ..analysis.compare import N_BOOT, N_PERM, SEED, p_text, reading_words
 from ..analysis.final_figures import (CURVES, MEASURES, WEIGHT_MEASURES, Measure, across_seeds,
                                       condition_tests, seed_finals, session_curve)
 from ..analysis.gait import weight_structure
@@ -222,7 +222,8 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     tests = condition_tests(swept, [c for c, _ in groups], per_seed, measures,
                              skip={(d["condition"], tuple(str(d.get(k, "")) for k in swept))
                                    for d in diverged},
-                             paired=bool(index.get("paired", False)))
+                             paired=bool(index.get("paired", False)),
+                             margins=dict(index.get("margins") or {}))
 
     files, described, text = _write_files(
         dest, name, figures, shows, rows, tests, per_seed, study_sessions, last=last,
@@ -264,7 +265,11 @@ def _write_files(dest: Path, name: str, figures: dict[str, Any], shows: dict[str
                             "difference with its 95% bootstrap interval (difference_low, "
                             "difference_high), permutation p (perm_p, perm_exact, perm_p_min, "
                             "perm_bound; perm_p_holm), Mann-Whitney U and p (mwu_p_holm), "
-                            "Welch's t and p, Hedges' g, rank-biserial correlation, paired")
+                            "Welch's t and p, Hedges' g, rank-biserial correlation, paired; "
+                            "detectable: the smallest difference the test could detect (80% "
+                            "power, alpha 0.05); margin, tost_p, tost_low, tost_high, "
+                            "equivalent: the equivalence test of the study file's [margins]; "
+                            "reading: what the numbers support, in words")
     described["report.md"] = ("this page: the final figures, the tests between conditions, "
                               "the files written")
     text = _markdown(name, rows, tests, per_seed, study_sessions, last, swept, measures,
@@ -367,7 +372,13 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                   "sizes: Hedges' g (difference over the pooled sample std, small-sample "
                   "corrected)" + ("" if paired else " and the rank-biserial correlation of U "
                   "(+1: every seed of the first condition above every seed of the second)")
-                  + ". With fewer than 2 seeds on a side no test is made (n too small).", ""]
+                  + ". With fewer than 2 seeds on a side no test is made (n too small). "
+                  "A difference not shown is no evidence of sameness (and Holm's adjustment "
+                  "only makes a difference harder to show): the last column gives the "
+                  "smallest difference the test could detect (80% power, two-sided alpha "
+                  "0.05, from the seeds' own spread), or, where the study file declares a "
+                  "margin for the figure ([margins]), its equivalence test (two one-sided "
+                  "t-tests, TOST).", ""]
         for key, chunk in itertools.groupby(
                 tests, key=lambda t: (tuple(t.get(k) for k in swept), t["condition_a"],
                                       t["condition_b"])):
@@ -378,16 +389,17 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                       f"| final figure | {a} | {b} | difference [95% interval] | "
                       f"permutation p (Holm) | "
                       + ("" if paired else "Mann-Whitney U, p (Holm) | ")
-                      + "Hedges' g |" + ("" if paired else " rank-biserial |"),
+                      + "Hedges' g |" + ("" if paired else " rank-biserial |")
+                      + " reading |",
                       "|---|---|---|---|---|" + ("" if paired else "---|") + "---|"
-                      + ("" if paired else "---|")]
+                      + ("" if paired else "---|") + "---|"]
             for t in chunk:
                 m = next(x for x in measures if x.key == t["measure"])
                 fmt = FORMATS[m.key]
                 head = (f"| {m.label} | {format(t['mean_a'], fmt)} (n={t['n_a']}) | "
                         f"{format(t['mean_b'], fmt)} (n={t['n_b']}) | "
                         f"{format(t['difference'], '+' + fmt)}")
-                cells = 3 if paired else 5
+                cells = 4 if paired else 6
                 if t["note"] == "n too small":
                     lines.append(head + " |" + " n too small |" * cells)
                     continue
@@ -397,12 +409,13 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                         f"{' exact' if t['perm_exact'] else ''} "
                         f"({p_text(t['perm_p_holm'], t['perm_p_holm'], t['perm_bound'])})")
                 g = "undefined (no spread)" if t["hedges_g"] is None else f"{t['hedges_g']:.3g}"
+                reading = reading_words(t, fmt.lstrip("+"))
                 if paired:
-                    lines.append(head + f"{perm} | {g} |")
+                    lines.append(head + f"{perm} | {g} | {reading} |")
                 else:
                     lines.append(head + f"{perm} | {t['mwu_U']:.3g}, {p_text(t['mwu_p'])} "
                                         f"({p_text(t['mwu_p_holm'])}) | {g} | "
-                                        f"{t['rank_biserial']:+.3g} |")
+                                        f"{t['rank_biserial']:+.3g} | {reading} |")
             lines.append("")
         lines.append(f"The same in {TESTS}.")
     lines += ["", "## Files", ""]
