@@ -17,8 +17,9 @@ makes a difference harder to show. So every comparison also gives the smallest d
 test could detect (:func:`detectable_difference`: 80 % power, two-sided alpha 0.05, from the
 data's own spread), and, where a margin was declared before the data (a study file's
 ``[margins]``), the equivalence test of that margin (:func:`tost`: two one-sided t-tests);
-:func:`reading_words` says which of "differs", "equivalent within the margin" and "not shown
-to differ; the smallest difference this study could detect is X" the numbers support.
+:func:`reading_words` says which of "its 95% interval excludes 0", "equivalent within the
+margin" and "not shown to differ; the smallest difference this study could detect is X" the
+numbers support.
 """
 
 from __future__ import annotations
@@ -204,8 +205,8 @@ def tost(a: Sequence[float], b: Sequence[float], margin: float, *, paired: bool 
 
 
 def reading_words(t: dict[str, Any], fmt: str = ".3g") -> str:
-    """What a comparison (:func:`compare`) supports, in words: ``differs (its interval excludes
-    0)``; ``equivalent within +-m (TOST p = ...)`` where a margin was declared and its test
+    """What a comparison (:func:`compare`) supports, in words: ``its 95% interval excludes 0``
+    (a difference, before any adjustment for the family of tests); ``equivalent within +-m (TOST p = ...)`` where a margin was declared and its test
     passed; else ``not shown to differ; the smallest difference this study could detect (80 %
     power, alpha 0.05) is X`` (and, with a margin, that the equivalence was not shown either).
     Never "the same"."""
@@ -216,7 +217,7 @@ def reading_words(t: dict[str, Any], fmt: str = ".3g") -> str:
         return (f"equivalent within ±{format(margin, fmt)} (TOST p = "
                 f"{p_text(t['tost_p'])})")
     if t["difference_low"] > 0 or t["difference_high"] < 0:
-        return "differs (its 95% interval excludes 0)"
+        return "its 95% interval excludes 0"
     mdd = t.get("detectable")
     words = ("not shown to differ; the smallest difference this study could detect (80% "
              "power, alpha 0.05) is " + (format(mdd, fmt) if mdd is not None

@@ -87,8 +87,39 @@ def leg_phases(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: in
 
 def phase_label(phases: dict[str, float], locking: dict[str, float], *, tolerance: float = 0.15,
                 min_locking: float = 0.7) -> str:
-    """trot, pace, bound, walk or none from the phases of the legs relative to FR (0..1) and
-    their locking: the one classifier of the rhythm and of the gait."""
+    """The one classifier of the rhythm and of the gait: a label from the legs' phases.
+
+    Parameters
+    ----------
+    phases : dict
+        Each leg's phase relative to FR, 0..1 (``{"FR": 0, "FL": ..., "RR": ..., "RL": ...}``):
+        thigh-extensor burst onsets (the rhythm) or stance phases (the gait).
+    locking : dict
+        Each leg's locking, 0..1: the resultant length of its phases over the cycles (1: the
+        same phase in every cycle).
+    tolerance : float
+        How far (a share of a cycle) a phase may be from the pattern's (default 0.15).
+    min_locking : float
+        The locking every leg needs for any label (default 0.7); below it: ``none``.
+
+    Returns
+    -------
+    str
+        ``trot`` (FR-RL and FL-RR in phase, the pairs in anti-phase), ``pace`` (FR-RR and
+        FL-RL), ``bound`` (FR-FL and RR-RL), ``walk`` (four distinct quarter phases) or
+        ``none``.
+
+    Examples
+    --------
+    >>> from astrocpg.studies.analysis.gait import phase_label
+    >>> trot = {"FR": 0.0, "FL": 0.5, "RR": 0.5, "RL": 0.0}
+    >>> phase_label(trot, {leg: 0.9 for leg in trot})
+    'trot'
+    >>> phase_label(trot, {leg: 0.65 for leg in trot})   # the same phases, loosely locked
+    'none'
+    >>> phase_label(trot, {leg: 0.65 for leg in trot}, min_locking=0.6)
+    'trot'
+    """
     if any(not np.isfinite(phases[leg]) or locking[leg] < min_locking for leg in LEGS):
         return "none"
     p = phases
@@ -243,9 +274,23 @@ itself uses 0.7): a reader sees how much of the share the threshold sets."""
 
 
 def gait_at(row: dict[str, Any], min_locking: float) -> str:
-    """The gait label a run (a row of :func:`footfall_gait`) would get at another locking
-    threshold ``min_locking`` (0: the footfall phases alone, however loosely they lock);
-    ``none`` where the run was not read that far (it fell, too few steps, no rhythm)."""
+    """The gait label a run would get at another locking threshold.
+
+    Parameters
+    ----------
+    row : dict
+        A run's gait measures (:func:`footfall_gait`, a row of ``evaluation.csv`` as read
+        from the file too): ``gait_phase_<leg>``, ``gait_locking_<leg>``, ``gait_locking``.
+    min_locking : float
+        The threshold; 0: the footfall phases alone, however loosely they lock.
+
+    Returns
+    -------
+    str
+        The label (:func:`phase_label`); ``none`` where the run was not read that far (it
+        fell, too few steps, no rhythm) or was written before the locking of FR's foot was
+        kept (no ``gait_locking`` column).
+    """
     def num(key: str) -> float:
         try:
             return float(row.get(key, math.nan))  # a CSV row's text too

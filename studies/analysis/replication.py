@@ -24,6 +24,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from .gait import THRESHOLDS, gait_at
 from .share import wilson_interval
 
 N_PERM = 10000
@@ -124,6 +125,26 @@ def tables_differ(labels: Sequence[Sequence[str]], label: str, *, n_perm: int = 
     return out
 
 
+def gait_measures(tables: Sequence[Sequence[Mapping[str, Any]]]) -> dict[str, Any]:
+    """What a reader needs to weigh a trot gait share (runs grouped by table): the locking the
+    label thresholds (``gait_locking_mean``, over tables), the trot share at other thresholds
+    (``gait_trot_share_at_<x>``, 0: the footfall phases alone) and whether the tables differ
+    in their trot share (``gait_trot_tables_differ_chi2`` and ``_p``)."""
+    locks = []
+    for t in tables:
+        v = [float(r.get("gait_locking", math.nan)) for r in t]
+        v = [x for x in v if np.isfinite(x)]
+        locks.append(float(np.mean(v)) if v else math.nan)
+    out: dict[str, Any] = {"gait_locking_mean": over_tables(locks)["mean"]}
+    for x in (0.0, *THRESHOLDS):
+        labels = [[gait_at(r, x) for r in t] for t in tables]
+        out[f"gait_trot_share_at_{x:g}"] = share_over_tables(labels, "trot")["mean"]
+    differ = tables_differ([[r["gait"] for r in t] for t in tables], "trot")
+    out["gait_trot_tables_differ_chi2"] = differ["chi2"]
+    out["gait_trot_tables_differ_p"] = differ["p"]
+    return out
+
+
 def interval_words(s: Mapping[str, Any], fmt: str = ".0%") -> str:
     """``40% (12%-68%)``: a mean over tables and its interval (or ``40% (one table)``)."""
     if not np.isfinite(s["low"]):
@@ -132,5 +153,5 @@ def interval_words(s: Mapping[str, Any], fmt: str = ".0%") -> str:
     return f"{format(s['mean'], fmt)} ({format(s['low'], fmt)}-{format(s['high'], fmt)})"
 
 
-__all__ = ["group_by_table", "over_tables", "share_over_tables", "tables_differ",
+__all__ = ["group_by_table", "over_tables", "share_over_tables", "tables_differ", "gait_measures",
            "interval_words", "N_PERM", "SEED"]
