@@ -110,3 +110,21 @@ def test_summary_gives_the_measure_the_label_thresholds() -> None:
     assert s["gait_trot_share_at_0.8"] == 0.0 and s["gait_trot_share_at_0"] == 1.0
     lines = format_summary([s])
     assert "gait locking" in lines[1] and "100% at 0.6" in lines[1]
+
+
+def test_tables_that_trot_are_tested_before_they_are_counted() -> None:
+    """The robustness evaluation's flat world: 17 of 20 tables trot in at least one run, but
+    the spread over tables is what one common share gives (the old output counted tables
+    that trot, with no test)."""
+    import importlib.util
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("analyse", root / "docs/beyond/analyse.py")
+    analyse = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(analyse)
+    text = analyse.controllers(str(root / "docs/beyond/robustness/evaluation.csv"), "flat",
+                               "astrocytes")
+    assert "17 controllers trot in at least one run" in text
+    p = float(text.split("permutation p = ")[1].split(";")[0])
+    assert p > 0.05

@@ -647,6 +647,8 @@ def controllers(path: str, world: str, condition: str, source: str | None = None
     condition holds several."""
     from collections import Counter
 
+    from astrocpg.studies.analysis.replication import tables_differ
+
     with open(path, newline="") as f:
         rows = [r for r in csv.DictReader(f)
                 if r["world"] == world and r["condition"] == condition
@@ -660,13 +662,18 @@ def controllers(path: str, world: str, condition: str, source: str | None = None
     for r in rows:
         per.setdefault(f'{r["source"]}:{r["seed"]}', []).append(r["gait"] == "trot")
     shares = sorted(sum(v) / len(v) for v in per.values())
+    differ = tables_differ([["trot" if x else "none" for x in v] for v in per.values()],
+                           "trot")["p"]
     upright = [r for r in rows if r["fell"] == "0"]
     reasons = Counter((r["gait_reason"] or r["gait"]).split(" at ")[0] for r in rows)
     return (f"{condition}, {world}: {len(rows)} runs of {len(per)} controllers; trot gait in "
             f"{sum(r['gait'] == 'trot' for r in rows)} runs ({sum(r['gait'] == 'trot' for r in upright)}"
             f" of the {len(upright)} upright); per controller the share of its runs is "
             f"{shares[0]:.1f} to {shares[-1]:.1f}: {sum(x > 0 for x in shares)} controllers trot "
-            f"in at least one run, {sum(x > 0.5 for x in shares)} in most; gait or reason for "
+            f"in at least one run, {sum(x > 0.5 for x in shares)} in most (do the controllers "
+            f"differ in their trot share? permutation p = "
+            f"{'–' if not np.isfinite(differ) else f'{differ:.2g}'}; a large p: the spread is "
+            f"what one common share gives); gait or reason for "
             f"none: " + ", ".join(f"{k} {v}" for k, v in reasons.most_common()) + "\n")
 
 
@@ -705,6 +712,7 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
     with a trot gait and with any other gait, with Wilson 95 % intervals. Described only."""
     from collections import defaultdict
 
+    from astrocpg.studies.analysis.replication import tables_differ
     from astrocpg.studies.analysis.share import wilson_interval
 
     rows = _evaluation_rows(evaluation, world)
@@ -749,14 +757,22 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
                 _cell_words(cells[(y, x)][measure], cells[(y, x)][f"{measure}_runs"])
                 if (y, x) in cells else "–" for x in xs) + " |")
     lines += ["", "**Per point**: mean over seeds (lowest – highest seed); each seed's runs "
-              "averaged first", "", f"| {ya} ({unit}) | {xa} | seeds | speed (m/s) | falls "
+              "averaged first; the last column: do the seeds differ from each other in their "
+              "share of trot gait runs (permutation test of the chi-square statistic, the "
+              "runs' labels shuffled between seeds; a large p: the spread over seeds is what "
+              "one common share gives, so the runs do not show which seeds trot)", "",
+              f"| {ya} ({unit}) | {xa} | seeds | speed (m/s) | falls "
               "(share of runs) | mixed limb pairs (of 12) | weights above 0.9 w_max | "
-              "weights below 0.9 w_min |", "|---|---|---|---|---|---|---|---|"]
+              "weights below 0.9 w_min | seeds differ in trot gait: p |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for (y, x), c in sorted(cells.items()):
         vals = " | ".join(f"{np.mean(c[k]):.2f} ({min(c[k]):.2f} – {max(c[k]):.2f})"
                           for k in ("speed", "falls", "mixed_limb_pairs",
                                     "share_above_0.9_w_max", "share_below_0.9_w_min"))
-        lines.append(f"| {y:g} | {x:g} | {len(c['seeds'])} | {vals} |")
+        differ = tables_differ([[r["gait"] for r in by_run[c["run"]][s]] for s in c["seeds"]],
+                               "trot")["p"]
+        lines.append(f"| {y:g} | {x:g} | {len(c['seeds'])} | {vals} | "
+                     f"{'–' if not np.isfinite(differ) else f'{differ:.2g}'} |")
     lines += ["", f"**Per {ya}** (all {xa} values pooled): seeds with a gait, Wilson 95 % "
               "interval over seeds", "", f"| {ya} ({unit}) | seeds | trot gait | other gait "
               "(pace, bound, walk) | trot rhythm | other rhythm |", "|---|---|---|---|---|---|"]
