@@ -274,7 +274,9 @@ def test_the_numbers_of_the_text_come_from_the_data(tmp_path: Path) -> None:
                                   value)
     text = report(folder)["text"]
     # final x per condition: mean of 2.01, 2.02, 2.03 and of 1.01, 1.02, 1.03
-    assert "| astrocytes | 3 | 2/2 | 7 | 7 | 0.404 ± 0.002 | 2.02 ± 0.01 |" in text
+    # with its 95% t interval over the 3 seeds (the seed is the unit, not its sessions)
+    assert ("| astrocytes | 3 | 2/2 | 7 | 7 | 0.404 ± 0.002 [0.399, 0.409] | "
+            "2.02 ± 0.01 [2.00, 2.04] |") in text
     assert "| 2.02 (n=3) | 1.02 (n=3) | +1.00 [" in text
     assert "trains 7 sessions per seed; 7 of them are done" in text
     # the ablation's second run stopped after 3 sessions and is still running

@@ -101,14 +101,20 @@ def seed_finals(condition: str, point: tuple[str, ...], series: dict[int, Any],
 
 def across_seeds(seeds: list[dict[str, Any]]) -> dict[str, Any]:
     """A group's final figures across its seeds (rows of :func:`seed_finals`): ``<key>_mean``
-    and ``<key>_std`` (ddof=0, as in the curves of Fig. 3c) of each measure some seed has, and
+    and ``<key>_std`` (ddof=0, as in the curves of Fig. 3c) of each measure some seed has,
+    ``<key>_low`` and ``<key>_high``: its 95% interval over seeds (the seed is the unit of
+    replication; :func:`~astrocpg.studies.analysis.replication.over_tables`), and
     ``limb_pairs`` (the number of limb pairs) where the weights were read."""
+    from .replication import over_tables
+
     out: dict[str, Any] = {}
     for m in MEASURES + WEIGHT_MEASURES:
         vals = [o[m.key] for o in seeds if m.key in o]
         if vals:
             out[f"{m.key}_mean"], out[f"{m.key}_std"] = (float(np.mean(vals)),
                                                          float(np.std(vals)))
+            s = over_tables(vals, share=m.unit == "fraction")
+            out[f"{m.key}_low"], out[f"{m.key}_high"] = s["low"], s["high"]
     limb_pairs = {o["limb_pairs"] for o in seeds if "limb_pairs" in o}
     if limb_pairs:
         out["limb_pairs"] = limb_pairs.pop()

@@ -297,7 +297,11 @@ def _cell(v: Any) -> str:
 def _pm(row: dict[str, Any], key: str, fmt: str) -> str:
     if key + "_mean" not in row:
         return "n/a"
-    return f"{format(row[key + '_mean'], fmt)} ± {format(row[key + '_std'], fmt)}"
+    text = f"{format(row[key + '_mean'], fmt)} ± {format(row[key + '_std'], fmt)}"
+    low, high = row.get(key + "_low"), row.get(key + "_high")
+    if low is not None and np.isfinite(low):
+        text += f" [{format(low, fmt)}, {format(high, fmt)}]"
+    return text
 
 
 def _span(low: int, high: int) -> str:
@@ -327,7 +331,8 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
     lines = [f"# Study {name}: final figures", "",
              f"The study trains {planned} sessions per seed; "
              f"{_span(min(trained), max(trained))} of them are done. Per seed, the final "
-             f"figures are the mean over {window}; then mean ± std (ddof=0) across seeds. "
+             f"figures are the mean over {window}; then mean ± std (ddof=0) across seeds "
+             f"[95% t interval over seeds: the seed is the unit, not its sessions]. "
              f"Full-length: share of those sessions that reached L_max.", "",
              "| group | seeds | runs finished | sessions | last sessions | forward speed (m/s) | "
              "final x (m) | session length (s) | mean reward | full-length | "
@@ -377,8 +382,8 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                   "only makes a difference harder to show): the last column gives the "
                   "smallest difference the test could detect (80% power, two-sided alpha "
                   "0.05, from the seeds' own spread), or, where the study file declares a "
-                  "margin for the figure ([margins]), its equivalence test (two one-sided "
-                  "t-tests, TOST).", ""]
+                  "margin for the figure ([margins]), its equivalence test (TOST: two one-sided "
+                  "tests on Student's t).", ""]
         for key, chunk in itertools.groupby(
                 tests, key=lambda t: (tuple(t.get(k) for k in swept), t["condition_a"],
                                       t["condition_b"])):
