@@ -162,3 +162,22 @@ def test_evaluate_a_run_folder_with_a_variant_and_a_baseline(tmp_path, capsys) -
                  "0.3", "--out", str(tmp_path / "ev2"), "--baseline", "icy",
                  "--no-progress"]) == 2
     assert "--baseline icy" in capsys.readouterr().err
+
+
+def test_falls_in_a_world_are_read_relative_to_flat_ground() -> None:
+    """The robustness evaluation (committed): on 2 cm rough ground the controllers with
+    astrocytes fall less often than those without (the raw reading, "fall less in every
+    world"), but relative to flat ground, seed by seed, the rough ground adds more falls to
+    them than to the controllers without."""
+    import csv
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "docs/beyond/robustness/evaluation.csv"
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["world"] in ("flat", "rough_2cm")]
+    effects = baseline_effects(rows, "flat")
+    by = {(e["condition"], e["measure"]): e for e in effects}
+    falls = "falls (share of runs)"
+    assert by[("astrocytes", falls)]["in_world"] < by[("no_astrocytes", falls)]["in_world"]
+    did = by[("astrocytes - no_astrocytes", falls)]
+    assert did["n_tables"] == 20 and did["effect"] > 0 and did["effect_low"] > 0

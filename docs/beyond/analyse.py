@@ -32,6 +32,7 @@
         docs/variants/delays/gait_interlimb-synapse.csv --column final_speed_m_per_s
 
     # astrocpg evaluate's runs, controller by controller, with 95 % confidence intervals
+    # (--baseline flat: each world's effect relative to flat ground, and between conditions)
     python docs/beyond/analyse.py worlds docs/beyond/robustness/evaluation.csv
 
     # one condition's runs in one world, controller by controller (trot gait shares, reasons)
@@ -325,7 +326,7 @@ def _bootstrap_mean(x: np.ndarray, rng: np.random.Generator) -> tuple[float, flo
     return float(x.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
 
-def worlds(path: str) -> str:
+def worlds(path: str, baseline: str | None = None) -> str:
     """astrocpg evaluate's runs, controller by controller: per condition and world, the mean over
     controllers (each controller's repeats averaged first) of falls, speed, and the share of
     runs with a trot rhythm and (evaluations that read it) a trot gait, with 95 % bootstrap
@@ -396,7 +397,32 @@ def worlds(path: str) -> str:
                               p_text(t["mwu_p"]), p_text(adj)]
             lines.append(f"| {w} | " + " | ".join(cells) + " |")
         lines.append("")
+    if baseline is not None:
+        lines += _baseline_table(rows, baseline)
     return "\n".join(lines)
+
+
+def _baseline_table(rows: list[dict[str, str]], baseline: str) -> list[str]:
+    """Each world's effect relative to ``baseline`` (astrocpg evaluate --baseline's
+    baseline.csv, from the rows): per condition the mean over controllers of world minus
+    baseline, and between two conditions the difference of those effects, paired by seed."""
+    from astrocpg.studies.commands.evaluate import baseline_effects
+
+    if not any(r["world"] == baseline for r in rows):
+        sys.exit(f"analyse.py: no runs in the baseline world {baseline!r}")
+    lines = [f"**Relative to {baseline}** (per controller its figure in the world minus in "
+             f"{baseline}, each over its repeats; then the mean over controllers [95 % t "
+             "interval over controllers]; a pair of conditions: the difference of their "
+             "effects, paired by seed [95 % bootstrap interval], sign-flip p and what it "
+             "supports)", "", "| world | condition | measure | effect [95 % interval] | p | "
+             "reading |", "|---|---|---|---|---|---|"]
+    for e in baseline_effects(rows, baseline):
+        iv = (f" [{e['effect_low']:+.3f}, {e['effect_high']:+.3f}]"
+              if e["effect_low"] is not None and np.isfinite(e["effect_low"]) else "")
+        p = f"{e['p']:.2g}" if e["p"] is not None and np.isfinite(e["p"]) else "–"
+        lines.append(f"| {e['world']} | {e['condition']} | {e['measure']} | "
+                     f"{e['effect']:+.3f}{iv} | {p} | {e['reading'] or '–'} |")
+    return lines + [""]
 
 
 AGAINST = (("trot gait (share of runs)", "gait"), ("trot rhythm (share of runs)", "rhythm"),
@@ -906,6 +932,9 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--out", type=Path, required=True)
     w = sub.add_parser("worlds")
     w.add_argument("evaluation")
+    w.add_argument("--baseline", metavar="WORLD",
+                   help="also each world's effect relative to WORLD (e.g. flat), per condition "
+                        "and between two conditions, paired by seed")
     v = sub.add_parser("versus")
     v.add_argument("ref")
     v.add_argument("results")
@@ -974,7 +1003,7 @@ def main(argv: list[str] | None = None) -> int:
             w.writerows(rows)
         print(f"wrote {args.out} ({len(rows)} rows)")
     elif args.what == "worlds":
-        sys.stdout.write(worlds(args.evaluation))
+        sys.stdout.write(worlds(args.evaluation, args.baseline))
     elif args.what == "versus":
         sys.stdout.write(versus(args.ref, args.results, args.sessions, args.last, args.seeds))
     elif args.what == "columns":
