@@ -209,7 +209,7 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
             "sessions_max": max(len(s) for s in series.values()),
             "last_sessions_min": min(o["last_sessions"] for o in seeds_here),
             "last_sessions_max": max(o["last_sessions"] for o in seeds_here),
-            **across_seeds(seeds_here),
+            **across_seeds(seeds_here), **final_gaits(members),
         })
     figures: dict[str, Any] = {"fig3c.png": fig3c(name, curves, smooth)}
     shows = {"fig3c.png": "mean reward, final x (m) and session length (s) per session, "
@@ -277,6 +277,74 @@ def _write_files(dest: Path, name: str, figures: dict[str, Any], shows: dict[str
     atomic_write(dest / "report.md", lambda f: f.write(text.encode()))
     files.append(dest / "report.md")
     return files, described, text
+
+
+def final_gaits(members: list[dict[str, Any]]) -> dict[str, Any]:
+    """A group's final gaits (each seed's final table, one run with learning off: the runs'
+    ``gait.csv``), one run per seed, so the seed is the unit: ``final_seeds`` (seeds with a
+    final run), ``final_trot_gait_k`` and its share with the Wilson 95% interval over seeds
+    (``_share``, ``_low``, ``_high``), ``final_gait_locking_mean`` (the measure the label
+    thresholds, over the seeds read that far), ``final_trot_gait_at_<x>`` (the share at other
+    locking thresholds; 0: the footfall phases alone) and ``final_trot_rhythm_share``. Empty
+    where no run has a ``gait.csv``."""
+    from ..analysis.gait import THRESHOLDS, gait_at
+    from ..analysis.share import wilson_interval
+
+    seeds = []
+    for m in members:
+        g = m.get("gaits")
+        if g is None or "final_gait" not in g:
+            continue
+        for row in g.to_dict("records"):
+            seeds.append({k[len("final_"):]: v for k, v in row.items()
+                          if str(k).startswith("final_")})
+    if not seeds:
+        return {}
+    n = len(seeds)
+    k = sum(s["gait"] == "trot" for s in seeds)
+    low, high = wilson_interval(k, n)
+    locks = [float(s.get("gait_locking", np.nan)) for s in seeds]
+    locks = [x for x in locks if np.isfinite(x)]
+    out: dict[str, Any] = {"final_seeds": n, "final_trot_gait_k": k,
+                           "final_trot_gait_share": k / n, "final_trot_gait_low": low,
+                           "final_trot_gait_high": high,
+                           "final_gait_locking_mean": float(np.mean(locks)) if locks
+                           else float("nan")}
+    for x in (0.0, *THRESHOLDS):
+        out[f"final_trot_gait_at_{x:g}"] = sum(gait_at(s, x) == "trot" for s in seeds) / n
+    if "rhythm" in seeds[0]:
+        out["final_trot_rhythm_share"] = sum(s["rhythm"] == "trot" for s in seeds) / n
+    return out
+
+
+def _gait_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """report.md's final gaits: a line per group that has them."""
+    from ..analysis.gait import THRESHOLDS
+
+    have = [r for r in rows if r.get("final_seeds")]
+    if not have:
+        return []
+    lines = ["", "## Final gaits", "",
+             "Each seed's final table run once with learning off (the study's final runs, "
+             "`gait.csv`): one run per seed, so the seed is the unit and the interval is "
+             "Wilson's over seeds. The trot gait label needs every foot's locking at 0.7 or "
+             "more; the locking (the smallest foot's, mean over the seeds read that far) and "
+             "the trot share at other thresholds (0: the footfall phases alone) say how much "
+             "of the share the threshold sets.", "",
+             "| group | seeds | trot gait [95% interval] | locking | trot gait at "
+             + " / ".join(f"{x:g}" for x in (0.0, *THRESHOLDS)) + " | trot rhythm |",
+             "|---|---|---|---|---|---|"]
+    for r in have:
+        lock = r["final_gait_locking_mean"]
+        rhythm = r.get("final_trot_rhythm_share")
+        lines.append(
+            f"| {r['group']} | {r['final_seeds']} | {r['final_trot_gait_k']} "
+            f"({r['final_trot_gait_share']:.0%}) [{r['final_trot_gait_low']:.0%}, "
+            f"{r['final_trot_gait_high']:.0%}] | "
+            f"{'n/a' if not np.isfinite(lock) else f'{lock:.2f}'} | "
+            + " / ".join(f"{r[f'final_trot_gait_at_{x:g}']:.0%}" for x in (0.0, *THRESHOLDS))
+            + f" | {'n/a' if rhythm is None else f'{rhythm:.0%}'} |")
+    return lines
 
 
 def _csv(rows: list[dict[str, Any]]) -> str:
@@ -356,6 +424,7 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                       f"the curves, the sweep figures or the tests): "
                   + "; ".join(f"{d['group']} (runs diverged {d['runs_diverged']}: {d['error']})"
                               for d in diverged) + "."]
+    lines += _gait_lines(rows)
     if tests:
         paired = bool(tests[0].get("paired"))
         lines += ["", "## Conditions compared", "",
