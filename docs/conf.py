@@ -40,6 +40,7 @@ extensions = [
     "myst_nb",
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
+    "sphinx.ext.napoleon",      # the numpydoc sections (Parameters, Returns...) of some docstrings
     "sphinx.ext.mathjax",
     "sphinx-mathjax-offline",   # MathJax 3 copied into _static/mathjax: equations need no network
     "sphinx_copybutton",
@@ -99,6 +100,13 @@ os.environ["JUPYTER_PATH"] = os.pathsep.join(
 autosummary_generate = False          # the pages hold the autodoc directives themselves
 autodoc_typehints = "none"            # signatures stay readable; docstrings say the types
 autodoc_member_order = "bysource"
+# only numpydoc's underlined sections are read (the other docstrings are plain text); types stay
+# text, not cross-references to builtins this offline build cannot resolve
+napoleon_google_docstring = False
+napoleon_numpy_docstring = True
+napoleon_use_param = False
+napoleon_use_rtype = False
+napoleon_use_ivar = True
 
 nitpicky = True
 # Names of other libraries (no intersphinx: the build must not need the network).

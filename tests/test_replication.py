@@ -128,3 +128,13 @@ def test_tables_that_trot_are_tested_before_they_are_counted() -> None:
     assert "17 controllers trot in at least one run" in text
     p = float(text.split("permutation p = ")[1].split(";")[0])
     assert p > 0.05
+
+
+def test_world_bars_draw_intervals_over_tables() -> None:
+    from astrocpg.studies.figures.gait_map import world_bars
+
+    rows = _evaluation([5, 5, 0, 0]) + [{**r, "world": "rough"} for r in _evaluation([1, 2, 0, 0])]
+    fig = world_bars(summarise(rows))
+    speed_ax, fall_ax = fig.axes
+    assert "95% interval over tables" in speed_ax.get_title()
+    assert "(4 tables)" in speed_ax.get_legend().get_texts()[0].get_text()
