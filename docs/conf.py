@@ -40,7 +40,6 @@ extensions = [
     "myst_nb",
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
-    "sphinx.ext.napoleon",      # the numpydoc sections (Parameters, Returns...) of some docstrings
     "sphinx.ext.mathjax",
     "sphinx-mathjax-offline",   # MathJax 3 copied into _static/mathjax: equations need no network
     "sphinx_copybutton",
@@ -100,13 +99,6 @@ os.environ["JUPYTER_PATH"] = os.pathsep.join(
 autosummary_generate = False          # the pages hold the autodoc directives themselves
 autodoc_typehints = "none"            # signatures stay readable; docstrings say the types
 autodoc_member_order = "bysource"
-# only numpydoc's underlined sections are read (the other docstrings are plain text); types stay
-# text, not cross-references to builtins this offline build cannot resolve
-napoleon_google_docstring = False
-napoleon_numpy_docstring = True
-napoleon_use_param = False
-napoleon_use_rtype = False
-napoleon_use_ivar = True
 
 nitpicky = True
 # Names of other libraries (no intersphinx: the build must not need the network).
@@ -116,6 +108,21 @@ nitpick_ignore_regex = [
     (r"py:.*", r"(Path|Any|Mapping|Sequence|Iterable|Callable|NoReturn|Figure|Quantity"
                r"|Network|DataFrame|MjModel|MjData|ndarray)"),
 ]
+
+
+def _numpydoc(app, what, name, obj, options, lines):
+    """A docstring with numpydoc's underlined sections (Parameters, Returns, Raises, Examples)
+    as reST, by Sphinx's napoleon; only those (the others are plain text, read by
+    :func:`_plain_docstring`), their types as text, not cross-references to builtins this
+    offline build cannot resolve."""
+    if not any(re.fullmatch(r"\s*-{3,}\s*", line) for line in lines):
+        return
+    from sphinx.ext.napoleon import Config
+    from sphinx.ext.napoleon.docstring import NumpyDocstring
+
+    config = Config(napoleon_use_param=False, napoleon_use_rtype=False,
+                    napoleon_google_docstring=False)
+    lines[:] = NumpyDocstring(lines, config, app, what, name, obj, options).lines()
 
 
 def _plain_docstring(app, what, name, obj, options, lines):
@@ -162,4 +169,5 @@ nitpick_ignore = [("py:class", "Trainer"), ("py:class", "TrainingStopped"),
 
 def setup(app):
     app.config.mathjax_path = MATHJAX_PATH
+    app.connect("autodoc-process-docstring", _numpydoc)
     app.connect("autodoc-process-docstring", _plain_docstring)

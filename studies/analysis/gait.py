@@ -248,7 +248,7 @@ def footfall_gait(t: np.ndarray, alive: np.ndarray, foot_force: np.ndarray, t_st
 
 def trial_measures(times: np.ndarray, indices: np.ndarray, layout: Layout, recording: Any,
                    trial: int, t_start: float, t_stop: float) -> dict[str, Any]:
-    """Rhythm (:func:`trial_rhythm`, from the motor spikes ``times``, ``indices``) and gait
+    """Rhythm (``trial_rhythm``, from the motor spikes ``times``, ``indices``) and gait
     (:func:`footfall_gait`, from the robot ``recording``) of one trial over [t_start, t_stop):
     the columns every command and table of gaits carries."""
     g = leg_phases(times, indices, layout, trial, t_start, t_stop)

@@ -196,7 +196,7 @@ def rhythm_of(result: Result, trial: int = 0, start: float | None = None,
 
     Raises
     ------
-    InputError
+    ~astrocpg.errors.InputError
         The motor spikes were not recorded, or ``trial``, ``start`` or ``stop`` is out of
         range.
 
@@ -245,7 +245,7 @@ def gait_of(result: Result, trial: int = 0, start: float | None = None,
 
     Raises
     ------
-    InputError
+    ~astrocpg.errors.InputError
         The motor spikes or the robot were not recorded (a unit has no robot), or an argument
         is out of range.
 

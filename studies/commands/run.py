@@ -519,6 +519,9 @@ def controller_tables(folder: str | Path, session: int | None = None) -> np.ndar
         raise InputError("a run folder has no sessions: give a training folder",
                          culprit=f"--session {session}")
     verify(p, strict=False)  # its files are what its manifest lists
+    if training_settings(p).get("robot"):
+        raise InputError("ran a robot model of its own (--robot); its tables are replayed on "
+                         "the project's A1 only", culprit=str(folder))
     try:
         with np.load(p / "robot.npz", allow_pickle=False) as z:
             w = np.asarray(z["interlimb_weights_mV"], dtype=float) * 1e-3
