@@ -138,3 +138,9 @@ def test_world_bars_draw_intervals_over_tables() -> None:
     speed_ax, fall_ax = fig.axes
     assert "95% interval over tables" in speed_ax.get_title()
     assert "(4 tables)" in speed_ax.get_legend().get_texts()[0].get_text()
+
+
+def test_a_common_share_of_every_table_is_not_read_as_exact() -> None:
+    s = share_over_tables([["trot", "trot", "none", "none", "none"]] * 4, "trot")
+    assert s["mean"] == pytest.approx(0.4) and s["method"] == "wilson over tables"
+    assert s["low"] < 0.4 < s["high"]

@@ -8,8 +8,8 @@ runs, then the mean over tables with an interval over tables:
 * :func:`over_tables`: Student's t interval of the tables' values (n - 1 degrees of freedom;
   a share's interval kept within [0, 1]). Where the tables' values do not vary at all (every
   table 0 % or every table 100 %, where the t interval has no width) a share's interval is the
-  Wilson interval of the tables as n one-table trials instead, so that 0 of 4 tables is not
-  read as an exact 0. One table: no interval (nan).
+  Wilson interval of the tables as n one-table trials instead (the common share times n as
+  its count), so that 0 of 4 tables is not read as an exact 0. One table: no interval (nan).
 * :func:`tables_differ`: whether the tables differ from each other in a run-level label (e.g.
   trot), tested before anything speaks of "tables that trot": the chi-square statistic of the
   tables x (label, not) counts, its p by permutation of the runs' labels between the tables
@@ -58,14 +58,13 @@ def over_tables(values: Sequence[float], *, share: bool = False,
     if n < 2:
         return out
     sd = float(v.std(ddof=1))
-    if share and sd <= 1e-12:
+    if share and sd <= 1e-12:  # every table 0 %, every table 100 %, or one common share
         z = stats.norm.ppf(0.5 + level / 2)
-        p = out["mean"]
-        k = int(round(p * n))
-        if abs(k - p * n) < 1e-9:  # every table 0 %, every table 100 %, or one common share
-            out["low"], out["high"] = wilson_interval(k, n, z)
-            out["method"] = "wilson over tables"
-            return out
+        k = out["mean"] * n
+        out["low"], out["high"] = wilson_interval(k if abs(k - round(k)) > 1e-9
+                                                  else int(round(k)), n, z)
+        out["method"] = "wilson over tables"
+        return out
     half = stats.t.ppf(0.5 + level / 2, n - 1) * sd / math.sqrt(n)
     lo, hi = out["mean"] - half, out["mean"] + half
     if share:
