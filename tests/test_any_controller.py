@@ -89,7 +89,8 @@ def test_baseline_takes_the_flat_ground_difference_out() -> None:
     assert raw < 0  # the old way: astrocytes fall less
     did = by[("astrocytes - none", "rough", "falls (share of runs)")]
     assert did["effect"] > 0 and did["effect_low"] > 0  # world minus flat: they fall more
-    assert did["n_tables"] == 6 and did["reading"] == "its 95% interval excludes 0"
+    assert did["n_tables"] == 6
+    assert did["reading"].startswith("its 95% interval excludes 0")
     within = by[("astrocytes", "rough", "falls (share of runs)")]
     assert within["effect"] == pytest.approx(0.5, abs=0.1) and within["n_tables"] == 6
     assert within["effect_low"] <= within["effect"] <= within["effect_high"]

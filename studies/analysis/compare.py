@@ -205,9 +205,10 @@ def tost(a: Sequence[float], b: Sequence[float], margin: float, *, paired: bool 
 
 
 def reading_words(t: dict[str, Any], fmt: str = ".3g") -> str:
-    """What a comparison (:func:`compare`) supports, in words: ``its 95% interval excludes 0``
-    (a difference, before any adjustment for the family of tests); ``equivalent within +-m (TOST p = ...)`` where a margin was declared and its test
-    passed; else ``not shown to differ; the smallest difference this study could detect (80 %
+    """What a comparison (:func:`compare`) supports, in words: ``its 95% interval excludes 0
+    (not adjusted for the other tests)`` (a difference, before any adjustment for the family
+    of tests: the adjusted p says more); ``equivalent within +-m (TOST p = ...)`` where a
+    margin was declared and its test passed; else ``not shown to differ; the smallest difference this study could detect (80 %
     power, alpha 0.05) is X`` (and, with a margin, that the equivalence was not shown either).
     Never "the same"."""
     if t.get("difference_low") is None:
@@ -217,7 +218,7 @@ def reading_words(t: dict[str, Any], fmt: str = ".3g") -> str:
         return (f"equivalent within ±{format(margin, fmt)} (TOST p = "
                 f"{p_text(t['tost_p'])})")
     if t["difference_low"] > 0 or t["difference_high"] < 0:
-        return "its 95% interval excludes 0"
+        return "its 95% interval excludes 0 (not adjusted for the other tests)"
     mdd = t.get("detectable")
     words = ("not shown to differ; the smallest difference this study could detect (80% "
              "power, alpha 0.05) is " + (format(mdd, fmt) if mdd is not None

@@ -13,7 +13,8 @@ runs, then the mean over tables with an interval over tables:
 * :func:`tables_differ`: whether the tables differ from each other in a run-level label (e.g.
   trot), tested before anything speaks of "tables that trot": the chi-square statistic of the
   tables x (label, not) counts, its p by permutation of the runs' labels between the tables
-  (seeded, :data:`~astrocpg.studies.analysis.replication.N_PERM` draws; the tables' run counts kept). A p well above 0.05 says the
+  (seeded, :data:`~astrocpg.studies.analysis.replication.N_PERM` draws; the tables' run
+  counts kept). A p well above 0.05 says the
   spread over tables is what one common share would give.
 """
 

@@ -316,10 +316,13 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     ``seconds``, ``repeats`` times (different noise, seeds seed, seed+1, ... per repeat: all
     controllers of a training and all repeats run as trials of one network per world), learning
     off (``conditions``: only a study's runs of these conditions). Writes ``evaluation.csv``
-    (one row per controller x world x repeat), ``summary.csv`` (mean and std over controllers
-    and repeats per condition x point x world: distance, speed, fall rate, time to fall, share
-    of runs with each gait and each rhythm, with Wilson 95% intervals), ``gait_map.png`` for a two-axis grid, and ``manifest.json`` into ``out`` (default
-    ``folder/evaluation``, replaced whole). Returns {"rows", "summary", "out", "figures"}.
+    (one row per controller x world x repeat), ``summary.csv`` (per condition x point x world,
+    each figure over the trained tables with its 95% interval over tables: distance, speed,
+    fall rate, time to fall, share of runs with each gait and each rhythm, the gait's locking
+    and its trot share at other thresholds, whether the tables differ: :func:`summarise`),
+    ``gait_map.png`` for a two-axis grid, ``baseline.csv`` with ``baseline``, and
+    ``manifest.json`` into ``out`` (default ``folder/evaluation``, replaced whole). Returns
+    {"rows", "summary", "baseline", "out", "figures"}.
 
     Each (training, world) is one *cell*. With ``workers`` or ``scheduler`` the cells run on a
     Dask cluster (a local one of ``workers`` processes, or a running scheduler), as a study's
