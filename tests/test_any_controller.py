@@ -112,6 +112,9 @@ def test_a_run_folder_and_a_variant_name_their_gait(tmp_path) -> None:
         other[2 * leg:2 * leg + 2, 2 * leg:2 * leg + 2] = 0  # the same-limb blocks stay 0
     run = ac.run(seconds=0.4, trials=2, seed=5, weights=np.stack([table, other]),
                  out=tmp_path / "run", progress=False)
+    from astrocpg.studies.commands.run import format_run
+    lines = format_run(run, 5)  # astrocpg run names each trial's rhythm and gait
+    assert sum("over the second half: rhythm (thigh bursts)" in x for x in lines) == 2
     g = ac.gait_of(run, trial=1)
     assert {"gait", "gait_reason", "gait_locking", "rhythm", "gait_at"} <= set(g)
     assert set(g["gait_at"]) == {0.0, 0.5, 0.6, 0.7, 0.8}

@@ -472,6 +472,9 @@ def format_run(result: Result, seed: int) -> list[str]:
         if x["rate_per_neuron_Hz"]:
             lines.append("  rate per neuron (Hz): " + ", ".join(
                 f"{k} {v[b]:.1f}" for k, v in x["rate_per_neuron_Hz"].items()))
+        named = _named_gait(result, b)
+        if named:
+            lines.append(f"  {named}")
     fallen = [(b, f) for b, f in enumerate(fell) if f is not None]
     if fallen:  # the fall in a line of its own: the upright share alone hides it
         lines.append(f"the robot fell in {len(fallen)} of {result.layout.n_trials} trial(s): "
@@ -485,6 +488,29 @@ def format_run(result: Result, seed: int) -> list[str]:
     if x.get("trace_overflow"):
         lines.append("warning: " + overflow_words(x["trace_overflow"]))
     return lines
+
+
+def _named_gait(result: Result, b: int) -> str:
+    """``rhythm (thigh bursts) trot; gait (footfalls) none: not periodic (locking 0.58)``:
+    trial ``b``'s rhythm and gait over the run's second half (what ``astrocpg gait`` reads),
+    or "" where the motor spikes or the robot were not recorded."""
+    from types import SimpleNamespace
+
+    from ..analysis.gait import trial_measures
+
+    rob = result.robot or {}
+    if "motor" not in result.spikes or not all(k in rob for k in ("t", "alive", "foot_force")) \
+            or not result.seconds:
+        return ""
+    t, i = result.spikes["motor"]
+    rec = SimpleNamespace(t=np.asarray(rob["t"], dtype=float), alive=np.asarray(rob["alive"]),
+                          foot_force=np.asarray(rob["foot_force"], dtype=float))
+    m = trial_measures(np.asarray(t, dtype=float), np.asarray(i), result.layout, rec, b,
+                       result.seconds / 2, result.seconds)
+    lock = m["gait_locking"]
+    return (f"over the second half: rhythm (thigh bursts) {m['rhythm']}; gait (footfalls) "
+            f"{m['gait']}{': ' + m['gait_reason'] if m['gait_reason'] else ''}"
+            + (f" (locking {lock:.2f}; the label needs 0.7)" if np.isfinite(lock) else ""))
 
 
 def training_settings(folder: str | Path) -> dict[str, Any]:
