@@ -13,7 +13,8 @@ The Python API (what the ``astrocpg`` commands call)::
 
 Every ``astrocpg`` command has its function, its options as keyword arguments: ``unit``,
 ``run``, ``train`` (and ``resume``, and ``replay_session``: one session of a training run
-again alone), ``gait``, ``evaluate``, ``power``, ``study`` (and ``study_status``), ``report``,
+again alone), ``gait`` (and ``gait_of`` and ``rhythm_of``: the gait and the rhythm of a run
+you made), ``evaluate``, ``power``, ``study`` (and ``study_status``), ``report``,
 ``plot``, ``video``, ``response``, ``export``, ``describe``, ``list_models`` and ``dump_model``
 (``astrocpg models list/dump``), ``robot``, ``docs`` (where the manual is); with ``load``, ``Result``
 and ``Trace`` they are imported on first use, so ``import astrocpg`` (and ``astrocpg --help``) does not
@@ -43,8 +44,8 @@ _quiet_brian.install()
 # public name -> module that defines it (imported on first access)
 _API = {name: "astrocpg.studies.commands.api"
         for name in ("unit", "run", "train", "resume", "load", "describe", "export", "gait",
-                     "evaluate", "power", "list_models", "dump_model", "robot", "docs", "Result",
-                     "Trace")}
+                     "gait_of", "rhythm_of", "evaluate", "power", "list_models", "dump_model",
+                     "robot", "docs", "Result", "Trace")}
 _API.update({name: "astrocpg.studies.parameter_studies.api" for name in ("study", "study_status",
                                                                    "report")})
 _API.update({name: "astrocpg.studies.commands.view" for name in ("plot", "video")})

@@ -274,7 +274,9 @@ def test_the_numbers_of_the_text_come_from_the_data(tmp_path: Path) -> None:
                                   value)
     text = report(folder)["text"]
     # final x per condition: mean of 2.01, 2.02, 2.03 and of 1.01, 1.02, 1.03
-    assert "| astrocytes | 3 | 2/2 | 7 | 7 | 0.404 ± 0.002 | 2.02 ± 0.01 |" in text
+    # with its 95% t interval over the 3 seeds (the seed is the unit, not its sessions)
+    assert ("| astrocytes | 3 | 2/2 | 7 | 7 | 0.404 ± 0.002 [0.399, 0.409] | "
+            "2.02 ± 0.01 [2.00, 2.04] |") in text
     assert "| 2.02 (n=3) | 1.02 (n=3) | +1.00 [" in text
     assert "trains 7 sessions per seed; 7 of them are done" in text
     # the ablation's second run stopped after 3 sessions and is still running
@@ -287,3 +289,24 @@ def test_the_numbers_of_the_text_come_from_the_data(tmp_path: Path) -> None:
     assert "its last 3–5 sessions (at most 5; a seed that trained fewer uses all of its 3–7)" \
         in text
     assert "| no_astrocytes | 3 | 1/2 | 3–7 | 3–5 |" in text
+
+
+def test_final_gaits_over_seeds_with_the_measure_the_label_thresholds(tmp_path: Path) -> None:
+    """report.md's final gaits: one run per seed, the trot share with its Wilson interval over
+    seeds, the locking and the share at other thresholds (the label alone says none)."""
+    from astrocpg.studies.analysis.share import wilson_interval
+
+    def gait(run, seed):
+        return "trot" if seed == 1 else "none"
+
+    folder, _ = _study_folder(tmp_path, HEAD.format(sessions=2, seeds=3) + CONDITIONS,
+                              gait=gait)
+    written = report(folder)
+    row = next(r for r in written["rows"] if r["condition"] == "astrocytes")
+    assert row["final_seeds"] == 3 and row["final_trot_gait_k"] == 1
+    assert (row["final_trot_gait_low"], row["final_trot_gait_high"]) == wilson_interval(1, 3)
+    # every made-up phase is 0.5 and every locking 0.5: no trot at 0.7, none at any threshold
+    assert row["final_gait_locking_mean"] == 0.5
+    assert row["final_trot_gait_at_0.5"] == 0.0
+    text = written["text"]
+    assert "## Final gaits" in text and "| trot gait at 0 / 0.5 / 0.6 / 0.7 / 0.8 |" in text

@@ -32,6 +32,7 @@
         docs/variants/delays/gait_interlimb-synapse.csv --column final_speed_m_per_s
 
     # astrocpg evaluate's runs, controller by controller, with 95 % confidence intervals
+    # (--baseline flat: each world's effect relative to flat ground, and between conditions)
     python docs/beyond/analyse.py worlds docs/beyond/robustness/evaluation.csv
 
     # one condition's runs in one world, controller by controller (trot gait shares, reasons)
@@ -69,7 +70,8 @@ Per seed, over its sessions 1..S (``--sessions``; default all): the mean over th
 sessions (``--last``) of the forward speed, the final x and the session length; the share of
 those N sessions that ran the full L_max (the robot did not fall); the falls over all S sessions
 (sessions that ended before L_max); and the session at which the trailing mean of 10 session
-lengths first reached 90 % of L_max ("learnt by"). ``paired`` prints each measure's mean ± std for
+lengths first reached 90 % of L_max ("learnt by"; a seed that never did counts as its last
+session, censored there and never dropped: ``astrocpg.studies.analysis.events``). ``paired`` prints each measure's mean ± std for
 both sides, the mean per-seed difference with its 95 % bootstrap interval over seeds, the
 two-sided sign-flip permutation p of the per-seed differences and that p Holm-adjusted over the
 table's measures.
@@ -146,17 +148,26 @@ MEASURES = ("speed (m/s)", "final x (m)", "session length (s)", "full-length sha
 
 
 def measures(series: np.ndarray, last: int) -> list[float]:
+    """A seed's measures (:data:`MEASURES`); "learnt by" is censored at the seed's last session
+    where it never learnt (:func:`learnt`, which says whether it did)."""
     tail = series[-last:]
     length = series[:, 0]
-    trailing = np.convolve(length, np.ones(10) / 10, mode="valid")
-    reached = np.flatnonzero(trailing >= LEARNT * L_MAX)
     return [float(tail[:, 2].mean()), float(tail[:, 1].mean()), float(tail[:, 0].mean()),
             float(np.mean(tail[:, 0] >= L_MAX - 1e-9)), float(np.sum(length < L_MAX - 1e-9)),
-            float(reached[0] + 10) if len(reached) else math.nan]
+            learnt(series)[0]]
+
+
+def learnt(series: np.ndarray) -> tuple[float, bool]:
+    """(session, learnt): the session at which the trailing mean of 10 session lengths first
+    reached 90 % of L_max; a seed that never did: its last session, False (censored there)."""
+    from astrocpg.studies.analysis.events import first_reached
+
+    return first_reached(series[:, 0], LEARNT * L_MAX, window=10)
 
 
 def paired(a_spec: str, b_spec: str, sessions: int | None, last: int) -> str:
     from astrocpg.studies.analysis.compare import compare, holm, p_text
+    from astrocpg.studies.analysis.events import censored_compare
 
     a_rows, _ = read_rows(a_spec)
     b_rows, _ = read_rows(b_spec)
@@ -172,18 +183,23 @@ def paired(a_spec: str, b_spec: str, sessions: int | None, last: int) -> str:
     ma = np.array([measures(a[s], last) for s in seeds])
     mb = np.array([measures(b[s], last) for s in seeds])
     tests = [compare(mb[:, k], ma[:, k], paired=True) for k in range(len(MEASURES))]
+    # "learnt by": every seed counted, a seed that never learnt censored at its last session
+    la, lb = [learnt(a[s]) for s in seeds], [learnt(b[s]) for s in seeds]
+    tests[-1] = censored_compare(lb, la, paired=True)
     adjusted = holm([t["perm_p"] for t in tests])
     lines = [f"{len(seeds)} seeds ({seeds[0]}-{seeds[-1]}), sessions 1-{S}, last {last} sessions; "
              f"A = {a_spec}, B = {b_spec}. B − A per seed: mean [95 % bootstrap interval over "
              f"seeds]; p: two-sided sign-flip permutation test of the per-seed differences; "
-             f"Holm: adjusted over the {len(MEASURES)} measures of this table.", "",
+             f"Holm: adjusted over the {len(MEASURES)} measures of this table. Learnt by: a "
+             f"seed that never learnt counts as its last session ({S}: censored there, never "
+             f"dropped), so its mean is the restricted mean time to learn.", "",
              "| measure | A: mean ± std | B: mean ± std | B − A per seed [95 % interval] "
              "| p | Holm p |", "|---|---|---|---|---|---|"]
     for k, name in enumerate(MEASURES):
         x, y, t = ma[:, k], mb[:, k], tests[k]
         never = ""
         if name.startswith("learnt"):
-            never = f" (never: A {int(np.isnan(x).sum())}, B {int(np.isnan(y).sum())})"
+            never = (f" (never, counted at session {S}: A {t['never_b']}, B {t['never_a']})")
         if t["difference_low"] is not None:
             d = f"{t['difference']:+.3f} [{t['difference_low']:+.3f}, {t['difference_high']:+.3f}]"
         else:
@@ -290,12 +306,13 @@ def table(specs: list[str], sessions: int | None, last: int, seeds: str | None) 
                 series = {s: v for s, v in series.items() if s in keep}
             S = min(len(v) for v in series.values())
             m = np.array([measures(v[:S], last) for v in series.values()])
+            n_never = sum(not learnt(v[:S])[1] for v in series.values())
             cells = []
             for k, name in enumerate(MEASURES):
                 x = m[:, k]
-                never = f" ({int(np.isnan(x).sum())} never)" if np.isnan(x).any() else ""
-                cells.append(f"{np.nanmean(x):.2f} ± {np.nanstd(x):.2f}{never}"
-                             if not np.isnan(x).all() else "never")
+                never = (f" ({n_never} never: counted at session {S})"
+                         if name.startswith("learnt") and n_never else "")
+                cells.append(f"{np.nanmean(x):.2f} ± {np.nanstd(x):.2f}{never}")
             cells.append(_final_labels(
                 [r for r in rows if r["run_id"] == run_id
                  and (keep is None or int(r["seed"]) in keep)]))
@@ -309,7 +326,7 @@ def _bootstrap_mean(x: np.ndarray, rng: np.random.Generator) -> tuple[float, flo
     return float(x.mean()), float(np.percentile(means, 2.5)), float(np.percentile(means, 97.5))
 
 
-def worlds(path: str) -> str:
+def worlds(path: str, baseline: str | None = None) -> str:
     """astrocpg evaluate's runs, controller by controller: per condition and world, the mean over
     controllers (each controller's repeats averaged first) of falls, speed, and the share of
     runs with a trot rhythm and (evaluations that read it) a trot gait, with 95 % bootstrap
@@ -380,7 +397,32 @@ def worlds(path: str) -> str:
                               p_text(t["mwu_p"]), p_text(adj)]
             lines.append(f"| {w} | " + " | ".join(cells) + " |")
         lines.append("")
+    if baseline is not None:
+        lines += _baseline_table(rows, baseline)
     return "\n".join(lines)
+
+
+def _baseline_table(rows: list[dict[str, str]], baseline: str) -> list[str]:
+    """Each world's effect relative to ``baseline`` (astrocpg evaluate --baseline's
+    baseline.csv, from the rows): per condition the mean over controllers of world minus
+    baseline, and between two conditions the difference of those effects, paired by seed."""
+    from astrocpg.studies.commands.evaluate import baseline_effects
+
+    if not any(r["world"] == baseline for r in rows):
+        sys.exit(f"analyse.py: no runs in the baseline world {baseline!r}")
+    lines = [f"**Relative to {baseline}** (per controller its figure in the world minus in "
+             f"{baseline}, each over its repeats; then the mean over controllers [95 % t "
+             "interval over controllers]; a pair of conditions: the difference of their "
+             "effects, paired by seed [95 % bootstrap interval], sign-flip p and what it "
+             "supports)", "", "| world | condition | measure | effect [95 % interval] | p | "
+             "reading |", "|---|---|---|---|---|---|"]
+    for e in baseline_effects(rows, baseline):
+        iv = (f" [{e['effect_low']:+.3f}, {e['effect_high']:+.3f}]"
+              if e["effect_low"] is not None and np.isfinite(e["effect_low"]) else "")
+        p = f"{e['p']:.2g}" if e["p"] is not None and np.isfinite(e["p"]) else "–"
+        lines.append(f"| {e['world']} | {e['condition']} | {e['measure']} | "
+                     f"{e['effect']:+.3f}{iv} | {p} | {e['reading'] or '–'} |")
+    return lines + [""]
 
 
 AGAINST = (("trot gait (share of runs)", "gait"), ("trot rhythm (share of runs)", "rhythm"),
@@ -471,15 +513,34 @@ def _structures(tables: Path, run: str, session: int | None = None) -> dict[int,
                 for seed, table in zip(f["seeds"], f[key])}
 
 
+MARGIN_KEYS = {"gait": "trot_gait_share", "rhythm": "trot_rhythm_share"}
+"""AGAINST's keys as a study file's [margins] names them (the others are the same)."""
+
+
+def read_study_margins(path: str) -> dict[str, float]:
+    """The ``[margins]`` of a study file (astrocpg.studies.analysis.margins), checked."""
+    import tomllib
+
+    from astrocpg.studies.analysis.margins import read_margins
+
+    with open(path, "rb") as f:
+        return read_margins(tomllib.load(f).get("margins"), f"study {Path(path).name}")
+
+
 def against(reference: str, reference_tables: Path, evaluation: str, tables: Path,
-            world: str, session: int | None = None, describe: bool = False) -> str:
+            world: str, session: int | None = None, describe: bool = False,
+            margins: dict[str, float] | None = None) -> str:
     """Each run of a study against a reference run, seed by seed, on the measures of AGAINST:
     B − A per seed with its 95 % bootstrap interval over seeds, the two-sided sign-flip
     permutation p, and that p Holm-adjusted over every run and measure of the table. The pairing
     is real: a seed has the same initial weights and noise draws in every study of this page.
     ``session``: the weight structure of both sides' tables after that session (their
-    evaluations must be of the same session); ``describe``: the intervals only, no test."""
-    from astrocpg.studies.analysis.compare import compare, holm, p_text
+    evaluations must be of the same session); ``describe``: the intervals only, no test.
+    ``margins`` (a study file's ``[margins]``, declared before the data): the equivalence test
+    (TOST) of each measure that has one; every other test says at best "not shown to differ"
+    with the smallest difference it could detect (reading_words), never "the same"."""
+    from astrocpg.studies.analysis.compare import compare, holm, p_text, reading_words
+    margins = margins or {}
 
     ref_eval, _, ref_run = reference.rpartition(":")
     for ev in (ref_eval, evaluation):
@@ -501,7 +562,8 @@ def against(reference: str, reference_tables: Path, evaluation: str, tables: Pat
             a = [float(ref[s][key]) for s in seeds]
             b = [float({**seeds_eval[s], **structure[s]}[key]) for s in seeds]
             # compare(b, a): its mean_a is B's, mean_b A's and difference B − A
-            results.append((run, label, seeds, compare(b, a, paired=True)))
+            results.append((run, label, seeds, compare(
+                b, a, paired=True, margin=margins.get(MARGIN_KEYS.get(key, key)))))
     adjusted = holm([t["perm_p"] for *_, t in results])
     when = "final tables" if session is None else f"tables after session {session}"
     lines = [f"A = {ref_run} ({ref_eval}, tables {reference_tables}); B = each run of "
@@ -509,7 +571,11 @@ def against(reference: str, reference_tables: Path, evaluation: str, tables: Pat
              "averaged first. B − A per seed: mean [95 % bootstrap interval over seeds]; "
              + ("described only, no test." if describe else
                 "p: two-sided sign-flip permutation test of the per-seed differences; Holm: "
-                f"adjusted over all {len(results)} tests of this table."), ""]
+                f"adjusted over all {len(results)} tests of this table. Reading: a difference "
+                "not shown is no evidence of sameness (nor is a large adjusted p): where no "
+                "equivalence margin was declared, it gives the smallest difference the test "
+                "could detect (80 % power, alpha 0.05, from the seeds' spread); where one was "
+                "([margins] of the study file, --margins), its equivalence test (TOST)."), ""]
     current = None
     for (run, label, seeds, t), adj in zip(results, adjusted):
         if run != current:
@@ -519,14 +585,15 @@ def against(reference: str, reference_tables: Path, evaluation: str, tables: Pat
                       ["| measure | A: mean | B: mean | B − A per seed [95 % interval] |",
                        "|---|---|---|---|"] if describe else
                       ["| measure | A: mean | B: mean | B − A per seed [95 % interval] | p "
-                       "| Holm p |", "|---|---|---|---|---|---|"])
+                       "| Holm p | reading |", "|---|---|---|---|---|---|---|"])
         if t["difference_low"] is not None:
             d = f"{t['difference']:+.3f} [{t['difference_low']:+.3f}, {t['difference_high']:+.3f}]"
             p = p_text(t["perm_p"], t["perm_p_min"], bool(t["perm_bound"]))
         else:
             d, p = f"{t['difference']:+.3f} ({t['note']})", "–"
         lines.append(f"| {label} | {t['mean_b']:.3f} | {t['mean_a']:.3f} | {d} |" + (
-            "" if describe else f" {p} | {p_text(adj) if adj is not None else '–'} |"))
+            "" if describe else f" {p} | {p_text(adj) if adj is not None else '–'} | "
+                                f"{reading_words(t)} |"))
     return "\n".join(lines) + "\n"
 
 
@@ -606,6 +673,8 @@ def controllers(path: str, world: str, condition: str, source: str | None = None
     condition holds several."""
     from collections import Counter
 
+    from astrocpg.studies.analysis.replication import tables_differ
+
     with open(path, newline="") as f:
         rows = [r for r in csv.DictReader(f)
                 if r["world"] == world and r["condition"] == condition
@@ -619,13 +688,18 @@ def controllers(path: str, world: str, condition: str, source: str | None = None
     for r in rows:
         per.setdefault(f'{r["source"]}:{r["seed"]}', []).append(r["gait"] == "trot")
     shares = sorted(sum(v) / len(v) for v in per.values())
+    differ = tables_differ([["trot" if x else "none" for x in v] for v in per.values()],
+                           "trot")["p"]
     upright = [r for r in rows if r["fell"] == "0"]
     reasons = Counter((r["gait_reason"] or r["gait"]).split(" at ")[0] for r in rows)
     return (f"{condition}, {world}: {len(rows)} runs of {len(per)} controllers; trot gait in "
             f"{sum(r['gait'] == 'trot' for r in rows)} runs ({sum(r['gait'] == 'trot' for r in upright)}"
             f" of the {len(upright)} upright); per controller the share of its runs is "
             f"{shares[0]:.1f} to {shares[-1]:.1f}: {sum(x > 0 for x in shares)} controllers trot "
-            f"in at least one run, {sum(x > 0.5 for x in shares)} in most; gait or reason for "
+            f"in at least one run, {sum(x > 0.5 for x in shares)} in most (do the controllers "
+            f"differ in their trot share? permutation p = "
+            f"{'–' if not np.isfinite(differ) else f'{differ:.2g}'}; a large p: the spread is "
+            f"what one common share gives); gait or reason for "
             f"none: " + ", ".join(f"{k} {v}" for k, v in reasons.most_common()) + "\n")
 
 
@@ -664,6 +738,7 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
     with a trot gait and with any other gait, with Wilson 95 % intervals. Described only."""
     from collections import defaultdict
 
+    from astrocpg.studies.analysis.replication import tables_differ
     from astrocpg.studies.analysis.share import wilson_interval
 
     rows = _evaluation_rows(evaluation, world)
@@ -708,14 +783,22 @@ def gait_map(evaluation: str, tables: Path, axes: list[str], unit: str, world: s
                 _cell_words(cells[(y, x)][measure], cells[(y, x)][f"{measure}_runs"])
                 if (y, x) in cells else "–" for x in xs) + " |")
     lines += ["", "**Per point**: mean over seeds (lowest – highest seed); each seed's runs "
-              "averaged first", "", f"| {ya} ({unit}) | {xa} | seeds | speed (m/s) | falls "
+              "averaged first; the last column: do the seeds differ from each other in their "
+              "share of trot gait runs (permutation test of the chi-square statistic, the "
+              "runs' labels shuffled between seeds; a large p: the spread over seeds is what "
+              "one common share gives, so the runs do not show which seeds trot)", "",
+              f"| {ya} ({unit}) | {xa} | seeds | speed (m/s) | falls "
               "(share of runs) | mixed limb pairs (of 12) | weights above 0.9 w_max | "
-              "weights below 0.9 w_min |", "|---|---|---|---|---|---|---|---|"]
+              "weights below 0.9 w_min | seeds differ in trot gait: p |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for (y, x), c in sorted(cells.items()):
         vals = " | ".join(f"{np.mean(c[k]):.2f} ({min(c[k]):.2f} – {max(c[k]):.2f})"
                           for k in ("speed", "falls", "mixed_limb_pairs",
                                     "share_above_0.9_w_max", "share_below_0.9_w_min"))
-        lines.append(f"| {y:g} | {x:g} | {len(c['seeds'])} | {vals} |")
+        differ = tables_differ([[r["gait"] for r in by_run[c["run"]][s]] for s in c["seeds"]],
+                               "trot")["p"]
+        lines.append(f"| {y:g} | {x:g} | {len(c['seeds'])} | {vals} | "
+                     f"{'–' if not np.isfinite(differ) else f'{differ:.2g}'} |")
     lines += ["", f"**Per {ya}** (all {xa} values pooled): seeds with a gait, Wilson 95 % "
               "interval over seeds", "", f"| {ya} ({unit}) | seeds | trot gait | other gait "
               "(pace, bound, walk) | trot rhythm | other rhythm |", "|---|---|---|---|---|---|"]
@@ -849,6 +932,9 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--out", type=Path, required=True)
     w = sub.add_parser("worlds")
     w.add_argument("evaluation")
+    w.add_argument("--baseline", metavar="WORLD",
+                   help="also each world's effect relative to WORLD (e.g. flat), per condition "
+                        "and between two conditions, paired by seed")
     v = sub.add_parser("versus")
     v.add_argument("ref")
     v.add_argument("results")
@@ -874,6 +960,9 @@ def main(argv: list[str] | None = None) -> int:
     g.add_argument("--session", type=int, help="the tables after this session (both sides' "
                                                "evaluations must be of it: evaluate --session)")
     g.add_argument("--describe", action="store_true", help="intervals only, no test")
+    g.add_argument("--margins", metavar="STUDY.toml",
+                   help="a study file whose [margins] declare equivalence margins: the "
+                        "equivalence test (TOST) of each measure that has one")
     q = sub.add_parser("response")
     q.add_argument("evaluation", help="the study's evaluation.csv")
     q.add_argument("tables", type=Path, help="the study's final_tables.py folder")
@@ -914,7 +1003,7 @@ def main(argv: list[str] | None = None) -> int:
             w.writerows(rows)
         print(f"wrote {args.out} ({len(rows)} rows)")
     elif args.what == "worlds":
-        sys.stdout.write(worlds(args.evaluation))
+        sys.stdout.write(worlds(args.evaluation, args.baseline))
     elif args.what == "versus":
         sys.stdout.write(versus(args.ref, args.results, args.sessions, args.last, args.seeds))
     elif args.what == "columns":
@@ -929,7 +1018,8 @@ def main(argv: list[str] | None = None) -> int:
                                   args.world, args.out))
     elif args.what == "against":
         sys.stdout.write(against(args.reference, args.reference_tables, args.evaluation,
-                                 args.tables, args.world, args.session, args.describe))
+                                 args.tables, args.world, args.session, args.describe,
+                                 read_study_margins(args.margins) if args.margins else None))
     return 0
 
 

@@ -11,6 +11,15 @@ observed difference); the Mann-Whitney p is exact when no value is tied. Paired 
 (a study that declares ``paired = true``: seed k of one condition against seed k of the
 other) use the sign-flip permutation test and a bootstrap over pairs. :func:`holm` adjusts
 a family of p-values (Holm 1979).
+
+A difference that is not shown is no evidence of sameness, and a multiplicity adjustment only
+makes a difference harder to show. So every comparison also gives the smallest difference the
+test could detect (:func:`detectable_difference`: 80 % power, two-sided alpha 0.05, from the
+data's own spread), and, where a margin was declared before the data (a study file's
+``[margins]``), the equivalence test of that margin (:func:`tost`: two one-sided t-tests);
+:func:`reading_words` says which of "its 95% interval excludes 0", "equivalent within the
+margin" and "not shown to differ; the smallest difference this study could detect is X" the
+numbers support.
 """
 
 from __future__ import annotations
@@ -147,7 +156,91 @@ def p_text(p: float | None, p_min: float | None = None, bound: bool = False) -> 
     return f"{p:.2g}"
 
 
-def compare(a: Sequence[float], b: Sequence[float], *, paired: bool = False) -> dict[str, Any]:
+ALPHA = 0.05
+POWER = 0.8
+
+
+def _se_df(x: np.ndarray, y: np.ndarray, paired: bool) -> tuple[float, float]:
+    """The standard error of mean(x) - mean(y) and its degrees of freedom (paired: of the
+    differences; else Welch-Satterthwaite)."""
+    if paired:
+        d = x - y
+        return float(d.std(ddof=1) / math.sqrt(len(d))), float(len(d) - 1)
+    va, vb = x.var(ddof=1) / len(x), y.var(ddof=1) / len(y)
+    se2 = va + vb
+    if se2 <= 0:
+        return 0.0, float(len(x) + len(y) - 2)
+    df = se2 ** 2 / (va ** 2 / (len(x) - 1) + vb ** 2 / (len(y) - 1))
+    return float(math.sqrt(se2)), float(df)
+
+
+def detectable_difference(a: Sequence[float], b: Sequence[float], *, paired: bool = False,
+                          alpha: float = ALPHA, power: float = POWER) -> float:
+    """The smallest true difference of means a two-sided t-test of these samples would find
+    with probability ``power`` at level ``alpha``: (t_{1-alpha/2} + t_{power}) x the standard
+    error of the difference, from the samples' own spread (paired: of the per-seed
+    differences); nan with fewer than two values on a side."""
+    from scipy import stats
+
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if len(x) < 2 or len(y) < 2:
+        return math.nan
+    se, df = _se_df(x, y, paired)
+    return float((stats.t.ppf(1 - alpha / 2, df) + stats.t.ppf(power, df)) * se)
+
+
+def tost(a: Sequence[float], b: Sequence[float], margin: float, *, paired: bool = False,
+         alpha: float = ALPHA) -> dict[str, Any]:
+    """The equivalence test of mean(a) - mean(b) against the margin +-``margin`` (two
+    one-sided t-tests, Schuirmann 1987): ``p`` (the larger one-sided p; below ``alpha``: the
+    difference is within the margin), ``low``/``high`` (the 1 - 2 alpha interval, which lies
+    within the margin exactly when p < alpha) and ``equivalent``."""
+    from scipy import stats
+
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if not margin > 0:
+        raise ValueError(f"an equivalence margin must be positive, got {margin}")
+    if len(x) < 2 or len(y) < 2:
+        return {"p": math.nan, "low": math.nan, "high": math.nan, "equivalent": False}
+    diff = float(x.mean() - y.mean())
+    se, df = _se_df(x, y, paired)
+    if se == 0:
+        p = 0.0 if abs(diff) < margin else 1.0
+        return {"p": p, "low": diff, "high": diff, "equivalent": p < alpha}
+    p_low = stats.t.sf((diff + margin) / se, df)   # H0: diff <= -margin
+    p_high = stats.t.cdf((diff - margin) / se, df)  # H0: diff >= +margin
+    p = float(max(p_low, p_high))
+    half = stats.t.ppf(1 - alpha, df) * se
+    return {"p": p, "low": diff - half, "high": diff + half, "equivalent": p < alpha}
+
+
+def reading_words(t: dict[str, Any], fmt: str = ".3g") -> str:
+    """What a comparison (:func:`compare`) supports, in words: ``its 95% interval excludes 0
+    (not adjusted for the other tests)`` (a difference, before any adjustment for the family
+    of tests: the adjusted p says more); ``equivalent within +-m (TOST p = ...)`` where a
+    margin was declared and its test passed; else ``not shown to differ; the smallest difference this study could detect (80 %
+    power, alpha 0.05) is X`` (and, with a margin, that the equivalence was not shown either).
+    Never "the same"."""
+    if t.get("difference_low") is None:
+        return f"no test ({t.get('note') or 'n too small'})"
+    margin = t.get("margin")
+    if margin is not None and t.get("equivalent"):
+        return (f"equivalent within ±{format(margin, fmt)} (TOST p = "
+                f"{p_text(t['tost_p'])})")
+    if t["difference_low"] > 0 or t["difference_high"] < 0:
+        return "its 95% interval excludes 0 (not adjusted for the other tests)"
+    mdd = t.get("detectable")
+    words = ("not shown to differ; the smallest difference this study could detect (80% "
+             "power, alpha 0.05) is " + (format(mdd, fmt) if mdd is not None
+                                         and np.isfinite(mdd) else "n/a"))
+    if margin is not None:
+        words += (f"; not shown equivalent within ±{format(margin, fmt)} either (TOST p = "
+                  f"{p_text(t.get('tost_p'))})")
+    return words
+
+
+def compare(a: Sequence[float], b: Sequence[float], *, paired: bool = False,
+            margin: float | None = None) -> dict[str, Any]:
     """Compare the per-seed values ``a`` and ``b`` (non-finite values are dropped; ``paired``:
     ``a[k]`` and ``b[k]`` are one pair, a pair with a non-finite side is dropped).
 
@@ -161,7 +254,10 @@ def compare(a: Sequence[float], b: Sequence[float], *, paired: bool = False) -> 
     standard deviation; g with the small-sample correction 1 - 3/(4(n_a+n_b)-9)), rank_biserial
     (2U/(n_a n_b) - 1: +1 when every value of ``a`` exceeds every value of ``b``). ``note`` says
     why a figure is missing: "n too small" (fewer than two seeds on a side), "no spread" (every
-    value equal on both sides, to rounding: t and d undefined)."""
+    value equal on both sides, to rounding: t and d undefined). ``detectable``: the smallest
+    difference the test could detect (:func:`detectable_difference`); with ``margin`` (an
+    equivalence margin declared before the data) ``margin``, ``tost_p``, ``tost_low``,
+    ``tost_high`` and ``equivalent`` (:func:`tost`)."""
     from scipy import stats
 
     if paired:
@@ -181,11 +277,19 @@ def compare(a: Sequence[float], b: Sequence[float], *, paired: bool = False) -> 
     out["difference"] = out["mean_a"] - out["mean_b"]
     keys = ("difference_low", "difference_high", "perm_p", "perm_exact", "perm_p_min",
             "perm_bound", "welch_t", "welch_p", "mwu_U", "mwu_p", "mwu_p_min", "cohens_d",
-            "hedges_g", "rank_biserial")
+            "hedges_g", "rank_biserial", "detectable")
     out.update({k: None for k in keys})
+    out["margin"] = margin
+    if margin is not None:
+        out.update({"tost_p": None, "tost_low": None, "tost_high": None, "equivalent": False})
     if len(x) < MIN_SEEDS or len(y) < MIN_SEEDS:
         out["note"] = "n too small"
         return out
+    out["detectable"] = detectable_difference(x, y, paired=paired)
+    if margin is not None:
+        e = tost(x, y, margin, paired=paired)
+        out.update({"tost_p": e["p"], "tost_low": e["low"], "tost_high": e["high"],
+                    "equivalent": e["equivalent"]})
     out["difference_low"], out["difference_high"] = bootstrap_interval(x, y, paired=paired)
     perm = permutation_test(x, y, paired=paired)
     out.update({"perm_p": perm["p"], "perm_exact": perm["exact"], "perm_p_min": perm["p_min"],

@@ -12,7 +12,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .compare import compare, holm
+from .compare import compare, holm, reading_words
 
 
 @dataclass(frozen=True)
@@ -101,14 +101,20 @@ def seed_finals(condition: str, point: tuple[str, ...], series: dict[int, Any],
 
 def across_seeds(seeds: list[dict[str, Any]]) -> dict[str, Any]:
     """A group's final figures across its seeds (rows of :func:`seed_finals`): ``<key>_mean``
-    and ``<key>_std`` (ddof=0, as in the curves of Fig. 3c) of each measure some seed has, and
+    and ``<key>_std`` (ddof=0, as in the curves of Fig. 3c) of each measure some seed has,
+    ``<key>_low`` and ``<key>_high``: its 95% interval over seeds (the seed is the unit of
+    replication; :func:`~astrocpg.studies.analysis.replication.over_tables`), and
     ``limb_pairs`` (the number of limb pairs) where the weights were read."""
+    from .replication import over_tables
+
     out: dict[str, Any] = {}
     for m in MEASURES + WEIGHT_MEASURES:
         vals = [o[m.key] for o in seeds if m.key in o]
         if vals:
             out[f"{m.key}_mean"], out[f"{m.key}_std"] = (float(np.mean(vals)),
                                                          float(np.std(vals)))
+            s = over_tables(vals, share=m.unit == "fraction")
+            out[f"{m.key}_low"], out[f"{m.key}_high"] = s["low"], s["high"]
     limb_pairs = {o["limb_pairs"] for o in seeds if "limb_pairs" in o}
     if limb_pairs:
         out["limb_pairs"] = limb_pairs.pop()
@@ -129,14 +135,19 @@ def cell_stats(cells: list[list[float]]) -> tuple[np.ndarray, np.ndarray, np.nda
 def condition_tests(swept: list[str], conditions: list[str], per_seed: list[dict[str, Any]],
                      measures: list[Measure],
                      skip: set[tuple[str, tuple[str, ...]]] = frozenset(),
-                     paired: bool = False) -> list[dict[str, Any]]:
+                     paired: bool = False,
+                     margins: Mapping[str, float] | None = None) -> list[dict[str, Any]]:
     """Every pair of conditions (in the study's order, first minus second) at every sweep
     point, every final figure: :func:`~astrocpg.studies.analysis.compare.compare`. The final
     figures of one pair at one point are one family (one question: do the conditions
     differ?): their permutation and Mann-Whitney p-values are Holm-adjusted together
     (``perm_p_holm``, ``mwu_p_holm``). ``paired`` (the study file's ``paired = true``,
     declared before any run): seed k of one condition is compared with seed k of the
-    other, on the seeds both have."""
+    other, on the seeds both have. ``margins`` (the study file's ``[margins]``, declared
+    before any run): the equivalence test of each measure that has one; every test gives the
+    smallest difference it could detect (``detectable``) and ``reading``, what the numbers
+    support in words (:func:`~astrocpg.studies.analysis.compare.reading_words`)."""
+    margins = dict(margins or {})
     conditions = list(dict.fromkeys(conditions))
     points = list(dict.fromkeys(o["point"] for o in per_seed))
     out = []
@@ -157,9 +168,10 @@ def condition_tests(swept: list[str], conditions: list[str], per_seed: list[dict
                     va, vb = [sa[k] for k in common], [sb[k] for k in common]
                 else:
                     va, vb = list(sa.values()), list(sb.values())
+                t = compare(va, vb, paired=paired, margin=margins.get(m.key))
+                t["reading"] = reading_words(t)
                 family.append({**dict(zip(swept, point)), "condition_a": a, "condition_b": b,
-                               "measure": m.key, "unit": m.unit,
-                               **compare(va, vb, paired=paired)})
+                               "measure": m.key, "unit": m.unit, **t})
             for key in ("perm_p", "mwu_p"):
                 for t, adjusted in zip(family, holm([t[key] for t in family])):
                     t[f"{key}_holm"] = adjusted

@@ -87,8 +87,39 @@ def leg_phases(times: np.ndarray, indices: np.ndarray, layout: Layout, trial: in
 
 def phase_label(phases: dict[str, float], locking: dict[str, float], *, tolerance: float = 0.15,
                 min_locking: float = 0.7) -> str:
-    """trot, pace, bound, walk or none from the phases of the legs relative to FR (0..1) and
-    their locking: the one classifier of the rhythm and of the gait."""
+    """The one classifier of the rhythm and of the gait: a label from the legs' phases.
+
+    Parameters
+    ----------
+    phases : dict
+        Each leg's phase relative to FR, 0..1 (``{"FR": 0, "FL": ..., "RR": ..., "RL": ...}``):
+        thigh-extensor burst onsets (the rhythm) or stance phases (the gait).
+    locking : dict
+        Each leg's locking, 0..1: the resultant length of its phases over the cycles (1: the
+        same phase in every cycle).
+    tolerance : float
+        How far (a share of a cycle) a phase may be from the pattern's (default 0.15).
+    min_locking : float
+        The locking every leg needs for any label (default 0.7); below it: ``none``.
+
+    Returns
+    -------
+    str
+        ``trot`` (FR-RL and FL-RR in phase, the pairs in anti-phase), ``pace`` (FR-RR and
+        FL-RL), ``bound`` (FR-FL and RR-RL), ``walk`` (four distinct quarter phases) or
+        ``none``.
+
+    Examples
+    --------
+    >>> from astrocpg.studies.analysis.gait import phase_label
+    >>> trot = {"FR": 0.0, "FL": 0.5, "RR": 0.5, "RL": 0.0}
+    >>> phase_label(trot, {leg: 0.9 for leg in trot})
+    'trot'
+    >>> phase_label(trot, {leg: 0.65 for leg in trot})   # the same phases, loosely locked
+    'none'
+    >>> phase_label(trot, {leg: 0.65 for leg in trot}, min_locking=0.6)
+    'trot'
+    """
     if any(not np.isfinite(phases[leg]) or locking[leg] < min_locking for leg in LEGS):
         return "none"
     p = phases
@@ -157,6 +188,7 @@ def _no_gait(reason: str, share: float) -> dict[str, Any]:
     for leg in LEGS[1:]:
         row[f"gait_phase_{leg}"] = math.nan
         row[f"gait_locking_{leg}"] = math.nan
+    row["gait_locking_FR"] = row["gait_locking"] = math.nan
     return row
 
 
@@ -209,12 +241,14 @@ def footfall_gait(t: np.ndarray, alive: np.ndarray, foot_force: np.ndarray, t_st
     for leg in LEGS[1:]:
         row[f"gait_phase_{leg}"] = float(phases[leg])
         row[f"gait_locking_{leg}"] = float(locking[leg])
+    row["gait_locking_FR"] = float(locking["FR"])
+    row["gait_locking"] = float(min(locking.values()))
     return row
 
 
 def trial_measures(times: np.ndarray, indices: np.ndarray, layout: Layout, recording: Any,
                    trial: int, t_start: float, t_stop: float) -> dict[str, Any]:
-    """Rhythm (:func:`trial_rhythm`, from the motor spikes ``times``, ``indices``) and gait
+    """Rhythm (``trial_rhythm``, from the motor spikes ``times``, ``indices``) and gait
     (:func:`footfall_gait`, from the robot ``recording``) of one trial over [t_start, t_stop):
     the columns every command and table of gaits carries."""
     g = leg_phases(times, indices, layout, trial, t_start, t_stop)
@@ -227,8 +261,48 @@ MEASURE_COLUMNS = ("rhythm", "gait", "gait_reason", "gait_share", "rhythm_period
                    "rhythm_phase_FL", "rhythm_phase_RR", "rhythm_phase_RL",
                    "rhythm_locking_FL", "rhythm_locking_RR", "rhythm_locking_RL",
                    "gait_period_s", "gait_duty_factor", "gait_phase_FL", "gait_phase_RR",
-                   "gait_phase_RL", "gait_locking_FL", "gait_locking_RR", "gait_locking_RL")
-"""The columns of :func:`trial_measures`, in table order."""
+                   "gait_phase_RL", "gait_locking_FL", "gait_locking_RR", "gait_locking_RL",
+                   "gait_locking_FR", "gait_locking")
+"""The columns of :func:`trial_measures`, in table order. ``gait_locking`` is the continuous
+measure the gait label thresholds: the smallest of the four feet's locking (the label needs
+every foot at least ``min_locking``, 0.7); nan where the run was not read that far (it fell,
+too few steps)."""
+
+THRESHOLDS = (0.5, 0.6, 0.7, 0.8)
+"""The locking thresholds at which every summary also gives the trot gait share (the label
+itself uses 0.7): a reader sees how much of the share the threshold sets."""
+
+
+def gait_at(row: dict[str, Any], min_locking: float) -> str:
+    """The gait label a run would get at another locking threshold.
+
+    Parameters
+    ----------
+    row : dict
+        A run's gait measures (:func:`footfall_gait`, a row of ``evaluation.csv`` as read
+        from the file too): ``gait_phase_<leg>``, ``gait_locking_<leg>``, ``gait_locking``.
+    min_locking : float
+        The threshold; 0: the footfall phases alone, however loosely they lock.
+
+    Returns
+    -------
+    str
+        The label (:func:`phase_label`); ``none`` where the run was not read that far (it
+        fell, too few steps, no rhythm) or was written before the locking of FR's foot was
+        kept (no ``gait_locking`` column).
+    """
+    def num(key: str) -> float:
+        try:
+            return float(row.get(key, math.nan))  # a CSV row's text too
+        except (TypeError, ValueError):
+            return math.nan
+
+    if not np.isfinite(num("gait_locking")):
+        return "none"
+    phases = {"FR": 0.0, **{leg: num(f"gait_phase_{leg}") for leg in LEGS[1:]}}
+    locking = {leg: num(f"gait_locking_{leg}") for leg in LEGS}
+    return phase_label(phases, locking, min_locking=min_locking)
+
 
 
 def phase_matrix(phases: dict[str, float]) -> np.ndarray:

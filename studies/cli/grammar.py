@@ -8,6 +8,7 @@ import argparse
 from typing import Any
 
 from .options import (DEFAULT_RUN_OUT, DESCRIPTION, EXIT_HELP, Parser, add_codegen_option,
+                      add_variant_options,
                       add_model_file_option, add_model_options, add_no_progress, add_overwrite,
                       add_population_option,
                       add_record_options, add_simulation_options)
@@ -141,7 +142,8 @@ def add_train(sub: Subparsers) -> None:
 def add_gait(sub: Subparsers) -> None:
     """``astrocpg gait``: the rhythm and gait of trained weights."""
     gait = sub.add_parser("gait", help="run trained weights, name their rhythm and their gait")
-    gait.add_argument("dir", help="a training folder")
+    gait.add_argument("dir", help="a training folder (its final tables) or a run folder "
+                                  "(astrocpg run --out: the tables its trials ran with)")
     gait.add_argument("--seconds", type=float, default=10.0,
                       help="simulated time of each run with the trained weights, in s, a "
                            "whole number of 1 ms steps (default 10 s; rhythm and gait are "
@@ -157,6 +159,7 @@ def add_gait(sub: Subparsers) -> None:
     gait.add_argument("--world", action="append", default=[], metavar="NAME=VALUE",
                       help="a world parameter for the runs, over the training's world (e.g. "
                            "slope=0.17; repeatable; 'astrocpg describe world' lists them)")
+    add_variant_options(gait)
     add_no_progress(gait)
     add_codegen_option(gait)
 
@@ -165,7 +168,8 @@ def add_evaluate(sub: Subparsers) -> None:
     """``astrocpg evaluate``: trained controllers in other worlds."""
     ev = sub.add_parser("evaluate", help="trained controllers, learning off, in other worlds "
                                          "(slopes, terrain, friction, pushes, payloads)")
-    ev.add_argument("dir", help="a training folder, a study folder (its finished runs) or a "
+    ev.add_argument("dir", help="a training folder, a run folder (astrocpg run --out: the "
+                    "tables its trials ran with), a study folder (its finished runs) or a "
                     "folder of a study's kept tables (docs/ablation/final_tables.py)")
     ev.add_argument("--worlds", default="robustness",
                     help="a worlds file (TOML: [worlds.NAME] tables of world parameters, "
@@ -184,6 +188,15 @@ def add_evaluate(sub: Subparsers) -> None:
                          "n, repeat r: b = r*n + k) has seed K+b (default 1)")
     ev.add_argument("--condition", action="append", default=None, metavar="NAME",
                     help="only a study's runs of this condition (repeatable; default all)")
+    ev.add_argument("--point", action="append", default=None, metavar="NAME=VALUE",
+                    help="only a study's runs at this sweep point: the swept parameter's value "
+                         "as the study file writes it (repeatable, one per swept parameter; "
+                         "default every point)")
+    ev.add_argument("--baseline", default=None, metavar="WORLD",
+                    help="also each world's effect relative to WORLD (e.g. flat): per table "
+                         "its figure in the world minus in WORLD, with 95%% intervals over "
+                         "tables, and between two conditions the difference of those "
+                         "differences, paired by seed (baseline.csv)")
     ev.add_argument("--session", type=int, default=None, metavar="S",
                     help="the tables after session S of each training (every trial must have "
                          "done it; default: the final tables)")
@@ -196,6 +209,7 @@ def add_evaluate(sub: Subparsers) -> None:
     ev.add_argument("--scheduler", metavar="ADDRESS",
                     help="run the cells on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 "
                          "(default: none)")
+    add_variant_options(ev)
     add_no_progress(ev)
     add_codegen_option(ev)
 

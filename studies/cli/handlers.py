@@ -117,11 +117,17 @@ def evaluate_command(args: argparse.Namespace) -> int:
     from ..commands.api import evaluate
     from ..commands.evaluate import format_summary
 
+    from ..commands.evaluate import format_baseline
+
     res = evaluate(args.dir, worlds=args.worlds, seconds=args.seconds, repeats=args.repeats,
                    seed=args.seed, conditions=args.condition, out=args.out,
                    overwrite=args.overwrite, progress=not args.no_progress,
-                   workers=args.workers, scheduler=args.scheduler, session=args.session)
+                   workers=args.workers, scheduler=args.scheduler, session=args.session,
+                   point=args.point, baseline=args.baseline,
+                   **model_args(args), **population_args(args))
     for line in format_summary(res["summary"]):
+        print(line)
+    for line in format_baseline(res.get("baseline") or []):
         print(line)
     print(f"wrote {res['out']}/ (evaluation.csv, summary.csv, manifest.json)")
     return 0
@@ -131,7 +137,8 @@ def gait_command(args: argparse.Namespace) -> int:
     from ..commands.api import gait
 
     for line in gait(args.dir, seconds=args.seconds, repeats=args.repeats, seed=args.seed,
-                     world=args.world, progress=not args.no_progress):
+                     world=args.world, progress=not args.no_progress, **model_args(args),
+                     **population_args(args)):
         print(line)
     return 0
 

@@ -123,14 +123,27 @@ def add_population_option(p: argparse.ArgumentParser, more: str = "") -> None:
                         "saying its cells, traces and inputs (docs/model-files.md)" + more)
 
 
-def add_model_options(p: argparse.ArgumentParser) -> None:
+def _add_set_equations(p: argparse.ArgumentParser, over: str = "") -> None:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
-                   help="override a model parameter, with units (e.g. --set tau_motor=9*ms)")
+                   help="override a model parameter, with units (e.g. --set tau_motor=9*ms)"
+                        + over)
     p.add_argument("--equations", action="append", default=[], metavar="MODEL=FILE",
                    help="replace the equation string of MODEL (e.g. motor_neuron) by FILE's text")
+
+
+def add_model_options(p: argparse.ArgumentParser) -> None:
+    _add_set_equations(p)
     add_model_file_option(p)
     add_codegen_option(p)
     add_no_progress(p)
+
+
+def add_variant_options(p: argparse.ArgumentParser) -> None:
+    """A model variant over a trained controller's own models (``gait``, ``evaluate``): the
+    options ``run`` and ``train`` take (--set, --equations, --model, --population)."""
+    _add_set_equations(p, "; over the controller's own values")
+    add_model_file_option(p)
+    add_population_option(p, "; added to the controller's network")
 
 
 def add_no_progress(p: argparse.ArgumentParser) -> None:

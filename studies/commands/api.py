@@ -39,6 +39,8 @@ import os
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+import numpy as np
+
 from ...errors import InputError
 from ...models import ModelSet
 from ..outputs.export import export as export_folder
@@ -150,17 +152,21 @@ def _path(value: Any, culprit: str) -> Path:
 
 def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
          seed: int | None = None, world: Sequence[str] = (), progress: bool = True,
-         rows: bool = False) -> list[str] | list[dict[str, Any]]:
-    """The rhythm and the gait of a training's trained tables: what ``astrocpg gait`` prints.
+         rows: bool = False, overrides: Overrides | None = None,
+         equations: Mapping[str, str] | None = None, models: Mapping[str, Any] | None = None,
+         populations: Any = None) -> list[str] | list[dict[str, Any]]:
+    """The rhythm and the gait of trained tables: what ``astrocpg gait`` prints.
 
     Each trained table runs ``repeats`` times, learning off; each run's rhythm (thigh-extensor
-    bursts) and gait (footfalls) are named, and per table the share of runs with each (Wilson 95%
-    intervals).
+    bursts) and gait (footfalls) are named; per table the share of its runs with each (Wilson
+    95% intervals over its runs), and over all tables the shares with 95% intervals over
+    tables, the gait's locking, its share at other locking thresholds and whether the tables
+    differ.
 
     Parameters
     ----------
     folder : path
-        A training folder.
+        A training folder, or a run folder (``astrocpg run --out``: each trial's table).
     seconds : float
         Simulated time of each run, in s (rhythm and gait are read from its second half).
     repeats : int
@@ -173,6 +179,8 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
         A progress bar on stderr.
     rows : bool
         Return one dict per run instead of the lines.
+    overrides, equations, models, populations : optional
+        A model variant over the controller's own models, as :func:`~astrocpg.run` takes them.
 
     Returns
     -------
@@ -189,23 +197,158 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
     kwargs = dict(seconds=number(seconds, "--seconds", positive=True),
                   repeats=number(repeats, "--repeats", integer=True, minimum=1),
                   seed=None if seed is None else seed_number(seed, "--seed"), world=list(world),
-                  progress=progress)
+                  progress=progress,
+                  variant={"overrides": overrides, "equations": equations, "models": models,
+                           "populations": populations})
     if rows:
         return gait_runs(_path(folder, "folder"), **kwargs)[0]
     return describe_gait(_path(folder, "folder"), **kwargs)
+
+
+def _run_window(result: Result, trial: int, start: float | None, stop: float | None
+                ) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The motor spikes of ``result`` and the window read (default: its second half), each
+    checked; an InputError names the argument."""
+    if not isinstance(result, Result):
+        raise InputError(f"expected a Result (ac.run, ac.load of a run folder), got "
+                         f"{type(result).__name__}", culprit="result")
+    if result.seconds is None:
+        raise InputError("has no run of its own (a training: ac.gait(folder) runs its tables)",
+                         culprit=f"result of kind {result.kind!r}")
+    if isinstance(trial, bool) or not isinstance(trial, (int, np.integer)) \
+            or not 0 <= trial < result.n_trials:
+        raise InputError(f"must be an integer in 0..{result.n_trials - 1}",
+                         culprit=f"trial={trial!r}")
+    if "motor" not in result.spikes:
+        raise InputError("recorded no motor spikes (record them: spikes=('motor',))",
+                         culprit="result")
+    seconds = result.seconds
+    start = seconds / 2 if start is None else float(start)
+    stop = seconds if stop is None else float(stop)
+    if not 0 <= start < stop <= seconds + 1e-9:
+        raise InputError(f"must satisfy 0 <= start < stop <= {seconds:g} s (the run)",
+                         culprit=f"start={start:g}, stop={stop:g}")
+    t, i = result.spikes["motor"]
+    return np.asarray(t, dtype=float), np.asarray(i), start, stop
+
+
+def rhythm_of(result: Result, trial: int = 0, start: float | None = None,
+              stop: float | None = None) -> dict[str, Any]:
+    """The CPG's rhythm of one trial of a run: what its thigh-extensor bursts do, whether or
+    not the robot stands.
+
+    Parameters
+    ----------
+    result : Result
+        A run (``ac.run(...)``, ``ac.unit(...)``, or ``ac.load`` of their folders) that
+        recorded the motor spikes.
+    trial : int
+        Which trial (default 0).
+    start, stop : float, optional
+        The window read, in s (default: the run's second half, as ``astrocpg gait`` and
+        ``evaluate`` read it).
+
+    Returns
+    -------
+    dict
+        ``rhythm``: the label (trot, pace, bound, walk or none;
+        :func:`~astrocpg.studies.analysis.gait.phase_label`); ``rhythm_period_s``: FR's cycle;
+        ``rhythm_phase_<leg>`` and ``rhythm_locking_<leg>`` for FL, RR and RL: each leg's burst
+        phase relative to FR (0..1) and how locked it is (1: the same in every cycle).
+
+    Raises
+    ------
+    ~astrocpg.errors.InputError
+        The motor spikes were not recorded, or ``trial``, ``start`` or ``stop`` is out of
+        range.
+
+    Examples
+    --------
+    >>> r = ac.run(seconds=4, seed=1)                            # doctest: +SKIP
+    >>> ac.rhythm_of(r)["rhythm"]                                # doctest: +SKIP
+    """
+    from ..analysis.gait import trial_rhythm
+
+    t, i, start, stop = _run_window(result, trial, start, stop)
+    return trial_rhythm(t, i, result.layout, trial, start, stop)
+
+
+def gait_of(result: Result, trial: int = 0, start: float | None = None,
+            stop: float | None = None) -> dict[str, Any]:
+    """The gait of one trial of a run: what its feet do while the robot stands, read against
+    the CPG's stepping cycles, with the measures its label thresholds; and its rhythm.
+
+    The same classifier as ``astrocpg gait`` and ``evaluate`` (the training page, "The trained
+    gait"), on a run you made with any controller: a model variant, your own table, a run
+    folder loaded with ``ac.load``.
+
+    Parameters
+    ----------
+    result : Result
+        A closed-loop run (``ac.run(...)`` or ``ac.load`` of its folder) that recorded the
+        motor spikes and the robot.
+    trial : int
+        Which trial (default 0).
+    start, stop : float, optional
+        The window read, in s (default: the run's second half).
+
+    Returns
+    -------
+    dict
+        The rhythm (:func:`rhythm_of`) and ``gait``: the label (trot, pace, bound, walk or
+        none) with ``gait_reason`` (why it is none: fell at T s, no rhythm, too few steps, not
+        periodic, no named pattern); ``gait_share``: the share of the window read (before the
+        first fall); ``gait_period_s``, ``gait_duty_factor``; ``gait_phase_<leg>``: each
+        foot's stance phase relative to FR's (FL, RR, RL); ``gait_locking_<leg>`` (all four
+        feet) and ``gait_locking``, the smallest: the continuous measure the label thresholds
+        (a named gait needs every foot at 0.7 or more); ``gait_at``: the label at the
+        thresholds 0 (the footfall phases alone), 0.5, 0.6, 0.7 and 0.8
+        (:func:`~astrocpg.studies.analysis.gait.gait_at`).
+
+    Raises
+    ------
+    ~astrocpg.errors.InputError
+        The motor spikes or the robot were not recorded (a unit has no robot), or an argument
+        is out of range.
+
+    Examples
+    --------
+    >>> r = ac.run(seconds=4, seed=1, weights="out/astro", trial=0)   # doctest: +SKIP
+    >>> g = ac.gait_of(r)                                             # doctest: +SKIP
+    >>> g["gait"], g["gait_locking"], g["gait_at"][0.6]               # doctest: +SKIP
+    """
+    from types import SimpleNamespace
+
+    from ..analysis.gait import THRESHOLDS, gait_at, trial_measures
+
+    t, i, start, stop = _run_window(result, trial, start, stop)
+    robot = result.robot or {}
+    if not all(k in robot for k in ("t", "alive", "foot_force")):
+        raise InputError("holds no robot recording (a unit has no robot)",
+                         culprit=f"result of kind {result.kind!r}")
+    rec = SimpleNamespace(t=np.asarray(robot["t"], dtype=float),
+                          alive=np.asarray(robot["alive"]),
+                          foot_force=np.asarray(robot["foot_force"], dtype=float))
+    out = trial_measures(t, i, result.layout, rec, trial, start, stop)
+    out["gait_at"] = {x: gait_at(out, x) for x in (0.0, *THRESHOLDS)}
+    return out
 
 
 def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustness",
              seconds: float = 10.0, repeats: int = 5, seed: int = 1,
              conditions: Sequence[str] | None = None, out: str | os.PathLike | None = None,
              overwrite: bool = False, progress: bool = True, workers: int | None = None,
-             scheduler: str | None = None, session: int | None = None) -> dict[str, Any]:
+             scheduler: str | None = None, session: int | None = None,
+             point: Sequence[str] | str | None = None, baseline: str | None = None,
+             overrides: Overrides | None = None, equations: Mapping[str, str] | None = None,
+             models: Mapping[str, Any] | None = None,
+             populations: Any = None) -> dict[str, Any]:
     """Trained controllers in a set of worlds, learning off: what ``astrocpg evaluate`` does.
 
     Parameters
     ----------
     folder : path
-        A training, a study (its finished runs) or a folder of kept tables.
+        A training, a run folder, a study (its finished runs) or a folder of kept tables.
     worlds : path or str
         A worlds file, or a shipped worlds name ("robustness").
     seconds : float
@@ -228,11 +371,18 @@ def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustne
         The address of a running Dask scheduler.
     session : int, optional
         The tables after that session instead of the final ones.
+    point : str or sequence of str, optional
+        One sweep point of a study: ``NAME=VALUE`` per swept parameter, as the study file
+        writes the value.
+    baseline : str, optional
+        A world (e.g. "flat") each other world's effect is taken relative to (``baseline.csv``).
+    overrides, equations, models, populations : optional
+        A model variant over each controller's own models.
 
     Returns
     -------
     dict
-        Its ``rows``, ``summary`` and ``out``.
+        Its ``rows``, ``summary``, ``baseline`` and ``out``.
     """
     from .evaluate import evaluate as evaluate_folder
 
@@ -250,7 +400,11 @@ def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustne
                            repeats=repeats, seed=seed, conditions=conditions,
                            out=None if out is None else _path(out, "out"), overwrite=overwrite,
                            progress=progress, workers=workers, scheduler=scheduler,
-                           session=session)
+                           session=session,
+                           points=[point] if isinstance(point, str) else point,
+                           baseline=baseline,
+                           variant={"overrides": overrides, "equations": equations,
+                                    "models": models, "populations": populations})
 
 
 def power(folder: str | os.PathLike, *, trial: int = 0, sessions: int = 10,

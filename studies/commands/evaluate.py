@@ -40,22 +40,24 @@ from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
 from ..analysis.fall import first_fall
-from ..analysis.gait import MEASURE_COLUMNS, NAMED, trial_measures
-from ..analysis.share import label_shares, wilson_interval
+from ..analysis.gait import MEASURE_COLUMNS, NAMED, THRESHOLDS, trial_measures
+from ..analysis.replication import gait_measures, group_by_table, interval_words, \
+    over_tables, share_over_tables
 from ..outputs.folder import OutputFolder, as_path, verify
 from ..outputs.parts import PARTS_SUFFIX, CellParts
 from ..outputs.study_index import INDEX as STUDY_INDEX, read_current
 from ..outputs.writing import write_manifest
-from ..outputs.weights import load_weights, tables_state
+from ..outputs.weights import tables_state
 from ..outputs.kept_tables import is_kept_tables, kept_controllers, kept_state, kept_weights
 from ..runtime.resources import check_memory, estimate_bytes
-from .run import trained_models, training_settings
+from .run import controller_tables, trained_models, training_settings, with_variant
 from .settings import added_populations, check_grid, number, seed_number
 from .simulate import STEP, check_duration, simulate_closed_loop
 
 BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}
 EVALUATION = "evaluation.csv"
 SUMMARY = "summary.csv"
+BASELINE = "baseline.csv"
 COLUMNS = ("source", "condition", "point", "seed", "world", "repeat", "run_seed", "distance_m",
            "mean_speed_m_per_s", "fell", "time_to_fall_s", "upright_share", *MEASURE_COLUMNS)
 """One row per controller x world x repeat: the rhythm (``rhythm``, thigh-extensor bursts)
@@ -209,7 +211,8 @@ def in_world(models: ModelSet, world: Mapping[str, Any]) -> ModelSet:
 
 
 def _controllers(folder: Path) -> list[dict[str, Any]]:
-    """The trained trainings under ``folder``: itself (a training), the finished runs its
+    """The trained controllers under ``folder``: itself (a training, or a run folder: the tables
+    its trials ran with), the finished runs its
     study file now names (a study), or the runs of a kept-tables folder
     (:mod:`~astrocpg.studies.outputs.kept_tables`), each with its settings and what identifies
     its trials (condition, swept point, seeds)."""
@@ -218,6 +221,10 @@ def _controllers(folder: Path) -> list[dict[str, Any]]:
         return [{"folder": folder, "settings": settings, "condition":
                  "astrocytes" if settings.get("astrocytes", True) else "no_astrocytes",
                  "point": "", "first_seed": int(settings.get("seed", 1))}]
+    if (folder / "robot.npz").is_file() and not (folder / STUDY_INDEX).exists():
+        settings = training_settings(folder)  # a run folder (astrocpg run --out): its tables
+        return [{"folder": folder, "settings": settings, "condition": "run", "point": "",
+                 "first_seed": int(settings.get("seed", 1))}]
     runs = folder / "runs"
     if not (folder / STUDY_INDEX).exists() and is_kept_tables(folder):
         return kept_controllers(folder)
@@ -255,10 +262,17 @@ def _tables_label(controllers: Sequence[Mapping[str, Any]], session: int | None)
         return f"after session {session}"
     labels = []
     for c in controllers:
-        state = kept_state(c) if "kept" in c else tables_state(c["folder"])
+        if "kept" in c:
+            state = kept_state(c)
+        elif (Path(c["folder"]) / "weights.npz").is_file():
+            state = tables_state(c["folder"])
+        else:  # a run folder: the tables its trials ran with, no sessions
+            continue
         if state["warning"]:
             warnings.warn(state["warning"], UserWarning, stacklevel=3)
         labels.append(state["label"])
+    if not labels:  # run folders only: each ran with a fixed table
+        return "as run"
     if all(label == "final" for label in labels):
         return "final"
     return "latest: " + ", ".join(sorted(set(labels), key=labels.index))
@@ -321,15 +335,20 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
              repeats: int = REPEATS, seed: int = 1, conditions: Sequence[str] | None = None,
              out: str | Path | None = None, overwrite: bool = False,
              progress: bool = True, workers: int | None = None,
-             scheduler: str | None = None, session: int | None = None) -> dict[str, Any]:
+             scheduler: str | None = None, session: int | None = None,
+             points: Sequence[str] | None = None, baseline: str | None = None,
+             variant: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Run every trained controller under ``folder`` in each world of ``worlds`` for
     ``seconds``, ``repeats`` times (different noise, seeds seed, seed+1, ... per repeat: all
     controllers of a training and all repeats run as trials of one network per world), learning
     off (``conditions``: only a study's runs of these conditions). Writes ``evaluation.csv``
-    (one row per controller x world x repeat), ``summary.csv`` (mean and std over controllers
-    and repeats per condition x point x world: distance, speed, fall rate, time to fall, share
-    of runs with each gait and each rhythm, with Wilson 95% intervals), ``gait_map.png`` for a two-axis grid, and ``manifest.json`` into ``out`` (default
-    ``folder/evaluation``, replaced whole). Returns {"rows", "summary", "out", "figures"}.
+    (one row per controller x world x repeat), ``summary.csv`` (per condition x point x world,
+    each figure over the trained tables with its 95% interval over tables: distance, speed,
+    fall rate, time to fall, share of runs with each gait and each rhythm, the gait's locking
+    and its trot share at other thresholds, whether the tables differ: :func:`summarise`),
+    ``gait_map.png`` for a two-axis grid, ``baseline.csv`` with ``baseline``, and
+    ``manifest.json`` into ``out`` (default ``folder/evaluation``, replaced whole). Returns
+    {"rows", "summary", "baseline", "out", "figures"}.
 
     Each (training, world) is one *cell*. With ``workers`` or ``scheduler`` the cells run on a
     Dask cluster (a local one of ``workers`` processes, or a running scheduler), as a study's
@@ -365,16 +384,25 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
                 raise InputError(f"no finished run of that condition (conditions: "
                                  f"{', '.join(known)})", culprit=f"--condition {name}")
         controllers = [c for c in controllers if c["condition"] in conditions]
+    if points:
+        controllers = at_points(controllers, points)
+    if variant and any(variant.values()):
+        controllers = [{**c, "settings": with_variant(c["settings"], **variant)}
+                       for c in controllers]
     plans = []
     for c in controllers:
         if "kept" in c:  # a kept table: its .npz is the one its .json names (sha256)
             tables = kept_weights(c, session)
         else:
             verify(c["folder"], strict=False)
-            tables = load_weights(c["folder"], culprit="", session=session)
-        plans.append((c, tables, trained_models(c["settings"])))
+            tables = controller_tables(c["folder"], session=session)
+        with added_populations(c["settings"].get("populations")):
+            plans.append((c, tables, trained_models(c["settings"])))
     tables_label = _tables_label(controllers, session)
     world_set = read_worlds(worlds, plans[0][2])
+    if baseline is not None and baseline not in world_set.worlds:
+        raise InputError(f"is not a world of --worlds {worlds} (worlds: "
+                         f"{', '.join(world_set.worlds)})", culprit=f"--baseline {baseline}")
     check_grid(len(plans) * len(world_set.worlds),
                f"cells ({len(plans)} training(s) x {len(world_set.worlds)} world(s))",
                culprit=f"evaluate {folder} --worlds {worlds}")
@@ -395,6 +423,7 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
                    n_cells=len(cells))
     rows: list[dict[str, Any]] = [row for cell in cells for row in done[cell]]
     summary = summarise(rows)
+    effects = baseline_effects(rows, baseline) if baseline is not None else []
     columns = list(COLUMNS)
     columns[columns.index("world") + 1:columns.index("world") + 1] = list(
         grid_values(world_set, ""))
@@ -410,6 +439,8 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     settings = {"folder": str(folder), **world_set.to_json(),
                 "worlds_source": str(worlds), "seconds": seconds, "repeats": repeats,
                 "seed": seed, "conditions": list(conditions or []),
+                "points": list(points or []), "baseline": baseline,
+                "variant": {k: v for k, v in (variant or {}).items() if v} or None,
                 "tables": tables_label,
                 "trainings": [str(c["folder"]) for c, _, _ in plans],
                 "workers": workers, "scheduler": scheduler,
@@ -417,12 +448,21 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     with OutputFolder(target, overwrite=overwrite or out is None, inputs=inputs) as tmp:
         (tmp / EVALUATION).write_text(_csv(rows, tuple(columns)))
         (tmp / SUMMARY).write_text(_csv(summary, tuple(summary[0]) if summary else ()))
+        if baseline is not None:
+            (tmp / BASELINE).write_text(_csv(effects, BASELINE_COLUMNS))
         for name, fig in figures.items():
             save_figure(fig, tmp / name)
         write_manifest(tmp, command="evaluate", seed=seed, settings=settings,
                        models_json=plans[0][2].to_json(),
                        files={EVALUATION: "one row per trained controller x world x repeat",
-                              SUMMARY: "mean and std per condition x point x world",
+                              SUMMARY: "per condition x point x world: each figure over "
+                                       "tables (each table's runs first), with 95% "
+                                       "intervals over tables",
+                              **({BASELINE: f"each world's effect relative to {baseline}: "
+                                            "per table world minus baseline, over tables; "
+                                            "between conditions the difference of the "
+                                            "differences, paired by seed"}
+                                 if baseline is not None else {}),
                               **{n: "gait map over the grid's two axes: the most common gait "
                                     "label per cell (colour), mean speed (contours)"
                                  for n in figures if n.startswith("gait_map")},
@@ -431,7 +471,8 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
                                  if "worlds.png" in figures else {})},
                        results={"status": "finished", "rows": len(rows)})
     parts.remove()
-    return {"rows": rows, "summary": summary, "out": target, "figures": sorted(figures)}
+    return {"rows": rows, "summary": summary, "baseline": effects, "out": target,
+            "figures": sorted(figures)}
 
 
 def _check_worlds(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],
@@ -479,32 +520,174 @@ def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],
 
 
 def summarise(rows: list[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Mean and std over controllers and repeats per (condition, point, world)."""
+    """Per (condition, point, world): each trained table's figures over its repeats first,
+    then the mean over tables with a 95% interval over tables
+    (:mod:`~astrocpg.studies.analysis.replication`: the runs of one table are not independent
+    samples). ``n``: runs (``n_runs`` too), ``n_tables``: tables; ``<measure>_mean``, and
+    ``<measure>_low``/``_high`` over tables for distance, speed, falls and upright share
+    (``<measure>_std``: over runs, as before); each gait and rhythm share
+    (``<kind>_<label>_share``, ``_low``, ``_high``) over tables; ``gait_locking_mean``: the
+    continuous measure the gait label thresholds (the smallest foot locking, mean over tables
+    of the runs read that far); ``gait_trot_share_at_<x>``: the trot gait share at locking
+    thresholds :data:`~astrocpg.studies.analysis.gait.THRESHOLDS` (``_at_0``: the footfall
+    phases alone); ``gait_trot_tables_differ_p``: whether the tables differ from each other in
+    their trot gait share (:func:`~astrocpg.studies.analysis.replication.tables_differ`)."""
     groups: dict[tuple[str, str, str], list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault((r["condition"], r["point"], r["world"]), []).append(r)
     out = []
     for (condition, point, world), rs in groups.items():
+        tables = list(group_by_table(rs).values())
         entry: dict[str, Any] = {"condition": condition, "point": point, "world": world,
                                  **{k: v for k, v in rs[0].items() if k.startswith("grid_")},
-                                 "n": len(rs)}
+                                 "n": len(rs), "n_runs": len(rs), "n_tables": len(tables)}
         for key in ("distance_m", "mean_speed_m_per_s", "fell", "upright_share"):
             v = np.array([r[key] for r in rs], dtype=float)
-            entry[f"{key}_mean"] = float(v.mean())
+            s = over_tables([np.mean([float(r[key]) for r in t]) for t in tables],
+                            share=key in ("fell", "upright_share"))
+            entry[f"{key}_mean"] = s["mean"]
             entry[f"{key}_std"] = float(v.std(ddof=1)) if len(v) > 1 else math.nan
+            entry[f"{key}_low"], entry[f"{key}_high"] = s["low"], s["high"]
         falls = np.array([r["time_to_fall_s"] for r in rs], dtype=float)
         entry["time_to_fall_s_median"] = (float(np.nanmedian(falls))
                                           if np.isfinite(falls).any() else math.nan)
         for kind in ("gait", "rhythm"):  # the feet's gait and the CPG's rhythm, both named
-            shares = label_shares([r[kind] for r in rs], NAMED)
+            labels = [[r[kind] for r in t] for t in tables]
             for label in ("trot", "any"):
-                sh = shares.get(label, {"share": 0.0, **dict(zip(
-                    ("low", "high"), wilson_interval(0, len(rs))))})
-                entry[f"{kind}_{label}_share"] = sh["share"]
+                sh = share_over_tables(labels, set(NAMED) if label == "any" else label)
+                entry[f"{kind}_{label}_share"] = sh["mean"]
                 entry[f"{kind}_{label}_low"] = sh["low"]
                 entry[f"{kind}_{label}_high"] = sh["high"]
+        entry.update(gait_measures(tables))
         out.append(entry)
     return out
+
+
+def at_points(controllers: list[dict[str, Any]], points: Sequence[str]
+              ) -> list[dict[str, Any]]:
+    """The controllers of a study at one sweep point: ``points`` are ``NAME=VALUE`` texts (the
+    swept parameter and its value as the study file writes it, spaces ignored); a name that is
+    not swept, or a value no finished run has, is refused, naming the option and what there
+    is."""
+    def parts(point: str) -> dict[str, str]:
+        return dict(p.split("=", 1) for p in point.split(";") if "=" in p)
+
+    have = [parts(c["point"]) for c in controllers]
+    swept = sorted({k for h in have for k in h})
+    want: dict[str, str] = {}
+    for text in points:
+        name, sep, value = (x.strip() for x in str(text).partition("="))
+        where = f"--point {text}"
+        if not sep or not name or not value:
+            raise InputError("expected NAME=VALUE (a swept parameter and its value)",
+                             culprit=where)
+        if not swept:
+            raise InputError("the folder has no sweep points (not a study with a [sweep])",
+                             culprit=where)
+        if name not in swept:
+            raise InputError(f"is not a swept parameter (swept: {', '.join(swept)})",
+                             culprit=where)
+        values = sorted({h[name] for h in have if name in h})
+        if value.replace(" ", "") not in {v.replace(" ", "") for v in values}:
+            raise InputError(f"no finished run at that value ({name}: {', '.join(values)})",
+                             culprit=where)
+        want[name] = value.replace(" ", "")
+    kept = [c for c, h in zip(controllers, have)
+            if all(h.get(k, "").replace(" ", "") == v for k, v in want.items())]
+    if not kept:
+        raise InputError("no finished run at that point (each value exists, not together)",
+                         culprit="--point " + " --point ".join(points))
+    return kept
+
+
+EFFECT_MEASURES = (("fell", "falls (share of runs)"), ("mean_speed_m_per_s", "speed (m/s)"),
+                   ("distance_m", "distance (m)"), ("gait_trot", "trot gait (share of runs)"))
+BASELINE_COLUMNS = ("condition", "point", "world", "baseline", "measure", "n_tables",
+                    "in_world", "in_baseline", "effect", "effect_low", "effect_high",
+                    "p", "reading")
+"""The columns of ``baseline.csv``: one row per condition x point x world x measure (its
+effect: world minus baseline per table, mean and 95% interval over tables), and, where a
+point has two conditions, one row per pair (``condition`` "A - B": the difference of their
+effects, paired by seed, with its 95% bootstrap interval, sign-flip permutation p and what
+it supports in words)."""
+
+
+def _table_value(rs: Sequence[Mapping[str, Any]], key: str) -> float:
+    if key == "gait_trot":
+        return float(np.mean([r["gait"] == "trot" for r in rs]))
+    return float(np.mean([float(r[key]) for r in rs]))
+
+
+def baseline_effects(rows: Sequence[Mapping[str, Any]], baseline: str) -> list[dict[str, Any]]:
+    """Each world's effect relative to the world ``baseline`` (e.g. flat ground): per trained
+    table (source and seed) its figure in the world minus its figure in the baseline (each over
+    its repeats), then the mean over tables with a 95% t interval over tables; where a point
+    has two or more conditions, each pair's difference of those differences, paired by seed
+    (difference-in-differences: "falls less in this world" is then the world's effect beyond
+    the flat-ground difference, not the raw falls). Rows of :data:`BASELINE_COLUMNS`."""
+    from ..analysis.compare import compare, reading_words
+
+    per: dict[tuple, dict[str, dict[tuple, list[Mapping[str, Any]]]]] = {}
+    for r in rows:
+        per.setdefault((r["condition"], r["point"]), {}).setdefault(r["world"], {}) \
+            .setdefault((r["source"], r["seed"]), []).append(r)
+    out: list[dict[str, Any]] = []
+    effects: dict[tuple, dict[Any, float]] = {}  # (condition, point, world, key) -> seed -> d
+    for (condition, point), worlds in per.items():
+        base = worlds.get(baseline, {})
+        for world, tables in worlds.items():
+            if world == baseline:
+                continue
+            for key, label in EFFECT_MEASURES:
+                d = {t[1]: _table_value(rs, key) - _table_value(base[t], key)
+                     for t, rs in tables.items() if t in base}
+                effects[(condition, point, world, key)] = d
+                s = over_tables(list(d.values()))
+                out.append({"condition": condition, "point": point, "world": world,
+                            "baseline": baseline, "measure": label, "n_tables": s["n_tables"],
+                            "in_world": float(np.mean([_table_value(rs, key)
+                                                       for rs in tables.values()])),
+                            "in_baseline": float(np.mean([_table_value(rs, key)
+                                                          for rs in base.values()]))
+                            if base else math.nan,
+                            "effect": s["mean"], "effect_low": s["low"],
+                            "effect_high": s["high"], "p": math.nan, "reading": ""})
+    conditions = list(dict.fromkeys(c for c, _ in per))
+    for point in dict.fromkeys(p for _, p in per):
+        for a, b in itertools.combinations([c for c in conditions if (c, point) in per], 2):
+            for world in per[(a, point)]:
+                if world == baseline:
+                    continue
+                for key, label in EFFECT_MEASURES:
+                    da = effects.get((a, point, world, key), {})
+                    db = effects.get((b, point, world, key), {})
+                    seeds = sorted(set(da) & set(db), key=str)
+                    t = compare([da[k] for k in seeds], [db[k] for k in seeds], paired=True)
+                    out.append({"condition": f"{a} - {b}", "point": point, "world": world,
+                                "baseline": baseline, "measure": label,
+                                "n_tables": len(seeds), "in_world": math.nan,
+                                "in_baseline": math.nan, "effect": t["difference"],
+                                "effect_low": t["difference_low"],
+                                "effect_high": t["difference_high"],
+                                "p": t["perm_p"], "reading": reading_words(t)})
+    return out
+
+
+def format_baseline(effects: Sequence[Mapping[str, Any]]) -> list[str]:
+    """One line per world and condition (or pair of conditions) per measure: its effect
+    relative to the baseline world with its 95% interval over tables."""
+    lines = []
+    for e in effects:
+        where = f"{e['condition']}{' ' + e['point'] if e['point'] else ''}"
+        iv = ("" if e["effect_low"] is None or not np.isfinite(e["effect_low"]) else
+              f" [{e['effect_low']:+.3g}, {e['effect_high']:+.3g}]")
+        pair = " - " in e["condition"]
+        lines.append(f"{where:<28} {e['world']:<16} {e['measure']}, {e['world']} minus "
+                     f"{e['baseline']}: {e['effect']:+.3g}{iv}"
+                     + (f" (difference of the conditions' effects, paired by seed, "
+                        f"n = {e['n_tables']}; {e['reading']})" if pair else
+                        f" (n = {e['n_tables']} tables; 95% interval over tables)"))
+    return lines
 
 
 def _csv(rows: list[Mapping[str, Any]], columns: tuple[str, ...]) -> str:
@@ -517,15 +700,32 @@ def _csv(rows: list[Mapping[str, Any]], columns: tuple[str, ...]) -> str:
 
 
 def format_summary(summary: list[Mapping[str, Any]]) -> list[str]:
-    """One line per condition x point x world."""
+    """One line per condition x point x world, then what the trot gait share rests on: each
+    figure is the mean over trained tables (each table's runs first) with its 95% interval over
+    tables, n given as tables x runs."""
     lines = []
     for s in summary:
         where = f"{s['condition']}{' ' + s['point'] if s['point'] else ''}"
-        lines.append(f"{where:<28} {s['world']:<16} distance {s['distance_m_mean']:+.2f} "
-                     f"+- {s['distance_m_std']:.2f} m, speed {s['mean_speed_m_per_s_mean']:+.3f} "
-                     f"m/s, falls {s['fell_mean']:.0%}, gait (footfalls) trot "
-                     f"{s['gait_trot_share']:.0%} ({s['gait_trot_low']:.0%}-"
-                     f"{s['gait_trot_high']:.0%}), rhythm (thigh bursts) trot "
-                     f"{s['rhythm_trot_share']:.0%} ({s['rhythm_trot_low']:.0%}-"
-                     f"{s['rhythm_trot_high']:.0%}) (n = {s['n']} runs; 95% Wilson intervals)")
+
+        def iv(kind: str, fmt: str = ".0%") -> str:
+            return interval_words({"mean": s[f"{kind}_share"] if f"{kind}_share" in s
+                                   else s[f"{kind}_mean"], "low": s[f"{kind}_low"],
+                                   "high": s[f"{kind}_high"], "n_tables": s["n_tables"]}, fmt)
+
+        thresholds = ", ".join(f"{s[f'gait_trot_share_at_{x:g}']:.0%} at {x:g}"
+                               for x in THRESHOLDS)
+        differ = s["gait_trot_tables_differ_p"]
+        lines.append(
+            f"{where:<28} {s['world']:<16} distance {s['distance_m_mean']:+.2f} "
+            f"+- {s['distance_m_std']:.2f} m, speed {iv('mean_speed_m_per_s', '+.3f')} m/s, "
+            f"falls {iv('fell')}, gait (footfalls) trot {iv('gait_trot')}, rhythm (thigh "
+            f"bursts) trot {iv('rhythm_trot')} (n = {s['n_tables']} table"
+            f"{'s' if s['n_tables'] != 1 else ''} x {s['n_runs'] // max(s['n_tables'], 1)} "
+            f"runs; 95% intervals over tables)")
+        lines.append(
+            f"{'':<28} {'':<16} gait locking (the smallest foot's; the label needs 0.7) "
+            f"{s['gait_locking_mean']:.2f}; trot gait share by locking threshold: "
+            f"{thresholds}; footfall phases alone {s['gait_trot_share_at_0']:.0%}; do the tables "
+            + (f"differ in their trot share? permutation p = {differ:.2g}"
+               if np.isfinite(differ) else "differ? one table only"))
     return lines

@@ -562,6 +562,9 @@ def format_run(result: Result, seed: int) -> list[str]:
         if x["rate_per_neuron_Hz"]:
             lines.append("  rate per neuron (Hz): " + ", ".join(
                 f"{k} {v[b]:.1f}" for k, v in x["rate_per_neuron_Hz"].items()))
+        named = _named_gait(result, b)
+        if named:
+            lines.append(f"  {named}")
     fallen = [(b, f) for b, f in enumerate(fell) if f is not None]
     if fallen:  # the fall in a line of its own: the upright share alone hides it
         lines.append(f"the robot fell in {len(fallen)} of {result.layout.n_trials} trial(s): "
@@ -575,6 +578,29 @@ def format_run(result: Result, seed: int) -> list[str]:
     if x.get("trace_overflow"):
         lines.append("warning: " + overflow_words(x["trace_overflow"]))
     return lines
+
+
+def _named_gait(result: Result, b: int) -> str:
+    """``rhythm (thigh bursts) trot; gait (footfalls) none: not periodic (locking 0.58)``:
+    trial ``b``'s rhythm and gait over the run's second half (what ``astrocpg gait`` reads),
+    or "" where the motor spikes or the robot were not recorded."""
+    from types import SimpleNamespace
+
+    from ..analysis.gait import trial_measures
+
+    rob = result.robot or {}
+    if "motor" not in result.spikes or not all(k in rob for k in ("t", "alive", "foot_force")) \
+            or not result.seconds:
+        return ""
+    t, i = result.spikes["motor"]
+    rec = SimpleNamespace(t=np.asarray(rob["t"], dtype=float), alive=np.asarray(rob["alive"]),
+                          foot_force=np.asarray(rob["foot_force"], dtype=float))
+    m = trial_measures(np.asarray(t, dtype=float), np.asarray(i), result.layout, rec, b,
+                       result.seconds / 2, result.seconds)
+    lock = m["gait_locking"]
+    return (f"over the second half: rhythm (thigh bursts) {m['rhythm']}; gait (footfalls) "
+            f"{m['gait']}{': ' + m['gait_reason'] if m['gait_reason'] else ''}"
+            + (f" (locking {lock:.2f}; the label needs 0.7)" if np.isfinite(lock) else ""))
 
 
 def training_settings(folder: str | Path) -> dict[str, Any]:
@@ -598,34 +624,96 @@ def trained_models(settings: Mapping[str, Any]) -> ModelSet:
     return models
 
 
+def controller_tables(folder: str | Path, session: int | None = None) -> np.ndarray:
+    """The tables (volt, (trials, 8, 8)) of the controller in ``folder``: a training's final
+    tables (``weights.npz``; ``session``: after that session), or a run folder's (``astrocpg
+    run --out``: the inter-limb tables its trials ran with, ``robot.npz``)."""
+    p = Path(folder)
+    if (p / "weights.npz").is_file() or not (p / "robot.npz").is_file():
+        return load_weights(folder, culprit="", session=session)
+    if session is not None:
+        raise InputError("a run folder has no sessions: give a training folder",
+                         culprit=f"--session {session}")
+    verify(p, strict=False)  # its files are what its manifest lists
+    if training_settings(p).get("robot"):
+        raise InputError("ran a robot model of its own (--robot); its tables are replayed on "
+                         "the project's A1 only", culprit=str(folder))
+    try:
+        with np.load(p / "robot.npz", allow_pickle=False) as z:
+            w = np.asarray(z["interlimb_weights_mV"], dtype=float) * 1e-3
+    except (OSError, ValueError, KeyError, EOFError) as e:
+        raise InputError(f"robot.npz holds no readable inter-limb tables ({type(e).__name__})",
+                         culprit=str(folder)) from None
+    if w.ndim != 3 or w.shape[-2:] != (8, 8) or not np.all(np.isfinite(w)):
+        raise InputError(f"robot.npz holds tables of shape {w.shape}, not (trials, 8, 8)",
+                         culprit=str(folder))
+    return w
+
+
+def with_variant(settings: Mapping[str, Any], *, overrides: Overrides | None = None,
+                 equations: Mapping[str, str] | None = None,
+                 models: Mapping[str, Any] | None = None,
+                 populations: Any = None) -> dict[str, Any]:
+    """A controller's settings (a training's or a run's, :func:`training_settings`) with a
+    model variant over them, as ``run``/``train`` take one: ``overrides`` after the
+    controller's own (a name given again takes the new value), ``equations`` and ``models``
+    replacing the controller's for the models they name, ``populations`` added to its own.
+    Each is checked here (a bad value names its option)."""
+    out = dict(settings)
+    if overrides:
+        out["overrides"] = [*(settings.get("overrides") or []), *override_items(overrides)]
+    if equations:
+        out["equations"] = {**(settings.get("equations") or {}), **dict(equations)}
+    if models:
+        out["models"] = {**(settings.get("models") or {}), **model_files_record(models)}
+    if populations:
+        record = population_rows(populations)[1]
+        clash = set(record) & set(settings.get("populations") or {})
+        if clash:
+            raise InputError(f"the controller already has the population "
+                             f"{sorted(clash)[0]}", culprit="--population")
+        out["populations"] = {**(settings.get("populations") or {}), **record}
+    if any((overrides, equations, models, populations)):
+        with added_populations(out.get("populations")):
+            trained_models(out)  # every value of the variant checked now, not mid-run
+    return out
+
+
 def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None,
            progress: bool = True, repeats: int = 1,
-           world: Sequence[str] = ()) -> tuple[SimulationResult, np.ndarray]:
-    """The trained tables of every trial of the training in ``folder``, run for ``seconds``
+           world: Sequence[str] = (), variant: Mapping[str, Any] | None = None
+           ) -> tuple[SimulationResult, np.ndarray]:
+    """The trained tables of every trial of the training in ``folder`` (or the tables of a run
+    folder's trials, :func:`controller_tables`), run for ``seconds``
     with the training's models (one batch, learning off), ``repeats`` times: batch trial
     ``b = r * n + k`` is table ``k`` (of ``n``) in repeat ``r``, with seed ``seed + b``
     (independent network noise per run), by default the training's own seed, so that repeat 0
     runs each table on the network and noise it trained with. ``world``: ``NAME=VALUE`` world
-    parameters (e.g. ``slope=0.17``) set over the training's own world. Returns the result and
+    parameters (e.g. ``slope=0.17``) set over the training's own world. ``variant``: a model
+    variant over the training's models (``overrides``, ``equations``, ``models``,
+    ``populations``: :func:`with_variant`). Returns the result and
     the ``n`` tables (volt). The populations the training added are built too: its network."""
     seconds = number(seconds, "--seconds", positive=True)
     check_duration(seconds, STEP)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
+    settings = with_variant(training_settings(folder), **dict(variant or {}))
     if seed is None:
-        seed = training_settings(folder).get("seed", 1)
+        seed = settings.get("seed", 1)
     seed = seed_number(seed)
     verify(folder, strict=False)  # its files are what its manifest lists
-    weights = load_weights(folder, culprit="")
-    state = tables_state(folder)  # final, or said to be otherwise (running, stopped early)
-    if state["warning"]:
-        warnings.warn(state["warning"], UserWarning, stacklevel=2)
-    models = trained_models(training_settings(folder))
-    models = in_world_settings(models, world)
+    weights = controller_tables(folder)
+    if (Path(folder) / "weights.npz").is_file():  # a training's: final, or said otherwise
+        state = tables_state(folder)
+        if state["warning"]:
+            warnings.warn(state["warning"], UserWarning, stacklevel=2)
+    with added_populations(settings.get("populations")):
+        models = trained_models(settings)
+        models = in_world_settings(models, world)
     check_memory(estimate_bytes(trials=len(weights) * repeats, seconds=seconds, dt=STEP,
                                 robot_stride=1),
                  culprit=f"--seconds {seconds:g} x {len(weights)} trained trial(s) x "
                          f"{repeats} repeat(s)")
-    with added_populations(training_settings(folder).get("populations")):
+    with added_populations(settings.get("populations")):
         result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
                                       n_trials=len(weights) * repeats,
                                       weights=np.concatenate([weights] * repeats),

@@ -30,8 +30,11 @@ controller's gait is the share of its runs that show it, with its Wilson interva
 
 def gait_runs(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_REPEATS,
               seed: int | None = None, world: Sequence[str] = (),
-              progress: bool = True) -> tuple[list[dict[str, Any]], np.ndarray, Any]:
-    """Run every trained table of the training in ``folder`` ``repeats`` times for
+              progress: bool = True, variant: Mapping[str, Any] | None = None
+              ) -> tuple[list[dict[str, Any]], np.ndarray, Any]:
+    """Run every trained table of the training in ``folder`` (or every trial's table of a run
+    folder; ``variant``: a model variant over its models, :func:`~astrocpg.studies.commands.
+    run.with_variant`) ``repeats`` times for
     ``seconds``, learning off (run ``b = r * n + k``: table ``k``, repeat ``r``, seed
     ``seed + b``; :func:`~astrocpg.studies.commands.run.replay`); one row per run: table,
     repeat, seed, speed, upright share, the fall, and the rhythm and the gait over the run's
@@ -40,7 +43,7 @@ def gait_runs(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_
     if seed is None:
         seed = training_settings(folder).get("seed", 1)
     result, weights = replay(folder, seconds=seconds, seed=seed, progress=progress,
-                             repeats=repeats, world=world)
+                             repeats=repeats, world=world, variant=variant)
     first_seed = int(seed)
     t, i = result.spikes["motor"]
     rec = result.robot
@@ -108,13 +111,16 @@ def shares_words(rows: Sequence[Mapping[str, Any]], kind: str) -> str:
 
 def describe_gait(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_REPEATS,
                   seed: int | None = None, world: Sequence[str] = (),
-                  progress: bool = True) -> list[str]:
+                  progress: bool = True, variant: Mapping[str, Any] | None = None
+                  ) -> list[str]:
     """Run every trained table ``repeats`` times (:func:`gait_runs`); a line per run (its
-    rhythm and its gait, each named, speed, upright share by the alive model in use, a fall)
-    and per table the share of runs with each gait and each rhythm (Wilson 95% intervals)
-    and the weight structure."""
+    rhythm and its gait, each named, speed, upright share by the alive model in use, a fall),
+    per table the share of its runs with each gait and each rhythm (Wilson 95% intervals over
+    that table's runs) and the weight structure, and over all tables (:func:`tables_words`)
+    the shares with intervals over tables, the gait's locking and its share at other
+    thresholds, and whether the tables differ."""
     rows, weights, models = gait_runs(folder, seconds=seconds, repeats=repeats, seed=seed,
-                                      world=world, progress=progress)
+                                      world=world, progress=progress, variant=variant)
     w_max = models.value("w_max")
     alive = alive_words(models)
     lines = []
@@ -134,7 +140,37 @@ def describe_gait(folder: str | Path, *, seconds: float = 10.0, repeats: int = G
             f"{ws['mixed_limb_pairs']} of {ws['limb_pairs']} limb pairs with two inhibitory "
             f"and two excitatory synapses, {ws['share_above_0.9_w_max']:.0%} above 0.9 w_max, "
             f"{ws['share_below_0.9_w_min']:.0%} below 0.9 w_min")
-    return lines
+    return lines + tables_words(rows)
+
+
+def tables_words(rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Over all tables (runs grouped by ``table``): the trot gait and trot rhythm shares, each
+    the mean of the tables' shares with its 95% interval over tables
+    (:mod:`~astrocpg.studies.analysis.replication`), the gait's locking (the measure its label
+    thresholds) and its trot share at other thresholds, and whether the tables differ from
+    each other in their trot gait share (a permutation test)."""
+    from ..analysis.gait import THRESHOLDS
+    from ..analysis.replication import (gait_measures, group_by_table, interval_words,
+                                        share_over_tables)
+
+    tables = list(group_by_table(rows, ("table",)).values())
+    n, runs = len(tables), len(rows)
+    gait = share_over_tables([[r["gait"] for r in t] for t in tables], "trot")
+    rhythm = share_over_tables([[r["rhythm"] for r in t] for t in tables], "trot")
+    m = gait_measures(tables)
+    differ = m["gait_trot_tables_differ_p"]
+    lock = m["gait_locking_mean"]
+    return [f"all {n} table{'s' if n != 1 else ''} ({runs} runs; each table's share first, "
+            f"then the mean over tables with its 95% interval over tables): gait (footfalls) "
+            f"trot {interval_words(gait)}, rhythm (thigh bursts) trot "
+            f"{interval_words(rhythm)}",
+            f"gait measures: locking (the smallest foot's; the label needs 0.7) "
+            + (f"{lock:.2f}" if np.isfinite(lock) else "n/a (no run read that far)")
+            + "; trot gait share by locking threshold: "
+            + ", ".join(f"{m[f'gait_trot_share_at_{x:g}']:.0%} at {x:g}" for x in THRESHOLDS)
+            + f"; footfall phases alone {m['gait_trot_share_at_0']:.0%}; do the tables differ "
+            f"in their trot share? " + (f"permutation p = {differ:.2g}" if np.isfinite(differ)
+                                        else "one table only")]
 
 
 GAIT_COLUMNS = ("final_speed_m_per_s", *(f"final_{c}" for c in MEASURE_COLUMNS))

@@ -131,8 +131,10 @@ __all__ = ["GAITS", "axis_ticks", "gait_grid", "gait_map_figures", "world_bars"]
 
 
 def world_bars(summary: Sequence[Mapping[str, Any]]) -> Any:
-    """Speed (mean +- std) and fall share per world, one bar per condition: the robustness of
-    trained controllers across named worlds (``summary`` rows of ``astrocpg evaluate``)."""
+    """Speed and fall share per world, one bar per condition, each with its 95% interval over
+    trained tables where the summary has one (``<measure>_low``/``_high``: each table's runs
+    first), else mean +- std: the robustness of trained controllers across named worlds
+    (``summary`` rows of ``astrocpg evaluate``)."""
     from matplotlib.figure import Figure
 
     worlds = list(dict.fromkeys(s["world"] for s in summary))
@@ -141,29 +143,43 @@ def world_bars(summary: Sequence[Mapping[str, Any]]) -> Any:
     speed_ax, fall_ax = fig.subplots(2, 1, sharex=True)
     width = 0.8 / max(1, len(groups))
     x = np.arange(len(worlds))
+    over_tables = all("mean_speed_m_per_s_low" in s for s in summary)
+
+    def column(rows: Mapping[str, Any], key: str) -> np.ndarray:
+        return np.array([rows[w].get(key, np.nan) if w in rows else np.nan for w in worlds],
+                        dtype=float)
+
     for k, (condition, point) in enumerate(groups):
         rows = {s["world"]: s for s in summary
                 if s["condition"] == condition and s["point"] == point}
-        mean = np.array([rows[w]["mean_speed_m_per_s_mean"] if w in rows else np.nan
-                         for w in worlds], dtype=float)
-        std = np.array([rows[w]["mean_speed_m_per_s_std"] if w in rows else np.nan
-                        for w in worlds], dtype=float)
-        falls = np.array([rows[w]["fell_mean"] if w in rows else np.nan for w in worlds],
-                         dtype=float)
-        n = max((rows[w]["n"] for w in rows), default=0)
-        label = f"{condition}{' ' + point if point else ''} (n={n})"
+        mean = column(rows, "mean_speed_m_per_s_mean")
+        falls = column(rows, "fell_mean")
+        if over_tables:
+            speed_err = np.nan_to_num(np.abs([mean - column(rows, "mean_speed_m_per_s_low"),
+                                              column(rows, "mean_speed_m_per_s_high") - mean]))
+            fall_err = np.nan_to_num(np.abs([falls - column(rows, "fell_low"),
+                                             column(rows, "fell_high") - falls])) * 100
+            n = max((rows[w].get("n_tables", 0) for w in rows), default=0)
+            label = f"{condition}{' ' + point if point else ''} ({n} tables)"
+        else:
+            speed_err = np.nan_to_num(column(rows, "mean_speed_m_per_s_std"))
+            fall_err = None
+            n = max((rows[w]["n"] for w in rows), default=0)
+            label = f"{condition}{' ' + point if point else ''} (n={n})"
         offset = (k - (len(groups) - 1) / 2) * width
-        speed_ax.bar(x + offset, mean, width, yerr=np.nan_to_num(std), capsize=2,
+        speed_ax.bar(x + offset, mean, width, yerr=speed_err, capsize=2,
                      color=f"C{k}", label=label)
-        fall_ax.bar(x + offset, 100 * falls, width, color=f"C{k}", label=label)
+        fall_ax.bar(x + offset, 100 * falls, width, yerr=fall_err, capsize=2, color=f"C{k}",
+                    label=label)
+    what = ("mean over trained tables, 95% interval over tables" if over_tables else
+            "mean ± std over controllers and repeats")
     speed_ax.set_ylabel("mean forward speed (m/s)")
-    speed_ax.set_title("trained controllers, learning off: speed (mean ± std over controllers "
-                       "and repeats)", fontsize=9)
+    speed_ax.set_title(f"trained controllers, learning off: speed ({what})", fontsize=9)
     speed_ax.legend(fontsize=8)
     speed_ax.axhline(0, color="k", lw=0.6)
     fall_ax.set_ylabel("runs that fell (%)")
     fall_ax.set_ylim(0, 100)
-    fall_ax.set_title("falls", fontsize=9)
+    fall_ax.set_title(f"falls ({what})", fontsize=9)
     fall_ax.set_xticks(x, worlds, rotation=30, ha="right")
     fall_ax.set_xlabel("world")
     return fig

@@ -38,7 +38,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...reading import check_regular, read_json
-from ..analysis.compare import N_BOOT, N_PERM, SEED, p_text
+from ..analysis.compare import N_BOOT, N_PERM, SEED, p_text, reading_words
 from ..analysis.final_figures import (CURVES, MEASURES, WEIGHT_MEASURES, Measure, across_seeds,
                                       condition_tests, seed_finals, session_curve)
 from ..analysis.gait import weight_structure
@@ -210,7 +210,7 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
             "sessions_max": max(len(s) for s in series.values()),
             "last_sessions_min": min(o["last_sessions"] for o in seeds_here),
             "last_sessions_max": max(o["last_sessions"] for o in seeds_here),
-            **across_seeds(seeds_here),
+            **across_seeds(seeds_here), **final_gaits(members),
         })
     figures: dict[str, Any] = {"fig3c.png": fig3c(name, curves, smooth)}
     shows = {"fig3c.png": "mean reward, final x (m) and session length (s) per session, "
@@ -223,7 +223,8 @@ def _report(folder: Path, dest: Path, *, last: int, smooth: int) -> dict[str, An
     tests = condition_tests(swept, [c for c, _ in groups], per_seed, measures,
                              skip={(d["condition"], tuple(str(d.get(k, "")) for k in swept))
                                    for d in diverged},
-                             paired=bool(index.get("paired", False)))
+                             paired=bool(index.get("paired", False)),
+                             margins=dict(index.get("margins") or {}))
 
     files, described, text = _write_files(
         dest, name, figures, shows, rows, tests, per_seed, study_sessions, last=last,
@@ -265,7 +266,11 @@ def _write_files(dest: Path, name: str, figures: dict[str, Any], shows: dict[str
                             "difference with its 95% bootstrap interval (difference_low, "
                             "difference_high), permutation p (perm_p, perm_exact, perm_p_min, "
                             "perm_bound; perm_p_holm), Mann-Whitney U and p (mwu_p_holm), "
-                            "Welch's t and p, Hedges' g, rank-biserial correlation, paired")
+                            "Welch's t and p, Hedges' g, rank-biserial correlation, paired; "
+                            "detectable: the smallest difference the test could detect (80% "
+                            "power, alpha 0.05); margin, tost_p, tost_low, tost_high, "
+                            "equivalent: the equivalence test of the study file's [margins]; "
+                            "reading: what the numbers support, in words")
     described["report.md"] = ("this page: the final figures, the tests between conditions, "
                               "the files written")
     text = _markdown(name, rows, tests, per_seed, study_sessions, last, swept, measures,
@@ -273,6 +278,74 @@ def _write_files(dest: Path, name: str, figures: dict[str, Any], shows: dict[str
     atomic_write(dest / "report.md", lambda f: f.write(text.encode()))
     files.append(dest / "report.md")
     return files, described, text
+
+
+def final_gaits(members: list[dict[str, Any]]) -> dict[str, Any]:
+    """A group's final gaits (each seed's final table, one run with learning off: the runs'
+    ``gait.csv``), one run per seed, so the seed is the unit: ``final_seeds`` (seeds with a
+    final run), ``final_trot_gait_k`` and its share with the Wilson 95% interval over seeds
+    (``_share``, ``_low``, ``_high``), ``final_gait_locking_mean`` (the measure the label
+    thresholds, over the seeds read that far), ``final_trot_gait_at_<x>`` (the share at other
+    locking thresholds; 0: the footfall phases alone) and ``final_trot_rhythm_share``. Empty
+    where no run has a ``gait.csv``."""
+    from ..analysis.gait import THRESHOLDS, gait_at
+    from ..analysis.share import wilson_interval
+
+    seeds = []
+    for m in members:
+        g = m.get("gaits")
+        if g is None or "final_gait" not in g:
+            continue
+        for row in g.to_dict("records"):
+            seeds.append({k[len("final_"):]: v for k, v in row.items()
+                          if str(k).startswith("final_")})
+    if not seeds:
+        return {}
+    n = len(seeds)
+    k = sum(s["gait"] == "trot" for s in seeds)
+    low, high = wilson_interval(k, n)
+    locks = [float(s.get("gait_locking", np.nan)) for s in seeds]
+    locks = [x for x in locks if np.isfinite(x)]
+    out: dict[str, Any] = {"final_seeds": n, "final_trot_gait_k": k,
+                           "final_trot_gait_share": k / n, "final_trot_gait_low": low,
+                           "final_trot_gait_high": high,
+                           "final_gait_locking_mean": float(np.mean(locks)) if locks
+                           else float("nan")}
+    for x in (0.0, *THRESHOLDS):
+        out[f"final_trot_gait_at_{x:g}"] = sum(gait_at(s, x) == "trot" for s in seeds) / n
+    if "rhythm" in seeds[0]:
+        out["final_trot_rhythm_share"] = sum(s["rhythm"] == "trot" for s in seeds) / n
+    return out
+
+
+def _gait_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """report.md's final gaits: a line per group that has them."""
+    from ..analysis.gait import THRESHOLDS
+
+    have = [r for r in rows if r.get("final_seeds")]
+    if not have:
+        return []
+    lines = ["", "## Final gaits", "",
+             "Each seed's final table run once with learning off (the study's final runs, "
+             "`gait.csv`): one run per seed, so the seed is the unit and the interval is "
+             "Wilson's over seeds. The trot gait label needs every foot's locking at 0.7 or "
+             "more; the locking (the smallest foot's, mean over the seeds read that far) and "
+             "the trot share at other thresholds (0: the footfall phases alone) say how much "
+             "of the share the threshold sets.", "",
+             "| group | seeds | trot gait [95% interval] | locking | trot gait at "
+             + " / ".join(f"{x:g}" for x in (0.0, *THRESHOLDS)) + " | trot rhythm |",
+             "|---|---|---|---|---|---|"]
+    for r in have:
+        lock = r["final_gait_locking_mean"]
+        rhythm = r.get("final_trot_rhythm_share")
+        lines.append(
+            f"| {r['group']} | {r['final_seeds']} | {r['final_trot_gait_k']} "
+            f"({r['final_trot_gait_share']:.0%}) [{r['final_trot_gait_low']:.0%}, "
+            f"{r['final_trot_gait_high']:.0%}] | "
+            f"{'n/a' if not np.isfinite(lock) else f'{lock:.2f}'} | "
+            + " / ".join(f"{r[f'final_trot_gait_at_{x:g}']:.0%}" for x in (0.0, *THRESHOLDS))
+            + f" | {'n/a' if rhythm is None else f'{rhythm:.0%}'} |")
+    return lines
 
 
 def _csv(rows: list[dict[str, Any]]) -> str:
@@ -293,7 +366,11 @@ def _cell(v: Any) -> str:
 def _pm(row: dict[str, Any], key: str, fmt: str) -> str:
     if key + "_mean" not in row:
         return "n/a"
-    return f"{format(row[key + '_mean'], fmt)} ± {format(row[key + '_std'], fmt)}"
+    text = f"{format(row[key + '_mean'], fmt)} ± {format(row[key + '_std'], fmt)}"
+    low, high = row.get(key + "_low"), row.get(key + "_high")
+    if low is not None and np.isfinite(low):
+        text += f" [{format(low, fmt)}, {format(high, fmt)}]"
+    return text
 
 
 def _span(low: int, high: int) -> str:
@@ -323,7 +400,8 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
     lines = [f"# Study {name}: final figures", "",
              f"The study trains {planned} sessions per seed; "
              f"{_span(min(trained), max(trained))} of them are done. Per seed, the final "
-             f"figures are the mean over {window}; then mean ± std (ddof=0) across seeds. "
+             f"figures are the mean over {window}; then mean ± std (ddof=0) across seeds "
+             f"[95% t interval over seeds: the seed is the unit, not its sessions]. "
              f"Full-length: share of those sessions that reached L_max.", "",
              "| group | seeds | runs finished | sessions | last sessions | forward speed (m/s) | "
              "final x (m) | session length (s) | mean reward | full-length | "
@@ -347,6 +425,7 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                       f"the curves, the sweep figures or the tests): "
                   + "; ".join(f"{d['group']} (runs diverged {d['runs_diverged']}: {d['error']})"
                               for d in diverged) + "."]
+    lines += _gait_lines(rows)
     if tests:
         paired = bool(tests[0].get("paired"))
         lines += ["", "## Conditions compared", "",
@@ -368,7 +447,13 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                   "sizes: Hedges' g (difference over the pooled sample std, small-sample "
                   "corrected)" + ("" if paired else " and the rank-biserial correlation of U "
                   "(+1: every seed of the first condition above every seed of the second)")
-                  + ". With fewer than 2 seeds on a side no test is made (n too small).", ""]
+                  + ". With fewer than 2 seeds on a side no test is made (n too small). "
+                  "A difference not shown is no evidence of sameness (and Holm's adjustment "
+                  "only makes a difference harder to show): the last column gives the "
+                  "smallest difference the test could detect (80% power, two-sided alpha "
+                  "0.05, from the seeds' own spread), or, where the study file declares a "
+                  "margin for the figure ([margins]), its equivalence test (TOST: two one-sided "
+                  "tests on Student's t).", ""]
         for key, chunk in itertools.groupby(
                 tests, key=lambda t: (tuple(t.get(k) for k in swept), t["condition_a"],
                                       t["condition_b"])):
@@ -379,16 +464,17 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                       f"| final figure | {a} | {b} | difference [95% interval] | "
                       f"permutation p (Holm) | "
                       + ("" if paired else "Mann-Whitney U, p (Holm) | ")
-                      + "Hedges' g |" + ("" if paired else " rank-biserial |"),
+                      + "Hedges' g |" + ("" if paired else " rank-biserial |")
+                      + " reading |",
                       "|---|---|---|---|---|" + ("" if paired else "---|") + "---|"
-                      + ("" if paired else "---|")]
+                      + ("" if paired else "---|") + "---|"]
             for t in chunk:
                 m = next(x for x in measures if x.key == t["measure"])
                 fmt = FORMATS[m.key]
                 head = (f"| {m.label} | {format(t['mean_a'], fmt)} (n={t['n_a']}) | "
                         f"{format(t['mean_b'], fmt)} (n={t['n_b']}) | "
                         f"{format(t['difference'], '+' + fmt)}")
-                cells = 3 if paired else 5
+                cells = 4 if paired else 6
                 if t["note"] == "n too small":
                     lines.append(head + " |" + " n too small |" * cells)
                     continue
@@ -398,12 +484,13 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
                         f"{' exact' if t['perm_exact'] else ''} "
                         f"({p_text(t['perm_p_holm'], t['perm_p_holm'], t['perm_bound'])})")
                 g = "undefined (no spread)" if t["hedges_g"] is None else f"{t['hedges_g']:.3g}"
+                reading = reading_words(t, fmt.lstrip("+"))
                 if paired:
-                    lines.append(head + f"{perm} | {g} |")
+                    lines.append(head + f"{perm} | {g} | {reading} |")
                 else:
                     lines.append(head + f"{perm} | {t['mwu_U']:.3g}, {p_text(t['mwu_p'])} "
                                         f"({p_text(t['mwu_p_holm'])}) | {g} | "
-                                        f"{t['rank_biserial']:+.3g} |")
+                                        f"{t['rank_biserial']:+.3g} | {reading} |")
             lines.append("")
         lines.append(f"The same in {TESTS}.")
     lines += ["", "## Files", ""]

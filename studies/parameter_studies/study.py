@@ -348,7 +348,7 @@ def _save_index(study: Study, out: Path) -> None:
                            "sweep": study.sweep, "runs": known,
                            "specs": specs, "current": [r.run_id for r in study.runs],
                            "batch": study.batch, "split": study.split,
-                           "paired": study.paired,
+                           "paired": study.paired, "margins": study.margins,
                            "batch_setting": study.batch_setting,
                            "batch_choice": study.batch_choice})
     data = study.text.encode()

@@ -26,6 +26,7 @@ from ...reading import loads_toml
 from ...models import DEFAULT_MODELS
 from ..runtime.resources import check_memory, estimate_bytes, estimate_wall_seconds
 from ...models.compose import model_files_record, model_set, read_model_files
+from ..analysis.margins import read_margins
 from ..commands.settings import (MAX_GRID, MAX_SEED, added_populations, check_grid,
                                  population_rows)
 from ..commands.simulate import STEP, check_duration
@@ -221,6 +222,9 @@ class Study:
     # paired = true: the report compares seed k of one condition with seed k of another
     # (paired tests), a design declared in the file before any run, never chosen after
     paired: bool = False
+    # [margins]: equivalence margins per measure (SI units or plain numbers), declared in the
+    # file before any run; the report tests equivalence against them
+    margins: dict[str, float] = field(default_factory=dict)
 
     @property
     def batch_pending(self) -> bool:
@@ -262,13 +266,16 @@ def parse_study(text: str, p: Path, batch_given: int | None,
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"not valid TOML ({e})", culprit=f"study {p}") from None
     where = f"study {p.name}"
-    unknown = set(doc) - {"study", "base", "models", "sweep", "conditions", "evaluate"}
+    unknown = set(doc) - {"study", "base", "models", "sweep", "conditions", "evaluate",
+                          "margins"}
     if unknown:
-        sections = ("study", "base", "models", "sweep", "conditions", "evaluate")
+        sections = ("study", "base", "models", "sweep", "conditions", "evaluate", "margins")
         raise InputError(f"unknown section [{sorted(unknown)[0]}]"
                          f"{did_you_mean(sorted(unknown)[0], sections)} "
                          f"(sections: {', '.join(sections)})",
                          culprit=where)
+    # equivalence margins, declared before any run (what "no difference" means per measure)
+    margins = read_margins(doc.get("margins"), where)
     head = doc.get("study", {})
     bad = set(head) - _STUDY_KEYS
     if bad:
@@ -327,7 +334,7 @@ def parse_study(text: str, p: Path, batch_given: int | None,
         raise InputError("[study] paired must be true or false", culprit=where)
     return Study(name=name, description=str(head.get("description", "")), path=p, text=text,
                  n_sessions=n_sessions, seeds=seeds, batch=batch, sweep=names, runs=runs,
-                 paired=paired,
+                 paired=paired, margins=margins,
                  evaluate=evaluate, batch_setting=batch_setting,
                  batch_choice=None if batch_setting != "auto" or batch_given is None
                  else {"batch": batch_given, "reason": "given by the caller"},
