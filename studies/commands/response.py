@@ -247,21 +247,51 @@ def response(model: str = "astrocyte", *, rates: Any = "0:1000:50", seconds: flo
              models: Mapping[str, Any] | None = None, out: str | Path | None = None,
              overwrite: bool = False, progress: bool = True,
              inputs: Sequence[str | os.PathLike] = ()) -> Response:
-    """The response of one astrocyte model (the model set's ``astrocyte``: built in, or a model
-    file in ``models``, with ``overrides``) to its pool's spike rate; what ``astrocpg response
+    """The response of one astrocyte model to its pool's spike rate: what ``astrocpg response
     astrocyte`` runs.
 
-    rates: pool spike rates in spikes/s (``"0:1000:50"``, ``"100,540"`` or numbers).
-    seconds: measured time per astrocyte after ``warmup`` seconds; replicates: astrocytes per
-    rate, each with its own Poisson input (Brian2 seeded with ``seed``). marks: ``LABEL=RATE``
-    pool rates drawn beside the curve and read off it (e.g. a trained network's rate per drive).
-    out: writes ``response.csv``, ``response.png`` and ``manifest.json`` (whole, or nothing;
-    a folder that holds files only with ``overwrite``, never one of ``inputs``, the files the
-    caller read). progress: a bar over the simulated time.
+    Each astrocyte (the model set's ``astrocyte``: built in, or a model file in ``models``, with
+    ``overrides``) is fed Poisson pool spikes at one rate through its 2-AG input; its adenosine
+    releases and mean [ADO] are measured after a warm-up.
 
-    Returns a :class:`~astrocpg.studies.commands.response.Response` whose ``summary`` holds
-    the rows, the release limit the refractory period allows and each mark's values. Bad
-    input: InputError naming the culprit, before anything runs."""
+    Parameters
+    ----------
+    model : str
+        The model whose response is measured ("astrocyte").
+    rates : str or sequence of float
+        Pool spike rates in spikes/s: ``"0:1000:50"``, ``"100,540"`` or numbers.
+    seconds : float
+        Measured time per astrocyte, in s, after ``warmup`` seconds.
+    warmup : float
+        Simulated time before the measurement, in s (the astrocyte settles over ~100 s near the
+        onset of its oscillations).
+    replicates : int
+        Astrocytes per rate, each with its own Poisson input.
+    seed : int
+        Brian2's seed for the Poisson inputs.
+    marks : sequence of str or mapping, optional
+        ``LABEL=RATE`` pool rates drawn beside the curve and read off it (e.g. a trained
+        network's rate per drive).
+    overrides, equations, models : optional
+        Parameter values with units, equation texts and whole model files, as for
+        :func:`~astrocpg.run`.
+    out : path, optional
+        Writes ``response.csv``, ``response.png`` and ``manifest.json`` there (whole, or
+        nothing).
+    overwrite : bool
+        Replace a folder that holds files (only one astrocpg wrote; never one of ``inputs``).
+    progress : bool
+        A progress bar over the simulated time.
+    inputs : sequence of path
+        Files the caller read: ``out`` may not be or hold one.
+
+    Returns
+    -------
+    Response
+        A :class:`~astrocpg.studies.commands.response.Response` whose ``summary`` holds the
+        rows, the release limit the refractory period allows and each mark's values. Bad input
+        raises InputError naming the culprit, before anything runs.
+    """
     if model not in RESPONSE_MODELS:
         raise InputError(f"no response for '{model}' (models: {', '.join(RESPONSE_MODELS)})",
                          culprit="response MODEL")

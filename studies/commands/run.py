@@ -113,15 +113,7 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
         from ...coupling.robot import A1Parameters, RobotLayout, load_robot
         from ...coupling.world import world_model
 
-        if trial is not None and not (isinstance(weights, (str, os.PathLike))
-                                      and Path(weights).is_dir()):
-            # a trial picks one table of a training folder: with no weights, a weights file or an
-            # array there is nothing to pick from, and the option would be ignored
-            raise InputError("picks a trial's table of a training folder: give one with --weights "
-                             "DIR" + ("" if weights is None else f" ({_shown(weights)} is not a "
-                                                                 f"training folder)"),
-                             culprit=f"--trial {trial}")
-
+        _check_trial(trial, weights)
         seconds = number(seconds, "--seconds", positive=True)
         trials = number(trials, "--trials", integer=True, minimum=1)
         seed = trained_seed(weights, trial, seed)
@@ -194,6 +186,17 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
         return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                       summary=summary, robot=robot_arrays(result),
                                       models=models, folder=out)
+
+
+def _check_trial(trial: int | None, weights: Any) -> None:
+    """A trial picks one table of a training folder: with no weights, a weights file or an
+    array there is nothing to pick from, and the option would be ignored."""
+    if trial is not None and not (isinstance(weights, (str, os.PathLike))
+                                  and Path(weights).is_dir()):
+        raise InputError("picks a trial's table of a training folder: give one with --weights "
+                         "DIR" + ("" if weights is None else f" ({_shown(weights)} is not a "
+                                                             f"training folder)"),
+                         culprit=f"--trial {trial}")
 
 
 def array_table(weights: Any) -> np.ndarray:

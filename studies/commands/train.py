@@ -811,7 +811,7 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
         trials is extended only while no trial ran idle; a study's run is not extended.
     progress : bool
         A progress bar on stderr.
-    record_every, record_stride, spikes, traces : optional
+    record_every, record_stride, spikes, traces, trace_dtype : optional
         As for :func:`train`: given again, each must agree with the training's own.
     seed, trials, astrocytes, overrides, equations, models, populations : optional
         As for :func:`train`: given again, each must agree with the training's own.
