@@ -20,7 +20,8 @@ also the package imported (so the shipped studies and worlds are the copy's), wi
 shortening rule (the manual states it too, docs/reproducibility.md, "How this manual is checked"):
 
 - ``--seconds`` at most 4 (a run of 30 s or 10 s runs 4 s; ``unit``, ``run``, ``gait``,
-  ``evaluate``, and ``plot`` of a training get ``--seconds 4`` where their default is longer);
+  ``evaluate``, ``response``, and ``plot`` of a training get ``--seconds 4`` where their default
+  is longer); ``response --warmup`` at most 4;
 - a training: ``--sessions`` at most 2 and its sessions end at 1 s (``--set L_max=1*second``);
   an extension (``--resume DIR --sessions N``) one session more, 3;
   ``--session N`` (a replay) is the shortened training's last, 2, as is ``sessionNNNN`` in a
@@ -565,7 +566,7 @@ def test_statistics_commands_rewrite_the_committed_tables(tmp_path):
 MAX_SECONDS = 4.0
 MAX_SESSIONS = 2
 SESSION_LENGTH = "1*second"
-LONG_DEFAULT = {"unit", "run", "gait", "evaluate"}  # a default of more than 4 s
+LONG_DEFAULT = {"unit", "run", "gait", "evaluate", "response"}  # a default of more than 4 s
 
 
 def _is_training(folder: Path) -> bool:
@@ -670,6 +671,9 @@ def shorten(argv: list[str], copy: Path, shortened: set[Path]) -> list[str]:
         argv = _set(argv, "--sessions", str(MAX_SESSIONS + 1))
     if c == "power":
         argv = _set(argv, "--sessions", str(MAX_SESSIONS))
+    if c == "response":  # its warm-up (default 200 s) is simulated time too
+        warmup = float(argv[argv.index("--warmup") + 1]) if "--warmup" in argv else 200.0
+        argv = _set(argv, "--warmup", f"{min(warmup, MAX_SECONDS):g}")
     if c == "evaluate":
         argv = _set(argv, "--repeats", "1")
     if c == "study" and "--status" not in argv:
