@@ -30,7 +30,13 @@ from __future__ import annotations
 
 import importlib
 
-from . import _quiet_brian
+from . import _streams
+
+# a standard stream closed at start (`astrocpg run ... 2>&-`): /dev/null on its descriptor before
+# anything opens a file that would take it
+_streams.mend_closed()
+
+from . import _quiet_brian  # noqa: E402
 
 __version__ = "0.1.0"
 

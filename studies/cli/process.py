@@ -16,6 +16,7 @@ import threading
 import warnings
 from typing import Any, NoReturn, Sequence
 
+from ..._streams import guarded
 from ...environment import check as check_environment, flag
 from ...errors import AstrocpgError, EnvironmentFault, InputError, one_line
 from .grammar import build_parser
@@ -83,8 +84,10 @@ def _survive_any_bytes() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; its exit code (0 done, 1 environment, 2 bad input, 3 diverged, 130
-    interrupted)."""
-    code = _main(argv)
+    interrupted). Standard streams that are closed, or pipes nobody reads, do not change it
+    (:func:`astrocpg._streams.guarded`)."""
+    with guarded():
+        code = _main(argv)
     if code == 130:  # interrupted, whichever layer caught the KeyboardInterrupt
         _forget_unhandled_interrupt()
     return code
@@ -109,7 +112,7 @@ def entry() -> NoReturn:
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()
-            except (OSError, ValueError):  # a closed pipe or stream: nothing more to say
+            except (OSError, ValueError, AttributeError):  # a closed pipe or stream
                 pass
         os._exit(code)
 
@@ -204,9 +207,6 @@ def _run_command(args: argparse.Namespace) -> int:
         sys.unraisablehook = _ignore_unraisable
         sys.stderr.write("astrocpg: interrupted\n")
         return 130
-    except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
-        sys.stderr.close()
-        return 0
     except OSError as e:  # an I/O failure no layer turned into an EnvironmentFault
         sys.stderr.write(f"astrocpg: environment: {EnvironmentFault.from_os_error(e).line}\n")
         return 1
