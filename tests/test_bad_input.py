@@ -1356,6 +1356,22 @@ def held_study(e: Env) -> Path:
     return e._once("held_study", make)
 
 
+def held_fresh_study(e: Env) -> Path:
+    """A study folder as in its first seconds: another process holds it, and it has no
+    manifest yet (a study writes it at the end)."""
+    def make() -> Path:
+        d = e.copy("study", "study_fresh")
+        (d / "manifest.json").unlink()
+        code = ("import time\nfrom astrocpg.studies.outputs.folder import FolderLock\n"
+                f"a = FolderLock({str(d)!r}).acquire()\n"
+                "print('held', flush=True)\ntime.sleep(300)\n")
+        p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+        _HOLDERS.append(p)
+        assert p.stdout is not None and p.stdout.readline().strip() == "held"
+        return d
+    return e._once("held_fresh_study", make)
+
+
 def released(e: Env) -> None:
     _kill_holders()
 
@@ -1431,6 +1447,26 @@ case("study-held-rerun", lambda e: S("study", e.study(TINY_STUDY), "--out", held
 case("study-held-export-into", lambda e: S("export", e.copy("run"), "--out",
                                            held_study(e) / "x.nwb"), 2, "in use", "unchanged",
      held_study, check=released)
+# a run that fails at its first write: the study's one line names the file (no worker's
+# "Compute Failed" block with its traceback)
+case("study-run-fails-at-its-first-write",
+     lambda e: S("study", e.study(TINY_STUDY), "--out", out(e), "--workers", "1",
+                 "--no-progress"), 1, "manifest.json", "none", out,
+     subprocess={"rlimit_fsize": 40_960})
+# a study that is running is "in use", whatever its folder holds yet (was: "not an astrocpg
+# output" for --overwrite before its manifest; "belongs to another study" for a second study)
+case("study-held-overwrite-before-its-manifest",
+     lambda e: S("study", e.study(TINY_STUDY), "--out", held_fresh_study(e), "--overwrite",
+                 "--workers", "1", "--no-progress"), 2, "in use", "unchanged",
+     held_fresh_study, check=released)
+case("study-held-another-study-into-it",
+     lambda e: S("study", e.study(study_text(name='"other"')), "--out", held_study(e),
+                 "--workers", "1", "--no-progress"), 2, "in use", "unchanged", held_study,
+     check=released)
+case("study-held-another-study-into-it-before-its-manifest",
+     lambda e: S("study", e.study(study_text(name='"other"')), "--out", held_fresh_study(e),
+                 "--workers", "1", "--no-progress"), 2, "in use", "unchanged",
+     held_fresh_study, check=released)
 # every point's model settings before any run: named with the point and the parameter
 case("study-point-invalid-delay-table", lambda e: S("study", e.study(DELAY_STUDY), "--out",
                                                     out(e), "--workers", "1"),

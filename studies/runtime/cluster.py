@@ -81,10 +81,12 @@ def connect_cluster(workers: int | None, scheduler: str | None):
     in_main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if in_main else None
     try:
-        # read when the scheduler, nannies and workers are made (a restarted worker too)
+        # read when the scheduler, nannies and workers are made (a restarted worker too);
+        # a task's error is the caller's to report (a study's failures.csv and its one
+        # line): the worker's own "Compute Failed" record with its traceback stays quiet
         with dask.config.set(LEAN_DASK):
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=":0", silence_logs=logging.ERROR)
+                                   dashboard_address=":0", silence_logs=logging.CRITICAL)
     finally:
         if in_main:
             signal.signal(signal.SIGINT, previous)
