@@ -392,6 +392,15 @@ for cmd in (UNIT, RUN, "train", "describe"):
          "absent" if outs else "none", out)
     case(f"{cmd}-set-nan", lambda e, a=argv: a(e, "tau_motor=nan*ms"), 2, "tau_motor",
          "absent" if outs else "none", out)
+# finite, but its arithmetic overflows at the first step (1/(w_max - w_min)**2): refused
+# naming the parameter, nothing left (was "internal error", and a training left 'running')
+for cmd in ("run", "train"):
+    case(f"{cmd}-set-overflows-at-the-first-step",
+         lambda e, c=cmd: S(c, "--set", "w_max=1e200*mV", "--out", out(e)), 2,
+         "w_max=1e+197*V: makes interlimb_synapse's", "absent", out)
+case("study-set-overflows-at-the-first-step",
+     lambda e: S("study", e.study(TINY_STUDY), "--set", "w_max=1e200*mV", "--out", out(e),
+                 "--workers", "1", "--no-progress"), 2, "w_max=1e+197*V", "none", out)
 case("unit-set-escape-from-eval", lambda e: S("unit", "--set", f"tau_motor={EVIL_ESCAPE}",
                                               "--out", out(e)),
      2, "tau_motor", "absent", out, check=not_evaluated)
