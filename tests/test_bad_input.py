@@ -1456,6 +1456,35 @@ case("study-held-rerun", lambda e: S("study", e.study(TINY_STUDY), "--out", held
 case("study-held-export-into", lambda e: S("export", e.copy("run"), "--out",
                                            held_study(e) / "x.nwb"), 2, "in use", "unchanged",
      held_study, check=released)
+def _status_fifo(e: Env) -> Path:
+    """A study copy whose run's sessions.csv is a FIFO (no writer)."""
+    def make() -> Path:
+        d = e.copy("study", "study_fifo")
+        p = next((d / "runs").iterdir()) / "sessions.csv"
+        p.unlink()
+        os.mkfifo(p)
+        return d
+    return e._once("status_fifo", make)
+
+
+def _status_corrupt(e: Env) -> Path:
+    """A study copy whose study.json gives a run -10 sessions."""
+    def make() -> Path:
+        d = e.copy("study", "study_corrupt")
+        index = json.loads((d / "study.json").read_text())
+        for spec in index["specs"].values():
+            spec["n_sessions"] = -10
+        (d / "study.json").write_text(json.dumps(index))
+        return d
+    return e._once("status_corrupt", make)
+
+
+# --status reads: a FIFO is refused (was: waited on for ever), a corrupt count named (was
+# "-1000.0%")
+case("study-status-fifo-in-a-run", lambda e: S("study", "--status", _status_fifo(e)), 2,
+     "sessions.csv: is not a regular file (a FIFO)", "none")
+case("study-status-corrupt-session-count", lambda e: S("study", "--status", _status_corrupt(e)),
+     2, "study.json: run astro__seed1: n_sessions is -10", "none")
 # a run that fails at its first write: the study's one line names the file (no worker's
 # "Compute Failed" block with its traceback)
 case("study-run-fails-at-its-first-write",

@@ -182,7 +182,7 @@ def _study_status(args: argparse.Namespace) -> int:
     if given:
         raise InputError(f"reads a study folder and runs nothing: {given[0]} does not apply "
                          f"(only --workers, for the estimate)", culprit=f"--status {args.status}")
-    print(study_status(args.status, workers=args.workers or 1).text())
+    print(study_status(args.status, workers=args.workers).text())
     return 0
 
 

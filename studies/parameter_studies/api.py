@@ -108,16 +108,17 @@ def report(folder: str | os.PathLike, *, smooth: int = 1, last: int = 50,
                         out=None if out is None else _path(out, "out"), overwrite=overwrite)
 
 
-def study_status(folder: str | os.PathLike, *, workers: int = 1) -> Any:
+def study_status(folder: str | os.PathLike, *, workers: int | None = None) -> Any:
     """What the study in ``folder`` has done and what is left (``astrocpg study --status``):
     a :class:`~astrocpg.studies.parameter_studies.status.StudyProgress` with each run's state and
     sessions, and ``left_s``, a projection of the wall seconds left with ``workers``
-    processes (``.text()`` is what the command prints). Reads only: safe while the study
-    runs in another process."""
+    processes (by default those the study runs on, as its manifest records; ``.text()`` is
+    what the command prints). Reads only: safe while the study runs in another process."""
     from .status import study_status as progress
 
     return progress(_path(folder, "folder"),
-                    workers=number(workers, "workers", integer=True, minimum=1))
+                    workers=None if workers is None
+                    else number(workers, "workers", integer=True, minimum=1))
 
 
 __all__ = ["study", "study_status", "report"]

@@ -406,6 +406,11 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                 "overrides": study.overrides.record(), "workers": workers,
                 "scheduler": scheduler, "batch": study.batch, "batch_choice": study.batch_choice}
     cluster = connect_cluster(workers, scheduler) if waiting else None
+    # the worker processes (threads of a --scheduler cluster) the runs share: what
+    # `study --status` projects the time left with
+    settings["worker_count"] = (sum(cluster[0].nthreads().values()) or None
+                                if cluster is not None and scheduler else
+                                workers or os.cpu_count() or 1)
     unwritten: dict[str, str] = {}
     try:
         prepare_output_dir(out)
