@@ -1485,6 +1485,12 @@ case("study-status-fifo-in-a-run", lambda e: S("study", "--status", _status_fifo
      "sessions.csv: is not a regular file (a FIFO)", "none")
 case("study-status-corrupt-session-count", lambda e: S("study", "--status", _status_corrupt(e)),
      2, "study.json: run astro__seed1: n_sessions is -10", "none")
+# an empty study file (or comments alone) is refused naming it (was: 400 sessions of defaults)
+case("study-file-empty", lambda e: S("study", e.study(""), "--out", out(e)), 2,
+     "s.toml: is empty", "absent", out)
+case("study-file-comments-alone", lambda e: S("study", e.study("# nothing yet\n\n"),
+                                              "--out", out(e)), 2, "s.toml: is empty",
+     "absent", out)
 # a run that fails at its first write: the study's one line names the file (no worker's
 # "Compute Failed" block with its traceback)
 case("study-run-fails-at-its-first-write",
