@@ -184,6 +184,7 @@ class DirectFile:
             raise ValueError(f"stage must be a positive multiple of {_BLOCK} bytes, got {stage}")
         flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC
         direct = getattr(os, "O_DIRECT", 0)
+        self.path = os.fspath(path)  # named by a failed write (a full disk)
         self.fd = -1
         if direct:
             try:
@@ -234,12 +235,19 @@ class DirectFile:
                 # refused at the first write, or a short write left the offset unaligned:
                 # the rest goes through the page cache
                 if e.errno != errno.EINVAL or not self.direct:
-                    raise
+                    raise self._named(e) from None
                 import fcntl
 
                 fcntl.fcntl(self.fd, fcntl.F_SETFL,
                             fcntl.fcntl(self.fd, fcntl.F_GETFL) & ~os.O_DIRECT)
                 self.direct = False
+
+    def _named(self, e: OSError) -> OSError:
+        """``e`` naming this file (``os.write`` names none: "No space left on device" alone)."""
+        if e.filename is not None:
+            return e
+        named = type(e)(e.errno, e.strerror or str(e), self.path)
+        return named.with_traceback(e.__traceback__)
 
     def tell(self) -> int:
         return self._written
@@ -265,12 +273,18 @@ class DirectFile:
                 padded = -(-tail // _BLOCK) * _BLOCK
                 self._view[tail:padded] = bytes(padded - tail)
                 self._drain(padded)
-                os.ftruncate(self.fd, self._written)  # the padding cut off
+                try:
+                    os.ftruncate(self.fd, self._written)  # the padding cut off
+                except OSError as e:
+                    raise self._named(e) from None
             elif tail:
                 self._drain(tail)
             self._filled = 0
             if self._sha is not None:  # a result file; a spill is read once and removed
-                os.fsync(self.fd)
+                try:
+                    os.fsync(self.fd)
+                except OSError as e:
+                    raise self._named(e) from None
         finally:
             self.abandon()
         return None if self._sha is None else self._sha.hexdigest()

@@ -1,0 +1,36 @@
+"""Faults met while a command runs name what they concern: the file a full disk refused, the
+world and the controller of an evaluation cell that diverged."""
+
+from __future__ import annotations
+
+import errno
+import os
+
+from astrocpg.studies.cli import main
+
+
+def test_a_full_disk_under_a_spilled_trace_names_the_file(tmp_path, monkeypatch, capsys):
+    """A run's large traces go to a temporary beside its folder as it runs; a full disk there
+    said "No space left on device" and named no file."""
+    from astrocpg.network import recording
+
+    monkeypatch.setattr(recording, "SPILL_BYTES", 1 << 16)
+    real = os.write
+
+    def write(fd, data):
+        try:
+            target = os.readlink(f"/proc/self/fd/{fd}")
+        except OSError:
+            target = ""
+        if target.endswith(".spill"):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(fd, data)
+
+    monkeypatch.setattr(os, "write", write)
+    out = tmp_path / "o"
+    code = main(["run", "--seconds", "0.3", "--out", str(out), "--no-progress"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1, err
+    assert ".spill" in err[0] and str(tmp_path) in err[0] and "No space left" in err[0]
+    assert f"--out {out}" in err[0]
+    assert not out.exists() and not [p for p in os.listdir(tmp_path) if p.endswith(".spill")]
