@@ -1485,6 +1485,13 @@ case("study-status-fifo-in-a-run", lambda e: S("study", "--status", _status_fifo
      "sessions.csv: is not a regular file (a FIFO)", "none")
 case("study-status-corrupt-session-count", lambda e: S("study", "--status", _status_corrupt(e)),
      2, "study.json: run astro__seed1: n_sessions is -10", "none")
+# a cell that diverges names its world and its controller (was: the MuJoCo warning alone)
+SHOVE = ('[worlds.shove]\npush_force = "1e15*newton"\npush_time = "0.02*second"\n'
+         'push_duration = "0.05*second"\n')
+case("evaluate-cell-diverges",
+     lambda e: S("evaluate", e.copy("train"), "--worlds", e.file("shove.toml", SHOVE),
+                 "--seconds", "0.1", "--repeats", "1", "--no-progress", "--out", out(e)), 3,
+     "world 'shove', controller train (condition ", "absent", out)
 # an empty study file (or comments alone) is refused naming it (was: 400 sessions of defaults)
 case("study-file-empty", lambda e: S("study", e.study(""), "--out", out(e)), 2,
      "s.toml: is empty", "absent", out)

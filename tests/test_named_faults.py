@@ -34,3 +34,18 @@ def test_a_full_disk_under_a_spilled_trace_names_the_file(tmp_path, monkeypatch,
     assert ".spill" in err[0] and str(tmp_path) in err[0] and "No space left" in err[0]
     assert f"--out {out}" in err[0]
     assert not out.exists() and not [p for p in os.listdir(tmp_path) if p.endswith(".spill")]
+
+
+def test_a_diverged_evaluation_cell_names_its_world_and_controller():
+    from astrocpg.errors import Diverged
+    from astrocpg.studies.commands.evaluate import _in_cell
+
+    controller = {"folder": "out/astro", "condition": "astrocytes", "first_seed": 4}
+    # two controllers x three repeats: trial 3 is repeat 1 of the second controller (seed 5)
+    e = _in_cell(Diverged("went to inf", culprit="motor.v", t=0.5, trial=3), controller,
+                 "uphill", 2, 3)
+    assert e.culprit == "world 'uphill', controller astro (condition astrocytes, seed 5, " \
+                        "repeat 1)"
+    assert "motor.v: went to inf" in e.message and e.t == 0.5 and e.exit_code == 3
+    unknown = _in_cell(Diverged("unstable"), controller, "flat", 2, 1)
+    assert unknown.culprit == "world 'flat', a controller of astro (condition astrocytes)"
