@@ -12,7 +12,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ...errors import Diverged, EnvironmentFault, InputError
+from ...errors import Diverged, InputError
 from ...network import recording
 from ...network.recording import overflow_words, overflowed
 from ...reading import read_json
@@ -171,13 +171,6 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
                     models, model, layout, seconds=seconds, seed=seed, n_trials=trials,
                     weights=table, trace_dt=trace_dt * ms, robot_stride=robot_stride, spikes=spikes,
                     traces=traces, progress=progress, trace_dtype=trace_dtype, spill=spill)
-            except OSError as e:  # a spill that cannot be written (a full disk): named
-                if e.filename is None or Path(os.fsdecode(e.filename)) not in spilled:
-                    raise
-                raise EnvironmentFault.from_os_error(
-                    e, os.fsdecode(e.filename),
-                    f"cannot write the traces of --out {out} as the run goes (a temporary "
-                    f"beside it)") from None
             except Diverged as e:  # the folder keeps what ran, and says it diverged
                 if out is not None and getattr(e, "result", None) is not None:
                     _summarise(e.result, models, start_x, robot_info, table, e)

@@ -179,12 +179,13 @@ class DirectFile:
     reader, ``np.load`` included, reads from the central directory."""
 
     def __init__(self, path: str | os.PathLike, *, stage: int = _STAGE,
-                 sha256: bool = True) -> None:
+                 sha256: bool = True, about: str = "") -> None:
         if stage <= 0 or stage % _BLOCK:
             raise ValueError(f"stage must be a positive multiple of {_BLOCK} bytes, got {stage}")
         flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC
         direct = getattr(os, "O_DIRECT", 0)
-        self.path = os.fspath(path)  # named by a failed write (a full disk)
+        # named by a failed write (a full disk), with what the file is for
+        self.path, self.about = os.fspath(path), about
         self.fd = -1
         if direct:
             try:
@@ -246,7 +247,8 @@ class DirectFile:
         """``e`` naming this file (``os.write`` names none: "No space left on device" alone)."""
         if e.filename is not None:
             return e
-        named = type(e)(e.errno, e.strerror or str(e), self.path)
+        reason = e.strerror or str(e)
+        named = type(e)(e.errno, f"{reason} ({self.about})" if self.about else reason, self.path)
         return named.with_traceback(e.__traceback__)
 
     def tell(self) -> int:
@@ -425,7 +427,9 @@ def spill_files(folder: str | os.PathLike) -> tuple[Callable[[str], tuple[Path, 
                                    suffix=suffix)
         os.close(fd)
         made.append(Path(tmp))
-        return Path(tmp), DirectFile(tmp, stage=SPILL_STAGE, sha256=False)
+        return Path(tmp), DirectFile(tmp, stage=SPILL_STAGE, sha256=False,
+                                     about=f"the {name} trace of the run, written beside its "
+                                           f"folder as it runs")
     return spill, made
 
 
