@@ -1,7 +1,7 @@
 """The command line's process plumbing: what every command shares around its handler. SIGTERM
 stops a command like Ctrl-C; exit codes (0 done, 1 environment, 2 bad input, 3 diverged, 130
 interrupted); the one line on stderr of a failure, by the kind of error; standard streams that
-survive any bytes; library warnings and log records kept off stderr; ``--codegen`` set for the
+survive any bytes, and being closed or a broken pipe (:mod:`astrocpg._streams`); library warnings and log records kept off stderr; ``--codegen`` set for the
 command alone; and :func:`entry`, which ends the process without the interpreter's teardown."""
 
 from __future__ import annotations
