@@ -57,3 +57,16 @@ def test_plot_bars_keep_their_totals_and_write_lines_to_a_file(tmp_path, capsys,
     assert not totals["changed"], totals["changed"]
     assert totals["closed"] and all(n == total for _, n, total in totals["closed"]), totals
     assert "\r" not in err and "plot" in err
+
+
+@pytest.mark.slow
+def test_plot_of_a_recorded_training_keeps_its_totals(tmp_path, capsys, totals) -> None:
+    train = tmp_path / "train"
+    assert main(["train", "--sessions", "1", "--set", "L_max=0.2*second", "--record-every",
+                 "1", "--out", str(train), "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["plot", str(train), "--seconds", "0.05"]) == 0
+    err = capsys.readouterr().err
+    assert not totals["changed"], totals["changed"]
+    assert len(totals["closed"]) >= 2 and all(n == t for _, n, t in totals["closed"]), totals
+    assert "\r" not in err
