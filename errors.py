@@ -92,7 +92,8 @@ def in_keywords(text: str, renames: dict[str, str] | None = None) -> str:
     # "out= x" (an option and its value) reads "out=x"; "overrides= tau_motr" reads "overrides tau_motr"
     out = re.sub(r"\b(overrides|models|conditions|equations)= ", r"\1 ", out)
     out = re.sub(r"(\w)=(?=[:;,)]|$)", r"\1", out)  # "seconds=: must be" reads "seconds: must be"
-    return re.sub(r"(\w)= (?=[^\s;,:])", r"\1=", out).replace("= ", " ")
+    out = re.sub(r"(\w)= (?=[^\s;,:])", r"\1=", out)
+    return re.sub(r"(?<!=)= ", " ", out)  # a comparison (`__name__ == "__main__"`) stays
 
 
 def speak_keywords(err: AstrocpgError, renames: dict[str, str] | None = None) -> AstrocpgError:

@@ -36,13 +36,14 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from dataclasses import dataclass
 from typing import Any, Iterable, Protocol
 
 import brian2
 import numpy as np
 
-from ..errors import Diverged
+from ..errors import Diverged, InputError
 from .populations import BUILT_IN, PROJECTIONS, model_of_object
 from .runlock import exclusive
 from .runner import run as run_lean
@@ -225,11 +226,69 @@ def run_network(net: brian2.Network, duration: Any, *, lean: bool = True,
             net.run(duration, **kwargs)
     except Exception as e:
         found = find_diverged(e)
+        if found is None:
+            overflow = overflowed(e, net)
+            if overflow is not None:
+                raise overflow.with_traceback(None) from None
         if found is None or found is e:
             raise
         raise found.with_traceback(None) from None
     finally:
         brian_log.removeFilter(_no_stop_chatter)
+
+
+#: what Brian2's numpy code objects say before the line their error came from
+_FAILED_LINE = re.compile(r"raised in the following line:\s*\n\s*(.+)")
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+def overflowed(exc: BaseException, net: Any) -> InputError | None:
+    """An InputError naming the parameters when ``exc`` is a Brian2 code object's arithmetic
+    overflow (``OverflowError``: a constant of the equations computed from parameters, such
+    as ``1/(w_max - w_min)**2`` with ``w_max=1e200*mV``, left the floats), else None. Such a
+    run never started: its parameters are refused (exit 2), the largest first, each with its
+    value; the line that overflowed is quoted."""
+    from brian2.core.base import BrianObjectException
+
+    wrapper, cause, seen = None, None, set()
+    err: BaseException | None = exc
+    while err is not None and id(err) not in seen:
+        seen.add(id(err))
+        if isinstance(err, BrianObjectException) and wrapper is None:
+            wrapper = err
+        if isinstance(err, (OverflowError, FloatingPointError)):
+            cause = err
+            break
+        err = err.__cause__ if err.__cause__ is not None else err.__context__
+    if cause is None or wrapper is None:
+        return None
+    name = getattr(wrapper, "_brian_objname", "")
+    owner = next((o for o in getattr(net, "objects", ()) if getattr(o, "name", None) == name),
+                 None)
+    namespace = getattr(owner, "namespace", None) or {}
+    m = _FAILED_LINE.search(str(wrapper))
+    line = m.group(1).strip() if m else ""
+    sizes = []
+    for ident in dict.fromkeys(_NAME.findall(line)):
+        if ident.startswith("_") or ident not in namespace:
+            continue
+        try:
+            size = float(np.max(np.abs(np.asarray(namespace[ident], dtype=float))))
+        except (TypeError, ValueError):
+            continue
+        sizes.append((size, ident))
+    model = model_of_object().get(name, name or "the network")
+    where = f"{model}'s '{line}'" if line else f"a computation of {model}"
+    if not sizes:
+        return InputError(f"the parameters make {where} overflow (beyond 1.8e308); give "
+                          f"them values of a plausible size", culprit=model)
+    largest = max(sizes)[1]
+    value = namespace[largest]
+    shown = f"{float(np.max(np.asarray(value, dtype=float))):g}"
+    if not brian2.get_dimensions(value).is_dimensionless:
+        shown += f"*{brian2.get_unit(brian2.get_dimensions(value))}"
+    return InputError(f"makes {where} overflow (beyond 1.8e308); give it a value of a "
+                      f"plausible size", culprit=f"{largest}={shown}")
 
 
 def _no_stop_chatter(record: logging.LogRecord) -> bool:

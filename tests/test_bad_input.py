@@ -392,6 +392,15 @@ for cmd in (UNIT, RUN, "train", "describe"):
          "absent" if outs else "none", out)
     case(f"{cmd}-set-nan", lambda e, a=argv: a(e, "tau_motor=nan*ms"), 2, "tau_motor",
          "absent" if outs else "none", out)
+# finite, but its arithmetic overflows at the first step (1/(w_max - w_min)**2): refused
+# naming the parameter, nothing left (was "internal error", and a training left 'running')
+for cmd in ("run", "train"):
+    case(f"{cmd}-set-overflows-at-the-first-step",
+         lambda e, c=cmd: S(c, "--set", "w_max=1e200*mV", "--out", out(e)), 2,
+         "w_max=1e+197*V: makes interlimb_synapse's", "absent", out)
+case("study-set-overflows-at-the-first-step",
+     lambda e: S("study", e.study(TINY_STUDY), "--set", "w_max=1e200*mV", "--out", out(e),
+                 "--workers", "1", "--no-progress"), 2, "w_max=1e+197*V", "none", out)
 case("unit-set-escape-from-eval", lambda e: S("unit", "--set", f"tau_motor={EVIL_ESCAPE}",
                                               "--out", out(e)),
      2, "tau_motor", "absent", out, check=not_evaluated)
@@ -1388,6 +1397,22 @@ def held_study(e: Env) -> Path:
     return e._once("held_study", make)
 
 
+def held_fresh_study(e: Env) -> Path:
+    """A study folder as in its first seconds: another process holds it, and it has no
+    manifest yet (a study writes it at the end)."""
+    def make() -> Path:
+        d = e.copy("study", "study_fresh")
+        (d / "manifest.json").unlink()
+        code = ("import time\nfrom astrocpg.studies.outputs.folder import FolderLock\n"
+                f"a = FolderLock({str(d)!r}).acquire()\n"
+                "print('held', flush=True)\ntime.sleep(300)\n")
+        p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+        _HOLDERS.append(p)
+        assert p.stdout is not None and p.stdout.readline().strip() == "held"
+        return d
+    return e._once("held_fresh_study", make)
+
+
 def released(e: Env) -> None:
     _kill_holders()
 
@@ -1463,6 +1488,68 @@ case("study-held-rerun", lambda e: S("study", e.study(TINY_STUDY), "--out", held
 case("study-held-export-into", lambda e: S("export", e.copy("run"), "--out",
                                            held_study(e) / "x.nwb"), 2, "in use", "unchanged",
      held_study, check=released)
+def _status_fifo(e: Env) -> Path:
+    """A study copy whose run's sessions.csv is a FIFO (no writer)."""
+    def make() -> Path:
+        d = e.copy("study", "study_fifo")
+        p = next((d / "runs").iterdir()) / "sessions.csv"
+        p.unlink()
+        os.mkfifo(p)
+        return d
+    return e._once("status_fifo", make)
+
+
+def _status_corrupt(e: Env) -> Path:
+    """A study copy whose study.json gives a run -10 sessions."""
+    def make() -> Path:
+        d = e.copy("study", "study_corrupt")
+        index = json.loads((d / "study.json").read_text())
+        for spec in index["specs"].values():
+            spec["n_sessions"] = -10
+        (d / "study.json").write_text(json.dumps(index))
+        return d
+    return e._once("status_corrupt", make)
+
+
+# --status reads: a FIFO is refused (was: waited on for ever), a corrupt count named (was
+# "-1000.0%")
+case("study-status-fifo-in-a-run", lambda e: S("study", "--status", _status_fifo(e)), 2,
+     "sessions.csv: is not a regular file (a FIFO)", "none")
+case("study-status-corrupt-session-count", lambda e: S("study", "--status", _status_corrupt(e)),
+     2, "study.json: run astro__seed1: n_sessions is -10", "none")
+# a cell that diverges names its world and its controller (was: the MuJoCo warning alone)
+SHOVE = ('[worlds.shove]\npush_force = "1e15*newton"\npush_time = "0.02*second"\n'
+         'push_duration = "0.05*second"\n')
+case("evaluate-cell-diverges",
+     lambda e: S("evaluate", e.copy("train"), "--worlds", e.file("shove.toml", SHOVE),
+                 "--seconds", "0.1", "--repeats", "1", "--no-progress", "--out", out(e)), 3,
+     "world 'shove', controller train (condition ", "absent", out)
+# an empty study file (or comments alone) is refused naming it (was: 400 sessions of defaults)
+case("study-file-empty", lambda e: S("study", e.study(""), "--out", out(e)), 2,
+     "s.toml: is empty", "absent", out)
+case("study-file-comments-alone", lambda e: S("study", e.study("# nothing yet\n\n"),
+                                              "--out", out(e)), 2, "s.toml: is empty",
+     "absent", out)
+# a run that fails at its first write: the study's one line names the file (no worker's
+# "Compute Failed" block with its traceback)
+case("study-run-fails-at-its-first-write",
+     lambda e: S("study", e.study(TINY_STUDY), "--out", out(e), "--workers", "1",
+                 "--no-progress"), 1, "manifest.json", "none", out,
+     subprocess={"rlimit_fsize": 40_960})
+# a study that is running is "in use", whatever its folder holds yet (was: "not an astrocpg
+# output" for --overwrite before its manifest; "belongs to another study" for a second study)
+case("study-held-overwrite-before-its-manifest",
+     lambda e: S("study", e.study(TINY_STUDY), "--out", held_fresh_study(e), "--overwrite",
+                 "--workers", "1", "--no-progress"), 2, "in use", "unchanged",
+     held_fresh_study, check=released)
+case("study-held-another-study-into-it",
+     lambda e: S("study", e.study(study_text(name='"other"')), "--out", held_study(e),
+                 "--workers", "1", "--no-progress"), 2, "in use", "unchanged", held_study,
+     check=released)
+case("study-held-another-study-into-it-before-its-manifest",
+     lambda e: S("study", e.study(study_text(name='"other"')), "--out", held_fresh_study(e),
+                 "--workers", "1", "--no-progress"), 2, "in use", "unchanged",
+     held_fresh_study, check=released)
 # every point's model settings before any run: named with the point and the parameter
 case("study-point-invalid-delay-table", lambda e: S("study", e.study(DELAY_STUDY), "--out",
                                                     out(e), "--workers", "1"),

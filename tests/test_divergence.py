@@ -155,3 +155,21 @@ def test_trainer_writes_the_diverged_row(tmp_path):
         rows = list(csv.DictReader(f))
     assert list(rows[0]) == list(SESSION_COLUMNS)
     assert [r["diverged"] for r in rows] == ["0", "0", "1"]
+
+
+def test_a_constant_that_overflows_names_its_parameter() -> None:
+    """A finite parameter whose arithmetic leaves the floats (Brian2 computes a code object's
+    constants in Python floats: OverflowError) is refused as bad input naming the largest
+    parameter of the line, not an internal error."""
+    import brian2
+
+    from astrocpg.errors import InputError
+    from astrocpg.network.divergence import run_network
+
+    group = brian2.NeuronGroup(1, "dv/dt = -v/tau + 1/(big - small)**2/second : 1",
+                               namespace={"big": 1e200, "small": 1.0, "tau": 10 * brian2.ms},
+                               name="overflowing", codeobj_class=brian2.NumpyCodeObject)
+    net = brian2.Network(group)
+    with pytest.raises(InputError) as e:
+        run_network(net, 1 * brian2.ms, namespace={})
+    assert e.value.culprit == "big=1e+200" and "overflow" in e.value.message

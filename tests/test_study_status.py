@@ -241,3 +241,69 @@ def test_the_progress_bar_counts_a_runs_rows_again_when_its_file_is_replaced(tmp
     new.write_text("trial,session\n0,1\n1,1\n0,2\n1,2\n0,3\n")
     os.replace(new, tmp_path / "sessions.csv")
     assert count(tmp_path) == 5
+
+
+def test_runs_are_listed_by_the_value_of_their_numbers(tmp_path):
+    out = _study(tmp_path, {f"astro__L_max={v}": {"trials": 1, "sessions": 1}
+                            for v in ("18", "9", "100", "9.5")})
+    ids = [r.run_id for r in study_status(out).runs]
+    assert ids == ["astro__L_max=9", "astro__L_max=9.5", "astro__L_max=18",
+                   "astro__L_max=100"]
+
+
+def test_the_time_left_uses_the_workers_the_study_runs_on(tmp_path):
+    out = _study(tmp_path, {
+        "a": {"trials": 1, "sessions": 2, "state": "finished", "ended_s": 10,
+              "lengths": [[1, 1]]},
+        "b": {"trials": 1, "sessions": 2}, "c": {"trials": 1, "sessions": 2}})
+    assert study_status(out).workers == 1  # no manifest: one, as before
+    (out / "manifest.json").write_text(json.dumps({"settings": {"worker_count": 2}}))
+    p = study_status(out)
+    assert p.workers == 2 and p.left_s == pytest.approx(10.0)  # b and c side by side
+    assert "with 2 worker(s) (as the study runs)" in p.text()
+    asked = study_status(out, workers=1)
+    assert asked.workers == 1 and asked.left_s == pytest.approx(20.0)
+    (out / "manifest.json").write_text(json.dumps({"settings": {"workers": 3}}))
+    assert study_status(out).workers == 3  # a folder from before worker_count
+
+
+@pytest.mark.parametrize("which", ["runs/a/sessions.csv", "runs/a/status.json",
+                                   "timeline.csv", "manifest.json"])
+def test_a_fifo_in_the_folder_is_refused_not_waited_on(tmp_path, which):
+    import os
+    import signal
+
+    out = _study(tmp_path, {"a": {"trials": 1, "sessions": 2, "state": "running",
+                                  "lengths": [[1]]}})
+    path = out / which
+    path.unlink(missing_ok=True)
+    os.mkfifo(path)
+
+    def hung(*_):
+        raise TimeoutError(f"study_status waited on the FIFO {which}")
+
+    previous = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(10)
+    try:
+        with pytest.raises(InputError) as e:
+            study_status(out)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    assert which in str(e.value) and "FIFO" in str(e.value)
+
+
+def test_corrupt_values_are_refused_or_skipped_naming_the_line(tmp_path):
+    out = _study(tmp_path / "1", {"a": {"trials": 1, "sessions": 4, "state": "running",
+                                         "lengths": [[1, 1]]}})
+    with open(out / "runs" / "a" / "sessions.csv", "a") as f:
+        f.write("0,3,-5\n0,4,nan\n7,5,1\n")  # a negative, a non-finite length, no such seed
+    p = study_status(out)
+    assert p.runs[0].sessions_done == 2 and p.runs[0].simulated_s == 2.0
+    assert "sessions.csv line 4" in p.text() and "line 6" in " ".join(p.skipped)
+    index = json.loads((out / "study.json").read_text())
+    index["specs"]["a"]["n_sessions"] = -10  # was "-1000.0%"
+    (out / "study.json").write_text(json.dumps(index))
+    with pytest.raises(InputError) as e:
+        study_status(out)
+    assert "study.json" in str(e.value) and "n_sessions" in str(e.value)

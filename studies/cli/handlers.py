@@ -192,7 +192,7 @@ def _study_status(args: argparse.Namespace) -> int:
     if given:
         raise InputError(f"reads a study folder and runs nothing: {given[0]} does not apply "
                          f"(only --workers, for the estimate)", culprit=f"--status {args.status}")
-    print(study_status(args.status, workers=args.workers or 1).text())
+    print(study_status(args.status, workers=args.workers).text())
     return 0
 
 
@@ -241,14 +241,15 @@ def _study_outcome(res: dict[str, Any]) -> int:
             f"settings of its condition (a new --out), a rerun diverges again", 900) + "\n")
         return 3
     if res["failed"]:
-        _study_not_finished(res, diverged)
-        return 1
+        # every failed run refused its input (a value whose arithmetic overflows): bad input
+        return 2 if _study_not_finished(res, diverged) else 1
     return 0
 
 
-def _study_not_finished(res: dict[str, Any], diverged: list[str]) -> None:
+def _study_not_finished(res: dict[str, Any], diverged: list[str]) -> bool:
     """One line on stderr, like every failure: which runs, the first error, where the rest
-    is (only a file that exists), and whether a rerun can help."""
+    is (only a file that exists), and whether a rerun can help. Whether every run that failed
+    (diverged aside) refused its input."""
     errors = res.get("errors") or {}
     first = next(((k, e) for k, e in errors.items() if k not in diverged), None)
     where = f"; errors in {res['failures']}" if res.get("failures") else ""
@@ -267,6 +268,7 @@ def _study_not_finished(res: dict[str, Any], diverged: list[str]) -> None:
         f"{', ...' if len(res['failed']) > 5 else ''})"
         + (f"; {first[0]}: {one_line(first[1], 200)}" if first else "")
         + f"{where}; {retry}", 900) + "\n")
+    return bad_input
 
 
 def report_command(args: argparse.Namespace) -> int:

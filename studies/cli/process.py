@@ -1,7 +1,7 @@
 """The command line's process plumbing: what every command shares around its handler. SIGTERM
 stops a command like Ctrl-C; exit codes (0 done, 1 environment, 2 bad input, 3 diverged, 130
 interrupted); the one line on stderr of a failure, by the kind of error; standard streams that
-survive any bytes; library warnings and log records kept off stderr; ``--codegen`` set for the
+survive any bytes, and being closed or a broken pipe (:mod:`astrocpg._streams`); library warnings and log records kept off stderr; ``--codegen`` set for the
 command alone; and :func:`entry`, which ends the process without the interpreter's teardown."""
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import threading
 import warnings
 from typing import Any, NoReturn, Sequence
 
+from ..._streams import guarded
 from ...environment import check as check_environment, flag
 from ...errors import AstrocpgError, EnvironmentFault, InputError, one_line
 from .grammar import build_parser
@@ -83,8 +84,10 @@ def _survive_any_bytes() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; its exit code (0 done, 1 environment, 2 bad input, 3 diverged, 130
-    interrupted)."""
-    code = _main(argv)
+    interrupted). Standard streams that are closed, or pipes nobody reads, do not change it
+    (:func:`astrocpg._streams.guarded`)."""
+    with guarded():
+        code = _main(argv)
     if code == 130:  # interrupted, whichever layer caught the KeyboardInterrupt
         _forget_unhandled_interrupt()
     return code
@@ -109,7 +112,7 @@ def entry() -> NoReturn:
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()
-            except (OSError, ValueError):  # a closed pipe or stream: nothing more to say
+            except (OSError, ValueError, AttributeError):  # a closed pipe or stream
                 pass
         os._exit(code)
 
@@ -231,9 +234,6 @@ def _run_command(args: argparse.Namespace) -> int:
         sys.unraisablehook = _ignore_unraisable
         sys.stderr.write("astrocpg: interrupted\n")
         return 130
-    except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
-        sys.stderr.close()
-        return 0
     except OSError as e:  # an I/O failure no layer turned into an EnvironmentFault
         sys.stderr.write(f"astrocpg: environment: {EnvironmentFault.from_os_error(e).line}\n")
         return 1

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..runtime.cells import pending, run_cells
 from ..runtime.cluster import check_scheduler, check_workers
-from ...errors import InputError
+from ...errors import Diverged, InputError
 from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
@@ -304,10 +304,13 @@ def evaluate_cell(controller: Mapping[str, Any], tables: np.ndarray, world: str,
     here = in_world(trained_models(controller["settings"]), setting)
     n = len(tables)
     batch = np.concatenate([tables] * repeats)
-    with added_populations(controller["settings"].get("populations")):
-        result = simulate_closed_loop(here, seconds=seconds, seed=seed, n_trials=len(batch),
-                                      weights=batch, record_traces=False, spikes=("motor",),
-                                      progress=progress)
+    try:
+        with added_populations(controller["settings"].get("populations")):
+            result = simulate_closed_loop(here, seconds=seconds, seed=seed, n_trials=len(batch),
+                                          weights=batch, record_traces=False,
+                                          spikes=("motor",), progress=progress)
+    except Diverged as e:
+        raise _in_cell(e, controller, world, n, repeats) from None
     rows = []
     for b in range(len(batch)):
         r, k = divmod(b, n)
@@ -316,6 +319,21 @@ def evaluate_cell(controller: Mapping[str, Any], tables: np.ndarray, world: str,
                      "seed": controller["first_seed"] + k, "world": world, **grid,
                      "repeat": r, "run_seed": seed + b, **_trial_rows(result, b, seconds)})
     return rows
+
+
+def _in_cell(e: Diverged, controller: Mapping[str, Any], world: str, n: int,
+             repeats: int) -> Diverged:
+    """The divergence of a cell's network, naming its world and the controller (its training,
+    condition and seed; the repeat when there are several) of the trial that diverged."""
+    source = controller.get("source", Path(controller["folder"]).name)
+    if e.trial is not None and 0 <= e.trial < n * repeats:
+        r, k = divmod(int(e.trial), n)
+        who = (f"controller {source} (condition {controller['condition']}, seed "
+               f"{controller['first_seed'] + k}" + (f", repeat {r}" if repeats > 1 else "")
+               + ")")
+    else:
+        who = f"a controller of {source} (condition {controller['condition']})"
+    return Diverged(f"{e.line}", culprit=f"world '{world}', {who}", t=e.t, trial=e.trial)
 
 
 def _fingerprint(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],

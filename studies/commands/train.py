@@ -1140,22 +1140,40 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
     trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
     if start is not None:
         trainer.training.begin_at(0, start[0])
+    created = not os.path.lexists(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise EnvironmentFault.from_os_error(e, out, "cannot create the folder") from None
-    with FolderLock(out, culprit="--out" if payload is None else "--resume"):
-        if replace:  # --overwrite: the old run goes whole, never mixed with the new one
-            clear_folder(out)
-        elif new and holds_results(out):  # another process filled it since the first check
-            raise InputError("is not empty; --overwrite replaces it whole",
-                             culprit=f"--out {out}")
-        clean_stale_temporaries(out)
-        if resumed:  # made from the weights this run is about to change: stale from now on
-            remove_derived(out)
-        return _train_locked(trainer, settings, out, plan, payload,
-                             replay_of=None if start is None else start[1],
-                             extend_from=extend_from)
+    cleared = False
+    try:
+        with FolderLock(out, culprit="--out" if payload is None else "--resume"):
+            if replace:  # --overwrite: the old run goes whole, never mixed with the new one
+                clear_folder(out)
+            elif new and holds_results(out):  # another process filled it since the check
+                raise InputError("is not empty; --overwrite replaces it whole",
+                                 culprit=f"--out {out}")
+            clean_stale_temporaries(out)
+            if resumed:  # made from the weights this run is about to change: stale from now on
+                remove_derived(out)
+            try:
+                return _train_locked(trainer, settings, out, plan, payload,
+                                     replay_of=None if start is None else start[1],
+                                     extend_from=extend_from)
+            except InputError:
+                # refused once it ran (a parameter whose arithmetic overflows at the first
+                # step): a new training with no session done leaves nothing behind
+                if payload is None and not trainer.training.sessions_done.any():
+                    clear_folder(out)
+                    cleared = True
+                raise
+    except InputError:
+        if cleared and created:  # its lock files went with the lock
+            try:
+                os.rmdir(out)
+            except OSError:
+                pass
+        raise
 
 
 def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,

@@ -260,8 +260,12 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
             sub = f"recording_trial{trial:02d}_session{session:04d}"
             # a recorded session is one trial (0); the window: within it, else all of it
             figures = trace_figures(rec, 0, on_part=lambda: bar.update(1))
-            bar.total += len(figures)
-            paths = save_figures(figures, tmp / sub, fmt, on_saved=lambda: bar.update(1))
+            bar.finish()
+            # the files, on a bar of their own: a bar's total is never changed on the way
+            with Bar(total=len(figures), unit="file", desc="plot: saving",
+                     disable=not progress) as saving:
+                paths = save_figures(figures, tmp / sub, fmt,
+                                     on_saved=lambda: saving.update(1))
             written += [target / sub / p.name for p in paths]
         files = dict(zip(names, FIGURE_FILES))
         if recorded:

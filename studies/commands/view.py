@@ -102,14 +102,16 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     win = _check_window(window, span) or span
     target = Path(out) if out is not None else folder / FIGURES
     OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]).check()
+    # two bars, each with the total it ends at: the kinds of figure drawn, then the files
     with Bar(total=len(FIGURE_FUNCTIONS), unit="step", desc="plot",
              disable=not progress) as bar:
         figures = trace_figures(result, trial, win, on_part=lambda: bar.update(1))
-        if not figures:
-            raise InputError("recorded nothing to draw (no spikes, traces or robot)",
-                             culprit=str(folder))
-        bar.total = len(FIGURE_FUNCTIONS) + len(figures)  # drawn; now one step per file
-        bar.refresh()
+        bar.finish()
+    if not figures:
+        raise InputError("recorded nothing to draw (no spikes, traces or robot)",
+                         culprit=str(folder))
+    with Bar(total=len(figures), unit="file", desc="plot: saving",
+             disable=not progress) as bar:
         with OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]) as tmp:
             paths = save_figures(figures, tmp, fmt, on_saved=lambda: bar.update(1))
             write_manifest(tmp, command="plot", seed=int(result.manifest.get("seed", 0) or 0),

@@ -321,7 +321,9 @@ def check_replaceable(target: str | os.PathLike, *, culprit: str) -> None:
     """What ``--overwrite`` may replace: an existing folder that :func:`is_astrocpg_output`
     (an existing file: one that no astrocpg output folder around it lists in its manifest).
     Anything else, e.g. a folder of the user's own files, is refused (InputError naming
-    ``culprit``) and left as it is. Call it after :func:`check_output_path`."""
+    ``culprit``) and left as it is. Call it after :func:`check_output_path`. A folder another
+    astrocpg process is writing is refused as in use first, whatever it holds yet."""
+    refuse_in_use(target, culprit=culprit)
     path = Path(_real(target))
     if path.is_dir():
         if not is_astrocpg_output(path):

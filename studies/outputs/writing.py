@@ -180,11 +180,13 @@ class DirectFile:
     reader, ``np.load`` included, reads from the central directory."""
 
     def __init__(self, path: str | os.PathLike, *, stage: int = _STAGE,
-                 sha256: bool = True) -> None:
+                 sha256: bool = True, about: str = "") -> None:
         if stage <= 0 or stage % _BLOCK:
             raise ValueError(f"stage must be a positive multiple of {_BLOCK} bytes, got {stage}")
         flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC
         direct = getattr(os, "O_DIRECT", 0)
+        # named by a failed write (a full disk), with what the file is for
+        self.path, self.about = os.fspath(path), about
         self.fd = -1
         if direct:
             try:
@@ -235,12 +237,20 @@ class DirectFile:
                 # refused at the first write, or a short write left the offset unaligned:
                 # the rest goes through the page cache
                 if e.errno != errno.EINVAL or not self.direct:
-                    raise
+                    raise self._named(e) from None
                 import fcntl
 
                 fcntl.fcntl(self.fd, fcntl.F_SETFL,
                             fcntl.fcntl(self.fd, fcntl.F_GETFL) & ~os.O_DIRECT)
                 self.direct = False
+
+    def _named(self, e: OSError) -> OSError:
+        """``e`` naming this file (``os.write`` names none: "No space left on device" alone)."""
+        if e.filename is not None:
+            return e
+        reason = e.strerror or str(e)
+        named = type(e)(e.errno, f"{reason} ({self.about})" if self.about else reason, self.path)
+        return named.with_traceback(e.__traceback__)
 
     def tell(self) -> int:
         return self._written
@@ -266,12 +276,18 @@ class DirectFile:
                 padded = -(-tail // _BLOCK) * _BLOCK
                 self._view[tail:padded] = bytes(padded - tail)
                 self._drain(padded)
-                os.ftruncate(self.fd, self._written)  # the padding cut off
+                try:
+                    os.ftruncate(self.fd, self._written)  # the padding cut off
+                except OSError as e:
+                    raise self._named(e) from None
             elif tail:
                 self._drain(tail)
             self._filled = 0
             if self._sha is not None:  # a result file; a spill is read once and removed
-                os.fsync(self.fd)
+                try:
+                    os.fsync(self.fd)
+                except OSError as e:
+                    raise self._named(e) from None
         finally:
             self.abandon()
         return None if self._sha is None else self._sha.hexdigest()
@@ -412,7 +428,9 @@ def spill_files(folder: str | os.PathLike) -> tuple[Callable[[str], tuple[Path, 
                                    suffix=suffix)
         os.close(fd)
         made.append(Path(tmp))
-        return Path(tmp), DirectFile(tmp, stage=SPILL_STAGE, sha256=False)
+        return Path(tmp), DirectFile(tmp, stage=SPILL_STAGE, sha256=False,
+                                     about=f"the {name} trace of the run, written beside its "
+                                           f"folder as it runs")
     return spill, made
 
 

@@ -152,7 +152,7 @@ def report(folder: str | os.PathLike, *, smooth: int = 1, last: int = 50,
                         out=None if out is None else _path(out, "out"), overwrite=overwrite)
 
 
-def study_status(folder: str | os.PathLike, *, workers: int = 1) -> Any:
+def study_status(folder: str | os.PathLike, *, workers: int | None = None) -> Any:
     """What a study has done and what is left: ``astrocpg study --status``.
 
     Reads only: safe while the study runs in another process.
@@ -161,8 +161,9 @@ def study_status(folder: str | os.PathLike, *, workers: int = 1) -> Any:
     ----------
     folder : path
         The study folder.
-    workers : int
-        Processes the projection of the time left assumes.
+    workers : int, optional
+        Processes the projection of the time left assumes (default: those the study runs on,
+        as its manifest records).
 
     Returns
     -------
@@ -174,7 +175,8 @@ def study_status(folder: str | os.PathLike, *, workers: int = 1) -> Any:
     from .status import study_status as progress
 
     return progress(_path(folder, "folder"),
-                    workers=number(workers, "workers", integer=True, minimum=1))
+                    workers=None if workers is None
+                    else number(workers, "workers", integer=True, minimum=1))
 
 
 __all__ = ["study", "study_status", "report"]

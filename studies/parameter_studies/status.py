@@ -26,9 +26,11 @@ while no process of that pid lives on this host is shown as "stopped".
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import os
+import re
 import socket
 import time
 from dataclasses import dataclass, field
@@ -36,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import InputError
+from ...reading import open_regular, read_bytes
 from ..outputs.study_index import read_current
 from .layout import RUNS, STATUS, TIMELINE, as_it_stands
 
@@ -78,6 +81,10 @@ class StudyProgress:
     runs: list[RunProgress] = field(default_factory=list)
     workers: int = 1
     left_s: float | None = None
+    #: where ``workers`` comes from: "the study" (its manifest) or "--workers" (asked)
+    workers_from: str = "--workers"
+    #: rows of the folder's files that could not be read (skipped), each naming its line
+    skipped: list[str] = field(default_factory=list)
 
     @property
     def sessions_done(self) -> int:
@@ -110,13 +117,20 @@ class StudyProgress:
         elif self.left_s == 0:
             lines.append("time left: none (every run has ended)")
         else:
+            whose = " (as the study runs)" if self.workers_from == "the study" else ""
             lines.append(f"time left: about {_duration(self.left_s)} with {self.workers} "
-                         f"worker(s) (a projection from each run's cost so far; sessions grow "
-                         f"longer as a gait is learnt)")
+                         f"worker(s){whose} (a projection from each run's cost so far; "
+                         f"sessions grow longer as a gait is learnt)")
+        if self.skipped:
+            more = f" and {len(self.skipped) - 3} more" if len(self.skipped) > 3 else ""
+            lines.append(f"skipped (unreadable, not counted): {'; '.join(self.skipped[:3])}"
+                         f"{more}")
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"folder": str(self.folder), "workers": self.workers, "left_s": self.left_s,
+        return {"folder": str(self.folder), "workers": self.workers,
+                "workers_from": self.workers_from, "skipped": list(self.skipped),
+                "left_s": self.left_s,
                 "sessions_done": self.sessions_done, "sessions_total": self.sessions_total,
                 "runs": [r.__dict__ | {"fraction": r.fraction} for r in self.runs]}
 
@@ -128,37 +142,63 @@ def _duration(seconds: float) -> str:
     return f"{h} h {m:02d} min" if h else f"{m} min {s:02d} s"
 
 
-def _sessions(folder: Path, n_trials: int) -> tuple[list[int], list[list[float]]]:
-    """Sessions done and their lengths (s), per seed of the run, from its sessions.csv."""
+def _rows(path: Path) -> Any:
+    """``csv.DictReader`` rows of ``path`` with their line numbers; nothing when the file is not
+    there (a run not started, or between two writes); InputError naming it when it is not a
+    regular file (a FIFO would hang the reader)."""
+    try:
+        f = open_regular(path, culprit=path)
+    except OSError:
+        return
+    with io.TextIOWrapper(f, encoding="utf-8", errors="replace", newline="") as text:
+        reader = csv.DictReader(text)
+        for row in reader:
+            yield reader.line_num, row
+
+
+def _session_row(row: dict[str, Any], n_trials: int) -> tuple[int, float] | None:
+    """(seed index, length in s) of a sessions.csv row, or None when a value is not one."""
+    try:
+        b, length = int(row["trial"]), float(row["length_s"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    if not (0 <= b < n_trials and math.isfinite(length) and length >= 0):
+        return None
+    return b, length
+
+
+def _sessions(folder: Path, n_trials: int,
+              skipped: list[str] | None = None) -> tuple[list[int], list[list[float]]]:
+    """Sessions done and their lengths (s), per seed of the run, from its sessions.csv; a row
+    whose values are not a seed of the run and a length (a negative, non-finite or unreadable
+    one) is skipped and named in ``skipped``."""
     done = [0] * n_trials
     lengths: list[list[float]] = [[] for _ in range(n_trials)]
-    try:
-        with open(folder / "sessions.csv", newline="") as f:
-            for row in csv.DictReader(f):
-                try:
-                    b, length = int(row["trial"]), float(row["length_s"])
-                except (KeyError, TypeError, ValueError):
-                    continue
-                if 0 <= b < n_trials and math.isfinite(length):
-                    done[b] += 1
-                    lengths[b].append(length)
-    except OSError:  # not started, or between two writes: nothing done that counts
-        pass
+    for line, row in _rows(folder / "sessions.csv"):
+        read = _session_row(row, n_trials)
+        if read is None:
+            if skipped is not None:
+                skipped.append(f"{folder / 'sessions.csv'} line {line}")
+            continue
+        done[read[0]] += 1
+        lengths[read[0]].append(read[1])
     return done, lengths
 
 
-def _attempt_seconds(out: Path) -> dict[str, float]:
-    """Wall seconds of every ended attempt, per run (timeline.csv)."""
+def _attempt_seconds(out: Path, skipped: list[str] | None = None) -> dict[str, float]:
+    """Wall seconds of every ended attempt, per run (timeline.csv); a row whose duration is
+    not a number of seconds (negative, non-finite, unreadable) is skipped and named."""
     spent: dict[str, float] = {}
-    try:
-        with open(out / TIMELINE, newline="") as f:
-            for row in csv.DictReader(f):
-                try:
-                    spent[row["run_id"]] = spent.get(row["run_id"], 0.0) + float(row["duration_s"])
-                except (KeyError, TypeError, ValueError):
-                    continue
-    except OSError:
-        pass
+    for line, row in _rows(out / TIMELINE):
+        try:
+            run_id, seconds = str(row["run_id"]), float(row["duration_s"])
+        except (KeyError, TypeError, ValueError):
+            seconds = math.nan
+        if not (math.isfinite(seconds) and seconds >= 0):
+            if skipped is not None:
+                skipped.append(f"{out / TIMELINE} line {line}")
+            continue
+        spent[run_id] = spent.get(run_id, 0.0) + seconds
     return spent
 
 
@@ -195,48 +235,89 @@ def _simulated_before(folder: Path, n_trials: int, rows: Any) -> float | None:
     if not isinstance(rows, int) or rows < 0:
         return None
     per_seed = [0.0] * n_trials
-    try:
-        with open(folder / "sessions.csv", newline="") as f:
-            for k, row in enumerate(csv.DictReader(f)):
-                if k >= rows:
-                    break
-                try:
-                    b, length = int(row["trial"]), float(row["length_s"])
-                except (KeyError, TypeError, ValueError):
-                    continue
-                if 0 <= b < n_trials and math.isfinite(length):
-                    per_seed[b] += length
-    except OSError:
-        return None
+    for k, (_, row) in enumerate(_rows(folder / "sessions.csv")):
+        if k >= rows:
+            break
+        read = _session_row(row, n_trials)
+        if read is not None:
+            per_seed[read[0]] += read[1]
     return max(per_seed, default=0.0)
 
 
 def _read_status(folder: Path) -> dict[str, Any]:
-    try:
-        status = json.loads((folder / STATUS).read_text())
+    try:  # a FIFO is refused (naming it), never waited on
+        status = json.loads(read_bytes(folder / STATUS, culprit=folder / STATUS))
+    except InputError:
+        raise
     except (OSError, ValueError, RecursionError):
         return {}
     return as_it_stands(folder, status) if isinstance(status, dict) else {}
 
 
-def study_status(folder: str | Path, *, workers: int = 1,
+def _natural(text: str) -> tuple:
+    """A sort key that orders the numbers in a run id by value: ``L_max=9`` before
+    ``L_max=18``, ``seed2`` before ``seed10``."""
+    parts = re.split(r"(\d+(?:\.\d+)?(?:[eE][-+]?\d+)?)", text)
+    return tuple((0, float(p), "") if k % 2 else (1, 0.0, p) for k, p in enumerate(parts))
+
+
+def _study_workers(out: Path) -> int | None:
+    """The worker processes the study in ``out`` runs on (its manifest, written as it
+    starts), or None when the manifest does not say."""
+    try:
+        settings = json.loads(read_bytes(out / "manifest.json",
+                                         culprit=out / "manifest.json")).get("settings")
+    except InputError:
+        raise
+    except (OSError, ValueError, RecursionError, AttributeError):
+        return None
+    if not isinstance(settings, dict):
+        return None
+    for key in ("worker_count", "workers"):
+        n = settings.get(key)
+        if isinstance(n, int) and not isinstance(n, bool) and n >= 1:
+            return n
+    return None
+
+
+def _run_size(out: Path, run_id: str, spec: Any) -> tuple[int, int]:
+    """(seeds, sessions) of a run as study.json gives them; InputError naming the file and
+    the run for a value that is not a whole number (a corrupt or hand-edited file)."""
+    values = []
+    for key, default, least in (("n_trials", 1, 1), ("n_sessions", 0, 1)):
+        v = spec.get(key, default) if isinstance(spec, dict) else None
+        if isinstance(v, bool) or not isinstance(v, int) or v < least:
+            raise InputError(f"run {run_id}: {key} is {v!r}, not a whole number of at least "
+                             f"{least} (a damaged or hand-edited file)",
+                             culprit=out / "study.json")
+        values.append(v)
+    return values[0], values[1]
+
+
+def study_status(folder: str | Path, *, workers: int | None = None,
                  now: float | None = None) -> StudyProgress:
     """The progress of the study in ``folder`` (read only; safe while the study runs).
-    ``workers``: the processes the runs left will share, for the time left."""
+    ``workers``: the processes the runs left will share, for the time left; by default
+    those the study runs on (its manifest), else one."""
     out = Path(folder)
-    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
+    if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool)
+                                or workers < 1):
         raise InputError(f"must be a whole number of at least 1, got {workers!r}",
                          culprit="--workers")
     specs = read_current(out, culprit=f"--status {out}")
     now = time.time() if now is None else now
-    ended_attempts = _attempt_seconds(out)
-    progress = StudyProgress(folder=out, workers=workers)
-    for run_id, spec in sorted(specs.items()):
-        n_trials, n_sessions = int(spec.get("n_trials", 1)), int(spec.get("n_sessions", 0))
+    skipped: list[str] = []
+    ended_attempts = _attempt_seconds(out, skipped)
+    recorded = _study_workers(out) if workers is None else None
+    progress = StudyProgress(folder=out, workers=workers or recorded or 1,
+                             workers_from="the study" if recorded else "--workers",
+                             skipped=skipped)
+    for run_id, spec in sorted(specs.items(), key=lambda item: _natural(str(item[0]))):
+        n_trials, n_sessions = _run_size(out, run_id, spec)
         run_folder = out / RUNS / run_id
         status = _read_status(run_folder)
         state = str(status.get("state", "not run"))
-        done, lengths = _sessions(run_folder, n_trials)
+        done, lengths = _sessions(run_folder, n_trials, skipped)
         history = status.get("history") if isinstance(status.get("history"), list) else None
         running = state == "running" and isinstance(status.get("started"), (int, float))
         if running and not _alive(status):
@@ -267,11 +348,16 @@ def study_status(folder: str | Path, *, workers: int = 1,
         progress.runs.append(RunProgress(
             run_id=run_id, state=state, sessions_done=sum(min(d, n_sessions) for d in done),
             sessions_total=n_trials * n_sessions, wall_s=wall, simulated_s=simulated,
-            left_simulated_s=left, attempts=int(status.get("attempts", 0) or 0),
+            left_simulated_s=left, attempts=_count(status.get("attempts")),
             unrecorded_attempts=unrecorded, cost_wall_s=cost_wall,
             cost_simulated_s=cost_simulated))
-    progress.left_s = _time_left(progress.runs, workers)
+    progress.left_s = _time_left(progress.runs, progress.workers)
     return progress
+
+
+def _count(value: Any) -> int:
+    """A count a status.json gives, or 0 when it is not one."""
+    return value if isinstance(value, int) and not isinstance(value, bool) and value > 0 else 0
 
 
 def _time_left(runs: list[RunProgress], workers: int) -> float | None:

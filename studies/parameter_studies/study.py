@@ -72,7 +72,8 @@ from ..runtime.resources import available_memory, check_memory, estimate_bytes
 from ..commands.train import CHECKPOINT, read_checkpoint
 from ..outputs.checkpoint import refuse_legacy
 from ..outputs.folder import (FolderLock, check_output_path, check_replaceable,
-                            clean_stale_temporaries, clear_folder, holds_results)
+                            clean_stale_temporaries, clear_folder, holds_results,
+                            refuse_in_use)
 from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write_manifest
 from ..runtime.cells import pending
 from .execute import dispatch, ended_status, read_status, write_failures
@@ -376,6 +377,9 @@ def prepare_study(study: Study, out: Path, *, workers: int | None = None,
     inputs = [study.path, *([worlds] if isinstance(worlds, str) and os.path.isfile(worlds)
                             else [])]
     check_output_path(out, inputs, culprit=f"--out {out}")
+    # a study running there (or one started a moment before): "in use", never a reason read
+    # from the half-written folder
+    refuse_in_use(out, culprit=f"--out {out}")
     if overwrite and holds_results(out):
         check_replaceable(out, culprit=f"--out {out}")
     if plan_from is not None:  # named now, also where a resumed folder keeps its plan
@@ -401,7 +405,11 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
     study = prepare_study(study, out, workers=workers, scheduler=scheduler,
                           overwrite=overwrite, progress=progress, plan_from=plan_from)
     if out.exists() and not overwrite:
-        _check_folder(study, out)
+        try:
+            _check_folder(study, out)
+        except InputError:  # a study that took the folder since: that is the reason
+            refuse_in_use(out, culprit=f"--out {out}")
+            raise
     created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -442,6 +450,11 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                 "overrides": study.overrides.record(), "workers": workers,
                 "scheduler": scheduler, "batch": study.batch, "batch_choice": study.batch_choice}
     cluster = connect_cluster(workers, scheduler) if waiting else None
+    # the worker processes (threads of a --scheduler cluster) the runs share: what
+    # `study --status` projects the time left with
+    settings["worker_count"] = (sum(cluster[0].nthreads().values()) or None
+                                if cluster is not None and scheduler else
+                                workers or os.cpu_count() or 1)
     unwritten: dict[str, str] = {}
     try:
         prepare_output_dir(out)

@@ -266,6 +266,10 @@ def parse_study(text: str, p: Path, batch_given: int | None,
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"not valid TOML ({e})", culprit=f"study {p}") from None
     where = f"study {p.name}"
+    if not doc:  # no key at all: a study of every default (400 sessions) is never guessed
+        raise InputError("is empty (no [study] or other section); a study file names at least "
+                         "its [study] (see 'astrocpg study quick' and the manual's studies "
+                         "page)", culprit=f"study {p}")
     unknown = set(doc) - {"study", "base", "models", "sweep", "conditions", "evaluate",
                           "margins"}
     if unknown:

@@ -71,6 +71,7 @@ def connect_cluster(workers: int | None, scheduler: str | None):
             raise InputError(f"cannot connect ({first})", culprit=f"--scheduler {scheduler}") \
                 from None
     n = check_workers(workers) or os.cpu_count() or 1
+    check_main_guarded()
     # worker processes started with SIGINT ignored keep ignoring it (Python installs its
     # KeyboardInterrupt handler only where SIGINT is not ignored): Ctrl-C stops the study in
     # this process, which closes the cluster; the workers print nothing of their own
@@ -80,14 +81,82 @@ def connect_cluster(workers: int | None, scheduler: str | None):
     in_main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if in_main else None
     try:
-        # read when the scheduler, nannies and workers are made (a restarted worker too)
+        # read when the scheduler, nannies and workers are made (a restarted worker too);
+        # a task's error is the caller's to report (a study's failures.csv and its one
+        # line): the worker's own "Compute Failed" record with its traceback stays quiet
         with dask.config.set(LEAN_DASK):
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                   dashboard_address=":0", silence_logs=logging.ERROR)
+                                   dashboard_address=":0", silence_logs=logging.CRITICAL)
     finally:
         if in_main:
             signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
+
+
+def _is_main_test(test: Any) -> bool:
+    """Whether an ``if`` tests ``__name__ == "__main__"`` (either way round)."""
+    import ast
+
+    if not (isinstance(test, ast.Compare) and len(test.ops) == 1
+            and isinstance(test.ops[0], ast.Eq)):
+        return False
+    sides = [test.left, test.comparators[0]]
+    return (any(isinstance(x, ast.Name) and x.id == "__name__" for x in sides)
+            and any(isinstance(x, ast.Constant) and x.value == "__main__" for x in sides))
+
+
+def unguarded_call() -> tuple[str, int] | None:
+    """(script, line) when this call comes from the top level of the ``__main__`` script
+    outside an ``if __name__ == "__main__":`` block, where a local cluster's worker processes,
+    which import that script again (the ``spawn`` start method Dask uses), would each run the
+    call again; else None. Mirrors what ``multiprocessing`` re-imports: nothing for a notebook,
+    ``python -c`` or stdin (no file), nor for a package's ``__main__`` run with ``-m``."""
+    import ast
+    import sys
+
+    import dask
+
+    if dask.config.get("distributed.worker.multiprocessing-method", "spawn") == "fork":
+        return None
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    spec_name = getattr(getattr(main, "__spec__", None), "name", None) or ""
+    if main is None or not path or spec_name == "__main__" or spec_name.endswith(".__main__"):
+        return None
+    frame = sys._getframe(1)
+    while frame is not None and not (frame.f_globals is vars(main)
+                                     and frame.f_code.co_name == "<module>"):
+        frame = frame.f_back
+    if frame is None:  # not called from the script's top level
+        return None
+    line = frame.f_lineno
+    try:
+        if os.path.getsize(path) > 10_000_000:
+            return None
+        with open(path, "rb") as f:
+            tree = ast.parse(f.read())
+    except (OSError, SyntaxError, ValueError):
+        return None
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and _is_main_test(node.test) \
+                and node.lineno <= line <= (node.end_lineno or node.lineno):
+            return None
+    return path, line
+
+
+def check_main_guarded() -> None:
+    """Refuse, in one line saying what to write, to start a local cluster from a script's top
+    level without ``if __name__ == "__main__":``: each worker would import the script and run
+    the study again, and Dask would fail with "Nanny failed to start" and pages of
+    traceback."""
+    found = unguarded_call()
+    if found is None:
+        return
+    path, line = found
+    raise InputError(f"line {line} starts Dask worker processes, which import this script "
+                     f"again and would run it again: put the script's work under "
+                     f"'if __name__ == \"__main__\":' (see 'Studies from a script' in the "
+                     f"manual's studies page)", culprit=path)
 
 
 #: Seconds the probe of ``--scheduler`` waits to connect, and then for the scheduler to greet.
@@ -226,5 +295,6 @@ def run_on_cluster(client: Any, fn: Callable[..., Any], items: Sequence[tuple[st
             f.release()
 
 
-__all__ = ["LEAN_DASK", "MAX_WORKERS_PER_CORE", "check_scheduler", "check_workers",
+__all__ = ["LEAN_DASK", "MAX_WORKERS_PER_CORE", "check_main_guarded", "check_scheduler",
+           "check_workers",
            "connect_cluster", "cores", "run_on_cluster"]

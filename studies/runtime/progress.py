@@ -17,6 +17,7 @@ seconds with ``unit_scale`` (:func:`time_bar`).
 from __future__ import annotations
 
 import logging
+import re
 import sys
 import warnings
 import weakref
@@ -118,18 +119,51 @@ def _to_terminal(kwargs: dict[str, Any]) -> bool:
         return False
 
 
+_ESCAPE = re.compile(r"\x1b\[[0-9;]*[A-Za-z]")
+
+
+class _Lines:
+    """A bar's output to a file (a log, a pipe): each redraw a line of its own, never the
+    terminal's ``\r`` redraws in place (a log read later would hold every state of the bar on
+    one line, or show only the last) nor its cursor moves; a redraw that says what the last
+    line said, or nothing (an erased bar), writes nothing."""
+
+    def __init__(self, stream: Any) -> None:
+        self.stream, self._last = stream, None
+
+    def write(self, text: str) -> int:
+        for part in re.split(r"[\r\n]", _ESCAPE.sub("", text)):
+            line = part.rstrip()
+            if line and line != self._last:
+                self.stream.write(line + "\n")
+                self._last = line
+        return len(text)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def isatty(self) -> bool:
+        return False
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.stream, name)
+
+
 class Bar(tqdm):
     """tqdm's bar (terminal or notebook); warnings and console log records shown while it is
     open wait until every bar has closed (see the module's docstring). Close it (``with`` or
     ``close()``); closed by an exception in a ``with``, it erases itself (the error's one line
     stands alone). Written to a file (``command 2> log``), it writes a line at most every
-    :data:`LOG_INTERVAL` seconds, its postfix included: a night's training leaves a log of a
-    few hundred lines, not one per session."""
+    :data:`LOG_INTERVAL` seconds, its postfix included, each a line of its own (no ``\r``
+    redraws): a night's training leaves a log of a few hundred lines, not one per session.
+    Its ``total`` is fixed when it is made: a bar never moves its own end."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         self._terminal = _to_terminal(kwargs)
-        if not self._terminal and "mininterval" not in kwargs:
-            kwargs["mininterval"] = LOG_INTERVAL
+        if not self._terminal:
+            if "mininterval" not in kwargs:
+                kwargs["mininterval"] = LOG_INTERVAL
+            kwargs["file"] = _Lines(kwargs.get("file") or sys.stderr)
         super().__init__(*args, **kwargs)
         if not self.disable:
             _opened(self)
