@@ -10,7 +10,7 @@ from typing import Any
 from .options import (DEFAULT_RUN_OUT, DESCRIPTION, EXIT_HELP, Parser, add_codegen_option,
                       add_model_file_option, add_model_options, add_no_progress, add_overwrite,
                       add_population_option,
-                      add_record_options, add_simulation_options)
+                      add_record_options, add_simulation_options, add_workers_option)
 
 #: what ``add_subparsers`` returns (argparse's ``_SubParsersAction``, a private class)
 Subparsers = Any
@@ -41,6 +41,7 @@ def add_unit(sub: Subparsers) -> None:
     add_record_options(unit)
     add_model_options(unit)
     add_population_option(unit)
+    add_workers_option(unit)
 
 
 def add_run(sub: Subparsers) -> None:
@@ -73,6 +74,7 @@ def add_run(sub: Subparsers) -> None:
     add_record_options(run)
     add_model_options(run)
     add_population_option(run)
+    add_workers_option(run)
 
 
 def add_train(sub: Subparsers) -> None:
@@ -99,6 +101,8 @@ def add_train(sub: Subparsers) -> None:
                             "weights, are removed; a checkpoint of astrocpg before format 2 "
                             "(checkpoint.pkl) is refused unread")
     add_overwrite(train)
+    add_workers_option(train, "the trials (with --resume: a training split over processes "
+                              "keeps its batches)")
     train.add_argument("--record-every", type=int, default=None, metavar="N",
                        help="record sessions 1, 1+N, 1+2N... and the last of each trial "
                             "(spikes, traces, robot) into DIR/recordings/ (default: none)")

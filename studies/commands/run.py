@@ -28,7 +28,9 @@ from ...models.compose import Overrides, model_files_record, model_set, override
 from ...network import populations as _table
 from .settings import (added_populations, number, population_rows, same_populations,
                        seed_number)
-from ..runtime.resources import check_memory, estimate_bytes
+from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
+from ..runtime.workers import resolve_workers
+from .batched import BatchedCPG, try_batched
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
                        firing_rates, simulate_closed_loop)
@@ -49,7 +51,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
         figure: bool = False,
         inputs: Sequence[str | os.PathLike] = (), session: int | None = None,
-        populations: Any = None) -> Result:
+        populations: Any = None, workers: int | None = None) -> Result:
     """Run the CPG driving ``trials`` A1 robots in MuJoCo for ``seconds`` (seeds seed,
     seed+1, ...): the closed loop, what ``astrocpg run`` runs.
 
@@ -73,6 +75,9 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     training folder, replay that session (1-based) of trial ``trial`` (default 0) exactly,
     learning on (:func:`~astrocpg.replay_session`, which returns a
     Result of kind "train"; ``out`` is required, and the run's own settings are the training's).
+    workers: processes the trials are split over (default: the cores this process may use,
+    :func:`~astrocpg.studies.runtime.workers.default_workers`); the results are the same
+    whatever the number (the result's ``network`` is None with more than one).
 
     Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "run": spikes, traces, the
     robot's arrays (``result.robot``) and ``summary`` (distance_m, mean_forward_speed_m_per_s,
@@ -80,6 +85,8 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     from brian2 import ms
 
     if session is not None:
+        if workers is not None:
+            resolve_workers(workers)
         if populations:
             raise InputError("a replay runs the training's own network", culprit="--population")
         return _replay(locals())
@@ -114,12 +121,16 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         if out is not None:
             OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
         pops, names = check_selection(spikes, traces)
-        check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
-                                    traces=names, spikes=bool(pops), robot_stride=robot_stride,
-                                    trace_bytes=np.dtype(trace_dtype).itemsize,
-                                    spill_bytes=None if out is None else recording.SPILL_BYTES),
-                     culprit=f"--seconds {seconds:g} x --trials {trials}")
+        procs = min(resolve_workers(workers), trials)
+        check_memory(estimate_batched(procs, trials=trials, seconds=seconds, dt=STEP,
+                                      trace_dt=trace_dt * 1e-3, traces=names, spikes=bool(pops),
+                                      robot_stride=robot_stride,
+                                      trace_bytes=np.dtype(trace_dtype).itemsize,
+                                      spill_bytes=None if out is None else recording.SPILL_BYTES),
+                     culprit=f"--seconds {seconds:g} x --trials {trials}"
+                             + (f" x --workers {procs}" if procs > 1 else ""))
         files = model_files_record(models)
+        model_texts = models
         models = model_set(overrides, equations, models=models)
         if weights is None:
             table = None
@@ -165,12 +176,20 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         start_x = layout.reset_qpos[layout.free_qpos_adr]
         # a run that writes a folder puts its large traces on disk as it goes (read_spilled)
         spill, spilled = spill_files(nearest_folder(Path(out))) if out is not None else (None, [])
+        spec = {"overrides": overrides, "equations": equations, "models": model_texts,
+                "populations": population_record, "seconds": seconds, "seed": seed,
+                "trace_dt": trace_dt, "spikes": spikes, "traces": traces,
+                "trace_dtype": trace_dtype, "robot": robot, "weights": table,
+                "robot_stride": robot_stride}
         try:
             try:
-                result = simulate_closed_loop(
-                    models, model, layout, seconds=seconds, seed=seed, n_trials=trials,
-                    weights=table, trace_dt=trace_dt * ms, robot_stride=robot_stride, spikes=spikes,
-                    traces=traces, progress=progress, trace_dtype=trace_dtype, spill=spill)
+                result = try_batched("run", spec, trials, procs, progress)
+                if result is None:  # one process (or a batch diverged: its folder written here)
+                    result = simulate_closed_loop(
+                        models, model, layout, seconds=seconds, seed=seed, n_trials=trials,
+                        weights=table, trace_dt=trace_dt * ms, robot_stride=robot_stride,
+                        spikes=spikes, traces=traces, progress=progress,
+                        trace_dtype=trace_dtype, spill=spill)
             except Diverged as e:  # the folder keeps what ran, and says it diverged
                 if out is not None and getattr(e, "result", None) is not None:
                     _summarise(e.result, models, start_x, robot_info, table, e)
@@ -178,6 +197,7 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
                         write_run_folder(folder, e.result, settings, figure=figure)
                 raise
             _summarise(result, models, start_x, robot_info, table)
+            result.extra["workers"] = procs if isinstance(result.cpg, BatchedCPG) else 1
             summary = run_results(result)  # before the spilled traces are read from the folder
             if out is not None:
                 # whole, or nothing
@@ -442,8 +462,8 @@ def run_results(result: SimulationResult) -> dict[str, Any]:
             "upright_share": x["upright_share"],
             "lowest_torso_height_m": x["lowest_torso_height_m"],
             "rate_per_neuron_Hz": x["rate_per_neuron_Hz"], "mechanisms": x["mechanisms"],
-            "wall_seconds": result.wall_seconds, "seconds": result.seconds,
-            "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
+            "wall_seconds": result.wall_seconds, "workers": x.get("workers", 1),
+            "seconds": result.seconds, "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
             "layout": result.cpg.layout.to_json(),
             # never silent: which traces lost values to float32 (stored as inf), how many
             "trace_overflow": overflowed(result.traces)}

@@ -44,7 +44,8 @@ from ..outputs.writing import (atomic_write, read_manifest, save_npz, save_spike
                              write_manifest)
 from ..outputs.result import Result
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
-from ..runtime.resources import check_memory, estimate_bytes
+from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
+from ..runtime.workers import resolve_workers
 from ...models.compose import model_files_record, model_set, override_items
 from .settings import (added_populations, number, population_rows, same_populations,
                        seed_number)
@@ -106,8 +107,12 @@ class Trainer:
     """Builds the network, robot, bridge and session loop; runs; checkpoints; resumes."""
 
     def __init__(self, models: ModelSet, settings: TrainSettings, out: Path,
-                 progress: bool = True, record: RecordPlan | None = None) -> None:
+                 progress: bool = True, record: RecordPlan | None = None,
+                 trial_offset: int = 0, folder: Path | None = None) -> None:
         self.settings, self.out = settings, out
+        # a batch of a training split over processes (train_batched.py): its trials are
+        # trials trial_offset... of the training in ``folder``, where its recordings go
+        self.trial_offset, self.folder = int(trial_offset), folder if folder is not None else out
         self.record = record
         if not settings.astrocytes:
             models = models.with_values({"astrocyte_regulation": 0.0})
@@ -168,7 +173,8 @@ class Trainer:
         """One recorded session as a folder that ``astrocpg export`` reads like a run."""
         from ...network import Layout
 
-        folder = self.out / "recordings" / f"trial{trial:02d}_session{session:04d}"
+        folder = (self.folder / "recordings"
+                  / f"trial{trial + self.trial_offset:02d}_session{session:04d}")
         folder.mkdir(parents=True, exist_ok=True)
         files = save_spikes_and_traces(folder, arrays["spikes"], arrays["traces"])
         robot = {k: (v if k == "t" else v[None]) for k, v in arrays["robot"].items()}
@@ -177,7 +183,8 @@ class Trainer:
         layout = Layout(n_trials=1, pool_size=self.cpg.layout.pool_size,
                         legs=self.cpg.layout.legs, populations=self.cpg.layout.rows)
         write_manifest(folder, command="train-session", seed=self.settings.seed + trial,
-                       settings={"training": str(self.out), "trial": trial, "session": session,
+                       settings={"training": str(self.folder),
+                                 "trial": trial + self.trial_offset, "session": session,
                                  "record": dataclasses.asdict(self.record),
                                  "overrides": list(self.settings.overrides),
                                  "astrocytes": self.settings.astrocytes,
@@ -190,26 +197,8 @@ class Trainer:
                        results={"layout": layout.to_json(), "dt_s": float(self.cpg.dt)})
 
     def write_outputs(self) -> None:
-        rows = self.training.memory.rows
-        buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=SESSION_COLUMNS, lineterminator="\n", restval=0)
-        writer.writeheader()
-        for r in rows:
-            writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v) for k, v in r.items()})
-        data = buf.getvalue().encode()
-        atomic_write(self.out / "sessions.csv", lambda f: f.write(data))
-        mem = self.training.memory
-        n_max = max(len(w) for w in mem.weights)
-        table = np.full((self.settings.n_trials, n_max, 8, 8), np.nan)
-        for b, ws in enumerate(mem.weights):
-            if ws:
-                table[b, :len(ws)] = np.array(ws) * 1e3
-        save_npz(self.out / "weights.npz", {
-            "weights_mV": table, "sessions_done": self.training.sessions_done.copy(),
-            "final_weights_mV": self.cpg.interlimb_weights() * 1e3,
-            "labels": np.array(interlimb_labels()),
-        })
-        save_npz(self.out / SESSION_STARTS, session_starts_arrays(mem.starts))
+        write_training_files(self.out, self.training.memory, self.training.sessions_done,
+                             self.cpg.interlimb_weights() * 1e3, self.settings.n_trials)
 
     def write_checkpoint(self) -> None:
         net = self.cpg.net
@@ -340,6 +329,30 @@ class Trainer:
             raise TrainingStopped(int(self.training.sessions_done.sum()),
                                   self.settings.n_trials * self.settings.n_sessions)
         return time.perf_counter() - t0
+
+
+def write_training_files(out: Path, mem: SessionMemory, sessions_done: np.ndarray,
+                     final_weights_mV: np.ndarray, n_trials: int) -> None:
+    """sessions.csv, weights.npz and session_starts.npz of a training's session memory."""
+    rows = mem.rows
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=SESSION_COLUMNS, lineterminator="\n", restval=0)
+    writer.writeheader()
+    for r in rows:
+        writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v) for k, v in r.items()})
+    data = buf.getvalue().encode()
+    atomic_write(out / "sessions.csv", lambda f: f.write(data))
+    n_max = max(len(w) for w in mem.weights)
+    table = np.full((n_trials, n_max, 8, 8), np.nan)
+    for b, ws in enumerate(mem.weights):
+        if ws:
+            table[b, :len(ws)] = np.array(ws) * 1e3
+    save_npz(out / "weights.npz", {
+        "weights_mV": table, "sessions_done": sessions_done.copy(),
+        "final_weights_mV": final_weights_mV,
+        "labels": np.array(interlimb_labels()),
+    })
+    save_npz(out / SESSION_STARTS, session_starts_arrays(mem.starts))
 
 
 _CLOCK = re.compile(r"^(.*_clock)(_\d+)?$")
@@ -683,7 +696,7 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
           record_stride: int | None = None, spikes: tuple[str, ...] | None = None,
           traces: tuple[str, ...] | None = None, overwrite: bool = False,
           progress: bool = True, inputs: Sequence[str | os.PathLike] = (),
-          populations: Any = None) -> Result:
+          populations: Any = None, workers: int | None = None) -> Result:
     """Train ``trials`` independent trials (seeds seed, seed+1, ...) for ``sessions`` sessions
     each, writing ``out`` (sessions.csv, weights.npz, checkpoint.npz, manifest.json) after every
     session: what ``astrocpg train`` runs. ``astrocytes=False`` is the paper's ablation;
@@ -695,7 +708,9 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
     holds none of them. ``populations``: model files with a ``[population]`` table (texts, or
     ``{file: text}``), populations added to every session's network (docs/model-files.md, "A
     new population"): recorded with the sessions, and their files kept with the settings, so
-    that :func:`resume` and the replays rebuild them.
+    that :func:`resume` and the replays rebuild them. ``workers``: processes the trials are
+    split over (default: the cores this process may use); the sessions, tables and recordings
+    are the same whatever the number (``train_batched.py`` says what differs).
 
     Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "train", read back from
     ``out`` (``sessions`` DataFrame, ``weights`` (trial, session, 8, 8) mV, ``recording(trial,
@@ -721,13 +736,16 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
                          f"replace it with --overwrite)", culprit=f"--out {out}")
     OutputFolder(out, overwrite=overwrite, inputs=inputs).check()
+    procs = min(resolve_workers(workers), settings.n_trials)
     with added_populations(settings.populations):  # recorded and built like the others
         plan = record_plan(record_every, record_stride, spikes, traces)
-        check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
-                                    sessions=settings.n_sessions),
-                     culprit=f"--sessions {settings.n_sessions} x --trials {settings.n_trials}")
+        check_memory(estimate_batched(procs, trials=settings.n_trials, seconds=0.0, spikes=False,
+                                      sessions=settings.n_sessions),
+                     culprit=f"--sessions {settings.n_sessions} x --trials {settings.n_trials}"
+                             + (f" x --workers {procs}" if procs > 1 else ""))
         return Result.from_training(_train(settings, out, plan, None, progress,
-                                           replace=overwrite, new=True, models=models), out)
+                                           replace=overwrite, new=True, models=models,
+                                           workers=procs), out)
 
 
 def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = True,
@@ -737,7 +755,8 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
            trials: int | None = None, astrocytes: bool | None = None, overrides: Any = None,
            equations: Mapping[str, str] | None = None, models: Mapping[str, Any] | None = None,
            out: str | Path | None = None, overwrite: bool = False,
-           expect: dict[str, Any] | None = None, populations: Any = None) -> Result:
+           expect: dict[str, Any] | None = None, populations: Any = None,
+           workers: int | None = None) -> Result:
     """Continue the training in ``folder`` from its checkpoint (``astrocpg train --resume``)
     and end with the same files as a training never interrupted (what later commands derived
     from the earlier weights, e.g. ``evaluation/`` and ``figures/``, is removed: it would be
@@ -760,6 +779,7 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     training would not have done (refused, naming the trials; one trial never idles). A study's
     run is not extended (its sessions are the study's). Returns the training's Result, like
     :func:`train`."""
+    procs = resolve_workers(workers)
     out_given = None if out is None else as_path(out, "--out")
     out = as_path(folder, "--resume")
     if out_given is not None and Path(out_given).resolve() != out.resolve():
@@ -807,12 +827,12 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     with added_populations(settings.populations):  # its recording plan may name them
         return _resume_checked(out, settings, payload, fresh, planned, sessions, given,
                                dict(record_every=record_every, record_stride=record_stride,
-                                    spikes=spikes, traces=traces), progress)
+                                    spikes=spikes, traces=traces), progress, procs)
 
 
 def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any], fresh: bool,
                     planned: int, sessions: int | None, given: dict[str, Any],
-                    recording: dict[str, Any], progress: bool) -> Result:
+                    recording: dict[str, Any], progress: bool, workers: int = 1) -> Result:
     """:func:`resume` once the folder's settings are read (and its populations added): the
     options given again checked against them, the sessions to train to, the training."""
     try:
@@ -842,6 +862,10 @@ def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any],
                          f"nothing was changed (--sessions N, more, extends it)",
                          culprit=f"--resume {out}")
     extend_from = None
+    if target != settings.n_sessions and "batches" in payload:
+        raise InputError(f"the training in {out} was trained over several processes "
+                         f"(--workers): it is continued to its {settings.n_sessions} sessions "
+                         f"per trial, never extended", culprit="--sessions")
     if target != settings.n_sessions:
         _check_extension(out, settings.n_sessions, target,
                          None if fresh else payload["training"])
@@ -851,7 +875,8 @@ def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any],
         extend_from = None if fresh else settings.n_sessions
         settings = dataclasses.replace(settings, n_sessions=target)
     return Result.from_training(_train(settings, out, stored_plan, None if fresh else payload,
-                                       progress, resumed=True, extend_from=extend_from), out)
+                                       progress, resumed=True, extend_from=extend_from,
+                                       workers=min(workers, settings.n_trials)), out)
 
 
 def _given_again(seed: int | None, trials: int | None, astrocytes: bool | None,
@@ -1054,7 +1079,7 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            new: bool = False, resumed: bool = False,
            models: ModelSet | None = None,
            start: tuple[SessionStart, dict[str, Any]] | None = None,
-           extend_from: int | None = None) -> "Trainer":
+           extend_from: int | None = None, workers: int = 1) -> "Trainer":
     """Build, own ``out`` (a lock: one process per training folder), train, write. ``resumed``:
     the training continues, so what later commands derived from its earlier weights (figures/,
     evaluation/, videos, power estimates) is removed first (:func:`remove_derived`).
@@ -1065,7 +1090,13 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
     ``settings``' (:func:`resume` with more ``sessions``)."""
     if models is None:
         models = model_set(settings.overrides, settings.equations, models=settings.models)
-    trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
+    batched = start is None and (payload is not None and "batches" in payload
+                                 or payload is None and workers > 1 and settings.n_trials > 1)
+    if batched:  # a network of one trial checks the models as the batches' will be built
+        trainer: Any = Trainer(models, dataclasses.replace(settings, n_trials=1), out,
+                               progress=False, record=plan)
+    else:
+        trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
     if start is not None:
         trainer.training.begin_at(0, start[0])
     try:
@@ -1081,6 +1112,9 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
         clean_stale_temporaries(out)
         if resumed:  # made from the weights this run is about to change: stale from now on
             remove_derived(out)
+        if batched:
+            return _train_batched_locked(trainer, settings, out, plan, payload, workers,
+                                         progress)
         return _train_locked(trainer, settings, out, plan, payload,
                              replay_of=None if start is None else start[1],
                              extend_from=extend_from)
@@ -1133,3 +1167,71 @@ def _train_locked(trainer: "Trainer", settings: TrainSettings, out: Path,
                    results={"status": "finished", "wall_seconds_last_invocation": wall,
                             "per_trial": summary["per_trial"]} | layout, history=True)
     return trainer
+
+
+def _train_batched_locked(check: "Trainer", settings: TrainSettings, out: Path,
+                          plan: RecordPlan | None, payload: dict[str, Any] | None,
+                          workers: int, progress: bool) -> Any:
+    """:func:`_train_locked` over ``workers`` processes (``train_batched.py``); ``check``: the
+    one-trial trainer that checked the models. Returns what :meth:`Result.from_training`
+    reads of a trainer (no live network: it stayed in the workers)."""
+    import types
+
+    from ...network.layout import Layout
+    from .train_batched import run_batched_training
+
+    record_json = None if plan is None else dataclasses.asdict(plan)
+    manifest = dict(command="train", seed=settings.seed,
+                    settings=settings.record() | {"record": record_json},
+                    models_json=check.models.to_json(), files=TRAIN_FILES,
+                    invocation={"sessions": settings.n_sessions})
+    one = check.cpg.layout
+    layout = {"layout": Layout(n_trials=settings.n_trials, pool_size=one.pool_size,
+                               legs=one.legs, stages=one.stages,
+                               populations=one.populations).to_json()}
+    n_procs = min(workers, len(payload["batches"]) if payload else settings.n_trials)
+    running = {"status": "running", "workers": n_procs} | layout
+
+    def gathered(done: np.ndarray) -> None:  # the inventory follows every checkpoint
+        write_manifest(out, **manifest, results=running | {"sessions_done": done.tolist()},
+                       history=True)
+
+    write_manifest(out, **manifest, results=running, history=True)
+    try:
+        wall, status = run_batched_training(out, settings, plan, payload, workers, progress,
+                                            check.cpg.codegen, float(check.cpg.dt), gathered)
+    except KeyboardInterrupt:  # while the files were gathered: stopped all the same
+        wall, status = 0.0, "stopped"
+    rows = _read_rows(out)
+    done = sum(1 for _ in rows)
+    total = settings.n_trials * settings.n_sessions
+    if status == "stopped" or (status == "finished" and done < total):
+        error = str(TrainingStopped(done, total))
+        write_manifest(out, **manifest, results={"status": "interrupted", "error": error,
+                                                 "workers": n_procs} | layout, history=True)
+        raise TrainingStopped(done, total)
+    if status.startswith("diverged"):
+        line = status.partition(": ")[2]
+        write_manifest(out, **manifest, results={"status": "diverged", "error": line,
+                                                 "workers": n_procs} | layout, history=True)
+        raise Diverged(line)
+    summary = train_summary(rows, settings.n_trials, check.models.value("L_max"))
+    write_manifest(out, **manifest,
+                   results={"status": "finished", "wall_seconds_last_invocation": wall,
+                            "workers": n_procs, "per_trial": summary["per_trial"]} | layout,
+                   history=True)
+    return types.SimpleNamespace(cpg=types.SimpleNamespace(net=None), models=check.models,
+                                 summary=summary, trainer=None)
+
+
+def _read_rows(out: Path) -> list[dict[str, Any]]:
+    """The session rows of ``out``'s sessions.csv, as the session loop keeps them (numbers)."""
+    path = out / "sessions.csv"
+    if not path.exists():
+        return []
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    return [{k: (float(v) if k in ("length_s", "final_x_m", "mean_reward",
+                                    "mean_forward_speed_m_per_s", "progress",
+                                    "t_learning_start_s") else int(v))
+             for k, v in r.items()} for r in rows]
