@@ -137,6 +137,7 @@ def add_gait(sub: Subparsers) -> None:
                            "slope=0.17; repeatable; 'astrocpg describe world' lists them)")
     add_no_progress(gait)
     add_codegen_option(gait)
+    add_workers_option(gait, "the runs")
 
 
 def add_evaluate(sub: Subparsers) -> None:

@@ -130,7 +130,8 @@ def gait_command(args: argparse.Namespace) -> int:
     from ..commands.api import gait
 
     for line in gait(args.dir, seconds=args.seconds, repeats=args.repeats, seed=args.seed,
-                     world=args.world, progress=not args.no_progress):
+                     world=args.world, progress=not args.no_progress,
+                     workers=args.workers):
         print(line)
     return 0
 

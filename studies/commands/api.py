@@ -110,13 +110,15 @@ def _path(value: Any, culprit: str) -> Path:
 
 def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
          seed: int | None = None, world: Sequence[str] = (), progress: bool = True,
-         rows: bool = False) -> list[str] | list[dict[str, Any]]:
+         rows: bool = False, workers: int | None = None) -> list[str] | list[dict[str, Any]]:
     """Run each trained table of the training in ``folder`` ``repeats`` times for ``seconds``,
     learning off (run ``b`` with seed ``seed + b``; by default the training's own seed;
     ``world``: ``NAME=VALUE`` world parameters over the training's world) and name, per run,
     its rhythm (thigh-extensor bursts) and its gait (footfalls), and per table the share of
     runs with each (Wilson 95% intervals): the lines ``astrocpg gait`` prints; with ``rows``,
-    one dict per run instead (table, repeat, seed, speed, fall, rhythm and gait columns)."""
+    one dict per run instead (table, repeat, seed, speed, fall, rhythm and gait columns).
+    ``workers``: processes the runs are split over (default: the cores this process may use;
+    the same results for any number)."""
     from .settings import number, seed_number
     from .trained_controller import describe_gait, gait_runs
 
@@ -126,7 +128,7 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
     kwargs = dict(seconds=number(seconds, "--seconds", positive=True),
                   repeats=number(repeats, "--repeats", integer=True, minimum=1),
                   seed=None if seed is None else seed_number(seed, "--seed"), world=list(world),
-                  progress=progress)
+                  progress=progress, workers=workers)
     if rows:
         return gait_runs(_path(folder, "folder"), **kwargs)[0]
     return describe_gait(_path(folder, "folder"), **kwargs)

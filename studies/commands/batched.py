@@ -40,6 +40,7 @@ class BatchedCPG:
     weights: np.ndarray  # (n_trials, 8, 8) volt, at the end of the run
     interlimb_pairs: np.ndarray
     net: Any = None
+    models: Any = None
 
     @property
     def n_trials(self) -> int:
@@ -66,13 +67,20 @@ def simulate_batch(kind: str, spec: Mapping[str, Any], first: int, count: int) -
 
     rows = population_rows(spec.get("populations"))[0]
     with _table.registered(*rows):
-        models = model_set(spec["overrides"], spec["equations"], models=spec["models"])
-        common = dict(seconds=spec["seconds"], seed=spec["seed"] + first, n_trials=count,
-                      trace_dt=spec["trace_dt"] * ms, spikes=spec["spikes"],
-                      traces=spec["traces"], progress=False, trace_dtype=spec["trace_dtype"])
+        models = (spec["modelset"] if "modelset" in spec else
+                  model_set(spec["overrides"], spec["equations"], models=spec["models"]))
+        common = {} if kind == "replay" else dict(
+            seconds=spec["seconds"], seed=spec["seed"] + first, n_trials=count,
+            trace_dt=spec["trace_dt"] * ms, spikes=spec["spikes"], traces=spec["traces"],
+            progress=False, trace_dtype=spec["trace_dtype"])
         try:
             if kind == "unit":
                 result = simulate_unit(models, **common)
+            elif kind == "replay":  # a training's tables (run.replay): the project's A1
+                result = simulate_closed_loop(
+                    models, seconds=spec["seconds"], seed=spec["seed"] + first, n_trials=count,
+                    weights=spec["weights"][first:first + count], record_traces=False,
+                    progress=False)
             else:
                 from ...coupling.robot import A1Parameters, RobotLayout, load_robot
                 from ...coupling.world import world_model

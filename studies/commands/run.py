@@ -529,8 +529,8 @@ def trained_models(settings: Mapping[str, Any]) -> ModelSet:
 
 
 def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None,
-           progress: bool = True, repeats: int = 1,
-           world: Sequence[str] = ()) -> tuple[SimulationResult, np.ndarray]:
+           progress: bool = True, repeats: int = 1, world: Sequence[str] = (),
+           workers: int | None = None) -> tuple[SimulationResult, np.ndarray]:
     """The trained tables of every trial of the training in ``folder``, run for ``seconds``
     with the training's models (one batch, learning off), ``repeats`` times: batch trial
     ``b = r * n + k`` is table ``k`` (of ``n``) in repeat ``r``, with seed ``seed + b``
@@ -541,6 +541,7 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
     seconds = number(seconds, "--seconds", positive=True)
     check_duration(seconds, STEP)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
+    procs = resolve_workers(workers)
     if seed is None:
         seed = training_settings(folder).get("seed", 1)
     seed = seed_number(seed)
@@ -548,15 +549,23 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
     weights = load_weights(folder, culprit="")
     models = trained_models(training_settings(folder))
     models = in_world_settings(models, world)
-    check_memory(estimate_bytes(trials=len(weights) * repeats, seconds=seconds, dt=STEP,
-                                robot_stride=1),
+    runs = len(weights) * repeats
+    procs = min(procs, runs)
+    check_memory(estimate_batched(procs, trials=runs, seconds=seconds, dt=STEP, robot_stride=1),
                  culprit=f"--seconds {seconds:g} x {len(weights)} trained trial(s) x "
-                         f"{repeats} repeat(s)")
-    with added_populations(training_settings(folder).get("populations")):
-        result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
-                                      n_trials=len(weights) * repeats,
-                                      weights=np.concatenate([weights] * repeats),
-                                      record_traces=False, progress=progress)
+                         f"{repeats} repeat(s)" + (f" x --workers {procs}" if procs > 1 else ""))
+    tables = np.concatenate([weights] * repeats)
+    populations = training_settings(folder).get("populations")
+    with added_populations(populations):
+        result = try_batched("replay", {"modelset": models, "populations": populations,
+                                        "seconds": seconds, "seed": seed, "weights": tables},
+                             runs, procs, progress)
+        if result is None:  # one process (or a batch diverged: it diverges here too)
+            result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
+                                          n_trials=runs, weights=tables,
+                                          record_traces=False, progress=progress)
+        else:
+            result.cpg.models = models
     return result, weights
 
 

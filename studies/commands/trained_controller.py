@@ -30,7 +30,8 @@ controller's gait is the share of its runs that show it, with its Wilson interva
 
 def gait_runs(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_REPEATS,
               seed: int | None = None, world: Sequence[str] = (),
-              progress: bool = True) -> tuple[list[dict[str, Any]], np.ndarray, Any]:
+              progress: bool = True,
+              workers: int | None = None) -> tuple[list[dict[str, Any]], np.ndarray, Any]:
     """Run every trained table of the training in ``folder`` ``repeats`` times for
     ``seconds``, learning off (run ``b = r * n + k``: table ``k``, repeat ``r``, seed
     ``seed + b``; :func:`~astrocpg.studies.commands.run.replay`); one row per run: table,
@@ -40,7 +41,7 @@ def gait_runs(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_
     if seed is None:
         seed = training_settings(folder).get("seed", 1)
     result, weights = replay(folder, seconds=seconds, seed=seed, progress=progress,
-                             repeats=repeats, world=world)
+                             repeats=repeats, world=world, workers=workers)
     first_seed = int(seed)
     t, i = result.spikes["motor"]
     rec = result.robot
@@ -108,13 +109,13 @@ def shares_words(rows: Sequence[Mapping[str, Any]], kind: str) -> str:
 
 def describe_gait(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_REPEATS,
                   seed: int | None = None, world: Sequence[str] = (),
-                  progress: bool = True) -> list[str]:
+                  progress: bool = True, workers: int | None = None) -> list[str]:
     """Run every trained table ``repeats`` times (:func:`gait_runs`); a line per run (its
     rhythm and its gait, each named, speed, upright share by the alive model in use, a fall)
     and per table the share of runs with each gait and each rhythm (Wilson 95% intervals)
     and the weight structure."""
     rows, weights, models = gait_runs(folder, seconds=seconds, repeats=repeats, seed=seed,
-                                      world=world, progress=progress)
+                                      world=world, progress=progress, workers=workers)
     w_max = models.value("w_max")
     alive = alive_words(models)
     lines = []

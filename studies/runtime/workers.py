@@ -75,13 +75,15 @@ def split_trials(n_trials: int, workers: int) -> list[tuple[int, int]]:
 
 def _stop_on_sigterm(signum: int, frame: Any) -> None:
     """A worker's SIGTERM: a Brian2 run in progress stops at the end of its step (the caller
-    sees it stopped early, as after Ctrl-C), anything else is interrupted."""
+    sees it stopped early, as after Ctrl-C: a training writes its checkpoint); a worker
+    between runs (building, or waiting for work) ends at once, quietly: it has nothing to
+    write."""
     brian2 = sys.modules.get("brian2")
     network = getattr(brian2, "Network", None)
-    if network is not None and network._globally_running and not network._globally_stopped:
+    if network is not None and network._globally_running:
         network._globally_stopped = True
         return
-    raise KeyboardInterrupt
+    os._exit(130)
 
 
 def _worker_start() -> None:
