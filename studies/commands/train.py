@@ -1198,12 +1198,12 @@ def _train_batched_locked(check: "Trainer", settings: TrainSettings, out: Path,
 
     write_manifest(out, **manifest, results=running, history=True)
     try:
-        wall, status = run_batched_training(out, settings, plan, payload, workers, progress,
-                                            check.cpg.codegen, float(check.cpg.dt), gathered)
+        wall, status, rows = run_batched_training(out, settings, plan, payload, workers,
+                                                  progress, check.cpg.codegen,
+                                                  float(check.cpg.dt), gathered)
     except KeyboardInterrupt:  # while the files were gathered: stopped all the same
-        wall, status = 0.0, "stopped"
-    rows = _read_rows(out)
-    done = sum(1 for _ in rows)
+        wall, status, rows = 0.0, "stopped", []
+    done = len(rows)
     total = settings.n_trials * settings.n_sessions
     if status == "stopped" or (status == "finished" and done < total):
         error = str(TrainingStopped(done, total))
@@ -1223,15 +1223,3 @@ def _train_batched_locked(check: "Trainer", settings: TrainSettings, out: Path,
     return types.SimpleNamespace(cpg=types.SimpleNamespace(net=None), models=check.models,
                                  summary=summary, trainer=None)
 
-
-def _read_rows(out: Path) -> list[dict[str, Any]]:
-    """The session rows of ``out``'s sessions.csv, as the session loop keeps them (numbers)."""
-    path = out / "sessions.csv"
-    if not path.exists():
-        return []
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    return [{k: (float(v) if k in ("length_s", "final_x_m", "mean_reward",
-                                    "mean_forward_speed_m_per_s", "progress",
-                                    "t_learning_start_s") else int(v))
-             for k, v in r.items()} for r in rows]

@@ -130,6 +130,7 @@ class Gatherer:
         self.spans, self.previous, self.dt = spans, previous, dt
         self.on_gathered = on_gathered
         self.seen: list[Any] = [None] * len(spans)
+        self.rows: list[dict[str, Any]] = []  # the training's session rows, last gathered
         self.next_at = -math.inf
 
     def folder(self, k: int) -> Path:
@@ -171,6 +172,7 @@ class Gatherer:
         if all(p is None for _, _, p in batches):
             return None
         mem = merged_memory(batches, self.dt)
+        self.rows = mem.rows
         done = np.asarray([len(x) for x in mem.lengths], dtype=np.int64)
         final = np.concatenate([self._final_weights(k, n, p)
                                 for k, (_, n, p) in enumerate(batches)])
@@ -204,10 +206,12 @@ def remove_work(out: Path) -> None:
 
 def run_batched_training(out: Path, settings: Any, plan: Any, payload: dict[str, Any] | None,
                          workers: int, progress: bool, codegen: str, dt: float,
-                         on_gathered: Callable[[np.ndarray], None]) -> tuple[float, str]:
+                         on_gathered: Callable[[np.ndarray], None]
+                         ) -> tuple[float, str, list[dict[str, Any]]]:
     """Train ``settings`` into ``out`` over ``workers`` processes (from the packed ``payload``
     when resuming). Returns (wall seconds, status: "finished", "stopped" or the diverged
-    line prefixed "diverged: "); the training's files are written whatever the status."""
+    line prefixed "diverged: ") and the session rows; the training's files are written
+    whatever the status."""
     from ..runtime.progress import Bar
     from ..runtime.workers import run_batches, split_trials
 
@@ -257,7 +261,7 @@ def run_batched_training(out: Path, settings: Any, plan: Any, payload: dict[str,
     finally:
         bar.close()
     remove_work(out)
-    return time.perf_counter() - t0, status
+    return time.perf_counter() - t0, status, gatherer.rows
 
 
 __all__ = ["Gatherer", "WORK", "merged_memory", "packed_payload", "remove_work",
