@@ -111,7 +111,8 @@ def test_gait_workers_identical(tmp_path):
 def test_bad_workers_refused(tmp_path, command, value):
     if command[0] != "train" and value == "-2":
         pytest.skip("one negative case is enough")
-    p = astrocpg(*command, "--out", "o", f"--workers={value}", cwd=tmp_path, check=False)
+    out = [] if command[0] == "gait" else ["--out", "o"]
+    p = astrocpg(*command, *out, f"--workers={value}", cwd=tmp_path, check=False)
     assert p.returncode == 2, p.stderr
     assert "--workers" in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
     assert not (tmp_path / "o").exists()
@@ -140,3 +141,16 @@ def test_train_two_workers_interrupted_resumes_identical(tmp_path):
     astrocpg("train", "--resume", "out", "--no-progress", cwd=cut)
     for name in ("sessions.csv", "weights.npz", "session_starts.npz"):
         assert (cut / "out" / name).read_bytes() == (whole / "out" / name).read_bytes(), name
+
+
+def test_benchmark_script_runs(tmp_path):
+    """benchmarks/workers.py at a tiny size: it runs the commands with 1 and 2 workers and
+    prints the ratio and the projection (timings here mean nothing)."""
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "workers.py"
+    p = subprocess.run([sys.executable, str(script), "--only", "run", "--trials", "2",
+                        "--seconds", "0.1", "--json", str(tmp_path / "w.json")],
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    assert "ratio" in p.stdout and "projected on 8 cores" in p.stdout
+    rows = json.loads((tmp_path / "w.json").read_text())["rows"]
+    assert rows["run"]["workers_1_s"] > 0 and rows["run"]["workers_2_s"] > 0

@@ -119,6 +119,7 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
     one dict per run instead (table, repeat, seed, speed, fall, rhythm and gait columns).
     ``workers``: processes the runs are split over (default: the cores this process may use;
     the same results for any number)."""
+    from ..runtime.workers import resolve_workers
     from .settings import number, seed_number
     from .trained_controller import describe_gait, gait_runs
 
@@ -128,7 +129,7 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
     kwargs = dict(seconds=number(seconds, "--seconds", positive=True),
                   repeats=number(repeats, "--repeats", integer=True, minimum=1),
                   seed=None if seed is None else seed_number(seed, "--seed"), world=list(world),
-                  progress=progress, workers=workers)
+                  progress=progress, workers=resolve_workers(workers))
     if rows:
         return gait_runs(_path(folder, "folder"), **kwargs)[0]
     return describe_gait(_path(folder, "folder"), **kwargs)
