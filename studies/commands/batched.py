@@ -68,7 +68,7 @@ def simulate_batch(kind: str, spec: Mapping[str, Any], first: int, count: int) -
     rows = population_rows(spec.get("populations"))[0]
     with _table.registered(*rows):
         models = (spec["modelset"] if "modelset" in spec else
-                  model_set(spec["overrides"], spec["equations"], models=spec["models"]))
+                  model_set(spec["overrides"], spec["equations"], models=spec.get("models")))
         common = {} if kind == "replay" else dict(
             seconds=spec["seconds"], seed=spec["seed"] + first, n_trials=count,
             trace_dt=spec["trace_dt"] * ms, spikes=spec["spikes"], traces=spec["traces"],

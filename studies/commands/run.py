@@ -29,8 +29,8 @@ from ...network import populations as _table
 from .settings import (added_populations, number, population_rows, same_populations,
                        seed_number)
 from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
-from ..runtime.workers import resolve_workers
-from .batched import BatchedCPG, try_batched
+from ..runtime.workers import resolve_workers, workers_words
+from .batched import try_batched
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
                        firing_rates, simulate_closed_loop)
@@ -68,16 +68,13 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     and the other figures at any time later). populations: model files with a ``[population]``
     table, populations added to the network for this call (docs/model-files.md); with
     ``weights`` a training folder, the populations that training added are built too (its
-    network, with its tables). inputs: other
-    files the caller read (e.g. model
+    network, with its tables). inputs: other files the caller read (e.g. model
     files): ``out`` may not be or hold one, nor ``weights`` and ``robot`` (see
     :func:`~astrocpg.studies.outputs.folder.check_output_path`). session: with ``weights`` a
     training folder, replay that session (1-based) of trial ``trial`` (default 0) exactly,
     learning on (:func:`~astrocpg.replay_session`, which returns a
     Result of kind "train"; ``out`` is required, and the run's own settings are the training's).
-    workers: processes the trials are split over (default: the cores this process may use,
-    :func:`~astrocpg.studies.runtime.workers.default_workers`); the results are the same
-    whatever the number (the result's ``network`` is None with more than one).
+    workers: processes the trials are split over (default: this process's cores; same results).
 
     Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "run": spikes, traces, the
     robot's arrays (``result.robot``) and ``summary`` (distance_m, mean_forward_speed_m_per_s,
@@ -85,8 +82,6 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
     from brian2 import ms
 
     if session is not None:
-        if workers is not None:
-            resolve_workers(workers)
         if populations:
             raise InputError("a replay runs the training's own network", culprit="--population")
         return _replay(locals())
@@ -122,15 +117,13 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
             OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
         pops, names = check_selection(spikes, traces)
         procs = min(resolve_workers(workers), trials)
-        check_memory(estimate_batched(procs, trials=trials, seconds=seconds, dt=STEP,
-                                      trace_dt=trace_dt * 1e-3, traces=names, spikes=bool(pops),
-                                      robot_stride=robot_stride,
-                                      trace_bytes=np.dtype(trace_dtype).itemsize,
-                                      spill_bytes=None if out is None else recording.SPILL_BYTES),
-                     culprit=f"--seconds {seconds:g} x --trials {trials}"
-                             + (f" x --workers {procs}" if procs > 1 else ""))
+        check_memory(estimate_batched(
+            procs, trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
+            traces=names, spikes=bool(pops), robot_stride=robot_stride,
+            trace_bytes=np.dtype(trace_dtype).itemsize, spill_bytes=None if out is None
+            else recording.SPILL_BYTES),
+            culprit=f"--seconds {seconds:g} x --trials {trials}" + workers_words(procs))
         files = model_files_record(models)
-        model_texts = models
         models = model_set(overrides, equations, models=models)
         if weights is None:
             table = None
@@ -176,20 +169,10 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         start_x = layout.reset_qpos[layout.free_qpos_adr]
         # a run that writes a folder puts its large traces on disk as it goes (read_spilled)
         spill, spilled = spill_files(nearest_folder(Path(out))) if out is not None else (None, [])
-        spec = {"overrides": overrides, "equations": equations, "models": model_texts,
-                "populations": population_record, "seconds": seconds, "seed": seed,
-                "trace_dt": trace_dt, "spikes": spikes, "traces": traces,
-                "trace_dtype": trace_dtype, "robot": robot, "weights": table,
-                "robot_stride": robot_stride}
         try:
             try:
-                result = try_batched("run", spec, trials, procs, progress)
-                if result is None:  # one process (or a batch diverged: its folder written here)
-                    result = simulate_closed_loop(
-                        models, model, layout, seconds=seconds, seed=seed, n_trials=trials,
-                        weights=table, trace_dt=trace_dt * ms, robot_stride=robot_stride,
-                        spikes=spikes, traces=traces, progress=progress,
-                        trace_dtype=trace_dtype, spill=spill)
+                result = _simulate(models, model, layout, dict(settings, weights=table), procs,
+                                   progress, spill)
             except Diverged as e:  # the folder keeps what ran, and says it diverged
                 if out is not None and getattr(e, "result", None) is not None:
                     _summarise(e.result, models, start_x, robot_info, table, e)
@@ -197,7 +180,6 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
                         write_run_folder(folder, e.result, settings, figure=figure)
                 raise
             _summarise(result, models, start_x, robot_info, table)
-            result.extra["workers"] = procs if isinstance(result.cpg, BatchedCPG) else 1
             summary = run_results(result)  # before the spilled traces are read from the folder
             if out is not None:
                 # whole, or nothing
@@ -209,6 +191,24 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                       summary=summary, robot=robot_arrays(result),
                                       models=models, folder=out)
+
+
+def _simulate(models: ModelSet, model: Any, layout: Any, spec: dict[str, Any], procs: int,
+              progress: bool, spill: Any) -> SimulationResult:
+    """The run of ``spec`` (its checked settings, ``weights`` the tables in volt): over
+    ``procs`` processes (:mod:`.batched`), else here (one process, or a batch that diverged:
+    what diverged is then written as one process writes it)."""
+    from brian2 import ms
+
+    result = try_batched("run", spec, spec["trials"], procs, progress)
+    if result is not None:
+        result.extra["workers"] = procs
+        return result
+    return simulate_closed_loop(
+        models, model, layout, seconds=spec["seconds"], seed=spec["seed"],
+        n_trials=spec["trials"], weights=spec["weights"], trace_dt=spec["trace_dt"] * ms,
+        robot_stride=spec["robot_stride"], spikes=spec["spikes"], traces=spec["traces"],
+        progress=progress, trace_dtype=spec["trace_dtype"], spill=spill)
 
 
 def nearest_folder(path: Path) -> Path:
@@ -442,6 +442,7 @@ def _replay(given: dict[str, Any]) -> Result:
                              "models and robot); drop it", culprit=option)
     if given["out"] is None:
         raise InputError("a replay writes a folder: give one", culprit="--out")
+    resolve_workers(given["workers"])  # checked (a replay is one trial: one process)
     stride = whole_steps(float(given["trace_dt"]) * 1e-3, 1e-3, culprit="--trace-dt")
     return replay_session(weights, trial=given["trial"] or 0, session=given["session"],
                           out=given["out"], record_stride=stride, spikes=given["spikes"],

@@ -510,6 +510,16 @@ def _memory_from_state(state: dict[str, Any], n_trials: int) -> SessionMemory:
                          else [[] for _ in range(n_trials)])
 
 
+def memory_from_state(state: dict[str, Any], n_trials: int) -> SessionMemory:
+    """A checkpoint's session memory (its ``memory`` entry) as the session loop keeps it."""
+    return _memory_from_state(state, n_trials)
+
+
+def write_payload(path: Path, payload: dict[str, Any]) -> None:
+    """``payload`` (what :func:`read_checkpoint` returns) written as the checkpoint ``path``."""
+    write_checkpoint_file(path, *_split(payload))
+
+
 def read_checkpoint(path: Path, culprit: Any = None) -> dict[str, Any]:
     """Load and check a checkpoint (data only: :mod:`astrocpg.studies.outputs.checkpoint`); a
     corrupt or foreign file, or one of the old pickled format, is an ``InputError`` naming it.

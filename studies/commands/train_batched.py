@@ -92,7 +92,7 @@ def merged_memory(batches: list[tuple[int, int, dict[str, Any] | None]], dt: flo
     """The batches' session memories as one training's: per trial in trial order, the rows in
     the order one network appends them (the step each session ended, then the trial)."""
     from ...coupling.training import SessionMemory
-    from .train import _memory_from_state
+    from .train import memory_from_state
 
     lengths: list = []
     weights: list = []
@@ -104,7 +104,7 @@ def merged_memory(batches: list[tuple[int, int, dict[str, Any] | None]], dt: flo
                                 weights=[[] for _ in range(count)],
                                 starts=[[] for _ in range(count)])
         else:
-            mem = _memory_from_state(payload["memory"], count)
+            mem = memory_from_state(payload["memory"], count)
         lengths += mem.lengths
         weights += mem.weights
         starts += mem.starts
@@ -160,8 +160,7 @@ class Gatherer:
     def gather(self) -> np.ndarray | None:
         """Write the training's files from the batches' latest checkpoints; returns the
         sessions done per trial (None when no batch has a checkpoint and none was resumed)."""
-        from ..outputs.checkpoint import write_checkpoint as write_checkpoint_file
-        from .train import CHECKPOINT, _split, read_checkpoint, write_training_files
+        from .train import CHECKPOINT, read_checkpoint, write_payload, write_training_files
 
         self.seen = self._stamps()
         batches = []
@@ -178,7 +177,7 @@ class Gatherer:
                                 for k, (_, n, p) in enumerate(batches)])
         write_training_files(self.out, mem, done, final, self.settings.n_trials)
         packed = packed_payload(self.settings, self.plan, self.codegen, batches)
-        write_checkpoint_file(self.out / CHECKPOINT, *_split(packed))
+        write_payload(self.out / CHECKPOINT, packed)
         self.on_gathered(done)
         return done
 

@@ -79,10 +79,6 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
                      culprit=f"--seconds {seconds:g} x --trials {trials}"
                              + (f" x --workers {procs}" if procs > 1 else ""))
         files = model_files_record(models)
-        spec = {"overrides": overrides, "equations": equations, "models": models,
-                "populations": population_record, "seconds": seconds, "seed": seed,
-                "trace_dt": trace_dt, "spikes": spikes, "traces": traces,
-                "trace_dtype": trace_dtype}
         models = model_set(overrides, equations, models=models)
         # the manifest's settings: the checked values, whichever door (command line or API) called
         settings = {
@@ -94,7 +90,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
         if population_record:
             settings["populations"] = population_record  # each added population's model file
         try:
-            result = try_batched("unit", spec, trials, procs, progress)
+            result = try_batched("unit", settings, trials, procs, progress)
             if result is None:  # one process (or a batch diverged: its folder written here)
                 result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
                                        trace_dt=trace_dt * ms, spikes=spikes, traces=traces,

@@ -60,6 +60,11 @@ def resolve_workers(workers: Any, culprit: str = "--workers") -> int:
     return default_workers() if n is None else n
 
 
+def workers_words(procs: int) -> str:
+    """`` x --workers N`` for a culprit where more than one process works, else nothing."""
+    return f" x --workers {procs}" if procs > 1 else ""
+
+
 def split_trials(n_trials: int, workers: int) -> list[tuple[int, int]]:
     """``(first trial, count)`` of each batch: ``min(workers, n_trials)`` contiguous ranges in
     trial order, their sizes differing by at most one (the larger first)."""
@@ -169,4 +174,4 @@ def _stop_workers(pool: Any, futures: dict[Any, int]) -> None:
 
 
 __all__ = ["MAX_WORKERS_PER_CORE", "check_workers", "default_workers", "resolve_workers",
-           "run_batches", "split_trials"]
+           "run_batches", "split_trials", "workers_words"]
