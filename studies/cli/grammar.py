@@ -171,7 +171,8 @@ def add_evaluate(sub: Subparsers) -> None:
     add_overwrite(ev)
     ev.add_argument("--workers", type=int, default=None,
                     help="run the (training, world) cells on a local Dask cluster of N processes "
-                         "(default: one after the other, here)")
+                         "(default: the cores this process may use; 1: one after the other, "
+                         "here)")
     ev.add_argument("--scheduler", metavar="ADDRESS",
                     help="run the cells on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 "
                          "(default: none)")
@@ -248,7 +249,7 @@ def add_study(sub: Subparsers) -> None:
                        help="a parameter of every run, with units, in place of the file's "
                             "[base] value (repeatable; e.g. --set L_max=2*second)")
     study.add_argument("--workers", type=int, default=None,
-                       help="local cluster size (default: one worker per core)")
+                       help="local cluster size (default: the cores this process may use)")
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (default: "
                             "a local cluster)")
