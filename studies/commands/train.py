@@ -288,8 +288,8 @@ class Trainer:
         if self.recorder is not None:
             self.recorder.extend(sessions, reopened)
             if not self.record.records(sessions, self.settings.n_sessions):
-                for b in range(self.settings.n_trials):
-                    stale = self.out / "recordings" / f"trial{b:02d}_session{sessions:04d}"
+                for b in range(self.trial_offset, self.trial_offset + self.settings.n_trials):
+                    stale = self.folder / "recordings" / f"trial{b:02d}_session{sessions:04d}"
                     if stale.exists():
                         try:
                             shutil.rmtree(stale)
@@ -872,13 +872,9 @@ def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any],
                          f"nothing was changed (--sessions N, more, extends it)",
                          culprit=f"--resume {out}")
     extend_from = None
-    if target != settings.n_sessions and "batches" in payload:
-        raise InputError(f"the training in {out} was trained over several processes "
-                         f"(--workers): it is continued to its {settings.n_sessions} sessions "
-                         f"per trial, never extended", culprit="--sessions")
     if target != settings.n_sessions:
         _check_extension(out, settings.n_sessions, target,
-                         None if fresh else payload["training"])
+                         None if fresh else _loop_state(payload))
         check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
                                     sessions=target),
                      culprit=f"--sessions {target} x --trials {settings.n_trials}")
@@ -900,6 +896,20 @@ def _given_again(seed: int | None, trials: int | None, astrocytes: bool | None,
             "overrides": sorted(items) or None, "equations": dict(equations or {}) or None,
             "models": model_files_record(models) or None,
             "populations": population_rows(populations)[1] or None}
+
+
+def _loop_state(payload: dict[str, Any]) -> dict[str, Any]:
+    """A checkpoint's session-loop state (``done``, ``step_in_session`` per trial); of a
+    training split over processes, its batches' side by side (a batch not started yet: not
+    done, no step)."""
+    if "batches" not in payload:
+        return payload["training"]
+    parts = [(b["payload"]["training"] if b["payload"] is not None else
+              {"done": np.zeros(b["count"], dtype=bool),
+               "step_in_session": np.zeros(b["count"], dtype=np.int64)})
+             for b in payload["batches"]]
+    return {k: np.concatenate([np.asarray(x[k]) for x in parts])
+            for k in ("done", "step_in_session")}
 
 
 def _check_extension(out: Path, sessions: int, target: int,

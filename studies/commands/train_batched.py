@@ -13,9 +13,10 @@ checkpoints into the training's ``checkpoint.npz`` (:func:`packed_payload`), fro
 
 When every batch has finished, those three files are the one-process training's, byte for byte,
 and so are the recordings; the manifest differs in its timings and worker count. The packed
-``checkpoint.npz`` differs (it holds one network state per batch), and a training trained
-in batches is not extended with ``--resume --sessions`` (refused, naming it). A batch that
-diverges stops the others: the folder keeps the sessions so far and says it diverged.
+``checkpoint.npz`` differs (it holds one network state per batch). ``--resume --sessions``
+extends each batch as one network extends its trials (a trial that ran idle in its batch
+refuses it, as in one network). A batch that diverges stops the others: the folder keeps the
+sessions so far and says it diverged.
 """
 
 from __future__ import annotations
@@ -64,6 +65,9 @@ def train_batch(spec: dict[str, Any], first: int, count: int, folder: str,
                           trial_offset=first, folder=Path(spec["out"]))
         if payload is not None:
             trainer.restore(payload)
+            trained_to = int(payload["settings"]["n_sessions"])
+            if trained_to < batch.n_sessions:  # an extension (resume --sessions): as one network
+                trainer.extend(trained_to)
         try:
             trainer.run()
         except TrainingStopped:
