@@ -118,7 +118,23 @@ def test_bad_workers_refused(tmp_path, command, value):
     assert not (tmp_path / "o").exists()
 
 
-def test_train_two_workers_interrupted_resumes_identical(tmp_path):
+def _gone(group: int, seconds: float = 20.0) -> bool:
+    """Has every process of ``group`` (the command, its workers, their server) ended?"""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(group, 0)
+        except ProcessLookupError:
+            return True
+        time.sleep(0.1)
+    return False
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("to", ["group", "parent"])
+def test_train_two_workers_interrupted_resumes_identical(tmp_path, to):
+    """Ctrl-C (SIGINT to the process group, or to the command alone) stops every worker after
+    its checkpoint, exit 130, no process left; the resume ends with the uninterrupted files."""
     args = ["train", "--trials", "2", "--sessions", "12", *SHORT, "--out", "out",
             "--no-progress", "--workers", "2"]
     whole = tmp_path / "whole"
@@ -133,9 +149,13 @@ def test_train_two_workers_interrupted_resumes_identical(tmp_path):
     while not (cut / "out" / "checkpoint.npz").exists() and p.poll() is None:
         assert time.monotonic() < deadline
         time.sleep(0.05)
-    os.killpg(p.pid, signal.SIGINT)  # Ctrl-C: the whole process group
+    if to == "group":
+        os.killpg(p.pid, signal.SIGINT)  # Ctrl-C: the whole process group
+    else:
+        os.kill(p.pid, signal.SIGINT)  # the command alone: it stops its workers
     _, err = p.communicate(timeout=300)
     assert p.returncode == 130, err
+    assert _gone(p.pid), "a worker outlived the command"
     assert "--resume" in err
     assert not (cut / "out" / ".workers").exists()
     astrocpg("train", "--resume", "out", "--no-progress", cwd=cut)
@@ -154,3 +174,26 @@ def test_benchmark_script_runs(tmp_path):
     assert "ratio" in p.stdout and "projected on 8 cores" in p.stdout
     rows = json.loads((tmp_path / "w.json").read_text())["rows"]
     assert rows["run"]["workers_1_s"] > 0 and rows["run"]["workers_2_s"] > 0
+
+
+@pytest.mark.slow
+def test_run_interrupted_stops_every_worker(tmp_path):
+    """SIGINT to the command alone while its workers simulate: exit 130, no folder, no
+    process left behind."""
+    p = subprocess.Popen([sys.executable, "-m", "astrocpg", "run", "--trials", "2", "--seconds",
+                          "60", "--out", "out", "--workers", "2"], cwd=tmp_path,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         start_new_session=True)
+    deadline = time.monotonic() + 120
+    while p.poll() is None and time.monotonic() < deadline:  # the bar: the workers started
+        time.sleep(0.5)
+        if len(subprocess.run(["pgrep", "-g", str(p.pid)], capture_output=True,
+                              text=True).stdout.split()) >= 4:  # command, server, 2 workers
+            break
+    time.sleep(3)
+    os.kill(p.pid, signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err, err
+    assert not (tmp_path / "out").exists()
+    assert _gone(p.pid), "a worker outlived the command"
