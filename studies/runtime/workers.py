@@ -100,6 +100,16 @@ def _worker_start() -> None:
     signal.signal(signal.SIGTERM, _stop_on_sigterm)
 
 
+def _in_environment(environ: dict[str, str], fn: Callable[..., Any], *args: Any) -> Any:
+    """``fn(*args)`` with this process's environment made the caller's as it is now (the
+    server the workers fork from keeps the one it started with: a later ``--codegen``, or a
+    variable a caller changed since, would not reach them)."""
+    if environ != dict(os.environ):
+        os.environ.clear()
+        os.environ.update(environ)
+    return fn(*args)
+
+
 def _context(module: str | None) -> Any:
     """``forkserver`` (Linux): one server process started fresh, with ``module`` (the batches'
     function's, and with it Brian2 and MuJoCo) imported once, forks every worker, so a worker
@@ -134,7 +144,9 @@ def run_batches(fn: Callable[..., Any], calls: Sequence[tuple], workers: int,
     pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_worker_start)
     futures: dict[Any, int] = {}
     try:
-        futures = {pool.submit(fn, *args): k for k, args in enumerate(calls)}
+        environ = dict(os.environ)
+        futures = {pool.submit(_in_environment, environ, fn, *args): k
+                   for k, args in enumerate(calls)}
         waiting = set(futures)
         while waiting:
             done, waiting = cf.wait(waiting, timeout=1.0, return_when=cf.FIRST_COMPLETED)
