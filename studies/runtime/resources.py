@@ -82,8 +82,9 @@ def estimate_bytes(*, trials: int, seconds: float, dt: float = 1e-3, trace_dt: f
     return int(per_trial * trials)
 
 
-#: What one worker process holds before it simulates (Python, NumPy, Brian2, MuJoCo and
-#: astrocpg imported; about 0.2 GB resident): counted once per worker of a command.
+#: What one worker process holds besides its batch (Python, NumPy, Brian2, MuJoCo and astrocpg
+#: imported: 0.15 GB resident, measured; with its network's code and buffers we count 0.25 GB):
+#: counted once per worker of a command.
 WORKER_PROCESS_BYTES = 250_000_000
 
 
