@@ -510,6 +510,11 @@ def _memory_from_state(state: dict[str, Any], n_trials: int) -> SessionMemory:
                          else [[] for _ in range(n_trials)])
 
 
+def memory_state(memory: SessionMemory, shape: tuple[int, ...]) -> dict[str, Any]:
+    """The session memory as a checkpoint holds it (``shape``: a table's, (8, 8))."""
+    return _memory_state(memory, shape)
+
+
 def memory_from_state(state: dict[str, Any], n_trials: int) -> SessionMemory:
     """A checkpoint's session memory (its ``memory`` entry) as the session loop keeps it."""
     return _memory_from_state(state, n_trials)

@@ -72,8 +72,11 @@ def train_batch(spec: dict[str, Any], first: int, count: int, folder: str,
             trainer.run()
         except TrainingStopped:
             return {"status": "stopped"}
-        except Diverged as e:
-            return {"status": "diverged", "line": e.line}
+        except Diverged as e:  # the sessions so far and the diverged one, for the files
+            from .train import memory_state
+            return {"status": "diverged", "line": e.line,
+                    "memory": memory_state(trainer.training.memory,
+                                           trainer.cpg.interlimb_weights().shape[1:])}
     return {"status": "finished"}
 
 
@@ -161,9 +164,11 @@ class Gatherer:
     def _changed(self) -> bool:
         return self._stamps() != self.seen
 
-    def gather(self) -> np.ndarray | None:
-        """Write the training's files from the batches' latest checkpoints; returns the
-        sessions done per trial (None when no batch has a checkpoint and none was resumed)."""
+    def gather(self, memories: dict[int, dict[str, Any]] | None = None) -> np.ndarray | None:
+        """Write the training's files from the batches' latest checkpoints (batch ``k``'s
+        session memory from ``memories[k]`` where given: a batch that diverged, whose
+        checkpoint stays as last written); returns the sessions done per trial (None when no
+        batch has a checkpoint or a memory and none was resumed)."""
         from .train import CHECKPOINT, read_checkpoint, write_payload, write_training_files
 
         self.seen = self._stamps()
@@ -172,16 +177,20 @@ class Gatherer:
             path = self.folder(k) / CHECKPOINT
             payload = read_checkpoint(path) if path.exists() else self.previous[k]
             batches.append((first, count, payload))
-        if all(p is None for _, _, p in batches):
+        memories = memories or {}
+        rows = [(a, n, memories[k] if k in memories else p)
+                for k, (a, n, p) in enumerate(batches)]
+        if all(p is None for _, _, p in rows):
             return None
-        mem = merged_memory(batches, self.dt)
+        mem = merged_memory(rows, self.dt)
         self.rows = mem.rows
         done = np.asarray([len(x) for x in mem.lengths], dtype=np.int64)
         final = np.concatenate([self._final_weights(k, n, p)
-                                for k, (_, n, p) in enumerate(batches)])
+                                for k, (_, n, p) in enumerate(rows)])
         write_training_files(self.out, mem, done, final, self.settings.n_trials)
-        packed = packed_payload(self.settings, self.plan, self.codegen, batches)
-        write_payload(self.out / CHECKPOINT, packed)
+        if any(p is not None for _, _, p in batches):
+            packed = packed_payload(self.settings, self.plan, self.codegen, batches)
+            write_payload(self.out / CHECKPOINT, packed)
         self.on_gathered(done)
         return done
 
@@ -241,16 +250,19 @@ def run_batched_training(out: Path, settings: Any, plan: Any, payload: dict[str,
 
     def ended(k: int, outcome: dict[str, Any]) -> None:
         if outcome["status"] != "finished":
-            raise _BatchEnded(outcome)
+            raise _BatchEnded(dict(outcome, batch=k))
 
     t0 = time.perf_counter()
     status = "finished"
+    memories: dict[int, dict[str, Any]] = {}
     try:
         try:
             run_batches(train_batch, calls, workers, ended=ended, poll=gatherer.poll)
         except _BatchEnded as e:
-            status = ("diverged: " + str(e.outcome.get("line")) if e.outcome["status"] == "diverged"
-                      else "stopped")
+            status = "stopped"
+            if e.outcome["status"] == "diverged":
+                status = "diverged: " + str(e.outcome.get("line"))
+                memories[e.outcome["batch"]] = {"memory": e.outcome["memory"]}
         except KeyboardInterrupt:
             status = "stopped"
         except InputError:
@@ -260,7 +272,7 @@ def run_batched_training(out: Path, settings: Any, plan: Any, payload: dict[str,
             if not isinstance(e, BrokenProcessPool):
                 raise
             status = "stopped"
-        gatherer.gather()
+        gatherer.gather(memories)
     finally:
         bar.close()
     remove_work(out)

@@ -81,14 +81,14 @@ def split_trials(n_trials: int, workers: int) -> list[tuple[int, int]]:
 def _stop_on_sigterm(signum: int, frame: Any) -> None:
     """A worker's SIGTERM: a Brian2 run in progress stops at the end of its step (the caller
     sees it stopped early, as after Ctrl-C: a training writes its checkpoint); a worker
-    between runs (building, or waiting for work) ends at once, quietly: it has nothing to
-    write."""
+    between runs (building, or waiting for work) ends at once, quietly (SystemExit: its
+    queues' locks released as a process that ends does), with nothing to write."""
     brian2 = sys.modules.get("brian2")
     network = getattr(brian2, "Network", None)
     if network is not None and network._globally_running:
         network._globally_stopped = True
         return
-    os._exit(130)
+    raise SystemExit(130)
 
 
 def _worker_start() -> None:
@@ -162,6 +162,11 @@ def run_batches(fn: Callable[..., Any], calls: Sequence[tuple], workers: int,
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+        # the pool's queues and locks released now: a command ends without the interpreter's
+        # teardown, and the resource tracker then warns of "leaked semaphore objects"
+        del pool, futures
+        import gc
+        gc.collect()
 
 
 def _stop_workers(pool: Any, futures: dict[Any, int]) -> None:
