@@ -792,8 +792,10 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     of several trials can be extended only while no trial has run idle: a trial that finished
     its sessions before the last trial did ran on with learning off until then, which a longer
     training would not have done (refused, naming the trials; one trial never idles). A study's
-    run is not extended (its sessions are the study's). Returns the training's Result, like
-    :func:`train`."""
+    run is not extended (its sessions are the study's). ``workers``: processes a training split
+    over processes (``checkpoint.npz`` of batches) continues its batches on (default: the
+    cores this process may use); a training of one network continues in this process.
+    Returns the training's Result, like :func:`train`."""
     procs = resolve_workers(workers)
     out_given = None if out is None else as_path(out, "--out")
     out = as_path(folder, "--resume")
