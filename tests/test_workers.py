@@ -197,3 +197,20 @@ def test_run_interrupted_stops_every_worker(tmp_path):
     assert "interrupted" in err and "Traceback" not in err, err
     assert not (tmp_path / "out").exists()
     assert _gone(p.pid), "a worker outlived the command"
+
+
+@pytest.mark.slow
+def test_a_training_split_over_processes_extends_exactly(tmp_path):
+    """Two trials whose sessions end at different steps, one per process: --resume --sessions
+    extends each batch as one network extends its trials (no trial ran idle in its batch), and
+    ends with the files of a training asked for the longer length from the start."""
+    common = ["--trials", "2", *SHORT, "--no-progress"]
+    astrocpg("train", *common, "--sessions", "4", "--workers", "1", "--out", "whole",
+             cwd=tmp_path)
+    astrocpg("train", *common, "--sessions", "2", "--workers", "2", "--out", "grown",
+             cwd=tmp_path)
+    astrocpg("train", "--resume", "grown", "--sessions", "4", "--workers", "2",
+             "--no-progress", cwd=tmp_path)
+    for name in ("sessions.csv", "weights.npz", "session_starts.npz"):
+        assert (tmp_path / "grown" / name).read_bytes() == \
+            (tmp_path / "whole" / name).read_bytes(), name
