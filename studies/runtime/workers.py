@@ -4,8 +4,9 @@ pool that runs the batches (:func:`run_batches`).
 
 A trial's trajectory is a function of its seed alone (any batch, any process), so the
 batches' results put side by side in trial order are the single-process run's. The pool's
-processes are started fresh (``spawn``: no copy of the parent's Brian2 or MuJoCo state, the
-parent's environment, ``ASTROCPG_CODEGEN`` included, inherited). Each worker ignores SIGINT
+processes are forked from the command's (Linux; elsewhere started fresh): what it imported
+they have, and each call runs in the caller's environment as it is at the call
+(``ASTROCPG_CODEGEN`` included). Each worker ignores SIGINT
 (Ctrl-C reaches the whole process group: the parent alone decides) and stops its Brian2 run
 cleanly at the end of a step on SIGTERM, which the parent sends every worker when it is
 interrupted, so that a training's workers write their checkpoints before they end.
@@ -101,9 +102,9 @@ def _worker_start() -> None:
 
 
 def _in_environment(environ: dict[str, str], fn: Callable[..., Any], *args: Any) -> Any:
-    """``fn(*args)`` with this process's environment made the caller's as it is now (the
-    server the workers fork from keeps the one it started with: a later ``--codegen``, or a
-    variable a caller changed since, would not reach them)."""
+    """``fn(*args)`` with this process's environment made the caller's as it is at the call
+    (a worker started fresh, or by a fork server, keeps the one it started with: a later
+    ``--codegen``, or a variable the caller changed since, would not reach it)."""
     if environ != dict(os.environ):
         os.environ.clear()
         os.environ.update(environ)
@@ -111,18 +112,19 @@ def _in_environment(environ: dict[str, str], fn: Callable[..., Any], *args: Any)
 
 
 def _context(module: str | None) -> Any:
-    """``forkserver`` (Linux): one server process started fresh, with ``module`` (the batches'
-    function's, and with it Brian2 and MuJoCo) imported once, forks every worker, so a worker
-    starts in milliseconds instead of importing for seconds; elsewhere ``spawn``."""
+    """``fork`` (Linux): a worker starts as a copy of this process, with Python, Brian2, MuJoCo
+    and astrocpg already imported (no second import of seconds, and no copy of the work: memory
+    is shared until written); ``spawn`` where there is no fork. ``module`` (the batches'
+    function's) is imported here first, so that the copies have it."""
+    import importlib
     import multiprocessing
 
-    try:
-        ctx = multiprocessing.get_context("forkserver")
-    except ValueError:  # no forkserver here (Windows)
-        return multiprocessing.get_context("spawn")
     if module:
-        ctx.set_forkserver_preload([module])
-    return ctx
+        importlib.import_module(module)
+    try:
+        return multiprocessing.get_context("fork")
+    except ValueError:  # no fork here (Windows)
+        return multiprocessing.get_context("spawn")
 
 
 def run_batches(fn: Callable[..., Any], calls: Sequence[tuple], workers: int,
