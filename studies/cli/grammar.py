@@ -101,8 +101,8 @@ def add_train(sub: Subparsers) -> None:
                             "weights, are removed; a checkpoint of astrocpg before format 2 "
                             "(checkpoint.pkl) is refused unread")
     add_overwrite(train)
-    add_workers_option(train, "the trials (with --resume: a training split over processes "
-                              "keeps its batches)")
+    add_workers_option(train, more="; with --resume, a training split over processes keeps "
+                                   "its batches")
     train.add_argument("--record-every", type=int, default=None, metavar="N",
                        help="record sessions 1, 1+N, 1+2N... and the last of each trial "
                             "(spikes, traces, robot) into DIR/recordings/ (default: none)")

@@ -166,7 +166,8 @@ def add_overwrite(p: argparse.ArgumentParser) -> None:
 
 
 
-def add_workers_option(p: argparse.ArgumentParser, what: str = "the trials") -> None:
+def add_workers_option(p: argparse.ArgumentParser, what: str = "the trials",
+                       more: str = "") -> None:
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help=f"processes to split {what} over, N >= 1 (default: the cores this "
-                        f"process may use); the results are the same for any N")
+                        f"process may use); the results are the same for any N{more}")
