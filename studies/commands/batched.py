@@ -25,6 +25,13 @@ from ...errors import Diverged
 from ...network.layout import Layout
 from ..outputs.writing import note_worker_environment, simulation_environment
 from ..runtime.progress import Bar
+
+
+class QuietBar(Bar):
+    """The command's bar without tqdm's monitor thread: the workers are forked from a process
+    of one thread (:mod:`~astrocpg.studies.runtime.workers`)."""
+
+    monitor_interval = 0
 from ..runtime.workers import run_batches, split_trials
 from .simulate import SimulationResult, merge_parts, spike_parts
 
@@ -118,7 +125,7 @@ def simulate_batched(kind: str, spec: Mapping[str, Any], trials: int, workers: i
     import time
 
     batches = split_trials(trials, workers)
-    bar = Bar(total=trials, unit="trial", desc=f"{kind} ({len(batches)} processes)",
+    bar = QuietBar(total=trials, unit="trial", desc=f"{kind} ({len(batches)} processes)",
               disable=not progress, dynamic_ncols=True)
     t0 = time.perf_counter()
     try:

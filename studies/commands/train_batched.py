@@ -224,8 +224,8 @@ def run_batched_training(out: Path, settings: Any, plan: Any, payload: dict[str,
     when resuming). Returns (wall seconds, status: "finished", "stopped" or the diverged
     line prefixed "diverged: ") and the session rows; the training's files are written
     whatever the status."""
-    from ..runtime.progress import Bar
     from ..runtime.workers import run_batches, split_trials
+    from .batched import QuietBar
 
     if payload is not None:
         spans = [(int(b["first"]), int(b["count"])) for b in payload["batches"]]
@@ -236,8 +236,9 @@ def run_batched_training(out: Path, settings: Any, plan: Any, payload: dict[str,
     plan_json = None if plan is None else dataclasses.asdict(plan)
     remove_work(out)
     total = settings.n_trials * settings.n_sessions
-    bar = Bar(total=total, unit="session", desc=f"train ({min(workers, len(spans))} processes)",
-              disable=not progress, dynamic_ncols=True)
+    bar = QuietBar(total=total, unit="session",
+                   desc=f"train ({min(workers, len(spans))} processes)",
+                   disable=not progress, dynamic_ncols=True)
 
     def gathered(done: np.ndarray) -> None:
         bar.update(int(done.sum()) - bar.n)

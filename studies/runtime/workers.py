@@ -112,19 +112,27 @@ def _in_environment(environ: dict[str, str], fn: Callable[..., Any], *args: Any)
 
 
 def _context(module: str | None) -> Any:
-    """``fork`` (Linux): a worker starts as a copy of this process, with Python, Brian2, MuJoCo
-    and astrocpg already imported (no second import of seconds, and no copy of the work: memory
-    is shared until written); ``spawn`` where there is no fork. ``module`` (the batches'
-    function's) is imported here first, so that the copies have it."""
+    """``fork`` (Linux, a process of one thread, as a command is): a worker starts as a copy of
+    this process, with Python, Brian2, MuJoCo and astrocpg already imported (no second import
+    of seconds; memory shared until written). With other threads running (a notebook that
+    ran a study on Dask, say), a fork could copy a lock one of them holds: then ``forkserver``,
+    one fresh server process that imports ``module`` (the batches' function's, Brian2 and
+    MuJoCo with it) once and forks the workers; ``spawn`` where neither exists."""
     import importlib
     import multiprocessing
+    import threading
 
     if module:
         importlib.import_module(module)
-    try:
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
         return multiprocessing.get_context("fork")
-    except ValueError:  # no fork here (Windows)
-        return multiprocessing.get_context("spawn")
+    if "forkserver" in methods:
+        ctx = multiprocessing.get_context("forkserver")
+        if module:
+            ctx.set_forkserver_preload([module])
+        return ctx
+    return multiprocessing.get_context("spawn")
 
 
 def run_batches(fn: Callable[..., Any], calls: Sequence[tuple], workers: int,
