@@ -214,3 +214,19 @@ def test_a_training_split_over_processes_extends_exactly(tmp_path):
     for name in ("sessions.csv", "weights.npz", "session_starts.npz"):
         assert (tmp_path / "grown" / name).read_bytes() == \
             (tmp_path / "whole" / name).read_bytes(), name
+
+
+def test_added_population_workers_identical(tmp_path):
+    """A population added with --population is built in every worker (forked from the command
+    that added it, or started fresh): the same folders."""
+    renshaw = str(Path(__file__).resolve().parent / "data" / "renshaw_population.toml")
+    (tmp_path / "run").mkdir()
+    a, b = _pair(tmp_path / "run", "run", "--trials", "3", "--seconds", "0.2",
+                 "--population", renshaw, "--out", "out")
+    assert "spikes.npz" in same_folders(a, b)
+    (tmp_path / "train").mkdir()
+    a, b = _pair(tmp_path / "train", "train", "--trials", "2", "--sessions", "2", *SHORT,
+                 "--population", renshaw, "--out", "out")
+    for f in (a, b):
+        (f / "checkpoint.npz").unlink()
+    assert "sessions.csv" in same_folders(a, b)

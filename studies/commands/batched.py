@@ -61,6 +61,16 @@ class BatchDiverged(Exception):
     """A batch diverged: the command runs again in one process (it writes what diverged)."""
 
 
+def missing_rows(populations: Any) -> tuple[Any, ...]:
+    """The rows of ``populations`` (:func:`~.settings.population_rows`) this process's table
+    lacks: a worker forked from the command has the command's already."""
+    from ...network import populations as _table
+    from .settings import population_rows
+
+    present = {p.name for p in _table.table()}
+    return tuple(r for r in population_rows(populations)[0] if r.name not in present)
+
+
 def simulate_batch(kind: str, spec: Mapping[str, Any], first: int, count: int) -> dict[str, Any]:
     """Trials ``[first, first + count)`` of a ``run`` or ``unit`` (``kind``) of ``spec`` (the
     command's checked settings: model changes as texts, the robot file, the weights), in this
@@ -69,11 +79,9 @@ def simulate_batch(kind: str, spec: Mapping[str, Any], first: int, count: int) -
 
     from ...models.compose import model_set
     from ...network import populations as _table
-    from .settings import population_rows
     from .simulate import simulate_closed_loop, simulate_unit
 
-    rows = population_rows(spec.get("populations"))[0]
-    with _table.registered(*rows):
+    with _table.registered(*missing_rows(spec.get("populations"))):
         models = (spec["modelset"] if "modelset" in spec else
                   model_set(spec["overrides"], spec["equations"], models=spec.get("models")))
         common = {} if kind == "replay" else dict(

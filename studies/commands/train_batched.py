@@ -52,13 +52,14 @@ def train_batch(spec: dict[str, Any], first: int, count: int, folder: str,
     checkpoint's) when given. Returns ``{"status": "finished" | "stopped" | "diverged"}``."""
     from ...coupling.recorder import RecordPlan
     from ...models.compose import model_set
-    from .settings import added_populations
+    from ...network import populations as _table
+    from .batched import missing_rows
     from .train import Trainer, TrainingStopped, TrainSettings
 
     settings = TrainSettings(**spec["settings"])
     batch = dataclasses.replace(settings, seed=settings.seed + first, n_trials=count)
     plan = None if spec["plan"] is None else RecordPlan.from_dict(spec["plan"])
-    with added_populations(settings.populations):
+    with _table.registered(*missing_rows(settings.populations)):
         models = model_set(settings.overrides, settings.equations, models=settings.models)
         Path(folder).mkdir(parents=True, exist_ok=True)
         trainer = Trainer(models, batch, Path(folder), progress=False, record=plan,
