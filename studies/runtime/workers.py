@@ -150,6 +150,11 @@ def run_batches(fn: Callable[..., Any], calls: Sequence[tuple], workers: int,
 
     n = max(1, min(int(workers), len(calls)))
     ctx = _context(getattr(fn, "__module__", None))
+    for stream in (sys.stdout, sys.stderr):  # a forked worker would write a copy of the rest
+        try:
+            stream.flush()
+        except (AttributeError, OSError, ValueError):
+            pass
     results: list[Any] = [None] * len(calls)
     pool = cf.ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_worker_start)
     futures: dict[Any, int] = {}
