@@ -130,8 +130,11 @@ def trained(tmp_path_factory):
 
 
 def _evaluate(train, worlds, out, seconds="0.3", *extra) -> int:
+    """``astrocpg evaluate`` in this process, its cells here (``--workers 1``: the cells the
+    tests count run in this process, not on a cluster)."""
     return main(["evaluate", str(train), "--worlds", str(worlds), "--seconds", seconds,
-                 "--repeats", "1", "--out", str(out), "--no-progress", *extra])
+                 "--repeats", "1", "--out", str(out), "--no-progress", "--workers", "1",
+                 *extra])
 
 
 def _counting(monkeypatch, fail_at: int | None = None) -> list[str]:

@@ -238,7 +238,7 @@ def test_session_starts_survive_the_checkpoint(tmp_path: Path) -> None:
     """What a resume reads back holds every session start the training wrote."""
     from astrocpg.studies.commands.train import _memory_from_state, read_checkpoint
     training = tmp_path / "t"
-    ac.train(out=training, sessions=2, trials=2, seed=2, progress=False,
+    ac.train(out=training, sessions=2, trials=2, seed=2, progress=False, workers=1,
              overrides=["L_max=0.5*second", "L_non_alive=0.2*second"])
     memory = _memory_from_state(read_checkpoint(training / "checkpoint.npz")["memory"], 2)
     files = np.load(training / "session_starts.npz")

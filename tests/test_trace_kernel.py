@@ -119,7 +119,9 @@ def test_a_run_says_how_its_traces_were_sampled(monkeypatch, tmp_path, capsys):
 
     from astrocpg.studies.cli import main
 
-    args = ["run", "--seconds", "0.02", "--trials", "2", "--no-progress", "--out"]
+    # in this process: its sampler (patched below) is the one tested
+    args = ["run", "--seconds", "0.02", "--trials", "2", "--no-progress", "--workers", "1",
+            "--out"]
     monkeypatch.setenv("ASTROCPG_COMPILED_RECORDING", "off")
     assert main(args + [str(tmp_path / "off")]) == 0
     env = json.loads((tmp_path / "off" / "manifest.json").read_text())["environment"]

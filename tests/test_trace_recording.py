@@ -106,7 +106,7 @@ def test_a_default_run_keeps_at_most_2_mib_per_trial_per_simulated_second():
     import astrocpg as ac
 
     seconds, trials = 1.0, 2
-    r = ac.run(seconds=seconds, trials=trials, seed=1, progress=False)
+    r = ac.run(seconds=seconds, trials=trials, seed=1, progress=False, workers=1)
     sim = r.simulation
     traces = sim.monitors["traces"].nbytes()
     spikes = sum(m.t_[:].nbytes + m.i_[:].nbytes for k, m in sim.monitors.items()
@@ -164,7 +164,8 @@ def _spill_run(tmp_path, monkeypatch, spill_bytes, name, **kw):
     # every file written past the page cache, as a run's large files are (a spilled trace's
     # .npz always is): the same writer on both sides
     monkeypatch.setattr(writing, "DIRECT_BYTES", 0)
-    return astrocpg.run(seconds=0.3, trials=2, seed=3, progress=False, out=tmp_path / name, **kw)
+    return astrocpg.run(seconds=0.3, trials=2, seed=3, progress=False, out=tmp_path / name,
+                        workers=1, **kw)  # in this process: its spill is tested
 
 
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
@@ -220,7 +221,8 @@ def test_a_run_stopped_by_divergence_or_an_interrupt_leaves_no_spill(tmp_path, m
     flush = recording.TraceRecorder.flush
     monkeypatch.setattr(recording.TraceRecorder, "flush", interrupt)
     with pytest.raises(KeyboardInterrupt):
-        astrocpg.run(seconds=0.5, trials=2, seed=3, progress=False, out=tmp_path / "stopped")
+        astrocpg.run(seconds=0.5, trials=2, seed=3, progress=False, out=tmp_path / "stopped",
+                     workers=1)  # the recorder interrupted in this process
     assert not (tmp_path / "stopped").exists()
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
 

@@ -188,7 +188,8 @@ def test_checkpoints_are_spaced_by_their_cost_and_the_files_stay_the_same(tmp_pa
         original(self)
 
     monkeypatch.setattr(train_module.Trainer, "write_checkpoint", slow_write)
-    args = ("--sessions", "6", "--trials", "2", "--seed", "3")
+    # one process: the checkpoints counted are written here
+    args = ("--sessions", "6", "--trials", "2", "--seed", "3", "--workers", "1")
     assert _train(tmp_path / "spaced", *args) == 0
     spaced = list(writes)
     writes.clear()

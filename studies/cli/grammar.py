@@ -11,7 +11,7 @@ from .options import (DEFAULT_RUN_OUT, DESCRIPTION, EXIT_HELP, Parser, add_codeg
                       add_variant_options,
                       add_model_file_option, add_model_options, add_no_progress, add_overwrite,
                       add_population_option,
-                      add_record_options, add_simulation_options)
+                      add_record_options, add_simulation_options, add_workers_option)
 
 #: what ``add_subparsers`` returns (argparse's ``_SubParsersAction``, a private class)
 Subparsers = Any
@@ -62,6 +62,7 @@ def add_unit(sub: Subparsers) -> None:
     add_record_options(unit)
     add_model_options(unit)
     add_population_option(unit)
+    add_workers_option(unit)
 
 
 def add_run(sub: Subparsers) -> None:
@@ -96,6 +97,7 @@ def add_run(sub: Subparsers) -> None:
     add_record_options(run)
     add_model_options(run)
     add_population_option(run)
+    add_workers_option(run)
 
 
 def add_train(sub: Subparsers) -> None:
@@ -122,6 +124,8 @@ def add_train(sub: Subparsers) -> None:
                             "weights, are removed; a checkpoint of astrocpg before format 2 "
                             "(checkpoint.pkl) is refused unread")
     add_overwrite(train)
+    add_workers_option(train, more="; with --resume, a training split over processes keeps "
+                                   "its batches")
     train.add_argument("--record-every", type=int, default=None, metavar="N",
                        help="record sessions 1, 1+N, 1+2N... and the last of each trial "
                             "(spikes, traces, robot) into DIR/recordings/ (default: none)")
@@ -162,6 +166,7 @@ def add_gait(sub: Subparsers) -> None:
     add_variant_options(gait)
     add_no_progress(gait)
     add_codegen_option(gait)
+    add_workers_option(gait, "the runs")
 
 
 def add_evaluate(sub: Subparsers) -> None:
@@ -205,7 +210,8 @@ def add_evaluate(sub: Subparsers) -> None:
     add_overwrite(ev)
     ev.add_argument("--workers", type=int, default=None,
                     help="run the (training, world) cells on a local Dask cluster of N processes "
-                         "(default: one after the other, here)")
+                         "(default: the cores this process may use; 1: one after the other, "
+                         "here)")
     ev.add_argument("--scheduler", metavar="ADDRESS",
                     help="run the cells on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 "
                          "(default: none)")
@@ -283,7 +289,7 @@ def add_study(sub: Subparsers) -> None:
                        help="a parameter of every run, with units, in place of the file's "
                             "[base] value (repeatable; e.g. --set L_max=2*second)")
     study.add_argument("--workers", type=int, default=None,
-                       help="local cluster size (default: one worker per core)")
+                       help="local cluster size (default: the cores this process may use)")
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (default: "
                             "a local cluster)")

@@ -50,8 +50,8 @@ def unit_command(args: argparse.Namespace) -> int:
     result = unit(seconds=args.seconds, seed=seed, trials=args.trials,
                   trace_dt=args.trace_dt, trace_dtype=args.trace_dtype, out=args.out,
                   overwrite=args.overwrite, progress=not args.no_progress,
-                  inputs=input_files(args), **_recording(args), **model_args(args),
-                  **population_args(args))
+                  inputs=input_files(args), workers=args.workers, **_recording(args),
+                  **model_args(args), **population_args(args))
     for b, s in enumerate(result.summary["rhythm"]):
         print(format_rhythm(b, seed + b, s))
     if result.summary.get("trace_overflow"):
@@ -70,8 +70,8 @@ def run_command(args: argparse.Namespace) -> int:
                  trial=args.trial, robot=args.robot, trace_dt=args.trace_dt,
                  trace_dtype=args.trace_dtype, robot_stride=args.robot_stride, out=args.out,
                  overwrite=args.overwrite, progress=not args.no_progress, figure=args.figure,
-                 session=args.session, inputs=input_files(args), **_recording(args),
-                 **model_args(args), **population_args(args))
+                 session=args.session, inputs=input_files(args), workers=args.workers,
+                 **_recording(args), **model_args(args), **population_args(args))
     if args.session is not None:
         print("\n".join(format_replay(result)))
         print(f"wrote {args.out}/ (the session: {args.out}/recordings/trial00_session0001/)")
@@ -93,7 +93,7 @@ def train_command(args: argparse.Namespace) -> int:
         if value is not None}
     common = dict(record_every=args.record_every, record_stride=args.record_stride,
                   trace_dtype=args.trace_dtype, progress=not args.no_progress,
-                  **_recording(args), **given)
+                  workers=args.workers, **_recording(args), **given)
     try:
         if args.resume:
             result = resume(args.resume, out=args.out or None, overwrite=args.overwrite,
@@ -137,8 +137,8 @@ def gait_command(args: argparse.Namespace) -> int:
     from ..commands.api import gait
 
     for line in gait(args.dir, seconds=args.seconds, repeats=args.repeats, seed=args.seed,
-                     world=args.world, progress=not args.no_progress, **model_args(args),
-                     **population_args(args)):
+                     world=args.world, progress=not args.no_progress,
+                     workers=args.workers, **model_args(args), **population_args(args)):
         print(line)
     return 0
 

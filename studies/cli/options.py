@@ -178,3 +178,10 @@ def add_overwrite(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overwrite", action="store_true",
                    help="replace an existing output whole (never merged with the new one)")
 
+
+
+def add_workers_option(p: argparse.ArgumentParser, what: str = "the trials",
+                       more: str = "") -> None:
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help=f"processes to split {what} over, N >= 1 (default: the cores this "
+                        f"process may use); the results are the same for any N{more}")

@@ -154,7 +154,7 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
          seed: int | None = None, world: Sequence[str] = (), progress: bool = True,
          rows: bool = False, overrides: Overrides | None = None,
          equations: Mapping[str, str] | None = None, models: Mapping[str, Any] | None = None,
-         populations: Any = None) -> list[str] | list[dict[str, Any]]:
+         populations: Any = None, workers: int | None = None) -> list[str] | list[dict[str, Any]]:
     """The rhythm and the gait of trained tables: what ``astrocpg gait`` prints.
 
     Each trained table runs ``repeats`` times, learning off; each run's rhythm (thigh-extensor
@@ -181,6 +181,9 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
         Return one dict per run instead of the lines.
     overrides, equations, models, populations : optional
         A model variant over the controller's own models, as :func:`~astrocpg.run` takes them.
+    workers : int, optional
+        Processes the runs are split over (default: the cores this process may use; the same
+        results for any number).
 
     Returns
     -------
@@ -188,6 +191,7 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
         The lines ``astrocpg gait`` prints; with ``rows``, one dict per run (table, repeat, seed,
         speed, fall, rhythm and gait columns).
     """
+    from ..runtime.workers import resolve_workers
     from .settings import number, seed_number
     from .trained_controller import describe_gait, gait_runs
 
@@ -199,7 +203,8 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
                   seed=None if seed is None else seed_number(seed, "--seed"), world=list(world),
                   progress=progress,
                   variant={"overrides": overrides, "equations": equations, "models": models,
-                           "populations": populations})
+                           "populations": populations},
+                  workers=resolve_workers(workers))
     if rows:
         return gait_runs(_path(folder, "folder"), **kwargs)[0]
     return describe_gait(_path(folder, "folder"), **kwargs)

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..runtime.cells import pending, run_cells
 from ..runtime.cluster import check_scheduler, check_workers
+from ..runtime.workers import default_workers
 from ...errors import Diverged, InputError
 from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
@@ -368,9 +369,10 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     ``manifest.json`` into ``out`` (default ``folder/evaluation``, replaced whole). Returns
     {"rows", "summary", "baseline", "out", "figures"}.
 
-    Each (training, world) is one *cell*. With ``workers`` or ``scheduler`` the cells run on a
-    Dask cluster (a local one of ``workers`` processes, or a running scheduler), as a study's
-    runs do; otherwise here, one after the other. Every finished cell is kept in
+    Each (training, world) is one *cell*. The cells run on a Dask cluster (a local one of
+    ``workers`` processes, by default the cores this process may use, or a running
+    ``scheduler``), as a study's runs do; with one worker (or one cell), here, one after the
+    other. Every finished cell is kept in
     ``<out>.parts/`` until the folder is written, so an interrupted evaluation, started again
     with the same arguments, runs only the cells it had not finished.
 
@@ -531,10 +533,13 @@ def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],
         parts.save(cell, rows)
         bar.update()
 
-    here = workers is None and scheduler is None
+    # the commands' one default (the cores this process may use); one process, or one cell:
+    # here, without a cluster
+    n = default_workers() if workers is None else workers
+    here = scheduler is None and (n == 1 or len(todo) <= 1)
     order = list(todo) if here else sorted(todo, key=lambda cell: -len(todo[cell][1]))
     run_cells(evaluate_cell, [(cell, todo[cell]) for cell in order], ended, bar=bar, here=here,
-              workers=workers, scheduler=scheduler)
+              workers=n, scheduler=scheduler)
 
 
 def summarise(rows: list[Mapping[str, Any]]) -> list[dict[str, Any]]:

@@ -29,7 +29,9 @@ from ...models.compose import Overrides, model_files_record, model_set, override
 from ...network import populations as _table
 from .settings import (added_populations, number, population_rows, same_populations,
                        seed_number)
-from ..runtime.resources import check_memory, estimate_bytes
+from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
+from ..runtime.workers import resolve_workers, workers_words
+from .batched import try_batched
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
                        firing_rates, simulate_closed_loop)
@@ -50,7 +52,7 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
         out: str | Path | None = None, overwrite: bool = False, progress: bool = True,
         figure: bool = False,
         inputs: Sequence[str | os.PathLike] = (), session: int | None = None,
-        populations: Any = None) -> Result:
+        populations: Any = None, workers: int | None = None) -> Result:
     """Run the CPG driving A1 robots in MuJoCo: the closed loop, what ``astrocpg run`` runs.
 
     Parameters
@@ -91,6 +93,9 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
     populations : sequence or mapping, optional
         Model files with a ``[population]`` table, added to the network for this call
         (docs/model-files.md); a training folder's own added populations are built too.
+    workers : int, optional
+        Processes the trials are split over (default: the cores this process may use); the
+        results are the same whatever the number.
 
     Returns
     -------
@@ -129,11 +134,13 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
         if out is not None:
             OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
         pops, names = check_selection(spikes, traces)
-        check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
-                                    traces=names, spikes=bool(pops), robot_stride=robot_stride,
-                                    trace_bytes=np.dtype(trace_dtype).itemsize,
-                                    spill_bytes=None if out is None else recording.SPILL_BYTES),
-                     culprit=f"--seconds {seconds:g} x --trials {trials}")
+        procs = min(resolve_workers(workers), trials)
+        check_memory(estimate_batched(
+            procs, trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
+            traces=names, spikes=bool(pops), robot_stride=robot_stride,
+            trace_bytes=np.dtype(trace_dtype).itemsize, spill_bytes=None if out is None
+            else recording.SPILL_BYTES),
+            culprit=f"--seconds {seconds:g} x --trials {trials}" + workers_words(procs))
         files = model_files_record(models)
         models = model_set(overrides, equations, models=models)
         table, weights, tables_label = _weights_table(weights, trial, trials, models)
@@ -164,10 +171,8 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
         spill, spilled = spill_files(nearest_folder(Path(out))) if out is not None else (None, [])
         try:
             try:
-                result = simulate_closed_loop(
-                    models, model, layout, seconds=seconds, seed=seed, n_trials=trials,
-                    weights=table, trace_dt=trace_dt * ms, robot_stride=robot_stride, spikes=spikes,
-                    traces=traces, progress=progress, trace_dtype=trace_dtype, spill=spill)
+                result = _simulate(models, model, layout, dict(settings, weights=table), procs,
+                                   progress, spill)
             except Diverged as e:  # the folder keeps what ran, and says it diverged
                 if out is not None and getattr(e, "result", None) is not None:
                     _summarise(e.result, models, start_x, robot_info, table, e)
@@ -279,6 +284,24 @@ def _weights_table(weights: Any, trial: int | None, trials: int, models: Any
         raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
                          culprit=f"--weights {weights if not isinstance(weights, np.ndarray) else ''}")
     return table, weights, tables_label
+
+
+def _simulate(models: ModelSet, model: Any, layout: Any, spec: dict[str, Any], procs: int,
+              progress: bool, spill: Any) -> SimulationResult:
+    """The run of ``spec`` (its checked settings, ``weights`` the tables in volt): over
+    ``procs`` processes (:mod:`.batched`), else here (one process, or a batch that diverged:
+    what diverged is then written as one process writes it)."""
+    from brian2 import ms
+
+    result = try_batched("run", spec, spec["trials"], procs, progress)
+    if result is not None:
+        result.extra["workers"] = procs
+        return result
+    return simulate_closed_loop(
+        models, model, layout, seconds=spec["seconds"], seed=spec["seed"],
+        n_trials=spec["trials"], weights=spec["weights"], trace_dt=spec["trace_dt"] * ms,
+        robot_stride=spec["robot_stride"], spikes=spec["spikes"], traces=spec["traces"],
+        progress=progress, trace_dtype=spec["trace_dtype"], spill=spill)
 
 
 
@@ -514,6 +537,7 @@ def _replay(given: dict[str, Any]) -> Result:
                              "models and robot); drop it", culprit=option)
     if given["out"] is None:
         raise InputError("a replay writes a folder: give one", culprit="--out")
+    resolve_workers(given["workers"])  # checked (a replay is one trial: one process)
     stride = whole_steps(float(given["trace_dt"]) * 1e-3, 1e-3, culprit="--trace-dt")
     return replay_session(weights, trial=given["trial"] or 0, session=given["session"],
                           out=given["out"], record_stride=stride, spikes=given["spikes"],
@@ -535,8 +559,8 @@ def run_results(result: SimulationResult) -> dict[str, Any]:
             "upright_share": x["upright_share"],
             "lowest_torso_height_m": x["lowest_torso_height_m"],
             "rate_per_neuron_Hz": x["rate_per_neuron_Hz"], "mechanisms": x["mechanisms"],
-            "wall_seconds": result.wall_seconds, "seconds": result.seconds,
-            "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
+            "wall_seconds": result.wall_seconds, "workers": x.get("workers", 1),
+            "seconds": result.seconds, "dt_s": float(result.cpg.dt), "robot": x["robot_info"],
             "layout": result.cpg.layout.to_json(),
             # never silent: which traces lost values to float32 (stored as inf), how many
             "trace_overflow": overflowed(result.traces)}
@@ -684,8 +708,8 @@ def with_variant(settings: Mapping[str, Any], *, overrides: Overrides | None = N
 
 def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None,
            progress: bool = True, repeats: int = 1,
-           world: Sequence[str] = (), variant: Mapping[str, Any] | None = None
-           ) -> tuple[SimulationResult, np.ndarray]:
+           world: Sequence[str] = (), variant: Mapping[str, Any] | None = None,
+           workers: int | None = None) -> tuple[SimulationResult, np.ndarray]:
     """The trained tables of every trial of the training in ``folder`` (or the tables of a run
     folder's trials, :func:`controller_tables`), run for ``seconds``
     with the training's models (one batch, learning off), ``repeats`` times: batch trial
@@ -700,6 +724,7 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
     check_duration(seconds, STEP)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
     settings = with_variant(training_settings(folder), **dict(variant or {}))
+    procs = resolve_workers(workers)
     if seed is None:
         seed = settings.get("seed", 1)
     seed = seed_number(seed)
@@ -709,18 +734,26 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
         state = tables_state(folder)
         if state["warning"]:
             warnings.warn(state["warning"], UserWarning, stacklevel=2)
-    with added_populations(settings.get("populations")):
+    populations = settings.get("populations")
+    with added_populations(populations):
         models = trained_models(settings)
         models = in_world_settings(models, world)
-    check_memory(estimate_bytes(trials=len(weights) * repeats, seconds=seconds, dt=STEP,
-                                robot_stride=1),
+    runs = len(weights) * repeats
+    procs = min(procs, runs)
+    check_memory(estimate_batched(procs, trials=runs, seconds=seconds, dt=STEP, robot_stride=1),
                  culprit=f"--seconds {seconds:g} x {len(weights)} trained trial(s) x "
-                         f"{repeats} repeat(s)")
-    with added_populations(settings.get("populations")):
-        result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
-                                      n_trials=len(weights) * repeats,
-                                      weights=np.concatenate([weights] * repeats),
-                                      record_traces=False, progress=progress)
+                         f"{repeats} repeat(s)" + (f" x --workers {procs}" if procs > 1 else ""))
+    tables = np.concatenate([weights] * repeats)
+    with added_populations(populations):
+        result = try_batched("replay", {"modelset": models, "populations": populations,
+                                        "seconds": seconds, "seed": seed, "weights": tables},
+                             runs, procs, progress)
+        if result is None:  # one process (or a batch diverged: it diverges here too)
+            result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
+                                          n_trials=runs, weights=tables,
+                                          record_traces=False, progress=progress)
+        else:
+            result.cpg.models = models
     return result, weights
 
 

@@ -116,22 +116,34 @@ def _with_numbers(cpg: CPG, population: str, monitors: Any) -> list[tuple[Any, A
     return [(m, part.number) for m, part in zip(ms, cpg.parts(population))]
 
 
-def _collect(cpg: CPG, mons: dict[str, Any]) -> tuple[dict, dict]:
-    """Spikes (t, files' index) and traces (t, values in the files' column order)."""
-    spikes = {}
+def spike_parts(cpg: CPG, mons: dict[str, Any]) -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
+    """Each recorded population's spikes per Brian2 object (a stage's group, :meth:`CPG.parts`):
+    (t, files' index), in the order the object recorded them."""
+    parts = {}
     for p in spike_populations(cpg.layout.rows):
         if p not in mons:
             continue
-        ts, idx = [], []
+        parts[p] = []
         for m, number in _with_numbers(cpg, p, mons[p]):
             i = np.asarray(m.i_[:], dtype=np.int32)
-            ts.append(np.asarray(m.t_[:]))
-            idx.append(i if number is None else number[i].astype(np.int32))
-        t, i = (ts[0], idx[0]) if len(ts) == 1 else (np.concatenate(ts), np.concatenate(idx))
-        if len(ts) > 1:  # the stages' spikes, merged in time order
-            order = np.argsort(t, kind="stable")
-            t, i = t[order], i[order]
-        spikes[p] = (t, i)
+            parts[p].append((np.asarray(m.t_[:]),
+                             i if number is None else number[i].astype(np.int32)))
+    return parts
+
+
+def merge_parts(parts: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """One population's spikes from its objects' (:func:`spike_parts`): the stages' spikes
+    merged in time order (stably: within a step, stage by stage)."""
+    if len(parts) == 1:
+        return parts[0]
+    t, i = np.concatenate([x[0] for x in parts]), np.concatenate([x[1] for x in parts])
+    order = np.argsort(t, kind="stable")
+    return t[order], i[order]
+
+
+def _collect(cpg: CPG, mons: dict[str, Any]) -> tuple[dict, dict]:
+    """Spikes (t, files' index) and traces (t, values in the files' column order)."""
+    spikes = {p: merge_parts(parts) for p, parts in spike_parts(cpg, mons).items()}
     traces = mons["traces"].collected() if "traces" in mons else {}
     return spikes, traces
 

@@ -46,7 +46,8 @@ from ..outputs.writing import (atomic_write, read_manifest, save_npz, save_spike
                              write_manifest)
 from ..outputs.result import Result
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
-from ..runtime.resources import check_memory, estimate_bytes
+from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
+from ..runtime.workers import resolve_workers
 from ...models.compose import model_files_record, model_set, override_items
 from .settings import (added_populations, number, population_rows, same_populations,
                        seed_number)
@@ -108,8 +109,12 @@ class Trainer:
     """Builds the network, robot, bridge and session loop; runs; checkpoints; resumes."""
 
     def __init__(self, models: ModelSet, settings: TrainSettings, out: Path,
-                 progress: bool = True, record: RecordPlan | None = None) -> None:
+                 progress: bool = True, record: RecordPlan | None = None,
+                 trial_offset: int = 0, folder: Path | None = None) -> None:
         self.settings, self.out = settings, out
+        # a batch of a training split over processes (train_batched.py): its trials are
+        # trials trial_offset... of the training in ``folder``, where its recordings go
+        self.trial_offset, self.folder = int(trial_offset), folder if folder is not None else out
         self.record = record
         if not settings.astrocytes:
             models = models.with_values({"astrocyte_regulation": 0.0})
@@ -172,7 +177,8 @@ class Trainer:
         """One recorded session as a folder that ``astrocpg export`` reads like a run."""
         from ...network import Layout
 
-        folder = self.out / "recordings" / f"trial{trial:02d}_session{session:04d}"
+        folder = (self.folder / "recordings"
+                  / f"trial{trial + self.trial_offset:02d}_session{session:04d}")
         folder.mkdir(parents=True, exist_ok=True)
         files = save_spikes_and_traces(folder, arrays["spikes"], arrays["traces"])
         # never silent: the traces that lost values to float32 (stored as inf), how many
@@ -189,7 +195,8 @@ class Trainer:
         layout = Layout(n_trials=1, pool_size=self.cpg.layout.pool_size,
                         legs=self.cpg.layout.legs, populations=self.cpg.layout.rows)
         write_manifest(folder, command="train-session", seed=self.settings.seed + trial,
-                       settings={"training": str(self.out), "trial": trial, "session": session,
+                       settings={"training": str(self.folder),
+                                 "trial": trial + self.trial_offset, "session": session,
                                  "record": dataclasses.asdict(self.record),
                                  "overrides": list(self.settings.overrides),
                                  "astrocytes": self.settings.astrocytes,
@@ -203,26 +210,8 @@ class Trainer:
                                 **({"trace_overflow": over} if over else {})})
 
     def write_outputs(self) -> None:
-        rows = self.training.memory.rows
-        buf = io.StringIO()
-        writer = csv.DictWriter(buf, fieldnames=SESSION_COLUMNS, lineterminator="\n", restval=0)
-        writer.writeheader()
-        for r in rows:
-            writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v) for k, v in r.items()})
-        data = buf.getvalue().encode()
-        atomic_write(self.out / "sessions.csv", lambda f: f.write(data))
-        mem = self.training.memory
-        n_max = max(len(w) for w in mem.weights)
-        table = np.full((self.settings.n_trials, n_max, 8, 8), np.nan)
-        for b, ws in enumerate(mem.weights):
-            if ws:
-                table[b, :len(ws)] = np.array(ws) * 1e3
-        save_npz(self.out / "weights.npz", {
-            "weights_mV": table, "sessions_done": self.training.sessions_done.copy(),
-            "final_weights_mV": self.cpg.interlimb_weights() * 1e3,
-            "labels": np.array(interlimb_labels()),
-        })
-        save_npz(self.out / SESSION_STARTS, session_starts_arrays(mem.starts))
+        write_training_files(self.out, self.training.memory, self.training.sessions_done,
+                             self.cpg.interlimb_weights() * 1e3, self.settings.n_trials)
 
     def write_checkpoint(self) -> None:
         net = self.cpg.net
@@ -312,8 +301,8 @@ class Trainer:
         if self.recorder is not None:
             self.recorder.extend(sessions, reopened)
             if not self.record.records(sessions, self.settings.n_sessions):
-                for b in range(self.settings.n_trials):
-                    stale = self.out / "recordings" / f"trial{b:02d}_session{sessions:04d}"
+                for b in range(self.trial_offset, self.trial_offset + self.settings.n_trials):
+                    stale = self.folder / "recordings" / f"trial{b:02d}_session{sessions:04d}"
                     if stale.exists():
                         try:
                             shutil.rmtree(stale)
@@ -353,6 +342,30 @@ class Trainer:
             raise TrainingStopped(int(self.training.sessions_done.sum()),
                                   self.settings.n_trials * self.settings.n_sessions)
         return time.perf_counter() - t0
+
+
+def write_training_files(out: Path, mem: SessionMemory, sessions_done: np.ndarray,
+                     final_weights_mV: np.ndarray, n_trials: int) -> None:
+    """sessions.csv, weights.npz and session_starts.npz of a training's session memory."""
+    rows = mem.rows
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=SESSION_COLUMNS, lineterminator="\n", restval=0)
+    writer.writeheader()
+    for r in rows:
+        writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v) for k, v in r.items()})
+    data = buf.getvalue().encode()
+    atomic_write(out / "sessions.csv", lambda f: f.write(data))
+    n_max = max(len(w) for w in mem.weights)
+    table = np.full((n_trials, n_max, 8, 8), np.nan)
+    for b, ws in enumerate(mem.weights):
+        if ws:
+            table[b, :len(ws)] = np.array(ws) * 1e3
+    save_npz(out / "weights.npz", {
+        "weights_mV": table, "sessions_done": sessions_done.copy(),
+        "final_weights_mV": final_weights_mV,
+        "labels": np.array(interlimb_labels()),
+    })
+    save_npz(out / SESSION_STARTS, session_starts_arrays(mem.starts))
 
 
 _CLOCK = re.compile(r"^(.*_clock)(_\d+)?$")
@@ -508,6 +521,21 @@ def _memory_from_state(state: dict[str, Any], n_trials: int) -> SessionMemory:
                          rows=_rows_from_state(state["rows"]),
                          starts=[_starts_from_state(x) for x in starts] if starts is not None
                          else [[] for _ in range(n_trials)])
+
+
+def memory_state(memory: SessionMemory, shape: tuple[int, ...]) -> dict[str, Any]:
+    """The session memory as a checkpoint holds it (``shape``: a table's, (8, 8))."""
+    return _memory_state(memory, shape)
+
+
+def memory_from_state(state: dict[str, Any], n_trials: int) -> SessionMemory:
+    """A checkpoint's session memory (its ``memory`` entry) as the session loop keeps it."""
+    return _memory_from_state(state, n_trials)
+
+
+def write_payload(path: Path, payload: dict[str, Any]) -> None:
+    """``payload`` (what :func:`read_checkpoint` returns) written as the checkpoint ``path``."""
+    write_checkpoint_file(path, *_split(payload))
 
 
 def read_checkpoint(path: Path, culprit: Any = None) -> dict[str, Any]:
@@ -702,7 +730,7 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
           traces: tuple[str, ...] | None = None, trace_dtype: str | None = None,
           overwrite: bool = False,
           progress: bool = True, inputs: Sequence[str | os.PathLike] = (),
-          populations: Any = None) -> Result:
+          populations: Any = None, workers: int | None = None) -> Result:
     """Train inter-limb weights, writing ``out`` after every session: what ``astrocpg train`` runs.
 
     Parameters
@@ -745,6 +773,10 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
         Model files with a ``[population]`` table (texts, or ``{file: text}``), populations
         added to every session's network: recorded with the sessions, their files kept with the
         settings, so that :func:`resume` and the replays rebuild them.
+    workers : int, optional
+        Processes the trials are split over (default: the cores this process may use); the
+        sessions, tables and recordings are the same whatever the number (a split training's
+        ``checkpoint.npz`` holds one state per batch).
 
     Returns
     -------
@@ -774,13 +806,16 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
                          f"replace it with --overwrite)", culprit=f"--out {out}")
     OutputFolder(out, overwrite=overwrite, inputs=inputs).check()
+    procs = min(resolve_workers(workers), settings.n_trials)
     with added_populations(settings.populations):  # recorded and built like the others
         plan = record_plan(record_every, record_stride, spikes, traces, trace_dtype)
-        check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
-                                    sessions=settings.n_sessions),
-                     culprit=f"--sessions {settings.n_sessions} x --trials {settings.n_trials}")
+        check_memory(estimate_batched(procs, trials=settings.n_trials, seconds=0.0, spikes=False,
+                                      sessions=settings.n_sessions),
+                     culprit=f"--sessions {settings.n_sessions} x --trials {settings.n_trials}"
+                             + (f" x --workers {procs}" if procs > 1 else ""))
         return Result.from_training(_train(settings, out, plan, None, progress,
-                                           replace=overwrite, new=True, models=models), out)
+                                           replace=overwrite, new=True, models=models,
+                                           workers=procs), out)
 
 
 def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = True,
@@ -791,7 +826,8 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
            trials: int | None = None, astrocytes: bool | None = None, overrides: Any = None,
            equations: Mapping[str, str] | None = None, models: Mapping[str, Any] | None = None,
            out: str | Path | None = None, overwrite: bool = False,
-           expect: dict[str, Any] | None = None, populations: Any = None) -> Result:
+           expect: dict[str, Any] | None = None, populations: Any = None,
+           workers: int | None = None) -> Result:
     """Continue the training in ``folder`` from its checkpoint: ``astrocpg train --resume``.
 
     It ends with the same files as a training never interrupted (what later commands derived
@@ -821,12 +857,17 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
         Refused when true (it would replace what the resume continues).
     expect : dict, optional
         The same checks, as ``{option: value}``.
+    workers : int, optional
+        The processes a training split over processes (``checkpoint.npz`` of batches) continues
+        its batches on (default: the cores this process may use); a training of one network
+        continues in this process.
 
     Returns
     -------
     Result
         The training's Result, as :func:`train` returns it.
     """
+    procs = resolve_workers(workers)
     out_given = None if out is None else as_path(out, "--out")
     out = as_path(folder, "--resume")
     if out_given is not None and Path(out_given).resolve() != out.resolve():
@@ -875,12 +916,12 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
         return _resume_checked(out, settings, payload, fresh, planned, sessions, given,
                                dict(record_every=record_every, record_stride=record_stride,
                                     spikes=spikes, traces=traces, trace_dtype=trace_dtype),
-                               progress)
+                               progress, procs)
 
 
 def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any], fresh: bool,
                     planned: int, sessions: int | None, given: dict[str, Any],
-                    recording: dict[str, Any], progress: bool) -> Result:
+                    recording: dict[str, Any], progress: bool, workers: int = 1) -> Result:
     """:func:`resume` once the folder's settings are read (and its populations added): the
     options given again checked against them, the sessions to train to, the training."""
     try:
@@ -912,14 +953,15 @@ def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any],
     extend_from = None
     if target != settings.n_sessions:
         _check_extension(out, settings.n_sessions, target,
-                         None if fresh else payload["training"])
+                         None if fresh else _loop_state(payload))
         check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
                                     sessions=target),
                      culprit=f"--sessions {target} x --trials {settings.n_trials}")
         extend_from = None if fresh else settings.n_sessions
         settings = dataclasses.replace(settings, n_sessions=target)
     return Result.from_training(_train(settings, out, stored_plan, None if fresh else payload,
-                                       progress, resumed=True, extend_from=extend_from), out)
+                                       progress, resumed=True, extend_from=extend_from,
+                                       workers=min(workers, settings.n_trials)), out)
 
 
 def _given_again(seed: int | None, trials: int | None, astrocytes: bool | None,
@@ -933,6 +975,20 @@ def _given_again(seed: int | None, trials: int | None, astrocytes: bool | None,
             "overrides": sorted(items) or None, "equations": dict(equations or {}) or None,
             "models": model_files_record(models) or None,
             "populations": population_rows(populations)[1] or None}
+
+
+def _loop_state(payload: dict[str, Any]) -> dict[str, Any]:
+    """A checkpoint's session-loop state (``done``, ``step_in_session`` per trial); of a
+    training split over processes, its batches' side by side (a batch not started yet: not
+    done, no step)."""
+    if "batches" not in payload:
+        return payload["training"]
+    parts = [(b["payload"]["training"] if b["payload"] is not None else
+              {"done": np.zeros(b["count"], dtype=bool),
+               "step_in_session": np.zeros(b["count"], dtype=np.int64)})
+             for b in payload["batches"]]
+    return {k: np.concatenate([np.asarray(x[k]) for x in parts])
+            for k in ("done", "step_in_session")}
 
 
 def _check_extension(out: Path, sessions: int, target: int,
@@ -1126,7 +1182,7 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
            new: bool = False, resumed: bool = False,
            models: ModelSet | None = None,
            start: tuple[SessionStart, dict[str, Any]] | None = None,
-           extend_from: int | None = None) -> "Trainer":
+           extend_from: int | None = None, workers: int = 1) -> "Trainer":
     """Build, own ``out`` (a lock: one process per training folder), train, write. ``resumed``:
     the training continues, so what later commands derived from its earlier weights (figures/,
     evaluation/, videos, power estimates) is removed first (:func:`remove_derived`).
@@ -1137,7 +1193,13 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
     ``settings``' (:func:`resume` with more ``sessions``)."""
     if models is None:
         models = model_set(settings.overrides, settings.equations, models=settings.models)
-    trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
+    batched = start is None and (payload is not None and "batches" in payload
+                                 or payload is None and workers > 1 and settings.n_trials > 1)
+    if batched:  # a network of one trial checks the models as the batches' will be built
+        trainer: Any = Trainer(models, dataclasses.replace(settings, n_trials=1), out,
+                               progress=False, record=plan)
+    else:
+        trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
     if start is not None:
         trainer.training.begin_at(0, start[0])
     created = not os.path.lexists(out)
@@ -1157,13 +1219,16 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
             if resumed:  # made from the weights this run is about to change: stale from now on
                 remove_derived(out)
             try:
+                if batched:
+                    return _train_batched_locked(trainer, settings, out, plan, payload, workers,
+                                                 progress)
                 return _train_locked(trainer, settings, out, plan, payload,
                                      replay_of=None if start is None else start[1],
                                      extend_from=extend_from)
             except InputError:
                 # refused once it ran (a parameter whose arithmetic overflows at the first
                 # step): a new training with no session done leaves nothing behind
-                if payload is None and not trainer.training.sessions_done.any():
+                if payload is None and not batched and not trainer.training.sessions_done.any():
                     clear_folder(out)
                     cleared = True
                 raise
@@ -1238,3 +1303,60 @@ def recorded_overflow(out: Path) -> dict[str, dict[str, Any]]:
         if over:
             found[folder.name] = over
     return found
+
+
+def _train_batched_locked(check: "Trainer", settings: TrainSettings, out: Path,
+                          plan: RecordPlan | None, payload: dict[str, Any] | None,
+                          workers: int, progress: bool) -> Any:
+    """:func:`_train_locked` over ``workers`` processes (``train_batched.py``); ``check``: the
+    one-trial trainer that checked the models. Returns what :meth:`Result.from_training`
+    reads of a trainer (no live network: it stayed in the workers)."""
+    import types
+
+    from ...network.layout import Layout
+    from .train_batched import run_batched_training
+
+    record_json = None if plan is None else dataclasses.asdict(plan)
+    manifest = dict(command="train", seed=settings.seed,
+                    settings=settings.record() | {"record": record_json},
+                    models_json=check.models.to_json(), files=TRAIN_FILES,
+                    invocation={"sessions": settings.n_sessions})
+    one = check.cpg.layout
+    layout = {"layout": Layout(n_trials=settings.n_trials, pool_size=one.pool_size,
+                               legs=one.legs, stages=one.stages,
+                               populations=one.populations).to_json()}
+    n_procs = min(workers, len(payload["batches"]) if payload else settings.n_trials)
+    running = {"status": "running", "workers": n_procs} | layout
+
+    def gathered(done: np.ndarray) -> None:  # the inventory follows every checkpoint
+        write_manifest(out, **manifest, results=running | {"sessions_done": done.tolist()},
+                       history=True)
+
+    write_manifest(out, **manifest, results=running, history=True)
+    try:
+        wall, status, rows = run_batched_training(out, settings, plan, payload, workers,
+                                                  progress, check.cpg.codegen,
+                                                  float(check.cpg.dt), gathered)
+    except KeyboardInterrupt:  # while the files were gathered: stopped all the same
+        wall, status, rows = 0.0, "stopped", []
+    done = len(rows)
+    total = settings.n_trials * settings.n_sessions
+    if status == "stopped" or (status == "finished" and done < total):
+        error = str(TrainingStopped(done, total))
+        write_manifest(out, **manifest, results={"status": "interrupted", "error": error,
+                                                 "workers": n_procs} | layout, history=True)
+        raise TrainingStopped(done, total)
+    if status.startswith("diverged"):
+        line = status.partition(": ")[2]
+        write_manifest(out, **manifest, results={"status": "diverged", "error": line,
+                                                 "workers": n_procs} | layout, history=True)
+        raise Diverged(line)
+    summary = train_summary(rows, settings.n_trials, check.models.value("L_max"))
+    over = recorded_overflow(out)
+    write_manifest(out, **manifest,
+                   results={"status": "finished", "wall_seconds_last_invocation": wall,
+                            "workers": n_procs, "per_trial": summary["per_trial"]} | layout
+                   | ({"trace_overflow": over} if over else {}), history=True)
+    return types.SimpleNamespace(cpg=types.SimpleNamespace(net=None), models=check.models,
+                                 summary=summary, trainer=None)
+

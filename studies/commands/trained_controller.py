@@ -30,11 +30,11 @@ controller's gait is the share of its runs that show it, with its Wilson interva
 
 def gait_runs(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_REPEATS,
               seed: int | None = None, world: Sequence[str] = (),
-              progress: bool = True, variant: Mapping[str, Any] | None = None
-              ) -> tuple[list[dict[str, Any]], np.ndarray, Any]:
+              progress: bool = True, variant: Mapping[str, Any] | None = None,
+              workers: int | None = None) -> tuple[list[dict[str, Any]], np.ndarray, Any]:
     """Run every trained table of the training in ``folder`` (or every trial's table of a run
     folder; ``variant``: a model variant over its models, :func:`~astrocpg.studies.commands.
-    run.with_variant`) ``repeats`` times for
+    run.with_variant`; ``workers``: processes the runs are split over) ``repeats`` times for
     ``seconds``, learning off (run ``b = r * n + k``: table ``k``, repeat ``r``, seed
     ``seed + b``; :func:`~astrocpg.studies.commands.run.replay`); one row per run: table,
     repeat, seed, speed, upright share, the fall, and the rhythm and the gait over the run's
@@ -43,7 +43,7 @@ def gait_runs(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_
     if seed is None:
         seed = training_settings(folder).get("seed", 1)
     result, weights = replay(folder, seconds=seconds, seed=seed, progress=progress,
-                             repeats=repeats, world=world, variant=variant)
+                             repeats=repeats, world=world, variant=variant, workers=workers)
     first_seed = int(seed)
     t, i = result.spikes["motor"]
     rec = result.robot
@@ -111,8 +111,8 @@ def shares_words(rows: Sequence[Mapping[str, Any]], kind: str) -> str:
 
 def describe_gait(folder: str | Path, *, seconds: float = 10.0, repeats: int = GAIT_REPEATS,
                   seed: int | None = None, world: Sequence[str] = (),
-                  progress: bool = True, variant: Mapping[str, Any] | None = None
-                  ) -> list[str]:
+                  progress: bool = True, variant: Mapping[str, Any] | None = None,
+                  workers: int | None = None) -> list[str]:
     """Run every trained table ``repeats`` times (:func:`gait_runs`); a line per run (its
     rhythm and its gait, each named, speed, upright share by the alive model in use, a fall),
     per table the share of its runs with each gait and each rhythm (Wilson 95% intervals over
@@ -120,7 +120,8 @@ def describe_gait(folder: str | Path, *, seconds: float = 10.0, repeats: int = G
     the shares with intervals over tables, the gait's locking and its share at other
     thresholds, and whether the tables differ."""
     rows, weights, models = gait_runs(folder, seconds=seconds, repeats=repeats, seed=seed,
-                                      world=world, progress=progress, variant=variant)
+                                      world=world, progress=progress, variant=variant,
+                                      workers=workers)
     w_max = models.value("w_max")
     alive = alive_words(models)
     lines = []

@@ -21,7 +21,9 @@ from ..outputs.result import Result
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from ...network import populations as _table
 from .settings import number, population_rows, seed_number
-from ..runtime.resources import check_memory, estimate_bytes
+from ..runtime.resources import check_memory, estimate_batched
+from ..runtime.workers import resolve_workers
+from .batched import BatchedCPG, try_batched
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
                        simulate_unit)
@@ -34,7 +36,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
          spikes: tuple[str, ...] | None = None,
          traces: tuple[str, ...] | None = None, out: str | Path | None = None,
          overwrite: bool = False, progress: bool = True,
-         inputs: Sequence[str | os.PathLike] = (), populations: Any = None) -> Result:
+         inputs: Sequence[str | os.PathLike] = (), populations: Any = None,
+         workers: int | None = None) -> Result:
     """Simulate locomotion units: the FR limb's CPG, open loop; what ``astrocpg unit`` runs.
 
     Parameters
@@ -70,6 +73,9 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     populations : sequence or mapping, optional
         Model files with a ``[population]`` table (texts, or ``{file: text}``): populations added
         to the network (docs/model-files.md, "A new population").
+    workers : int, optional
+        Processes the trials are split over (default: the cores this process may use); the
+        results are the same whatever the number.
 
     Returns
     -------
@@ -96,10 +102,12 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
         if out is not None:
             OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
         pops, names = check_selection(spikes, traces)
-        check_memory(estimate_bytes(trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
-                                    traces=names, spikes=bool(pops),
-                                    trace_bytes=np.dtype(trace_dtype).itemsize),
-                     culprit=f"--seconds {seconds:g} x --trials {trials}")
+        procs = min(resolve_workers(workers), trials)
+        check_memory(estimate_batched(procs, trials=trials, seconds=seconds, dt=STEP,
+                                      trace_dt=trace_dt * 1e-3, traces=names, spikes=bool(pops),
+                                      trace_bytes=np.dtype(trace_dtype).itemsize),
+                     culprit=f"--seconds {seconds:g} x --trials {trials}"
+                             + (f" x --workers {procs}" if procs > 1 else ""))
         files = model_files_record(models)
         models = model_set(overrides, equations, models=models)
         # the manifest's settings: the checked values, whichever door (command line or API) called
@@ -112,9 +120,11 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
         if population_record:
             settings["populations"] = population_record  # each added population's model file
         try:
-            result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
-                                   trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
-                                   progress=progress, trace_dtype=trace_dtype)
+            result = try_batched("unit", settings, trials, procs, progress)
+            if result is None:  # one process (or a batch diverged: its folder written here)
+                result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
+                                       trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
+                                       progress=progress, trace_dtype=trace_dtype)
         except Diverged as e:  # the folder keeps what ran, and says it diverged
             partial = getattr(e, "result", None)
             if out is not None and partial is not None:
@@ -125,6 +135,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
             raise
         result.extra["rhythm"] = rhythm_per_trial(result, seconds)
         result.extra["models"] = models
+        result.extra["workers"] = procs if isinstance(result.cpg, BatchedCPG) else 1
         if out is not None:
             with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:  # whole, or nothing
                 write_unit_folder(folder, result, settings)
@@ -173,6 +184,7 @@ def unit_results(result: SimulationResult) -> dict[str, Any]:
     """What the manifest's ``results`` (and the Result's ``summary``) hold for a unit."""
     return {"status": result.extra.get("status", "finished"), "error": result.extra.get("error"),
             "rhythm": result.extra.get("rhythm", []), "wall_seconds": result.wall_seconds,
+            "workers": result.extra.get("workers", 1),
             "dt_s": float(result.cpg.dt), "seconds": result.seconds,
             "layout": result.cpg.layout.to_json(),
             # never silent: which traces lost values to float32 (stored as inf), how many

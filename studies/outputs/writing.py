@@ -43,6 +43,25 @@ def brian2_target() -> str | None:
     return framework_target()
 
 
+#: ``physics`` and ``trace_sampling`` as the worker processes of a command that split its
+#: trials over them reported them (:func:`note_worker_environment`): they simulated, not this one
+_WORKER_ENVIRONMENT: dict[str, str] = {}
+
+
+def note_worker_environment(states: dict[str, str]) -> None:
+    """What :func:`environment_record` says of ``physics`` and ``trace_sampling`` from now on
+    in this process: the workers' (each reports :func:`simulation_environment`)."""
+    _WORKER_ENVIRONMENT.clear()
+    _WORKER_ENVIRONMENT.update(states)
+
+
+def simulation_environment() -> dict[str, str]:
+    """``physics`` and ``trace_sampling`` of this process as :func:`environment_record` gives
+    them (only those used)."""
+    return {k: v for k, v in environment_record().items()
+            if k in ("physics", "trace_sampling") and v is not None}
+
+
 def environment_record() -> dict[str, str | None]:
     """The environment variables that can change a result (:data:`astrocpg.environment.RECORDED`)
     as set, ``physics``: how the robots' physics stepped in this process (compiled or from
@@ -57,6 +76,7 @@ def environment_record() -> dict[str, str | None]:
     traces = sys.modules.get("astrocpg.network.recording")
     if traces is not None and traces.kernel_state() != "not used yet":
         out["trace_sampling"] = traces.kernel_state()
+    out.update(_WORKER_ENVIRONMENT)
     return out
 
 

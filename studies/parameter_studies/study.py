@@ -68,6 +68,7 @@ from typing import Any, Sequence
 from ...errors import EnvironmentFault, InputError
 from ...reading import read_bytes, read_json
 from ..runtime.cluster import check_scheduler, check_workers, connect_cluster
+from ..runtime.workers import default_workers
 from ..runtime.resources import available_memory, check_memory, estimate_bytes
 from ..commands.train import CHECKPOINT, read_checkpoint
 from ..outputs.checkpoint import refuse_legacy
@@ -148,7 +149,7 @@ def _choose_batch(study: Study, *, workers: int | None, scheduler: str | None, p
     from .measured import fitted_cost, measured_lengths, planned_lengths
 
     measured = measured_lengths(plan_from) if plan_from is not None else {}
-    n_workers = _cluster_threads(scheduler) if scheduler else (workers or os.cpu_count() or 1)
+    n_workers = _cluster_threads(scheduler) if scheduler else (workers or default_workers())
     groups: dict[str, tuple[list[int], Any]] = {}
     for r in study.runs:  # one group per (condition, point), whatever the runs now
         group = run_group(r.run_id)
@@ -436,7 +437,7 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
     largest = max(r.n_trials for r in study.runs)
     check_memory(estimate_bytes(trials=largest, seconds=0.0, spikes=False,
                                 sessions=study.n_sessions)
-                 * min(len(study.runs), workers or os.cpu_count() or 1),
+                 * min(len(study.runs), workers or default_workers()),
                  culprit=f"study {study.name} (runs of {largest} trials)")
     folders = {r.run_id: out / RUNS / r.run_id for r in study.runs}
     # the runs that ended are never run again (their status.json says so): the rest run
@@ -490,7 +491,7 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
         # on the study's cluster settings, resumable like its runs (out/evaluation.parts)
         evaluated = str(evaluate(out, worlds=e["worlds"], seconds=e["seconds"],
                                  repeats=e["repeats"], conditions=e["conditions"] or None,
-                                 progress=progress, workers=workers or os.cpu_count() or 1,
+                                 progress=progress, workers=workers or default_workers(),
                                  scheduler=scheduler)["out"])
     write_manifest(out, command="study", seed=min(study.seeds),
                    settings=settings,

@@ -11,12 +11,12 @@ import time
 from typing import Any, Callable, Sequence
 
 from ...errors import InputError
+from .workers import MAX_WORKERS_PER_CORE, default_workers
 
 
-#: A local cluster has at most this many worker processes per core: each trains one run at a
-#: time on one core, so more only share the cores (and each holds its own Brian2 and MuJoCo),
-#: while starting hundreds takes minutes.
-MAX_WORKERS_PER_CORE = 4
+#: A local cluster has at most MAX_WORKERS_PER_CORE worker processes per core (the commands'
+#: bound, :mod:`.workers`): each trains one run at a time on one core, so more only share the
+#: cores, while starting hundreds takes minutes.
 
 #: Dask's settings for a local cluster. Its defaults serve an interactive dashboard and cost a
 #: study CPU on every core: each worker's statistical profiler walks the running task's stack
@@ -36,8 +36,9 @@ LEAN_DASK: dict[str, Any] = {
 
 
 def cores() -> int:
-    """This machine's cores (``os.cpu_count()``, at least 1): what bounds a local cluster."""
-    return os.cpu_count() or 1
+    """The cores this process may run on (:func:`~.workers.default_workers`): what bounds a
+    local cluster, and its size by default."""
+    return default_workers()
 
 
 def check_workers(workers: int | None, culprit: str = "--workers") -> int | None:
@@ -70,7 +71,7 @@ def connect_cluster(workers: int | None, scheduler: str | None):
             first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
             raise InputError(f"cannot connect ({first})", culprit=f"--scheduler {scheduler}") \
                 from None
-    n = check_workers(workers) or os.cpu_count() or 1
+    n = check_workers(workers) or default_workers()
     check_main_guarded()
     # worker processes started with SIGINT ignored keep ignoring it (Python installs its
     # KeyboardInterrupt handler only where SIGINT is not ignored): Ctrl-C stops the study in
