@@ -19,7 +19,6 @@ import io
 import math
 import os
 import re
-import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,7 +38,8 @@ from ..outputs.checkpoint import (CHECKPOINT, LEGACY_CHECKPOINT, holds_checkpoin
                                refuse_legacy, write_checkpoint as write_checkpoint_file)
 from ..outputs.checkpoint import read_checkpoint as read_checkpoint_file
 from ..outputs.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
-                            as_path, holds_results, refuse_in_use, remove_derived, file_sha256)
+                            as_path, holds_results, refuse_in_use, remove_derived, remove_own,
+                            file_sha256)
 from ..outputs.writing import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..outputs.result import Result
@@ -301,12 +301,7 @@ class Trainer:
             if not self.record.records(sessions, self.settings.n_sessions):
                 for b in range(self.settings.n_trials):
                     stale = self.out / "recordings" / f"trial{b:02d}_session{sessions:04d}"
-                    if stale.exists():
-                        try:
-                            shutil.rmtree(stale)
-                        except OSError as e:
-                            raise EnvironmentFault.from_os_error(e, stale,
-                                                                 "cannot remove") from None
+                    remove_own(stale)  # what the user put there stays
 
     # ---- run
     def run(self) -> float:
@@ -720,7 +715,7 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
     if holds_checkpoint(out) and not overwrite:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
                          f"replace it with --overwrite)", culprit=f"--out {out}")
-    OutputFolder(out, overwrite=overwrite, inputs=inputs).check()
+    OutputFolder(out, overwrite=overwrite, inputs=inputs, command="train").check()
     with added_populations(settings.populations):  # recorded and built like the others
         plan = record_plan(record_every, record_stride, spikes, traces)
         check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
@@ -1074,7 +1069,7 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
         raise EnvironmentFault.from_os_error(e, out, "cannot create the folder") from None
     with FolderLock(out, culprit="--out" if payload is None else "--resume"):
         if replace:  # --overwrite: the old run goes whole, never mixed with the new one
-            clear_folder(out)
+            clear_folder(out, culprit=f"--out {out}")
         elif new and holds_results(out):  # another process filled it since the first check
             raise InputError("is not empty; --overwrite replaces it whole",
                              culprit=f"--out {out}")

@@ -26,7 +26,7 @@ import numpy as np
 from ...errors import InputError
 from ...reading import read_json
 from .folder import (MANIFEST, clean_stale_temporaries, file_sha256, inventory, remember_sha256,
-                     temp_prefix, temp_suffix)
+                     remember_written, temp_prefix, temp_suffix, written_in_place)
 
 _STARTED = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # when this process started (history entries)
 PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
@@ -121,6 +121,7 @@ def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are ordinary files
         os.replace(tmp, path)
+        remember_written(path)  # this process's: its folder's inventory may list it
     except BaseException as e:
         # an interrupt inside mkstemp, after it made the file: find it by this pid's prefix
         mine = [tmp] if tmp is not None else [
@@ -508,6 +509,7 @@ def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str,
                     "cpu_count": os.cpu_count()},
         # every file the folder owns, with size and sha256: readers refuse a folder that does
         # not match (the manifest is written last)
-        "inventory": inventory(out, (old or read_manifest(out) or {}).get("inventory")),
+        "inventory": inventory(out, (old or read_manifest(out) or {}).get("inventory"),
+                               in_place=written_in_place(out)),
     })
     save_json(out / MANIFEST, manifest)

@@ -333,7 +333,7 @@ def prepare_study(study: Study, out: Path, *, workers: int | None = None,
                             else [])]
     check_output_path(out, inputs, culprit=f"--out {out}")
     if overwrite and holds_results(out):
-        check_replaceable(out, culprit=f"--out {out}")
+        check_replaceable(out, culprit=f"--out {out}", command="study")
     if plan_from is not None:  # named now, also where a resumed folder keeps its plan
         from .measured import results_table
 
@@ -366,7 +366,7 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
     try:
         with FolderLock(out, culprit="--out"):
             if overwrite:
-                clear_folder(out)
+                clear_folder(out, culprit=f"--out {out}")
             clean_stale_temporaries(out)
             return _run_study_locked(study, out, workers=workers, scheduler=scheduler,
                                      progress=progress)
