@@ -837,8 +837,14 @@ _MINE_MAX = 1 << 16
 
 
 def remember_written(path: str | os.PathLike) -> None:
-    """Record that this process just wrote the file ``path`` (the atomic writers call it): an
-    inventory of a folder written in place lists only such files and those it listed before."""
+    """Record that this process just wrote the file ``path`` (the atomic writers call it) into
+    a folder it holds (:class:`FolderLock`: a training, a study, a study's run): an inventory
+    of a folder written in place lists only such files and those it listed before. A file
+    written elsewhere (an export beside a recorded session, by the same Python session) is
+    not the folder's."""
+    real = os.path.realpath(os.path.dirname(os.path.abspath(os.fspath(path))))
+    if not any(real == h or real.startswith(h.rstrip(os.sep) + os.sep) for h in _HELD):
+        return
     try:
         st = os.stat(path)
     except OSError:
