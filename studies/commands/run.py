@@ -163,41 +163,45 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
         robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
                       else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
         start_x = layout.reset_qpos[layout.free_qpos_adr]
-        # a run that writes a folder puts its large traces on disk as it goes (read_spilled)
-        spill, spilled = spill_files(nearest_folder(Path(out))) if out is not None else (None, [])
-        try:
-            try:
-                result = simulate_closed_loop(
-                    models, model, layout, seconds=seconds, seed=seed, n_trials=trials,
-                    weights=table, trace_dt=trace_dt * ms, robot_stride=robot_stride, spikes=spikes,
-                    traces=traces, progress=progress, trace_dtype=trace_dtype, spill=spill)
-            except Diverged as e:  # the folder keeps what ran, and says it diverged
-                if out is not None and getattr(e, "result", None) is not None:
-                    _summarise(e.result, models, start_x, robot_info, table, e)
-                    with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
-                        write_run_folder(folder, e.result, settings, figure=figure)
-                raise
+        def simulate(spill: Any) -> Any:
+            return simulate_closed_loop(
+                models, model, layout, seconds=seconds, seed=seed, n_trials=trials,
+                weights=table, trace_dt=trace_dt * ms, robot_stride=robot_stride, spikes=spikes,
+                traces=traces, progress=progress, trace_dtype=trace_dtype, spill=spill)
+
+        if out is None:
+            result = simulate(None)
             _summarise(result, models, start_x, robot_info, table)
-            summary = run_results(result)  # before the spilled traces are read from the folder
-            if out is not None:
-                # whole, or nothing
-                with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
-                    write_run_folder(folder, result, settings, figure=figure, results=summary)
-                result.traces = read_spilled(result.traces, Path(out) / "traces.npz")
-        finally:
-            remove_files(spilled)
+            summary = run_results(result)
+        else:
+            diverged: Diverged | None = None
+            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
+                # a run that writes a folder puts its large traces on disk as it goes
+                # (read_spilled): hidden in the folder being written, never in the current
+                # folder or beside the output
+                spill, spilled = spill_files(folder)
+                try:
+                    try:
+                        result = simulate(spill)
+                    except Diverged as e:  # the folder keeps what ran, and says it diverged
+                        if getattr(e, "result", None) is None:
+                            raise
+                        _summarise(e.result, models, start_x, robot_info, table, e)
+                        write_run_folder(folder, e.result, settings, figure=figure)
+                        diverged = e
+                    else:
+                        _summarise(result, models, start_x, robot_info, table)
+                        summary = run_results(result)  # before the spilled traces are read
+                        write_run_folder(folder, result, settings, figure=figure,
+                                         results=summary)
+                finally:
+                    remove_files(spilled)
+            if diverged is not None:
+                raise diverged
+            result.traces = read_spilled(result.traces, Path(out) / "traces.npz")
         return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                       summary=summary, robot=robot_arrays(result),
                                       models=models, folder=out)
-
-
-def nearest_folder(path: Path) -> Path:
-    """The nearest existing folder at or above ``path``'s parent (where a run's spilled traces
-    wait: on the file system the folder will be written to, nothing created early)."""
-    parent = path.absolute().parent
-    while not parent.is_dir() and parent != parent.parent:
-        parent = parent.parent
-    return parent
 
 
 def read_spilled(traces: dict[str, tuple[np.ndarray, Any]],
