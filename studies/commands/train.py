@@ -215,6 +215,13 @@ class Trainer:
         net = self.cpg.net
         net.store("checkpoint")
         brian_state = net._stored_state.pop("checkpoint")
+        # the same training writes the same checkpoint, byte for byte: in sorted order
+        # (Brian2 stores its objects in an order that varies between processes), each clock
+        # under its stem (the suffix a clock's name gets when the name
+        # was taken earlier in the process is no part of the training; _rename_clocks)
+        brian_state = {_CLOCK.sub(r"\1", k): dict(sorted(v.items())) if isinstance(v, dict)
+                       else v for k, v in sorted(brian_state.items(),
+                                                 key=lambda kv: _CLOCK.sub(r"\1", kv[0]))}
         # the step in progress is complete: the resumed run starts at the next one
         brian_state["0_t"] = brian_state["0_t"] + float(self.cpg.dt)
         mj = []

@@ -36,7 +36,7 @@ import numpy as np
 
 from ...errors import EnvironmentFault, InputError
 from ...reading import loads_json, open_regular
-from .writing import atomic_write
+from .writing import atomic_write, savez
 
 CHECKPOINT = "checkpoint.npz"
 #: The pickled checkpoint of earlier versions: refused, never read.
@@ -250,7 +250,7 @@ def write_checkpoint(path: Path, meta: dict[str, Any], state: Any) -> None:
     arrays = {"meta": np.frombuffer(meta_json.encode(), dtype=np.uint8),
               "state": np.frombuffer(state_json.encode(), dtype=np.uint8)} | enc.arrays
     # uncompressed: a checkpoint is written often and its arrays are mostly noise-like floats
-    atomic_write(Path(path), lambda f: np.savez(f, **arrays))
+    atomic_write(Path(path), lambda f: savez(f, arrays))
 
 
 def _open(path: Path, culprit: str) -> tuple[Any, Any]:

@@ -335,7 +335,8 @@ def sort_out(root: str | os.PathLike) -> tuple[list[Path], list[str]]:
     (``video_trial*.mp4``, ``power_trial*.json``, ``evaluation.parts/``). Everything else is
     the user's: a file no inventory lists or one changed since, a link (to a file or a
     folder), a folder that holds nothing of astrocpg's (an empty one included). Nothing is
-    followed through a link."""
+    followed through a link. Where ``root``'s manifest has no inventory (an older astrocpg's),
+    the files at its top that the manifest's ``"files"`` names are astrocpg's, nothing else."""
     root = Path(root)
     own: list[Path] = []
     foreign: list[str] = []
@@ -377,6 +378,10 @@ def sort_out(root: str | os.PathLike) -> tuple[list[Path], list[str]]:
                        for at, inv in reversed(listings) if sub[len(at):] in inv)
             if not mine:
                 mine = any(fnmatch.fnmatchcase(sub, p) for p in _DERIVED_BY_NAME)
+            if not mine and rel == "" and listed is None and manifest is not None:
+                # an older astrocpg's manifest (no inventory): the files it names, no more
+                files = manifest.get("files")
+                mine = isinstance(files, dict) and name in files
             if mine:
                 own.append(path)
                 holds_own = True
