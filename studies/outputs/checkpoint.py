@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import EnvironmentFault, InputError
-from ...reading import loads_json, open_regular
+from ...reading import check_npy, loads_json, open_regular
 from .writing import atomic_write, savez
 
 CHECKPOINT = "checkpoint.npz"
@@ -296,7 +296,8 @@ def _check_sizes(f: Any, path: Path, culprit: Any) -> None:
     be stored as is (its declared size equal to the bytes it takes in the file) and the sizes
     must add up to no more than the file: nothing in it can make the reader use more memory
     than the file's own size (a compressed entry, a compression bomb, a declared size larger
-    than the file is refused before anything is decompressed)."""
+    than the file is refused before anything is decompressed), nor can an array's header
+    claim more than its entry holds (:func:`~astrocpg.reading.check_npy`)."""
     size = os.fstat(f.fileno()).st_size
     with zipfile.ZipFile(f) as zf:
         total = 0
@@ -309,6 +310,13 @@ def _check_sizes(f: Any, path: Path, culprit: Any) -> None:
             if total > size:
                 raise _error(path, culprit, f"is corrupt (entry {info.filename} declares "
                                             f"{info.file_size} bytes, more than the file holds)")
+        for info in zf.infolist():  # each array's header against its entry's bytes, before
+            if info.filename.endswith(".npy"):  # NumPy allocates what a header claims
+                with zf.open(info) as member:
+                    try:
+                        check_npy(member, info.file_size, path, path, info.filename)
+                    except InputError as e:
+                        raise _error(path, culprit, f"is corrupt ({e.message})") from None
 
 
 def _referenced(tree: Any, found: set[str], depth: int = 0) -> set[str]:
