@@ -222,3 +222,26 @@ def test_a_study_keeps_the_users_things(tmp_path, capsys, monkeypatch):
     assert check(["report", str(out)], things, capsys) == 0
     assert check(["evaluate", str(out), "--seconds", "0.2", "--repeats", "1",
                   "--no-progress"], things, capsys) in (0, 2)
+
+
+def test_a_file_output_replaces_only_a_file_of_its_own_kind(bases, tmp_path, capsys):
+    """export --out FILE --overwrite replaces an earlier export, never a file of the user's
+    (a text, a file renamed .nwb); a video replaces an .mp4 only."""
+    notes = tmp_path / "notes.txt"
+    notes.write_text("mine\n")
+    fake = tmp_path / "fake.nwb"
+    fake.write_text("not an NWB\n")
+    things = snapshot([notes, fake])
+    for target in (notes, fake):
+        code = check(["export", str(bases["run"]), "--out", str(target), "--overwrite"],
+                     things, capsys)
+        assert code == 2
+    mine = tmp_path / "r.nwb"
+    assert check(["export", str(bases["run"]), "--out", str(mine)], things, capsys) == 0
+    assert check(["export", str(bases["run"]), "--out", str(mine), "--overwrite"], things,
+                 capsys) == 0
+    clip = tmp_path / "clip.mp4"
+    clip.write_text("mine\n")
+    things |= snapshot([clip])
+    assert check(["video", str(bases["run"]), "--out", str(clip), "--overwrite",
+                  "--no-progress"], things, capsys) == 2

@@ -457,6 +457,31 @@ def _refuse_other_command(path: Path, command: str | None, culprit: str) -> None
                          f"folder, or delete it yourself", culprit=culprit)
 
 
+#: How the files astrocpg writes alone (an export, a video) begin, by suffix: ``--overwrite``
+#: replaces an existing file only when it is of the kind the command writes.
+_MAGIC = {".nwb": (0, b"\x89HDF\r\n\x1a\n"), ".npz": (0, b"PK\x03\x04"),
+          ".mp4": (4, b"ftyp")}
+
+
+def _refuse_foreign_file(path: Path, culprit: str) -> None:
+    """InputError when the existing file ``path`` is not of the kind astrocpg writes under its
+    suffix (an NWB, an .npz, an MP4 by its first bytes): your ``notes.txt`` or a file renamed
+    is never replaced by an export or a video."""
+    offset, magic = _MAGIC.get(path.suffix.lower(), (0, b""))
+    head = b""
+    if magic:
+        try:
+            with open_regular(path, culprit) as f:
+                head = f.read(offset + len(magic))[offset:]
+        except OSError:
+            head = b""
+    if not magic or head != magic:
+        kind = f"an {path.suffix[1:]} file" if magic else "a file of a kind astrocpg writes"
+        raise InputError(f"exists and is not {kind}; --overwrite replaces only a file of the "
+                         f"kind astrocpg writes there: choose another name, or remove it "
+                         f"yourself", culprit=culprit)
+
+
 def check_replaceable(target: str | os.PathLike, *, culprit: str,
                       command: str | None = None) -> None:
     """What ``--overwrite`` may replace: an existing folder that :func:`is_astrocpg_output`
@@ -489,7 +514,10 @@ def check_replaceable(target: str | os.PathLike, *, culprit: str,
                 raise InputError(f"is a file of the astrocpg output folder {folder} (listed in "
                                  f"its {MANIFEST}); --overwrite never replaces part of a "
                                  f"folder", culprit=culprit)
-            return
+            if any(fnmatch.fnmatchcase(rel, p) for p in _DERIVED_BY_NAME):
+                return  # a video or power estimate of the folder: astrocpg's by its name
+            break
+    _refuse_foreign_file(path, culprit)
 
 
 # ---------------------------------------------------------------- the output folder
