@@ -174,34 +174,43 @@ def run(*, seconds: float = 10.0, seed: int = 1, trials: int = 1,
             _summarise(result, models, start_x, robot_info, table)
             summary = run_results(result)
         else:
-            diverged: Diverged | None = None
-            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
-                # a run that writes a folder puts its large traces on disk as it goes
-                # (read_spilled): hidden in the folder being written, never in the current
-                # folder or beside the output
-                spill, spilled = spill_files(folder)
-                try:
-                    try:
-                        result = simulate(spill)
-                    except Diverged as e:  # the folder keeps what ran, and says it diverged
-                        if getattr(e, "result", None) is None:
-                            raise
-                        _summarise(e.result, models, start_x, robot_info, table, e)
-                        write_run_folder(folder, e.result, settings, figure=figure)
-                        diverged = e
-                    else:
-                        _summarise(result, models, start_x, robot_info, table)
-                        summary = run_results(result)  # before the spilled traces are read
-                        write_run_folder(folder, result, settings, figure=figure,
-                                         results=summary)
-                finally:
-                    remove_files(spilled)
-            if diverged is not None:
-                raise diverged
+            result, summary = _simulate_into(
+                OutputFolder(out, overwrite=overwrite, inputs=inputs), simulate,
+                lambda r, e=None: _summarise(r, models, start_x, robot_info, table, e),
+                settings, figure)
             result.traces = read_spilled(result.traces, Path(out) / "traces.npz")
         return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                       summary=summary, robot=robot_arrays(result),
                                       models=models, folder=out)
+
+
+def _simulate_into(folder: OutputFolder, simulate: Any, summarise: Any,
+                   settings: dict[str, Any], figure: bool) -> tuple[Any, Any]:
+    """``simulate(spill)`` and its folder, whole or nothing: (the result, its summary). A run
+    that writes a folder puts its large traces on disk as it goes (:func:`read_spilled`):
+    hidden in the folder being written, never in the current folder or beside the output.
+    Diverged: the folder keeps what ran, and says it diverged; then the error is raised."""
+    diverged: Diverged | None = None
+    with folder as tmp:
+        spill, spilled = spill_files(tmp)
+        try:
+            try:
+                result = simulate(spill)
+            except Diverged as e:
+                if getattr(e, "result", None) is None:
+                    raise
+                summarise(e.result, e)
+                write_run_folder(tmp, e.result, settings, figure=figure)
+                diverged = e
+            else:
+                summarise(result)
+                summary = run_results(result)  # before the spilled traces are read
+                write_run_folder(tmp, result, settings, figure=figure, results=summary)
+        finally:
+            remove_files(spilled)
+    if diverged is not None:
+        raise diverged
+    return result, summary
 
 
 def read_spilled(traces: dict[str, tuple[np.ndarray, Any]],
