@@ -324,7 +324,8 @@ def _as_recorded(path: Path, st: os.stat_result, entry: Any) -> bool:
 _DERIVED_BY_NAME = ("video_trial*.mp4", "power_trial*.json", "evaluation.parts/*")
 
 
-def sort_out(root: str | os.PathLike) -> tuple[list[Path], list[str]]:
+def sort_out(root: str | os.PathLike,
+             only: Iterable[str] | None = None) -> tuple[list[Path], list[str]]:
     """What in the folder ``root`` astrocpg wrote and recorded, and what it did not.
 
     Returns (astrocpg's files, the user's entries as relative POSIX paths, folders ending in
@@ -336,8 +337,10 @@ def sort_out(root: str | os.PathLike) -> tuple[list[Path], list[str]]:
     the user's: a file no inventory lists or one changed since, a link (to a file or a
     folder), a folder that holds nothing of astrocpg's (an empty one included). Nothing is
     followed through a link. Where ``root``'s manifest has no inventory (an older astrocpg's),
-    the files at its top that the manifest's ``"files"`` names are astrocpg's, nothing else."""
+    the files at its top that the manifest's ``"files"`` names are astrocpg's, nothing else.
+    ``only``: look at just these names at the top of ``root`` (nothing else is read)."""
     root = Path(root)
+    top = None if only is None else set(only)
     own: list[Path] = []
     foreign: list[str] = []
 
@@ -354,6 +357,8 @@ def sort_out(root: str | os.PathLike) -> tuple[list[Path], list[str]]:
         holds_own = False
         for entry in entries:
             name = entry.name
+            if rel == "" and top is not None and name not in top:
+                continue
             sub = f"{rel}{name}"
             path = folder / name
             if name in (LOCK_NAME, OWNER_NAME) or parse_temp_name(name) is not None:
@@ -1070,7 +1075,12 @@ def remove_derived(folder: str | os.PathLike) -> list[str]:
     ``evaluate``). Only what astrocpg wrote and recorded goes (:func:`sort_out`): a file of the
     user's in ``figures/`` stays, and so does the folder that holds it."""
     root = Path(folder)
-    own, _ = sort_out(root)
+    try:
+        names = [n for n in os.listdir(root)
+                 if _derived(n, folder=(root / n).is_dir() and not (root / n).is_symlink())]
+    except OSError as e:
+        raise EnvironmentFault.from_os_error(e, root, "cannot read the folder") from None
+    own, _ = sort_out(root, only=names)  # the derived places only: nothing else is hashed
     gone = [p for p in own if _derived(p.relative_to(root).as_posix(), folder=False)]
     _remove_files(root, gone)
     names = {p.relative_to(root).parts[0] + ("/" if len(p.relative_to(root).parts) > 1
