@@ -956,10 +956,9 @@ def inventory(folder: str | os.PathLike,
             st = os.stat(path)
             old = previous.get(rel)
             if not whole and (os.path.islink(path) or not _wrote(st)):
-                if old:
-                    out[rel] = dict(old)
-                    continue
                 if os.path.islink(path) or not _adopted(root, rel, path, st, nested):
+                    if old:  # listed before: as it was listed (a change is for readers)
+                        out[rel] = dict(old)
                     continue  # not astrocpg's: never adopted
             if old and old.get("bytes") == st.st_size and old.get("mtime_ns") == st.st_mtime_ns:
                 sha = old["sha256"]
