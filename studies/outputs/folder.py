@@ -414,7 +414,7 @@ def _remove_files(root: Path, paths: Iterable[Path]) -> None:
 
 
 def remove_own(folder: str | os.PathLike) -> list[str]:
-    """Delete what astrocpg wrote and recorded in ``folder`` (:func:`sort_out`), and the
+    """Delete what astrocpg wrote and recorded in ``folder`` (``sort_out``), and the
     folders that held it once they are empty (``folder`` itself included); the user's entries
     stay, and with them the folders that hold them. Returns the user's entries left
     (relative POSIX paths)."""
@@ -428,7 +428,7 @@ def remove_own(folder: str | os.PathLike) -> list[str]:
 
 def _refuse_foreign_files(path: Path, culprit: str) -> None:
     """InputError naming the first entry (and how many there are) of the astrocpg output
-    folder ``path`` that astrocpg did not write and record (:func:`sort_out`: a file its
+    folder ``path`` that astrocpg did not write and record (``sort_out``: a file its
     manifest's inventory does not list, or one changed since; a link; an empty folder): a
     thing the user added is never deleted by ``--overwrite``. A manifest without an inventory
     (an older astrocpg's, or not astrocpg's) claims nothing but itself."""
@@ -490,7 +490,7 @@ def _refuse_foreign_file(path: Path, culprit: str) -> None:
 def check_replaceable(target: str | os.PathLike, *, culprit: str,
                       command: str | None = None) -> None:
     """What ``--overwrite`` may replace: an existing folder that :func:`is_astrocpg_output`
-    and holds nothing but what astrocpg wrote and recorded (:func:`sort_out`), and that is
+    and holds nothing but what astrocpg wrote and recorded (``sort_out``), and that is
     no training or study unless ``command`` (the command writing) is the same (an existing
     file: one that no astrocpg output folder around it lists in its manifest). Anything else,
     e.g. a folder of the user's own files, is refused (InputError naming ``culprit``) and left
@@ -868,7 +868,7 @@ def file_sha256(path: str | os.PathLike) -> str:
     return h.hexdigest()
 
 
-#: files this process wrote in place (:func:`remember_written`), by (device, inode, size,
+#: files this process wrote in place (``remember_written``), by (device, inode, size,
 #: mtime_ns): what an inventory of a folder written in place may list beside what it listed
 _MINE: dict[tuple[int, int, int, int], None] = {}
 _MINE_MAX = 1 << 16
@@ -938,9 +938,9 @@ def inventory(folder: str | os.PathLike,
     keeps that hash (a training rewrites its inventory at every checkpoint without rehashing
     its recordings).
 
-    Every file is listed, unless ``in_place`` (:func:`written_in_place`: a training, a study,
+    Every file is listed, unless ``in_place`` (``written_in_place``: a training, a study,
     a recorded session, where the user may add files while it runs or between its runs); then
-    only what is astrocpg's: the files this process wrote (:func:`remember_written`),
+    only what is astrocpg's: the files this process wrote (``remember_written``),
     those ``previous`` listed (as it listed them: a change since is for readers to find) and,
     inside a folder with an astrocpg manifest of its own (a study's run written by a worker),
     what that manifest's inventory lists as it is. A file the user put there is never
@@ -1071,7 +1071,7 @@ def remove_derived(folder: str | os.PathLike) -> list[str]:
     estimates); returns their names. A training that continues (``train --resume``) calls it:
     those were made from weights the training is about to change, and a stale evaluation beside
     new weights would read as theirs (and ``evaluation.parts/`` would even be reused by the next
-    ``evaluate``). Only what astrocpg wrote and recorded goes (:func:`sort_out`): a file of the
+    ``evaluate``). Only what astrocpg wrote and recorded goes (``sort_out``): a file of the
     user's in ``figures/`` stays, and so does the folder that holds it."""
     root = Path(folder)
     try:
