@@ -7,10 +7,13 @@
 * :func:`check_output_path` / :func:`check_replaceable` -- the one rule of every ``--out``: it
   is never the current folder, a folder or file the command reads, nor holds one, nor lies
   inside one but at a derived place (``figures/``, ``report/``, ...); and ``--overwrite``
-  replaces only an astrocpg output folder (it has astrocpg's ``manifest.json``), never a
-  folder of the user's own files, nor a file an output folder's manifest lists.
-* :func:`inventory` / :func:`verify` -- the manifest's ``"inventory"`` lists every file with its
-  size and sha256; readers refuse a folder whose files do not match it.
+  replaces only an astrocpg output folder (it has astrocpg's ``manifest.json``) that holds
+  nothing but what astrocpg wrote and recorded (:func:`sort_out`: never a user's file, link or
+  empty folder), never a folder of the user's own files, nor a file an output folder's
+  manifest lists, nor a training or study but by the same command.
+* :func:`inventory` / :func:`verify` -- the manifest's ``"inventory"`` lists every file
+  astrocpg wrote with its size and sha256 (a folder written in place never adopts a user's
+  file); readers refuse a folder whose files do not match it.
 * :class:`FolderLock` -- a running ``train`` or ``study`` owns its folder; a second process on
   the same folder stops with one line naming the holder.
 * :func:`clean_stale_temporaries` -- hidden temporaries (folders and files) whose name carries
