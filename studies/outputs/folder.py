@@ -8,7 +8,7 @@
   is never the current folder, a folder or file the command reads, nor holds one, nor lies
   inside one but at a derived place (``figures/``, ``report/``, ...); and ``--overwrite``
   replaces only an astrocpg output folder (it has astrocpg's ``manifest.json``) that holds
-  nothing but what astrocpg wrote and recorded (:func:`sort_out`: never a user's file, link or
+  nothing but what astrocpg wrote and recorded (``sort_out``: never a user's file, link or
   empty folder), never a folder of the user's own files, nor a file an output folder's
   manifest lists, nor a training or study but by the same command.
 * :func:`inventory` / :func:`verify` -- the manifest's ``"inventory"`` lists every file
