@@ -8,7 +8,11 @@ No file can make astrocpg use more memory or time than its declared content need
   caught too);
 * JSON and TOML are parsed with their nesting bounded (:data:`MAX_DEPTH` levels): a document
   nested 100,000 deep would otherwise exhaust Python's stack inside the parser, or in any
-  recursive code that walks it afterwards.
+  recursive code that walks it afterwards;
+* a file is refused by its size before it is read (:data:`MAX_TEXT_BYTES` for a study, model,
+  equations, population or worlds file, :data:`MAX_TABLE_BYTES` for a weights table,
+  :data:`MAX_JSON_BYTES` for a manifest), and an array file by its header before NumPy
+  allocates what the header claims (:func:`check_npy`, :func:`check_npz`).
 
 Each refusal is an :class:`~astrocpg.errors.InputError` naming the file (exit 2).
 """
@@ -89,16 +93,114 @@ def open_regular(path: str | os.PathLike, culprit: Any = None) -> BinaryIO:
         raise
 
 
-def read_bytes(path: str | os.PathLike, culprit: Any = None) -> bytes:
-    """The bytes of the regular file ``path`` (see :func:`open_regular`)."""
+# ---------------------------------------------------------------- sizes
+#: The largest text file astrocpg reads from a user (a study, model, equations, population
+#: or worlds file): the largest it ships is a few kB.
+MAX_TEXT_BYTES = 16 << 20
+#: The largest weights table astrocpg reads (``.csv``, ``.json``, ``.npy``, ``.npz``, a kept
+#: table): a table is 64 numbers per trial, 512 bytes in float64.
+MAX_TABLE_BYTES = 64 << 20
+#: The largest JSON document astrocpg reads (a manifest, a study's index, a run's status):
+#: a training's manifest with hundreds of recorded sessions is about 1 MB.
+MAX_JSON_BYTES = 256 << 20
+#: The largest results table a study plan reads (``--plan-from``: ``results.csv``, or its
+#: content once inflated from ``results.csv.gz``): a 100,000-run study's is about 30 MB.
+MAX_PLAN_BYTES = 256 << 20
+
+
+def _mb(n: int) -> str:
+    return f"{n / (1 << 20):g} MiB"
+
+
+def too_large(path: Any, culprit: Any, size: int, limit: int, what: str = "bytes") -> InputError:
+    """The InputError of a file larger than astrocpg reads of its kind (size and bound)."""
+    return _refusal(path, culprit, f"holds {size:,} {what}, more than the {_mb(limit)} "
+                                   f"astrocpg reads from such a file")
+
+
+def read_bytes(path: str | os.PathLike, culprit: Any = None, *,
+               limit: int = MAX_TEXT_BYTES) -> bytes:
+    """The bytes of the regular file ``path`` (see :func:`open_regular`), at most ``limit``:
+    a larger file is refused by its size before a byte is read (InputError naming it and the
+    bound); one that grows past the bound while being read is refused too."""
     with open_regular(path, culprit) as f:
-        return f.read()
+        size = os.fstat(f.fileno()).st_size
+        if size > limit:
+            raise too_large(path, culprit, size, limit, "bytes (refused unread)")
+        data = f.read(limit + 1)
+        if len(data) > limit:
+            raise too_large(path, culprit, len(data), limit)
+        return data
 
 
-def read_text(path: str | os.PathLike, culprit: Any = None) -> str:
-    """The UTF-8 text of the regular file ``path``; UnicodeDecodeError (a ValueError)
-    propagates for the caller's own message."""
-    return read_bytes(path, culprit).decode("utf-8")
+def read_text(path: str | os.PathLike, culprit: Any = None, *,
+              limit: int = MAX_TEXT_BYTES) -> str:
+    """The UTF-8 text of the regular file ``path`` (at most ``limit`` bytes:
+    :func:`read_bytes`); UnicodeDecodeError (a ValueError) propagates for the caller's own
+    message."""
+    return read_bytes(path, culprit, limit=limit).decode("utf-8")
+
+
+def check_npy(f: BinaryIO, room: int, path: Any, culprit: Any, member: str = "") -> None:
+    """Check the ``.npy`` header at the position of ``f`` before any array is made: a plain
+    dtype (no Python objects) and a shape whose bytes fit in the ``room`` bytes left after the
+    header (the rest of the file, or of its ``.npz`` member). NumPy would otherwise allocate
+    what a header claims (a 1 TB shape in a 100-byte file: "out of memory") before it reads a
+    byte of data. InputError naming the file (and the member)."""
+    import numpy as np
+
+    fmt = np.lib.format
+    where = f" (entry {member})" if member else ""
+    start = f.tell()
+    try:
+        version = fmt.read_magic(f)
+        if version == (1, 0):
+            shape, _, dtype = fmt.read_array_header_1_0(f)
+        else:
+            shape, _, dtype = fmt.read_array_header_2_0(f)
+    except (ValueError, EOFError, OSError) as e:
+        raise _refusal(path, culprit, f"is not a NumPy array file{where} ({e})") from None
+    if dtype.hasobject:
+        raise _refusal(path, culprit, f"holds Python objects{where}; astrocpg reads only "
+                                      f"numbers") from None
+    need = dtype.itemsize
+    for n in shape:
+        need *= int(n)
+    left = room - (f.tell() - start)
+    if need > left:
+        raise _refusal(path, culprit, f"declares an array of shape {tuple(shape)}{where} "
+                                      f"({need:,} bytes) in {max(left, 0):,} bytes of data: "
+                                      f"damaged or not astrocpg's (refused unread)")
+
+
+def check_npz(f: BinaryIO, path: Any, culprit: Any, *, limit: int | None = None,
+              stored: bool = False) -> None:
+    """Check the ``.npz`` archive open in ``f`` before NumPy reads it: its members' declared
+    sizes add up to at most ``limit`` (and, with ``stored``, each is stored as is: no
+    compression bomb), and each ``.npy`` member's header fits its member (:func:`check_npy`).
+    Leaves ``f`` at its start. InputError naming the file."""
+    import zipfile
+
+    f.seek(0)
+    try:
+        with zipfile.ZipFile(f) as zf:
+            infos = zf.infolist()
+            total = sum(i.file_size for i in infos)
+            if limit is not None and total > limit:
+                raise too_large(path, culprit, total, limit, "bytes once unpacked")
+            for info in infos:
+                if stored and info.compress_type != zipfile.ZIP_STORED:
+                    raise _refusal(path, culprit, f"is not astrocpg's (entry {info.filename} "
+                                                  f"is compressed)")
+                if info.filename.endswith(".npy"):
+                    with zf.open(info) as m:
+                        check_npy(m, info.file_size, path, culprit, info.filename)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError, ValueError) as e:
+        if isinstance(e, InputError):
+            raise
+        raise _refusal(path, culprit, f"is not a whole .npz archive ({e})") from None
+    finally:
+        f.seek(0)
 
 
 # ---------------------------------------------------------------- nesting
@@ -195,9 +297,13 @@ def loads_toml(text: str, culprit: Any, path: Any = None) -> dict[str, Any]:
 
 
 def read_json(path: str | os.PathLike, culprit: Any = None) -> Any:
-    """The JSON document in the regular file ``path``, nesting bounded (:func:`loads_json`)."""
-    return loads_json(read_bytes(path, culprit), culprit if culprit is not None else path, path)
+    """The JSON document in the regular file ``path``, nesting and size bounded
+    (:func:`loads_json`, :data:`MAX_JSON_BYTES`)."""
+    return loads_json(read_bytes(path, culprit, limit=MAX_JSON_BYTES),
+                      culprit if culprit is not None else path, path)
 
 
-__all__ = ["MAX_DEPTH", "check_regular", "open_regular", "read_bytes", "read_text",
-           "loads_json", "loads_toml", "read_json", "not_regular", "too_deep"]
+__all__ = ["MAX_DEPTH", "MAX_TEXT_BYTES", "MAX_TABLE_BYTES", "MAX_JSON_BYTES",
+           "MAX_PLAN_BYTES", "check_regular", "open_regular", "read_bytes", "read_text",
+           "check_npy", "check_npz", "too_large", "loads_json", "loads_toml", "read_json",
+           "not_regular", "too_deep"]

@@ -961,6 +961,134 @@ case("plot-overwrite-another-run", lambda e: S("plot", e.copy("run"), "--out",
      None, "complete", lambda e: e.copy("run", "other"))
 
 
+# ---- --overwrite deletes only what astrocpg wrote and recorded: a folder holding anything else
+# (a file, a link, an empty folder, a file in figures/, a listed file changed since) is
+# refused naming it; a manifest without an inventory claims nothing; a training or a study is
+# replaced only by its own command
+def _users(e: Env, which: str, what: str) -> Path:
+    """A copy of a fixture folder holding one thing of the user's (``what``)."""
+    def make() -> Path:
+        d = e.copy(which, f"{which}_u")
+        if what.startswith("figures/"):  # plot's figures/, with its own manifest
+            from astrocpg.studies.outputs.folder import inventory
+            (d / "figures").mkdir()
+            (d / "figures" / "rasters.png").write_bytes(b"png")
+            (d / "figures" / "manifest.json").write_text(json.dumps(
+                {"astrocpg_command": "plot", "inventory": inventory(d / "figures")}))
+        if what == "lnk":
+            (d / "lnk").symlink_to(e.file("elsewhere.txt", "mine\n"))
+        elif what.endswith("/"):
+            (d / what).mkdir()
+        elif what == "spikes.npz":
+            (d / what).write_bytes(b"the user's own bytes")
+        elif what == "no-inventory":
+            m = json.loads((d / "manifest.json").read_text())
+            del m["inventory"]
+            (d / "manifest.json").write_text(json.dumps(m))
+            (d / "compare_rows.py").write_text("print(1)\n")
+        else:
+            (d / what).write_text("the user's own file\n")
+        return d
+    return e._once(f"users:{which}:{what}", make)
+
+
+for what, named in (("analysis.md", "holds analysis.md that astrocpg did not write"),
+                    ("lnk", "holds lnk that astrocpg did not write"),
+                    ("emptyd/", "holds emptyd/ that astrocpg did not write"),
+                    ("figures/notes.md", "holds figures/notes.md that astrocpg did not write"),
+                    ("spikes.npz", "holds spikes.npz that astrocpg did not write"),
+                    ("no-inventory", "compare_rows.py, and its manifest.json lists no files")):
+    case(f"run-overwrite-a-run-holding-{what.strip('/').replace('/', '-')}",
+         lambda e, w=what: S("run", "--seconds", "0.01", "--no-progress", "--overwrite",
+                             "--out", _users(e, "run", w)), 2,
+         named, "unchanged", lambda e, w=what: _users(e, "run", w))
+case("train-overwrite-a-training-holding-a-users-file",
+     lambda e: S("train", "--sessions", "1", *SHORT, "--no-progress", "--overwrite", "--out",
+                 _users(e, "train", "analysis.md")), 2,
+     "holds analysis.md that astrocpg did not write", "unchanged",
+     lambda e: _users(e, "train", "analysis.md"))
+case("plot-overwrite-a-training", lambda e: S("plot", e.copy("run"), "--no-progress", "--out",
+                                               e.copy("train"), "--overwrite"), 2,
+     "holds an astrocpg train output", "unchanged", lambda e: e.copy("train"))
+case("run-overwrite-a-study", lambda e: S("run", "--seconds", "0.01", "--no-progress", "--out",
+                                           e.copy("study"), "--overwrite"), 2,
+     "holds an astrocpg study output", "unchanged", lambda e: e.copy("study"))
+
+
+# ---- bounded reading: a user's file is refused by its size, an array file by its header,
+# before it is read (sparse files: no disk, no time)
+def _sparse(e: Env, name: str, size: int = 1 << 30) -> Path:
+    def make() -> Path:
+        p = e.tmp / name
+        with open(p, "wb") as f:
+            f.truncate(size)
+        return p
+    return e._once("sparse:" + name, make)
+
+
+def _npy_claiming(shape: tuple[int, ...]) -> bytes:
+    import io
+    b = io.BytesIO()
+    np.lib.format.write_array_header_1_0(b, {"descr": "<f8", "fortran_order": False,
+                                             "shape": shape})
+    return b.getvalue() + b"\0" * 64
+
+
+def _huge_checkpoint(e: Env) -> Path:
+    """A copy of the training whose checkpoint has an entry claiming a 1 TB shape."""
+    def make() -> Path:
+        import io
+        import zipfile
+        d = e.copy("train", "train_huge")
+        ck = d / "checkpoint.npz"
+        with np.load(ck) as z:
+            arrays = {k: z[k] for k in z.files}
+        with zipfile.ZipFile(ck, "w") as zf:
+            for k, v in arrays.items():
+                b = io.BytesIO()
+                np.lib.format.write_array(b, v)
+                zf.writestr(k + ".npy", _npy_claiming((1 << 40,)) if k == "a0"
+                            else b.getvalue())
+        return d
+    return e._once("huge_checkpoint", make)
+
+
+def _gz_bomb(e: Env) -> Path:
+    """results.csv.gz: a few hundred kB that inflate to more than 256 MiB."""
+    def make() -> Path:
+        import gzip
+        p = e.tmp / "results.csv.gz"
+        with gzip.open(p, "wb", compresslevel=1) as f:
+            f.write(b"run_id,seed,length_s\n")
+            zeros = b"0" * (1 << 20)
+            for _ in range(257):
+                f.write(zeros)
+        return p
+    return e._once("gz_bomb", make)
+
+
+for suffix in ("csv", "json", "npy", "npz", "txt"):
+    case(f"run-weights-1GiB-{suffix}",
+         lambda e, x=suffix: S("run", "--seconds", "0.01", "--weights", _sparse(e, f"w.{x}"),
+                               "--out", out(e)), 2,
+         "1,073,741,824 bytes (refused unread), more than the 64 MiB", "absent", out)
+case("run-weights-npy-header-claims-a-huge-shape",
+     lambda e: S("run", "--seconds", "0.01", "--weights",
+                 e.file("h.npy", _npy_claiming((1 << 30, 8, 8))), "--out", out(e)), 2,
+     "(1073741824, 8, 8)", "absent", out)
+case("study-file-1GiB", lambda e: S("study", _sparse(e, "big.toml"), "--out", out(e)), 2,
+     "more than the 16 MiB", "absent", out)
+case("run-model-file-1GiB",
+     lambda e: S("run", "--seconds", "0.01", "--model",
+                 f"motor_neuron={_sparse(e, 'mn.toml')}", "--out", out(e)), 2,
+     "more than the 16 MiB", "absent", out)
+case("train-resume-checkpoint-entry-claims-a-huge-shape",
+     lambda e: S("train", "--resume", _huge_checkpoint(e), "--no-progress"), 2,
+     "(1099511627776,)", "unchanged", _huge_checkpoint)
+case("study-plan-from-a-gz-bomb",
+     lambda e: S("study", e.study(study_text()), "--plan-from", _gz_bomb(e), "--out", out(e)),
+     2, "once inflated (or more), more than the 256 MiB", "absent", out)
+
 # ---- leftovers: names of 235-255 bytes (their temporaries' names fit), a killed plot's or
 # video's temporary (export still reads the run), the README's delay example (why, and the fix)
 LONG = 255

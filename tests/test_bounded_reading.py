@@ -293,3 +293,114 @@ def test_a_device_is_refused_too():
 
     with pytest.raises(InputError, match=r"not a regular file \(a character device\)"):
         read_bytes("/dev/zero")  # would otherwise be read without end
+
+
+# ---------------------------------------------------------------- sizes and headers
+GIB = 1 << 30
+
+
+def sparse(path: Path, size: int = GIB) -> Path:
+    """A file of ``size`` bytes that takes no disk and no time to make."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "wb") as f:
+        f.truncate(size)
+    return path
+
+
+def npy_claiming(shape: tuple[int, ...], data: bytes = b"\0" * 64) -> bytes:
+    """A .npy whose header claims ``shape`` (float64) over a few bytes of data."""
+    import io
+
+    b = io.BytesIO()
+    np.lib.format.write_array_header_1_0(b, {"descr": "<f8", "fortran_order": False,
+                                             "shape": shape})
+    return b.getvalue() + data
+
+
+def npz_claiming(path: Path, name: str, shape: tuple[int, ...]) -> Path:
+    import zipfile
+
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr(name + ".npy", npy_claiming(shape))
+    return path
+
+
+@pytest.mark.parametrize("name", ["w.csv", "w.json", "w.npy", "w.npz", "w.txt"])
+def test_a_huge_weights_file_is_refused_by_its_size_unread(tmp_path, capsys, name):
+    path = sparse(tmp_path / name)
+    t0 = time.perf_counter()
+    code, line = cli(["run", "--seconds", "0.3", "--weights", path, "--out", tmp_path / "o"],
+                     capsys)
+    assert code == 2 and str(path) in line and "1,073,741,824 bytes" in line, line
+    assert "64 MiB" in line and "unread" in line, line
+    assert time.perf_counter() - t0 < 10  # was: read whole (23 s, 7.5 GB for 1 GB)
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("kind", ["npy", "npz"])
+def test_an_array_header_claiming_a_huge_shape_is_refused_before_numpy_allocates(
+        tmp_path, capsys, kind):
+    if kind == "npy":
+        path = tmp_path / "w.npy"
+        path.write_bytes(npy_claiming((1 << 30, 8, 8)))
+    else:
+        path = npz_claiming(tmp_path / "w.npz", "weights_mV", (1 << 30, 8, 8))
+    code, line = cli(["run", "--seconds", "0.3", "--weights", path, "--out", tmp_path / "o"],
+                     capsys)
+    assert code == 2 and str(path) in line and "(1073741824, 8, 8)" in line, line
+
+
+def test_a_training_whose_weights_header_claims_a_huge_shape_is_refused(tmp_path, capsys):
+    folder = tmp_path / "t"
+    assert main(["train", "--sessions", "1", "--set", "L_max=0.2*second", "--no-progress",
+                 "--out", str(folder)]) == 0
+    capsys.readouterr()
+    npz_claiming(folder / "weights.npz", "final_weights_mV", (1 << 40, 8, 8))
+    code, line = cli(["run", "--seconds", "0.3", "--weights", folder, "--out",
+                      tmp_path / "o"], capsys)
+    assert code == 2 and "weights.npz" in line and "(1099511627776, 8, 8)" in line, line
+
+
+def test_a_checkpoint_entry_claiming_a_huge_shape_is_refused(tmp_path, capsys):
+    """Before: NumPy allocated what the entry's header claimed ("out of memory")."""
+    import zipfile
+
+    path = checkpoint_with(tmp_path / "t" / ck.CHECKPOINT, state='{"x": {"$array": "a0"}}')
+    with zipfile.ZipFile(path, "a") as z:
+        z.writestr("a0.npy", npy_claiming((1 << 40,)))
+    with pytest.raises(InputError, match=r"shape \(1099511627776,\)") as e:
+        ck.read_checkpoint(path)
+    assert str(path) in e.value.line
+    code, line = cli(["train", "--resume", tmp_path / "t", "--no-progress"], capsys)
+    assert code == 2 and ck.CHECKPOINT in line and "1099511627776" in line, line
+
+
+@pytest.mark.parametrize("option", ["study", "--model", "--equations", "--population"])
+def test_a_huge_text_file_is_refused_by_its_size_unread(tmp_path, capsys, option):
+    path = sparse(tmp_path / ("x.toml" if option != "--equations" else "x.txt"))
+    argv = {"study": ["study", path, "--out", tmp_path / "s"],
+            "--model": ["run", "--seconds", "0.3", "--model", f"motor_neuron={path}", "--out",
+                        tmp_path / "o"],
+            "--equations": ["run", "--seconds", "0.3", "--equations",
+                            f"motor_neuron={path}", "--out", tmp_path / "o"],
+            "--population": ["run", "--seconds", "0.3", "--population", path, "--out",
+                             tmp_path / "o"]}[option]
+    code, line = cli(argv, capsys)
+    assert code == 2 and str(path) in line and "16 MiB" in line, line
+
+
+def test_a_plan_source_is_inflated_only_up_to_its_bound(tmp_path, capsys, monkeypatch):
+    """A small .gz that inflates to more than the bound is refused while it inflates, naming
+    the file and the bound (before: 3 GB inflated, "out of memory" naming no file)."""
+    import gzip
+
+    from astrocpg.studies.parameter_studies import measured
+
+    monkeypatch.setattr(measured, "MAX_PLAN_BYTES", 1 << 20)
+    path = tmp_path / "results.csv.gz"
+    with gzip.open(path, "wb") as f:
+        f.write(b"run_id,seed,length_s\n" + b"r,1,1.0\n" * (1 << 18))  # 2 MiB inflated
+    assert path.stat().st_size < 100_000
+    code, line = cli(["study", "quick", "--plan-from", path, "--out", tmp_path / "s"], capsys)
+    assert code == 2 and str(path) in line and "1 MiB" in line and "inflated" in line, line
+    assert not (tmp_path / "s").exists()

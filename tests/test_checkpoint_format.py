@@ -268,7 +268,8 @@ def test_train_out_on_an_old_format_folder_is_refused_or_replaced(tmp_path, trai
     marker = tmp_path / "marker"
     _plant(folder, "old-format", marker)
     manifest = json.loads((folder / "manifest.json").read_text())
-    manifest.pop("inventory")  # as an old astrocpg wrote it (no inventory): all its own
+    manifest.pop("inventory")  # as an old astrocpg wrote it (no inventory): the files it
+    manifest["files"][ck.LEGACY_CHECKPOINT] = "the old checkpoint"  # names are its own
     (folder / "manifest.json").write_text(json.dumps(manifest))
     before = tree(folder)
     assert main(["train", "--sessions", "1", *SHORT, "--out", str(folder), "--no-progress"]) == 2
@@ -588,3 +589,30 @@ def test_changed_equations_are_named(tmp_path, trained, capsys):
     assert main(["train", "--resume", str(trained), "--equations", f"motor_neuron={eq}",
                  "--no-progress"]) == 2
     assert "already finished" in one_line(capsys)
+
+
+def test_two_identical_trainings_write_the_same_bytes(tmp_path):
+    """The same training twice (in this process and another, seconds apart): every file the
+    same bytes -- the checkpoint's objects in one order, each .npz member with one timestamp --
+    but the manifests, which say when and how long (their inventories' hashes agree)."""
+    from astrocpg.studies.cli import main
+
+    argv = ["train", "--sessions", "2", "--set", "L_max=0.3*second", "--record-every", "1",
+            "--no-progress"]
+    # a network built before in this process: Brian2 then names the clocks otherwise
+    assert main(["run", "--seconds", "0.1", "--no-progress", "--out", str(tmp_path / "r")]) == 0
+    assert main([*argv, "--out", str(tmp_path / "a")]) == 0
+    done = subprocess.run([sys.executable, "-m", "astrocpg", *argv, "--out",
+                           str(tmp_path / "b")], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+
+    def files(root):
+        return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*"))
+                if p.is_file() and p.name != "manifest.json"}
+    a, b = files(tmp_path / "a"), files(tmp_path / "b")
+    assert "checkpoint.npz" in a and any(k.startswith("recordings/") for k in a)
+    assert set(a) == set(b)
+    assert [k for k in a if a[k] != b[k]] == []
+    sha = [{k: v["sha256"] for k, v in json.loads((tmp_path / d / "manifest.json").read_text())
+            ["inventory"].items() if not k.endswith("manifest.json")} for d in "ab"]
+    assert sha[0] == sha[1]

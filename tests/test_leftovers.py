@@ -50,7 +50,8 @@ def test_folders_and_files_of_255_bytes_are_written_and_replaced(tmp_path):
         target = tmp_path / name
         with OutputFolder(target) as d:
             (d / "a").write_text("1")
-            (d / "manifest.json").write_text(json.dumps({"astrocpg_command": "run"}))
+            (d / "manifest.json").write_text(json.dumps({"astrocpg_command": "run",
+                                                         "inventory": inventory(d)}))
         with OutputFolder(target, overwrite=True) as d:
             (d / "a").write_text("2")
         assert (target / "a").read_text() == "2"
@@ -104,11 +105,25 @@ def test_remove_derived_removes_exactly_what_later_commands_write(tmp_path):
         if name.endswith("/"):
             (d / name).mkdir()
             (d / name / "x").write_text("x")
+            if name in ("figures/", "report/", "evaluation/"):  # astrocpg's: its own manifest
+                (d / name / "manifest.json").write_text(json.dumps(
+                    {"astrocpg_command": "plot", "inventory": inventory(d / name)}))
         else:
             (d / name).write_text("x")
     assert sorted(remove_derived(d)) == sorted(derived)
     assert sorted(n + ("/" if (d / n).is_dir() else "") for n in os.listdir(d)) == sorted(own)
     assert len(DERIVED) == len(derived)  # a new derived place must be added here too
+    # what the user put there stays, and so does the folder that holds it
+    (d / "figures").mkdir()
+    (d / "figures" / "x").write_text("x")
+    (d / "figures" / "manifest.json").write_text(json.dumps(
+        {"astrocpg_command": "plot", "inventory": inventory(d / "figures")}))
+    (d / "figures" / "mine.md").write_text("mine")
+    (d / "report").mkdir()
+    (d / "report" / "old.png").write_text("no manifest: not astrocpg's")
+    assert remove_derived(d) == ["figures/"]
+    assert sorted(os.listdir(d / "figures")) == ["mine.md"]
+    assert (d / "report" / "old.png").is_file()
 
 
 # ---------------------------------------------------------------- delays

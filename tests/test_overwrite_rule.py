@@ -26,7 +26,7 @@ from typing import Callable
 import pytest
 
 from astrocpg.studies.cli import main
-from astrocpg.studies.outputs.folder import verify
+from astrocpg.studies.outputs.folder import inventory, verify
 from tiny_study import tiny_study
 
 SHORT = ["--set", "L_max=0.2*second", "--set", "L_non_alive=0.1*second"]
@@ -176,6 +176,8 @@ def test_overwrite_still_replaces_an_astrocpg_output_that_is_no_input(made, tmp_
     shutil.copytree(made["run"], other)
     (other / "figures").mkdir()
     (other / "figures" / "old.png").write_bytes(b"old")
+    (other / "figures" / "manifest.json").write_text(json.dumps(  # plot's: astrocpg's own
+        {"astrocpg_command": "plot", "inventory": inventory(other / "figures")}))
     assert main(["run", "--seconds", "0.01", "--no-progress", "--out", str(other),
                  "--overwrite"]) == 0
     verify(other)  # whole: none of the old files mixed in

@@ -4,6 +4,7 @@ limbs and for limbs in stages; and a default run's memory per trial per simulate
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -266,3 +267,37 @@ def test_traces_sampled_by_compiled_code_are_numpys_byte_for_byte(tmp_path, monk
             assert got["1"].summary[key] == got["0"].summary[key], (where, key)
     if dtype == "float32":
         assert got["1"].summary["trace_overflow"]
+
+
+def test_spill_files_go_inside_the_folder_being_written_never_the_current_folder(
+        tmp_path, monkeypatch):
+    """The README's first run, ``--out out/run`` with ``out/`` not yet there: the spilled
+    traces are hidden temporaries inside the run's own temporary folder, never in the
+    current folder (a clone's root, which a file there would make "dirty")."""
+    import astrocpg
+    from astrocpg.network import recording
+    from astrocpg.studies.commands import run as run_module
+    from astrocpg.studies.outputs.folder import parse_temp_name
+
+    monkeypatch.setattr(recording, "SPILL_BYTES", 0)
+    monkeypatch.chdir(tmp_path)
+    seen: list[tuple[Path, list[str]]] = []
+    spill_files = run_module.spill_files
+
+    def watched(folder):
+        make, made = spill_files(folder)
+
+        def spill(name):
+            path, sink = make(name)
+            seen.append((path, sorted(os.listdir(tmp_path))))
+            return path, sink
+        return spill, made
+    monkeypatch.setattr(run_module, "spill_files", watched)
+    astrocpg.run(seconds=0.3, progress=False, out="out/run")
+    assert seen
+    for path, cwd in seen:
+        assert path.parent.parent == tmp_path / "out", path
+        assert (parse_temp_name(path.parent.name) or {}).get("kind") == "partial", path
+        assert cwd == ["out"], cwd
+    assert sorted(os.listdir(tmp_path)) == ["out"]
+    assert sorted(os.listdir(tmp_path / "out")) == ["run"]

@@ -167,27 +167,20 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
         robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
                       else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
         start_x = layout.reset_qpos[layout.free_qpos_adr]
-        # a run that writes a folder puts its large traces on disk as it goes (read_spilled)
-        spill, spilled = spill_files(nearest_folder(Path(out))) if out is not None else (None, [])
-        try:
-            try:
-                result = _simulate(models, model, layout, dict(settings, weights=table), procs,
-                                   progress, spill)
-            except Diverged as e:  # the folder keeps what ran, and says it diverged
-                if out is not None and getattr(e, "result", None) is not None:
-                    _summarise(e.result, models, start_x, robot_info, table, e)
-                    with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
-                        write_run_folder(folder, e.result, settings, figure=figure)
-                raise
+        def simulate(spill: Any) -> Any:  # over the workers, or here
+            return _simulate(models, model, layout, dict(settings, weights=table), procs,
+                             progress, spill)
+
+        if out is None:
+            result = simulate(None)
             _summarise(result, models, start_x, robot_info, table)
-            summary = run_results(result)  # before the spilled traces are read from the folder
-            if out is not None:
-                # whole, or nothing
-                with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
-                    write_run_folder(folder, result, settings, figure=figure, results=summary)
-                result.traces = read_spilled(result.traces, Path(out) / "traces.npz")
-        finally:
-            remove_files(spilled)
+            summary = run_results(result)
+        else:
+            result, summary = _simulate_into(
+                OutputFolder(out, overwrite=overwrite, inputs=inputs), simulate,
+                lambda r, e=None: _summarise(r, models, start_x, robot_info, table, e),
+                settings, figure)
+            result.traces = read_spilled(result.traces, Path(out) / "traces.npz")
         return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
                                       summary=summary, robot=robot_arrays(result),
                                       models=models, folder=out)
@@ -304,15 +297,33 @@ def _simulate(models: ModelSet, model: Any, layout: Any, spec: dict[str, Any], p
         progress=progress, trace_dtype=spec["trace_dtype"], spill=spill)
 
 
-
-
-def nearest_folder(path: Path) -> Path:
-    """The nearest existing folder at or above ``path``'s parent (where a run's spilled traces
-    wait: on the file system the folder will be written to, nothing created early)."""
-    parent = path.absolute().parent
-    while not parent.is_dir() and parent != parent.parent:
-        parent = parent.parent
-    return parent
+def _simulate_into(folder: OutputFolder, simulate: Any, summarise: Any,
+                   settings: dict[str, Any], figure: bool) -> tuple[Any, Any]:
+    """``simulate(spill)`` and its folder, whole or nothing: (the result, its summary). A run
+    that writes a folder puts its large traces on disk as it goes (:func:`read_spilled`):
+    hidden in the folder being written, never in the current folder or beside the output.
+    Diverged: the folder keeps what ran, and says it diverged; then the error is raised."""
+    diverged: Diverged | None = None
+    with folder as tmp:
+        spill, spilled = spill_files(tmp)
+        try:
+            try:
+                result = simulate(spill)
+            except Diverged as e:
+                if getattr(e, "result", None) is None:
+                    raise
+                summarise(e.result, e)
+                write_run_folder(tmp, e.result, settings, figure=figure)
+                diverged = e
+            else:
+                summarise(result)
+                summary = run_results(result)  # before the spilled traces are read
+                write_run_folder(tmp, result, settings, figure=figure, results=summary)
+        finally:
+            remove_files(spilled)
+    if diverged is not None:
+        raise diverged
+    return result, summary
 
 
 def read_spilled(traces: dict[str, tuple[np.ndarray, Any]],

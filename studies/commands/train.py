@@ -19,7 +19,6 @@ import io
 import math
 import os
 import re
-import shutil
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -41,7 +40,8 @@ from ..outputs.checkpoint import (CHECKPOINT, LEGACY_CHECKPOINT, holds_checkpoin
                                refuse_legacy, write_checkpoint as write_checkpoint_file)
 from ..outputs.checkpoint import read_checkpoint as read_checkpoint_file
 from ..outputs.folder import (FolderLock, OutputFolder, clean_stale_temporaries, clear_folder,
-                            as_path, holds_results, refuse_in_use, remove_derived, file_sha256)
+                            as_path, holds_results, refuse_in_use, remove_derived, remove_own,
+                            file_sha256)
 from ..outputs.writing import (atomic_write, read_manifest, save_npz, save_spikes_and_traces,
                              write_manifest)
 from ..outputs.result import Result
@@ -217,6 +217,13 @@ class Trainer:
         net = self.cpg.net
         net.store("checkpoint")
         brian_state = net._stored_state.pop("checkpoint")
+        # the same training writes the same checkpoint, byte for byte: in sorted order
+        # (Brian2 stores its objects in an order that varies between processes), each clock
+        # under its stem (the suffix a clock's name gets when the name
+        # was taken earlier in the process is no part of the training; _rename_clocks)
+        brian_state = {_CLOCK.sub(r"\1", k): dict(sorted(v.items())) if isinstance(v, dict)
+                       else v for k, v in sorted(brian_state.items(),
+                                                 key=lambda kv: _CLOCK.sub(r"\1", kv[0]))}
         # the step in progress is complete: the resumed run starts at the next one
         brian_state["0_t"] = brian_state["0_t"] + float(self.cpg.dt)
         mj = []
@@ -303,12 +310,7 @@ class Trainer:
             if not self.record.records(sessions, self.settings.n_sessions):
                 for b in range(self.trial_offset, self.trial_offset + self.settings.n_trials):
                     stale = self.folder / "recordings" / f"trial{b:02d}_session{sessions:04d}"
-                    if stale.exists():
-                        try:
-                            shutil.rmtree(stale)
-                        except OSError as e:
-                            raise EnvironmentFault.from_os_error(e, stale,
-                                                                 "cannot remove") from None
+                    remove_own(stale)  # what the user put there stays
 
     # ---- run
     def run(self) -> float:
@@ -805,7 +807,7 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
     if holds_checkpoint(out) and not overwrite:
         raise InputError(f"already holds a training run (continue it with --resume {out}, or "
                          f"replace it with --overwrite)", culprit=f"--out {out}")
-    OutputFolder(out, overwrite=overwrite, inputs=inputs).check()
+    OutputFolder(out, overwrite=overwrite, inputs=inputs, command="train").check()
     procs = min(resolve_workers(workers), settings.n_trials)
     with added_populations(settings.populations):  # recorded and built like the others
         plan = record_plan(record_every, record_stride, spikes, traces, trace_dtype)
@@ -1211,7 +1213,7 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
     try:
         with FolderLock(out, culprit="--out" if payload is None else "--resume"):
             if replace:  # --overwrite: the old run goes whole, never mixed with the new one
-                clear_folder(out)
+                clear_folder(out, culprit=f"--out {out}")
             elif new and holds_results(out):  # another process filled it since the check
                 raise InputError("is not empty; --overwrite replaces it whole",
                                  culprit=f"--out {out}")

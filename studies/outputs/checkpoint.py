@@ -35,8 +35,8 @@ from typing import Any
 import numpy as np
 
 from ...errors import EnvironmentFault, InputError
-from ...reading import loads_json, open_regular
-from .writing import atomic_write
+from ...reading import check_npy, loads_json, open_regular
+from .writing import atomic_write, savez
 
 CHECKPOINT = "checkpoint.npz"
 #: The pickled checkpoint of earlier versions: refused, never read.
@@ -250,7 +250,7 @@ def write_checkpoint(path: Path, meta: dict[str, Any], state: Any) -> None:
     arrays = {"meta": np.frombuffer(meta_json.encode(), dtype=np.uint8),
               "state": np.frombuffer(state_json.encode(), dtype=np.uint8)} | enc.arrays
     # uncompressed: a checkpoint is written often and its arrays are mostly noise-like floats
-    atomic_write(Path(path), lambda f: np.savez(f, **arrays))
+    atomic_write(Path(path), lambda f: savez(f, arrays))
 
 
 def _open(path: Path, culprit: str) -> tuple[Any, Any]:
@@ -296,7 +296,8 @@ def _check_sizes(f: Any, path: Path, culprit: Any) -> None:
     be stored as is (its declared size equal to the bytes it takes in the file) and the sizes
     must add up to no more than the file: nothing in it can make the reader use more memory
     than the file's own size (a compressed entry, a compression bomb, a declared size larger
-    than the file is refused before anything is decompressed)."""
+    than the file is refused before anything is decompressed), nor can an array's header
+    claim more than its entry holds (:func:`~astrocpg.reading.check_npy`)."""
     size = os.fstat(f.fileno()).st_size
     with zipfile.ZipFile(f) as zf:
         total = 0
@@ -309,6 +310,13 @@ def _check_sizes(f: Any, path: Path, culprit: Any) -> None:
             if total > size:
                 raise _error(path, culprit, f"is corrupt (entry {info.filename} declares "
                                             f"{info.file_size} bytes, more than the file holds)")
+        for info in zf.infolist():  # each array's header against its entry's bytes, before
+            if info.filename.endswith(".npy"):  # NumPy allocates what a header claims
+                with zf.open(info) as member:
+                    try:
+                        check_npy(member, info.file_size, path, path, info.filename)
+                    except InputError as e:
+                        raise _error(path, culprit, f"is corrupt ({e.message})") from None
 
 
 def _referenced(tree: Any, found: set[str], depth: int = 0) -> set[str]:

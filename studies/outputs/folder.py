@@ -7,10 +7,13 @@
 * :func:`check_output_path` / :func:`check_replaceable` -- the one rule of every ``--out``: it
   is never the current folder, a folder or file the command reads, nor holds one, nor lies
   inside one but at a derived place (``figures/``, ``report/``, ...); and ``--overwrite``
-  replaces only an astrocpg output folder (it has astrocpg's ``manifest.json``), never a
-  folder of the user's own files, nor a file an output folder's manifest lists.
-* :func:`inventory` / :func:`verify` -- the manifest's ``"inventory"`` lists every file with its
-  size and sha256; readers refuse a folder whose files do not match it.
+  replaces only an astrocpg output folder (it has astrocpg's ``manifest.json``) that holds
+  nothing but what astrocpg wrote and recorded (``sort_out``: never a user's file, link or
+  empty folder), never a folder of the user's own files, nor a file an output folder's
+  manifest lists, nor a training or study but by the same command.
+* :func:`inventory` / :func:`verify` -- the manifest's ``"inventory"`` lists every file
+  astrocpg wrote with its size and sha256 (a folder written in place never adopts a user's
+  file); readers refuse a folder whose files do not match it.
 * :class:`FolderLock` -- a running ``train`` or ``study`` owns its folder; a second process on
   the same folder stops with one line naming the holder.
 * :func:`clean_stale_temporaries` -- hidden temporaries (folders and files) whose name carries
@@ -289,40 +292,213 @@ def _refuse_part_of_output(path: Path, culprit: str) -> None:
                              f"or write to a folder of its own)", culprit=culprit)
 
 
-def _refuse_foreign_files(path: Path, culprit: str) -> None:
-    """InputError naming the first file (and how many there are) of the astrocpg output
-    folder ``path`` that its manifest's inventory does not list and that no later astrocpg
-    command writes there (:data:`DERIVED`): a file the user added is never deleted by
-    ``--overwrite``. A manifest without an inventory (an older astrocpg's) claims every file."""
+def _astrocpg_manifest(folder: Path) -> dict[str, Any] | None:
+    """``folder/manifest.json`` when astrocpg wrote it (a JSON object naming its command),
+    else None (no manifest, unreadable, not astrocpg's)."""
     try:
-        manifest = read_json(path / MANIFEST)
-    except FileNotFoundError:
-        manifest = {"inventory": {}}
+        manifest = read_json(folder / MANIFEST)
     except (OSError, ValueError):
-        manifest = {}
-    if not isinstance(manifest, dict) or "inventory" not in manifest:
-        return  # written by an astrocpg before manifests listed files: all of it is its own
-    listed = manifest["inventory"] if isinstance(manifest["inventory"], dict) else {}
+        return None
+    if isinstance(manifest, dict) and isinstance(manifest.get("astrocpg_command"), str):
+        return manifest
+    return None
+
+
+def _listing(manifest: dict[str, Any] | None) -> dict[str, Any] | None:
+    """A manifest's inventory, when it has a well-formed one."""
+    listed = None if manifest is None else manifest.get("inventory")
+    return listed if isinstance(listed, dict) else None
+
+
+def _as_recorded(path: Path, st: os.stat_result, entry: Any) -> bool:
+    """Is the file ``path`` (stat ``st``) the one an inventory ``entry`` records: the same size
+    and, where the entry has it, the same mtime; else the same sha256."""
+    if not (isinstance(entry, dict) and entry.get("bytes") == st.st_size):
+        return False
+    if entry.get("mtime_ns") == st.st_mtime_ns:
+        return True
     try:
-        foreign = [rel for rel, _ in _files(path)
-                   if rel not in listed and not any(fnmatch.fnmatchcase(rel, p)
-                                                    for p in DERIVED)]
+        return file_sha256(path) == entry.get("sha256")
+    except (OSError, InputError):
+        return False
+
+
+#: Derived single files that carry no manifest of their own: astrocpg's by their names.
+_DERIVED_BY_NAME = ("video_trial*.mp4", "power_trial*.json", "evaluation.parts/*")
+
+
+def sort_out(root: str | os.PathLike,
+             only: Iterable[str] | None = None) -> tuple[list[Path], list[str]]:
+    """What in the folder ``root`` astrocpg wrote and recorded, and what it did not.
+
+    Returns (astrocpg's files, the user's entries as relative POSIX paths, folders ending in
+    ``/``). A file is astrocpg's when an astrocpg inventory lists it as it is (name, and size
+    with mtime or sha256): ``root``'s own manifest's, or the manifest of a folder inside it
+    (a figures/, a recorded session, a study's run); manifests (astrocpg's) and lock files and
+    hidden temporaries are astrocpg's too, and so are a video or a power estimate at the top
+    (``video_trial*.mp4``, ``power_trial*.json``, ``evaluation.parts/``). Everything else is
+    the user's: a file no inventory lists or one changed since, a link (to a file or a
+    folder), a folder that holds nothing of astrocpg's (an empty one included). Nothing is
+    followed through a link. Where ``root``'s manifest has no inventory (an older astrocpg's),
+    the files at its top that the manifest's ``"files"`` names are astrocpg's, nothing else.
+    ``only``: look at just these names at the top of ``root`` (nothing else is read)."""
+    root = Path(root)
+    top = None if only is None else set(only)
+    own: list[Path] = []
+    foreign: list[str] = []
+
+    def walk(folder: Path, rel: str, listings: list[tuple[str, dict[str, Any]]]) -> bool:
+        manifest = _astrocpg_manifest(folder)
+        listed = _listing(manifest)
+        if listed is not None:
+            listings = [*listings, (rel, listed)]
+        try:
+            with os.scandir(folder) as it:
+                entries = sorted(it, key=lambda e: e.name)
+        except OSError as e:
+            raise EnvironmentFault.from_os_error(e, folder, "cannot read") from None
+        holds_own = False
+        for entry in entries:
+            name = entry.name
+            if rel == "" and top is not None and name not in top:
+                continue
+            sub = f"{rel}{name}"
+            path = folder / name
+            if name in (LOCK_NAME, OWNER_NAME) or parse_temp_name(name) is not None:
+                holds_own = True  # astrocpg's own bookkeeping: never the user's
+                continue
+            if entry.is_symlink():
+                foreign.append(sub)
+                continue
+            if entry.is_dir():
+                before = len(foreign)
+                if walk(path, sub + "/", listings):
+                    holds_own = True
+                elif len(foreign) == before:
+                    foreign.append(sub + "/")  # an empty folder: the user's
+                continue
+            if name == MANIFEST and manifest is not None:
+                own.append(path)
+                holds_own = True
+                continue
+            st = entry.stat(follow_symlinks=False)
+            mine = any(_as_recorded(path, st, inv.get(sub[len(at):]))
+                       for at, inv in reversed(listings) if sub[len(at):] in inv)
+            if not mine:
+                mine = any(fnmatch.fnmatchcase(sub, p) for p in _DERIVED_BY_NAME)
+            if not mine and rel == "" and listed is None and manifest is not None:
+                # an older astrocpg's manifest (no inventory): the files it names, no more
+                files = manifest.get("files")
+                mine = isinstance(files, dict) and name in files
+            if mine:
+                own.append(path)
+                holds_own = True
+            else:
+                foreign.append(sub)
+        return holds_own
+
+    walk(root, "", [])
+    return own, foreign
+
+
+def _remove_files(root: Path, paths: Iterable[Path]) -> None:
+    """Delete ``paths`` (files inside ``root``), then the folders that held them, up to
+    ``root`` itself, that are empty once they are gone."""
+    dirs: set[Path] = set()
+    try:
+        for path in paths:
+            _remove(path)
+            dirs.update(p for p in path.parents if p == root or root in p.parents)
+        for d in sorted(dirs, key=lambda p: len(p.parts), reverse=True):
+            if d.is_dir() and not d.is_symlink() and not any(d.iterdir()):
+                os.rmdir(d)
     except OSError as e:
-        raise EnvironmentFault.from_os_error(e, e.filename or path, "cannot read") from None
-    if foreign:
-        more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
-        raise InputError(f"holds {foreign[0]}{more} that astrocpg did not write (not listed in "
-                         f"its {MANIFEST}); --overwrite replaces only what astrocpg wrote: "
-                         f"move your files out first, or choose another folder",
-                         culprit=culprit)
+        raise EnvironmentFault.from_os_error(e, e.filename or root, "cannot remove") from None
 
 
-def check_replaceable(target: str | os.PathLike, *, culprit: str) -> None:
+def remove_own(folder: str | os.PathLike) -> list[str]:
+    """Delete what astrocpg wrote and recorded in ``folder`` (``sort_out``), and the
+    folders that held it once they are empty (``folder`` itself included); the user's entries
+    stay, and with them the folders that hold them. Returns the user's entries left
+    (relative POSIX paths)."""
+    root = Path(folder)
+    if root.is_symlink() or not root.is_dir():
+        return []
+    own, foreign = sort_out(root)
+    _remove_files(root, own)
+    return foreign
+
+
+def _refuse_foreign_files(path: Path, culprit: str) -> None:
+    """InputError naming the first entry (and how many there are) of the astrocpg output
+    folder ``path`` that astrocpg did not write and record (``sort_out``: a file its
+    manifest's inventory does not list, or one changed since; a link; an empty folder): a
+    thing the user added is never deleted by ``--overwrite``. A manifest without an inventory
+    (an older astrocpg's, or not astrocpg's) claims nothing but itself."""
+    manifest = _astrocpg_manifest(path)
+    _, foreign = sort_out(path)
+    if not foreign:
+        return
+    more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+    if manifest is not None and _listing(manifest) is None:
+        raise InputError(f"holds {foreign[0]}{more}, and its {MANIFEST} lists no files (no "
+                         f"\"inventory\": an older astrocpg's?), so astrocpg cannot tell its "
+                         f"files from yours; --overwrite replaces only what astrocpg wrote: "
+                         f"delete the folder yourself, or choose another", culprit=culprit)
+    raise InputError(f"holds {foreign[0]}{more} that astrocpg did not write (not listed in "
+                     f"its {MANIFEST}, or changed since); --overwrite replaces only what "
+                     f"astrocpg wrote: move your files out first, or choose another folder",
+                     culprit=culprit)
+
+
+#: Outputs that hold work a later command continues (a training, a study): ``--overwrite``
+#: replaces them only with the same command's output, never with a plot or a run.
+_KEPT_WORK = ("train", "study")
+
+
+def _refuse_other_command(path: Path, command: str | None, culprit: str) -> None:
+    manifest = _astrocpg_manifest(path)
+    made_by = None if manifest is None else manifest.get("astrocpg_command")
+    if made_by in _KEPT_WORK and made_by != command:
+        raise InputError(f"holds an astrocpg {made_by} output (its {MANIFEST} says so); "
+                         f"--overwrite replaces it only with another {made_by}: choose another "
+                         f"folder, or delete it yourself", culprit=culprit)
+
+
+#: How the files astrocpg writes alone (an export, a video) begin, by suffix: ``--overwrite``
+#: replaces an existing file only when it is of the kind the command writes.
+_MAGIC = {".nwb": (0, b"\x89HDF\r\n\x1a\n"), ".npz": (0, b"PK\x03\x04"),
+          ".mp4": (4, b"ftyp")}
+
+
+def _refuse_foreign_file(path: Path, culprit: str) -> None:
+    """InputError when the existing file ``path`` is not of the kind astrocpg writes under its
+    suffix (an NWB, an .npz, an MP4 by its first bytes): your ``notes.txt`` or a file renamed
+    is never replaced by an export or a video."""
+    offset, magic = _MAGIC.get(path.suffix.lower(), (0, b""))
+    head = b""
+    if magic:
+        try:
+            with open_regular(path, culprit) as f:
+                head = f.read(offset + len(magic))[offset:]
+        except OSError:
+            head = b""
+    if not magic or head != magic:
+        kind = f"an {path.suffix[1:]} file" if magic else "a file of a kind astrocpg writes"
+        raise InputError(f"exists and is not {kind}; --overwrite replaces only a file of the "
+                         f"kind astrocpg writes there: choose another name, or remove it "
+                         f"yourself", culprit=culprit)
+
+
+def check_replaceable(target: str | os.PathLike, *, culprit: str,
+                      command: str | None = None) -> None:
     """What ``--overwrite`` may replace: an existing folder that :func:`is_astrocpg_output`
-    (an existing file: one that no astrocpg output folder around it lists in its manifest).
-    Anything else, e.g. a folder of the user's own files, is refused (InputError naming
-    ``culprit``) and left as it is. Call it after :func:`check_output_path`. A folder another
-    astrocpg process is writing is refused as in use first, whatever it holds yet."""
+    and holds nothing but what astrocpg wrote and recorded (``sort_out``), and that is
+    no training or study unless ``command`` (the command writing) is the same (an existing
+    file: one that no astrocpg output folder around it lists in its manifest). Anything else,
+    e.g. a folder of the user's own files, is refused (InputError naming ``culprit``) and left
+    as it is. Call it after :func:`check_output_path`. A folder another astrocpg process is
+    writing is refused as in use first, whatever it holds yet."""
     refuse_in_use(target, culprit=culprit)
     path = Path(_real(target))
     if path.is_dir():
@@ -333,6 +509,7 @@ def check_replaceable(target: str | os.PathLike, *, culprit: str) -> None:
                              culprit=culprit)
         _refuse_part_of_output(path, culprit)
         _refuse_foreign_files(path, culprit)
+        _refuse_other_command(path, command, culprit)
         return
     if not path.exists():
         return
@@ -347,7 +524,10 @@ def check_replaceable(target: str | os.PathLike, *, culprit: str) -> None:
                 raise InputError(f"is a file of the astrocpg output folder {folder} (listed in "
                                  f"its {MANIFEST}); --overwrite never replaces part of a "
                                  f"folder", culprit=culprit)
-            return
+            if any(fnmatch.fnmatchcase(rel, p) for p in _DERIVED_BY_NAME):
+                return  # a video or power estimate of the folder: astrocpg's by its name
+            break
+    _refuse_foreign_file(path, culprit)
 
 
 # ---------------------------------------------------------------- the output folder
@@ -431,8 +611,11 @@ class OutputFolder:
 
     def __init__(self, target: str | os.PathLike, *, overwrite: bool = False,
                  culprit: str | None = "--out",
-                 inputs: Iterable[str | os.PathLike | None] = ()) -> None:
+                 inputs: Iterable[str | os.PathLike | None] = (),
+                 command: str | None = None) -> None:
         self.shown = as_path(target, culprit or "out")
+        #: the command writing (``train``): what :func:`check_replaceable` lets it replace
+        self.command = command
         #: what the command reads: the target may not be one, hold one, or lie inside one but
         #: at a derived place (:func:`check_output_path`)
         self.inputs = [p for p in inputs if p is not None]
@@ -509,7 +692,7 @@ class OutputFolder:
                              "never mixed with the new ones)", culprit=self._who)
         if os.path.lexists(t / LOCK_NAME):  # a running train/study: say so, whatever it holds
             self._lock = FolderLock(t, culprit=self.culprit).acquire()
-        check_replaceable(t, culprit=self._who)
+        check_replaceable(t, culprit=self._who, command=self.command)
         self._replacing = True
         self._lock = self._lock or FolderLock(t, culprit=self.culprit).acquire()
 
@@ -690,20 +873,98 @@ def file_sha256(path: str | os.PathLike) -> str:
     return h.hexdigest()
 
 
+#: files this process wrote in place (``remember_written``), by (device, inode, size,
+#: mtime_ns): what an inventory of a folder written in place may list beside what it listed
+_MINE: dict[tuple[int, int, int, int], None] = {}
+_MINE_MAX = 1 << 16
+
+
+def remember_written(path: str | os.PathLike) -> None:
+    """Record that this process just wrote the file ``path`` (the atomic writers call it) into
+    a folder it holds (:class:`FolderLock`: a training, a study, a study's run): an inventory
+    of a folder written in place lists only such files and those it listed before. A file
+    written elsewhere (an export beside a recorded session, by the same Python session) is
+    not the folder's."""
+    real = os.path.realpath(os.path.dirname(os.path.abspath(os.fspath(path))))
+    if not any(real == h or real.startswith(h.rstrip(os.sep) + os.sep) for h in _HELD):
+        return
+    try:
+        st = os.stat(path)
+    except OSError:
+        return
+    if len(_MINE) >= _MINE_MAX:
+        _MINE.pop(next(iter(_MINE)))
+    _MINE[(st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)] = None
+
+
+def _wrote(st: os.stat_result) -> bool:
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns) in _MINE
+
+
+def _nested_listing(root: Path, rel: str, cache: dict[str, dict[str, Any] | None]
+                    ) -> tuple[str, dict[str, Any]] | None:
+    """The nearest folder strictly inside ``root`` and above ``rel`` whose astrocpg manifest
+    has an inventory (a recorded session, a study's run): (its relative path with ``/``, the
+    inventory), or None."""
+    parts = rel.split("/")[:-1]
+    for n in range(len(parts), 0, -1):
+        at = "/".join(parts[:n]) + "/"
+        if at not in cache:
+            cache[at] = _listing(_astrocpg_manifest(root / at))
+        if cache[at] is not None:
+            return at, cache[at]  # type: ignore[return-value]
+    return None
+
+
+def _adopted(root: Path, rel: str, path: Path, st: os.stat_result,
+             nested: dict[str, dict[str, Any] | None]) -> bool:
+    """Is ``rel`` (not written by this process) in a folder inside ``root`` whose astrocpg
+    manifest lists it as it is (or that manifest itself)?"""
+    listing = _nested_listing(root, rel, nested)
+    if listing is None:
+        return False
+    at, listed = listing
+    sub = rel[len(at):]
+    return sub == MANIFEST or (sub in listed and _as_recorded(path, st, listed[sub]))
+
+
+def written_in_place(folder: str | os.PathLike) -> bool:
+    """Is ``folder`` written in place (a training, a study, a recorded session), not a
+    command's own hidden temporary (``.<name>.partial-...``, where only the command writes)?"""
+    return (parse_temp_name(Path(folder).name) or {}).get("kind") != "partial"
+
+
 def inventory(folder: str | os.PathLike,
-              previous: Mapping[str, Mapping[str, Any]] | None = None) -> dict[str, dict[str, Any]]:
-    """``{relative POSIX path: {"bytes": int, "sha256": str, "mtime_ns": int}}`` of every file
-    in ``folder`` (sub-folders included) except ``manifest.json`` and the lock files. Hashing is
-    streamed; a file whose size and mtime match its entry in ``previous`` keeps that hash (a
-    training rewrites its inventory at every checkpoint without rehashing its recordings)."""
+              previous: Mapping[str, Mapping[str, Any]] | None = None, *,
+              in_place: bool = False) -> dict[str, dict[str, Any]]:
+    """``{relative POSIX path: {"bytes": int, "sha256": str, "mtime_ns": int}}`` of the files
+    astrocpg wrote in ``folder`` (sub-folders included) except ``manifest.json`` and the lock
+    files. Hashing is streamed; a file whose size and mtime match its entry in ``previous``
+    keeps that hash (a training rewrites its inventory at every checkpoint without rehashing
+    its recordings).
+
+    Every file is listed, unless ``in_place`` (``written_in_place``: a training, a study,
+    a recorded session, where the user may add files while it runs or between its runs); then
+    only what is astrocpg's: the files this process wrote (``remember_written``),
+    those ``previous`` listed (as it listed them: a change since is for readers to find) and,
+    inside a folder with an astrocpg manifest of its own (a study's run written by a worker),
+    what that manifest's inventory lists as it is. A file the user put there is never
+    adopted: a later ``--overwrite`` refuses to delete it."""
     root = Path(folder)
+    whole = not in_place
     out: dict[str, dict[str, Any]] = {}
     previous = previous or {}
+    nested: dict[str, dict[str, Any] | None] = {}
     path = root
     try:
         for rel, path in _files(root):
             st = os.stat(path)
             old = previous.get(rel)
+            if not whole and (os.path.islink(path) or not _wrote(st)):
+                if os.path.islink(path) or not _adopted(root, rel, path, st, nested):
+                    if old:  # listed before: as it was listed (a change is for readers)
+                        out[rel] = dict(old)
+                    continue  # not astrocpg's: never adopted
             if old and old.get("bytes") == st.st_size and old.get("mtime_ns") == st.st_mtime_ns:
                 sha = old["sha256"]
             else:
@@ -791,9 +1052,13 @@ def verify(folder: str | os.PathLike, *, culprit: str | None = None,
     return manifest
 
 
-def clear_folder(folder: str | os.PathLike) -> None:
-    """Delete everything in ``folder`` but its lock files (its owner replaces it whole)."""
+def clear_folder(folder: str | os.PathLike, *, culprit: str | None = None) -> None:
+    """Delete everything in ``folder`` but its lock files (its owner replaces it whole). The
+    folder must hold nothing but what astrocpg wrote and recorded: else InputError naming
+    ``culprit`` and the user's first entry, and nothing is deleted (checked again here, under
+    the folder's lock, in case a file was added since :func:`check_replaceable`)."""
     root = Path(folder)
+    _refuse_foreign_files(root, culprit or f"--out {root}")
     try:
         for entry in list(root.iterdir()):
             if entry.name in (LOCK_NAME, OWNER_NAME):
@@ -812,23 +1077,20 @@ def remove_derived(folder: str | os.PathLike) -> list[str]:
     estimates); returns their names. A training that continues (``train --resume``) calls it:
     those were made from weights the training is about to change, and a stale evaluation beside
     new weights would read as theirs (and ``evaluation.parts/`` would even be reused by the next
-    ``evaluate``)."""
+    ``evaluate``). Only what astrocpg wrote and recorded goes (``sort_out``): a file of the
+    user's in ``figures/`` stays, and so does the folder that holds it."""
     root = Path(folder)
-    removed: list[str] = []
     try:
-        names = sorted(os.listdir(root))
+        names = [n for n in os.listdir(root)
+                 if _derived(n, folder=(root / n).is_dir() and not (root / n).is_symlink())]
     except OSError as e:
         raise EnvironmentFault.from_os_error(e, root, "cannot read the folder") from None
-    for name in names:
-        path = root / name
-        is_dir = path.is_dir() and not path.is_symlink()
-        if _derived(name, folder=is_dir):
-            try:
-                _remove(path)
-            except OSError as e:
-                raise EnvironmentFault.from_os_error(e, path, "cannot remove") from None
-            removed.append(name + ("/" if is_dir else ""))
-    return removed
+    own, _ = sort_out(root, only=names)  # the derived places only: nothing else is hashed
+    gone = [p for p in own if _derived(p.relative_to(root).as_posix(), folder=False)]
+    _remove_files(root, gone)
+    names = {p.relative_to(root).parts[0] + ("/" if len(p.relative_to(root).parts) > 1
+                                              else "") for p in gone}
+    return sorted(names)
 
 
 def holds_results(folder: str | os.PathLike) -> bool:
@@ -1033,6 +1295,8 @@ class FolderLock:
 
 __all__ = ["OutputFolder", "FolderLock", "as_path", "holder_of", "refuse_in_use",
            "check_output_path", "check_replaceable", "is_astrocpg_output", "inventory",
-           "verify", "clean_stale_temporaries", "remove_derived",
+           "verify", "clean_stale_temporaries", "remove_derived", "remove_own", "sort_out",
+           "written_in_place",
+           "remember_written",
            "temp_prefix", "temp_suffix", "parse_temp_name", "pid_alive", "exchange",
            "MANIFEST", "LOCK_NAME", "OWNER_NAME", "UNLISTED", "DERIVED"]

@@ -30,7 +30,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ...errors import InputError
-from ...reading import check_regular, read_bytes, read_json
+from ...reading import MAX_TABLE_BYTES, check_npz, check_regular, read_bytes, read_json
 from .folder import MANIFEST
 from .weights import WEIGHTS, by_labels
 
@@ -167,11 +167,12 @@ def kept_weights(controller: dict[str, Any], session: int | None = None) -> np.n
     check_regular(npz, where)  # a FIFO is refused, never waited on
     if not npz.is_file():
         raise InputError(f"no such file (named by {controller['kept']})", culprit=where)
-    raw = read_bytes(npz, where)
+    raw = read_bytes(npz, where, limit=MAX_TABLE_BYTES)  # refused by its size, unread
     want = _meta(Path(controller["kept"]))["tables"].get("sha256")
     if want and hashlib.sha256(raw).hexdigest() != want:
         raise InputError(f"is not the file {Path(controller['kept']).name} names (its sha256 "
                          f"differs: changed since it was written)", culprit=where)
+    check_npz(io.BytesIO(raw), npz, where, limit=MAX_TABLE_BYTES)  # headers before arrays
     try:
         with np.load(io.BytesIO(raw), allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}

@@ -22,7 +22,8 @@ import numpy as np
 
 from ...errors import EnvironmentFault, InputError, did_you_mean
 from ...network import interlimb_labels
-from ...reading import check_regular, loads_json, read_bytes
+from ...reading import (MAX_TABLE_BYTES, check_npy, check_npz, check_regular, loads_json,
+                        open_regular, read_bytes)
 from .folder import MANIFEST, verify
 
 WEIGHTS = "weights.npz"
@@ -41,6 +42,11 @@ def load_weights(path: str | Path, trial: int | None = None, *,
         check_regular(p / MANIFEST, where)
         if not (p / WEIGHTS).is_file():
             raise InputError(f"folder holds no {WEIGHTS} (not a training run)", culprit=where)
+        try:  # each array's header against its bytes, before anything is hashed or made
+            with open_regular(p / WEIGHTS, where) as f:
+                check_npz(f, p / WEIGHTS, where)
+        except OSError:
+            raise InputError(f"{WEIGHTS} is corrupt or truncated", culprit=where) from None
         if (p / MANIFEST).is_file():  # a training's: the tables are what its manifest lists
             verify(p, culprit=where, strict=False, only=(WEIGHTS,))
         try:
@@ -70,10 +76,14 @@ def load_weights(path: str | Path, trial: int | None = None, *,
         if not p.is_file():
             raise InputError("is not a file", culprit=where)
         try:
-            raw = read_bytes(p, where)  # what was checked is what is read
+            # what was checked is what is read: refused by its size (MAX_TABLE_BYTES) before
+            # a byte is read, and an array file by its header before an array is made
+            raw = read_bytes(p, where, limit=MAX_TABLE_BYTES)
             if p.suffix == ".npy":
+                check_npy(io.BytesIO(raw), len(raw), path, where)
                 w = np.load(io.BytesIO(raw), allow_pickle=False)
             elif p.suffix == ".npz":
+                check_npz(io.BytesIO(raw), path, where, limit=MAX_TABLE_BYTES)
                 with np.load(io.BytesIO(raw), allow_pickle=False) as z:
                     w = z["weights_mV"] if "weights_mV" in z else z["weights"]
                     labels = [str(x) for x in z["labels"]] if "labels" in z.files else None

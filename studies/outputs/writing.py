@@ -25,7 +25,7 @@ import numpy as np
 from ...errors import InputError
 from ...reading import read_json
 from .folder import (MANIFEST, clean_stale_temporaries, file_sha256, inventory, remember_sha256,
-                     temp_prefix, temp_suffix)
+                     remember_written, temp_prefix, temp_suffix, written_in_place)
 
 _STARTED = time.strftime("%Y-%m-%dT%H:%M:%S%z")  # when this process started (history entries)
 PACKAGES = ("astrocpg", "brian2", "numpy", "mujoco", "sympy", "matplotlib", "dask", "distributed",
@@ -142,6 +142,7 @@ def atomic_path(path: Path, write_to: Callable[[Path], None]) -> None:
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; results are ordinary files
         os.replace(tmp, path)
+        remember_written(path)  # this process's: its folder's inventory may list it
     except BaseException as e:
         # an interrupt inside mkstemp, after it made the file: find it by this pid's prefix
         mine = [tmp] if tmp is not None else [
@@ -327,6 +328,36 @@ class DirectFile:
             pass
 
 
+#: the timestamp of every ``.npz`` member astrocpg writes (the earliest a zip can say): the
+#: same arrays give the same bytes whenever they are written (two identical trainings' files
+#: are identical), not bytes that differ by the second they were written in
+ZIP_TIME = (1980, 1, 1, 0, 0, 0)
+
+
+def _member(zf: Any, key: str) -> Any:
+    """The ``.npy`` member ``key`` of an ``.npz`` opened for writing, as ``np.savez`` opens it
+    (zip64, mode 0600) but dated :data:`ZIP_TIME`."""
+    import zipfile
+
+    info = zipfile.ZipInfo(key + ".npy", date_time=ZIP_TIME)
+    info.compress_type = zf.compression
+    info.external_attr = 0o600 << 16
+    return zf.open(info, "w", force_zip64=True)
+
+
+def savez(file: Any, arrays: Mapping[str, Any], *, compressed: bool = False) -> None:
+    """``np.savez(file, **arrays)`` (``np.savez_compressed`` with ``compressed``), member for
+    member, with fixed member timestamps (:data:`ZIP_TIME`) and no pickled objects: the same
+    arrays in the same order always give the same bytes."""
+    import zipfile
+
+    mode = zipfile.ZIP_DEFLATED if compressed else zipfile.ZIP_STORED
+    with zipfile.ZipFile(file, mode="w", compression=mode, allowZip64=True) as zf:
+        for key, value in arrays.items():
+            with _member(zf, key) as m:
+                np.lib.format.write_array(m, np.asanyarray(value), allow_pickle=False)
+
+
 def save_npz(path: Path, arrays: Mapping[str, np.ndarray], *, compressed: bool = False) -> None:
     """``arrays`` as one ``.npz`` (``np.load`` reads it), written atomically.
 
@@ -342,8 +373,7 @@ def save_npz(path: Path, arrays: Mapping[str, np.ndarray], *, compressed: bool =
         raise ValueError("a spilled trace is written uncompressed")
     if not spilled and (compressed or sum(np.asarray(a).nbytes for a in arrays.values())
                         < DIRECT_BYTES):
-        save = np.savez_compressed if compressed else np.savez
-        atomic_write(path, lambda f: save(f, **arrays))
+        atomic_write(path, lambda f: savez(f, arrays, compressed=compressed))
         return
 
     def to(tmp: Path) -> None:
@@ -352,7 +382,7 @@ def save_npz(path: Path, arrays: Mapping[str, np.ndarray], *, compressed: bool =
             if spilled:
                 _savez_streaming(out, arrays)
             else:
-                np.savez(out, **arrays)
+                savez(out, arrays)
         except BaseException:
             out.abandon()
             raise
@@ -367,7 +397,7 @@ def _is_spilled(value: Any) -> bool:
 
 
 def _savez_streaming(out: DirectFile, arrays: Mapping[str, Any]) -> None:
-    """What ``np.savez(out, **arrays)`` writes, byte for byte, where some values are
+    """What :func:`savez` writes, byte for byte, where some values are
     :class:`~astrocpg.network.recording.SpilledTrace`: each of those is copied from its file
     into its ``.npy`` member (the offset of its data in the ``.npz`` kept as ``npz_offset``)."""
     import zipfile
@@ -375,7 +405,7 @@ def _savez_streaming(out: DirectFile, arrays: Mapping[str, Any]) -> None:
     fmt = np.lib.format
     with zipfile.ZipFile(out, mode="w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
         for key, value in arrays.items():
-            with zf.open(key + ".npy", "w", force_zip64=True) as member:
+            with _member(zf, key) as member:
                 if not _is_spilled(value):
                     fmt.write_array(member, np.asanyarray(value), allow_pickle=False)
                     continue
@@ -547,6 +577,7 @@ def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str,
                     "cpu_count": os.cpu_count()},
         # every file the folder owns, with size and sha256: readers refuse a folder that does
         # not match (the manifest is written last)
-        "inventory": inventory(out, (old or read_manifest(out) or {}).get("inventory")),
+        "inventory": inventory(out, (old or read_manifest(out) or {}).get("inventory"),
+                               in_place=written_in_place(out)),
     })
     save_json(out / MANIFEST, manifest)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import csv
 import gzip
+import zlib
 import io
 import os
 from dataclasses import dataclass
@@ -28,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import EnvironmentFault, InputError
-from ...reading import read_json
+from ...reading import MAX_PLAN_BYTES, read_bytes, read_json, too_large
 from ..outputs.writing import read_manifest
 from ..runtime.trial_cost import TrialCost
 from .layout import TIMELINE
@@ -61,9 +62,17 @@ def _sessions_by_run(path: Path, culprit: str) -> dict[str, dict[int, tuple[floa
     table = results_table(Path(path), culprit)
     where = f"{culprit} {table}"
     try:
-        raw = table.read_bytes()
-        text = (gzip.decompress(raw) if table.name.endswith(".gz") else raw).decode("utf-8")
-    except (OSError, EOFError, gzip.BadGzipFile) as e:
+        # bounded: the file by its size before it is read, its gzip content while it inflates
+        # (a 10 MB .gz can hold gigabytes: refused at the bound, never inflated whole)
+        raw = read_bytes(table, where, limit=MAX_PLAN_BYTES)
+        if table.name.endswith(".gz"):
+            with gzip.GzipFile(fileobj=io.BytesIO(raw)) as z:
+                raw = z.read(MAX_PLAN_BYTES + 1)
+            if len(raw) > MAX_PLAN_BYTES:
+                raise too_large(table, where, len(raw), MAX_PLAN_BYTES, "bytes once inflated "
+                                "(or more)")
+        text = raw.decode("utf-8")
+    except (OSError, EOFError, gzip.BadGzipFile, zlib.error) as e:
         raise InputError(f"cannot read the table ({e})", culprit=where) from None
     except UnicodeDecodeError:
         raise InputError("not a UTF-8 text table", culprit=where) from None

@@ -382,7 +382,7 @@ def prepare_study(study: Study, out: Path, *, workers: int | None = None,
     # from the half-written folder
     refuse_in_use(out, culprit=f"--out {out}")
     if overwrite and holds_results(out):
-        check_replaceable(out, culprit=f"--out {out}")
+        check_replaceable(out, culprit=f"--out {out}", command="study")
     if plan_from is not None:  # named now, also where a resumed folder keeps its plan
         from .measured import results_table
 
@@ -419,7 +419,7 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
     try:
         with FolderLock(out, culprit="--out"):
             if overwrite:
-                clear_folder(out)
+                clear_folder(out, culprit=f"--out {out}")
             clean_stale_temporaries(out)
             return _run_study_locked(study, out, workers=workers, scheduler=scheduler,
                                      progress=progress)
