@@ -23,9 +23,10 @@ bootstrap intervals over seeds (10 000 resamples, fixed seed); p-values are two-
 permutation tests of per-seed differences (10 000 flips, fixed seed); Holm's adjustment over the
 family a claim names. Times to event count the seeds that never got there: a seed that never
 learnt is counted at its last session (censored there, never dropped, as
-``astrocpg.studies.analysis.events`` and ``analyse.py paired`` count it: the mean is the restricted
-mean time to learn, and a difference is a bound on the true one). The smallest difference a paired comparison of n seeds detects with 80 % power
-at a two-sided alpha of 0.05 is (t(0.975, n-1) + t(0.80, n-1)) x sd(per-seed differences) / sqrt(n).
+``astrocpg.studies.analysis.events`` and ``analyse.py paired`` count it: the mean is the
+restricted mean time to learn, and a difference is a bound on the true one). The smallest
+difference a paired comparison of n seeds detects with 80 % power at a two-sided alpha of 0.05
+is (t(0.975, n-1) + t(0.80, n-1)) x sd(per-seed differences) / sqrt(n).
 
 Exit codes: 0 every claim holds, 2 bad input (a claim or table that cannot be read; nothing
 checked), 3 a claim does not follow from its table.
@@ -434,6 +435,8 @@ def c_md_cell(file: str, row: str, column: str, block: str = "") -> dict[str, fl
     (the columns headed ``p`` or ``... p`` and ``Holm p``; ``<= x`` read as x)."""
     lines, header, head = _md_table(file, block)
     where = f"{file} block {block!r}" if block else file
+    if not isinstance(column, str):
+        raise BadInput(f"{where}: name the column by its header, not {column!r}")
     at = column_index(header, column, where)
     for line in lines[head + 1:]:
         if not line.startswith("|"):
@@ -489,6 +492,8 @@ def c_md_block(file: str, block: str, column: str = "") -> dict[str, float]:
         raise BadInput(f"{where}: no Holm p")
     out = {"holm": max(holms), "holm_min": min(holms), "rows": float(len(holms))}
     if column:
+        if not isinstance(column, str):
+            raise BadInput(f"{where}: name the column by its header, not {column!r}")
         k = column_index(header, column, where)
         nums = [[float(x.replace("−", "-")) for x in re.findall(_NUM, cells[k])][:3]
                 for cells in rows]

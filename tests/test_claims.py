@@ -47,7 +47,7 @@ def test_page_table_matches_the_table_its_command_wrote(spec):
 
 def test_a_page_table_against_another_column_fails():
     spec = copy.deepcopy(next(t for t in TABLES if t["id"] == "robustness-worlds"))
-    spec["columns"] = [[1, spec["columns"][0][1], "no astrocytes"]]   # astrocytes' falls against none's
+    spec["columns"] = [[1, spec["columns"][0][1], "no astrocytes"]]   # against none's falls
     assert any("printed" in p for p in claims.check_table(spec))
 
 
