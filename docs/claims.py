@@ -22,9 +22,11 @@ one table as if independent): a seed's repeats are averaged first; intervals are
 bootstrap intervals over seeds (10 000 resamples, fixed seed); p-values are two-sided sign-flip
 permutation tests of per-seed differences (10 000 flips, fixed seed); Holm's adjustment over the
 family a claim names. Times to event count the seeds that never got there: a seed that never
-learnt is set to the session after the last (a censored value, so the difference is a bound on
-the true one). The smallest difference a paired comparison of n seeds detects with 80 % power
-at a two-sided alpha of 0.05 is (t(0.975, n-1) + t(0.80, n-1)) x sd(per-seed differences) / sqrt(n).
+learnt is counted at its last session (censored there, never dropped, as
+``astrocpg.studies.analysis.events`` and ``analyse.py paired`` count it: the mean is the
+restricted mean time to learn, and a difference is a bound on the true one). The smallest
+difference a paired comparison of n seeds detects with 80 % power at a two-sided alpha of 0.05
+is (t(0.975, n-1) + t(0.80, n-1)) x sd(per-seed differences) / sqrt(n).
 
 Exit codes: 0 every claim holds, 2 bad input (a claim or table that cannot be read; nothing
 checked), 3 a claim does not follow from its table.
@@ -171,7 +173,7 @@ TRAINING = ("speed", "final_x", "length", "full_length", "falls", "learnt_by")
 def training_measures(series: np.ndarray, last: int) -> dict[str, float]:
     """A seed's training measures over its last ``last`` sessions; falls over all; learnt by:
     the session at which the trailing mean of 10 lengths first reached 0.9 L_max, or the
-    session after the last when it never did (censored)."""
+    last session when it never did (censored there; ``never`` is 1 then)."""
     tail, length = series[-last:], series[:, 0]
     trailing = np.convolve(length, np.ones(10) / 10, mode="valid")
     reached = np.flatnonzero(trailing >= LEARNT * L_MAX - 1e-9)
@@ -179,7 +181,8 @@ def training_measures(series: np.ndarray, last: int) -> dict[str, float]:
             "length": float(tail[:, 0].mean()),
             "full_length": float(np.mean(tail[:, 0] >= L_MAX - 1e-9)),
             "falls": float(np.sum(length < L_MAX - 1e-9)),
-            "learnt_by": float(reached[0] + 10) if len(reached) else float(len(length) + 1)}
+            "learnt_by": float(reached[0] + 10) if len(reached) else float(len(length)),
+            "never": float(not len(reached))}
 
 
 # ---------------------------------------------------------------- computations
@@ -331,8 +334,8 @@ def c_training(table: str, run: str, other_table: str, other_run: str, measure: 
     out = {**effect(mine[measure]), "mdd": mdd(mine[measure]),
            "a": float(np.mean([ma[s][measure] for s in seeds])),
            "b": float(np.mean([mb[s][measure] for s in seeds])),
-           "never_a": float(sum(ma[s]["learnt_by"] > S for s in seeds)),
-           "never_b": float(sum(mb[s]["learnt_by"] > S for s in seeds)),
+           "never_a": float(sum(ma[s]["never"] for s in seeds)),
+           "never_b": float(sum(mb[s]["never"] for s in seeds)),
            "relative": float(mine[measure].mean() / np.mean([ma[s][measure] for s in seeds])),
            "holm": holm(ps)[TRAINING.index(measure)], "tests": float(len(ps))}
     return out
@@ -376,29 +379,83 @@ def c_final(table: str, run: str, measure: str, sessions: int | None = None, las
 _NUM = r"[+\-−]?\d+(?:\.\d+)?(?:e[+\-]?\d+)?"
 
 
-def c_md_cell(file: str, row: str, column: int, block: str = "") -> dict[str, float]:
-    """A cell of a committed markdown table written by a command (``analyse.py against``,
-    ``paired``, ...): the row whose first cell starts with ``row`` (under the heading line
-    that contains ``block``, if given), its ``column``-th cell parsed as ``d [lo, hi]`` or a
-    number, and the two cells after it as p and Holm p (``<= x`` read as x)."""
+def _md_table(file: str, block: str = "") -> tuple[list[str], list[str], int]:
+    """The lines of a committed markdown table (from the heading line that contains ``block``,
+    if given), its header cells (markup stripped) and the index of its header line."""
     lines = _path(file).read_text().splitlines()
     if block:
         start = next((k for k, line in enumerate(lines) if block in line), None)
         if start is None:
             raise BadInput(f"{file}: no block {block!r}")
         lines = lines[start + 1:]
-    for line in lines:
+    head = next((k for k, line in enumerate(lines) if line.startswith("|")), None)
+    if head is None:
+        raise BadInput(f"{file}: no table under block {block!r}")
+    return lines, _cells(lines[head]), head
+
+
+def _cells(line: str) -> list[str]:
+    return [c.strip().replace("*", "").replace("`", "").strip()
+            for c in line.strip().strip("|").split("|")]
+
+
+def column_index(header: list[str], name: str | int, where: str) -> int:
+    """The position of the column headed ``name`` in ``header``: the header equal to it, or
+    else the one header that starts with it. A committed table is read by its headers, never
+    by position, so a column added to it (a "reading", say) moves nothing; an ``int`` is taken
+    as a position (only for the hand-written tables of the pages)."""
+    if isinstance(name, int):
+        return name
+    if not isinstance(name, str) or not name:
+        raise BadInput(f"{where}: a column is named by its header, not {name!r}")
+    exact = [k for k, h in enumerate(header) if h == name]
+    if len(exact) == 1:
+        return exact[0]
+    starts = [k for k, h in enumerate(header) if h.startswith(name)]
+    if len(exact) > 1 or len(starts) != 1:
+        raise BadInput(f"{where}: {len(exact) or len(starts)} columns headed {name!r} "
+                       f"(headers: {' | '.join(header)})")
+    return starts[0]
+
+
+def _p_columns(header: list[str]) -> tuple[int | None, int | None]:
+    """The columns of a test's p (headed ``p`` or ``... p``) and of its Holm-adjusted p
+    (``Holm p``), when the table has them."""
+    holm = next((k for k, h in enumerate(header) if h == "Holm p"), None)
+    p = next((k for k, h in enumerate(header) if k != holm and (h == "p" or h.endswith(" p"))),
+             None)
+    return p, holm
+
+
+def c_md_cell(file: str, row: str, column: str, block: str = "") -> dict[str, float]:
+    """A cell of a committed markdown table written by a command (``analyse.py against``,
+    ``paired``, ...): the row whose first cell starts with ``row`` (under the heading line
+    that contains ``block``, if given), the cell of the column headed ``column`` (see
+    :func:`column_index`) parsed as ``d [lo, hi]`` or a number, and the row's p and Holm p
+    (the columns headed ``p`` or ``... p`` and ``Holm p``; ``<= x`` read as x)."""
+    lines, header, head = _md_table(file, block)
+    where = f"{file} block {block!r}" if block else file
+    if not isinstance(column, str):
+        raise BadInput(f"{where}: name the column by its header, not {column!r}")
+    at = column_index(header, column, where)
+    for line in lines[head + 1:]:
+        if not line.startswith("|"):
+            break
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if line.startswith("|") and cells[0].startswith(row):
+        if cells[0].replace("*", "").startswith(row):
             break
     else:
-        raise BadInput(f"{file}: no row {row!r}")
-    nums = [float(x.replace("−", "-")) for x in re.findall(_NUM, cells[column])]
+        raise BadInput(f"{where}: no row {row!r}")
+    if len(cells) != len(header):
+        raise BadInput(f"{where}: row {row!r} has {len(cells)} cells, its header {len(header)}")
+    nums = [float(x.replace("−", "-")) for x in re.findall(_NUM, cells[at])]
+    if not nums:
+        raise BadInput(f"{where}: row {row!r}, column {column!r} holds no figure")
     out = {"d": nums[0]}
     if len(nums) >= 3:
         out.update(lo=nums[1], hi=nums[2])
-    for key, k in (("p", column + 1), ("holm", column + 2)):
-        if k < len(cells) and re.search(_NUM, cells[k]):
+    for key, k in zip(("p", "holm"), _p_columns(header)):
+        if k is not None and re.search(_NUM, cells[k]):
             out[key] = float(re.findall(_NUM, cells[k])[0])
     return out
 
@@ -414,18 +471,38 @@ def c_separated(table: str, run: str, other_run: str, measure: str, last: int = 
     return {"d": float(min(b) - max(a))}
 
 
-def c_md_block(file: str, block: str) -> dict[str, float]:
-    """Every row of one block of a committed markdown table of tests (``analyse.py against``):
-    the largest and smallest Holm p (last column) and the rows; ``holm`` is the largest, so
-    a claim that every measure of the block differs is checked against it."""
-    lines = _path(file).read_text().splitlines()
-    start = next((k for k, line in enumerate(lines) if block in line), None)
-    if start is None:
-        raise BadInput(f"{file}: no block {block!r}")
-    head = next(k for k in range(start + 1, len(lines)) if lines[k].startswith("|"))
-    holms = [float(re.findall(_NUM, cells[-1])[0]) for cells in _md_rows(lines, head).values()
-             if re.search(_NUM, cells[-1])]
-    return {"holm": max(holms), "holm_min": min(holms), "rows": float(len(holms))}
+def c_md_block(file: str, block: str, column: str = "") -> dict[str, float]:
+    """Every row of one block of a committed markdown table of tests (``analyse.py against``,
+    ``worlds``): the largest and smallest Holm p (the column headed ``Holm p``) and the rows;
+    ``holm`` is the largest, so a claim that every measure of the block differs is checked
+    against it. With ``column`` (a difference's header): ``lo``, the lowest lower bound, and
+    ``hi``, the highest upper bound, of its rows' intervals (``d``: the largest difference
+    when every one is negative, else the smallest), so ``lower`` (``higher``) holds only when
+    every row's interval lies below (above) 0, and ``not shown to differ`` only when no row's
+    Holm p is below 0.05 (``holm_min``)."""
+    lines, header, head = _md_table(file, block)
+    where = f"{file} block {block!r}"
+    _, at = _p_columns(header)
+    if at is None:
+        raise BadInput(f"{where}: no column headed 'Holm p'")
+    rows = list(_md_rows(lines, head).values())
+    holms = [float(re.findall(_NUM, cells[at])[0]) for cells in rows
+             if re.search(_NUM, cells[at])]
+    if not holms:
+        raise BadInput(f"{where}: no Holm p")
+    out = {"holm": max(holms), "holm_min": min(holms), "rows": float(len(holms))}
+    if column:
+        if not isinstance(column, str):
+            raise BadInput(f"{where}: name the column by its header, not {column!r}")
+        k = column_index(header, column, where)
+        nums = [[float(x.replace("−", "-")) for x in re.findall(_NUM, cells[k])][:3]
+                for cells in rows]
+        if any(len(n) < 3 for n in nums):
+            raise BadInput(f"{where}: a row of column {column!r} is not 'd [lo, hi]'")
+        d = [n[0] for n in nums]
+        out.update(lo=min(n[1] for n in nums), hi=max(n[2] for n in nums),
+                   d=max(d) if max(d) < 0 else min(d))
+    return out
 
 
 COMPUTE = {"share": c_share, "gait_threshold": c_gait_threshold,
@@ -479,6 +556,9 @@ def direction_follows(word: str, c: dict[str, float], margin: float | None) -> b
         return True
     if word in ("higher", "lower"):
         sign = 1 if word == "higher" else -1
+        if lo is None and "d" not in c:
+            raise BadInput(f"{word!r}: the computation gives no difference (a block needs "
+                           f"its difference's column)")
         if lo is not None:
             ok = (lo > 0) if sign > 0 else (hi < 0)
         else:
@@ -487,6 +567,8 @@ def direction_follows(word: str, c: dict[str, float], margin: float | None) -> b
     if word == "differ":   # two-sided: the interval excludes 0, or p below 0.05
         return (lo is not None and (lo > 0 or hi < 0)) or (p is not None and p < 0.05)
     if word == "not shown to differ":
+        if "holm_min" in c:   # a block: no row shown to differ
+            return c["holm_min"] >= 0.05
         return (lo is not None and lo <= 0 <= hi) or (p is not None and p >= 0.05)
     if word == "same":
         return margin is not None and lo is not None and -margin < lo and hi < margin
@@ -547,9 +629,11 @@ def check(claim: dict, pages: dict[str, str] | None = None) -> list[str]:
     return problems
 
 
-def _md_rows(lines: list[str], start: int) -> dict[str, list[str]]:
+def _md_rows(lines: list[str], start: int, key_cells: int = 1) -> dict[str, list[str]]:
     """The rows of the markdown table whose header is ``lines[start]``, keyed by their first
-    cell (markup stripped); an empty first cell continues the row above (``label#2``, ...)."""
+    cell (markup stripped; by their first ``key_cells`` cells joined with " | " where one
+    cell does not name a row); an empty first cell continues the row above (``label#2``,
+    ...)."""
     rows: dict[str, list[str]] = {}
     last = ""
     for line in lines[start + 1:]:
@@ -558,7 +642,8 @@ def _md_rows(lines: list[str], start: int) -> dict[str, list[str]]:
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         if set(cells[0]) <= {"-"} and all(set(c) <= {"-", ":"} for c in cells):
             continue
-        label = cells[0].replace("*", "").replace("`", "").strip()
+        label = " | ".join(c.replace("*", "").replace("`", "").strip()
+                           for c in cells[:key_cells])
         if label:
             last, key = label, label
         else:
@@ -574,7 +659,10 @@ def _figures(cell: str) -> list[tuple[str, float]]:
 
 def check_table(spec: dict) -> list[str]:
     """A table of a page against the committed table a command wrote: each figure of each
-    mapped cell equals the source cell's figure in the same place, to the precision of both."""
+    mapped cell equals the source cell's figure in the same place, to the precision of both.
+    ``columns``: [page column (its position on the page), block, source column (its header in
+    the committed table: :func:`column_index`)]; ``key_cells``: how many leading cells name a
+    page row (1 unless given)."""
     for key in ("page", "header", "source", "rows", "columns"):
         if key not in spec:
             raise BadInput(f"table {spec.get('id', '?')}: no {key!r}")
@@ -584,7 +672,7 @@ def check_table(spec: dict) -> list[str]:
         at = [at[spec["occurrence"]]]
     if len(at) != 1:
         return [f"header {spec['header']!r} found {len(at)} times on {spec['page']}"]
-    mine = _md_rows(page, at[0])
+    mine = _md_rows(page, at[0], int(spec.get("key_cells", 1)))
     source = _path(spec["source"]).read_text().splitlines()
     problems = []
     for page_row, source_row in spec["rows"].items():
@@ -599,14 +687,19 @@ def check_table(spec: dict) -> list[str]:
                     raise BadInput(f"{spec['source']}: no block {block!r}")
                 lines = source[first:]
             head = next(k for k, line in enumerate(lines) if line.startswith("|"))
+            if not isinstance(source_col, str):
+                raise BadInput(f"table {spec['id']}: name {spec['source']}'s column by its "
+                               f"header, not {source_col!r}")
+            at = column_index(_cells(lines[head]), source_col,
+                              f"{spec['source']} block {block!r}")
             theirs = _md_rows(lines, head)
             match = [v for k, v in theirs.items() if k.startswith(source_row)]
             if not match:
                 raise BadInput(f"{spec['source']}: no row {source_row!r} in block {block!r}")
-            shown, given = _figures(mine[page_row][page_col]), _figures(match[0][source_col])
+            shown, given = _figures(mine[page_row][page_col]), _figures(match[0][at])
             if not shown or len(shown) > len(given):
                 problems.append(f"{page_row!r} column {page_col}: {mine[page_row][page_col]!r} "
-                                f"against {match[0][source_col]!r}")
+                                f"against {match[0][at]!r}")
                 continue
             for (text, value), (text2, value2) in zip(shown, given):
                 tol = sum(0.5 * 10 ** -(len(t.split(".")[1]) if "." in t else 0)
@@ -705,7 +798,7 @@ def analyse() -> str:
                            family=tuple(CONTROL_RUNS.values()))
             out.append(f"| {name} | {m} | {c['a']:.3f} | {c['b']:.3f} | {_fmt(c, 3)} | "
                        f"{100 * c['relative']:+.1f} % | {c['holm']:.2g} | {c['mdd']:.3f} |")
-    out += ["", "## Learnt by, never-learnt seeds counted (session after the last)", "",
+    out += ["", "## Learnt by, never-learnt seeds counted (at the last session)", "",
             "| comparison | never (A, B) | A | B | B - A [95 %] | p |", "|---|---|---|---|---|---|"]
     for label, a, ra, b, rb, s in (
             ("rough: astrocytes - none", "docs/beyond/rough_ablation/results.csv.gz",

@@ -47,8 +47,75 @@ def test_page_table_matches_the_table_its_command_wrote(spec):
 
 def test_a_page_table_against_another_column_fails():
     spec = copy.deepcopy(next(t for t in TABLES if t["id"] == "robustness-worlds"))
-    spec["columns"] = [[1, spec["columns"][0][1], 2]]      # astrocytes' falls against none's
+    spec["columns"] = [[1, spec["columns"][0][1], "no astrocytes"]]   # against none's falls
     assert any("printed" in p for p in claims.check_table(spec))
+
+
+def _add_columns(text: str) -> str:
+    """A committed table's text with two columns added: one before the difference, and a
+    "reading" before its p."""
+    out = []
+    for line in text.splitlines():
+        if line.startswith("|"):
+            cells = line.strip().strip("|").split("|")
+            head = "measure" in cells[0] or "world" in cells[0]
+            rule = set(cells[0].strip()) <= {"-"}
+            new = "---" if rule else ("added" if head else " 7.5 ")
+            reading = "---" if rule else ("reading" if head else " not shown ")
+            cells = cells[:3] + [new] + cells[3:4] + [reading] + cells[4:]
+            line = "|" + "|".join(cells) + "|"
+        out.append(line)
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("file, block, column", [
+    ("docs/beyond/load_afferent/paired_rough.md", "", "B − A per seed"),
+    ("docs/beyond/rough_ablation/against_rough.md", "", "B − A per seed"),
+    ("docs/beyond/robustness/intervals.md", "**falls (share of runs)**", "difference")])
+def test_a_committed_table_is_read_by_its_headers(tmp_path, file, block, column):
+    """A column added to a committed table (a "reading", say) moves no figure a claim reads."""
+    moved = tmp_path / "table.md"
+    moved.write_text(_add_columns((ROOT / file).read_text()))
+    for row in ("speed", "falls", "rough_2cm"):
+        try:
+            before = claims.c_md_cell(file, row, column, block)
+        except claims.BadInput:
+            continue
+        assert claims.c_md_cell(str(moved), row, column, block) == before
+        assert {"d", "lo", "hi", "holm"} <= set(before)
+    if block:
+        got = claims.c_md_block(str(moved), block, column)
+        assert got == claims.c_md_block(file, block, column) and got["holm"] < 0.05
+    with pytest.raises(claims.BadInput, match="columns headed"):
+        claims.c_md_cell(file, "speed" if not block else "flat", "no such column", block)
+
+
+def test_a_page_table_is_checked_against_its_source_by_header(tmp_path):
+    spec = copy.deepcopy(next(t for t in TABLES if t["id"] == "rough-tables"))
+    moved = tmp_path / "against.md"
+    moved.write_text(_add_columns((ROOT / spec["source"]).read_text()))
+    spec["source"] = str(moved)
+    assert claims.check_table(spec) == []
+    spec["columns"] = [[c[0], c[1], 3] for c in spec["columns"][:1]]     # a position
+    with pytest.raises(claims.BadInput, match="by its header"):
+        claims.check_table(spec)
+
+
+def test_every_row_lower_needs_every_rows_interval_below_0(tmp_path):
+    table = tmp_path / "t.md"
+    rows = ["| world | a | b | difference (first − second) | Mann-Whitney p | Holm p |",
+            "|---|---|---|---|---|---|",
+            "| w1 | 0.1 | 0.8 | -0.70 [-0.80, -0.60] | 1e-05 | 2e-05 |",
+            "| w2 | 0.4 | 0.5 | -0.10 [-0.20, -0.01] | 0.01 | 0.01 |"]
+    table.write_text("**falls**\n\n" + "\n".join(rows) + "\n")
+    c = claims.c_md_block(str(table), "**falls**", "difference")
+    assert claims.direction_follows("lower", c, None)
+    assert not claims.direction_follows("higher", c, None)
+    assert not claims.direction_follows("not shown to differ", c, None)
+    table.write_text(table.read_text().replace("-0.20, -0.01]", "-0.20, +0.01]"))
+    c = claims.c_md_block(str(table), "**falls**", "difference")
+    assert not claims.direction_follows("lower", c, None)     # w2's interval holds 0
+    assert claims.direction_follows("differ", c, None)        # every Holm p below 0.05
 
 
 def test_a_changed_page_figure_fails(tmp_path, monkeypatch):
@@ -141,7 +208,8 @@ def test_the_audits_examples_are_gone(page, text):
 def test_learnt_by_counts_the_seeds_that_never_learnt():
     """A side where half the seeds learn early and half never learn: dropping the never-learnt
     seeds (the old reading) makes it look earlier than a side where every seed learns by
-    session 100; counting them as the session after the last makes it later."""
+    session 100; counting them at their last session (censored there, as the committed tables
+    count them) makes it later."""
     def series(first_full: int | None, sessions: int = 200) -> np.ndarray:
         length = np.full(sessions, 5.0)
         if first_full is not None:
@@ -149,10 +217,12 @@ def test_learnt_by_counts_the_seeds_that_never_learnt():
         return np.c_[length, length, length]
 
     a = [claims.training_measures(series(93), 20)["learnt_by"] for _ in range(10)]
-    b = [claims.training_measures(series(23 if k % 2 else None), 20)["learnt_by"]
-         for k in range(10)]
-    assert a[0] == 100 and sorted(set(b)) == [30, 201]
-    dropped = np.mean([x for x in b if x <= 200]) - np.mean(a)
+    mb = [claims.training_measures(series(23 if k % 2 else None), 20) for k in range(10)]
+    b = [m["learnt_by"] for m in mb]
+    assert a[0] == 100 and sorted(set(b)) == [30, 200]      # censored at the last session
+    assert [claims.training_measures(series(None), 20)["never"],
+            claims.training_measures(series(191), 20)["never"]] == [1.0, 0.0]
+    dropped = np.mean([m["learnt_by"] for m in mb if not m["never"]]) - np.mean(a)
     censored = np.mean(b) - np.mean(a)
     assert dropped < 0 < censored
 
