@@ -1,0 +1,129 @@
+"""A population from a model file receives from and sends to the built-in populations
+(``[[population.outputs]]``: tests/data/renshaw_recurrent.toml, a Renshaw-like cell per pool
+inhibiting its pool's motor neurons), and its model joins the model set, so that ``--set``
+(command line) and ``overrides=`` (API) reach its parameters, the manifest records them and
+``describe`` shows them (docs/model-files.md, "A new population")."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import astrocpg as ac
+from astrocpg.errors import InputError
+from astrocpg.network import build_cpg, populations
+from astrocpg.network.layout import POOLS
+
+DATA = Path(__file__).parent / "data"
+RECURRENT = DATA / "renshaw_recurrent.toml"
+INPUT_ONLY = DATA / "renshaw_population.toml"
+BUILT_IN = tuple(p.name for p in populations.BUILT_IN)
+
+
+def _file(path: Path) -> dict[str, str]:
+    return {str(path): path.read_text()}
+
+
+def test_the_file_declares_an_output():
+    row = populations.population_from_toml(RECURRENT.read_text(), culprit=str(RECURRENT))
+    assert [(o.target, o.synapse, o.match) for o in row.outputs] == \
+        [("motor", "interneuron_to_pool", "label")]
+    assert row.to_json(3)["outputs"] == [{"to": "motor", "synapse": "interneuron_to_pool",
+                                          "match": "label"}]
+    assert populations.from_json(row.to_json(3)).outputs == row.outputs
+
+
+def test_outputs_wire_each_cell_to_its_pool():
+    """Each motor neuron is inhibited by its own pool's Renshaw cell, in every trial and limb."""
+    row = populations.population_from_toml(RECURRENT.read_text(), culprit=str(RECURRENT))
+    cpg = build_cpg(n_trials=2, seed=3, populations=(row,))
+    L = cpg.layout
+    s = cpg.synapses["renshaw_to_motor"]
+    assert "renshaw_to_motor" in cpg.synapse_kinds
+    assert len(s) == L.motor_per_trial * 2  # one Renshaw cell per motor neuron
+    i, j = np.asarray(s.i[:]), np.asarray(s.j[:])
+    labels = row.labels(L.pool_size)
+    n_per_trial = L.cells_per_trial("renshaw")
+    for src, tgt in zip(i, j):
+        b, leg, k = src // n_per_trial, (src % n_per_trial) // len(labels), src % len(labels)
+        assert tgt in set(L.motor_neurons(b, leg, labels[k]))
+    assert populations.names() == BUILT_IN  # the table passed as a value: nothing registered
+
+
+def test_outputs_reach_the_target_pool():
+    """The same seed with and without the output: the Renshaw cells fire and the motor
+    neurons' spikes change."""
+    kw = dict(seconds=1.0, seed=1, progress=False)
+    with_output = ac.unit(populations=_file(RECURRENT), **kw)
+    without = ac.unit(populations=_file(INPUT_ONLY), **kw)
+    assert len(with_output.spike_times("renshaw", trial=0)) > 0
+    a = with_output.spike_times("motor", trial=0)
+    b = without.spike_times("motor", trial=0)
+    assert len(a) != len(b) or not np.array_equal(np.sort(a), np.sort(b))
+    # the input-only population leaves the built-in network as it is
+    plain = ac.unit(**kw)
+    assert np.array_equal(np.sort(plain.spike_times("motor", trial=0)), np.sort(b))
+
+
+def test_overrides_reach_its_parameters(tmp_path):
+    """overrides= (API) sets a parameter of the added population's model: its spikes change and
+    the manifest records the value, in the settings and in the models."""
+    kw = dict(seconds=1.0, seed=1, progress=False, populations=_file(RECURRENT))
+    default = ac.unit(**kw)
+    slower = ac.unit(overrides={"tau_renshaw": "40*ms"}, out=tmp_path / "slow", **kw)
+    n0 = len(default.spike_times("renshaw", trial=0))
+    n1 = len(slower.spike_times("renshaw", trial=0))
+    assert n0 != n1
+    manifest = json.loads((tmp_path / "slow" / "manifest.json").read_text())
+    assert manifest["settings"]["overrides"] == ["tau_renshaw=40*ms"]
+    recorded = manifest["models"]["renshaw"]["parameters"]["tau_renshaw"]
+    assert recorded["si_value"] == pytest.approx(0.040)
+    # the folder reads back whole in a process that never added the population
+    loaded = ac.load(tmp_path / "slow")
+    assert loaded.models is not None
+    assert float(loaded.models.parameter("tau_renshaw").value) == pytest.approx(0.040)
+    assert len(loaded.spike_times("renshaw", trial=0)) == n1
+
+
+def test_set_on_the_command_line(tmp_path, capsys):
+    """astrocpg unit --population FILE --set NAME=VALUE reaches the population's parameter."""
+    from astrocpg.studies.cli import main
+
+    out = tmp_path / "cli"
+    rc = main(["unit", "--seconds", "0.5", "--no-progress", "--population", str(RECURRENT),
+               "--set", "v_renshaw_th=1*volt", "--out", str(out)])
+    assert rc == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["models"]["renshaw"]["parameters"]["v_renshaw_th"]["si_value"] == 1.0
+    assert len(ac.load(out).spike_times("renshaw", trial=0)) == 0  # a threshold never reached
+    # describe shows the added population's model, with the value set
+    rc = main(["describe", "v_renshaw_th", "--population", str(RECURRENT),
+               "--set", "v_renshaw_th=7*mV"])
+    assert rc == 0
+    assert "renshaw" in capsys.readouterr().out
+
+
+def test_a_parameter_name_the_set_holds_is_refused():
+    """A population's parameter named like a built-in one: refused, naming both."""
+    text = RECURRENT.read_text().replace("tau_renshaw", "tau_motor")
+    with pytest.raises(InputError) as err:
+        ac.unit(seconds=0.1, progress=False, populations={"clash.toml": text})
+    words = f"{err.value.culprit} {err.value}"
+    assert "tau_motor" in words and "motor_neuron" in words and "clash.toml" in words
+
+
+@pytest.mark.parametrize("change, words", [
+    ('to = "motor"', 'to = "nowhere"'),
+    ('synapse = "interneuron_to_pool"', 'synapse = "no_synapse"'),
+    ('match = "label"\n', 'match = "neighbour"\n'),
+])
+def test_bad_output(change, words):
+    text = RECURRENT.read_text()
+    head, _, tail = text.rpartition("[[population.outputs]]")
+    text = head + "[[population.outputs]]" + tail.replace(change, words)
+    with pytest.raises(InputError) as err:
+        populations.population_from_toml(text, culprit="bad.toml")
+    assert "bad.toml" in err.value.culprit and "outputs[0]" in err.value.culprit
