@@ -52,14 +52,18 @@ from .unit import unit
 def describe(model: str | None = None, format: str = "markdown", *,
              overrides: Overrides | None = None,
              equations: Mapping[str, str] | None = None,
-             models: Mapping[str, Any] | None = None) -> str:
+             models: Mapping[str, Any] | None = None, populations: Any = None) -> str:
     """The equations (rendered with sympy) and the parameter table of ``model`` (e.g.
     "astrocyte"; None: every model; a parameter's name, e.g. "tau_motor": its value, the model
     declaring it and the statements using it) as markdown or LaTeX text (``format``), with parameter
-    ``overrides`` and replaced ``equations`` applied: what ``astrocpg describe`` prints."""
+    ``overrides`` and replaced ``equations`` applied: what ``astrocpg describe`` prints.
+    ``populations``: model files with a ``[population]`` table (as ``ac.unit`` takes them),
+    whose models are described with the others (and ``overrides`` reach)."""
     from ..figures.describe import describe as render
+    from .settings import population_models
 
-    return render(model, format, model_set(overrides, equations, models=models))
+    return render(model, format, model_set(overrides, equations, models=models,
+                                           added=population_models(populations)))
 
 
 def export(folder: str | os.PathLike, format: str = "nwb",

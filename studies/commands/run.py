@@ -27,8 +27,8 @@ from ..outputs.result import Result
 from ..outputs.weights import check_table, load_weights, tables_state
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from ...network import populations as _table
-from .settings import (added_populations, number, population_rows, same_populations,
-                       seed_number)
+from .settings import (added_populations, number, population_models, population_rows,
+                       same_populations, seed_number)
 from ..runtime.resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
@@ -125,7 +125,8 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
                                     spill_bytes=None if out is None else recording.SPILL_BYTES),
                      culprit=f"--seconds {seconds:g} x --trials {trials}")
         files = model_files_record(models)
-        models = model_set(overrides, equations, models=models)
+        models = model_set(overrides, equations, models=models,
+                           added=[r.model for r in rows])  # --set reaches them too
         tables_label = None
         if weights is None:
             table = None
@@ -560,7 +561,8 @@ def trained_models(settings: Mapping[str, Any]) -> ModelSet:
     """The model set a training's ``settings`` (:func:`training_settings`) trained with: its
     overrides, equations and model files, the astrocytes' regulation off for the ablation."""
     models = model_set(settings.get("overrides", []), settings.get("equations", {}),
-                       models=settings.get("models"))
+                       models=settings.get("models"),
+                       added=population_models(settings.get("populations")))
     if not settings.get("astrocytes", True):
         models = models.with_values({"astrocyte_regulation": 0.0})
     return models

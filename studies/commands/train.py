@@ -48,8 +48,8 @@ from ..outputs.result import Result
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..runtime.resources import check_memory, estimate_bytes
 from ...models.compose import model_files_record, model_set, override_items
-from .settings import (added_populations, number, population_rows, same_populations,
-                       seed_number)
+from .settings import (added_populations, number, population_models, population_rows,
+                       same_populations, seed_number)
 from .simulate import check_selection, check_trace_dtype
 
 # Writing the outputs and the checkpoint costs time that grows with the sessions done (20 trials
@@ -733,7 +733,8 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
         equations=dict(equations or {}), models=model_files_record(models),
         populations=population_record)
     # composed once, before any file is touched, and handed to the training
-    models = model_set(settings.overrides, settings.equations, models=settings.models)
+    models = model_set(settings.overrides, settings.equations, models=settings.models,
+                       added=population_models(settings.populations))
     out = as_path(out, "--out")
     if not overwrite:
         refuse_legacy(out)  # --resume would refuse it too: say what to do with it
@@ -974,7 +975,8 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     items = given.get("overrides") or []
     if items:
         recorded_models = model_set(settings.overrides, settings.equations,
-                                    models=settings.models)
+                                    models=settings.models,
+                                    added=population_models(settings.populations))
         for item in override_items(items):
             name, value = recorded_models.parse_assignment(item)
             was = recorded_models.parameter(name).value
@@ -1090,7 +1092,8 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
     ``extend_from``: the sessions per trial of ``payload``'s training, fewer than
     ``settings``' (:func:`resume` with more ``sessions``)."""
     if models is None:
-        models = model_set(settings.overrides, settings.equations, models=settings.models)
+        models = model_set(settings.overrides, settings.equations, models=settings.models,
+                       added=population_models(settings.populations))
     trainer = Trainer(models, settings, out, progress=progress, record=plan)  # validates
     if start is not None:
         trainer.training.begin_at(0, start[0])
