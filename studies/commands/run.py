@@ -125,8 +125,7 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
                                     spill_bytes=None if out is None else recording.SPILL_BYTES),
                      culprit=f"--seconds {seconds:g} x --trials {trials}")
         files = model_files_record(models)
-        models = model_set(overrides, equations, models=models,
-                           added=[r.model for r in rows])  # --set reaches them too
+        models = model_set(overrides, equations, models=models, added=[r.model for r in rows])
         tables_label = None
         if weights is None:
             table = None

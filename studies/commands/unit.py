@@ -72,8 +72,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
                                     trace_bytes=np.dtype(trace_dtype).itemsize),
                      culprit=f"--seconds {seconds:g} x --trials {trials}")
         files = model_files_record(models)
-        models = model_set(overrides, equations, models=models,
-                           added=[r.model for r in rows])  # --set reaches them too
+        models = model_set(overrides, equations, models=models, added=[r.model for r in rows])
         # the manifest's settings: the checked values, whichever door (command line or API) called
         settings = {
             "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
