@@ -128,3 +128,46 @@ def test_bad_output(change, words):
     with pytest.raises(InputError) as err:
         populations.population_from_toml(text, culprit="bad.toml")
     assert "bad.toml" in err.value.culprit and "outputs[0]" in err.value.culprit
+
+
+STUDY = """
+[study]
+name = "renshaw_sweep"
+sessions = 1
+seeds = {{ first = 1, count = 1 }}
+batch = 1
+populations = ["{file}"]
+[base]
+L_max = "0.3*second"
+L_non_alive = "0.1*second"
+[sweep.axes]
+tau_renshaw = ["9*ms", "30*ms"]
+"""
+
+
+def test_a_study_sweeps_its_parameter(tmp_path):
+    """A study file's sweep reaches the added population's parameter: each run's settings
+    carry the value and its training records it in the manifest's models."""
+    import shutil
+
+    from astrocpg.studies.parameter_studies.execute import execute_run
+    from astrocpg.studies.parameter_studies.study import load_study
+
+    shutil.copy(RECURRENT, tmp_path / "renshaw.toml")
+    path = tmp_path / "sweep.toml"
+    path.write_text(STUDY.format(file="renshaw.toml"))
+    study = load_study(path)
+    assert sorted(r.overrides[-1] for r in study.runs) == ["tau_renshaw=30*ms",
+                                                          "tau_renshaw=9*ms"]
+    run = next(r for r in study.runs if "tau_renshaw=30*ms" in r.overrides)
+    folder = tmp_path / "out" / "runs" / run.run_id
+    status = execute_run(run, str(folder))  # what a worker runs
+    assert status["state"] == "finished", status.get("error")
+    manifest = json.loads((folder / "manifest.json").read_text())
+    assert manifest["models"]["renshaw"]["parameters"]["tau_renshaw"]["si_value"] == \
+        pytest.approx(0.030)
+    # a value the parameter's unit refuses names the sweep
+    path.write_text(STUDY.format(file="renshaw.toml").replace('"30*ms"', '"30*volt"'))
+    with pytest.raises(InputError, match="tau_renshaw"):
+        load_study(path)
+    assert populations.names() == BUILT_IN
