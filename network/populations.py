@@ -15,14 +15,18 @@ Every output folder's manifest holds the rows it was written with (``results.lay
 folder (:func:`rows_of`), never from this process's table.
 
 Adding a population (docs/model-files.md, "A new population"): a model file with a
-``[population]`` table (:func:`population_from_toml`), given to ``astrocpg unit`` or ``run``
-with ``--population FILE``; or, in Python, a row registered for a block (:func:`registered`)::
+``[population]`` table (:func:`population_from_toml`: its inputs from and outputs to the other
+populations), given to ``astrocpg unit``, ``run`` or ``train`` with ``--population FILE``; or,
+in Python, a row given to the build (``build_cpg(populations=rows)``), or registered for a
+block where a command builds the network (:func:`registered`)::
 
     from astrocpg.network import populations, build_cpg
 
     row = populations.population_from_toml(text, culprit="renshaw.toml")
-    with populations.registered(row):
-        cpg = build_cpg(...)
+    cpg = build_cpg(..., populations=[row])
+
+An added row's model joins the build's model set (:attr:`astrocpg.models.ModelSet.added`), so
+that ``--set`` reaches its parameters.
 
 The projections (synapse objects) have their own, smaller table (:data:`PROJECTIONS`: object
 name -> model slot), which the divergence check uses to name the model of a failing object.

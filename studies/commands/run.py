@@ -26,7 +26,6 @@ from ..outputs.writing import (file_sha256, read_manifest, remove_files, save_np
 from ..outputs.result import Result
 from ..outputs.weights import check_table, load_weights, tables_state
 from ...models.compose import Overrides, model_files_record, model_set, override_items
-from ...network import populations as _table
 from .settings import (added_populations, number, population_models, population_rows,
                        same_populations, seed_number)
 from ..runtime.resources import check_memory, estimate_bytes
@@ -91,7 +90,7 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
     # before any other check; a training's tables run on its network: its populations too
     population_record = with_trained_populations(weights, population_rows(populations)[1])
     rows = population_rows(population_record)[0]
-    with _table.registered(*rows):
+    with added_populations(population_record):  # for this thread's call: under the run lock
         from ...coupling.robot import A1Parameters, RobotLayout, load_robot
         from ...coupling.world import world_model
 

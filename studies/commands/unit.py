@@ -19,8 +19,7 @@ from ..outputs.folder import OutputFolder
 from ..outputs.writing import save_spikes_and_traces, write_manifest
 from ..outputs.result import Result
 from ...models.compose import Overrides, model_files_record, model_set, override_items
-from ...network import populations as _table
-from .settings import number, population_rows, seed_number
+from .settings import added_populations, number, population_rows, seed_number
 from ..runtime.resources import check_memory, estimate_bytes
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
@@ -54,7 +53,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     ``summary["rhythm"]`` holds each trial's period, phases and rates. Bad input: InputError
     naming the culprit, before anything is simulated or written."""
     rows, population_record = population_rows(populations)  # before any other check
-    with _table.registered(*rows):
+    with added_populations(population_record):  # for this thread's call: under the run lock
         from brian2 import ms
 
         seconds = number(seconds, "--seconds", positive=True)
