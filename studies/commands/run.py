@@ -89,8 +89,7 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
 
     # before any other check; a training's tables run on its network: its populations too
     population_record = with_trained_populations(weights, population_rows(populations)[1])
-    rows = population_rows(population_record)[0]
-    with added_populations(population_record):  # for this thread's call: under the run lock
+    with added_populations(population_record) as rows:  # this call's: under the run lock
         from ...coupling.robot import A1Parameters, RobotLayout, load_robot
         from ...coupling.world import world_model
 

@@ -52,8 +52,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     Returns a :class:`~astrocpg.studies.outputs.result.Result` of kind "unit"; its
     ``summary["rhythm"]`` holds each trial's period, phases and rates. Bad input: InputError
     naming the culprit, before anything is simulated or written."""
-    rows, population_record = population_rows(populations)  # before any other check
-    with added_populations(population_record):  # for this thread's call: under the run lock
+    population_record = population_rows(populations)[1]  # before any other check
+    with added_populations(population_record) as rows:  # this call's: under the run lock
         from brian2 import ms
 
         seconds = number(seconds, "--seconds", positive=True)
