@@ -171,3 +171,28 @@ def test_a_study_sweeps_its_parameter(tmp_path):
     with pytest.raises(InputError, match="tau_renshaw"):
         load_study(path)
     assert populations.names() == BUILT_IN
+
+
+def test_the_model_set_holds_added_models():
+    """ModelSet.added: set by name like a slot, recorded and read back (a manifest's models),
+    a parameter name another model declares refused, naming both."""
+    from astrocpg.models import DEFAULT_MODELS, ModelSet
+
+    row = populations.population_from_toml(RECURRENT.read_text(), culprit=str(RECURRENT))
+    from brian2 import ms
+
+    models = DEFAULT_MODELS.with_added(row.model).with_values({"tau_renshaw": 30 * ms})
+    assert dict(models.items())["renshaw"].parameters["tau_renshaw"].value == 30 * ms
+    assert DEFAULT_MODELS.added == () and "renshaw" not in dict(DEFAULT_MODELS.items())
+    data = json.loads(json.dumps(models.to_json()))
+    assert data["renshaw"]["added"] is True and "added" not in data["motor_neuron"]
+    assert ModelSet.from_json(data) == models
+    assert models.with_added(row.model) is models  # held already: kept, with its values
+    from astrocpg.models.files import model_from_toml
+
+    text = RECURRENT.read_text().replace("tau_renshaw =", "tau_motor =").replace(
+        "/tau_renshaw", "/tau_motor").split("[population]")[0]
+    clash = model_from_toml(text, culprit="clash.toml")
+    with pytest.raises(InputError) as err:
+        DEFAULT_MODELS.with_added(clash)
+    assert err.value.culprit == "renshaw.tau_motor" and "motor_neuron" in str(err.value)
