@@ -130,12 +130,11 @@ def bind_senses(cpg: CPG, robots: Robots, models: ModelSet
     buffer) and their writers. A sense the robot model cannot give, or an ``only`` label that
     is no cell of the population, is an InputError naming the binding."""
     from ..models.senses import ROBOT_SENSES
-    from ..network import populations
 
     B, n_legs = robots.n_trials, cpg.layout.n_legs
     buffers: dict[str, np.ndarray] = {}
     writers: list[_BoundSense] = []
-    for pop in populations.table():
+    for pop in cpg.layout.rows:  # the rows the network was built from
         model = pop.model_in(models)
         for var, binding in (getattr(model, "senses", None) or {}).items():
             culprit = f"{model.name}.senses.{var}"

@@ -87,13 +87,27 @@ class ModelSet:
     rl_power: ExpressionModel = RL_POWER
     world: WorldModel = WORLD
 
+    #: the models of populations added to the network (a population file's neuron model,
+    #: ``with_added``), after the slots: their parameters are the set's like any slot's, so
+    #: ``--set`` and the manifest's models reach them; ``items()`` yields them by their names
+    added: tuple[NeuronModel, ...] = ()
+
     def __post_init__(self) -> None:
         owners: dict[str, str] = {}
-        for f in dataclasses.fields(self):
+        for f in _slots(self):
             model, kind = getattr(self, f.name), f.default.kind  # the default's kind
             if not isinstance(model, Model) or model.kind != kind:
                 got = model.kind if isinstance(model, Model) else type(model).__name__
                 raise InputError(f"must be a {kind} model, got {got}", culprit=f.name)
+        taken = {f.name for f in _slots(self)}
+        for model in self.added:
+            if not isinstance(model, NeuronModel):
+                got = model.kind if isinstance(model, Model) else type(model).__name__
+                raise InputError(f"an added population's model must be a neuron model, got "
+                                 f"{got}", culprit=str(getattr(model, "name", model)))
+            if model.name in taken:
+                raise InputError("is already a model of the set", culprit=model.name)
+            taken.add(model.name)
         for model_name, model in self.items():
             for pname in model.parameters:
                 if pname in owners:
@@ -102,17 +116,42 @@ class ModelSet:
                 owners[pname] = model_name
 
     def items(self) -> Iterator[tuple[str, Model]]:
-        for f in dataclasses.fields(self):
+        """(name, model) of every slot, then of every added model (:attr:`added`)."""
+        for f in _slots(self):
             yield f.name, getattr(self, f.name)
+        for model in self.added:
+            yield model.name, model
+
+    def model(self, name: str) -> Model:
+        """The model of slot ``name``, or the added model of that name (KeyError if none)."""
+        for model_name, model in self.items():
+            if model_name == name:
+                return model
+        raise KeyError(f"no model {name!r}")
+
+    def with_added(self, *models: NeuronModel) -> "ModelSet":
+        """A copy with the models of added populations (:attr:`added`) appended; a model the
+        set already holds under that name is kept as it is (it may carry overridden values).
+        A parameter named like one of the set's: InputError naming both."""
+        have = {m.name for m in self.added}
+        new = tuple(m for m in models if getattr(m, "name", None) not in have)
+        if not new:
+            return self
+        return dataclasses.replace(self, added=self.added + new)
 
     def replace(self, **models: Model) -> "ModelSet":
-        """A copy with whole models replaced (e.g. an edited equation string)."""
-        names = [f.name for f in dataclasses.fields(self)]
+        """A copy with whole models replaced (e.g. an edited equation string), slots or added
+        models by name."""
+        names = [f.name for f in _slots(self)]
+        added = {m.name: m for m in self.added}
         for name in models:
-            if name not in names:
-                raise InputError(f"unknown model{did_you_mean(name, names)} (models: "
-                                 f"{', '.join(names)})", culprit=name)
-        return dataclasses.replace(self, **models)
+            if name not in names and name not in added:
+                raise InputError(f"unknown model{did_you_mean(name, [*names, *added])} "
+                                 f"(models: {', '.join([*names, *added])})", culprit=name)
+        slots = {k: v for k, v in models.items() if k in names}
+        if any(k in added for k in models):
+            slots["added"] = tuple(models.get(k, m) for k, m in added.items())
+        return dataclasses.replace(self, **slots)
 
     def owner_of(self, parameter: str) -> str:
         for model_name, model in self.items():
@@ -126,7 +165,7 @@ class ModelSet:
         """The declared parameter ``name`` (value with unit, symbol, meaning), whatever model
         owns it: for names a user gives (``--set``, a worlds file's ``scale``). The framework
         reads its own names with :meth:`~astrocpg.models.ModelSet.value`."""
-        return getattr(self, self.owner_of(name)).parameters[name]
+        return self.model(self.owner_of(name)).parameters[name]
 
     def value(self, name: str) -> float:
         """The value of parameter ``name`` as a float in SI units (``value("L_max")`` -> 10.0,
@@ -154,7 +193,7 @@ class ModelSet:
         for pname, value in values.items():
             per_model.setdefault(self.owner_of(pname), {})[pname] = value
         return self.replace(
-            **{m: getattr(self, m).with_values(**vals) for m, vals in per_model.items()}
+            **{m: self.model(m).with_values(**vals) for m, vals in per_model.items()}
         )
 
     def parse_assignment(self, text: str) -> tuple[str, Any]:
@@ -181,7 +220,9 @@ class ModelSet:
     def to_json(self) -> dict[str, Any]:
         """Each model's :meth:`~astrocpg.models.base.Model.to_json` by name: enough to rebuild
         the set with :meth:`from_json` (statements, method, initial values, parameters)."""
-        return {name: model.to_json() for name, model in self.items()}
+        slots = {f.name for f in _slots(self)}
+        return {name: model.to_json() | ({} if name in slots else {"added": True})
+                for name, model in self.items()}
 
     @classmethod
     def from_json(cls, data: Mapping[str, Any]) -> "ModelSet":
@@ -190,14 +231,24 @@ class ModelSet:
         if not isinstance(data, Mapping):
             raise InputError(f"expected a table of models, got {type(data).__name__}",
                              culprit="models")
-        names = [f.name for f in dataclasses.fields(cls)]
-        models = {}
+        names = [f.name for f in _slots(cls)]
+        models: dict[str, Any] = {}
+        added = []
         for name, entry in data.items():
+            if isinstance(entry, Mapping) and entry.get("added") is True:  # a population's
+                added.append(Model.from_json({k: v for k, v in entry.items() if k != "added"},
+                                             name=name))
+                continue
             if name not in names:
                 raise InputError(f"unknown model{did_you_mean(name, names)} (models: "
                                  f"{', '.join(names)})", culprit=name)
             models[name] = Model.from_json(entry, name=name)
-        return cls(**models)
+        return cls(**models, added=tuple(added))
+
+
+def _slots(cls_or_set: Any) -> tuple[dataclasses.Field, ...]:
+    """The model slots of :class:`ModelSet` (every field but ``added``)."""
+    return tuple(f for f in dataclasses.fields(cls_or_set) if f.name != "added")
 
 
 DEFAULT_MODELS = ModelSet()

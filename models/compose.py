@@ -111,8 +111,10 @@ def as_model_files(models: Any) -> Any:
     defaults = dict(DEFAULT_MODELS.items())
     out = {}
     for slot, model in models.items():
+        if slot not in defaults:  # an added population's model: its file adds it
+            continue
         text = model_to_toml(model)
-        if slot not in defaults or text != model_to_toml(defaults[slot]):
+        if text != model_to_toml(defaults[slot]):
             out[slot] = text
     return out
 
@@ -137,13 +139,16 @@ def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, 
 def model_set(overrides: Overrides | None = None,
               equations: Mapping[str, str] | None = None,
               base: ModelSet | None = None,
-              models: Mapping[str, Any] | None = None, option: str = "--model") -> ModelSet:
+              models: Mapping[str, Any] | None = None, option: str = "--model",
+              added: Sequence[Any] = ()) -> ModelSet:
     """The model set with whole models swapped in (``models``: ``{slot: model file text}`` or
     ``{slot: Model}``; a file may declare new parameters and variables but must keep the slot's
-    interface), equation texts swapped in (``{model: text}``) and parameter values overridden
-    (``NAME=VALUE`` items or ``{name: value}``), validated, over ``base`` (None: the built-in
-    models, :data:`~astrocpg.models.DEFAULT_MODELS`). Errors about a model file name
-    ``<option> <model>``."""
+    interface), the models of added populations joined (``added``: their neuron models,
+    :meth:`~astrocpg.models.ModelSet.with_added`), equation texts swapped in (``{model:
+    text}``) and parameter values overridden (``NAME=VALUE`` items or ``{name: value}``, an
+    added model's parameters too), validated, over ``base`` (None: the built-in models,
+    :data:`~astrocpg.models.DEFAULT_MODELS`). Errors about a model file name ``<option>
+    <model>``."""
     from . import INTERFACES, Model
     from .files import (check_interface, check_parameters_used, file_sha256,
                                  model_from_toml)
@@ -181,6 +186,8 @@ def model_set(overrides: Overrides | None = None,
             models = models.replace(**{name: model})
         except InputError as e:
             raise InputError(e.line, culprit=culprit) from None
+    if added:
+        models = models.with_added(*added)  # a parameter name the set holds: refused
     known = dict(models.items())
     for name, text in (equations or {}).items():
         model = known.get(name)

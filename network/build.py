@@ -11,7 +11,7 @@ from __future__ import annotations
 import contextlib
 import re
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Iterator
+from typing import Any, Iterable, Iterator, Sequence
 
 import brian2
 import numpy as np
@@ -24,7 +24,7 @@ from ..models.base import BrianModel, NeuronModel, SynapseModel, brian_error_lin
 from ..models.names import why_reserved
 from .codegen import DEFAULT as DEFAULT_CODEGEN
 from .codegen import use_codegen
-from . import populations
+from . import populations as populations_
 from .divergence import MODEL_OF, InvalidState, StateScan, leave_to_the_scan, model_of
 from .delays import limb_stages
 from .noise import Rewriter, trial_major
@@ -520,32 +520,35 @@ def _source_cells(w: Wiring, population: str, numbers: np.ndarray) -> list[tuple
     return [(w.groups[population], np.ones(len(numbers), dtype=bool), numbers)]
 
 
-def _wire_input(w: Wiring, target: str, given: populations.Input) -> None:
-    """The synapses of an input declared in a population's row (:class:`populations.Input`):
-    within each trial and limb, every target cell from the source cells with its label
-    (``match = "label"``) or from every source cell of the limb (``"limb"``); one object per
-    source group (stage), named ``SOURCE_to_TARGET`` (plus the stage's suffix)."""
+def _wire_projection(w: Wiring, source: str, target: str, synapse: str, match: str) -> None:
+    """The synapses of an input or output declared in an added population's row
+    (:class:`~astrocpg.network.populations.Input`, ``Output``): within each trial and limb,
+    every target cell from the source cells with its label (``match = "label"``) or from every
+    source cell of the limb (``"limb"``); one object per pair of source and target groups
+    (the motor neurons' stages), named ``SOURCE_to_TARGET`` (plus the stage's suffix)."""
     L = w.layout
-    src_labels = L.row(given.source).labels(L.pool_size)
+    src_labels = L.row(source).labels(L.pool_size)
     tgt_labels = L.row(target).labels(L.pool_size)
-    n_src, n_tgt = L.cells_per_trial(given.source), L.cells_per_trial(target)
+    n_src, n_tgt = L.cells_per_trial(source), L.cells_per_trial(target)
     i, j = [], []
     for b in range(L.n_trials):
         for leg in range(L.n_legs):
             for t, label in enumerate(tgt_labels):
-                s = [k for k, x in enumerate(src_labels) if given.match == "limb" or x == label]
+                s = [k for k, x in enumerate(src_labels) if match == "limb" or x == label]
                 i += [b * n_src + leg * len(src_labels) + k for k in s]
                 j += [b * n_tgt + leg * len(tgt_labels) + t] * len(s)
+    added = target if L.row(source).built_in else source
     if not i:
-        raise InputError(f"connects no cell: no label of {given.source} is one of {target}'s",
-                         culprit=f"population {target}")
-    model = getattr(w.models, given.synapse)
-    kind = f"{given.source}_to_{target}"
-    j_ = np.asarray(j, dtype=np.intp)
-    for s, (group, here, local) in enumerate(_source_cells(w, given.source,
-                                                            np.asarray(i, dtype=np.intp))):
-        name = kind + (w.suffix(s) if given.source == "motor" else "")
-        w.add(kind, w.synapses(model, group, w.groups[target], name, local, j_[here]))
+        raise InputError(f"connects no cell: no label of {source} is one of {target}'s",
+                         culprit=f"population {added}")
+    model = getattr(w.models, synapse)
+    kind = f"{source}_to_{target}"
+    i_, j_ = np.asarray(i, dtype=np.intp), np.asarray(j, dtype=np.intp)
+    for s, (pre, here, pre_local) in enumerate(_source_cells(w, source, i_)):
+        for t, (post, there, post_local) in enumerate(_source_cells(w, target, j_[here])):
+            stage = s if source == "motor" else t if target == "motor" else None
+            name = kind + (w.suffix(stage) if stage is not None else "")
+            w.add(kind, w.synapses(model, pre, post, name, pre_local[there], post_local))
 
 
 def _place_motor_neurons(w: Wiring, seed: int) -> None:
@@ -702,10 +705,14 @@ def build_cpg(
     dt: Any = 1 * ms,
     interlimb_weights: np.ndarray | None = None,
     codegen: str | None = None,
+    populations: Sequence[populations_.Population] | None = None,
 ) -> CPG:
     """Build ``n_trials`` independent copies of the CPG: one group per row of the population
-    table (:mod:`astrocpg.network.populations`, rows added with ``register`` included), then
-    the wiring steps (:data:`WIRING_STEPS`, then each added row's ``wire``).
+    table (:mod:`astrocpg.network.populations`: the built-in rows and ``populations``, the rows
+    added for this build; None: this process's table, rows added with ``register`` included),
+    then the wiring steps (:data:`WIRING_STEPS`, then each added row's inputs, outputs and
+    ``wire``). An added row's model joins the model set (``CPG.models``) unless the set holds
+    it already (composed with ``model_set(..., added=...)``, which may set its values).
 
     Order within one step (Brian2 schedule): motor neurons, interneurons and astrocytes integrate
     (``groups``), spike (``thresholds``), synapses deliver (``synapses``), neurons reset. Right
@@ -726,11 +733,12 @@ def build_cpg(
                              f"{', '.join(LEGS)})", culprit="build_cpg")
     if int(n_trials) < 1:
         raise InputError(f"n_trials must be at least 1, got {n_trials}", culprit="build_cpg")
+    rows = populations_.with_added(populations)  # the rows it is built from, kept
+    models = _with_row_models(models, rows)
     pool_size = int(models.value("pool_size"))
     stages = limb_stages(models, legs, dt)  # 0 ms inter-limb delays: limbs one after another
     layout = Layout(n_trials=int(n_trials), pool_size=pool_size, legs=legs,
-                    stages=stages if len(stages) > 1 else None,
-                    populations=populations.table())  # the rows it is built from, kept
+                    stages=stages if len(stages) > 1 else None, populations=rows)
     # numpy, or cython (opt-in): ``codegen``, else $ASTROCPG_CODEGEN. Every group and synapse
     # is pinned to it, so a later change of Brian2's preference does not move this network.
     codegen = use_codegen(codegen)
@@ -748,10 +756,12 @@ def build_cpg(
     for step in WIRING_STEPS:
         step(w)
     for row in layout.rows:
-        if row.inputs or row.wire is not None:
+        if not row.built_in:
             with _blame(f"population {row.name}"):
                 for given in row.inputs:
-                    _wire_input(w, row.name, given)
+                    _wire_projection(w, given.source, row.name, given.synapse, given.match)
+                for out in row.outputs:
+                    _wire_projection(w, row.name, out.target, out.synapse, out.match)
                 if row.wire is not None:
                     row.wire(w)
     w.objects.extend(w.learning)
@@ -770,6 +780,18 @@ def build_cpg(
     if interlimb_weights is not None:
         cpg.set_interlimb_weights(interlimb_weights)
     return cpg
+
+
+def _with_row_models(models: ModelSet, rows: Sequence[populations_.Population]) -> ModelSet:
+    """``models`` with the model of every added row that it lacks (``ModelSet.added``)."""
+    missing = [r.model for r in rows if not isinstance(r.model, str)
+               and r.model.name not in dict(models.items())]
+    if not missing:
+        return models
+    try:
+        return models.with_added(*missing)
+    except InputError as e:
+        raise InputError(e.message, culprit=f"population model {e.culprit}") from None
 
 
 def _schedule(motors: list[NeuronGroup], kinds: dict[str, list[Synapses]], pool: NeuronGroup,
@@ -840,7 +862,7 @@ def built_in_models(models: ModelSet) -> bool:
     """Is every Brian2 model of the CPG the built-in one (the same object as in
     ``DEFAULT_MODELS``)? Such a network needs no :func:`check_runs`: the test suite builds and
     runs it, and a check would generate all its code twice (about 0.4 s of every command)."""
-    if any(not r.built_in for r in populations.table()):  # an added population's model
+    if models.added or any(not r.built_in for r in populations_.table()):  # an added one
         return False
     return all(getattr(models, name) is getattr(DEFAULT_MODELS, name)
                for name in dict.fromkeys(MODEL_OF.values()))
@@ -852,7 +874,7 @@ def check_runs(cpg: CPG) -> None:
     one line that names the model at fault. Costs about as much as the start of a run, so a
     network of the built-in models (:func:`built_in_models`) is not checked: the run itself
     generates its code once, and the test suite runs those models."""
-    if built_in_models(cpg.models):
+    if built_in_models(cpg.models) and all(r.built_in for r in cpg.layout.rows):
         return
     try:
         cpg.net.run(0 * second, namespace={})

@@ -15,14 +15,18 @@ Every output folder's manifest holds the rows it was written with (``results.lay
 folder (:func:`rows_of`), never from this process's table.
 
 Adding a population (docs/model-files.md, "A new population"): a model file with a
-``[population]`` table (:func:`population_from_toml`), given to ``astrocpg unit`` or ``run``
-with ``--population FILE``; or, in Python, a row registered for a block (:func:`registered`)::
+``[population]`` table (:func:`population_from_toml`: its inputs from and outputs to the other
+populations), given to ``astrocpg unit``, ``run`` or ``train`` with ``--population FILE``; or,
+in Python, a row given to the build (``build_cpg(populations=rows)``), or registered for a
+block where a command builds the network (:func:`registered`)::
 
     from astrocpg.network import populations, build_cpg
 
     row = populations.population_from_toml(text, culprit="renshaw.toml")
-    with populations.registered(row):
-        cpg = build_cpg(...)
+    cpg = build_cpg(..., populations=[row])
+
+An added row's model joins the build's model set (:attr:`astrocpg.models.ModelSet.added`), so
+that ``--set`` reaches its parameters.
 
 The projections (synapse objects) have their own, smaller table (:data:`PROJECTIONS`: object
 name -> model slot), which the divergence check uses to name the model of a failing object.
@@ -85,6 +89,21 @@ class Input:
 
 
 @dataclass(frozen=True)
+class Output:
+    """A projection from an added population: to the cells of population ``target`` (a
+    built-in one, or one added before it) through synapses of the model set's synapse model
+    ``synapse``, paired by ``match`` (:data:`MATCHES`: ``label``, each target cell from the
+    added cells with its label; ``limb``, from every added cell of the limb)."""
+
+    target: str
+    synapse: str
+    match: str = "label"
+
+    def to_json(self) -> dict[str, str]:
+        return {"to": self.target, "synapse": self.synapse, "match": self.match}
+
+
+@dataclass(frozen=True)
 class Population:
     """One row of the population table.
 
@@ -115,6 +134,8 @@ class Population:
     activity: its spikes per label and step are the pools' activity (the figures' activity
         panels).
     inputs: what connects an added population (``Input``: source population, synapse model, match), declared in its file.
+    outputs: what an added population drives (``Output``: target population, synapse model,
+        match), declared in its file.
     wire: a wiring step in Python for an added population (``Wire``: a function given the build's ``Wiring``).
     """
 
@@ -134,6 +155,7 @@ class Population:
     activity: bool = False
     inputs: tuple[Input, ...] = ()
     wire: Wire | None = None
+    outputs: tuple[Output, ...] = ()
 
     @property
     def model_name(self) -> str:
@@ -142,12 +164,19 @@ class Population:
 
     @property
     def built_in(self) -> bool:
-        """Is it wired by ``build_cpg`` itself (neither ``inputs`` nor ``wire``)?"""
-        return not self.inputs and self.wire is None
+        """Is it wired by ``build_cpg`` itself (no ``inputs``, ``outputs`` nor ``wire``)?"""
+        return not self.inputs and not self.outputs and self.wire is None
 
     def model_in(self, models: Any) -> Any:
-        """Its model, taken from ``models`` (a ModelSet) where it names a slot."""
-        return getattr(models, self.model) if isinstance(self.model, str) else self.model
+        """Its model, taken from ``models`` (a ModelSet): the slot it names, or, for an added
+        population, the set's model of its model's name (which carries the values ``--set``
+        gave), else its own."""
+        if isinstance(self.model, str):
+            return getattr(models, self.model)
+        try:
+            return models.model(self.model.name)
+        except (KeyError, AttributeError):
+            return self.model
 
     def labels(self, pool_size: int) -> tuple[str, ...]:
         """The label of each cell of one limb (:attr:`cells_per_leg`)."""
@@ -184,7 +213,7 @@ class Population:
                 "scan_rank": self.scan_rank, "trace_series_per_leg": self.trace_series_per_leg,
                 "raster": dict(self.raster), "trace_plot": dict(self.trace_plot),
                 "activity": self.activity, "inputs": [i.to_json() for i in self.inputs],
-                "built_in": self.built_in}
+                "outputs": [o.to_json() for o in self.outputs], "built_in": self.built_in}
 
 
 def from_json(data: Mapping[str, Any]) -> Population:
@@ -208,7 +237,9 @@ def from_json(data: Mapping[str, Any]) -> Population:
             trace_plot=dict(data.get("trace_plot") or {}),
             activity=bool(data.get("activity", False)),
             inputs=tuple(Input(str(i["from"]), str(i["synapse"]), str(i.get("match", "label")))
-                         for i in data.get("inputs") or ()))
+                         for i in data.get("inputs") or ()),
+            outputs=tuple(Output(str(o["to"]), str(o["synapse"]), str(o.get("match", "label")))
+                          for o in data.get("outputs") or ()))
     except (KeyError, TypeError, ValueError, AttributeError) as e:
         raise InputError(f"a population row of the manifest cannot be read ({type(e).__name__}: "
                          f"{e})", culprit=str(data.get("name", "population")
@@ -294,17 +325,37 @@ def names() -> tuple[str, ...]:
 
 
 def register(population: Population) -> Population:
-    """Add a row to the table for this process (its ``inputs`` or ``wire`` step connects it).
-    A name or a trace name the table already holds is an InputError naming it."""
+    """Add a row to the table for this process (its ``inputs``, ``outputs`` or ``wire`` step
+    connects it). A name or a trace name the table already holds is an InputError naming it.
+    Prefer passing the rows to the build (``build_cpg(populations=rows)``)."""
+    _check_added(population, table())
+    _ADDED.append(population)
+    return population
+
+
+def with_added(rows: Sequence[Population] | None) -> tuple[Population, ...]:
+    """The table a build reads: the built-in rows and ``rows`` (populations added for this
+    build, checked as :func:`register` checks them); None: this process's table."""
+    if rows is None:
+        return table()
+    out = BUILT_IN
+    for r in rows:
+        if not isinstance(r, Population):
+            raise InputError(f"expected a population row, got {type(r).__name__}",
+                             culprit="populations")
+        _check_added(r, out)
+        out += (r,)
+    return out
+
+
+def _check_added(population: Population, rows: Sequence[Population]) -> None:
     if population.built_in:
-        raise InputError("an added population needs its inputs or its wiring step (wire=)",
-                         culprit=f"population {population.name}")
-    taken = set(names()) | set(PROJECTIONS) | set(trace_sources())
+        raise InputError("an added population needs its inputs, outputs or its wiring step "
+                         "(wire=)", culprit=f"population {population.name}")
+    taken = {r.name for r in rows} | set(PROJECTIONS) | set(trace_sources(rows))
     for name in (population.name, *population.traces):
         if name in taken:
             raise InputError("is already in the population table", culprit=f"population {name}")
-    _ADDED.append(population)
-    return population
 
 
 def unregister(name: str) -> None:
@@ -353,7 +404,7 @@ def model_of_object() -> dict[str, str]:
 # ---- a population declared in a model file
 #: the stored unit's factor from Brian2's SI value, for the units a trace may name without one
 UNIT_FACTORS = {"a.u.": 1.0, "mV": 1e3, "uM": 1e3, "ms": 1e3, "s": 1.0, "V": 1.0}
-_ROW_KEYS = {"name", "cells_per_leg", "spikes", "traces", "inputs", "cell_noun",
+_ROW_KEYS = {"name", "cells_per_leg", "spikes", "traces", "inputs", "outputs", "cell_noun",
              "label_meaning", "spike_meaning", "table_description", "trace_series_per_leg",
              "raster", "trace_plot"}
 
@@ -402,10 +453,14 @@ def population_from_toml(text: str, *, culprit: str) -> Population:
         traces[trace] = TraceSource(t["variable"], float(factor), unit,
                                     str(t.get("meaning", trace)))
     inputs = tuple(_input(i, f"{where} inputs[{k}]")
-                   for k, i in enumerate(spec.get("inputs") or ()))
-    if not inputs:
+                   for k, i in enumerate(_tables(spec, "inputs", where)))
+    outputs = tuple(_output(o, f"{where} outputs[{k}]")
+                    for k, o in enumerate(_tables(spec, "outputs", where)))
+    if not inputs and not outputs:
         raise InputError("needs at least one input ([[population.inputs]] from = ..., "
+                         "synapse = ...) or output ([[population.outputs]] to = ..., "
                          "synapse = ...)", culprit=where)
+    _check_parameter_names(model, culprit)
     text_fields = {k: str(spec.get(k, "")) for k in ("cell_noun", "label_meaning",
                                                       "spike_meaning", "table_description")}
     return Population(name=name, model=model, cells_per_leg=lambda pool_size: cells(pool_size),
@@ -413,7 +468,7 @@ def population_from_toml(text: str, *, culprit: str) -> Population:
                       trace_series_per_leg=bool(spec.get("trace_series_per_leg", False)),
                       raster=dict(spec.get("raster") or {}),
                       trace_plot=dict(spec.get("trace_plot") or {}), inputs=inputs,
-                      **text_fields)
+                      outputs=outputs, **text_fields)
 
 
 def _without_population(text: str) -> str:
@@ -443,13 +498,23 @@ def _labels(given: Any, culprit: str) -> Callable[[int], tuple[str, ...]]:
     raise InputError("must be a list of labels or the name of a population", culprit=culprit)
 
 
-def _input(given: Any, culprit: str) -> Input:
-    if not isinstance(given, dict) or set(given) - {"from", "synapse", "match"}:
-        raise InputError("needs from = POPULATION, synapse = MODEL (and match)", culprit=culprit)
-    source, synapse = given.get("from"), given.get("synapse")
+def _tables(spec: Mapping[str, Any], key: str, where: str) -> list[Any]:
+    """The ``[[population.inputs]]`` or ``[[population.outputs]]`` tables (none: [])."""
+    given = spec.get(key) or []
+    if not isinstance(given, list):
+        raise InputError(f"must be tables ([[population.{key}]])", culprit=f"{where} {key}")
+    return given
+
+
+def _projection(given: Any, end: str, culprit: str) -> tuple[str, str, str]:
+    """(population, synapse model, match) of an input (``end`` "from") or output ("to")."""
+    if not isinstance(given, dict) or set(given) - {end, "synapse", "match"}:
+        raise InputError(f"needs {end} = POPULATION, synapse = MODEL (and match)",
+                         culprit=culprit)
+    other, synapse = given.get(end), given.get("synapse")
     match = given.get("match", "label")
-    if source not in names():
-        raise InputError(f"from {source!r}: no such population (populations: "
+    if other not in names():
+        raise InputError(f"{end} {other!r}: no such population (populations: "
                          f"{', '.join(names())})", culprit=culprit)
     slots = {n: m for n, m in DEFAULT_MODELS.items() if m.kind == "synapse"}
     if synapse not in slots:
@@ -457,11 +522,33 @@ def _input(given: Any, culprit: str) -> Input:
                          f"{', '.join(slots)})", culprit=culprit)
     if match not in MATCHES:
         raise InputError(f"match {match!r}: one of {', '.join(MATCHES)}", culprit=culprit)
-    return Input(str(source), str(synapse), str(match))
+    return str(other), str(synapse), str(match)
 
 
-__all__ = ["Population", "TraceSource", "Input", "Wire", "MATCHES", "BUILT_IN", "PROJECTIONS",
-           "table", "added", "row", "names", "register", "unregister", "registered",
+def _input(given: Any, culprit: str) -> Input:
+    return Input(*_projection(given, "from", culprit))
+
+
+def _output(given: Any, culprit: str) -> Output:
+    return Output(*_projection(given, "to", culprit))
+
+
+def _check_parameter_names(model: Any, culprit: str) -> None:
+    """The population's model joins the model set (``--set`` reaches its parameters), so a
+    parameter named like one of the built-in models' is refused, naming both."""
+    owners = {p: name for name, m in DEFAULT_MODELS.items() for p in m.parameters}
+    if model.name in dict(DEFAULT_MODELS.items()):
+        raise InputError(f"its model is named {model.name}, like a built-in model: rename it",
+                         culprit=culprit)
+    for pname in model.parameters:
+        if pname in owners:
+            raise InputError(f"parameter {pname} of {model.name} is also a parameter of the "
+                             f"{owners[pname]} model (--set must name one: rename it)",
+                             culprit=culprit)
+
+
+__all__ = ["Population", "TraceSource", "Input", "Output", "Wire", "MATCHES", "BUILT_IN", "PROJECTIONS",
+           "table", "added", "with_added", "row", "names", "register", "unregister", "registered",
            "spike_populations", "trace_sources", "trace_meaning", "model_of_object",
            "from_json", "rows_of", "population_from_toml", "LEGS", "POOLS", "THIGH_POOLS",
            "JOINTS_DRIVEN", "INTERNEURONS"]

@@ -101,10 +101,8 @@ def test_each_executed_example_shows_its_figures(site: Path, page: str) -> None:
 
 def test_the_model_page_lists_every_parameter_of_the_code(site: Path) -> None:
     from astrocpg.models import DEFAULT_MODELS
-    import dataclasses
     html = (site / "model.html").read_text(encoding="utf-8")
-    names = [p for f in dataclasses.fields(DEFAULT_MODELS)
-             for p in getattr(DEFAULT_MODELS, f.name).parameters]
+    names = [p for _, model in DEFAULT_MODELS.items() for p in model.parameters]
     missing = [n for n in names if f'<span class="pre">{n}</span>' not in html]
     assert not missing, missing
     for number in range(1, 24):   # every equation of the paper, by its number

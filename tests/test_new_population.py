@@ -217,7 +217,7 @@ def test_register_refuses_a_taken_name():
             populations.register(populations.Population(name=name, model=row.model,
                                                         cells_per_leg=row.cells_per_leg,
                                                         wire=wire_renshaw))
-    with pytest.raises(InputError, match="inputs or its wiring step"):
+    with pytest.raises(InputError, match="inputs, outputs or its wiring step"):
         populations.register(populations.Population(name="x", model=row.model,
                                                     cells_per_leg=row.cells_per_leg))
     assert populations.names() == tuple(p.name for p in populations.BUILT_IN)

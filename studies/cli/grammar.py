@@ -392,6 +392,7 @@ def add_describe(sub: Subparsers) -> None:
     desc.add_argument("--set", dest="overrides", action="append", default=[],
                       metavar="NAME=VALUE", help="describe with a parameter overridden")
     add_model_file_option(desc)
+    add_population_option(desc, "; its model is described with the others")
 
 
 def add_models(sub: Subparsers) -> None:

@@ -324,7 +324,8 @@ def export_command(args: argparse.Namespace) -> int:
 
 
 def describe_command(args: argparse.Namespace) -> int:
-    if not (args.overrides or args.equations or getattr(args, "model_files", [])):
+    if not (args.overrides or args.equations or getattr(args, "model_files", [])
+            or args.population_files):
         # the built-in models: from the cache, without importing Brian2 when it is warm
         from ..runtime.describe_cache import cached_text
 
@@ -338,7 +339,8 @@ def describe_command(args: argparse.Namespace) -> int:
             return 0
     from ..commands.api import describe
 
-    sys.stdout.write(describe(args.model, args.format, **model_args(args)))
+    sys.stdout.write(describe(args.model, args.format, **model_args(args),
+                              **population_args(args)))
     return 0
 
 

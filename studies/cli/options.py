@@ -120,7 +120,7 @@ def add_population_option(p: argparse.ArgumentParser, more: str = "") -> None:
     p.add_argument("--population", dest="population_files", action="append", default=[],
                    metavar="FILE",
                    help="add a population: a neuron model file (TOML) with a [population] table "
-                        "saying its cells, traces and inputs (docs/model-files.md)" + more)
+                        "saying its cells, traces, inputs and outputs (docs/model-files.md)" + more)
 
 
 def _add_set_equations(p: argparse.ArgumentParser, over: str = "") -> None:

@@ -54,7 +54,7 @@ from .unit import unit
 def describe(model: str | None = None, format: str = "text", *,
              overrides: Overrides | None = None,
              equations: Mapping[str, str] | None = None,
-             models: Mapping[str, Any] | None = None) -> str:
+             models: Mapping[str, Any] | None = None, populations: Any = None) -> str:
     """The equations and the parameter table of a model: what ``astrocpg describe`` prints.
 
     Parameters
@@ -74,6 +74,9 @@ def describe(model: str | None = None, format: str = "text", *,
         ``{model: equation text}`` replacing a model's Brian2 equation string.
     models : mapping, optional
         ``{model: model file text}`` replacing whole models.
+    populations : sequence or mapping, optional
+        Model files with a ``[population]`` table (as ``ac.unit`` takes them), whose models are
+        described with the others (and ``overrides`` reach).
 
     Returns
     -------
@@ -81,8 +84,10 @@ def describe(model: str | None = None, format: str = "text", *,
         The text, ending in a newline.
     """
     from ..figures.describe import describe as render
+    from .settings import population_models
 
-    return render(model, format, model_set(overrides, equations, models=models))
+    return render(model, format, model_set(overrides, equations, models=models,
+                                           added=population_models(populations)))
 
 
 def export(folder: str | os.PathLike, format: str = "nwb",

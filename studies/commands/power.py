@@ -31,7 +31,7 @@ from ..outputs.weights import load_weights
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..runtime.resources import check_memory, estimate_bytes
 from ...models.compose import model_set
-from .settings import added_populations, number
+from .settings import added_populations, number, population_models
 
 # The paper's figures, shown next to ours (not used in any computation).
 PAPER = {
@@ -86,7 +86,8 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
         raise InputError("not a training run (astrocpg train, or a study's run)",
                          culprit=f"power {folder}")
     models = model_set([*settings.get("overrides", []), *overrides],
-                       settings.get("equations", {}), models=settings.get("models"))
+                       settings.get("equations", {}), models=settings.get("models"),
+                       added=population_models(settings.get("populations")))
     # weights fixed: a measurement, not training (zero in each rate's own unit)
     models = models.with_zeros("eta", "eta_ADO")
     if not settings.get("astrocytes", True):

@@ -27,7 +27,7 @@ from ...network.codegen import framework_target
 from ..outputs.folder import OutputFolder, as_path, refuse_in_use
 from ..outputs.result import Result
 from ..outputs.writing import read_manifest
-from .settings import added_populations
+from .settings import added_populations, population_models
 from .train import SESSION_STARTS, TrainSettings, record_plan, train_from_start
 from ...models.compose import model_set
 
@@ -140,7 +140,8 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
                              equations=dict(recorded.get("equations") or {}),
                              models=dict(recorded.get("models") or {}),
                              populations=dict(recorded.get("populations") or {}))
-    models = model_set(settings.overrides, settings.equations, models=settings.models)
+    models = model_set(settings.overrides, settings.equations, models=settings.models,
+                       added=population_models(settings.populations))
     out_path = as_path(out, "--out")
     OutputFolder(out_path, overwrite=overwrite, inputs=[*inputs, folder]).check()
     row = recorded_row(folder, trial, session)

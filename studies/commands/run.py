@@ -26,9 +26,8 @@ from ..outputs.writing import (file_sha256, read_manifest, remove_files, save_np
 from ..outputs.result import Result
 from ..outputs.weights import check_table, load_weights, tables_state
 from ...models.compose import Overrides, model_files_record, model_set, override_items
-from ...network import populations as _table
-from .settings import (added_populations, number, population_rows, same_populations,
-                       seed_number)
+from .settings import (added_populations, number, population_models, population_rows,
+                       same_populations, seed_number)
 from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
 from ..runtime.workers import resolve_workers, workers_words
 from .batched import try_batched
@@ -113,8 +112,7 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
 
     # before any other check; a training's tables run on its network: its populations too
     population_record = with_trained_populations(weights, population_rows(populations)[1])
-    rows = population_rows(population_record)[0]
-    with _table.registered(*rows):
+    with added_populations(population_record) as rows:  # this call's: under the run lock
         from ...coupling.robot import A1Parameters, RobotLayout, load_robot
         from ...coupling.world import world_model
 
@@ -142,7 +140,7 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
             else recording.SPILL_BYTES),
             culprit=f"--seconds {seconds:g} x --trials {trials}" + workers_words(procs))
         files = model_files_record(models)
-        models = model_set(overrides, equations, models=models)
+        models = model_set(overrides, equations, models=models, added=[r.model for r in rows])
         table, weights, tables_label = _weights_table(weights, trial, trials, models)
         params = A1Parameters()
         model = world_model(models, params, load_robot(robot) if robot else None)
@@ -656,7 +654,8 @@ def trained_models(settings: Mapping[str, Any]) -> ModelSet:
     """The model set a training's ``settings`` (:func:`training_settings`) trained with: its
     overrides, equations and model files, the astrocytes' regulation off for the ablation."""
     models = model_set(settings.get("overrides", []), settings.get("equations", {}),
-                       models=settings.get("models"))
+                       models=settings.get("models"),
+                       added=population_models(settings.get("populations")))
     if not settings.get("astrocytes", True):
         models = models.with_values({"astrocyte_regulation": 0.0})
     return models

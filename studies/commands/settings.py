@@ -80,6 +80,13 @@ def population_rows(populations: Any, option: str = "--population"
 
 
 
+def population_models(populations: Any) -> tuple[Any, ...]:
+    """The neuron models of ``populations`` (as :func:`population_rows` takes them), for
+    ``model_set(..., added=...)``: the set then holds them, so that ``--set`` and
+    ``overrides`` reach their parameters and the manifest's models record them."""
+    return tuple(row.model for row in population_rows(populations)[0])
+
+
 @contextlib.contextmanager
 def added_populations(populations: Any) -> Iterator[tuple[Population, ...]]:
     """The populations of ``populations`` (as :func:`population_rows` takes them: a call's

@@ -49,8 +49,8 @@ from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
 from ..runtime.workers import resolve_workers
 from ...models.compose import model_files_record, model_set, override_items
-from .settings import (added_populations, number, population_rows, same_populations,
-                       seed_number)
+from .settings import (added_populations, number, population_models, population_rows,
+                       same_populations, seed_number)
 from .simulate import check_selection, check_trace_dtype
 
 # Writing the outputs and the checkpoint costs time that grows with the sessions done (20 trials
@@ -800,7 +800,8 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
         equations=dict(equations or {}), models=model_files_record(models),
         populations=population_record)
     # composed once, before any file is touched, and handed to the training
-    models = model_set(settings.overrides, settings.equations, models=settings.models)
+    models = model_set(settings.overrides, settings.equations, models=settings.models,
+                       added=population_models(settings.populations))
     out = as_path(out, "--out")
     if not overwrite:
         refuse_legacy(out)  # --resume would refuse it too: say what to do with it
@@ -1078,7 +1079,8 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     items = given.get("overrides") or []
     if items:
         recorded_models = model_set(settings.overrides, settings.equations,
-                                    models=settings.models)
+                                    models=settings.models,
+                                    added=population_models(settings.populations))
         for item in override_items(items):
             name, value = recorded_models.parse_assignment(item)
             was = recorded_models.parameter(name).value
@@ -1194,7 +1196,8 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
     ``extend_from``: the sessions per trial of ``payload``'s training, fewer than
     ``settings``' (:func:`resume` with more ``sessions``)."""
     if models is None:
-        models = model_set(settings.overrides, settings.equations, models=settings.models)
+        models = model_set(settings.overrides, settings.equations, models=settings.models,
+                           added=population_models(settings.populations))
     batched = start is None and (payload is not None and "batches" in payload
                                  or payload is None and workers > 1 and settings.n_trials > 1)
     if batched:  # a network of one trial checks the models as the batches' will be built

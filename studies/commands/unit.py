@@ -19,8 +19,7 @@ from ..outputs.folder import OutputFolder
 from ..outputs.writing import save_spikes_and_traces, write_manifest
 from ..outputs.result import Result
 from ...models.compose import Overrides, model_files_record, model_set, override_items
-from ...network import populations as _table
-from .settings import number, population_rows, seed_number
+from .settings import added_populations, number, population_rows, seed_number
 from ..runtime.resources import check_memory, estimate_batched
 from ..runtime.workers import resolve_workers
 from .batched import BatchedCPG, try_batched
@@ -88,8 +87,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     ~astrocpg.errors.InputError
         Bad input, naming the culprit, before anything is simulated or written.
     """
-    rows, population_record = population_rows(populations)  # before any other check
-    with _table.registered(*rows):
+    population_record = population_rows(populations)[1]  # before any other check
+    with added_populations(population_record) as rows:  # this call's: under the run lock
         from brian2 import ms
 
         seconds = number(seconds, "--seconds", positive=True)
@@ -109,7 +108,7 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
                      culprit=f"--seconds {seconds:g} x --trials {trials}"
                              + (f" x --workers {procs}" if procs > 1 else ""))
         files = model_files_record(models)
-        models = model_set(overrides, equations, models=models)
+        models = model_set(overrides, equations, models=models, added=[r.model for r in rows])
         # the manifest's settings: the checked values, whichever door (command line or API) called
         settings = {
             "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,

@@ -32,7 +32,7 @@ from ...reading import read_json
 from ...network import exclusive
 from ..runtime.cells import run_cells
 from ...models.compose import model_set
-from ..commands.settings import added_populations
+from ..commands.settings import added_populations, population_models
 from ..commands.train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
 from ..outputs.checkpoint import refuse_legacy
 from ..outputs.folder import FolderLock
@@ -124,7 +124,8 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
             payload = read_checkpoint(out / CHECKPOINT, culprit=out)
             if payload["fingerprint"] != settings.fingerprint():
                 raise InputError("its checkpoint belongs to other settings", culprit=out)
-        models = model_set(settings.overrides, {}, models=settings.models)
+        models = model_set(settings.overrides, {}, models=settings.models,
+                           added=population_models(spec.populations))
         trainer = Trainer(models, settings, out, progress=False, record=spec.record_plan())
 
         def seen() -> None:

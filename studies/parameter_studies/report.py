@@ -43,6 +43,7 @@ from ..analysis.final_figures import (CURVES, MEASURES, WEIGHT_MEASURES, Measure
                                       condition_tests, seed_finals, session_curve)
 from ..analysis.gait import weight_structure
 from ...models.compose import model_set
+from ..commands.settings import population_models
 from ..outputs.folder import OutputFolder, verify
 from ..outputs.study_index import current_specs
 from ..figures.save import save_figure
@@ -111,7 +112,8 @@ def _group_label(spec: dict[str, Any]) -> str:
 
 def _model_values(spec: dict[str, Any]) -> tuple[float, float, float]:
     """w_max (volt), L_max (s) and w_min (volt) of a run, from its overrides."""
-    models = model_set(list(spec["overrides"]), {}, models=spec.get("models") or None)
+    models = model_set(list(spec["overrides"]), {}, models=spec.get("models") or None,
+                       added=population_models(spec.get("populations")))
     return models.value("w_max"), models.value("L_max"), models.value("w_min")
 
 

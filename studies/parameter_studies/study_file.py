@@ -28,7 +28,7 @@ from ..runtime.resources import check_memory, estimate_bytes, estimate_wall_seco
 from ...models.compose import model_files_record, model_set, read_model_files
 from ..analysis.margins import read_margins
 from ..commands.settings import (MAX_GRID, MAX_SEED, added_populations, check_grid,
-                                 population_rows)
+                                 population_models, population_rows)
 from ..commands.simulate import STEP, check_duration
 from ..commands.train import TrainSettings
 
@@ -310,7 +310,7 @@ def parse_study(text: str, p: Path, batch_given: int | None,
     with added_populations(populations):  # what the runs may record: theirs too
         record = _record_table(head.get("record"), where)
     slots = {name for name, _ in DEFAULT_MODELS.items()}
-    base_files, models, base = _base(doc, p, slots, where)
+    base_files, models, base = _base(doc, p, slots, where, population_models(populations))
     names, axes, axis_files, points = _sweep(doc, p, slots, base_files, models, len(seeds),
                                              where)
     base = _apply_sets(doc, models, base, axes, given.sets, where)
@@ -424,7 +424,7 @@ def _batch(head: dict[str, Any], seeds: list[int], n_sessions: int, batch_given:
     return batch_setting, batch
 
 
-def _base(doc: dict[str, Any], p: Path, slots: set[str], where: str):
+def _base(doc: dict[str, Any], p: Path, slots: set[str], where: str, added: Any = ()):
     """``[models]`` and ``[base]``: the model files of every run, their model set and the
     overrides of every run (``NAME=VALUE`` texts, each checked)."""
     models_doc = doc.get("models", {})
@@ -436,7 +436,8 @@ def _base(doc: dict[str, Any], p: Path, slots: set[str], where: str):
             raise InputError(f"[models] unknown model '{slot}'{did_you_mean(slot, slots)} (models: "
                              f"{', '.join(sorted(slots))})", culprit=where)
         base_files[slot] = _model_file(p, slot, file, f"{where} [models]")
-    models = model_set(models=base_files, option=f"{where} [models]")
+    # the added populations' models join the set: [base], the sweep and --set reach them
+    models = model_set(models=base_files, option=f"{where} [models]", added=added)
     base = [_check_override(models, k, _value_text(k, v, f"{where} [base]"), f"{where} [base]")
             for k, v in doc.get("base", {}).items()]
     return base_files, models, base
@@ -550,8 +551,8 @@ def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], mode
             overrides = tuple(base + [f"{k}={v}" for k, v in point.items() if k not in slots]
                               + cset)
             # one model set per point: catches e.g. a value out of a parameter's range
-            point_models = model_set(models=files, option=cw) if files != base_files \
-                else models
+            point_models = model_set(models=files, option=cw, added=models.added) \
+                if files != base_files else models
             try:
                 run_models = point_models.with_values(dict(point_models.parse_assignment(o)
                                                            for o in overrides))
