@@ -241,11 +241,16 @@ def build_model(params: A1Parameters = A1Parameters()) -> mujoco.MjModel:
     return build_spec(params).compile()
 
 
-def export_xml(path: str | os.PathLike, params: A1Parameters = A1Parameters()) -> None:
-    """Write the A1 as MJCF (opens in MuJoCo's viewer; loads with ``--robot``)."""
+def a1_xml(params: A1Parameters = A1Parameters()) -> str:
+    """The A1 as MJCF text (what :func:`export_xml` writes)."""
     spec = build_spec(params)
     spec.compile()
-    Path(path).write_text(spec.to_xml())
+    return spec.to_xml()
+
+
+def export_xml(path: str | os.PathLike, params: A1Parameters = A1Parameters()) -> None:
+    """Write the A1 as MJCF (opens in MuJoCo's viewer; loads with ``--robot``)."""
+    Path(path).write_text(a1_xml(params))
 
 
 def load_robot(path: str | os.PathLike) -> mujoco.MjModel:

@@ -789,6 +789,10 @@ case("robot-export-folder-missing", lambda e: S("robot", "export", e.tmp / "no" 
      "a1.xml", "absent", lambda e: e.tmp / "no")
 case("robot-export-exists", lambda e: S("robot", "export", e.file("a1.xml", "mine")), 2,
      "a1.xml", "unchanged", lambda e: e.file("a1.xml", "mine"))
+case("robot-export-overwrite-a-users-file",
+     lambda e: S("robot", "export", e.file("a1.xml", "<mujoco model='mine'/>"), "--overwrite"), 2,
+     "not the A1 model astrocpg writes", "unchanged",
+     lambda e: e.file("a1.xml", "<mujoco model='mine'/>"))
 case("robot-export-is-a-folder", lambda e: S("robot", "export", e.empty("a1.xml"), "--overwrite"),
      2, "a1.xml", "unchanged", lambda e: e.empty("a1.xml"))
 case("robot-export-uncreatable", lambda e: ["robot", "export", "/sys/astrocpg_a1.xml"], 1,

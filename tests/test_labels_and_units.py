@@ -266,3 +266,15 @@ def test_retest_refuses_a_blank_cell_naming_its_line(tmp_path):
                            str(path)], capture_output=True, text=True)
     assert proc.returncode == 2
     assert "line 9" in proc.stderr and "final_x_m" in proc.stderr
+
+
+# ---------------------------------------------------------------- a user's model file
+def test_robot_export_overwrite_replaces_only_an_unchanged_export(tmp_path, capsys):
+    target = tmp_path / "a1.xml"
+    assert main(["robot", "export", str(target)]) == 0
+    assert main(["robot", "export", str(target), "--overwrite"]) == 0  # its own, unchanged
+    edited = target.read_text().replace("<mujoco", "<!-- my friction --><mujoco", 1)
+    target.write_text(edited)
+    assert main(["robot", "export", str(target), "--overwrite"]) == 2
+    assert "not the A1 model astrocpg writes" in capsys.readouterr().err
+    assert target.read_text() == edited

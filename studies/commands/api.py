@@ -515,14 +515,16 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
     path : path
         The file to write, ending in .xml.
     overwrite : bool
-        Replace an existing file.
+        Replace an existing file, only when it is an unchanged export of this A1 (a file of
+        yours, a link or an edited export is refused).
 
     Returns
     -------
     pathlib.Path
         The file written.
     """
-    from ...coupling.robot import A1Parameters, export_xml
+    from ...coupling.robot import A1Parameters, a1_xml
+    from ...reading import check_regular
     from ..outputs.folder import refuse_in_use
     from ..outputs.writing import atomic_path
 
@@ -537,7 +539,18 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
     if target.exists() and not overwrite:
         raise InputError("exists; --overwrite replaces it", culprit=f"robot export {target}")
     refuse_in_use(target, culprit=f"robot export {target}")
-    atomic_path(target, lambda tmp: export_xml(tmp, A1Parameters()))
+    xml = a1_xml(A1Parameters())
+    if os.path.lexists(target):  # --overwrite: only an unchanged export of this A1 is replaced
+        check_regular(target, f"robot export {target}")
+        same = (target.is_file() and not target.is_symlink()
+                and target.stat().st_size == len(xml.encode())
+                and target.read_bytes() == xml.encode())
+        if not same:
+            raise InputError("is not the A1 model astrocpg writes (a file of yours, a link, or an "
+                             "export edited since); --overwrite replaces only an unchanged "
+                             "export: choose another name, or move it first",
+                             culprit=f"robot export {target}")
+    atomic_path(target, lambda tmp: Path(tmp).write_text(xml))
     return target
 
 
