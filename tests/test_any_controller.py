@@ -110,7 +110,9 @@ def test_a_run_folder_and_a_variant_name_their_gait(tmp_path) -> None:
     other = np.full((8, 8), 1e-5)
     for leg in range(4):
         other[2 * leg:2 * leg + 2, 2 * leg:2 * leg + 2] = 0  # the same-limb blocks stay 0
-    run = ac.run(seconds=0.4, trials=2, seed=5, weights=np.stack([table, other]),
+    from brian2 import volt
+
+    run = ac.run(seconds=0.4, trials=2, seed=5, weights=np.stack([table, other]) * volt,
                  out=tmp_path / "run", progress=False)
     from astrocpg.studies.commands.run import format_run
     lines = format_run(run, 5)  # astrocpg run names each trial's rhythm and gait

@@ -159,7 +159,11 @@ def test_a_study_chooses_its_batch_and_the_folder_keeps_it(tmp_path, stored_cost
     (out / "study.json").write_text(json.dumps({"name": "auto", "runs": {}, "specs": {},
                                                 "batch": 4}))
     # (a study's manifest, as every study folder has: what --overwrite may replace)
-    (out / "manifest.json").write_text(json.dumps({"astrocpg_command": "study"}))
+    import hashlib
+    raw = (out / "study.json").read_bytes()
+    (out / "manifest.json").write_text(json.dumps({"astrocpg_command": "study", "inventory": {
+        "study.json": {"bytes": len(raw), "sha256": hashlib.sha256(raw).hexdigest(),
+                       "mtime_ns": (out / "study.json").stat().st_mtime_ns}}}))
     again = resolve_batch(study, out, workers=2, progress=False)
     assert again.batch == 4 and [r.run_id for r in again.runs] == [r.run_id for r in wide.runs]
     assert "recorded" in again.batch_choice["reason"]
@@ -190,7 +194,11 @@ def test_a_study_splits_one_group_and_the_folder_keeps_the_split(tmp_path, store
     out.mkdir()
     (out / "study.json").write_text(json.dumps({"name": "auto", "runs": {}, "specs": {},
                                                 "batch": 20, "split": {"astrocytes": 10}}))
-    (out / "manifest.json").write_text(json.dumps({"astrocpg_command": "study"}))
+    import hashlib
+    raw = (out / "study.json").read_bytes()
+    (out / "manifest.json").write_text(json.dumps({"astrocpg_command": "study", "inventory": {
+        "study.json": {"bytes": len(raw), "sha256": hashlib.sha256(raw).hexdigest(),
+                       "mtime_ns": (out / "study.json").stat().st_mtime_ns}}}))
     again = resolve_batch(study, out, workers=4, progress=False)
     assert [r.run_id for r in again.runs] == [r.run_id for r in planned.runs]
 
@@ -349,7 +357,11 @@ def test_a_study_plans_its_runs_from_an_earlier_one(tmp_path, stored_cost, monke
     (out / "study.json").write_text(json.dumps({"name": "auto", "runs": {}, "specs": {},
                                                 "batch": 20, "split": {"astrocytes": 19},
                                                 "batch_choice": choice}))
-    (out / "manifest.json").write_text(json.dumps({"astrocpg_command": "study"}))
+    import hashlib
+    raw = (out / "study.json").read_bytes()
+    (out / "manifest.json").write_text(json.dumps({"astrocpg_command": "study", "inventory": {
+        "study.json": {"bytes": len(raw), "sha256": hashlib.sha256(raw).hexdigest(),
+                       "mtime_ns": (out / "study.json").stat().st_mtime_ns}}}))
     again = prepare_study(study, out, workers=2, progress=False)
     assert [r.run_id for r in again.runs] == [r.run_id for r in planned.runs]
     assert "recorded" in again.batch_choice["reason"]
@@ -502,7 +514,10 @@ def test_a_bad_plan_source_is_named(tmp_path, content, message) -> None:
     elif content is not None:
         target.mkdir()
         (target / "results.csv").write_text(content)
-    with pytest.raises(InputError) as e:
+    from astrocpg.errors import EnvironmentFault
+
+    # a missing source is the environment's (exit 1), a bad one bad input (exit 2)
+    with pytest.raises(EnvironmentFault if content is None else InputError) as e:
         measured_lengths(target)
     assert message in str(e.value) and "--plan-from" in str(e.value)
 
@@ -516,9 +531,10 @@ def test_the_command_line_names_a_missing_plan_source(tmp_path) -> None:
     r = subprocess.run([sys.executable, "-m", "astrocpg", "study", str(p), "--out",
                         str(tmp_path / "out"), "--plan-from", str(tmp_path / "nothing")],
                        capture_output=True, text=True)
-    assert r.returncode == 2, r.stderr
-    assert "--plan-from" in r.stderr and "no such study folder" in r.stderr
+    assert r.returncode == 1, r.stderr  # a missing input: the environment's, as documented
+    assert "--plan-from" in r.stderr and "no such" in r.stderr
     assert not (tmp_path / "out").exists()
+    (tmp_path / "out").mkdir()  # (a missing folder would be named first, exit 1)
     r = subprocess.run([sys.executable, "-m", "astrocpg", "study", "--status",
                         str(tmp_path / "out"), "--plan-from", str(tmp_path)],
                        capture_output=True, text=True)
