@@ -1,9 +1,11 @@
 """The ``astrocpg`` command line: parses arguments and calls the Python API; nothing imports it.
 
-    astrocpg unit  --seconds S --seed K --out DIR [--trials N]
+    astrocpg unit  --seconds S --seed K --out DIR [--trials N] [--workers N]
     astrocpg run   --seconds S --seed K [--trials N] [--weights FILE|DIR] [--robot XML] --out DIR
+                   [--workers N]
     astrocpg train --sessions N --trials N --seed K [--no-astrocytes] --out DIR | --resume DIR
-    astrocpg gait DIR [--seconds S] [--seed K]
+                   [--workers N]
+    astrocpg gait DIR [--seconds S] [--seed K] [--set NAME=VALUE] [--workers N]
     astrocpg power DIR [--trial K] [--sessions N]
     astrocpg evaluate DIR [--worlds FILE|robustness] [--seconds S] [--repeats R] [--out DIR]
     astrocpg plot DIR [--trial K] [--window T0 T1] [--format png|pdf|svg] [--out DIR]
@@ -13,6 +15,8 @@
                         [--workers N] [--scheduler ADDRESS] [--plan-from DIR]
     astrocpg report DIR
     astrocpg export DIR [--format nwb|npz] [--experimenter 'LAST, FIRST'] [--institution TEXT]
+    astrocpg response astrocyte [--rates 0:1000:50] [--seconds S] [--model astrocyte=FILE]
+                      [--out DIR]
     astrocpg describe [MODEL|PARAMETER] [--format text|markdown|latex]
     astrocpg robot export PATH.xml
     astrocpg models list | models dump MODEL [--set NAME=VALUE] [--model MODEL=FILE]

@@ -129,8 +129,10 @@ def release_limit(model: Any) -> float | None:
     """Releases per second the model's refractory period allows (its ``refractory`` names a
     parameter with a time), None when it does not say."""
     name = str(getattr(model, "refractory", "") or "").strip()
-    if name in model.parameters:
-        value = float(np.asarray(model.parameters[name].value))
+    # the name is the model's own (its refractory statement), looked up in its whole table
+    declared = dict(model.parameters.items())
+    if name in declared:
+        value = float(np.asarray(declared[name].value))
         return 1.0 / value if value > 0 else None
     return None
 
@@ -373,8 +375,8 @@ def response_figure(rows: Sequence[Mapping[str, float]], summary: Mapping[str, A
                            (fig.add_subplot(1, 2, 2), "mean_ADO", "mean [ADO]")):
         y = np.array([r[key] for r in rows])
         ax.fill_between(x, [r[f"{key}_min"] for r in rows], [r[f"{key}_max"] for r in rows],
-                        color="C0", alpha=0.25, lw=0)
-        ax.plot(x, y, "o-", color="C0", ms=3)
+                        color="tab:blue", alpha=0.25, lw=0)
+        ax.plot(x, y, "o-", color="tab:blue", ms=3)
         if key == "releases_per_s" and summary.get("release_limit_per_s"):
             ax.axhline(summary["release_limit_per_s"], color="0.5", ls=":", lw=1)
         for k, (mark, m) in enumerate(summary.get("marks", {}).items()):
