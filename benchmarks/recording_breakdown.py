@@ -78,7 +78,8 @@ def measure(seconds: float, trials: int, record: bool, out: Path) -> dict[str, f
                                         method=False))
         kw: dict[str, Any] = {} if record else {
             "spikes": "none", "traces": "none", "robot_stride": int(seconds * 1000)}
-        run_command.run(seconds=seconds, trials=trials, seed=1, out=out, progress=False, **kw)
+        run_command.run(seconds=seconds, trials=trials, seed=1, out=out, progress=False,
+                        workers=1, **kw)  # one process: its recorders are the ones timed
     finally:
         for owner, name, fn in saved:
             setattr(owner, name, fn)

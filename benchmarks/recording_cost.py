@@ -35,7 +35,8 @@ import json, resource, sys
 import astrocpg as ac
 seconds, trials, record, dtype = float(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1", sys.argv[4]
 kw = {} if record else {"spikes": "none", "traces": "none", "robot_stride": int(seconds * 1000)}
-r = ac.run(seconds=seconds, trials=trials, seed=1, progress=False, trace_dtype=dtype, **kw)
+r = ac.run(seconds=seconds, trials=trials, seed=1, progress=False, trace_dtype=dtype, workers=1,
+           **kw)  # one process: what it keeps is this process's memory
 sim = r.simulation
 held = 0
 if record:

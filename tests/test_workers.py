@@ -231,3 +231,29 @@ def test_added_population_workers_identical(tmp_path):
     for f in (a, b):
         (f / "checkpoint.npz").unlink()
     assert "sessions.csv" in same_folders(a, b)
+
+
+def _resolve_in_daemon(queue) -> None:
+    from astrocpg.errors import InputError
+    from astrocpg.studies.runtime.workers import resolve_workers
+
+    try:
+        resolve_workers(2)
+        refused = False
+    except InputError:
+        refused = True
+    queue.put((resolve_workers(None), refused))
+
+
+def test_a_daemonic_process_runs_its_trials_itself():
+    """A Dask worker or a pool's worker may start no processes: there the default is 1 (a
+    command called inside one runs its trials there) and more is refused, not crashed."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    p = ctx.Process(target=_resolve_in_daemon, args=(queue,), daemon=True)
+    p.start()
+    got = queue.get(timeout=60)
+    p.join(timeout=60)
+    assert got == (1, True)

@@ -56,8 +56,18 @@ def check_workers(workers: Any, culprit: str = "--workers") -> int | None:
 
 
 def resolve_workers(workers: Any, culprit: str = "--workers") -> int:
-    """``workers`` checked (:func:`check_workers`), None as :func:`default_workers`."""
+    """``workers`` checked (:func:`check_workers`), None as :func:`default_workers`; in a
+    daemonic process (a Dask worker, a multiprocessing pool's worker), which may start no
+    processes of its own, None is 1 and more is refused."""
+    import multiprocessing
+
     n = check_workers(workers, culprit)
+    if multiprocessing.current_process().daemon:
+        if n is not None and n > 1:
+            raise InputError(f"this process is a worker of another (a Dask worker, a "
+                             f"multiprocessing pool), which may start no processes of its own: "
+                             f"its trials run here; leave it out or give 1", culprit=culprit)
+        return 1
     return default_workers() if n is None else n
 
 
