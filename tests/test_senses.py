@@ -111,7 +111,9 @@ def test_the_run_records_the_senses_a_model_binds(tmp_path):
     import astrocpg as ac
 
     with populations.registered(_sensor_row()):
-        result = ac.run(seconds=0.3, seed=2, trials=2, progress=False,
+        # one process: a row registered in this process is not in a worker started by the
+        # fork server (a population reaches workers as ``populations=``)
+        result = ac.run(seconds=0.3, seed=2, trials=2, progress=False, workers=1,
                         traces=("foot_sensor_load", "foot_sensor_contact", "foot_sensor_thigh"),
                         spikes=())
         def trace(name):  # (t, trial-major cells) -> (trial, t, leg)
