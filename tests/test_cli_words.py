@@ -306,9 +306,12 @@ def test_plot_has_a_bar_and_no_progress_silences_it(runs, tmp_path, capsys) -> N
     written = int(re.search(r"wrote (\d+) figure", captured.out).group(1))
     from astrocpg.studies.figures.traces import FIGURE_FUNCTIONS
 
-    total = len(FIGURE_FUNCTIONS) + written  # a step per kind of figure, then per file
-    last = captured.err.replace("\r", "\n").strip().splitlines()[-1]
-    assert last.startswith("plot: 100%") and f"{total}/{total}" in last, captured.err
+    # two bars, each with its total from the start: a step per kind of figure, then per file
+    lines = captured.err.replace("\r", "\n").strip().splitlines()
+    kinds = len(FIGURE_FUNCTIONS)
+    assert any(x.startswith("plot: 100%") and f"{kinds}/{kinds}" in x for x in lines), captured.err
+    assert lines[-1].startswith("plot: saving: 100%") and f"{written}/{written}" in lines[-1], \
+        captured.err
     assert main(["plot", str(folder), "--out", str(tmp_path / "b"), "--no-progress"]) == 0
     captured = capsys.readouterr()
     assert captured.err == "", captured.err
