@@ -51,6 +51,8 @@ from brian2.groups.group import Group
 from brian2.units.allunits import second
 from brian2.units.fundamentalunits import Quantity
 
+from .invariants import check_constants
+
 try:  # Brian2 registers its Cython target only where Cython is installed
     from brian2.codegen.runtime.cython_rt.cython_rt import CythonCodeObject
 except ImportError:  # pragma: no cover - Cython is a dependency of astrocpg
@@ -125,6 +127,9 @@ def run(net: Network, duration: Any, report: Any = None, report_period: Any = 10
         for c in net._clocks:
             c.set_interval(net.t, t_end)
     net.before_run(namespace)
+    # a constant of the equations that overflows is refused on every code generation (the
+    # numpy target would stop on it at the first step; compiled code would run on with inf)
+    check_constants(net)
     if len(all_objects) == 0:
         return
     start_time = time.time()

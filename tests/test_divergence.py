@@ -173,3 +173,41 @@ def test_a_constant_that_overflows_names_its_parameter() -> None:
     with pytest.raises(InputError) as e:
         run_network(net, 1 * brian2.ms, namespace={})
     assert e.value.culprit == "big=1e+200" and "overflow" in e.value.message
+
+
+@pytest.mark.parametrize("target", ["numpy", pytest.param("cython", marks=pytest.mark.slow)])
+def test_a_constant_that_overflows_is_refused_on_every_target(target: str) -> None:
+    """Compiled code computes an overflowing constant as inf (or 1/inf as 0) without a word and
+    runs on with it: the constants are checked before the first step, whatever the target, and
+    refused the same way (the code objects' own loop-invariants, numpy errors raised)."""
+    import brian2
+
+    from astrocpg.errors import InputError
+    from astrocpg.network.divergence import run_network
+
+    if target == "cython":
+        pytest.importorskip("Cython")
+    codeobj = {"numpy": brian2.NumpyCodeObject}.get(target)
+    if codeobj is None:
+        from brian2.codegen.runtime.cython_rt.cython_rt import CythonCodeObject as codeobj
+    group = brian2.NeuronGroup(1, "dv/dt = -v/tau + 1/(big - small)**2/second : 1",
+                               namespace={"big": 1e200, "small": 1.0, "tau": 10 * brian2.ms},
+                               name=f"overflowing_{target}", codeobj_class=codeobj)
+    net = brian2.Network(group)
+    with pytest.raises(InputError) as e:
+        run_network(net, 1 * brian2.ms, namespace={})
+    assert e.value.culprit == "big=1e+200" and "overflow" in e.value.message, e.value
+    assert float(group.v[0]) == 0.0  # refused before its first step
+
+
+def test_plausible_constants_run() -> None:
+    """The check refuses only what overflows: the same equations at plausible sizes run."""
+    import brian2
+
+    from astrocpg.network.divergence import run_network
+
+    group = brian2.NeuronGroup(1, "dv/dt = -v/tau + 1/(big - small)**2/second : 1",
+                               namespace={"big": 3.0, "small": 1.0, "tau": 10 * brian2.ms},
+                               name="plausible", codeobj_class=brian2.NumpyCodeObject)
+    run_network(brian2.Network(group), 1 * brian2.ms, namespace={})
+    assert float(group.v[0]) > 0

@@ -31,8 +31,10 @@ from astrocpg.studies.outputs.folder import LOCK_NAME, OWNER_NAME, parse_temp_na
 
 CLI = [sys.executable, "-m", "astrocpg.studies.cli"]
 # a short training: sessions of at most 0.3 s, 2 trials
+# one process: these are the one-process training's checkpoints (a training split over
+# processes, the default on a machine of several cores, is interrupted in tests/test_workers.py)
 TRAIN = ["--sessions", "5", "--trials", "2", "--seed", "5", "--set", "L_max=0.3*second",
-         "--set", "L_non_alive=0.15*second", "--no-progress"]
+         "--set", "L_non_alive=0.15*second", "--no-progress", "--workers", "1"]
 STUDY = """
 [study]
 name = "faults"

@@ -134,6 +134,11 @@ def _main(argv: Sequence[str] | None) -> int:
     warnings.simplefilter("ignore")
     logging_was = logging.root.manager.disable
     logging.disable(logging.CRITICAL)
+    # what the workers of a command before this one (same process: tests, notebooks) reported
+    # of their physics is not this command's
+    from ..outputs.writing import note_worker_environment
+
+    note_worker_environment({})
     try:
         return _run_command(args)
     finally:

@@ -151,6 +151,7 @@ def try_batched(kind: str, spec: Mapping[str, Any], trials: int, workers: int,
     """:func:`simulate_batched` with ``workers`` of at least 2; None with fewer, or when a
     batch diverged (the caller runs the command in its own process: what diverged is written
     as one process writes it)."""
+    note_worker_environment({})  # a command before this one in the process split its trials
     if workers < 2:
         return None
     try:

@@ -35,7 +35,7 @@ from ...models.compose import model_set
 from ..commands.settings import added_populations, population_models
 from ..commands.train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
 from ..outputs.checkpoint import refuse_legacy
-from ..outputs.folder import FolderLock
+from ..outputs.folder import FolderLock, remember_written
 from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write_manifest
 from ..outputs.weights import WEIGHTS
 from .layout import ENDED, FAILURES, GAITS, STATUS, as_it_stands, run_files
@@ -124,6 +124,9 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
             payload = read_checkpoint(out / CHECKPOINT, culprit=out)
             if payload["fingerprint"] != settings.fingerprint():
                 raise InputError("its checkpoint belongs to other settings", culprit=out)
+            # an earlier attempt's (its worker killed before it listed it): this attempt
+            # continues from it, so it is the run's file, listed while it stays as read
+            remember_written(out / CHECKPOINT)
         models = model_set(settings.overrides, {}, models=settings.models,
                            added=population_models(spec.populations))
         trainer = Trainer(models, settings, out, progress=False, record=spec.record_plan())
