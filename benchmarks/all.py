@@ -49,7 +49,7 @@ import speed  # noqa: E402
 import startup  # noqa: E402
 import study_utilisation as utilisation_benchmark  # noqa: E402
 
-from astrocpg.studies.runtime.trial_cost import measure_trial_cost  # noqa: E402
+from astrocpg.studies.parameter_studies.trial_cost import measure_trial_cost  # noqa: E402
 from astrocpg.studies.parameter_studies.batching import choose_batch, longest_first_makespan  # noqa: E402
 from astrocpg.studies.parameter_studies.study import consecutive_groups  # noqa: E402
 

@@ -4,7 +4,7 @@ and the current way (0.5 s, 3 s), the two in turn, ``--repeats`` times.
 
     python benchmarks/trial_cost_timing.py [--repeats 3] [--codegen cython]
 
-Each measurement is :func:`astrocpg.studies.runtime.trial_cost.measure_trial_cost` at batch
+Each measurement is :func:`astrocpg.studies.parameter_studies.trial_cost.measure_trial_cost` at batch
 sizes 1, 4, 10 and 20 (the closed loop, default models, fixed weights, CPU time per simulated
 second), nothing stored. A study's choice of runs depends only on the ratio ``fixed /
 per_trial``: how many trials' worth of work every run pays whatever its size.
@@ -17,7 +17,7 @@ import json
 import platform
 from datetime import datetime, timezone
 
-from astrocpg.studies.runtime.trial_cost import SECONDS, WARM_UP, measure_trial_cost
+from astrocpg.studies.parameter_studies.trial_cost import SECONDS, WARM_UP, measure_trial_cost
 
 TIMINGS = {"old (0.1 s + 1 s)": (0.1, 1.0), f"current ({WARM_UP:g} s + {SECONDS:g} s)":
            (WARM_UP, SECONDS)}

@@ -12,6 +12,9 @@ fixed costs solved from the 1- and 2-worker times (``t1 = fixed + per_trial * T`
 ``t2 = fixed + per_process + per_trial * ceil(T / 2)``); it is limited by the memory per
 worker (``WORKER_PROCESS_BYTES`` plus its batch's records), the start-up of each process and
 the largest batch (ceil(T / N) trials: 20 trials on 8 cores wait for batches of 3).
+Before the timings, each command runs once small (2 trials, a fraction of a second, both worker
+counts), untimed: the first run of a code-generation target compiles its code (Cython: tens of
+seconds, cached), which is not what the number of workers changes.
 Run it on a quiet machine: timings on a loaded one are meaningless.
 """
 
@@ -38,9 +41,21 @@ def commands(trials: int, sessions: int, seconds: float) -> dict[str, list[str]]
     }
 
 
+def warm_up(args: list[str], where: Path) -> None:
+    """The command once small with 1 and 2 workers, untimed (compiled code cached)."""
+    small = {"--trials": "2", "--sessions": "1", "--seconds": "0.2"}
+    args = [small.get(prev, a) if prev in small else a
+            for prev, a in zip([""] + args[:-1], args)]
+    if args[0] == "train":
+        args = [*args, "--set", "L_max=0.2*second"]
+    for workers in (1, 2):
+        timed(args, workers, where / "warm-up")
+
+
 def timed(args: list[str], workers: int, where: Path) -> float:
     out = where / f"{args[0]}-w{workers}"
     shutil.rmtree(out, ignore_errors=True)
+    out.parent.mkdir(parents=True, exist_ok=True)
     typed = [a if a != "OUT" else str(out) for a in args]
     t0 = time.perf_counter()
     p = subprocess.run([sys.executable, "-m", "astrocpg", *typed, "--workers", str(workers),
@@ -80,6 +95,7 @@ def main(argv: list[str] | None = None) -> int:
         for name, args in commands(a.trials, a.sessions, a.seconds).items():
             if a.only and name not in a.only:
                 continue
+            warm_up(args, Path(tmp))
             t1, t2 = timed(args, 1, Path(tmp)), timed(args, 2, Path(tmp))
             ratio = t2 / t1
             proj = projection(t1, t2, a.trials, a.cores)

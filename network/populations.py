@@ -389,6 +389,18 @@ def trace_sources(rows: Sequence[Population] | None = None
             for p in (table() if rows is None else rows) for t, s in p.traces.items()}
 
 
+def trace_columns(traces: Sequence[str], rows: Sequence[Population] | None = None
+                  ) -> dict[str, int]:
+    """Each trace's columns in one trial (its population's cells at the built-in pool size;
+    8 for a trace the table does not know): what a memory estimate counts per trial."""
+    from ..models import DEFAULT_MODELS
+    from .layout import Layout
+
+    sources = trace_sources(rows)
+    layout = Layout(n_trials=1, pool_size=int(DEFAULT_MODELS.value("pool_size")))
+    return {t: layout.cells_per_trial(sources[t][0]) if t in sources else 8 for t in traces}
+
+
 def trace_meaning(trace: str, rows: Sequence[Population] | None = None) -> str:
     for p in table() if rows is None else rows:
         if trace in p.traces:

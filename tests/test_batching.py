@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from astrocpg.errors import InputError
-from astrocpg.studies.runtime import trial_cost as tc
+from astrocpg.studies.parameter_studies import trial_cost as tc
 from astrocpg.studies.parameter_studies.batching import choose_batch, longest_first_makespan
 from astrocpg.studies.parameter_studies.study import (consecutive_groups, load_study, prepare_study,
                                            resolve_batch)

@@ -39,7 +39,7 @@ def cache(tmp_path, monkeypatch) -> Path:
 
 
 def _store(cache: Path, **entry_changes) -> Path:
-    from astrocpg.studies.runtime.trial_cost import COST_FILE, machine_key
+    from astrocpg.studies.parameter_studies.trial_cost import COST_FILE, machine_key
 
     key = machine_key("numpy")
     entry = {"fixed": 0.2, "per_trial": 0.04, "measured": {"1": 0.24, "4": 0.36},
@@ -58,7 +58,7 @@ def _store(cache: Path, **entry_changes) -> Path:
     {"per_trial": "0.04"}, {"per_trial": True}, {"extra": 1}],
     ids=lambda c: json.dumps(c))
 def test_a_stored_cost_that_is_not_finite_and_positive_is_ignored_naming_the_file(cache, change):
-    from astrocpg.studies.runtime.trial_cost import stored_trial_cost
+    from astrocpg.studies.parameter_studies.trial_cost import stored_trial_cost
 
     path = _store(cache, **change)
     notes: list[str] = []
@@ -67,7 +67,7 @@ def test_a_stored_cost_that_is_not_finite_and_positive_is_ignored_naming_the_fil
 
 
 def test_a_valid_stored_cost_is_used(cache):
-    from astrocpg.studies.runtime.trial_cost import stored_trial_cost
+    from astrocpg.studies.parameter_studies.trial_cost import stored_trial_cost
 
     _store(cache)
     notes: list[str] = []
@@ -78,7 +78,7 @@ def test_a_valid_stored_cost_is_used(cache):
 
 @pytest.mark.parametrize("text", ["{not json", "[1, 2]", "null"])
 def test_an_unreadable_cost_file_is_ignored_with_a_note(cache, text):
-    from astrocpg.studies.runtime.trial_cost import COST_FILE, stored_trial_cost
+    from astrocpg.studies.parameter_studies.trial_cost import COST_FILE, stored_trial_cost
 
     (cache / COST_FILE).write_text(text)
     notes: list[str] = []
@@ -90,7 +90,7 @@ def test_batch_auto_with_a_corrupt_cost_measures_again_and_says_so(cache, tmp_pa
                                                                   capsys):
     """A NaN in trial_cost.json made every batch = "auto" study an internal error: now one note
     naming the file, a new measurement stored over it, and a batch chosen on finite costs."""
-    from astrocpg.studies.runtime import trial_cost as tc
+    from astrocpg.studies.parameter_studies import trial_cost as tc
     from astrocpg.studies.parameter_studies.study import load_study, prepare_study
 
     path = _store(cache, per_trial=math.nan)

@@ -15,7 +15,7 @@ from astrocpg.coupling.assembly import build_closed_loop
 from astrocpg.errors import InputError
 from astrocpg.models import DEFAULT_MODELS
 from astrocpg.models.compose import model_set
-from astrocpg.network.populations import trace_sources
+from astrocpg.network.populations import trace_columns, trace_sources
 from astrocpg.studies.runtime.resources import estimate_bytes
 from astrocpg.studies.commands.simulate import _collect, add_monitors
 
@@ -117,7 +117,7 @@ def test_a_default_run_keeps_at_most_2_mib_per_trial_per_simulated_second():
                  "alive", "foot_force", "torso_quaternion"))
     per_trial_second = (traces + spikes + robot) / trials / seconds
     assert per_trial_second <= 2 * 2**20, per_trial_second / 2**20
-    estimate = estimate_bytes(trials=trials, seconds=seconds, traces=tuple(trace_sources()),
+    estimate = estimate_bytes(trials=trials, seconds=seconds, traces=trace_columns(trace_sources()),
                               robot_stride=1)
     assert estimate >= traces + spikes + robot  # the estimate a run is refused by covers it
 
@@ -233,7 +233,7 @@ def test_the_memory_a_run_needs_leaves_out_the_traces_it_spills():
     counts only the traces it holds (60 s x 20 trials: motor_Ca alone is 1.4 GiB)."""
     from astrocpg.network.recording import SPILL_BYTES
 
-    names = tuple(trace_sources())
+    names = trace_columns(trace_sources())
     held = estimate_bytes(trials=20, seconds=60, traces=names)
     spilled = estimate_bytes(trials=20, seconds=60, traces=names, spill_bytes=SPILL_BYTES)
     none = estimate_bytes(trials=20, seconds=60)

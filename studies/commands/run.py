@@ -15,6 +15,7 @@ import numpy as np
 
 from ...errors import Diverged, InputError
 from ...network import recording
+from ...network.populations import trace_columns
 from ...network.recording import overflow_words, overflowed
 from ...reading import read_json
 from ...models import ModelSet
@@ -135,7 +136,7 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
         procs = min(resolve_workers(workers), trials)
         check_memory(estimate_batched(
             procs, trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
-            traces=names, spikes=bool(pops), robot_stride=robot_stride,
+            traces=trace_columns(names), spikes=bool(pops), robot_stride=robot_stride,
             trace_bytes=np.dtype(trace_dtype).itemsize, spill_bytes=None if out is None
             else recording.SPILL_BYTES),
             culprit=f"--seconds {seconds:g} x --trials {trials}" + workers_words(procs))

@@ -13,6 +13,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import Diverged
+from ...network.populations import trace_columns
 from ...network.recording import overflowed
 from ..analysis.rhythm import rhythm_summary
 from ..outputs.folder import OutputFolder
@@ -103,7 +104,8 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
         pops, names = check_selection(spikes, traces)
         procs = min(resolve_workers(workers), trials)
         check_memory(estimate_batched(procs, trials=trials, seconds=seconds, dt=STEP,
-                                      trace_dt=trace_dt * 1e-3, traces=names, spikes=bool(pops),
+                                      trace_dt=trace_dt * 1e-3, traces=trace_columns(names),
+                                      spikes=bool(pops),
                                       trace_bytes=np.dtype(trace_dtype).itemsize),
                      culprit=f"--seconds {seconds:g} x --trials {trials}"
                              + (f" x --workers {procs}" if procs > 1 else ""))

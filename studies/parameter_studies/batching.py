@@ -3,7 +3,7 @@ workers at hand.
 
 For each candidate batch size the study's seeds are split into runs as they would be
 (consecutive seeds, per condition and sweep point), each run costed with the machine's measured
-:class:`~astrocpg.studies.runtime.trial_cost.TrialCost` and the simulated time of its busiest
+:class:`~astrocpg.studies.parameter_studies.trial_cost.TrialCost` and the simulated time of its busiest
 seed, and the runs scheduled longest first on the workers, the way the study dispatches them (a
 free worker takes the next run). The batch with the shortest projected wall time wins; within
 2 % of it the largest batch wins (it spends the least CPU).
@@ -37,7 +37,7 @@ import heapq
 import math
 from typing import Any, Callable, Mapping, Sequence, Union
 
-from ..runtime.trial_cost import TrialCost
+from .trial_cost import TrialCost
 
 TIE = 0.02  # projected wall times within 2 % count as equal: the larger batch wins
 MAX_RUNS_PER_WORKER = 8  # smaller batches are never faster: the fixed cost per run dominates

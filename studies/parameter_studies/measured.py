@@ -31,7 +31,7 @@ from typing import Any
 from ...errors import EnvironmentFault, InputError
 from ...reading import MAX_PLAN_BYTES, read_bytes, read_json, too_large
 from ..outputs.writing import read_manifest
-from ..runtime.trial_cost import TrialCost
+from .trial_cost import TrialCost
 from .layout import TIMELINE
 from .tables import read_timeline
 from .study_file import run_group

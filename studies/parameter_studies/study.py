@@ -143,7 +143,7 @@ def _choose_batch(study: Study, *, workers: int | None, scheduler: str | None, p
     """:func:`resolve_batch`'s choice for a new folder, with what it was made from (the cost,
     the lengths measured) and each run's projected CPU seconds as ``[(group, first seed, s)]``
     (:func:`resolve_batch` keys them by run id once the runs are named)."""
-    from ..runtime.trial_cost import trial_cost
+    from .trial_cost import trial_cost
     from .batching import choose_batch
     from ...network.codegen import codegen_target
     from .measured import fitted_cost, measured_lengths, planned_lengths

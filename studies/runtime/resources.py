@@ -5,7 +5,7 @@ machine part-way through."""
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import Any, Mapping
 
 from ...errors import InputError
 
@@ -46,26 +46,14 @@ def available_memory() -> int:
         return 1 << 62  # unknown: do not refuse
 
 
-def trace_columns_per_trial(trace: str) -> int:
-    """The columns of ``trace`` in one trial (its population's cells, from the population
-    table, at the built-in pool size; 8 for a trace the table does not know)."""
-    from ...models import DEFAULT_MODELS
-    from ...network.layout import Layout
-    from ...network.populations import trace_sources
-
-    source = trace_sources().get(trace)
-    if source is None:
-        return 8
-    layout = Layout(n_trials=1, pool_size=int(DEFAULT_MODELS.value("pool_size")))
-    return layout.cells_per_trial(source[0])
-
-
 def estimate_bytes(*, trials: int, seconds: float, dt: float = 1e-3, trace_dt: float = 1e-3,
-                   robot_stride: int | None = None, traces: tuple[str, ...] = (),
+                   robot_stride: int | None = None, traces: Mapping[str, int] | None = None,
                    spikes: bool = True, sessions: int = 0, trace_bytes: int = 4,
                    spill_bytes: int | None = None) -> int:
     """Bytes a simulation of ``trials`` for ``seconds`` holds at its end (state + records),
-    or a training of ``sessions`` sessions per trial (its rows and tables). ``trace_bytes``:
+    or a training of ``sessions`` sessions per trial (its rows and tables). ``traces``: the
+    recorded traces, each with its columns per trial
+    (:func:`astrocpg.network.populations.trace_columns`). ``trace_bytes``:
     per trace value (4: float32, the default; 8: float64). ``spill_bytes``: a run that writes
     its folder puts each trace of at least this many bytes on disk as it goes
     (:data:`~astrocpg.network.recording.SPILL_BYTES`): such a trace is not held."""
@@ -73,8 +61,8 @@ def estimate_bytes(*, trials: int, seconds: float, dt: float = 1e-3, trace_dt: f
     per_trial = float(BYTES_PER_TRIAL) + float(SESSION_BYTES_PER_TRIAL) * sessions
     if spikes:
         per_trial += SPIKE_BYTES_PER_TRIAL_S * seconds
-    for t in traces:
-        held = trace_columns_per_trial(t) * trace_bytes * seconds / trace_dt
+    for columns in (traces or {}).values():
+        held = columns * trace_bytes * seconds / trace_dt
         if spill_bytes is None or held * trials < spill_bytes:
             per_trial += held
     if robot_stride:

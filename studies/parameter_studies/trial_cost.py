@@ -33,7 +33,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ...errors import InputError
-from .caches import cache_dir
+from ..runtime.caches import cache_dir
 
 COST_FILE = "trial_cost.json"
 SIZES = (1, 4, 10, 20)  # batch sizes measured: the fit is a straight line through them
