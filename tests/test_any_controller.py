@@ -187,3 +187,52 @@ def test_falls_in_a_world_are_read_relative_to_flat_ground() -> None:
     assert by[("astrocytes", falls)]["in_world"] < by[("no_astrocytes", falls)]["in_world"]
     did = by[("astrocytes - no_astrocytes", falls)]
     assert did["n_tables"] == 20 and did["effect"] > 0 and did["effect_low"] > 0
+
+
+SWEPT_STUDY = """
+[study]
+name = "swept"
+sessions = 1
+seeds = { first = 1, count = 1 }
+batch = 1
+[base]
+L_max = "0.2*second"
+L_non_alive = "0.1*second"
+[sweep.axes]
+eta_ADO = ["9*nvolt", "36*nvolt"]
+[conditions.astro]
+astrocytes = true
+"""
+
+
+@pytest.mark.slow
+def test_evaluate_point_evaluates_one_sweep_point_of_a_study(tmp_path) -> None:
+    """``astrocpg evaluate STUDY --point eta_ADO=36*nvolt`` on a study of two sweep points
+    evaluates the tables of that point alone, as typed (end to end: the study trained, the
+    evaluation written); a value the study did not sweep is refused naming the values it has."""
+    import csv
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    study = tmp_path / "swept.toml"
+    study.write_text(SWEPT_STUDY)
+    cli = [sys.executable, "-m", "astrocpg"]
+    run = lambda *a: subprocess.run([*cli, *map(str, a)], capture_output=True, text=True,  # noqa: E731
+                                    timeout=900, cwd=tmp_path)
+    trained = run("study", study, "--out", tmp_path / "study", "--workers", "1", "--no-progress")
+    assert trained.returncode == 0, trained.stderr
+    worlds = root / "docs" / "beyond" / "flat.toml"
+    ev = run("evaluate", tmp_path / "study", "--point", "eta_ADO=36*nvolt", "--worlds", worlds,
+             "--seconds", "0.2", "--repeats", "1", "--workers", "1", "--no-progress",
+             "--out", tmp_path / "ev")
+    assert ev.returncode == 0, ev.stderr
+    with open(tmp_path / "ev" / "evaluation.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert rows and {r["point"] for r in rows} == {"eta_ADO=36*nvolt"}, rows[:2]
+    wrong = run("evaluate", tmp_path / "study", "--point", "eta_ADO=4*nvolt", "--worlds", worlds,
+                "--seconds", "0.2", "--repeats", "1", "--workers", "1", "--no-progress",
+                "--out", tmp_path / "ev2")
+    assert wrong.returncode == 2 and "eta_ADO" in wrong.stderr, wrong.stderr
+    assert not (tmp_path / "ev2").exists()
