@@ -1205,6 +1205,23 @@ class FolderLock:
             return None
         return data if isinstance(data, dict) else None
 
+    def held_elsewhere(self) -> bool:
+        """Does a live process hold this folder's lock (as :meth:`acquire` found)? The lock is
+        the kernel's: a process that died holds nothing."""
+        import filelock
+
+        if self._lock is not None or not self.path.exists():
+            return False
+        probe = filelock.FileLock(os.fspath(self.path), timeout=0)
+        try:
+            probe.acquire()
+        except filelock.Timeout:
+            return True
+        except OSError:
+            return False
+        probe.release()
+        return False
+
     def acquire(self) -> "FolderLock":
         if self._lock is not None:
             return self

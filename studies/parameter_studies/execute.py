@@ -66,6 +66,10 @@ def _write_status(folder: Path, status: dict[str, Any]) -> None:
     save_json(folder / STATUS, status)
 
 
+#: How often a run given out again waits for the worker that still trains it (seconds)
+RUN_LOCK_POLL_S = 5.0
+
+
 @exclusive  # a worker's tasks are threads: one Brian2 training at a time (network/runlock.py)
 def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
     """Train one run in ``folder`` (resuming from its checkpoint if there is one).
@@ -82,11 +86,24 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
     # the run folder is this worker's while it trains (inside the study's folder, which the
     # study's process holds): `train --resume` or `run --out ... --overwrite` on it is refused
     lock = FolderLock(out, culprit=f"run folder {out}", inside=out.parent.parent)
-    try:
-        lock.acquire()
-    except InputError as e:  # another process holds it: write nothing into it
-        return {"run_id": spec.run_id, "state": "failed", "error": f"InputError: {e}",
-                "not_written": True}
+    refused = 0
+    while True:
+        try:
+            lock.acquire()
+            break
+        except InputError as e:
+            if not (lock.held_elsewhere() and FolderLock(out.parent.parent).held_elsewhere()):
+                refused += 1  # let go just now (try again), or refused for another reason
+                if refused < 2:
+                    continue
+                return {"run_id": spec.run_id, "state": "failed", "error": f"InputError: {e}",
+                        "not_written": True}  # write nothing into it
+            # Another worker of this study trains it (the study that gave this run out holds
+            # its folder, so no other command can): the scheduler gave the run out again because that worker stopped
+            # answering for a while (a paused or suspended machine), not because it died.
+            # Wait for it; once it lets go, the run's status says how it ended (a finished run
+            # is not trained again) or the run continues from its checkpoint.
+            time.sleep(RUN_LOCK_POLL_S)
     try:
         return _execute_run_locked(spec, out)
     finally:
