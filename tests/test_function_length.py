@@ -1,5 +1,6 @@
 """Functions stay short enough to read as named steps: none in the package over 150 lines,
-none in the command line (studies/cli/) over 120."""
+none in the command line (studies/cli/) over 120, none in the commands (studies/commands/: a
+command's checks, its simulation and its writing as steps of their own) over 80."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SKIP = ("tests", "docs", "benchmarks", "_build_backend", ".venv", "build")
 PACKAGE_LIMIT = 150
 CLI_LIMIT = 120
+COMMANDS_LIMIT = 80
 
 
 def _package_files() -> list[Path]:
@@ -46,6 +48,14 @@ def test_no_function_in_the_command_line_is_over_120_lines():
     cli = [p for p in _package_files() if p.relative_to(ROOT).parts[:2] == ("studies", "cli")]
     assert len(cli) >= 4, cli  # the package: grammar, handlers, process plumbing
     assert not _too_long(lambda rel: CLI_LIMIT if rel.parts[:2] == ("studies", "cli")
+                         else PACKAGE_LIMIT)
+
+
+def test_no_function_in_the_commands_is_over_80_lines():
+    commands = [p for p in _package_files()
+                if p.relative_to(ROOT).parts[:2] == ("studies", "commands")]
+    assert len(commands) >= 10, commands
+    assert not _too_long(lambda rel: COMMANDS_LIMIT if rel.parts[:2] == ("studies", "commands")
                          else PACKAGE_LIMIT)
 
 

@@ -91,22 +91,8 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
     ``scale = ["P", ...]``, model parameters multiplied together by each factor (e.g. the
     descending drive ``I_background_0``, the torques per spike ``I_thigh`` and ``I_calf``).
     Every name and value is checked (units, parse) here, each error naming its place."""
-    from ...shipped import resolve, unreadable
-    path = BUILTIN_WORLDS.get(str(source)) or resolve(source, "worlds")
     where = f"--worlds {source}"
-    try:
-        # a regular file only (a FIFO is refused, never waited on), nesting bounded
-        doc = loads_toml(read_bytes(path, where).decode("utf-8"), where)
-    except OSError as e:  # a misspelt name: its closest; a missing file: the environment's
-        raise unreadable(source, "worlds", e, culprit=where,
-                         builtin=tuple(BUILTIN_WORLDS)) from None
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
-        raise InputError(f"is not a TOML worlds file ({e})", culprit=where) from None
-    worlds, grid = doc.get("worlds", {}), doc.get("grid", {})
-    if (not isinstance(worlds, dict) or not isinstance(grid, dict) or not (worlds or grid)
-            or set(doc) - {"worlds", "grid"}):
-        raise InputError("needs [worlds.NAME] and/or [grid.AXIS] tables and nothing else",
-                         culprit=where)
+    worlds, grid = _worlds_document(source, where)
     world_names = set(models.world.parameters)
     # the grid's size from its lengths alone, before a world of it is built or checked
     lengths = [len(t["values"]) for t in grid.values()
@@ -133,6 +119,44 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
             raise InputError("must be a table of world parameters", culprit=f"{where} {name}")
         out[str(name)] = {"set": [assignment(k, v, f"{name}.{k}") for k, v in table.items()],
                           "scale": {}}
+    axes, labels, options = _grid_axes(grid, where, assignment, models)
+    cell: dict[str, tuple[int, ...]] = {}
+    for index in itertools.product(*(range(len(v)) for _, v in axes)) if axes else ():
+        name = ", ".join(f"{axes[k][0]}={axes[k][1][i]}" for k, i in enumerate(index))
+        merged: dict[str, Any] = {"set": [], "scale": {}}
+        for k, i in enumerate(index):
+            merged["set"] += options[k][i]["set"]
+            merged["scale"].update(options[k][i]["scale"])
+        out[name] = merged
+        cell[name] = tuple(index)
+    return WorldSet(worlds=out, axes=axes, cell=cell, labels=labels)
+
+
+def _worlds_document(source: str | Path, where: str) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The ``[worlds]`` and ``[grid]`` tables of a worlds file or built-in name, read bounded
+    (a regular file only: a FIFO is refused, never waited on)."""
+    from ...shipped import resolve, unreadable
+    path = BUILTIN_WORLDS.get(str(source)) or resolve(source, "worlds")
+    try:
+        doc = loads_toml(read_bytes(path, where).decode("utf-8"), where)
+    except OSError as e:  # a misspelt name: its closest; a missing file: the environment's
+        raise unreadable(source, "worlds", e, culprit=where,
+                         builtin=tuple(BUILTIN_WORLDS)) from None
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
+        raise InputError(f"is not a TOML worlds file ({e})", culprit=where) from None
+    worlds, grid = doc.get("worlds", {}), doc.get("grid", {})
+    if (not isinstance(worlds, dict) or not isinstance(grid, dict) or not (worlds or grid)
+            or set(doc) - {"worlds", "grid"}):
+        raise InputError("needs [worlds.NAME] and/or [grid.AXIS] tables and nothing else",
+                         culprit=where)
+    return worlds, grid
+
+
+def _grid_axes(grid: dict[str, Any], where: str, assignment: Any, models: ModelSet
+               ) -> tuple[list[tuple[str, list[str]]], dict[str, str],
+                          list[list[dict[str, Any]]]]:
+    """Each ``[grid.AXIS]``, checked: its name and values, its label, and the world settings
+    each of its values gives (a world parameter set, or model parameters scaled)."""
     axes: list[tuple[str, list[str]]] = []
     labels: dict[str, str] = {}
     options: list[list[dict[str, Any]]] = []
@@ -164,31 +188,27 @@ def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
                             for v in values])
             labels[str(axis)] = str(axis)
         else:
-            if not isinstance(scale, list) or not scale:
-                raise InputError("needs a list of parameter names", culprit=f"{at}.scale")
-            for p in scale:
-                models.parameter(str(p))  # an unknown name is named
-            factors = []
-            for v in values:
-                if (isinstance(v, bool) or not isinstance(v, (int, float))
-                        or not math.isfinite(v) or v <= 0):
-                    raise InputError(f"a factor must be a positive number, got {v!r}",
-                                     culprit=f"{at}.values")
-                factors.append(float(v))
-            options.append([{"set": [], "scale": {str(p): f for p in scale}} for f in factors])
+            options.append(_scale_options(scale, values, at, models))
             labels[str(axis)] = f"{axis} (x {', '.join(str(p) for p in scale)})"
         axes.append((str(axis), [str(v) for v in values]))
-    cell: dict[str, tuple[int, ...]] = {}
-    if axes:
-        for index in itertools.product(*(range(len(v)) for _, v in axes)):
-            name = ", ".join(f"{axes[k][0]}={axes[k][1][i]}" for k, i in enumerate(index))
-            merged: dict[str, Any] = {"set": [], "scale": {}}
-            for k, i in enumerate(index):
-                merged["set"] += options[k][i]["set"]
-                merged["scale"].update(options[k][i]["scale"])
-            out[name] = merged
-            cell[name] = tuple(index)
-    return WorldSet(worlds=out, axes=axes, cell=cell, labels=labels)
+    return axes, labels, options
+
+
+def _scale_options(scale: Any, values: list[Any], at: str, models: ModelSet
+                   ) -> list[dict[str, Any]]:
+    """A factor axis's settings: each positive factor scales every parameter of ``scale``."""
+    if not isinstance(scale, list) or not scale:
+        raise InputError("needs a list of parameter names", culprit=f"{at}.scale")
+    for p in scale:
+        models.parameter(str(p))  # an unknown name is named
+    factors = []
+    for v in values:
+        if (isinstance(v, bool) or not isinstance(v, (int, float))
+                or not math.isfinite(v) or v <= 0):
+            raise InputError(f"a factor must be a positive number, got {v!r}",
+                             culprit=f"{at}.values")
+        factors.append(float(v))
+    return [{"set": [], "scale": {str(p): f for p in scale}} for f in factors]
 
 
 def grid_values(world_set: WorldSet, world: str) -> dict[str, str]:
@@ -380,6 +400,58 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     done it) rather than its final tables, e.g. a long study's tables after 120 and 200 of its
     400 sessions, evaluated the same way as the final ones."""
     folder = as_path(folder, "folder")
+    seconds, repeats, seed = _checked_sizes(seconds, repeats, seed, workers, scheduler)
+    target = Path(out) if out is not None else folder / "evaluation"
+    # what it reads (the training or study, a worlds file) is never replaced nor written into
+    # but at folder/evaluation
+    inputs = [folder, *([worlds] if isinstance(worlds, (str, os.PathLike))
+                        and os.path.isfile(worlds) else [])]
+    OutputFolder(target, overwrite=overwrite or out is None, inputs=inputs).check()
+    controllers = _chosen_controllers(folder, conditions, points, variant)
+    plans = _controller_plans(controllers, session)
+    tables_label = _tables_label(controllers, session)  # its warning before the work
+    world_set = read_worlds(worlds, plans[0][2])
+    if baseline is not None and baseline not in world_set.worlds:
+        raise InputError(f"is not a world of --worlds {worlds} (worlds: "
+                         f"{', '.join(world_set.worlds)})", culprit=f"--baseline {baseline}")
+    check_grid(len(plans) * len(world_set.worlds),
+               f"cells ({len(plans)} training(s) x {len(world_set.worlds)} world(s))",
+               culprit=f"evaluate {folder} --worlds {worlds}")
+    _check_worlds(plans, world_set, worlds)
+    n_max = max(len(t) for _, t, _ in plans) * repeats
+    check_memory(estimate_bytes(trials=n_max, seconds=seconds, dt=STEP, robot_stride=1),
+                 culprit=f"--seconds {seconds:g} x {n_max} trials")
+    parts = CellParts(target.with_name(target.name + PARTS_SUFFIX),
+                      _fingerprint(plans, world_set, seconds, repeats, seed))
+    cells = {f"{ci:04d}-{wi:04d}": (c, tables, world, setting, grid_values(world_set, world))
+             for ci, (c, tables, _) in enumerate(plans)
+             for wi, (world, setting) in enumerate(world_set.worlds.items())}
+    done, todo = pending(cells, parts.load)  # the cells kept by an interrupted evaluation
+    todo = {cell: (c, tables, world, setting, grid, seconds, seed, repeats)
+            for cell, (c, tables, world, setting, grid) in todo.items()}
+    if todo:
+        _run_cells(todo, done, parts, workers=workers, scheduler=scheduler, progress=progress,
+                   n_cells=len(cells))
+    rows: list[dict[str, Any]] = [row for cell in cells for row in done[cell]]
+    settings = {"folder": str(folder), **world_set.to_json(),
+                "worlds_source": str(worlds), "seconds": seconds, "repeats": repeats,
+                "seed": seed, "conditions": list(conditions or []),
+                "points": list(points or []), "baseline": baseline,
+                "variant": {k: v for k, v in (variant or {}).items() if v} or None,
+                "tables": tables_label,
+                "trainings": [str(c["folder"]) for c, _, _ in plans],
+                "workers": workers, "scheduler": scheduler,
+                "cells_reused": len(cells) - len(todo)}
+    out_files = _write_evaluation(target, overwrite or out is None, inputs, rows, world_set,
+                                  baseline, settings, plans[0][2])
+    parts.remove()
+    return {"out": target, **out_files}
+
+
+def _checked_sizes(seconds: Any, repeats: Any, seed: Any, workers: Any, scheduler: Any
+                   ) -> tuple[float, int, int]:
+    """An evaluation's seconds (whole steps), repeats and seed checked, and its workers or
+    scheduler."""
     seconds = number(seconds, "--seconds", positive=True)
     check_duration(seconds, STEP)
     repeats = number(repeats, "--repeats", integer=True, minimum=1)
@@ -390,12 +462,14 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
         raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
     else:
         check_scheduler(scheduler)
-    target = Path(out) if out is not None else folder / "evaluation"
-    # what it reads (the training or study, a worlds file) is never replaced nor written into
-    # but at folder/evaluation
-    inputs = [folder, *([worlds] if isinstance(worlds, (str, os.PathLike))
-                        and os.path.isfile(worlds) else [])]
-    OutputFolder(target, overwrite=overwrite or out is None, inputs=inputs).check()
+    return seconds, repeats, seed
+
+
+def _chosen_controllers(folder: Path, conditions: Sequence[str] | None,
+                        points: Sequence[str] | None,
+                        variant: Mapping[str, Any] | None) -> list[dict[str, Any]]:
+    """The trained controllers under ``folder``: only those of ``conditions`` and at
+    ``points`` where given, each with the ``variant`` over its own settings."""
     controllers = _controllers(folder)
     if conditions:
         known = sorted({c["condition"] for c in controllers})
@@ -409,6 +483,13 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     if variant and any(variant.values()):
         controllers = [{**c, "settings": with_variant(c["settings"], **variant)}
                        for c in controllers]
+    return controllers
+
+
+def _controller_plans(controllers: Sequence[dict[str, Any]], session: int | None
+                      ) -> list[tuple[dict[str, Any], np.ndarray, ModelSet]]:
+    """Each controller with its tables (after ``session``, else its final ones) and its
+    training's model set."""
     plans = []
     for c in controllers:
         if "kept" in c:  # a kept table: its .npz is the one its .json names (sha256)
@@ -418,81 +499,56 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
             tables = controller_tables(c["folder"], session=session)
         with added_populations(c["settings"].get("populations")):
             plans.append((c, tables, trained_models(c["settings"])))
-    tables_label = _tables_label(controllers, session)
-    world_set = read_worlds(worlds, plans[0][2])
-    if baseline is not None and baseline not in world_set.worlds:
-        raise InputError(f"is not a world of --worlds {worlds} (worlds: "
-                         f"{', '.join(world_set.worlds)})", culprit=f"--baseline {baseline}")
-    check_grid(len(plans) * len(world_set.worlds),
-               f"cells ({len(plans)} training(s) x {len(world_set.worlds)} world(s))",
-               culprit=f"evaluate {folder} --worlds {worlds}")
-    _check_worlds(plans, world_set, worlds)
-    n_max = max(len(t) for _, t, _ in plans) * repeats
-    check_memory(estimate_bytes(trials=n_max, seconds=seconds, dt=STEP, robot_stride=1),
-                 culprit=f"--seconds {seconds:g} x {n_max} trials")
-    parts = CellParts(target.with_name(target.name + PARTS_SUFFIX),
-                            _fingerprint(plans, world_set, seconds, repeats, seed))
-    cells = {f"{ci:04d}-{wi:04d}": (c, tables, world, setting, grid_values(world_set, world))
-             for ci, (c, tables, _) in enumerate(plans)
-             for wi, (world, setting) in enumerate(world_set.worlds.items())}
-    done, todo = pending(cells, parts.load)  # the cells kept by an interrupted evaluation
-    todo = {cell: (c, tables, world, setting, grid, seconds, seed, repeats)
-            for cell, (c, tables, world, setting, grid) in todo.items()}
-    if todo:
-        _run_cells(todo, done, parts, workers=workers, scheduler=scheduler, progress=progress,
-                   n_cells=len(cells))
-    rows: list[dict[str, Any]] = [row for cell in cells for row in done[cell]]
+    return plans
+
+
+def _write_evaluation(target: Path, overwrite: bool, inputs: Sequence[Any],
+                      rows: list[dict[str, Any]], world_set: Any, baseline: str | None,
+                      settings: dict[str, Any], models: ModelSet) -> dict[str, Any]:
+    """The evaluation's folder, whole or nothing: its rows, their summary, the baseline's
+    effects and the figures, with its manifest. Returns {"rows", "summary", "baseline",
+    "figures"}."""
+    from ..figures.gait_map import gait_map_figures, world_bars
+    from ..figures.save import save_figure
+
     summary = summarise(rows)
     effects = baseline_effects(rows, baseline) if baseline is not None else []
     columns = list(COLUMNS)
     columns[columns.index("world") + 1:columns.index("world") + 1] = list(
         grid_values(world_set, ""))
-    from ..figures.gait_map import gait_map_figures, world_bars
-    from ..figures.save import save_figure
-
     figures = {}
     if len(world_set.axes) == 2:
         figures = gait_map_figures(rows, world_set.axes, world_set.labels)
     named = [s for s in summary if s["world"] not in world_set.cell]
     if len({s["world"] for s in named}) >= 2:
         figures["worlds.png"] = world_bars(named)
-    settings = {"folder": str(folder), **world_set.to_json(),
-                "worlds_source": str(worlds), "seconds": seconds, "repeats": repeats,
-                "seed": seed, "conditions": list(conditions or []),
-                "points": list(points or []), "baseline": baseline,
-                "variant": {k: v for k, v in (variant or {}).items() if v} or None,
-                "tables": tables_label,
-                "trainings": [str(c["folder"]) for c, _, _ in plans],
-                "workers": workers, "scheduler": scheduler,
-                "cells_reused": len(cells) - len(todo)}
-    with OutputFolder(target, overwrite=overwrite or out is None, inputs=inputs) as tmp:
+    with OutputFolder(target, overwrite=overwrite, inputs=inputs) as tmp:
         (tmp / EVALUATION).write_text(_csv(rows, tuple(columns)))
         (tmp / SUMMARY).write_text(_csv(summary, tuple(summary[0]) if summary else ()))
         if baseline is not None:
             (tmp / BASELINE).write_text(_csv(effects, BASELINE_COLUMNS))
         for name, fig in figures.items():
             save_figure(fig, tmp / name)
-        write_manifest(tmp, command="evaluate", seed=seed, settings=settings,
-                       models_json=plans[0][2].to_json(),
-                       files={EVALUATION: "one row per trained controller x world x repeat",
-                              SUMMARY: "per condition x point x world: each figure over "
-                                       "tables (each table's runs first), with 95% "
-                                       "intervals over tables",
-                              **({BASELINE: f"each world's effect relative to {baseline}: "
-                                            "per table world minus baseline, over tables; "
-                                            "between conditions the difference of the "
-                                            "differences, paired by seed"}
-                                 if baseline is not None else {}),
-                              **{n: "gait map over the grid's two axes: the most common gait "
-                                    "label per cell (colour), mean speed (contours)"
-                                 for n in figures if n.startswith("gait_map")},
-                              **({"worlds.png": "speed and fall share per named world, "
-                                                "one bar per condition"}
-                                 if "worlds.png" in figures else {})},
+        write_manifest(tmp, command="evaluate", seed=settings["seed"], settings=settings,
+                       models_json=models.to_json(), files=_evaluation_files(baseline, figures),
                        results={"status": "finished", "rows": len(rows)})
-    parts.remove()
-    return {"rows": rows, "summary": summary, "baseline": effects, "out": target,
-            "figures": sorted(figures)}
+    return {"rows": rows, "summary": summary, "baseline": effects, "figures": sorted(figures)}
+
+
+def _evaluation_files(baseline: str | None, figures: Mapping[str, Any]) -> dict[str, str]:
+    """What each file of an evaluation's folder holds (its manifest's ``files``)."""
+    return {EVALUATION: "one row per trained controller x world x repeat",
+            SUMMARY: "per condition x point x world: each figure over tables (each table's runs "
+                     "first), with 95% intervals over tables",
+            **({BASELINE: f"each world's effect relative to {baseline}: per table world minus "
+                          "baseline, over tables; between conditions the difference of the "
+                          "differences, paired by seed"}
+               if baseline is not None else {}),
+            **{n: "gait map over the grid's two axes: the most common gait label per cell "
+                  "(colour), mean speed (contours)"
+               for n in figures if n.startswith("gait_map")},
+            **({"worlds.png": "speed and fall share per named world, one bar per condition"}
+               if "worlds.png" in figures else {})}
 
 
 def _check_worlds(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],

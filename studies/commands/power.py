@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -30,6 +30,7 @@ from ..outputs.folder import verify
 from ..outputs.weights import load_weights
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..runtime.resources import check_memory, estimate_bytes
+from ...models import ModelSet
 from ...models.compose import model_set
 from .settings import added_populations, number, population_models
 
@@ -80,18 +81,7 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
                  culprit=f"--sessions {sessions}")
     manifest = verify(folder, culprit="power", strict=False)  # files as its manifest lists
     weights = load_weights(str(folder), trial, culprit="power")  # (8, 8) volt
-    settings = manifest.get("settings")
-    if manifest.get("astrocpg_command") not in ("train", "study-run") or not isinstance(settings,
-                                                                                      dict):
-        raise InputError("not a training run (astrocpg train, or a study's run)",
-                         culprit=f"power {folder}")
-    models = model_set([*settings.get("overrides", []), *overrides],
-                       settings.get("equations", {}), models=settings.get("models"),
-                       added=population_models(settings.get("populations")))
-    # weights fixed: a measurement, not training (zero in each rate's own unit)
-    models = models.with_zeros("eta", "eta_ADO")
-    if not settings.get("astrocytes", True):
-        models = models.with_values({"astrocyte_regulation": 0.0})
+    settings, models = _trained(folder, manifest, overrides)
     seed = int(manifest.get("seed", settings.get("seed", 1))) + trial
     # the network the table trained on: with the populations its training added
     with added_populations(settings.get("populations")):
@@ -132,21 +122,45 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
         bar.close()
     if len(per_session) < sessions:  # Brian2 stopped the run cleanly on Ctrl-C / SIGTERM
         raise KeyboardInterrupt
+    return {"trial": trial, "seed": seed, "overrides": list(overrides),
+            "sessions": per_session, **_estimates(models, cpg, per_session), "paper": PAPER}
+
+
+def _trained(folder: Path, manifest: dict[str, Any], overrides: Sequence[str]
+             ) -> tuple[dict[str, Any], ModelSet]:
+    """A training's settings (from its ``manifest``) and the model set it trained with,
+    ``overrides`` over it, learning off: a measurement, not a training."""
+    settings = manifest.get("settings")
+    if manifest.get("astrocpg_command") not in ("train", "study-run") \
+            or not isinstance(settings, dict):
+        raise InputError("not a training run (astrocpg train, or a study's run)",
+                         culprit=f"power {folder}")
+    models = model_set([*settings.get("overrides", []), *overrides],
+                       settings.get("equations", {}), models=settings.get("models"),
+                       added=population_models(settings.get("populations")))
+    # weights fixed: a measurement, not training (zero in each rate's own unit)
+    models = models.with_zeros("eta", "eta_ADO")
+    if not settings.get("astrocytes", True):
+        models = models.with_values({"astrocyte_regulation": 0.0})
+    return settings, models
+
+
+def _estimates(models: ModelSet, cpg: Any, per_session: list[dict[str, float]]
+               ) -> dict[str, Any]:
+    """The populations' mean rates over the sessions, the synaptic events per spike counted
+    on the network, and the power estimates of the paper's equations from them."""
     rates = {k: float(np.mean([s[k] for s in per_session]))
              for k in ("inhibitory", "calf", "thigh", "limit")}
     ops = synaptic_events_per_spike(cpg)
     snn = float(models.snn_power.compile()(
         **{f"ops_{k}": v for k, v in ops.items()}, **{f"f_{k}": v for k, v in rates.items()}))
-    eps_add = models.value("epsilon_ADD")
-    rl = float(models.rl_power.compile()(epsilon_ADD=eps_add))
+    rl = float(models.rl_power.compile()(epsilon_ADD=models.value("epsilon_ADD")))
     # for comparison only: our rates with the paper's count of events per spike
     snn_paper_ops = float(models.snn_power.compile()(
         **{f"ops_{k}": v for k, v in PAPER["ops_per_spike"].items()},
         **{f"f_{k}": v for k, v in rates.items()}))
-    return {"trial": trial, "seed": seed, "overrides": list(overrides),
-            "sessions": per_session, "total_rate_Hz": rates,
-            "ops_per_spike": ops, "snn_W": snn, "rl_W": rl, "ratio": rl / snn,
-            "snn_W_with_paper_ops": snn_paper_ops, "paper": PAPER}
+    return {"total_rate_Hz": rates, "ops_per_spike": ops, "snn_W": snn, "rl_W": rl,
+            "ratio": rl / snn, "snn_W_with_paper_ops": snn_paper_ops}
 
 
 def format_power(res: dict[str, Any]) -> str:

@@ -132,14 +132,7 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
     if framework_target() != started:
         raise InputError(f"the training ran on the {started} target; a replay is exact only "
                          f"on it (add --codegen {started})", culprit="--codegen")
-    # a training's settings, or a study run's (the same keys, equations aside)
-    recorded = manifest["settings"]
-    settings = TrainSettings(n_sessions=1, seed=int(recorded["seed"]) + trial, n_trials=1,
-                             astrocytes=bool(recorded.get("astrocytes", True)),
-                             overrides=list(recorded.get("overrides") or []),
-                             equations=dict(recorded.get("equations") or {}),
-                             models=dict(recorded.get("models") or {}),
-                             populations=dict(recorded.get("populations") or {}))
+    settings = _session_settings(manifest["settings"], trial)
     models = model_set(settings.overrides, settings.equations, models=settings.models,
                        added=population_models(settings.populations))
     out_path = as_path(out, "--out")
@@ -159,6 +152,17 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
         "replayed_final_x_m": replayed,
         "same": None if row is None else row["final_x_m"] == replayed}
     return result
+
+
+def _session_settings(recorded: dict[str, Any], trial: int) -> TrainSettings:
+    """One session of one trial of a training, from its recorded settings (a training's, or a
+    study run's: the same keys, equations aside)."""
+    return TrainSettings(n_sessions=1, seed=int(recorded["seed"]) + trial, n_trials=1,
+                         astrocytes=bool(recorded.get("astrocytes", True)),
+                         overrides=list(recorded.get("overrides") or []),
+                         equations=dict(recorded.get("equations") or {}),
+                         models=dict(recorded.get("models") or {}),
+                         populations=dict(recorded.get("populations") or {}))
 
 
 def format_replay(result: Result) -> list[str]:

@@ -298,18 +298,8 @@ def response(model: str = "astrocyte", *, rates: Any = "0:1000:50", seconds: flo
         raise InputError(f"no response for '{model}' (models: {', '.join(RESPONSE_MODELS)})",
                          culprit="response MODEL")
     kind = model
-    rates = parse_rates(rates)
-    seconds = number(seconds, "--seconds", positive=True)
-    check_duration(seconds)
-    warmup = number(warmup, "--warmup", minimum=0.0)
-    if warmup:
-        check_duration(warmup, culprit="--warmup")
-    replicates = number(replicates, "--replicates", integer=True, minimum=1)
-    seed = seed_number(seed)
-    marked = parse_marks(marks)
-    if len(rates) * replicates > MAX_CELLS:
-        raise InputError(f"{len(rates)} rates x {replicates} replicates is more than "
-                         f"{MAX_CELLS} astrocytes", culprit="--replicates")
+    rates, seconds, warmup, replicates, seed, marked = _checked_sizes(
+        rates, seconds, warmup, replicates, seed, marks)
     if out is not None:
         OutputFolder(out, overwrite=overwrite, inputs=inputs).check()
     files = model_files_record(models)
@@ -326,17 +316,43 @@ def response(model: str = "astrocyte", *, rates: Any = "0:1000:50", seconds: flo
     raw = simulate_response(chosen, rates, seconds=seconds, warmup=warmup,
                             replicates=replicates, seed=seed, progress=progress)
     rows = response_table(rates, raw)
-    summary = {"rows": rows, "release_limit_per_s": release_limit(chosen),
-               "marks": {label: {"pool_rate_Hz": rate,
-                                 "releases_per_s": interpolate(rows, rate, "releases_per_s"),
-                                 "mean_ADO": interpolate(rows, rate, "mean_ADO")}
-                         for label, rate in marked.items()},
-               "wall_seconds": time.perf_counter() - t0, "status": "finished"}
+    summary = _summary(rows, chosen, marked, time.perf_counter() - t0)
     if out is not None:
         with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
             write_response_folder(folder, rows, summary, settings, model_set_, chosen.name)
     return Response(summary=summary, settings=settings, models=model_set_,
                     folder=Path(out) if out is not None else None)
+
+
+def _summary(rows: list[dict[str, float]], chosen: Any, marked: Mapping[str, float],
+             wall: float) -> dict[str, Any]:
+    """A response's summary: its rows, the release limit the refractory period allows and each
+    mark's release rate and mean [ADO], interpolated."""
+    return {"rows": rows, "release_limit_per_s": release_limit(chosen),
+            "marks": {label: {"pool_rate_Hz": rate,
+                              "releases_per_s": interpolate(rows, rate, "releases_per_s"),
+                              "mean_ADO": interpolate(rows, rate, "mean_ADO")}
+                      for label, rate in marked.items()},
+            "wall_seconds": wall, "status": "finished"}
+
+
+def _checked_sizes(rates: Any, seconds: Any, warmup: Any, replicates: Any, seed: Any,
+                   marks: Any) -> tuple[tuple[float, ...], float, float, int, int, dict[str, float]]:
+    """A response's rates, seconds and warm-up (whole steps), replicates (at most
+    :data:`MAX_CELLS` astrocytes in all), seed and marks, checked."""
+    rates = parse_rates(rates)
+    seconds = number(seconds, "--seconds", positive=True)
+    check_duration(seconds)
+    warmup = number(warmup, "--warmup", minimum=0.0)
+    if warmup:
+        check_duration(warmup, culprit="--warmup")
+    replicates = number(replicates, "--replicates", integer=True, minimum=1)
+    seed = seed_number(seed)
+    marked = parse_marks(marks)
+    if len(rates) * replicates > MAX_CELLS:
+        raise InputError(f"{len(rates)} rates x {replicates} replicates is more than "
+                         f"{MAX_CELLS} astrocytes", culprit="--replicates")
+    return rates, seconds, warmup, replicates, seed, marked
 
 
 def write_response_folder(folder: Path, rows: Sequence[Mapping[str, float]],

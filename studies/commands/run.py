@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import warnings
 from pathlib import Path
@@ -104,8 +105,6 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
         ``session``): spikes, traces, the robot's arrays (``result.robot``) and ``summary``
         (distance_m, mean_forward_speed_m_per_s, upright_share, rate_per_neuron_Hz per trial).
     """
-    from brian2 import ms
-
     if session is not None:
         if populations:
             raise InputError("a replay runs the training's own network", culprit="--population")
@@ -114,75 +113,126 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
     # before any other check; a training's tables run on its network: its populations too
     population_record = with_trained_populations(weights, population_rows(populations)[1])
     with added_populations(population_record) as rows:  # this call's: under the run lock
-        from ...coupling.robot import A1Parameters, RobotLayout, load_robot
-        from ...coupling.world import world_model
+        plan = _plan_run(dict(locals()), rows)  # every check and estimate: nothing touched
+        return _run_planned(plan, out, overwrite, progress, figure)
 
-        _check_trial(trial, weights)
-        seconds = number(seconds, "--seconds", positive=True)
-        trials = number(trials, "--trials", integer=True, minimum=1)
-        seed = trained_seed(weights, trial, seed)
-        seed = seed_number(seed, trials=trials)
-        trace_dt = number(trace_dt, "--trace-dt", positive=True)
-        check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
-        robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
-        trace_dtype = check_trace_dtype(trace_dtype)
-        check_duration(seconds, STEP)
-        # what the run reads: --out may not replace it (nor hold it)
-        inputs = [*inputs, *([weights] if isinstance(weights, (str, os.PathLike)) else []),
-                  *([robot] if robot is not None else [])]
-        if out is not None:
-            OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
-        pops, names = check_selection(spikes, traces)
-        procs = min(resolve_workers(workers), trials)
-        check_memory(estimate_batched(
-            procs, trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
-            traces=trace_columns(names), spikes=bool(pops), robot_stride=robot_stride,
-            trace_bytes=np.dtype(trace_dtype).itemsize, spill_bytes=None if out is None
-            else recording.SPILL_BYTES),
-            culprit=f"--seconds {seconds:g} x --trials {trials}" + workers_words(procs))
-        files = model_files_record(models)
-        models = model_set(overrides, equations, models=models, added=[r.model for r in rows])
-        table, weights, tables_label = _weights_table(weights, trial, trials, models)
-        params = A1Parameters()
-        model = world_model(models, params, load_robot(robot) if robot else None)
-        if abs(model.opt.timestep - params.timestep) > 1e-12:
-            raise InputError(f"timestep is {model.opt.timestep:g} s; the CPG steps with the physics "
-                             f"at {params.timestep:g} s (set <option timestep=\"{params.timestep:g}\"/>)",
-                             culprit=f"--robot {Path(robot).name}")
-        layout = RobotLayout.from_model(model, params)
-        # the manifest's settings: the checked values, whichever door (command line or API) called
-        settings = {
-            "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-            "trace_dtype": trace_dtype, "robot_stride": robot_stride, "overrides": override_items(overrides),
-            "equations": dict(equations or {}), "spikes": spikes, "traces": traces,
-            "weights": None if weights is None or isinstance(weights, np.ndarray)
-            else str(weights), "trial": trial, "robot": None if robot is None else str(robot),
-            **({} if tables_label is None else {"tables": tables_label}),
-            "figure": bool(figure)}
-        if files:
-            settings["models"] = files  # each model file's content and sha256
-        if population_record:
-            settings["populations"] = population_record  # each added population's model file
-        robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
-                      else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
-        start_x = layout.reset_qpos[layout.free_qpos_adr]
-        def simulate(spill: Any) -> Any:  # over the workers, or here
-            return _simulate(models, model, layout, dict(settings, weights=table), procs,
-                             progress, spill)
 
-        if out is None:
-            result = simulate(None)
-            _summarise(result, models, start_x, robot_info, table)
-            summary = run_results(result)
-        else:
-            result, summary = _simulate_into(
-                OutputFolder(out, overwrite=overwrite, inputs=inputs), simulate,
-                lambda r, e=None: _summarise(r, models, start_x, robot_info, table, e),
-                settings, figure)
-            result.traces = read_spilled(result.traces, Path(out) / "traces.npz")
-        return Result.from_simulation(result, kind="run", seed=seed, settings=settings,
-                                      summary=summary, robot=robot_arrays(result),
-                                      models=models, folder=out)
+@dataclasses.dataclass(frozen=True)
+class RunPlan:
+    """What :func:`run` simulates, checked: the manifest's ``settings`` (the checked values,
+    whichever door called), the model set, the world with its robot, the tables, the processes
+    and what the folder may not replace (``inputs``)."""
+
+    settings: dict[str, Any]
+    models: ModelSet
+    model: Any
+    layout: Any
+    table: np.ndarray | None
+    procs: int
+    inputs: list[Any]
+    robot_info: dict[str, Any]
+
+
+def _plan_run(a: dict[str, Any], rows: Sequence[Any]) -> RunPlan:
+    """:func:`run`'s arguments ``a`` checked, its memory estimated and its models, tables and
+    world built; refused (InputError) before anything is simulated or written."""
+    weights, trial, robot, out = a["weights"], a["trial"], a["robot"], a["out"]
+    seconds, trials, seed, trace_dt, robot_stride, trace_dtype = _checked_sizes(
+        a["seconds"], a["trials"], a["seed"], weights, trial, a["trace_dt"], a["robot_stride"],
+        a["trace_dtype"])
+    # what the run reads: --out may not replace it (nor hold it)
+    inputs = [*a["inputs"], *([weights] if isinstance(weights, (str, os.PathLike)) else []),
+              *([robot] if robot is not None else [])]
+    if out is not None:  # before the simulation, not after
+        OutputFolder(out, overwrite=a["overwrite"], inputs=inputs).check()
+    pops, names = check_selection(a["spikes"], a["traces"])
+    procs = min(resolve_workers(a["workers"]), trials)
+    check_memory(estimate_batched(
+        procs, trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
+        traces=trace_columns(names), spikes=bool(pops), robot_stride=robot_stride,
+        trace_bytes=np.dtype(trace_dtype).itemsize, spill_bytes=None if out is None
+        else recording.SPILL_BYTES),
+        culprit=f"--seconds {seconds:g} x --trials {trials}" + workers_words(procs))
+    files = model_files_record(a["models"])
+    models = model_set(a["overrides"], a["equations"], models=a["models"],
+                       added=[r.model for r in rows])
+    table, weights, tables_label = _weights_table(weights, trial, trials, models)
+    params, model, layout = _robot_world(models, robot)
+    record = a["population_record"]
+    settings = {
+        "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
+        "trace_dtype": trace_dtype, "robot_stride": robot_stride,
+        "overrides": override_items(a["overrides"]), "equations": dict(a["equations"] or {}),
+        "spikes": a["spikes"], "traces": a["traces"],
+        "weights": None if weights is None or isinstance(weights, np.ndarray)
+        else str(weights), "trial": trial, "robot": None if robot is None else str(robot),
+        **({} if tables_label is None else {"tables": tables_label}),
+        "figure": bool(a["figure"]),
+        **({"models": files} if files else {}),  # each model file's content and sha256
+        **({"populations": record} if record else {})}  # each added population's model file
+    robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
+                  else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
+    return RunPlan(settings=settings, models=models, model=model, layout=layout, table=table,
+                   procs=procs, inputs=inputs, robot_info=robot_info)
+
+
+def _run_planned(plan: RunPlan, out: str | Path | None, overwrite: bool, progress: bool,
+                 figure: bool) -> Result:
+    """Simulate ``plan`` (over its processes, or here), then write its folder (whole, or
+    nothing) where ``out`` is given."""
+    p = plan
+    start_x = p.layout.reset_qpos[p.layout.free_qpos_adr]
+
+    def simulate(spill: Any) -> Any:  # over the workers, or here
+        return _simulate(p.models, p.model, p.layout, dict(p.settings, weights=p.table),
+                         p.procs, progress, spill)
+
+    def summarise(r: Any, e: Any = None) -> None:
+        _summarise(r, p.models, start_x, p.robot_info, p.table, e)
+
+    if out is None:
+        result = simulate(None)
+        summarise(result)
+        summary = run_results(result)
+    else:
+        result, summary = _simulate_into(OutputFolder(out, overwrite=overwrite, inputs=p.inputs),
+                                         simulate, summarise, p.settings, figure)
+        result.traces = read_spilled(result.traces, Path(out) / "traces.npz")
+    return Result.from_simulation(result, kind="run", seed=p.settings["seed"],
+                                  settings=p.settings, summary=summary,
+                                  robot=robot_arrays(result), models=p.models, folder=out)
+
+
+def _checked_sizes(seconds: Any, trials: Any, seed: Any, weights: Any, trial: Any,
+                   trace_dt: Any, robot_stride: Any, trace_dtype: Any
+                   ) -> tuple[float, int, int, float, int, str]:
+    """A run's sizes checked: seconds, trials, seed (a training's own with its tables),
+    trace_dt (whole steps), robot_stride and trace_dtype."""
+    _check_trial(trial, weights)
+    seconds = number(seconds, "--seconds", positive=True)
+    trials = number(trials, "--trials", integer=True, minimum=1)
+    seed = seed_number(trained_seed(weights, trial, seed), trials=trials)
+    trace_dt = number(trace_dt, "--trace-dt", positive=True)
+    check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
+    robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
+    trace_dtype = check_trace_dtype(trace_dtype)
+    check_duration(seconds, STEP)
+    return seconds, trials, seed, trace_dt, robot_stride, trace_dtype
+
+
+def _robot_world(models: Any, robot: str | Path | None) -> tuple[Any, Any, Any]:
+    """(A1Parameters, the MuJoCo model of the world with the robot, its RobotLayout); a robot
+    file whose timestep is not the CPG's is refused."""
+    from ...coupling.robot import A1Parameters, RobotLayout, load_robot
+    from ...coupling.world import world_model
+
+    params = A1Parameters()
+    model = world_model(models, params, load_robot(robot) if robot else None)
+    if abs(model.opt.timestep - params.timestep) > 1e-12:
+        raise InputError(f"timestep is {model.opt.timestep:g} s; the CPG steps with the physics "
+                         f"at {params.timestep:g} s (set <option timestep=\"{params.timestep:g}\"/>)",
+                         culprit=f"--robot {Path(robot).name}")
+    return params, model, RobotLayout.from_model(model, params)
 
 
 def _check_trial(trial: int | None, weights: Any) -> None:
@@ -407,8 +457,19 @@ def mechanisms(result: SimulationResult, initial_weights: np.ndarray | None) -> 
     motor neurons' spikes. Returns the numbers (per trial) and ``statements``: one line each,
     only what those numbers show; a mechanism whose data the run did not record is said to be
     unrecorded, not absent."""
+    out: dict[str, Any] = {}
+    said = _interlimb_said(result, initial_weights, out)
+    said.append(_astrocytes_said(result, out))
+    said += _limit_and_motor_said(result, out)
+    out["statements"] = said
+    return out
+
+
+def _interlimb_said(result: SimulationResult, initial_weights: np.ndarray | None,
+                    out: dict[str, Any]) -> list[str]:
+    """The inter-limb tables' part of :func:`mechanisms`: coupled or not, learnt or clipped."""
     cpg = result.cpg
-    L, n = cpg.layout, cpg.n_trials
+    n = cpg.n_trials
     final = cpg.interlimb_weights()
     start = (np.zeros_like(final) if initial_weights is None
              else np.broadcast_to(np.asarray(initial_weights, dtype=float), final.shape))
@@ -419,9 +480,8 @@ def mechanisms(result: SimulationResult, initial_weights: np.ndarray | None) -> 
     change_mV = np.abs(final - start)[:, mask].max(axis=1) * 1e3 if mask.any() else np.zeros(n)
     nonzero = (np.count_nonzero(final[:, mask], axis=1) if mask.any()
                else np.zeros(n, dtype=int))
-    out: dict[str, Any] = {"interlimb_synapses": int(mask.sum()),
-                           "interlimb_nonzero_at_end": nonzero,
-                           "interlimb_max_change_mV": change_mV}
+    out.update({"interlimb_synapses": int(mask.sum()), "interlimb_nonzero_at_end": nonzero,
+                "interlimb_max_change_mV": change_mV})
     said = []
     if not mask.any():
         said.append("no inter-limb synapses: limbs uncoupled")
@@ -448,6 +508,12 @@ def mechanisms(result: SimulationResult, initial_weights: np.ndarray | None) -> 
         else:
             said.append(f"inter-limb weights changed during the run, by up to "
                         f"{_per_trial(change_mV, '.3g')} mV")
+    return said
+
+
+def _astrocytes_said(result: SimulationResult, out: dict[str, Any]) -> str:
+    """The astrocytes' part of :func:`mechanisms`: releases and peak [ADO] and [Ca2+]."""
+    L, n = result.cpg.layout, result.cpg.n_trials
     if "astrocyte" in result.spikes:
         _, idx = result.spikes["astrocyte"]
         releases = np.bincount(idx // L.thigh_pools_per_trial, minlength=n)
@@ -467,7 +533,13 @@ def mechanisms(result: SimulationResult, initial_weights: np.ndarray | None) -> 
             out[f"peak_{name}"] = peak
             label = "[ADO]" if name.endswith("ADO") else "[Ca2+]"
             peaks.append(f"peak {label} {_per_trial(peak, '.3g')} {unit}")
-    said.append(line + (", " + ", ".join(peaks) if peaks else ", traces of ADO/Ca2+ not recorded"))
+    return line + (", " + ", ".join(peaks) if peaks else ", traces of ADO/Ca2+ not recorded")
+
+
+def _limit_and_motor_said(result: SimulationResult, out: dict[str, Any]) -> list[str]:
+    """The limit-position inhibition's and the motor neurons' part of :func:`mechanisms`."""
+    L, n = result.cpg.layout, result.cpg.n_trials
+    said = []
     limit = result.extra.get("limit_inhibition")
     if limit is not None and limit["of_steps"]:
         out["limit_inhibition_onsets"] = limit["onsets"]
@@ -484,8 +556,7 @@ def mechanisms(result: SimulationResult, initial_weights: np.ndarray | None) -> 
         out["motor_spikes"] = motor
         said.append(f"motor neurons: {_per_trial(motor)} spikes" if motor.any()
                     else "motor neurons: silent (no spike), no torque from the CPG")
-    out["statements"] = said
-    return out
+    return said
 
 
 def robot_arrays(result: SimulationResult) -> dict[str, np.ndarray]:

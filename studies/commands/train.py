@@ -791,24 +791,9 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
     """
     if out is None or (isinstance(out, str) and not out):
         raise InputError("is required (or --resume DIR)", culprit="--out")
-    population_record = population_rows(populations)[1]  # each file parsed and checked
-    n_trials = number(trials, "--trials", integer=True, minimum=1)
-    settings = TrainSettings(
-        n_sessions=number(sessions, "--sessions", integer=True, minimum=1),
-        seed=seed_number(seed, trials=n_trials), n_trials=n_trials,
-        astrocytes=bool(astrocytes), overrides=override_items(overrides),
-        equations=dict(equations or {}), models=model_files_record(models),
-        populations=population_record)
-    # composed once, before any file is touched, and handed to the training
-    models = model_set(settings.overrides, settings.equations, models=settings.models,
-                       added=population_models(settings.populations))
-    out = as_path(out, "--out")
-    if not overwrite:
-        refuse_legacy(out)  # --resume would refuse it too: say what to do with it
-    if holds_checkpoint(out) and not overwrite:
-        raise InputError(f"already holds a training run (continue it with --resume {out}, or "
-                         f"replace it with --overwrite)", culprit=f"--out {out}")
-    OutputFolder(out, overwrite=overwrite, inputs=inputs, command="train").check()
+    settings, models = _train_settings(sessions, seed, trials, astrocytes, overrides, equations,
+                                       models, populations)
+    out = _checked_new_training(out, overwrite, inputs)
     procs = min(resolve_workers(workers), settings.n_trials)
     with added_populations(settings.populations):  # recorded and built like the others
         plan = record_plan(record_every, record_stride, spikes, traces, trace_dtype)
@@ -819,6 +804,35 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
         return Result.from_training(_train(settings, out, plan, None, progress,
                                            replace=overwrite, new=True, models=models,
                                            workers=procs), out)
+
+
+def _train_settings(sessions: Any, seed: Any, trials: Any, astrocytes: Any, overrides: Any,
+                    equations: Any, models: Any, populations: Any) -> tuple[TrainSettings, Any]:
+    """A new training's settings, checked, and its model set (composed once, before any file
+    is touched, and handed to the training)."""
+    population_record = population_rows(populations)[1]  # each file parsed and checked
+    n_trials = number(trials, "--trials", integer=True, minimum=1)
+    settings = TrainSettings(
+        n_sessions=number(sessions, "--sessions", integer=True, minimum=1),
+        seed=seed_number(seed, trials=n_trials), n_trials=n_trials,
+        astrocytes=bool(astrocytes), overrides=override_items(overrides),
+        equations=dict(equations or {}), models=model_files_record(models),
+        populations=population_record)
+    return settings, model_set(settings.overrides, settings.equations, models=settings.models,
+                               added=population_models(settings.populations))
+
+
+def _checked_new_training(out: Any, overwrite: bool, inputs: Sequence[Any]) -> Path:
+    """``out`` as a path a new training may write: not a training that holds a checkpoint
+    (that is resumed, or replaced with ``overwrite``), not holding an input."""
+    out = as_path(out, "--out")
+    if not overwrite:
+        refuse_legacy(out)  # --resume would refuse it too: say what to do with it
+    if holds_checkpoint(out) and not overwrite:
+        raise InputError(f"already holds a training run (continue it with --resume {out}, or "
+                         f"replace it with --overwrite)", culprit=f"--out {out}")
+    OutputFolder(out, overwrite=overwrite, inputs=inputs, command="train").check()
+    return out
 
 
 def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = True,
@@ -871,13 +885,7 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
         The training's Result, as :func:`train` returns it.
     """
     procs = resolve_workers(workers)
-    out_given = None if out is None else as_path(out, "--out")
-    out = as_path(folder, "--resume")
-    if out_given is not None and Path(out_given).resolve() != out.resolve():
-        raise InputError("--resume writes into its own folder; drop --out", culprit="--out")
-    if overwrite:  # never ignored: it would replace what --resume continues
-        raise InputError("replaces a training, --resume continues one: use one of them",
-                         culprit="--overwrite")
+    out = _resume_folder(folder, out, overwrite)
     given = _given_again(seed, trials, astrocytes, overrides, equations, models, populations) \
         | dict(expect or {})
     asked = given.pop("sessions", None)
@@ -887,27 +895,7 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
         raise InputError(f"given twice ({asked} and {sessions})", culprit="--sessions")
     if sessions is not None:
         sessions = number(sessions, "--sessions", integer=True, minimum=1)
-    # a training (or a study's run) that another process is training now: its files are in
-    # flux and its lock is that process's, whatever they say
-    refuse_in_use(out, culprit=f"--resume {out}")
-    refuse_legacy(out)
-    if not (out / CHECKPOINT).exists():
-        # stopped before its first checkpoint: nothing was trained, so start again from the
-        # settings its manifest recorded
-        manifest = read_manifest(out)
-        if manifest is None or manifest.get("astrocpg_command") != "train":
-            raise InputError(f"holds no training (no {CHECKPOINT}, no training manifest)",
-                             culprit=f"--resume {out}")
-        stored_settings = {k: v for k, v in manifest["settings"].items()
-                           if k not in ("record", "replay_of")}
-        payload = {"settings": stored_settings, "record_plan": manifest["settings"].get("record")}
-        settings = TrainSettings(**stored_settings)
-        payload["fingerprint"] = settings.fingerprint()
-        fresh = True
-    else:
-        payload = read_checkpoint(out / CHECKPOINT)
-        settings = TrainSettings(**payload["settings"])
-        fresh = False
+    payload, settings, fresh = _stored_training(out)
     if payload["fingerprint"] != settings.fingerprint():
         raise InputError(f"{out / CHECKPOINT} is not consistent with its settings",
                          culprit="--resume")
@@ -920,6 +908,42 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
                                dict(record_every=record_every, record_stride=record_stride,
                                     spikes=spikes, traces=traces, trace_dtype=trace_dtype),
                                progress, procs)
+
+
+def _resume_folder(folder: Any, out: Any, overwrite: bool) -> Path:
+    """The folder a resume continues (and writes into): ``out``, if given, must be it, and
+    ``overwrite`` is refused (it would replace what the resume continues)."""
+    out_given = None if out is None else as_path(out, "--out")
+    folder = as_path(folder, "--resume")
+    if out_given is not None and Path(out_given).resolve() != folder.resolve():
+        raise InputError("--resume writes into its own folder; drop --out", culprit="--out")
+    if overwrite:  # never ignored: it would replace what --resume continues
+        raise InputError("replaces a training, --resume continues one: use one of them",
+                         culprit="--overwrite")
+    return folder
+
+
+def _stored_training(out: Path) -> tuple[dict[str, Any], TrainSettings, bool]:
+    """A training folder's checkpoint payload and settings, and whether it is ``fresh``:
+    stopped before its first checkpoint, so nothing was trained and it starts again from the
+    settings its manifest recorded."""
+    # a training (or a study's run) that another process is training now: its files are in
+    # flux and its lock is that process's, whatever they say
+    refuse_in_use(out, culprit=f"--resume {out}")
+    refuse_legacy(out)
+    if (out / CHECKPOINT).exists():
+        payload = read_checkpoint(out / CHECKPOINT)
+        return payload, TrainSettings(**payload["settings"]), False
+    manifest = read_manifest(out)
+    if manifest is None or manifest.get("astrocpg_command") != "train":
+        raise InputError(f"holds no training (no {CHECKPOINT}, no training manifest)",
+                         culprit=f"--resume {out}")
+    stored_settings = {k: v for k, v in manifest["settings"].items()
+                       if k not in ("record", "replay_of")}
+    payload = {"settings": stored_settings, "record_plan": manifest["settings"].get("record")}
+    settings = TrainSettings(**stored_settings)
+    payload["fingerprint"] = settings.fingerprint()
+    return payload, settings, True
 
 
 def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any], fresh: bool,
@@ -1039,12 +1063,7 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     Parameter values are compared as quantities in SI (:data:`SAME_VALUE_RTOL`), not as
     spelled; model files by what they define (a file that differs only in comments or
     spelling is the same model); equation files by their text."""
-    from ...models.files import value_text
-
-    def refuse(option: str, message: str) -> NoReturn:
-        raise InputError(f"{message}; a resumed training keeps the settings it started with "
-                         f"(start a new one with --out DIR)", culprit=option)
-
+    refuse = _refuse_resume
     for key, option, recorded, noun in (
             ("sessions", "--sessions", settings.n_sessions, "sessions per trial"),
             ("seed", "--seed", settings.seed, "as its seed"),
@@ -1060,33 +1079,58 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     for name, record in model_files_record(given.get("models")).items():  # texts or records
         _check_model_file(name, settings.models.get(name), record, refuse)
     _check_populations(settings.populations, given.get("populations") or {}, refuse)
-    if given.get("equations"):
-        known = dict(model_set(models=settings.models).items())
-    for name, text in (given.get("equations") or {}).items():
+    _check_equations_given(settings, given.get("equations") or {})
+    _check_overrides_given(settings, given.get("overrides") or [])
+    _check_recording_given(plan, given)
+
+
+def _refuse_resume(option: str, message: str) -> NoReturn:
+    raise InputError(f"{message}; a resumed training keeps the settings it started with "
+                     f"(start a new one with --out DIR)", culprit=option)
+
+
+def _check_equations_given(settings: TrainSettings, equations: Mapping[str, str]) -> None:
+    """Equation files given to a resume: each must be the text the training used (the model's
+    built-in equations where it used none)."""
+    if not equations:
+        return
+    known = dict(model_set(models=settings.models).items())
+    for name, text in equations.items():
         if name not in known:
             raise InputError(f"unknown model '{name}'{did_you_mean(name, known)} (models: "
                              f"{', '.join(known)})", culprit="--equations")
         recorded_text = settings.equations.get(name)
         if recorded_text is None:  # the model's own equations, as trained
             if text.strip() != known[name].code.strip():
-                refuse(f"--equations {name}", f"that run was trained with the built-in "
-                                              f"equations of {name}, not these (sha256 "
-                                              f"{_short_sha(text)})")
+                _refuse_resume(f"--equations {name}", f"that run was trained with the "
+                                                      f"built-in equations of {name}, not "
+                                                      f"these (sha256 {_short_sha(text)})")
         elif text.strip() != recorded_text.strip():
-            refuse(f"--equations {name}", f"that run was trained with other equations of "
-                                          f"{name} (recorded sha256 {_short_sha(recorded_text)}, "
-                                          f"given {_short_sha(text)})")
-    items = given.get("overrides") or []
-    if items:
-        recorded_models = model_set(settings.overrides, settings.equations,
-                                    models=settings.models,
-                                    added=population_models(settings.populations))
-        for item in override_items(items):
-            name, value = recorded_models.parse_assignment(item)
-            was = recorded_models.parameter(name).value
-            if not _same_quantity(was, value):
-                refuse(f"--set {name}", f"that run has {name}={value_text(was)}, not "
-                                        f"{value_text(value)}")
+            _refuse_resume(f"--equations {name}", f"that run was trained with other equations "
+                                                  f"of {name} (recorded sha256 "
+                                                  f"{_short_sha(recorded_text)}, given "
+                                                  f"{_short_sha(text)})")
+
+
+def _check_overrides_given(settings: TrainSettings, items: Sequence[str]) -> None:
+    """``--set`` values given to a resume: each must equal the training's, as a quantity."""
+    from ...models.files import value_text
+
+    if not items:
+        return
+    recorded_models = model_set(settings.overrides, settings.equations, models=settings.models,
+                                added=population_models(settings.populations))
+    for item in override_items(items):
+        name, value = recorded_models.parse_assignment(item)
+        was = recorded_models.parameter(name).value
+        if not _same_quantity(was, value):
+            _refuse_resume(f"--set {name}", f"that run has {name}={value_text(was)}, not "
+                                            f"{value_text(value)}")
+
+
+def _check_recording_given(plan: RecordPlan | None, given: dict[str, Any]) -> None:
+    """The recording options given to a resume: each must be the training's plan."""
+    refuse = _refuse_resume
     every, stride = given.get("record_every"), given.get("record_stride")
     spikes, traces = given.get("spikes"), given.get("traces")
     dtype = given.get("trace_dtype")

@@ -90,58 +90,75 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
     """
     population_record = population_rows(populations)[1]  # before any other check
     with added_populations(population_record) as rows:  # this call's: under the run lock
-        from brian2 import ms
+        settings, models, procs = _plan_unit(dict(locals()), rows)  # nothing touched yet
+        return _unit_planned(settings, models, procs, out, overwrite, inputs, progress)
 
-        seconds = number(seconds, "--seconds", positive=True)
-        trials = number(trials, "--trials", integer=True, minimum=1)
-        seed = seed_number(seed, trials=trials)
-        trace_dt = number(trace_dt, "--trace-dt", positive=True)
-        check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
-        trace_dtype = check_trace_dtype(trace_dtype)
-        check_duration(seconds, STEP)
-        if out is not None:
-            OutputFolder(out, overwrite=overwrite, inputs=inputs).check()  # before the simulation, not after
-        pops, names = check_selection(spikes, traces)
-        procs = min(resolve_workers(workers), trials)
-        check_memory(estimate_batched(procs, trials=trials, seconds=seconds, dt=STEP,
-                                      trace_dt=trace_dt * 1e-3, traces=trace_columns(names),
-                                      spikes=bool(pops),
-                                      trace_bytes=np.dtype(trace_dtype).itemsize),
-                     culprit=f"--seconds {seconds:g} x --trials {trials}"
-                             + (f" x --workers {procs}" if procs > 1 else ""))
-        files = model_files_record(models)
-        models = model_set(overrides, equations, models=models, added=[r.model for r in rows])
-        # the manifest's settings: the checked values, whichever door (command line or API) called
-        settings = {
-            "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-            "trace_dtype": trace_dtype, "overrides": override_items(overrides), "equations": dict(equations or {}),
-            "spikes": spikes, "traces": traces}
-        if files:
-            settings["models"] = files  # each model file's content and sha256
-        if population_record:
-            settings["populations"] = population_record  # each added population's model file
-        try:
-            result = try_batched("unit", settings, trials, procs, progress)
-            if result is None:  # one process (or a batch diverged: its folder written here)
-                result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
-                                       trace_dt=trace_dt * ms, spikes=spikes, traces=traces,
-                                       progress=progress, trace_dtype=trace_dtype)
-        except Diverged as e:  # the folder keeps what ran, and says it diverged
-            partial = getattr(e, "result", None)
-            if out is not None and partial is not None:
-                partial.extra.update({"models": models, "rhythm": [], "status": "diverged",
-                                      "error": {"line": e.line, "t_s": e.t, "trial": e.trial}})
-                with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
-                    write_unit_folder(folder, partial, settings)
-            raise
-        result.extra["rhythm"] = rhythm_per_trial(result, seconds)
-        result.extra["models"] = models
-        result.extra["workers"] = procs if isinstance(result.cpg, BatchedCPG) else 1
-        if out is not None:
-            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:  # whole, or nothing
-                write_unit_folder(folder, result, settings)
-        return Result.from_simulation(result, kind="unit", seed=seed, settings=settings,
-                                      summary=unit_results(result), models=models, folder=out)
+
+def _plan_unit(a: dict[str, Any], rows: Sequence[Any]) -> tuple[dict[str, Any], Any, int]:
+    """:func:`unit`'s arguments ``a`` checked and its memory estimated: the manifest's
+    settings (the checked values, whichever door called), the model set and the processes;
+    refused (InputError) before anything is simulated or written."""
+    seconds = number(a["seconds"], "--seconds", positive=True)
+    trials = number(a["trials"], "--trials", integer=True, minimum=1)
+    seed = seed_number(a["seed"], trials=trials)
+    trace_dt = number(a["trace_dt"], "--trace-dt", positive=True)
+    check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
+    trace_dtype = check_trace_dtype(a["trace_dtype"])
+    check_duration(seconds, STEP)
+    if a["out"] is not None:  # before the simulation, not after
+        OutputFolder(a["out"], overwrite=a["overwrite"], inputs=a["inputs"]).check()
+    pops, names = check_selection(a["spikes"], a["traces"])
+    procs = min(resolve_workers(a["workers"]), trials)
+    check_memory(estimate_batched(procs, trials=trials, seconds=seconds, dt=STEP,
+                                  trace_dt=trace_dt * 1e-3, traces=trace_columns(names),
+                                  spikes=bool(pops),
+                                  trace_bytes=np.dtype(trace_dtype).itemsize),
+                 culprit=f"--seconds {seconds:g} x --trials {trials}"
+                         + (f" x --workers {procs}" if procs > 1 else ""))
+    files = model_files_record(a["models"])
+    models = model_set(a["overrides"], a["equations"], models=a["models"],
+                       added=[r.model for r in rows])
+    record = a["population_record"]
+    settings = {
+        "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
+        "trace_dtype": trace_dtype, "overrides": override_items(a["overrides"]),
+        "equations": dict(a["equations"] or {}), "spikes": a["spikes"], "traces": a["traces"],
+        **({"models": files} if files else {}),  # each model file's content and sha256
+        **({"populations": record} if record else {})}  # each added population's model file
+    return settings, models, procs
+
+
+def _unit_planned(settings: dict[str, Any], models: Any, procs: int,
+                  out: str | Path | None, overwrite: bool,
+                  inputs: Sequence[str | os.PathLike], progress: bool) -> Result:
+    """Simulate the checked ``settings`` (over ``procs`` processes, or here), then write the
+    folder (whole, or nothing; what ran, where it diverged) where ``out`` is given."""
+    from brian2 import ms
+
+    seconds, seed, trials = settings["seconds"], settings["seed"], settings["trials"]
+    try:
+        result = try_batched("unit", settings, trials, procs, progress)
+        if result is None:  # one process (or a batch diverged: its folder written here)
+            result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
+                                   trace_dt=settings["trace_dt"] * ms,
+                                   spikes=settings["spikes"], traces=settings["traces"],
+                                   progress=progress, trace_dtype=settings["trace_dtype"])
+    except Diverged as e:  # the folder keeps what ran, and says it diverged
+        partial = getattr(e, "result", None)
+        if out is not None and partial is not None:
+            partial.extra.update({"models": models, "rhythm": [], "status": "diverged",
+                                  "error": {"line": e.line, "t_s": e.t, "trial": e.trial}})
+            with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:
+                write_unit_folder(folder, partial, settings)
+        raise
+    result.extra["rhythm"] = rhythm_per_trial(result, seconds)
+    result.extra["models"] = models
+    result.extra["workers"] = procs if isinstance(result.cpg, BatchedCPG) else 1
+    if out is not None:
+        with OutputFolder(out, overwrite=overwrite, inputs=inputs) as folder:  # whole, or nothing
+            write_unit_folder(folder, result, settings)
+    return Result.from_simulation(result, kind="unit", seed=seed, settings=settings,
+                                  summary=unit_results(result), models=models, folder=out)
 
 
 def rhythm_per_trial(result: SimulationResult, seconds: float) -> list[dict[str, Any]]:

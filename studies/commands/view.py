@@ -251,18 +251,11 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     dict
         ``{"path", "frames", "fps", "seconds", "start", "stop"}``.
     """
-    import imageio.v2 as imageio
-
     from ...coupling.render import Replay, frame_count, frame_samples
     from ..outputs.writing import atomic_path
 
     folder = as_path(folder, "folder")
-    for name, value in (("--fps", fps), ("--speed", speed)):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or not np.isfinite(value) or value <= 0:
-            raise InputError("must be a positive number", culprit=f"{name} {value}")
-    if fps > MAX_FPS:
-        raise InputError(f"must be at most {MAX_FPS} frames per second", culprit=f"--fps {fps}")
+    _check_rates(fps, speed)
     width, height = _size(size)
     result, b = _replayed(folder, trial)
     rob = result.robot
@@ -270,19 +263,7 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
         raise InputError("robot.npz has no torso_quaternion (recorded before astrocpg kept the "
                          "torso's orientation); run it again to make a video",
                          culprit=str(result.folder))
-    path = Path(out) if out is not None else folder / f"video_trial{trial:02d}.mp4"
-    if path.suffix.lower() != ".mp4":
-        raise InputError("the file name must end in .mp4", culprit=f"--out {path}")
-    if not path.parent.is_dir():
-        raise InputError(f"folder '{path.parent}' does not exist", culprit=f"--out {path}")
-    if path.is_dir():
-        raise InputError("is a folder; name the file to write", culprit=f"--out {path}")
-    # not inside the folder it replays (but as its video_trialTT.mp4), never a listed file
-    check_output_path(path, [folder], culprit=f"--out {path}", file=True)
-    if out is not None and path.exists() and not overwrite:
-        raise InputError("exists; --overwrite replaces it", culprit=f"--out {path}")
-    check_replaceable(path, culprit=f"--out {path}")
-    refuse_in_use(path, culprit=f"--out {path}" if out is not None else str(folder))
+    path = _video_path(folder, trial, out, overwrite)
     # checked against the recording; None (not given) keeps the recording's own ends
     shown = _time_window(rob["t"], start, stop)
     start, stop = (None if start is None else shown[0]), (None if stop is None else shown[1])
@@ -303,43 +284,83 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
                           result=result)
 
     def write(tmp: Path) -> None:
-        bar = Bar(total=len(samples), unit="frame", desc="rendering", disable=not progress)
-        # ffmpeg writes its errors (a full disk, ...) to the stderr it inherits: into this
-        # file instead, and from there into our one line
-        log = tempfile.TemporaryFile()
-        with log, Replay(model, layout, rob["joint_angles"][b], rob["torso_position"][b],
-                         rob["torso_quaternion"][b], width=width, height=height) as replay:
-            writer = imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264",
-                                        pixelformat="yuv420p", macro_block_size=2, quality=7,
-                                        ffmpeg_log_level="error")
-            try:
-                try:
-                    started = False
-                    # the bar counts frames written, here: a count kept by the frame generator
-                    # (after its yield) missed the last frame, which zip never resumes it for
-                    for k, frame in zip(samples, replay.frames(samples)):
-                        if strip is not None:
-                            frame = np.concatenate([frame, strip.draw(int(k))], axis=0)
-                        if not started:  # the first frame starts ffmpeg: its stderr is the log
-                            with _stderr_into(log.fileno()):
-                                writer.append_data(frame)
-                            started = True
-                        else:
-                            writer.append_data(frame)
-                        bar.update(1)
-                    writer.close()
-                except (OSError, RuntimeError) as e:
-                    try:
-                        writer.close()
-                    except Exception:  # noqa: BLE001 - already failing: the first error counts
-                        pass
-                    raise _ffmpeg_fault(e, log, path) from None
-            finally:
-                bar.close()
+        with Replay(model, layout, rob["joint_angles"][b], rob["torso_position"][b],
+                    rob["torso_quaternion"][b], width=width, height=height) as replay:
+            _write_frames(tmp, path, samples, replay, strip, fps, progress)
 
     atomic_path(path, write)
     return {"path": path, "frames": len(samples), "fps": fps,
             "seconds": len(samples) / fps, "start": shown[0], "stop": shown[1]}
+
+
+def _check_rates(fps: Any, speed: Any) -> None:
+    """``fps`` and ``speed`` positive numbers, ``fps`` at most :data:`MAX_FPS`."""
+    for name, value in (("--fps", fps), ("--speed", speed)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not np.isfinite(value) or value <= 0:
+            raise InputError("must be a positive number", culprit=f"{name} {value}")
+    if fps > MAX_FPS:
+        raise InputError(f"must be at most {MAX_FPS} frames per second", culprit=f"--fps {fps}")
+
+
+def _video_path(folder: Path, trial: int, out: str | Path | None, overwrite: bool) -> Path:
+    """The MP4 a video writes: ``out`` (a file ending in .mp4 in a folder that exists,
+    replaced only with ``overwrite``) or the replayed folder's ``video_trialTT.mp4``; never a
+    file the folder lists, nor one another process holds."""
+    path = Path(out) if out is not None else folder / f"video_trial{trial:02d}.mp4"
+    if path.suffix.lower() != ".mp4":
+        raise InputError("the file name must end in .mp4", culprit=f"--out {path}")
+    if not path.parent.is_dir():
+        raise InputError(f"folder '{path.parent}' does not exist", culprit=f"--out {path}")
+    if path.is_dir():
+        raise InputError("is a folder; name the file to write", culprit=f"--out {path}")
+    # not inside the folder it replays (but as its video_trialTT.mp4), never a listed file
+    check_output_path(path, [folder], culprit=f"--out {path}", file=True)
+    if out is not None and path.exists() and not overwrite:
+        raise InputError("exists; --overwrite replaces it", culprit=f"--out {path}")
+    check_replaceable(path, culprit=f"--out {path}")
+    refuse_in_use(path, culprit=f"--out {path}" if out is not None else str(folder))
+    return path
+
+
+def _write_frames(tmp: Path, path: Path, samples: Any, replay: Any, strip: Any, fps: float,
+                  progress: bool) -> None:
+    """Every frame of ``replay`` at ``samples`` (with the panel ``strip`` below it) encoded
+    into ``tmp`` by ffmpeg; an ffmpeg error (a full disk, ...) becomes one line naming
+    ``path``."""
+    import imageio.v2 as imageio
+
+    bar = Bar(total=len(samples), unit="frame", desc="rendering", disable=not progress)
+    # ffmpeg writes its errors to the stderr it inherits: into this file instead, and from
+    # there into our one line
+    with tempfile.TemporaryFile() as log:
+        writer = imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264",
+                                    pixelformat="yuv420p", macro_block_size=2, quality=7,
+                                    ffmpeg_log_level="error")
+        try:
+            try:
+                started = False
+                # the bar counts frames written, here: a count kept by the frame generator
+                # (after its yield) missed the last frame, which zip never resumes it for
+                for k, frame in zip(samples, replay.frames(samples)):
+                    if strip is not None:
+                        frame = np.concatenate([frame, strip.draw(int(k))], axis=0)
+                    if not started:  # the first frame starts ffmpeg: its stderr is the log
+                        with _stderr_into(log.fileno()):
+                            writer.append_data(frame)
+                        started = True
+                    else:
+                        writer.append_data(frame)
+                    bar.update(1)
+                writer.close()
+            except (OSError, RuntimeError) as e:
+                try:
+                    writer.close()
+                except Exception:  # noqa: BLE001 - already failing: the first error counts
+                    pass
+                raise _ffmpeg_fault(e, log, path) from None
+        finally:
+            bar.close()
 
 
 def _time_window(t: Any, start: Any, stop: Any) -> tuple[float, float]:
