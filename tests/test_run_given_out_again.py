@@ -25,38 +25,46 @@ HOLDER = """
 import json, sys, time
 from pathlib import Path
 from astrocpg.studies.outputs.folder import FolderLock
-run, ready = Path(sys.argv[1]), Path(sys.argv[2])
+run, ready, release = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3])
 lock = FolderLock(run, inside=run.parent.parent).acquire()
-time.sleep(0.5)
 (run / "status.json").write_text(json.dumps({"run_id": "r", "state": "finished"}))
 ready.write_text("")
-time.sleep(1.5)
+deadline = time.monotonic() + 120
+while not release.exists() and time.monotonic() < deadline:  # the test says when
+    time.sleep(0.01)
 lock.release()
 """
 
 
 def test_a_run_given_out_again_waits_for_the_worker_that_trains_it(tmp_path, monkeypatch):
+    import threading
+
     run = tmp_path / "study" / "runs" / "r"
     run.mkdir(parents=True)
-    ready = tmp_path / "ready"
-    holder = subprocess.Popen([sys.executable, "-c", HOLDER, str(run), str(ready)])
+    ready, release = tmp_path / "ready", tmp_path / "release"
+    holder = subprocess.Popen([sys.executable, "-c", HOLDER, str(run), str(ready), str(release)])
     try:
-        deadline = time.monotonic() + 60
-        while not FolderLock(run).held_elsewhere():
+        deadline = time.monotonic() + 120
+        while not ready.exists():
             assert time.monotonic() < deadline and holder.poll() is None, "the holder never locked"
             time.sleep(0.02)
+        assert FolderLock(run).held_elsewhere()
         monkeypatch.setattr(execute, "RUN_LOCK_POLL_S", 0.05)
         # the study that gave the run out holds its folder (here: this process)
         study = FolderLock(tmp_path / "study").acquire()
+        # the other worker lets go 1 s from now: until then the attempt must wait
+        timer = threading.Timer(1.0, release.write_text, args=("",))
         t0 = time.monotonic()
+        timer.start()
         try:
             status = execute.execute_run(SimpleNamespace(run_id="r"), str(run))
         finally:
+            timer.cancel()
+            release.write_text("")
             study.release()
         waited = time.monotonic() - t0
     finally:
-        holder.wait(timeout=60)
-    assert ready.exists()
+        holder.wait(timeout=120)
     assert status["state"] == "finished", status  # as the first attempt ended it: not failed
     assert waited >= 1.0, waited
     assert json.loads((run / "status.json").read_text())["state"] == "finished"
