@@ -7,6 +7,8 @@ direction word the text gives the difference (higher, lower, opposite, same, not
 
     python docs/claims.py                 # check every claim; one line per claim
     python docs/claims.py analyse         # the analyses behind the newer claims, as markdown
+    python docs/claims.py coverage        # how many of each page's numbers a claim covers
+    python docs/claims.py coverage --list # and every number none covers, with its line
 
 A claim holds when (a) its quoted text is on its page (whitespace and line breaks aside), (b)
 each figure recomputed from the tables equals the figure printed, to the printed precision, and
@@ -728,10 +730,65 @@ def load(path: Path = CLAIMS) -> list[dict]:
     return claims
 
 
+#: the pages whose figures the claims check
+CLAIM_PAGES = ("README.md", "docs/results.md", "docs/beyond/README.md")
+_FIGURE = re.compile(r"(?<![\w.])[-+−]?\d+(?:\.\d+)?(?:\s?%)?")
+
+
+def coverage(pages: tuple[str, ...] = CLAIM_PAGES) -> list[tuple[str, int, int, list]]:
+    """Per page: the numbers in its prose and tables (code blocks, inline code and headings
+    left out), how many a claim's quote or a checked table covers, and the others as
+    ``(line, number, context)``. Every number counts, parameters and sizes too: the count says
+    how much of a page is checked, not which numbers are results."""
+    claims, tables = load(), load_tables()
+    out = []
+    for page in pages:
+        text = re.sub(r"```.*?```", lambda m: "\n" * m.group(0).count("\n"),
+                      _path(page).read_text(), flags=re.S)
+        lines = text.splitlines()
+        in_tables = set()
+        for spec in (t for t in tables if t["page"] == page):
+            for k, line in enumerate(lines):
+                if line.startswith("|") and spec["header"] in line:
+                    j = k
+                    while j < len(lines) and lines[j].startswith("|"):
+                        in_tables.add(j)
+                        j += 1
+        flat, starts = "", []
+        for line in lines:
+            starts.append(len(flat))
+            flat += _words(re.sub(r"`[^`]*`", "", line)) + " "
+        quotes = [_words(re.sub(r"`[^`]*`", "", c["text"])) for c in claims if c["page"] == page]
+        spans = [(m.start(), m.start() + len(q)) for q in quotes if q
+                 for m in re.finditer(re.escape(q), flat)]
+        total = covered = 0
+        missing = []
+        for k, line in enumerate(lines):
+            if line.lstrip().startswith("#"):
+                continue
+            shown = _words(re.sub(r"`[^`]*`", "", line))
+            for m in _FIGURE.finditer(shown):
+                total += 1
+                at = starts[k] + m.start()
+                if k in in_tables or any(a <= at < b for a, b in spans):
+                    covered += 1
+                else:
+                    missing.append((k + 1, m.group(0), shown[max(0, m.start() - 40):m.end() + 30]))
+        out.append((page, total, covered, missing))
+    return out
+
+
 def main(argv: list[str]) -> int:
     try:
         if argv[:1] == ["analyse"]:
             print(analyse())
+            return 0
+        if argv[:1] == ["coverage"]:
+            for page, total, covered, missing in coverage():
+                print(f"{page}: {covered} of {total} numbers in claims or checked tables")
+                if argv[1:2] == ["--list"]:
+                    for line, number, context in missing:
+                        print(f"  {page}:{line}: {number}  ...{context}...")
             return 0
         claims = load(Path(argv[0]) if argv else CLAIMS)
         pages: dict[str, str] = {}

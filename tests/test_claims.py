@@ -10,6 +10,7 @@ import copy
 import csv
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -280,3 +281,21 @@ def test_the_command_exits_2_on_a_bad_claims_file(tmp_path):
     bad.write_text('[[claim]]\nid = "x"\npage = "README.md"\n')
     r = _run(str(bad))
     assert r.returncode == 2 and "claims.py:" in r.stderr
+
+
+def test_coverage_counts_what_a_claim_covers_and_lists_the_rest():
+    """``python docs/claims.py coverage``: a number inside a claim's quote is covered, one
+    outside every quote and checked table is listed with its line; the README's result figures
+    are all in claims (what is left there is set-up: versions, sizes, exit codes)."""
+    report = {page: (total, covered, missing) for page, total, covered, missing
+              in claims.coverage()}
+    assert set(report) == set(PAGES)
+    for page, (total, covered, missing) in report.items():
+        assert 0 < covered <= total and len(missing) == total - covered, page
+    readme = (ROOT / "README.md").read_text()
+    quote = next(c["text"] for c in ALL if c["page"] == "README.md" and "0.32" in c["text"])
+    listed = {number for _, number, _ in report["README.md"][2]}
+    assert quote in claims._words(readme) and "0.32" not in listed
+    # the README's uncovered numbers: set-up and sizes, never a share, a speed or an interval
+    assert all(not re.fullmatch(r"0\.\d\d|1\.1\d", n) or n == "1.17"
+               for n in listed), sorted(listed)
