@@ -59,16 +59,20 @@ def test_folders_and_files_of_255_bytes_are_written_and_replaced(tmp_path):
     assert not [n for n in os.listdir(tmp_path) if parse_temp_name(n)]
 
 
-def test_a_killed_writers_long_temporaries_are_removed_and_a_long_aside_folder_kept(tmp_path):
+def test_a_killed_writers_long_temporaries_are_removed_and_a_long_aside_folder_kept(
+        tmp_path, monkeypatch):
     pid = _dead_pid()
     long = "g" * 255
+    # the names the dead writer made: fitted to its own pid (which may have more digits than
+    # this process's)
+    with monkeypatch.context() as m:
+        m.setattr(os, "getpid", lambda: pid)
+        prefixes = {kind: temp_prefix(long, kind) for kind in ("partial", "tmp", "replaced")}
     stale = []
     for kind in ("partial", "tmp"):
-        prefix = temp_prefix(long, kind).replace(f"-{os.getpid()}-", f"-{pid}-")
-        (tmp_path / (prefix + "abcdefgh")).mkdir()
-        stale.append(tmp_path / (prefix + "abcdefgh"))
-    aside = tmp_path / (temp_prefix(long, "replaced").replace(f"-{os.getpid()}-", f"-{pid}-")
-                        + "abcdefgh")
+        (tmp_path / (prefixes[kind] + "abcdefgh")).mkdir()
+        stale.append(tmp_path / (prefixes[kind] + "abcdefgh"))
+    aside = tmp_path / (prefixes["replaced"] + "abcdefgh")
     aside.mkdir()
     (aside / "spikes.npz").write_bytes(b"the old folder")
     removed = clean_stale_temporaries(tmp_path)

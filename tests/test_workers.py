@@ -275,3 +275,27 @@ def test_the_ablations_projection_on_two_cores_is_what_it_measured():
     assert sorted(walls) == [1, 2, 4, 8, 16], p.stdout
     assert abs(walls[2] - 1701) <= 0.1 * 1701, walls
     assert [walls[n] for n in sorted(walls)] == sorted(walls.values(), reverse=True), walls
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_training_interrupted_after_its_last_session_is_sealed_by_its_resume(tmp_path,
+                                                                               workers):
+    """Ctrl-C after the last session, before the manifest said finished (the split training's
+    parent gathering its workers' last files): the folder holds every session but says
+    interrupted, and its line says --resume. The resume trains nothing and seals it (exit 0,
+    status finished, the same files); a sealed training is still refused as finished."""
+    args = ["train", "--trials", "2", "--sessions", "2", *SHORT, "--out", "out",
+            "--no-progress", "--workers", workers]
+    astrocpg(*args, cwd=tmp_path)
+    out = tmp_path / "out"
+    before = {n: (out / n).read_bytes() for n in ("sessions.csv", "weights.npz")}
+    manifest = json.loads((out / "manifest.json").read_text())
+    manifest["results"] = {**manifest["results"], "status": "interrupted",
+                           "error": "interrupted after 4 of 4 sessions"}
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    astrocpg("train", "--resume", "out", "--no-progress", "--workers", workers, cwd=tmp_path)
+    sealed = json.loads((out / "manifest.json").read_text())
+    assert sealed["results"]["status"] == "finished", sealed["results"]
+    assert {n: (out / n).read_bytes() for n in before} == before
+    again = astrocpg("train", "--resume", "out", "--no-progress", cwd=tmp_path, check=False)
+    assert again.returncode == 2 and "already finished" in again.stderr, again.stderr

@@ -973,10 +973,12 @@ def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any],
         raise InputError(f"{target} sessions per trial is fewer than the {planned} this training "
                          f"trains to; a training is extended, never shortened",
                          culprit="--sessions")
-    if not fresh and bool(np.all(done >= target)):
+    if not fresh and bool(np.all(done >= target)) and _sealed(out):
         raise InputError(f"the training is already finished ({target} sessions per trial); "
                          f"nothing was changed (--sessions N, more, extends it)",
                          culprit=f"--resume {out}")
+    # every session done but not sealed (stopped after its last session, before its manifest
+    # said finished, as its interruption line said): the resume trains nothing and seals it
     extend_from = None
     if target != settings.n_sessions:
         _check_extension(out, settings.n_sessions, target,
@@ -989,6 +991,14 @@ def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any],
     return Result.from_training(_train(settings, out, stored_plan, None if fresh else payload,
                                        progress, resumed=True, extend_from=extend_from,
                                        workers=min(workers, settings.n_trials)), out)
+
+
+def _sealed(out: Path) -> bool:
+    """Does the training's manifest say it finished (not interrupted after its last session,
+    before its end was written)?"""
+    manifest = read_manifest(out) or {}
+    results = manifest.get("results")
+    return isinstance(results, dict) and results.get("status") == "finished"
 
 
 def _given_again(seed: int | None, trials: int | None, astrocytes: bool | None,
