@@ -46,6 +46,7 @@ import numpy as np
 from ..errors import Diverged, InputError
 from .populations import BUILT_IN, PROJECTIONS, model_of_object
 from .runlock import exclusive
+from .invariants import overflow_refusal
 from .runner import run as run_lean
 
 #: Beyond this magnitude (SI units) a state value is invalid: Brian2's own bound
@@ -268,27 +269,9 @@ def overflowed(exc: BaseException, net: Any) -> InputError | None:
     namespace = getattr(owner, "namespace", None) or {}
     m = _FAILED_LINE.search(str(wrapper))
     line = m.group(1).strip() if m else ""
-    sizes = []
-    for ident in dict.fromkeys(_NAME.findall(line)):
-        if ident.startswith("_") or ident not in namespace:
-            continue
-        try:
-            size = float(np.max(np.abs(np.asarray(namespace[ident], dtype=float))))
-        except (TypeError, ValueError):
-            continue
-        sizes.append((size, ident))
-    model = model_of_object().get(name, name or "the network")
-    where = f"{model}'s '{line}'" if line else f"a computation of {model}"
-    if not sizes:
-        return InputError(f"the parameters make {where} overflow (beyond 1.8e308); give "
-                          f"them values of a plausible size", culprit=model)
-    largest = max(sizes)[1]
-    value = namespace[largest]
-    shown = f"{float(np.max(np.asarray(value, dtype=float))):g}"
-    if not brian2.get_dimensions(value).is_dimensionless:
-        shown += f"*{brian2.get_unit(brian2.get_dimensions(value))}"
-    return InputError(f"makes {where} overflow (beyond 1.8e308); give it a value of a "
-                      f"plausible size", culprit=f"{largest}={shown}")
+    values = {ident: namespace[ident] for ident in dict.fromkeys(_NAME.findall(line))
+              if not ident.startswith("_") and ident in namespace}
+    return overflow_refusal(model_of_object().get(name, name or "the network"), line, values)
 
 
 def _no_stop_chatter(record: logging.LogRecord) -> bool:

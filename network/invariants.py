@@ -135,25 +135,42 @@ _FUNCTIONS = frozenset({"exp", "log", "log10", "sqrt", "sin", "cos", "tan", "sin
 
 def _refusal(model: str, line: str, idents: list[str], variables: dict[str, Any]
              ) -> InputError:
-    """The refusal :func:`~.divergence.overflowed` gives for the same expression."""
+    """The refusal for an overflowing loop-invariant: the parameters of the expression are
+    the code object's constants (their values in SI units, their dimensions)."""
     import brian2
     from brian2.core.variables import Constant
 
-    sizes = []
+    values = {}
     for ident in idents:
         var = variables.get(ident)
         if ident.startswith("_") or not isinstance(var, Constant):
             continue
-        sizes.append((abs(float(np.asarray(var.value, dtype=float))), ident))
-    where = f"{model}'s '{line}'"
+        dim = getattr(var, "dim", None)
+        values[ident] = (brian2.Quantity(var.value, dim=dim) if dim is not None
+                         else var.value)
+    return overflow_refusal(model, line, values)
+
+
+def overflow_refusal(model: str, line: str, values: dict[str, Any]) -> InputError:
+    """An InputError for ``model``'s expression ``line`` whose arithmetic left the floats:
+    naming the largest of its parameters ``values`` (``{name: value}``, a Brian2 quantity or
+    a number) with its value and unit, or all of them where none has a size."""
+    import brian2
+
+    sizes = []
+    for ident, value in values.items():
+        try:
+            sizes.append((float(np.max(np.abs(np.asarray(value, dtype=float)))), ident))
+        except (TypeError, ValueError):
+            continue
+    where = f"{model}'s '{line}'" if line else f"a computation of {model}"
     if not sizes:
         return InputError(f"the parameters make {where} overflow (beyond 1.8e308); give "
                           f"them values of a plausible size", culprit=model)
     largest = max(sizes)[1]
-    var = variables[largest]
-    shown = f"{float(np.asarray(var.value, dtype=float)):g}"
-    dim = getattr(var, "dim", None)
-    if dim is not None and not dim.is_dimensionless:
-        shown += f"*{brian2.get_unit(var.dim)}"
+    value = values[largest]
+    shown = f"{float(np.max(np.asarray(value, dtype=float))):g}"
+    if not brian2.get_dimensions(value).is_dimensionless:
+        shown += f"*{brian2.get_unit(brian2.get_dimensions(value))}"
     return InputError(f"makes {where} overflow (beyond 1.8e308); give it a value of a "
                       f"plausible size", culprit=f"{largest}={shown}")
