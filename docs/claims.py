@@ -429,12 +429,16 @@ def _p_columns(header: list[str]) -> tuple[int | None, int | None]:
     return p, holm
 
 
-def c_md_cell(file: str, row: str, column: str, block: str = "") -> dict[str, float]:
+def c_md_cell(file: str, row: str, column: str, block: str = "", other_column: str = ""
+              ) -> dict[str, float]:
     """A cell of a committed markdown table written by a command (``analyse.py against``,
-    ``paired``, ...): the row whose first cell starts with ``row`` (under the heading line
-    that contains ``block``, if given), the cell of the column headed ``column`` (see
-    :func:`column_index`) parsed as ``d [lo, hi]`` or a number, and the row's p and Holm p
-    (the columns headed ``p`` or ``... p`` and ``Holm p``; ``<= x`` read as x)."""
+    ``paired``, ...): the row whose first cell starts with ``row`` (or whose cells joined by
+    " | " do: ``mean_reward | 81-100``; under the heading line that contains ``block``, if
+    given), the cell of the column headed ``column`` (see :func:`column_index`) parsed as
+    ``d [lo, hi]``, ``[lo, hi]`` or a number (``less``, ``less_lo``, ``less_hi``: the same
+    read as its negative), and the row's p and Holm p (the columns headed
+    ``p`` or ``... p`` and ``Holm p``; ``<= x`` read as x). With ``other_column``: its figure
+    ``b``, and ``change`` = d / b − 1 and ``drop`` = 1 − d / b (a relative difference)."""
     lines, header, head = _md_table(file, block)
     where = f"{file} block {block!r}" if block else file
     if not isinstance(column, str):
@@ -444,7 +448,7 @@ def c_md_cell(file: str, row: str, column: str, block: str = "") -> dict[str, fl
         if not line.startswith("|"):
             break
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if cells[0].replace("*", "").startswith(row):
+        if " | ".join(cells).replace("*", "").startswith(row):
             break
     else:
         raise BadInput(f"{where}: no row {row!r}")
@@ -456,9 +460,88 @@ def c_md_cell(file: str, row: str, column: str, block: str = "") -> dict[str, fl
     out = {"d": nums[0]}
     if len(nums) >= 3:
         out.update(lo=nums[1], hi=nums[2])
+    elif len(nums) == 2 and re.match(r"\s*\[", cells[at]):   # an interval alone
+        out = {"lo": nums[0], "hi": nums[1]}
+    if "d" in out:   # the same difference read the other way: "lower by 0.53 [0.44, 0.64]"
+        out["less"] = -out["d"]
+        if "lo" in out:
+            out.update(less_lo=-out["hi"], less_hi=-out["lo"])
+    if other_column:
+        other = [float(x.replace("−", "-"))
+                 for x in re.findall(_NUM, cells[column_index(header, other_column, where)])]
+        if not other or other[0] == 0:
+            raise BadInput(f"{where}: row {row!r}, column {other_column!r} holds no figure")
+        out.update(b=other[0], change=out["d"] / other[0] - 1, drop=1 - out["d"] / other[0])
     for key, k in zip(("p", "holm"), _p_columns(header)):
         if k is not None and re.search(_NUM, cells[k]):
             out[key] = float(re.findall(_NUM, cells[k])[0])
+    return out
+
+
+def c_md_summaries(file: str, row: str, column: str, other_column: str, n: int,
+                   other_n: int | None = None, block: str = "") -> dict[str, float]:
+    """Two cells ``mean ± std`` of a committed markdown table whose per-seed values were not
+    kept (the row as in :func:`c_md_cell`): ``a`` and ``b`` the means, ``d`` = a − b, and the
+    95 % Welch t interval of d from the two summaries (``n`` and ``other_n`` seeds; the std
+    as written, taken as the sample std). A summary allows no permutation test: the interval
+    is all the direction is read from."""
+    from scipy import stats
+
+    def cell(col: str) -> tuple[float, float]:
+        lines, header, head = _md_table(file, block)
+        for line in lines[head + 1:]:
+            cells = [c.strip() for c in line.strip().strip("|").split("|")]
+            if " | ".join(cells).replace("*", "").startswith(row):
+                nums = re.findall(_NUM, cells[column_index(header, col, file)])
+                if len(nums) < 2:
+                    raise BadInput(f"{file}: row {row!r}, column {col!r} is not 'mean ± std'")
+                return float(nums[0].replace("−", "-")), float(nums[1].replace("−", "-"))
+        raise BadInput(f"{file}: no row {row!r}")
+
+    (a, sa), (b, sb) = cell(column), cell(other_column)
+    m = other_n or n
+    va, vb = sa ** 2 / n, sb ** 2 / m
+    se = math.sqrt(va + vb)
+    dof = (va + vb) ** 2 / (va ** 2 / (n - 1) + vb ** 2 / (m - 1)) if se > 0 else n + m - 2
+    half = float(stats.t.ppf(0.975, dof)) * se
+    return {"a": a, "b": b, "d": a - b, "lo": a - b - half, "hi": a - b + half}
+
+
+def c_columns(table: str, other_table: str, column: str) -> dict[str, float]:
+    """One numeric column of two committed CSV files (a value per seed each), unpaired, with
+    astrocpg's own comparison (``astrocpg.studies.analysis.compare.compare``, what
+    ``analyse.py columns`` prints): ``a``, ``b`` the means, ``d`` = a − b with its 95 %
+    bootstrap interval ``lo``, ``hi``, the permutation ``p`` and the Mann-Whitney ``mwu``;
+    ``less``, ``less_lo``, ``less_hi``: the same difference read as b − a."""
+    from astrocpg.studies.analysis.compare import compare
+
+    def read(name: str) -> list[float]:
+        return [float(r[column]) for r in _csv(name)]
+    t = compare(read(table), read(other_table))
+    return {"a": t["mean_a"], "b": t["mean_b"], "d": t["difference"],
+            "lo": t["difference_low"], "hi": t["difference_high"], "p": t["perm_p"],
+            "mwu": t["mwu_p"], "less": -t["difference"], "less_lo": -t["difference_high"],
+            "less_hi": -t["difference_low"]}
+
+
+def c_csv_row(table: str, where: dict) -> dict[str, float]:
+    """The one row of a committed CSV (``condition_tests.csv``, ...) whose cells equal
+    ``where``: every numeric cell by its column's name, and ``d``, ``lo``, ``hi``, ``p``,
+    ``holm`` for the columns ``difference``, ``difference_low``, ``difference_high``,
+    ``perm_p``, ``perm_p_holm`` where the table has them."""
+    rows = [r for r in _csv(table) if all(r.get(k) == str(v) for k, v in dict(where).items())]
+    if len(rows) != 1:
+        raise BadInput(f"{table}: {len(rows)} rows where {dict(where)}")
+    out = {}
+    for k, v in rows[0].items():
+        try:
+            out[k] = float(v)
+        except (TypeError, ValueError):
+            pass
+    for key, column in (("d", "difference"), ("lo", "difference_low"),
+                        ("hi", "difference_high"), ("p", "perm_p"), ("holm", "perm_p_holm")):
+        if column in out:
+            out[key] = out[column]
     return out
 
 
@@ -511,7 +594,8 @@ COMPUTE = {"share": c_share, "gait_threshold": c_gait_threshold,
            "tables_differ": c_tables_differ, "versus": c_versus,
            "world_minus_flat": c_world_minus_flat, "advantage_vs_flat": c_advantage_vs_flat,
            "training": c_training, "md_cell": c_md_cell, "release": c_release, "md_block": c_md_block,
-           "separated": c_separated,
+           "separated": c_separated, "md_summaries": c_md_summaries,
+           "columns": c_columns, "csv_row": c_csv_row,
            "final": c_final}
 
 
@@ -526,7 +610,9 @@ def _compute(name: str, args: tuple) -> dict[str, float]:
 
 
 def compute(claim: dict) -> dict[str, float]:
-    args = {k: tuple(v) if isinstance(v, list) else v for k, v in claim.get("args", {}).items()}
+    args = {k: tuple(v) if isinstance(v, list) else
+            tuple(sorted(v.items())) if isinstance(v, dict) else v
+            for k, v in claim.get("args", {}).items()}
     return _compute(claim["compute"], tuple(sorted(args.items())))
 
 
@@ -735,47 +821,93 @@ CLAIM_PAGES = ("README.md", "docs/results.md", "docs/beyond/README.md")
 _FIGURE = re.compile(r"(?<![\w.])[-+−]?\d+(?:\.\d+)?(?:\s?%)?")
 
 
+def _page_figures(page: str) -> tuple[str, list[tuple[int, int, str, bool]]]:
+    """A page's prose as one line (code blocks, inline code and headings left out) and each
+    number in it: ``(position, line, number, checked)``: checked when a claim prints it (one
+    of the claim's values, in its quote) or a checked table holds it."""
+    claims, tables = load(), load_tables()
+    text = re.sub(r"```.*?```", lambda m: "\n" * m.group(0).count("\n"),
+                  _path(page).read_text(), flags=re.S)
+    lines = text.splitlines()
+    in_tables = set()
+    for spec in (t for t in tables if t["page"] == page):
+        for k, line in enumerate(lines):
+            if line.startswith("|") and spec["header"] in line:
+                j = k
+                while j < len(lines) and lines[j].startswith("|"):
+                    in_tables.add(j)
+                    j += 1
+    flat, figures = "", []
+    for k, line in enumerate(lines):
+        shown = "" if line.lstrip().startswith("#") else _words(re.sub(r"`[^`]*`", "", line))
+        for m in _FIGURE.finditer(shown):
+            figures.append((len(flat) + m.start(), k + 1, m.group(0), k in in_tables))
+        # a table row ends its own sentence: its cells are not read into the next line
+        flat += shown + (" | " if line.startswith("|") else " ")
+    # a figure is checked where a claim prints it: the claim's quote is on the page there and
+    # the figure is one of the claim's values (recomputed and compared), not merely quoted
+    checked: set[int] = set()
+    for claim in (c for c in claims if c["page"] == page):
+        quote = _words(re.sub(r"`[^`]*`", "", claim["text"]))
+        if not quote:
+            continue
+        printed = {_words(str(v)).replace("−", "-") for v in claim["values"].values()}
+        for m in re.finditer(re.escape(quote), flat):
+            for f in _FIGURE.finditer(quote):
+                if f.group(0).strip().replace("−", "-").rstrip("%").strip() in printed:
+                    checked.add(m.start() + f.start())
+    return flat, [(at, line, number, tabled or at in checked)
+                  for at, line, number, tabled in figures]
+
+
 def coverage(pages: tuple[str, ...] = CLAIM_PAGES) -> list[tuple[str, int, int, list]]:
     """Per page: the numbers in its prose and tables (code blocks, inline code and headings
     left out), how many a claim's quote or a checked table covers, and the others as
     ``(line, number, context)``. Every number counts, parameters and sizes too: the count says
     how much of a page is checked, not which numbers are results."""
-    claims, tables = load(), load_tables()
     out = []
     for page in pages:
-        text = re.sub(r"```.*?```", lambda m: "\n" * m.group(0).count("\n"),
-                      _path(page).read_text(), flags=re.S)
-        lines = text.splitlines()
-        in_tables = set()
-        for spec in (t for t in tables if t["page"] == page):
-            for k, line in enumerate(lines):
-                if line.startswith("|") and spec["header"] in line:
-                    j = k
-                    while j < len(lines) and lines[j].startswith("|"):
-                        in_tables.add(j)
-                        j += 1
-        flat, starts = "", []
-        for line in lines:
-            starts.append(len(flat))
-            flat += _words(re.sub(r"`[^`]*`", "", line)) + " "
-        quotes = [_words(re.sub(r"`[^`]*`", "", c["text"])) for c in claims if c["page"] == page]
-        spans = [(m.start(), m.start() + len(q)) for q in quotes if q
-                 for m in re.finditer(re.escape(q), flat)]
-        total = covered = 0
-        missing = []
-        for k, line in enumerate(lines):
-            if line.lstrip().startswith("#"):
-                continue
-            shown = _words(re.sub(r"`[^`]*`", "", line))
-            for m in _FIGURE.finditer(shown):
-                total += 1
-                at = starts[k] + m.start()
-                if k in in_tables or any(a <= at < b for a, b in spans):
-                    covered += 1
-                else:
-                    missing.append((k + 1, m.group(0), shown[max(0, m.start() - 40):m.end() + 30]))
-        out.append((page, total, covered, missing))
+        flat, figures = _page_figures(page)
+        missing = [(line, number, flat[max(0, at - 40):at + len(number) + 30])
+                   for at, line, number, covered in figures if not covered]
+        out.append((page, len(figures), len(figures) - len(missing), missing))
     return out
+
+
+#: what states a difference on a page (:func:`stated_differences`): a figure with an explicit
+#: sign (a difference: +0.43, −0.029 m/s), an interval in brackets ([−0.36, −0.05]), a figure
+#: with a comparative (0.16 m/s slower, 43 fewer falls, 2.5 % lower, lower by 0.53), and two
+#: figures set against each other (53 % against 10 %, 0.41 → 0.65)
+_N = r"[-+−]?\d+(?:\.\d+)?(?:\s?%)?"
+_UNIT = r"(?:\s+(?:m/s|m|s|sessions?|falls?|runs?|nV|pp|per\s+seed))?"  # not "seeds": "20 seeds against 20" is a size
+_COMPARATIVE = (r"(?:higher|lower|faster|slower|more|fewer|less|shorter|longer|greater|"
+                r"smaller|larger|wider|narrower|better|worse)")
+DIFFERENCE = re.compile(
+    r"(?<![\w.])[+−]\d+(?:\.\d+)?(?:\s?%)?"                        # +0.43, −0.029
+    r"|(?<=[\s(\[])-\d+(?:\.\d+)?(?:\s?%)?"                          # -0.2 typed with a hyphen
+    r"|\[\s*" + _N + r"\s*,\s*" + _N + r"\s*\]"                      # [lo, hi]
+    r"|(?<![\w.])\d+(?:\.\d+)?(?:\s?%)?" + _UNIT + r"\s+" + _COMPARATIVE + r"\b"  # 2 s shorter
+    r"|\b" + _COMPARATIVE + r"\s+by\s+" + _N                           # lower by 0.53
+    + r"|(?<![\w.])\d+(?:\.\d+)?(?:\s?%)?" + _UNIT + r"\s+(?:against|→)\s+" + _N)  # 53 % against 10 %
+
+
+def stated_differences(page: str) -> list[tuple[int, str, str]]:
+    """The differences a page states that no claim and no checked table covers: each figure
+    that is part of a stated difference (:data:`DIFFERENCE`) and not covered, as ``(line,
+    figure, context)``. Empty when every stated difference of the page is checked against its
+    table, direction included (a claim gives the direction; a checked table, each figure)."""
+    flat, figures = _page_figures(page)
+    at_figure = {at: (line, number, covered) for at, line, number, covered in figures}
+    out = []
+    for m in DIFFERENCE.finditer(flat):
+        for f in _FIGURE.finditer(m.group(0)):
+            at = m.start() + f.start()
+            line, number, covered = at_figure.get(at, (None, f.group(0), False))
+            if line is None:   # a figure _FIGURE reads differently in the page: find its line
+                line = next((ln for a, ln, _, _ in reversed(figures) if a <= at), 0)
+            if not covered:
+                out.append((line, number.strip(), flat[max(0, m.start() - 50):m.end() + 30]))
+    return list(dict.fromkeys(out))
 
 
 def main(argv: list[str]) -> int:
@@ -790,6 +922,15 @@ def main(argv: list[str]) -> int:
                     for line, number, context in missing:
                         print(f"  {page}:{line}: {number}  ...{context}...")
             return 0
+        if argv[:1] == ["differences"]:
+            left = 0
+            for page in CLAIM_PAGES:
+                found = stated_differences(page)
+                left += len(found)
+                print(f"{page}: {len(found)} figures of stated differences no claim covers")
+                for line, number, context in found:
+                    print(f"  {page}:{line}: {number}  ...{context}...")
+            return 3 if left else 0
         claims = load(Path(argv[0]) if argv else CLAIMS)
         pages: dict[str, str] = {}
         failed = 0
