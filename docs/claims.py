@@ -9,6 +9,7 @@ direction word the text gives the difference (higher, lower, opposite, same, not
     python docs/claims.py analyse         # the analyses behind the newer claims, as markdown
     python docs/claims.py coverage        # how many of each page's numbers a claim covers
     python docs/claims.py coverage --list # and every number none covers, with its line
+    python docs/claims.py differences     # every figure of a stated difference no claim checks
 
 A claim holds when (a) its quoted text is on its page (whitespace and line breaks aside), (b)
 each figure recomputed from the tables equals the figure printed, to the printed precision, and
@@ -435,8 +436,7 @@ def c_md_cell(file: str, row: str, column: str, block: str = "", other_column: s
     ``paired``, ...): the row whose first cell starts with ``row`` (or whose cells joined by
     " | " do: ``mean_reward | 81-100``; under the heading line that contains ``block``, if
     given), the cell of the column headed ``column`` (see :func:`column_index`) parsed as
-    ``d [lo, hi]``, ``[lo, hi]`` or a number (``less``, ``less_lo``, ``less_hi``: the same
-    read as its negative), and the row's p and Holm p (the columns headed
+    ``d [lo, hi]``, ``[lo, hi]`` or a number, and the row's p and Holm p (the columns headed
     ``p`` or ``... p`` and ``Holm p``; ``<= x`` read as x). With ``other_column``: its figure
     ``b``, and ``change`` = d / b − 1 and ``drop`` = 1 − d / b (a relative difference)."""
     lines, header, head = _md_table(file, block)
@@ -462,16 +462,14 @@ def c_md_cell(file: str, row: str, column: str, block: str = "", other_column: s
         out.update(lo=nums[1], hi=nums[2])
     elif len(nums) == 2 and re.match(r"\s*\[", cells[at]):   # an interval alone
         out = {"lo": nums[0], "hi": nums[1]}
-    if "d" in out:   # the same difference read the other way: "lower by 0.53 [0.44, 0.64]"
-        out["less"] = -out["d"]
-        if "lo" in out:
-            out.update(less_lo=-out["hi"], less_hi=-out["lo"])
     if other_column:
         other = [float(x.replace("−", "-"))
                  for x in re.findall(_NUM, cells[column_index(header, other_column, where)])]
-        if not other or other[0] == 0:
+        if not other:
             raise BadInput(f"{where}: row {row!r}, column {other_column!r} holds no figure")
-        out.update(b=other[0], change=out["d"] / other[0] - 1, drop=1 - out["d"] / other[0])
+        out["b"] = other[0]
+        if other[0]:
+            out.update(change=out["d"] / other[0] - 1, drop=1 - out["d"] / other[0])
     for key, k in zip(("p", "holm"), _p_columns(header)):
         if k is not None and re.search(_NUM, cells[k]):
             out[key] = float(re.findall(_NUM, cells[k])[0])
@@ -504,7 +502,8 @@ def c_md_summaries(file: str, row: str, column: str, other_column: str, n: int,
     se = math.sqrt(va + vb)
     dof = (va + vb) ** 2 / (va ** 2 / (n - 1) + vb ** 2 / (m - 1)) if se > 0 else n + m - 2
     half = float(stats.t.ppf(0.975, dof)) * se
-    return {"a": a, "b": b, "d": a - b, "lo": a - b - half, "hi": a - b + half}
+    return {"a": a, "b": b, "sd_a": sa, "sd_b": sb, "d": a - b, "lo": a - b - half,
+            "hi": a - b + half}
 
 
 def c_columns(table: str, other_table: str, column: str) -> dict[str, float]:
@@ -610,10 +609,19 @@ def _compute(name: str, args: tuple) -> dict[str, float]:
 
 
 def compute(claim: dict) -> dict[str, float]:
+    """What a claim's computation gives; with a difference ``d`` (and its interval) also the
+    same difference read the other way, ``less`` = −d, ``less_lo`` = −hi, ``less_hi`` = −lo,
+    for a text that says "lower by 0.53 [0.44, 0.64]"."""
     args = {k: tuple(v) if isinstance(v, list) else
             tuple(sorted(v.items())) if isinstance(v, dict) else v
             for k, v in claim.get("args", {}).items()}
-    return _compute(claim["compute"], tuple(sorted(args.items())))
+    out = dict(_compute(claim["compute"], tuple(sorted(args.items()))))
+    if "d" in out:
+        out.setdefault("less", -out["d"])
+        if "lo" in out and "hi" in out:
+            out.setdefault("less_lo", -out["hi"])
+            out.setdefault("less_hi", -out["lo"])
+    return out
 
 
 # ---------------------------------------------------------------- checking

@@ -299,3 +299,58 @@ def test_coverage_counts_what_a_claim_covers_and_lists_the_rest():
     # the README's uncovered numbers: set-up and sizes, never a share, a speed or an interval
     assert all(not re.fullmatch(r"0\.\d\d|1\.1\d", n) or n == "1.17"
                for n in listed), sorted(listed)
+
+
+# ---- every stated difference is checked (docs/claims.py differences)
+
+@pytest.mark.parametrize("page", PAGES)
+def test_every_stated_difference_is_checked_against_its_table(page):
+    """Every figure of a difference a page states (a signed figure, an interval in brackets,
+    a figure with a comparative, two figures set against each other) is a value of a claim,
+    recomputed with its direction, or of a checked table."""
+    left = claims.stated_differences(page)
+    assert left == [], "\n".join(f"{page}:{line}: {n} ...{ctx}..." for line, n, ctx in left)
+
+
+def _page_with(tmp_path, monkeypatch, text: str, page_claims: list[dict]) -> str:
+    page = tmp_path / "page.md"
+    page.write_text(text)
+    for c in page_claims:
+        c["page"] = str(page)
+    monkeypatch.setattr(claims, "load", lambda *a: page_claims)
+    monkeypatch.setattr(claims, "load_tables", lambda *a: [])
+    return str(page)
+
+
+def test_a_stated_difference_without_a_claim_is_found(tmp_path, monkeypatch):
+    page = _page_with(tmp_path, monkeypatch,
+                      "The variant walks 0.16 m/s slower (0.82 against 0.99 m/s). Its trot gait\n"
+                      "is not shown to differ (−0.05 [−0.16, +0.06]); sessions 2 s shorter.\n", [])
+    found = [n for _, n, _ in claims.stated_differences(page)]
+    assert found == ["0.16", "0.82", "0.99", "−0.05", "−0.16", "+0.06", "2"]
+
+
+def test_sizes_and_ranges_are_not_differences(tmp_path, monkeypatch):
+    page = _page_with(tmp_path, monkeypatch,
+                      "Seeds 1–3, 20 seeds against 20, 5 runs × 10 s each, period 0.499–0.521 s,\n"
+                      "Python 3.11, the paper's 1.17 m/s.\n", [])
+    assert claims.stated_differences(page) == []
+
+
+def test_a_figure_only_quoted_is_not_checked(tmp_path, monkeypatch):
+    """A claim covers the figures it recomputes (its values), not every figure of its quote:
+    a difference beside a checked figure stays unchecked."""
+    text = "Speed (−0.20 [−0.36, −0.05]) leans lower.\n"
+    claim = {"id": "x", "text": "Speed (−0.20 [−0.36, −0.05])", "compute": "none",
+             "values": {"d": "−0.20"}, "direction": "none"}
+    page = _page_with(tmp_path, monkeypatch, text, [claim])
+    assert [n for _, n, _ in claims.stated_differences(page)] == ["−0.36", "−0.05"]
+    claim["values"].update(lo="−0.36", hi="−0.05")
+    assert claims.stated_differences(page) == []
+
+
+def test_the_differences_command_exits_0_when_every_difference_is_checked():
+    run = subprocess.run([sys.executable, str(ROOT / "docs" / "claims.py"), "differences"],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert run.returncode == 0, run.stdout[-2000:]
+    assert "0 figures of stated differences no claim covers" in run.stdout
