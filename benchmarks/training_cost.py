@@ -178,7 +178,8 @@ def instrument(trainer: Any, timers: Timers) -> None:
                     order=ORDER_TRAINING)
     tr._finish = timers.wrap("session ends", tr._finish)
     # inside a session end
-    cpg.reset_trial = timers.wrap("session ends: CPG reset", cpg.reset_trial)
+    from astrocpg.coupling import session
+    session.reset_trial = timers.wrap("session ends: CPG reset", session.reset_trial)
     bridge.reset_trial = timers.wrap("session ends: robot reset", bridge.reset_trial)
     tr._row = timers.wrap("session ends: row", tr._row)
     tr._plan_session = timers.wrap("session ends: next session planned", tr._plan_session)

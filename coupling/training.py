@@ -31,6 +31,7 @@ from ..errors import Diverged, InputError
 from ..models import ModelSet
 from ..models.units import whole_steps
 from ..network import CPG, POOLS
+from . import session
 from .bridge import ORDER_TRAINING, Bridge
 
 SESSION_COLUMNS = (
@@ -57,7 +58,7 @@ class SessionStart:
     """What one session of one trial starts from, besides the seed and the reset values: the
     network step of its first step (the noise streams' step), its Progress and
     t_learning_start, and the state a reset leaves (astrocytes, inter-limb weights:
-    :meth:`~astrocpg.network.CPG.persistent_state`)."""
+    :func:`~astrocpg.coupling.session.persistent_state`)."""
 
     step: int
     progress: float
@@ -252,7 +253,7 @@ class Training:
         self.memory.starts[b].append(SessionStart(
             step=int(self.bridge.step_count), progress=float(self.progress[b]),
             t_learning_start=float(self.t_learning_start[b]),
-            state=self.cpg.persistent_state(b)))
+            state=session.persistent_state(self.cpg, b)))
 
     def _take_starts(self) -> None:
         if not self._any_starting:
@@ -272,7 +273,7 @@ class Training:
         self._progress_table.read()
         self._progress_arr[b, :] = start.progress
         self._progress_table.write()
-        self.cpg.set_persistent_state(b, start.state, shift_s=start.step * self.dt)
+        session.set_persistent_state(self.cpg, b, start.state, shift_s=start.step * self.dt)
         self.cpg.start_noise_at(start.step)
         self.memory.starts[b] = [start]
 
@@ -305,7 +306,7 @@ class Training:
         if self.sessions_done[b] >= self.n_sessions:
             self.done[b] = True
         # next session: reset everything but astrocytes and weights
-        self.cpg.reset_trial(b)
+        session.reset_trial(self.cpg, b)
         self.bridge.reset_trial(b)
         self.step_in_session[b] = 0
         self.non_alive[b] = 0

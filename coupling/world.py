@@ -20,7 +20,7 @@ from ..models import ModelSet
 from ..models.units import whole_steps
 from ..models.world import (TERRAIN_FLAT_RADIUS, TERRAIN_RESOLUTION, TERRAIN_THICKNESS,
                             TERRAIN_X, TERRAIN_Y)
-from ..network.build import trial_seeds
+from ..network.cpg import trial_seeds
 from ..network.noise import TrialNormals
 from .robot import A1Parameters, build_spec
 

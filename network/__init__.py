@@ -9,7 +9,8 @@ at a time in a process and applies the framework's Brian2 settings only while it
 
 from . import populations
 
-from .build import CPG, build_cpg, built_in_models, check_runs, same_limb_mask, trial_seeds
+from .build import build_cpg, built_in_models, check_runs
+from .cpg import CPG, same_limb_mask, trial_seeds
 from .codegen import codegen_target, use_codegen
 from .delays import delay_steps, limb_stages
 from .divergence import (LIMIT, DivergenceCheck, InvalidState, StateScan,

@@ -65,7 +65,7 @@ INTERNEURONS: tuple[tuple[str, str, str, str], ...] = (
 
 #: A population's wiring step written in Python: called by :func:`astrocpg.network.build_cpg`
 #: once every built-in population and projection exists, with the build's
-#: :class:`~astrocpg.network.build.Wiring` (layout, models, groups by population,
+#: :class:`~astrocpg.network.wiring.Wiring` (layout, models, groups by population,
 #: ``synapses(model, source, target, name, i, j)`` and ``add(kind, synapses)``).
 Wire = Callable[[Any], None]
 

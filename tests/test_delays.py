@@ -15,6 +15,7 @@ from brian2 import ms
 from astrocpg.errors import InputError
 from astrocpg.models import DEFAULT_MODELS
 from astrocpg.models.interlimb_synapse import LIMBS
+from astrocpg.coupling.session import reset_trial
 from astrocpg.network.build import build_cpg
 from astrocpg.network.delays import limb_stages
 from astrocpg.network.layout import LEGS, THIGH_POOLS
@@ -155,7 +156,7 @@ def test_a_session_reset_of_one_trial_leaves_the_others(tmp_path):
     v = cpg.table("motor", "v")
     before = v.read().copy()
     assert np.all(np.abs(before).sum(axis=1) > 0)
-    cpg.reset_trial(1)
+    reset_trial(cpg, 1)
     after = v.read()
     assert np.all(after[1] == 0.0)
     np.testing.assert_array_equal(after[[0, 2]], before[[0, 2]])

@@ -17,7 +17,7 @@ import pytest
 from astrocpg.errors import InputError
 from astrocpg.models.files import model_from_toml
 from astrocpg.network import build_cpg, populations
-from astrocpg.network.build import Wiring
+from astrocpg.network.wiring import Wiring
 from astrocpg.network.layout import POOLS
 
 MODEL_FILE = Path(__file__).parent / "data" / "renshaw.toml"

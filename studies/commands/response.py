@@ -31,7 +31,7 @@ import numpy as np
 
 from ...errors import Diverged, InputError
 from ...models.compose import Overrides, model_files_record, model_set, override_items
-from ...network.build import check_parameters_reach
+from ...network.wiring import check_parameters_reach
 from ...network.runlock import exclusive
 from ..outputs.folder import OutputFolder
 from ..outputs.writing import atomic_write, write_manifest
