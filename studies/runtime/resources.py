@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 from typing import Any, Mapping
 
-from ...errors import InputError
+from ...errors import InputError, setting
 
 # Measured (build_cpg + a short run, RSS difference between 1 and 33 trials): 0.33 MB of Brian2
 # state per trial; with its MjData, bridge arrays and code-object buffers we count 1 MB.
@@ -97,7 +97,8 @@ def check_memory(needed: int, culprit: str) -> None:
     if needed > have:
         raise InputError(f"needs about {_gib(needed)} of memory; this machine has "
                          f"{_gib(have)} available (fewer trials, a shorter run, or record less: "
-                         f"--spikes/--traces none, --trace-dt, --robot-stride)", culprit=culprit)
+                         f"{setting('spikes')}/{setting('traces')} none, {setting('trace_dt')}, "
+                         f"{setting('robot_stride')})", culprit=culprit)
 
 
 def _gib(n: float) -> str:
