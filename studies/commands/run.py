@@ -30,7 +30,7 @@ from ..outputs.weights import check_table, load_weights, tables_state
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from .settings import (added_populations, number, population_models, population_rows,
                        same_populations, seed_number)
-from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
+from ..runtime.resources import RECORD_LESS, check_memory, estimate_batched, estimate_bytes
 from ..runtime.workers import resolve_workers, workers_words
 from .batched import try_batched
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
@@ -152,7 +152,8 @@ def _plan_run(a: dict[str, Any], rows: Sequence[Any]) -> RunPlan:
         traces=trace_columns(names), spikes=bool(pops), robot_stride=robot_stride,
         trace_bytes=np.dtype(trace_dtype).itemsize, spill_bytes=None if out is None
         else recording.SPILL_BYTES),
-        culprit=f"{setting('seconds', f'{seconds:g}')} x {setting('trials', trials)}" + workers_words(procs))
+        culprit=f"{setting('seconds', f'{seconds:g}')} x {setting('trials', trials)}"
+        + workers_words(procs), record_less=RECORD_LESS)
     files = model_files_record(a["models"])
     models = model_set(a["overrides"], a["equations"], models=a["models"],
                        added=[r.model for r in rows])

@@ -114,7 +114,8 @@ def _plan_unit(a: dict[str, Any], rows: Sequence[Any]) -> tuple[dict[str, Any], 
                                   spikes=bool(pops),
                                   trace_bytes=np.dtype(trace_dtype).itemsize),
                  culprit=f"{setting('seconds', f'{seconds:g}')} x {setting('trials', trials)}"
-                         + (f" x {setting('workers', procs)}" if procs > 1 else ""))
+                         + (f" x {setting('workers', procs)}" if procs > 1 else ""),
+                 record_less=("spikes", "traces", "trace_dt"))
     files = model_files_record(a["models"])
     models = model_set(a["overrides"], a["equations"], models=a["models"],
                        added=[r.model for r in rows])
