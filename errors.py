@@ -144,17 +144,21 @@ class Vocabulary:
     #: keywords that take several items: a value shown with one is the item named
     COLLECTIONS = frozenset({"overrides", "models", "equations", "populations", "conditions",
                              "point", "world", "marks", "experimenter"})
-    #: the API's way of doing what a message advises (``{}``: the value given with it)
+    #: the API's way of doing what a message advises (``{}``: the value given with it; a pair:
+    #: the words with a value and without one)
     ADVICE = {"resume": "ac.resume({})", "record_every": "ac.train(record_every={})",
-              "codegen": "ASTROCPG_CODEGEN={}"}
+              "train": "ac.train(out={})", "retrain": "ac.train(out=DIR, overwrite=True)",
+              "codegen": ("ASTROCPG_CODEGEN={}", "ASTROCPG_CODEGEN")}
 
     def __init__(self, renames: dict[str, str] | None = None) -> None:
         self.renames = dict(renames or {})
 
     def name(self, f: Field) -> str:
         """The words for one field."""
-        if f.advice:
-            return self.ADVICE.get(f.name, f.name + "({})").format(f.value or "DIR")
+        if f.advice:  # a template for a value (DIR unless given), or with one without
+            said = self.ADVICE.get(f.name, f.name + "({})")
+            with_value, without = said if isinstance(said, tuple) else (said, said)
+            return with_value.format(f.value) if f.value else without.format("DIR")
         key = self.renames.get(f.name, f.name)
         if not f.value:
             return self.SWITCHES.get(f.name, key)

@@ -142,7 +142,7 @@ def _main(argv: Sequence[str] | None) -> int:
     note_worker_environment({})
     try:
         # an error names the user's settings as this command's options
-        return _run_command(args, OptionWords(chosen_parsers(parser, args)[-1]))
+        return _run_command(args, OptionWords(chosen_parsers(parser, args)))
     finally:
         logging.disable(logging_was)
         quiet.__exit__(None, None, None)
