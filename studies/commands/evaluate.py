@@ -568,7 +568,8 @@ def _check_worlds(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],
             try:
                 check_models(in_world(models, world))
             except InputError as e:
-                raise InputError(f"world '{name}': {e}", culprit=setting("worlds", source)) from None
+                raise InputError(f"world '{name}': {e.raw_line}",
+                                 culprit=setting("worlds", source)) from None
 
 
 def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],

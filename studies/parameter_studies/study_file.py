@@ -21,7 +21,7 @@ import numpy as np
 from ...coupling.assembly import check_models
 from ...coupling.recorder import RecordPlan
 from ...coupling.training import session_steps
-from ...errors import InputError, did_you_mean, setting
+from ...errors import Field, InputError, did_you_mean, setting
 from ...reading import loads_toml
 from ...models import DEFAULT_MODELS
 from ..runtime.resources import check_memory, estimate_bytes, estimate_wall_seconds
@@ -162,7 +162,8 @@ def study_overrides(seeds: Any = None, sessions: Any = None,
                     raise InputError(f"a count of seeds must be 1 to {MAX_SEEDS}, got {count}",
                                      culprit=setting("seeds"))
             else:
-                raise InputError(f"expected {SEEDS_GRAMMAR}, got {seeds!r}", culprit=setting("seeds"))
+                raise InputError(f"expected {SEEDS_GRAMMAR}, got {seeds!r}",
+                                 culprit=setting("seeds"))
         else:
             raise InputError(f"expected {SEEDS_GRAMMAR}, got {type(seeds).__name__}",
                              culprit=setting("seeds"))
@@ -173,7 +174,8 @@ def study_overrides(seeds: Any = None, sessions: Any = None,
                 raise InputError(f"{len(seeds_list)} seeds is more than {MAX_SEEDS}",
                                  culprit=setting("seeds"))
             if min(seeds_list) < 0 or max(seeds_list) > MAX_SEED:
-                raise InputError(f"seeds must be 0 to {MAX_SEED}, got {text}", culprit=setting("seeds"))
+                raise InputError(f"seeds must be 0 to {MAX_SEED}, got {text}",
+                                 culprit=setting("seeds"))
             seeds_list = tuple(sorted(seeds_list))
     if isinstance(sessions, str):  # the command line's text: parsed, never eval-ed
         try:
@@ -239,12 +241,14 @@ def _value_text(key: str, value: Any, where: str) -> str:
     return str(value)
 
 
-def _check_override(models, key: str, value: str, where: str) -> str:
+def _check_override(models, key: str, value: str, where: Any) -> str:
     item = f"{key}={value}"
     try:
         models.parse_assignment(item)
     except InputError as e:
-        raise InputError(f"{e}", culprit=where) from None
+        # an override given as a setting already names the parameter: said once, not twice
+        said = e.raw_message if isinstance(where, Field) else e.raw_line
+        raise InputError(said, culprit=where) from None
     return item
 
 
@@ -358,14 +362,16 @@ def _apply_sets(doc: dict[str, Any], models, base: list[str], axes: dict[str, li
         culprit = setting("overrides", name)
         if name in axes:
             raise InputError(f"the study sweeps {name} ([sweep.axes] of {where[6:]}): every "
-                             f"run takes its axis value; drop {setting('overrides')} or the axis", culprit=culprit)
+                             f"run takes its axis value; drop {setting('overrides')} or the axis",
+                             culprit=culprit)
         if isinstance(conditions, dict):
             for cname, cond in conditions.items():
                 if isinstance(cond, dict) and (
                         name in (cond.get("set") or {})
                         or (name == "astrocyte_regulation" and cond.get("astrocytes") is False)):
                     raise InputError(f"condition '{cname}' of {where[6:]} sets {name}: its "
-                                     f"runs take the condition's value; drop {setting('overrides')} or edit "
+                                     f"runs take the condition's value; drop "
+                                     f"{setting('overrides')} or edit "
                                      f"the condition", culprit=culprit)
         checked = _check_override(models, name, value, culprit)
         out = [b for b in out if b.partition("=")[0] != name] + [checked]
@@ -558,12 +564,12 @@ def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], mode
                                                            for o in overrides))
                 session_steps(run_models, STEP)  # whole steps, before anything runs
             except InputError as e:
-                raise InputError(f"{e}", culprit=cw) from None
+                raise InputError(e.raw_line, culprit=cw) from None
             try:  # what a run's build would refuse (delays, world): now, not in every run
                 check_models(run_models)
             except InputError as e:
                 at = ", ".join(f"{k}={v}" for k, v in point.items())
-                raise InputError(f"{'point ' + at + ': ' if at else ''}{e}", culprit=cw) \
+                raise InputError(f"{'point ' + at + ': ' if at else ''}{e.raw_line}", culprit=cw) \
                     from None
             session_s = run_models.value("L_max")
             tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
