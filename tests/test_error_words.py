@@ -35,7 +35,8 @@ from test_bad_input import CASES, Case, Env, fx, run_in_child, run_in_process  #
 
 OPTION = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
 # advice for another command: "astrocpg train --resume DIR", "astrocpg train --out DIR --overwrite"
-OTHER_COMMAND = re.compile(r"astrocpg ([a-z]+(?: [a-z]+)?)((?: --[a-z][a-z0-9-]*(?: [A-Z0-9]+\b)?)+)")
+OTHER_COMMAND = re.compile(r"astrocpg ([a-z]+(?: [a-z]+)?)"
+                           r"((?: --[a-z][a-z0-9-]*(?: [A-Z0-9]+\b)?)+)")
 
 
 # ---------------------------------------------------------------- the command line's parsers
@@ -100,6 +101,11 @@ def test_a_bad_input_line_names_only_options_its_command_has(c: Case, fx, tmp_pa
     lines = [x for x in stderr.splitlines() if x.startswith("astrocpg:")]
     for line in lines:
         assert not unknown_options(line, argv), (argv, line)
+        assert not PYTHON_WORDS.search(line), (argv, line)  # never the API's words
+
+
+# what only the Python API says: a call as advice, a switch as its keyword's value
+PYTHON_WORDS = re.compile(r"\bac\.[a-z_]+\(|\b(?:overwrite|progress|astrocytes)=(?:True|False)\b")
 
 
 # ---------------------------------------------------------------- how each door names a field
@@ -230,6 +236,15 @@ def test_the_errors_that_named_a_keyword_the_function_has_not(tmp_path):
                             "use one of them")
     # the command line says the same with its options
     assert main(["train", "--resume", str(tmp_path), "--out", str(tmp_path / "x")]) == 2
+
+
+def test_an_override_refused_inside_a_study_is_named_once_in_its_doors_words(tmp_path, capsys):
+    assert main(["study", "quick", "--set", "tau_motr=9*ms", "--out", str(tmp_path / "s")]) == 2
+    assert capsys.readouterr().err == ("astrocpg: error: --set tau_motr: unknown model parameter "
+                                       "(did you mean tau_motor?)\n")
+    with pytest.raises(InputError) as e:
+        ac.study("quick", overrides=["tau_motr=9*ms"], out=tmp_path / "s")
+    assert str(e.value) == "overrides tau_motr: unknown model parameter (did you mean tau_motor?)"
 
 
 def test_the_same_errors_by_the_command_line(tmp_path, capsys):
