@@ -138,17 +138,19 @@ class Vocabulary:
     (``ac.resume`` takes the training folder as ``folder``)."""
 
     #: switches, named as the keyword's value that does what the message is about
-    SWITCHES = {"overwrite": "overwrite=True", "progress": "progress=False",
-                "astrocytes": "astrocytes=False", "figure": "figure=True",
-                "panel": "panel=True"}
+    SWITCHES: dict[str, str] = {"overwrite": "overwrite=True", "progress": "progress=False",
+                                "astrocytes": "astrocytes=False", "figure": "figure=True",
+                                "panel": "panel=True"}
     #: keywords that take several items: a value shown with one is the item named
-    COLLECTIONS = frozenset({"overrides", "models", "equations", "populations", "conditions",
-                             "point", "world", "marks", "experimenter"})
+    COLLECTIONS: frozenset[str] = frozenset({"overrides", "models", "equations", "populations",
+                                              "conditions", "point", "world", "marks",
+                                              "experimenter"})
     #: the API's way of doing what a message advises (``{}``: the value given with it; a pair:
     #: the words with a value and without one)
-    ADVICE = {"resume": "ac.resume({})", "record_every": "ac.train(record_every={})",
-              "train": "ac.train(out={})", "retrain": "ac.train(out=DIR, overwrite=True)",
-              "codegen": ("ASTROCPG_CODEGEN={}", "ASTROCPG_CODEGEN")}
+    ADVICE: dict[str, str | tuple[str, str]] = {
+        "resume": "ac.resume({})", "record_every": "ac.train(record_every={})",
+        "train": "ac.train(out={})", "retrain": "ac.train(out=DIR, overwrite=True)",
+        "codegen": ("ASTROCPG_CODEGEN={}", "ASTROCPG_CODEGEN")}
 
     def __init__(self, renames: dict[str, str] | None = None) -> None:
         self.renames = dict(renames or {})

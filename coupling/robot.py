@@ -269,7 +269,8 @@ def load_robot(path: str | os.PathLike) -> mujoco.MjModel:
         model = mujoco.MjModel.from_xml_path(str(p))
     except Exception as e:  # MuJoCo raises ValueError with a multi-line message
         first = " ".join(str(e).strip().splitlines()[:2]) or type(e).__name__
-        raise InputError(f"not a valid MJCF model ({first})", culprit=setting("robot", p.name)) from None
+        raise InputError(f"not a valid MJCF model ({first})",
+                         culprit=setting("robot", p.name)) from None
     names = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, k) for k in range(model.njnt)}
     missing = [n for n in JOINT_NAMES if n not in names]
     if missing:

@@ -620,7 +620,8 @@ class WorldModel(Model):
         return ""
 
     def with_code(self, text: str) -> "Model":
-        raise InputError(f"has no code string to replace (set its values with {setting('overrides')})",
+        raise InputError(f"has no code string to replace (set its values with "
+                         f"{setting('overrides')})",
                          culprit=self.name)
 
 

@@ -63,7 +63,8 @@ def read_equation_files(items: Sequence[str], option: str | Field = setting("equ
         try:
             text = raw.decode("utf-8")
         except UnicodeDecodeError:
-            raise InputError(f"'{file}' is not UTF-8 text", culprit=shown_with(option, name)) from None
+            raise InputError(f"'{file}' is not UTF-8 text",
+                             culprit=shown_with(option, name)) from None
         if "\x00" in text:
             raise InputError(f"'{file}' is a binary file, not an equation string",
                              culprit=shown_with(option, name))
@@ -71,7 +72,8 @@ def read_equation_files(items: Sequence[str], option: str | Field = setting("equ
     return out
 
 
-def read_model_files(items: Sequence[str], option: str | Field = setting("models")) -> dict[str, str]:
+def read_model_files(items: Sequence[str],
+                     option: str | Field = setting("models")) -> dict[str, str]:
     """``MODEL=FILE`` items of model files (TOML) -> {model: text}, checked as
     :func:`read_equation_files` checks files, and each file read once as a model so that a
     mistake within it (a reserved or shadowing parameter name, a field of the wrong TOML type,

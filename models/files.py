@@ -310,7 +310,8 @@ def check_parameters_used(model: Model, default: Model | None, *, culprit: str) 
     for name in model.parameters:
         if name not in known and name not in used:
             raise InputError("is declared but no code string of the model reads it (nor does "
-                             f"the network): {setting('overrides')} on it would change nothing; use it or drop it",
+                             f"the network): {setting('overrides')} on it would change nothing; "
+                             f"use it or drop it",
                              culprit=f"{culprit}: parameters.{name}")
 
 

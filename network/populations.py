@@ -555,7 +555,8 @@ def _check_parameter_names(model: Any, culprit: str) -> None:
     for pname in model.parameters:
         if pname in owners:
             raise InputError(f"parameter {pname} of {model.name} is also a parameter of the "
-                             f"{owners[pname]} model ({setting('overrides')} must name one: rename it)",
+                             f"{owners[pname]} model ({setting('overrides')} must name one: "
+                             f"rename it)",
                              culprit=culprit)
 
 

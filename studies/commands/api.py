@@ -205,7 +205,8 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
     # named as the user's settings: each door names them its own way (errors.setting)
     kwargs = dict(seconds=number(seconds, setting("seconds"), positive=True),
                   repeats=number(repeats, setting("repeats"), integer=True, minimum=1),
-                  seed=None if seed is None else seed_number(seed, setting("seed")), world=list(world),
+                  seed=None if seed is None else seed_number(seed, setting("seed")),
+                  world=list(world),
                   progress=progress,
                   variant={"overrides": overrides, "equations": equations, "models": models,
                            "populations": populations},
@@ -537,7 +538,8 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
     if target.is_dir():
         raise InputError("is a folder; name the file to write", culprit=f"robot export {target}")
     if target.exists() and not overwrite:
-        raise InputError(f"exists; {setting('overwrite')} replaces it", culprit=f"robot export {target}")
+        raise InputError(f"exists; {setting('overwrite')} replaces it",
+                         culprit=f"robot export {target}")
     refuse_in_use(target, culprit=f"robot export {target}")
     xml = a1_xml(A1Parameters())
     if os.path.lexists(target):  # --overwrite: only an unchanged export of this A1 is replaced
@@ -547,8 +549,8 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
                 and target.read_bytes() == xml.encode())
         if not same:
             raise InputError("is not the A1 model astrocpg writes (a file of yours, a link, or an "
-                             f"export edited since); {setting('overwrite')} replaces only an unchanged "
-                             "export: choose another name, or move it first",
+                             f"export edited since); {setting('overwrite')} replaces only an "
+                             f"unchanged export: choose another name, or move it first",
                              culprit=f"robot export {target}")
     atomic_path(target, lambda tmp: Path(tmp).write_text(xml))
     return target

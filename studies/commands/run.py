@@ -107,7 +107,8 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
     """
     if session is not None:
         if populations:
-            raise InputError("a replay runs the training's own network", culprit=setting("populations"))
+            raise InputError("a replay runs the training's own network",
+                             culprit=setting("populations"))
         return _replay(locals())
 
     # before any other check; a training's tables run on its network: its populations too
@@ -241,7 +242,8 @@ def _check_trial(trial: int | None, weights: Any) -> None:
     array there is nothing to pick from, and the option would be ignored."""
     if trial is not None and not (isinstance(weights, (str, os.PathLike))
                                   and Path(weights).is_dir()):
-        raise InputError(f"picks a trial's table of a training folder: give one with {setting('weights')} "
+        raise InputError(f"picks a trial's table of a training folder: give one with "
+                         f"{setting('weights')} "
                          "DIR" + ("" if weights is None else f" ({_shown(weights)} is not a "
                                                              f"training folder)"),
                          culprit=setting("trial", trial))
@@ -325,7 +327,8 @@ def _weights_table(weights: Any, trial: int | None, trials: int, models: Any
         weights = table
     if table is not None and table.ndim == 3 and table.shape[0] != trials:
         raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
-                         culprit=setting("weights", weights if not isinstance(weights, np.ndarray) else ''))
+                         culprit=setting("weights", "" if isinstance(weights, np.ndarray)
+                                         else weights))
     return table, weights, tables_label
 
 
@@ -744,8 +747,8 @@ def controller_tables(folder: str | Path, session: int | None = None) -> np.ndar
                          culprit=setting("session", session))
     verify(p, strict=False)  # its files are what its manifest lists
     if training_settings(p).get("robot"):
-        raise InputError(f"ran a robot model of its own ({setting('robot')}); its tables are replayed on "
-                         "the project's A1 only", culprit=str(folder))
+        raise InputError(f"ran a robot model of its own ({setting('robot')}); its tables are "
+                         f"replayed on the project's A1 only", culprit=str(folder))
     try:
         with np.load(p / "robot.npz", allow_pickle=False) as z:
             w = np.asarray(z["interlimb_weights_mV"], dtype=float) * 1e-3
@@ -822,8 +825,9 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
     runs = len(weights) * repeats
     procs = min(procs, runs)
     check_memory(estimate_batched(procs, trials=runs, seconds=seconds, dt=STEP, robot_stride=1),
-                 culprit=f"{setting('seconds', f'{seconds:g}')} x {len(weights)} trained trial(s) x "
-                         f"{repeats} repeat(s)" + (f" x {setting('workers', procs)}" if procs > 1 else ""))
+                 culprit=f"{setting('seconds', f'{seconds:g}')} x {len(weights)} trained "
+                         f"trial(s) x {repeats} repeat(s)"
+                         + (f" x {setting('workers', procs)}" if procs > 1 else ""))
     tables = np.concatenate([weights] * repeats)
     with added_populations(populations):
         result = try_batched("replay", {"modelset": models, "populations": populations,

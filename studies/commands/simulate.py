@@ -321,7 +321,8 @@ def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
 STEP = A1Parameters().timestep
 
 
-def check_duration(seconds: float, dt: float = STEP, culprit: str | Field = setting("seconds")) -> int:
+def check_duration(seconds: float, dt: float = STEP,
+                   culprit: str | Field = setting("seconds")) -> int:
     """A run lasts a whole number of steps, at least one; returns that number (an
     InputError names ``culprit`` and the nearest valid durations otherwise)."""
     if not np.isfinite(seconds) or seconds <= 0:
@@ -329,7 +330,8 @@ def check_duration(seconds: float, dt: float = STEP, culprit: str | Field = sett
     return whole_steps(seconds, dt, culprit=culprit, unit="s")
 
 
-def check_trace_dt(trace_dt_ms: float, dt: float = STEP, culprit: str | Field = setting("trace_dt")) -> int:
+def check_trace_dt(trace_dt_ms: float, dt: float = STEP,
+                   culprit: str | Field = setting("trace_dt")) -> int:
     """A trace sampling interval (ms) is a whole number of steps: samples are taken at steps,
     and labelled with the sampling times. Returns the steps between samples."""
     return whole_steps(trace_dt_ms, dt * 1e3, culprit=culprit, unit="ms")

@@ -47,7 +47,7 @@ from ..outputs.writing import (atomic_write, read_manifest, save_npz, save_spike
 from ..outputs.result import Result
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
-from ..runtime.workers import resolve_workers
+from ..runtime.workers import resolve_workers, workers_words
 from ...models.compose import model_files_record, model_set, override_items
 from .settings import (added_populations, number, population_models, population_rows,
                        same_populations, seed_number)
@@ -637,10 +637,12 @@ def record_plan(every: int | None, stride: int | None = None,
     :func:`~astrocpg.studies.commands.train.check_resume_options`)."""
     if every is None:
         if stride is not None:
-            raise InputError(f"a training records sessions only with {setting('record_every', 'N')}",
+            raise InputError(f"a training records sessions only with "
+                             f"{setting('record_every', 'N')}",
                              culprit=setting("record_stride"))
         if spikes is not None or traces is not None:
-            raise InputError(f"a training records spikes and traces only with {setting('record_every', 'N')}",
+            raise InputError(f"a training records spikes and traces only with "
+                             f"{setting('record_every', 'N')}",
                              culprit=f"{setting('spikes')}/{setting('traces')}")
         if trace_dtype is not None:
             raise InputError(f"a training records traces only with {setting('record_every', 'N')}",
@@ -799,8 +801,8 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
         plan = record_plan(record_every, record_stride, spikes, traces, trace_dtype)
         check_memory(estimate_batched(procs, trials=settings.n_trials, seconds=0.0, spikes=False,
                                       sessions=settings.n_sessions),
-                     culprit=f"{setting('sessions', settings.n_sessions)} x {setting('trials', settings.n_trials)}"
-                             + (f" x {setting('workers', procs)}" if procs > 1 else ""))
+                     culprit=f"{setting('sessions', settings.n_sessions)} x "
+                             f"{setting('trials', settings.n_trials)}{workers_words(procs)}")
         return Result.from_training(_train(settings, out, plan, None, progress,
                                            replace=overwrite, new=True, models=models,
                                            workers=procs), out)
@@ -829,7 +831,8 @@ def _checked_new_training(out: Any, overwrite: bool, inputs: Sequence[Any]) -> P
     if not overwrite:
         refuse_legacy(out)  # --resume would refuse it too: say what to do with it
     if holds_checkpoint(out) and not overwrite:
-        raise InputError(f"already holds a training run (continue it with {advice('resume', out)}, or "
+        raise InputError(f"already holds a training run (continue it with "
+                         f"{advice('resume', out)}, or "
                          f"replace it with {setting('overwrite')})", culprit=setting("out", out))
     OutputFolder(out, overwrite=overwrite, inputs=inputs, command="train").check()
     return out
@@ -986,7 +989,8 @@ def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any],
                          None if fresh else _loop_state(payload))
         check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
                                     sessions=target),
-                     culprit=f"{setting('sessions', target)} x {setting('trials', settings.n_trials)}")
+                     culprit=f"{setting('sessions', target)} x "
+                             f"{setting('trials', settings.n_trials)}")
         extend_from = None if fresh else settings.n_sessions
         settings = dataclasses.replace(settings, n_sessions=target)
     return Result.from_training(_train(settings, out, stored_plan, None if fresh else payload,
@@ -1040,7 +1044,8 @@ def _check_extension(out: Path, sessions: int, target: int,
     if isinstance(manifest, dict) and manifest.get("astrocpg_command") == "study-run":
         raise InputError(f"{out} is a run of a study, which trains the study's {sessions} "
                          f"sessions per trial; extend the study instead (astrocpg study FILE "
-                         f"{setting('sessions', target)}, a new study folder)", culprit=setting("sessions"))
+                         f"{setting('sessions', target)}, a new study folder)",
+                         culprit=setting("sessions"))
     if state is None:
         return
     finished = np.asarray(state["done"], dtype=bool)
@@ -1052,7 +1057,8 @@ def _check_extension(out: Path, sessions: int, target: int,
             f"cannot extend this training exactly to {target} sessions per trial: {which} "
             f"finished its {sessions} sessions before the last trial did and ran on idle "
             f"(learning off) until then, which a {target}-session training would not have "
-            f"done; start a new training with {setting('sessions', target)}", culprit=setting("sessions"))
+            f"done; start a new training with {setting('sessions', target)}",
+            culprit=setting("sessions"))
 
 
 #: Relative difference below which two values of a parameter are the same value spelled
@@ -1135,8 +1141,8 @@ def _check_overrides_given(settings: TrainSettings, items: Sequence[str]) -> Non
         name, value = recorded_models.parse_assignment(item)
         was = recorded_models.parameter(name).value
         if not _same_quantity(was, value):
-            _refuse_resume(setting("overrides", name), f"that run has {name}={value_text(was)}, not "
-                                            f"{value_text(value)}")
+            _refuse_resume(setting("overrides", name),
+                           f"that run has {name}={value_text(was)}, not {value_text(value)}")
 
 
 def _check_recording_given(plan: RecordPlan | None, given: dict[str, Any]) -> None:
@@ -1146,19 +1152,21 @@ def _check_recording_given(plan: RecordPlan | None, given: dict[str, Any]) -> No
     spikes, traces = given.get("spikes"), given.get("traces")
     dtype = given.get("trace_dtype")
     if plan is None:
-        for option, value in ((setting("record_every"), every), (setting("record_stride"), stride),
-                              (setting("spikes"), spikes), (setting("traces"), traces),
-                              (setting("trace_dtype"), dtype)):
+        for option, value in ((setting("record_every"), every),
+                              (setting("record_stride"), stride), (setting("spikes"), spikes),
+                              (setting("traces"), traces), (setting("trace_dtype"), dtype)):
             if value is not None:
                 refuse(option, f"that run records no sessions (given "
                                f"{option.given(_option_text(value))})")
         return
     if every is not None and every != plan.every:
-        refuse(setting("record_every"), f"that run records every {plan.every} sessions, not {every}")
+        refuse(setting("record_every"),
+               f"that run records every {plan.every} sessions, not {every}")
     if dtype is not None and dtype != plan.dtype:
         refuse(setting("trace_dtype"), f"that run keeps its traces as {plan.dtype}, not {dtype}")
     if stride is not None and stride != plan.stride:
-        refuse(setting("record_stride"), f"that run records every {plan.stride} steps, not {stride}")
+        refuse(setting("record_stride"),
+               f"that run records every {plan.stride} steps, not {stride}")
     want_spikes, want_traces = check_selection(spikes, traces)
     if spikes is not None and set(want_spikes) != set(plan.spikes):
         refuse(setting("spikes"), f"that run records the spikes of {_option_text(plan.spikes)}, "
@@ -1213,7 +1221,8 @@ def _check_model_file(name: str, recorded: dict[str, str] | None, given: dict[st
         return
     # the same model spelled otherwise (comments, order, number spelling) is the same model;
     # a file given for a model the run did not replace must define the built-in one
-    given_json = model_set(models={name: given["content"]}, option=setting("models")).to_json()[name]
+    given_json = model_set(models={name: given["content"]},
+                           option=setting("models")).to_json()[name]
     recorded_json = (model_set() if recorded is None
                      else model_set(models={name: recorded["content"]})).to_json()[name]
     if given_json == recorded_json:

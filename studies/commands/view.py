@@ -95,7 +95,8 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
                              progress=progress)
     if seconds is not None:  # a recording is drawn as it is: nothing is simulated
         raise InputError(f"simulates a training's weights; {folder} is a {result.kind} "
-                         f"folder, drawn from its recording ({setting('window', 'T0 T1')} picks a part)",
+                         f"folder, drawn from its recording ({setting('window', 'T0 T1')} picks "
+                         f"a part)",
                          culprit=setting("seconds"))
     _check_trial(result, trial)
     span = recorded_span(result)
@@ -323,7 +324,8 @@ def _video_path(folder: Path, trial: int, out: str | Path | None, overwrite: boo
     # not inside the folder it replays (but as its video_trialTT.mp4), never a listed file
     check_output_path(path, [folder], culprit=setting("out", path), file=True)
     if out is not None and path.exists() and not overwrite:
-        raise InputError(f"exists; {setting('overwrite')} replaces it", culprit=setting("out", path))
+        raise InputError(f"exists; {setting('overwrite')} replaces it",
+                         culprit=setting("out", path))
     check_replaceable(path, culprit=setting("out", path))
     refuse_in_use(path, culprit=setting("out", path) if out is not None else str(folder))
     return path

@@ -30,7 +30,8 @@ WEIGHTS = "weights.npz"
 
 
 def load_weights(path: str | Path, trial: int | None = None, *,
-                 culprit: str | Field = setting("weights"), session: int | None = None) -> np.ndarray:
+                 culprit: str | Field = setting("weights"),
+                 session: int | None = None) -> np.ndarray:
     """An 8x8 inter-limb table in mV from .npy, .npz ('weights_mV' or 'weights'), .json or
     text, or a training folder (its final tables, or with ``session`` its tables after that
     session, which every trial must have done: all trials, or ``trial``); returns volt.

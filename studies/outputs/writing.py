@@ -117,7 +117,8 @@ def prepare_output_dir(path: str | os.PathLike) -> Path:
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise InputError(f"cannot create the folder ({e.strerror})", culprit=setting("out", p)) from None
+        raise InputError(f"cannot create the folder ({e.strerror})",
+                         culprit=setting("out", p)) from None
     return p
 
 

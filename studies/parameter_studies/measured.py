@@ -131,7 +131,8 @@ class RunCost:
         return self.wall_s / self.busiest_s
 
 
-def measured_run_costs(path: str | Path, *, culprit: str | Field = setting("plan_from")) -> list[RunCost]:
+def measured_run_costs(path: str | Path, *,
+                       culprit: str | Field = setting("plan_from")) -> list[RunCost]:
     """The runs of the study folder ``path`` that finished in one attempt, with what each
     cost (its ``timeline.csv``; its trials and busiest seed from the results table). A run
     resumed after a stop is left out (its wall time includes starting again); a folder
@@ -152,7 +153,8 @@ def measured_run_costs(path: str | Path, *, culprit: str | Field = setting("plan
         wall = row["duration_s"]
         if not (wall is not None and 0.0 < wall < float("inf")):  # a finished run took time
             raise InputError(f"line {line}: duration_s {wall!r} of a finished run is not a "
-                             f"positive number of seconds", culprit=shown_with(culprit, path / TIMELINE))
+                             f"positive number of seconds",
+                             culprit=shown_with(culprit, path / TIMELINE))
         busiest = max(total for total, _ in seeds.values())
         if busiest > 0.0:
             out.append(RunCost(run_id, len(seeds), busiest, wall))

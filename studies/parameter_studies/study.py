@@ -255,8 +255,8 @@ def _check_folder(study: Study, out: Path) -> None:
         if fp is not None and fp != run.fingerprint():
             changed = _what_changed(specs.get(run.run_id), json.loads(json.dumps(asdict(run))))
             raise InputError(f"run '{run.run_id}' there has other settings than "
-                             f"in {study.path.name}{changed} (use a new {setting('out')}, or undo the "
-                             f"change to continue it)", culprit=setting("out", out))
+                             f"in {study.path.name}{changed} (use a new {setting('out')}, or "
+                             f"undo the change to continue it)", culprit=setting("out", out))
 
 
 def _assignments(items: Any) -> dict[str, str] | None:

@@ -72,7 +72,8 @@ def resolve_workers(workers: Any, culprit: str | Field = setting("workers")) -> 
 
 
 def workers_words(procs: int) -> str:
-    """`` x --workers N`` for a culprit where more than one process works, else nothing."""
+    """`` x workers=N`` (as each door names it) for a culprit where more than one process
+    works, else nothing."""
     return f" x {setting('workers', procs)}" if procs > 1 else ""
 
 
