@@ -200,10 +200,12 @@ class AstrocpgError(Exception):
 
     @property
     def message(self) -> str:
+        """The message in the words this error speaks."""
         return one_line(self.words(self.raw_message))
 
     @property
     def culprit(self) -> str | None:
+        """What is at fault, in the words this error speaks (None: the message alone)."""
         return None if self.raw_culprit is None else one_line(self.words(self.raw_culprit), 200)
 
     @property

@@ -86,3 +86,12 @@ class OptionWords(Vocabulary):
         said = " ".join(words.said(name, f.value if value is None else value)
                         for name, value in options)
         return said if parser is self.command else f"astrocpg {command} {said}"
+
+
+def command_words(top: argparse.ArgumentParser, *command: str) -> OptionWords:
+    """The words of ``command`` (``"study"``, ``"models", "dump"``) of the command line
+    ``top``: what its one line of a failure names a field as."""
+    chain = [top]
+    for name in command:
+        chain.append(_subparsers(chain[-1])[name])
+    return OptionWords(chain)
