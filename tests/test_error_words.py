@@ -247,6 +247,18 @@ def test_an_override_refused_inside_a_study_is_named_once_in_its_doors_words(tmp
     assert str(e.value) == "overrides tau_motr: unknown model parameter (did you mean tau_motor?)"
 
 
+def test_a_study_files_worlds_are_named_by_their_place_not_an_option(tmp_path, capsys):
+    """A study has no --worlds: a worlds file its [evaluate] names is refused naming that."""
+    from tiny_study import tiny_study
+
+    p = tmp_path / "s.toml"
+    p.write_text(tiny_study("t", sessions=1) + '[evaluate]\nworlds = "nope.toml"\n')
+    argv = ["study", str(p), "--out", str(tmp_path / "s"), "--no-progress"]
+    assert main(argv) == 1
+    line = capsys.readouterr().err.strip()
+    assert "[evaluate] worlds nope.toml" in line and not unknown_options(line, argv), line
+
+
 def test_the_same_errors_by_the_command_line(tmp_path, capsys):
     assert main(["train", "--resume", str(tmp_path), "--out", str(tmp_path / "x")]) == 2
     assert capsys.readouterr().err == ("astrocpg: error: --out: --resume writes into its own "

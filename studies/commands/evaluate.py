@@ -84,14 +84,15 @@ class WorldSet:
         return {"worlds": self.worlds, "axes": [[n, v] for n, v in self.axes]}
 
 
-def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
+def read_worlds(source: str | Path, models: ModelSet, culprit: Any = None) -> WorldSet:
     """The worlds of a worlds file or a built-in name: ``[worlds.NAME]`` tables of world
     parameters (absolute values with units), and/or ``[grid.AXIS]`` tables whose product are
     worlds: ``values = [...]`` of the world parameter AXIS, or ``values = [factors]`` with
     ``scale = ["P", ...]``, model parameters multiplied together by each factor (e.g. the
     descending drive ``I_background_0``, the torques per spike ``I_thigh`` and ``I_calf``).
-    Every name and value is checked (units, parse) here, each error naming its place."""
-    where = setting("worlds", source)
+    Every name and value is checked (units, parse) here, each error naming its place:
+    ``culprit`` where the file was named (default: the ``worlds`` setting with ``source``)."""
+    where = setting("worlds", source) if culprit is None else culprit
     worlds, grid = _worlds_document(source, where)
     world_names = set(models.world.parameters)
     # the grid's size from its lengths alone, before a world of it is built or checked

@@ -657,7 +657,9 @@ def _evaluate_table(doc: Any, study: Path, where: str) -> dict[str, Any] | None:
                          culprit=where)
     if worlds not in BUILTIN_WORLDS:
         worlds = str((study.parent / worlds).resolve())
-    n_worlds = len(read_worlds(worlds, DEFAULT_MODELS).worlds)
+    # named by its place in the study file: a study has no worlds setting of its own
+    n_worlds = len(read_worlds(worlds, DEFAULT_MODELS,
+                               culprit=f"{where} [evaluate] worlds {doc.get('worlds', worlds)}").worlds)
     seconds, repeats = doc.get("seconds", 10.0), doc.get("repeats", 5)
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not seconds > 0:
         raise InputError("[evaluate] seconds must be a positive number", culprit=where)
