@@ -62,25 +62,27 @@ _API.update({name: "astrocpg.errors" for name in ("InputError", "EnvironmentFaul
 __all__ = sorted(_API)
 
 
-# options whose keyword in one function is not the option's name
-_RENAMES = {"resume": {"resume": "folder"}}
+# the settings whose keyword in one function is not their field name
+_RENAMES = {"resume": {"resume": "folder"}, "study_status": {"status": "folder"},
+            "plot": {"format": "fmt"}, "replay_session": {"weights": "training"}}
 
 
 def _in_keywords(func):  # noqa: ANN001, ANN202
-    """``func`` as the API hands it out: an astrocpg error it raises names the keyword
-    (``seconds``, ``overrides tau_motr``) rather than the command-line option its checks share
-    with ``astrocpg`` (``--seconds``, ``--set tau_motr``). The command line calls the functions
-    themselves, so it keeps its options' names."""
+    """``func`` as the API hands it out: an astrocpg error it raises names the user's settings
+    by the function's keywords (``seconds``, ``overrides tau_motr``, ``ac.resume``'s
+    ``folder``); the command line calls the functions themselves and names its options."""
     import functools
 
-    from .errors import AstrocpgError, speak_keywords
+    from .errors import AstrocpgError, Vocabulary
+
+    words = Vocabulary(_RENAMES.get(func.__name__))
 
     @functools.wraps(func)
     def call(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
         try:
             return func(*args, **kwargs)
         except AstrocpgError as e:
-            speak_keywords(e, _RENAMES.get(func.__name__))
+            e.speak(words)
             raise
 
     return call

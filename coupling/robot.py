@@ -18,7 +18,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from ..errors import EnvironmentFault, InputError
+from ..errors import EnvironmentFault, InputError, setting
 from ..reading import check_regular
 
 def quiet_mujoco_log() -> None:
@@ -260,28 +260,29 @@ def load_robot(path: str | os.PathLike) -> mujoco.MjModel:
         raise InputError(f"expected the path of an MJCF file, got {type(path).__name__}",
                          culprit="robot")
     p = Path(path)
-    check_regular(p, f"--robot {p}")  # a FIFO is refused, never waited on
+    check_regular(p, setting("robot", p))  # a FIFO is refused, never waited on
     if not os.path.lexists(p):  # a missing input: the environment's (exit 1)
-        raise EnvironmentFault("no such file", culprit=f"--robot {p}")
+        raise EnvironmentFault("no such file", culprit=setting("robot", p))
     if not p.is_file():
-        raise InputError("is not a file", culprit=f"--robot {p}")
+        raise InputError("is not a file", culprit=setting("robot", p))
     try:
         model = mujoco.MjModel.from_xml_path(str(p))
     except Exception as e:  # MuJoCo raises ValueError with a multi-line message
         first = " ".join(str(e).strip().splitlines()[:2]) or type(e).__name__
-        raise InputError(f"not a valid MJCF model ({first})", culprit=f"--robot {p.name}") from None
+        raise InputError(f"not a valid MJCF model ({first})",
+                         culprit=setting("robot", p.name)) from None
     names = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, k) for k in range(model.njnt)}
     missing = [n for n in JOINT_NAMES if n not in names]
     if missing:
         raise InputError(f"lacks the A1 joint(s) {', '.join(missing[:3])}"
-                         f"{' ...' if len(missing) > 3 else ''}", culprit=f"--robot {p.name}")
+                         f"{' ...' if len(missing) > 3 else ''}", culprit=setting("robot", p.name))
     acts = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, k) for k in range(model.nu)}
     missing = [n for n in ACTUATOR_NAMES if n not in acts]
     if missing:
         raise InputError(f"lacks the A1 motor(s) {', '.join(missing[:3])}"
-                         f"{' ...' if len(missing) > 3 else ''}", culprit=f"--robot {p.name}")
+                         f"{' ...' if len(missing) > 3 else ''}", culprit=setting("robot", p.name))
     if _free_joint(model) is None:
-        raise InputError("has no free joint on the trunk", culprit=f"--robot {p.name}")
+        raise InputError("has no free joint on the trunk", culprit=setting("robot", p.name))
     return model
 
 

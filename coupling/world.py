@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, fields
 import mujoco
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, setting
 from ..models import ModelSet
 from ..models.units import whole_steps
 from ..models.world import (TERRAIN_FLAT_RADIUS, TERRAIN_RESOLUTION, TERRAIN_THICKNESS,
@@ -148,7 +148,7 @@ def world_model(models: ModelSet, params: A1Parameters | None = None,
     else:
         if world.terrain_height > 0:
             raise InputError("rough terrain is built into the project's A1 model only; "
-                             "run without --robot or with terrain_height=0",
+                             f"run without {setting('robot')} or with terrain_height=0",
                              culprit="world.terrain_height")
         model = robot
     apply_world(model, world)

@@ -16,7 +16,7 @@ from typing import Any, Iterator, Mapping
 import brian2
 import numpy as np
 
-from ..errors import InputError, did_you_mean
+from ..errors import Field, InputError, did_you_mean, setting
 from .units import example_value, parse_value, unit_spelling
 from .alive import ALIVE
 from .astrocyte import ASTROCYTE
@@ -202,19 +202,19 @@ class ModelSet:
         arithmetic on them: :func:`astrocpg.models.units.parse_value`), never evaluated."""
         name, sep, expr = (s.strip() for s in text.partition("="))
         if not sep or not name:
-            raise InputError("expected NAME=VALUE", culprit=f"--set '{text}'")
+            raise InputError("expected NAME=VALUE", culprit=setting("overrides", f"'{text}'"))
         try:
             param = self.parameter(name)
         except InputError as e:  # name what the user typed: the option and the name
-            raise InputError(e.message, culprit=f"--set {name}") from None
-        value = parse_value(expr, culprit=f"--set {name}")
+            raise InputError(e.raw_message, culprit=setting("overrides", name)) from None
+        value = parse_value(expr, culprit=setting("overrides", name))
         if brian2.get_dimensions(value) != param.dimensions:
             raise InputError(f"needs units of {unit_spelling(param.value)}, e.g. "
                              f"{example_value(param.value)}; got '{expr}'",
-                             culprit=f"--set {name}")
+                             culprit=setting("overrides", name))
         if param.positive and not float(np.asarray(value)) > 0:
             raise InputError(f"must be positive ({param.meaning}), got '{expr}'",
-                             culprit=f"--set {name}")
+                             culprit=setting("overrides", name))
         return name, value
 
     def to_json(self) -> dict[str, Any]:

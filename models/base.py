@@ -29,7 +29,7 @@ from brian2.units.fundamentalunits import (
     get_or_create_dimension,
 )
 
-from ..errors import InputError, did_you_mean
+from ..errors import InputError, did_you_mean, setting
 from .integration import method_name, registered_methods
 from .names import check_parameter_names
 from .expressions import compile_expression
@@ -620,7 +620,8 @@ class WorldModel(Model):
         return ""
 
     def with_code(self, text: str) -> "Model":
-        raise InputError("has no code string to replace (set its values with --set)",
+        raise InputError(f"has no code string to replace (set its values with "
+                         f"{setting('overrides')})",
                          culprit=self.name)
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any, Iterable, Mapping, Sequence
 
-from ..errors import InputError, did_you_mean
+from ..errors import Field, InputError, did_you_mean, setting, shown_with
 from ..reading import read_bytes
 from . import DEFAULT_MODELS, ModelSet
 
@@ -44,7 +44,7 @@ def _value_text(value: Any) -> str:
     return repr(value) if isinstance(value, float) else str(value)
 
 
-def read_equation_files(items: Sequence[str], option: str = "--equations",
+def read_equation_files(items: Sequence[str], option: str | Field = setting("equations"),
                         kind: str | None = None) -> dict[str, str]:
     """``MODEL=FILE`` items -> {model: text}; a file that is binary or not UTF-8 is an
     InputError naming the option and the file; one that cannot be read an EnvironmentFault
@@ -54,24 +54,26 @@ def read_equation_files(items: Sequence[str], option: str = "--equations",
     for item in items:
         name, sep, file = item.partition("=")
         if not sep or not name or not file:
-            raise InputError("expected MODEL=FILE", culprit=f"{option} '{item}'")
+            raise InputError("expected MODEL=FILE", culprit=shown_with(option, f"'{item}'"))
         try:
-            raw = read_bytes(file, f"{option} {name}")  # a FIFO is refused, never waited on
+            raw = read_bytes(file, shown_with(option, name))  # a FIFO is refused, never waited on
         except OSError as e:
             from ..shipped import unreadable
-            raise unreadable(file, kind, e, culprit=f"{option} {name}") from None
+            raise unreadable(file, kind, e, culprit=shown_with(option, name)) from None
         try:
             text = raw.decode("utf-8")
         except UnicodeDecodeError:
-            raise InputError(f"'{file}' is not UTF-8 text", culprit=f"{option} {name}") from None
+            raise InputError(f"'{file}' is not UTF-8 text",
+                             culprit=shown_with(option, name)) from None
         if "\x00" in text:
             raise InputError(f"'{file}' is a binary file, not an equation string",
-                             culprit=f"{option} {name}")
+                             culprit=shown_with(option, name))
         out[name] = text
     return out
 
 
-def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str, str]:
+def read_model_files(items: Sequence[str],
+                     option: str | Field = setting("models")) -> dict[str, str]:
     """``MODEL=FILE`` items of model files (TOML) -> {model: text}, checked as
     :func:`read_equation_files` checks files, and each file read once as a model so that a
     mistake within it (a reserved or shadowing parameter name, a field of the wrong TOML type,
@@ -89,13 +91,13 @@ def read_model_files(items: Sequence[str], option: str = "--model") -> dict[str,
     for item in items:
         name, _, file = item.partition("=")
         if name in slots:
-            where = f"{option} {name} ({file})"
+            where = shown_with(option, f"{name} ({file})")
             model = model_from_toml(texts[name], culprit=where, default=slots[name])
             check_interface(model, INTERFACES.get(name, ()), culprit=where)
             try:  # a parameter another model declares
                 DEFAULT_MODELS.replace(**{name: model})
             except InputError as e:
-                raise InputError(e.line, culprit=where) from None
+                raise InputError(e.raw_line, culprit=where) from None
             check_parameters_used(model, slots[name], culprit=where)
     return texts
 
@@ -139,7 +141,7 @@ def model_files_record(models: Mapping[str, Any] | None) -> dict[str, dict[str, 
 def model_set(overrides: Overrides | None = None,
               equations: Mapping[str, str] | None = None,
               base: ModelSet | None = None,
-              models: Mapping[str, Any] | None = None, option: str = "--model",
+              models: Mapping[str, Any] | None = None, option: str | Field = setting("models"),
               added: Sequence[Any] = ()) -> ModelSet:
     """The model set with whole models swapped in (``models``: ``{slot: model file text}`` or
     ``{slot: Model}``; a file may declare new parameters and variables but must keep the slot's
@@ -163,7 +165,7 @@ def model_set(overrides: Overrides | None = None,
     models = DEFAULT_MODELS if base is None else base
     known = dict(models.items())
     for name, item in (files or {}).items():
-        culprit = f"{option} {name}"
+        culprit = shown_with(option, name)
         if name not in known:
             raise InputError(f"unknown model{did_you_mean(name, known)} (models: "
                              f"{', '.join(known)})", culprit=culprit)
@@ -185,7 +187,7 @@ def model_set(overrides: Overrides | None = None,
         try:
             models = models.replace(**{name: model})
         except InputError as e:
-            raise InputError(e.line, culprit=culprit) from None
+            raise InputError(e.raw_line, culprit=culprit) from None
     if added:
         models = models.with_added(*added)  # a parameter name the set holds: refused
     known = dict(models.items())
@@ -193,9 +195,9 @@ def model_set(overrides: Overrides | None = None,
         model = known.get(name)
         if model is None:
             raise InputError(f"unknown model '{name}'{did_you_mean(name, known)} (models: "
-                             f"{', '.join(known)})", culprit="--equations")
+                             f"{', '.join(known)})", culprit=setting("equations"))
         model = model.with_code(text)
-        check_interface(model, INTERFACES.get(name, ()), culprit=f"--equations {name}")
+        check_interface(model, INTERFACES.get(name, ()), culprit=setting("equations", name))
         models = models.replace(**{name: model})
     values = dict(models.parse_assignment(item) for item in override_items(overrides))
     return models.with_values(values) if values else models

@@ -27,7 +27,7 @@ from typing import Any, Mapping
 import numpy as np
 from brian2 import Quantity
 
-from ..errors import InputError, did_you_mean
+from ..errors import InputError, did_you_mean, setting
 from ..reading import loads_toml
 from .base import BrianModel, Interface, Model, Parameter, ParameterTable, model_kinds
 from .units import parse_value, unit_spelling
@@ -232,7 +232,7 @@ def model_from_toml(text: str, *, culprit: str, default: Model | None = None) ->
             try:
                 value = ParameterTable(name, params)
             except InputError as e:
-                raise InputError(e.line, culprit=culprit) from None
+                raise InputError(e.raw_line, culprit=culprit) from None
         elif key == "initial_values":
             if not isinstance(value, Mapping):
                 raise InputError("must be a table of values", culprit=where)
@@ -270,7 +270,7 @@ def model_from_toml(text: str, *, culprit: str, default: Model | None = None) ->
     try:
         return target(name=name, **kwargs)
     except InputError as e:
-        raise InputError(e.line, culprit=culprit) from None
+        raise InputError(e.raw_line, culprit=culprit) from None
     except TypeError as e:  # a required field is missing
         raise InputError(f"incomplete model: {e}", culprit=culprit) from None
 
@@ -310,7 +310,8 @@ def check_parameters_used(model: Model, default: Model | None, *, culprit: str) 
     for name in model.parameters:
         if name not in known and name not in used:
             raise InputError("is declared but no code string of the model reads it (nor does "
-                             "the network): --set on it would change nothing; use it or drop it",
+                             f"the network): {setting('overrides')} on it would change nothing; "
+                             f"use it or drop it",
                              culprit=f"{culprit}: parameters.{name}")
 
 

@@ -136,7 +136,7 @@ def _with_row_models(models: ModelSet, rows: Sequence[populations_.Population]) 
     try:
         return models.with_added(*missing)
     except InputError as e:
-        raise InputError(e.message, culprit=f"population model {e.culprit}") from None
+        raise InputError(e.raw_message, culprit=f"population model {e.raw_culprit}") from None
 
 
 def _schedule(motors: list[NeuronGroup], kinds: dict[str, list[Synapses]], pool: NeuronGroup,

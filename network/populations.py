@@ -40,7 +40,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from ..errors import InputError, did_you_mean
+from ..errors import InputError, did_you_mean, setting
 from ..reading import loads_toml
 from ..models import DEFAULT_MODELS, INTERFACES
 from ..models.base import TraceSource
@@ -342,7 +342,7 @@ def with_added(rows: Sequence[Population] | None) -> tuple[Population, ...]:
     for r in rows:
         if not isinstance(r, Population):
             raise InputError(f"expected a population row, got {type(r).__name__}",
-                             culprit="populations")
+                             culprit=setting("populations"))
         _check_added(r, out)
         out += (r,)
     return out
@@ -555,7 +555,8 @@ def _check_parameter_names(model: Any, culprit: str) -> None:
     for pname in model.parameters:
         if pname in owners:
             raise InputError(f"parameter {pname} of {model.name} is also a parameter of the "
-                             f"{owners[pname]} model (--set must name one: rename it)",
+                             f"{owners[pname]} model ({setting('overrides')} must name one: "
+                             f"rename it)",
                              culprit=culprit)
 
 

@@ -52,7 +52,7 @@ def test_point_picks_one_sweep_point() -> None:
                                            "no_astrocytes-eta_ADO=36*nvolt"]
     with pytest.raises(InputError, match="is not a swept parameter .swept: eta_ADO.") as e:
         at_points(_controllers(), ["tau=1*ms"])
-    assert "--point tau=1*ms" in str(e.value)
+    assert "point tau=1*ms" in str(e.value)  # the setting, in the Python API's words
     with pytest.raises(InputError, match="no finished run at that value .eta_ADO: 18"):
         at_points(_controllers(), ["eta_ADO=4*nvolt"])
     with pytest.raises(InputError, match="no sweep points"):

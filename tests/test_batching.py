@@ -519,7 +519,7 @@ def test_a_bad_plan_source_is_named(tmp_path, content, message) -> None:
     # a missing source is the environment's (exit 1), a bad one bad input (exit 2)
     with pytest.raises(EnvironmentFault if content is None else InputError) as e:
         measured_lengths(target)
-    assert message in str(e.value) and "--plan-from" in str(e.value)
+    assert message in str(e.value) and "plan_from" in [f.name for f in e.value.fields]
 
 
 def test_the_command_line_names_a_missing_plan_source(tmp_path) -> None:

@@ -227,7 +227,7 @@ def test_the_tables_after_a_session_are_those_the_training_kept(tmp_path):
     np.testing.assert_array_equal(load_weights(folder), per_session[:, -1] * 1e-3)
     with pytest.raises(InputError, match="not every trial has done 3 sessions") as e:
         load_weights(folder, session=3)
-    assert e.value.culprit == "--session 3"
+    assert e.value.culprit == "session=3"  # the setting, in the Python API's words
     with pytest.raises(InputError, match="at least 1"):
         load_weights(folder, session=0)
     np.save(tmp_path / "t.npy", per_session[0, 0])

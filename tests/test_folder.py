@@ -160,7 +160,7 @@ def test_non_empty_folder_refused_empty_accepted_file_refused(tmp_path):
         with OutputFolder(target):
             pytest.fail("entered")
     line = one_line(e.value)
-    assert line.startswith(f"--out {target}:") and "--overwrite" in line
+    assert line.startswith(f"out={target}:") and "overwrite=True" in line  # the API's words
     assert e.value.exit_code == 2
     assert snapshot(target) == {"a": b"a"} and os.listdir(tmp_path) == ["out"]
     (tmp_path / "file").write_text("f")

@@ -41,7 +41,7 @@ def test_a_world_setting_is_a_world_parameter() -> None:
     assert models.value("slope") == pytest.approx(0.17)
     with pytest.raises(InputError, match="not a world parameter") as e:
         in_world_settings(DEFAULT_MODELS, ["tau_motor=9*ms"])
-    assert "--world tau_motor=9*ms" in str(e.value)
+    assert "world tau_motor=9*ms" in str(e.value)  # the setting, in the Python API's words
 
 
 def test_five_repeats_by_default() -> None:

@@ -45,7 +45,7 @@ def test_kept_tables_are_read_back_at_each_kept_session(tmp_path):
     np.testing.assert_allclose(kept_weights(c, 3), per_session[:, 2] * 1e-3)  # = the final
     with pytest.raises(InputError, match="after sessions 1, 2, 3 only") as e:
         kept_weights(c, 9)
-    assert e.value.culprit == "--session 9"
+    assert e.value.culprit == "session=9"  # the setting, in the Python API's words
     meta = json.loads(c["kept"].read_text())
     assert meta["package_versions"] == {"numpy": "x"}
     assert meta["tables"]["arrays"]["weights_mV_after_2"] == [2, 8, 8]

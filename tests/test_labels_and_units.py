@@ -195,7 +195,7 @@ def test_no_tables_are_kept_after_session_zero(tmp_path, session):
     study = _kept_study(tmp_path, done=3, planned=3)
     with pytest.raises(InputError) as e:
         keep_tables(study, tmp_path / "kept", [session])
-    assert e.value.culprit == "--sessions"
+    assert e.value.culprit == "sessions"  # the setting, in the Python API's words
     assert not (tmp_path / "kept").exists()
 
 

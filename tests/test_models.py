@@ -50,7 +50,7 @@ def test_unknown_parameter_and_wrong_unit_and_non_positive_time_constant():
         DEFAULT_MODELS.parse_assignment("tau_motor=9")
     with pytest.raises(InputError, match="motor_neuron.tau_motor: must be positive"):
         DEFAULT_MODELS.with_values({"tau_motor": -9 * ms})
-    with pytest.raises(InputError, match="--set tau_ADO: must be positive"):
+    with pytest.raises(InputError, match="overrides tau_ADO: must be positive"):
         DEFAULT_MODELS.parse_assignment("tau_ADO=0*second")
     with pytest.raises(InputError, match="astrocyte.tau_ADO: must be positive"):
         DEFAULT_MODELS.with_values({"tau_ADO": 0 * ms})

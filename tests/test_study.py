@@ -100,7 +100,7 @@ def _kill_group(proc: subprocess.Popen, sig: int) -> None:
 
 
 @pytest.mark.parametrize("section, words", [
-    ('[evaluate]\nworlds = "nope.toml"\n', ["--worlds", "nope.toml"]),
+    ('[evaluate]\nworlds = "nope.toml"\n', ["[evaluate] worlds", "nope.toml"]),
     ('[evaluate]\nrepeats = 0\n', ["[evaluate] repeats"]),
     ('[evaluate]\nconditions = ["astro"]\n', ["no condition 'astro'"]),
     ('[evaluate]\nworld = "robustness"\n', ["[evaluate] takes"]),

@@ -239,7 +239,7 @@ def test_a_worlds_grid_beyond_the_bound_is_refused_before_a_world_is_built(
     with pytest.raises(InputError) as e:
         ev.read_worlds(path, DEFAULT_MODELS)
     assert size in str(e.value) and str(MAX_GRID) in str(e.value)
-    assert str(e.value).startswith(f"--worlds {path}")
+    assert str(e.value).startswith(f"worlds={path}")  # the setting, in the Python API's words
 
 
 def test_a_worlds_grid_at_the_bound_is_read(tmp_path):

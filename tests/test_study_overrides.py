@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 import astrocpg
-from astrocpg.studies.cli import main
+from astrocpg.studies.cli import build_parser, main
+from astrocpg.studies.cli.words import command_words
 from astrocpg.studies.parameter_studies.study import load_study
 from astrocpg.studies.parameter_studies.study_file import study_overrides
 
@@ -75,7 +76,9 @@ def test_bad_overrides_name_the_option(tmp_path, capsys, kw, option, words):
     out = tmp_path / "out"
     with pytest.raises(astrocpg.InputError) as e:
         load_study(p, overrides=study_overrides(**kw))
-    assert e.value.culprit == option and words in e.value.line, e.value.line
+    # the setting at fault, as the command line names it
+    said = command_words(build_parser(), "study")
+    assert said(e.value.raw_culprit) == option and words in e.value.line, e.value.line
     argv = ["study", str(p), "--out", str(out), "--no-progress"]
     for key, value in kw.items():
         for v in (value if isinstance(value, list) else [value]):

@@ -96,7 +96,7 @@ def test_a_trial_that_ran_idle_is_not_extended(tmp_path):
     state = {"done": np.array([True, True]), "step_in_session": np.array([120, 0])}
     with pytest.raises(astrocpg.InputError) as e:
         _check_extension(tmp_path, 400, 500, state)
-    assert e.value.culprit == "--sessions" and "trial 0 (120 steps)" in e.value.line
+    assert e.value.culprit == "sessions" and "trial 0 (120 steps)" in e.value.line
     assert "idle" in e.value.line and "trial 1" not in e.value.line
     _check_extension(tmp_path, 400, 500, {"done": np.array([True, True]),
                                           "step_in_session": np.array([0, 0])})
@@ -123,4 +123,4 @@ def test_a_study_run_is_not_extended(tmp_path):
     (tmp_path / "manifest.json").write_text(json.dumps({"astrocpg_command": "study-run"}))
     with pytest.raises(astrocpg.InputError) as e:
         _check_extension(tmp_path, 3, 5, None)
-    assert e.value.culprit == "--sessions" and "a run of a study" in e.value.line
+    assert e.value.culprit == "sessions" and "a run of a study" in e.value.line

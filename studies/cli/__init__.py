@@ -30,8 +30,9 @@ Every failure ends with one line on stderr naming the culprit and an exit code (
 
 Modules: :mod:`.options` (the parser class and the options several commands share),
 :mod:`.grammar` (each command's subparser), :mod:`.handlers` (each command: its arguments as
-the API's settings, the API function, what it prints) and :mod:`.process` (signals, exit codes,
-streams, the one line of a failure).
+the API's settings, the API function, what it prints), :mod:`.process` (signals, exit codes,
+streams, the one line of a failure) and :mod:`.words` (a failure's settings named as the
+command's options).
 """
 
 from __future__ import annotations

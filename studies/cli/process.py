@@ -21,7 +21,8 @@ from ...environment import check as check_environment, flag
 from ...errors import AstrocpgError, EnvironmentFault, InputError, one_line
 from .grammar import build_parser
 from .handlers import COMMANDS
-from .options import command_list
+from .options import chosen_parsers, command_list
+from .words import OptionWords
 
 def _ignore_unraisable(unraisable: Any) -> None:
     """``sys.unraisablehook`` while a command ends by interrupt (see :func:`main`)."""
@@ -140,7 +141,8 @@ def _main(argv: Sequence[str] | None) -> int:
 
     note_worker_environment({})
     try:
-        return _run_command(args)
+        # an error names the user's settings as this command's options
+        return _run_command(args, OptionWords(chosen_parsers(parser, args)))
     finally:
         logging.disable(logging_was)
         quiet.__exit__(None, None, None)
@@ -200,7 +202,7 @@ def _check_inputs(args: argparse.Namespace) -> None:
                                    culprit=f"{option} {value}".strip())
 
 
-def _run_command(args: argparse.Namespace) -> int:
+def _run_command(args: argparse.Namespace, words: OptionWords) -> int:
     # only the main thread may set handlers (main() called in another thread: none of ours)
     in_main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _sigterm) if in_main else None
@@ -228,7 +230,7 @@ def _run_command(args: argparse.Namespace) -> int:
                 raise KeyboardInterrupt from None
             raise
     except AstrocpgError as e:
-        sys.stderr.write(f"astrocpg: {_kind(e)}: {e.line}\n")
+        sys.stderr.write(f"astrocpg: {_kind(e)}: {e.render(words)}\n")
         return e.exit_code
     except KeyboardInterrupt:
         # An interrupt can land inside a constructor (e.g. zipfile.ZipFile's, while numpy
@@ -248,7 +250,7 @@ def _run_command(args: argparse.Namespace) -> int:
     except Exception as e:  # a bug of ours: still one line, the traceback on request
         fault = _environment_fault(e)
         if fault is not None:  # a library refusing the environment it was given
-            sys.stderr.write(f"astrocpg: environment: {fault.line}\n")
+            sys.stderr.write(f"astrocpg: environment: {fault.render(words)}\n")
             return fault.exit_code
         if _debug():
             raise
@@ -286,7 +288,7 @@ def _choose_codegen(value: str) -> None:
     try:
         os.environ[ENV] = choose_target(value)
     except InputError as e:
-        raise InputError(e.message, culprit="--codegen") from None
+        raise InputError(e.raw_message, culprit="--codegen") from None
 
 
 def _interrupted(e: BaseException) -> bool:

@@ -41,7 +41,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, setting
 from ...models import ModelSet
 from ..outputs.export import export as export_folder
 from ..outputs.result import Result, Trace, load
@@ -121,22 +121,22 @@ def export(folder: str | os.PathLike, format: str = "nwb",
     if isinstance(folder, Result):  # a result written to a folder: that folder
         if folder.folder is None:
             raise InputError("this Result was not written to a folder (run it with out=...); "
-                             "export reads a folder", culprit="folder")
+                             "export reads a folder", culprit=setting("folder"))
         folder = folder.folder
     if not isinstance(folder, (str, os.PathLike)):
         raise InputError(f"expected a folder (a path or a Result with one), got "
-                         f"{type(folder).__name__}", culprit="folder")
+                         f"{type(folder).__name__}", culprit=setting("folder"))
     if not isinstance(format, str):
-        raise InputError(f"expected 'nwb' or 'npz', got {format!r}", culprit="format")
+        raise InputError(f"expected 'nwb' or 'npz', got {format!r}", culprit=setting("format"))
     if out is not None and not isinstance(out, (str, os.PathLike)):
-        raise InputError(f"expected a file path, got {type(out).__name__}", culprit="out")
+        raise InputError(f"expected a file path, got {type(out).__name__}", culprit=setting("out"))
     if isinstance(experimenter, str):  # one name, not its characters
         experimenter = (experimenter,)
     elif not all(isinstance(x, str) for x in experimenter or ()):
-        raise InputError("expected names as text ('Last, First')", culprit="experimenter")
+        raise InputError("expected names as text ('Last, First')", culprit=setting("experimenter"))
     if institution is not None and not isinstance(institution, str):
         raise InputError(f"expected text, got {type(institution).__name__}",
-                         culprit="institution")
+                         culprit=setting("institution"))
     return export_folder(Path(folder), format, None if out is None else Path(out),
                          overwrite=overwrite, experimenter=experimenter,
                          institution=institution)
@@ -202,10 +202,11 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
 
     if isinstance(world, str):  # one setting, not its characters
         world = [world]
-    # named as the command's options; ac.gait names its keywords (astrocpg._in_keywords)
-    kwargs = dict(seconds=number(seconds, "--seconds", positive=True),
-                  repeats=number(repeats, "--repeats", integer=True, minimum=1),
-                  seed=None if seed is None else seed_number(seed, "--seed"), world=list(world),
+    # named as the user's settings: each door names them its own way (errors.setting)
+    kwargs = dict(seconds=number(seconds, setting("seconds"), positive=True),
+                  repeats=number(repeats, setting("repeats"), integer=True, minimum=1),
+                  seed=None if seed is None else seed_number(seed, setting("seed")),
+                  world=list(world),
                   progress=progress,
                   variant={"overrides": overrides, "equations": equations, "models": models,
                            "populations": populations},
@@ -399,7 +400,7 @@ def evaluate(folder: str | os.PathLike, *, worlds: str | os.PathLike = "robustne
     if isinstance(conditions, str):  # one condition, not its characters
         conditions = [conditions]
     if conditions is not None and not all(isinstance(c, str) for c in conditions):
-        raise InputError("expected condition names as text", culprit="conditions")
+        raise InputError("expected condition names as text", culprit=setting("conditions"))
     if not isinstance(worlds, (str, os.PathLike)):
         raise InputError(f"expected a worlds file or 'robustness', got "
                          f"{type(worlds).__name__}", culprit="worlds")
@@ -446,8 +447,8 @@ def power(folder: str | os.PathLike, *, trial: int = 0, sessions: int = 10,
     from .settings import number
 
     return measure_power(_path(folder, "folder"),
-                         trial=number(trial, "--trial", integer=True, minimum=0),
-                         sessions=number(sessions, "--sessions", integer=True, minimum=1),
+                         trial=number(trial, setting("trial"), integer=True, minimum=0),
+                         sessions=number(sessions, setting("sessions"), integer=True, minimum=1),
                          progress=progress, overrides=override_items(overrides))
 
 
@@ -537,7 +538,8 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
     if target.is_dir():
         raise InputError("is a folder; name the file to write", culprit=f"robot export {target}")
     if target.exists() and not overwrite:
-        raise InputError("exists; --overwrite replaces it", culprit=f"robot export {target}")
+        raise InputError(f"exists; {setting('overwrite')} replaces it",
+                         culprit=f"robot export {target}")
     refuse_in_use(target, culprit=f"robot export {target}")
     xml = a1_xml(A1Parameters())
     if os.path.lexists(target):  # --overwrite: only an unchanged export of this A1 is replaced
@@ -547,8 +549,8 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
                 and target.read_bytes() == xml.encode())
         if not same:
             raise InputError("is not the A1 model astrocpg writes (a file of yours, a link, or an "
-                             "export edited since); --overwrite replaces only an unchanged "
-                             "export: choose another name, or move it first",
+                             f"export edited since); {setting('overwrite')} replaces only an "
+                             f"unchanged export: choose another name, or move it first",
                              culprit=f"robot export {target}")
     atomic_path(target, lambda tmp: Path(tmp).write_text(xml))
     return target

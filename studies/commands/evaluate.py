@@ -36,7 +36,7 @@ import numpy as np
 from ..runtime.cells import pending, run_cells
 from ..runtime.cluster import check_scheduler, check_workers
 from ..runtime.workers import default_workers
-from ...errors import Diverged, InputError
+from ...errors import Diverged, InputError, setting
 from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
@@ -84,14 +84,15 @@ class WorldSet:
         return {"worlds": self.worlds, "axes": [[n, v] for n, v in self.axes]}
 
 
-def read_worlds(source: str | Path, models: ModelSet) -> WorldSet:
+def read_worlds(source: str | Path, models: ModelSet, culprit: Any = None) -> WorldSet:
     """The worlds of a worlds file or a built-in name: ``[worlds.NAME]`` tables of world
     parameters (absolute values with units), and/or ``[grid.AXIS]`` tables whose product are
     worlds: ``values = [...]`` of the world parameter AXIS, or ``values = [factors]`` with
     ``scale = ["P", ...]``, model parameters multiplied together by each factor (e.g. the
     descending drive ``I_background_0``, the torques per spike ``I_thigh`` and ``I_calf``).
-    Every name and value is checked (units, parse) here, each error naming its place."""
-    where = f"--worlds {source}"
+    Every name and value is checked (units, parse) here, each error naming its place:
+    ``culprit`` where the file was named (default: the ``worlds`` setting with ``source``)."""
+    where = setting("worlds", source) if culprit is None else culprit
     worlds, grid = _worlds_document(source, where)
     world_names = set(models.world.parameters)
     # the grid's size from its lengths alone, before a world of it is built or checked
@@ -354,7 +355,7 @@ def _in_cell(e: Diverged, controller: Mapping[str, Any], world: str, n: int,
                + ")")
     else:
         who = f"a controller of {source} (condition {controller['condition']})"
-    return Diverged(f"{e.line}", culprit=f"world '{world}', {who}", t=e.t, trial=e.trial)
+    return Diverged(e.raw_line, culprit=f"world '{world}', {who}", t=e.t, trial=e.trial)
 
 
 def _fingerprint(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],
@@ -412,15 +413,15 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     tables_label = _tables_label(controllers, session)  # its warning before the work
     world_set = read_worlds(worlds, plans[0][2])
     if baseline is not None and baseline not in world_set.worlds:
-        raise InputError(f"is not a world of --worlds {worlds} (worlds: "
-                         f"{', '.join(world_set.worlds)})", culprit=f"--baseline {baseline}")
+        raise InputError(f"is not a world of {setting('worlds', worlds)} (worlds: "
+                         f"{', '.join(world_set.worlds)})", culprit=setting("baseline", baseline))
     check_grid(len(plans) * len(world_set.worlds),
                f"cells ({len(plans)} training(s) x {len(world_set.worlds)} world(s))",
-               culprit=f"evaluate {folder} --worlds {worlds}")
+               culprit=f"evaluate {folder} {setting('worlds', worlds)}")
     _check_worlds(plans, world_set, worlds)
     n_max = max(len(t) for _, t, _ in plans) * repeats
     check_memory(estimate_bytes(trials=n_max, seconds=seconds, dt=STEP, robot_stride=1),
-                 culprit=f"--seconds {seconds:g} x {n_max} trials")
+                 culprit=f"{setting('seconds', f'{seconds:g}')} x {n_max} trials")
     parts = CellParts(target.with_name(target.name + PARTS_SUFFIX),
                       _fingerprint(plans, world_set, seconds, repeats, seed))
     cells = {f"{ci:04d}-{wi:04d}": (c, tables, world, setting, grid_values(world_set, world))
@@ -452,14 +453,14 @@ def _checked_sizes(seconds: Any, repeats: Any, seed: Any, workers: Any, schedule
                    ) -> tuple[float, int, int]:
     """An evaluation's seconds (whole steps), repeats and seed checked, and its workers or
     scheduler."""
-    seconds = number(seconds, "--seconds", positive=True)
+    seconds = number(seconds, setting("seconds"), positive=True)
     check_duration(seconds, STEP)
-    repeats = number(repeats, "--repeats", integer=True, minimum=1)
+    repeats = number(repeats, setting("repeats"), integer=True, minimum=1)
     seed = seed_number(seed)
     if scheduler is None:
         check_workers(workers)
     elif workers is not None and workers < 1:
-        raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
+        raise InputError(f"must be at least 1, got {workers}", culprit=setting("workers"))
     else:
         check_scheduler(scheduler)
     return seconds, repeats, seed
@@ -476,7 +477,7 @@ def _chosen_controllers(folder: Path, conditions: Sequence[str] | None,
         for name in conditions:
             if name not in known:
                 raise InputError(f"no finished run of that condition (conditions: "
-                                 f"{', '.join(known)})", culprit=f"--condition {name}")
+                                 f"{', '.join(known)})", culprit=setting("conditions", name))
         controllers = [c for c in controllers if c["condition"] in conditions]
     if points:
         controllers = at_points(controllers, points)
@@ -568,7 +569,8 @@ def _check_worlds(plans: Sequence[tuple[dict[str, Any], np.ndarray, ModelSet]],
             try:
                 check_models(in_world(models, world))
             except InputError as e:
-                raise InputError(f"world '{name}': {e}", culprit=f"--worlds {source}") from None
+                raise InputError(f"world '{name}': {e.raw_line}",
+                                 culprit=setting("worlds", source)) from None
 
 
 def _run_cells(todo: dict[str, tuple], done: dict[str, list[dict[str, Any]]],
@@ -656,7 +658,7 @@ def at_points(controllers: list[dict[str, Any]], points: Sequence[str]
     want: dict[str, str] = {}
     for text in points:
         name, sep, value = (x.strip() for x in str(text).partition("="))
-        where = f"--point {text}"
+        where = setting("point", text)
         if not sep or not name or not value:
             raise InputError("expected NAME=VALUE (a swept parameter and its value)",
                              culprit=where)
@@ -675,7 +677,7 @@ def at_points(controllers: list[dict[str, Any]], points: Sequence[str]
             if all(h.get(k, "").replace(" ", "") == v for k, v in want.items())]
     if not kept:
         raise InputError("no finished run at that point (each value exists, not together)",
-                         culprit="--point " + " --point ".join(points))
+                         culprit=" ".join(str(setting("point", p)) for p in points))
     return kept
 
 

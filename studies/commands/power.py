@@ -24,7 +24,7 @@ import numpy as np
 from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import ORDER_MEASURE
 from ...coupling.training import Training
-from ...errors import InputError
+from ...errors import InputError, setting
 from ...network import exclusive
 from ..outputs.folder import verify
 from ..outputs.weights import load_weights
@@ -75,10 +75,10 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
     sessions with learning off; return rates, events per spike and the power estimates.
     ``overrides``: ``NAME=VALUE`` settings over the training's models (``--set``, e.g.
     ``limit_margin=0*radian``), to measure what one parameter does to the rates."""
-    trial = number(trial, "--trial", integer=True, minimum=0)
-    sessions = number(sessions, "--sessions", integer=True, minimum=1)
+    trial = number(trial, setting("trial"), integer=True, minimum=0)
+    sessions = number(sessions, setting("sessions"), integer=True, minimum=1)
     check_memory(estimate_bytes(trials=1, seconds=0.0, spikes=False, sessions=sessions),
-                 culprit=f"--sessions {sessions}")
+                 culprit=setting("sessions", sessions))
     manifest = verify(folder, culprit="power", strict=False)  # files as its manifest lists
     weights = load_weights(str(folder), trial, culprit="power")  # (8, 8) volt
     settings, models = _trained(folder, manifest, overrides)

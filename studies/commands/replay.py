@@ -21,7 +21,7 @@ from typing import Sequence
 import numpy as np
 
 from ...coupling.training import SessionStart
-from ...errors import InputError
+from ...errors import InputError, setting
 from ...reading import check_regular
 from ...network.codegen import framework_target
 from ..outputs.folder import OutputFolder, as_path, refuse_in_use
@@ -39,23 +39,23 @@ def recorded_start(folder: Path, trial: int, session: int) -> SessionStart:
     if not path.is_file():
         raise InputError(f"holds no {SESSION_STARTS}: it was trained before astrocpg kept "
                          f"each session's start, so its sessions cannot be replayed "
-                         f"(train it again)", culprit=f"--weights {folder}")
-    check_regular(path, f"--weights {folder}")  # a FIFO is refused, never waited on
+                         f"(train it again)", culprit=setting("weights", folder))
+    check_regular(path, setting("weights", folder))  # a FIFO is refused, never waited on
     try:
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
         steps = arrays["step"]
     except (OSError, ValueError, KeyError) as e:
         raise InputError(f"{SESSION_STARTS} cannot be read ({type(e).__name__})",
-                         culprit=f"--weights {folder}") from None
+                         culprit=setting("weights", folder)) from None
     n_trials = steps.shape[0]
     if not 0 <= trial < n_trials:
         raise InputError(f"the training has trials 0..{n_trials - 1}, not {trial}",
-                         culprit="--trial")
+                         culprit=setting("trial"))
     known = int((steps[trial] >= 0).sum())
     if not 1 <= session <= known:
         raise InputError(f"trial {trial} has sessions 1..{known} recorded, not {session}",
-                         culprit="--session")
+                         culprit=setting("session"))
     k = session - 1
     return SessionStart(step=int(steps[trial, k]),
                         progress=float(arrays["progress"][trial, k]),
@@ -67,7 +67,7 @@ def recorded_start(folder: Path, trial: int, session: int) -> SessionStart:
 def recorded_row(folder: Path, trial: int, session: int) -> dict[str, str] | None:
     """The row of ``sessions.csv`` for (trial, session), as written (text), or None while that
     session was still running when the training stopped."""
-    check_regular(folder / "sessions.csv", f"--weights {folder}")
+    check_regular(folder / "sessions.csv", setting("weights", folder))
     try:
         with open(folder / "sessions.csv", newline="") as f:
             for row in csv.DictReader(f):
@@ -120,22 +120,22 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
         the replayed final x (``sessions.csv``'s text, 9 significant digits) and whether they are
         the same.
     """
-    folder = as_path(training, "--weights")
-    refuse_in_use(folder, culprit=f"--weights {folder}")
+    folder = as_path(training, setting("weights"))
+    refuse_in_use(folder, culprit=setting("weights", folder))
     manifest = read_manifest(folder)
     if manifest is None or manifest.get("astrocpg_command") not in ("train", "study-run"):
         raise InputError("is neither a training folder nor a study's run (no training "
-                         "manifest)", culprit=f"--weights {folder}")
+                         "manifest)", culprit=setting("weights", folder))
     trial, session = int(trial), int(session)
     start = recorded_start(folder, trial, session)
     started = manifest.get("codegen", "numpy")
     if framework_target() != started:
         raise InputError(f"the training ran on the {started} target; a replay is exact only "
-                         f"on it (add --codegen {started})", culprit="--codegen")
+                         f"on it (add {setting('codegen', started)})", culprit=setting("codegen"))
     settings = _session_settings(manifest["settings"], trial)
     models = model_set(settings.overrides, settings.equations, models=settings.models,
                        added=population_models(settings.populations))
-    out_path = as_path(out, "--out")
+    out_path = as_path(out, setting("out"))
     OutputFolder(out_path, overwrite=overwrite, inputs=[*inputs, folder]).check()
     row = recorded_row(folder, trial, session)
     origin = {"training": str(folder), "trial": trial, "session": session,

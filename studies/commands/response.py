@@ -29,7 +29,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ...errors import Diverged, InputError
+from ...errors import Diverged, Field, InputError, setting, shown_with
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from ...network.wiring import check_parameters_reach
 from ...network.runlock import exclusive
@@ -65,7 +65,7 @@ class Response:
         return self.summary["rows"]
 
 
-def parse_rates(text: Any, culprit: str = "--rates") -> tuple[float, ...]:
+def parse_rates(text: Any, culprit: str | Field = setting("rates")) -> tuple[float, ...]:
     """Pool rates in spikes/s: ``START:STOP:STEP`` (STOP included when the steps reach it) or
     a list ``A,B,C`` (a text, or a sequence of numbers); each finite and >= 0."""
     if isinstance(text, str):
@@ -109,7 +109,7 @@ def _bad(text: str, culprit: str) -> Any:
 
 
 def parse_marks(marks: Sequence[str] | Mapping[str, Any] | None,
-                culprit: str = "--mark") -> dict[str, float]:
+                culprit: str | Field = setting("marks")) -> dict[str, float]:
     """``LABEL=RATE`` items (or ``{label: rate}``): pool rates drawn beside the curve."""
     if not marks:
         return {}
@@ -121,7 +121,7 @@ def parse_marks(marks: Sequence[str] | Mapping[str, Any] | None,
         if not label or not _is_float(str(value)):
             raise InputError(f"expected LABEL=RATE (e.g. 1.0x=566), got '{label}={value}'",
                              culprit=culprit)
-        out[label] = float(number(float(value), f"{culprit} {label}", minimum=0.0))
+        out[label] = float(number(float(value), shown_with(culprit, label), minimum=0.0))
     return out
 
 
@@ -341,17 +341,17 @@ def _checked_sizes(rates: Any, seconds: Any, warmup: Any, replicates: Any, seed:
     """A response's rates, seconds and warm-up (whole steps), replicates (at most
     :data:`MAX_CELLS` astrocytes in all), seed and marks, checked."""
     rates = parse_rates(rates)
-    seconds = number(seconds, "--seconds", positive=True)
+    seconds = number(seconds, setting("seconds"), positive=True)
     check_duration(seconds)
-    warmup = number(warmup, "--warmup", minimum=0.0)
+    warmup = number(warmup, setting("warmup"), minimum=0.0)
     if warmup:
-        check_duration(warmup, culprit="--warmup")
-    replicates = number(replicates, "--replicates", integer=True, minimum=1)
+        check_duration(warmup, culprit=setting("warmup"))
+    replicates = number(replicates, setting("replicates"), integer=True, minimum=1)
     seed = seed_number(seed)
     marked = parse_marks(marks)
     if len(rates) * replicates > MAX_CELLS:
         raise InputError(f"{len(rates)} rates x {replicates} replicates is more than "
-                         f"{MAX_CELLS} astrocytes", culprit="--replicates")
+                         f"{MAX_CELLS} astrocytes", culprit=setting("replicates"))
     return rates, seconds, warmup, replicates, seed, marked
 
 

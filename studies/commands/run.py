@@ -14,7 +14,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ...errors import Diverged, InputError
+from ...errors import Diverged, InputError, setting
 from ...network import recording
 from ...network.populations import trace_columns
 from ...network.recording import overflow_words, overflowed
@@ -30,7 +30,7 @@ from ..outputs.weights import check_table, load_weights, tables_state
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from .settings import (added_populations, number, population_models, population_rows,
                        same_populations, seed_number)
-from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
+from ..runtime.resources import RECORD_LESS, check_memory, estimate_batched, estimate_bytes
 from ..runtime.workers import resolve_workers, workers_words
 from .batched import try_batched
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
@@ -107,7 +107,8 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
     """
     if session is not None:
         if populations:
-            raise InputError("a replay runs the training's own network", culprit="--population")
+            raise InputError("a replay runs the training's own network",
+                             culprit=setting("populations"))
         return _replay(locals())
 
     # before any other check; a training's tables run on its network: its populations too
@@ -152,7 +153,8 @@ def _plan_run(a: dict[str, Any], rows: Sequence[Any]) -> RunPlan:
         traces=trace_columns(names), spikes=bool(pops), robot_stride=robot_stride,
         trace_bytes=np.dtype(trace_dtype).itemsize, spill_bytes=None if out is None
         else recording.SPILL_BYTES),
-        culprit=f"--seconds {seconds:g} x --trials {trials}" + workers_words(procs))
+        culprit=f"{setting('seconds', f'{seconds:g}')} x {setting('trials', trials)}"
+        + workers_words(procs), record_less=RECORD_LESS)
     files = model_files_record(a["models"])
     models = model_set(a["overrides"], a["equations"], models=a["models"],
                        added=[r.model for r in rows])
@@ -209,12 +211,12 @@ def _checked_sizes(seconds: Any, trials: Any, seed: Any, weights: Any, trial: An
     """A run's sizes checked: seconds, trials, seed (a training's own with its tables),
     trace_dt (whole steps), robot_stride and trace_dtype."""
     _check_trial(trial, weights)
-    seconds = number(seconds, "--seconds", positive=True)
-    trials = number(trials, "--trials", integer=True, minimum=1)
+    seconds = number(seconds, setting("seconds"), positive=True)
+    trials = number(trials, setting("trials"), integer=True, minimum=1)
     seed = seed_number(trained_seed(weights, trial, seed), trials=trials)
-    trace_dt = number(trace_dt, "--trace-dt", positive=True)
+    trace_dt = number(trace_dt, setting("trace_dt"), positive=True)
     check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
-    robot_stride = number(robot_stride, "--robot-stride", integer=True, minimum=1)
+    robot_stride = number(robot_stride, setting("robot_stride"), integer=True, minimum=1)
     trace_dtype = check_trace_dtype(trace_dtype)
     check_duration(seconds, STEP)
     return seconds, trials, seed, trace_dt, robot_stride, trace_dtype
@@ -231,7 +233,7 @@ def _robot_world(models: Any, robot: str | Path | None) -> tuple[Any, Any, Any]:
     if abs(model.opt.timestep - params.timestep) > 1e-12:
         raise InputError(f"timestep is {model.opt.timestep:g} s; the CPG steps with the physics "
                          f"at {params.timestep:g} s (set <option timestep=\"{params.timestep:g}\"/>)",
-                         culprit=f"--robot {Path(robot).name}")
+                         culprit=setting("robot", Path(robot).name))
     return params, model, RobotLayout.from_model(model, params)
 
 
@@ -240,10 +242,11 @@ def _check_trial(trial: int | None, weights: Any) -> None:
     array there is nothing to pick from, and the option would be ignored."""
     if trial is not None and not (isinstance(weights, (str, os.PathLike))
                                   and Path(weights).is_dir()):
-        raise InputError("picks a trial's table of a training folder: give one with --weights "
+        raise InputError(f"picks a trial's table of a training folder: give one with "
+                         f"{setting('weights')} "
                          "DIR" + ("" if weights is None else f" ({_shown(weights)} is not a "
                                                              f"training folder)"),
-                         culprit=f"--trial {trial}")
+                         culprit=setting("trial", trial))
 
 
 def array_table(weights: Any) -> np.ndarray:
@@ -312,7 +315,7 @@ def _weights_table(weights: Any, trial: int | None, trials: int, models: Any
     elif isinstance(weights, (str, os.PathLike)):
         table = load_weights(weights, trial)
         if not Path(weights).is_dir():  # a user's table: in the synapse's range, or refused
-            check_table(table, models, f"--weights {weights}")
+            check_table(table, models, setting("weights", weights))
         else:  # a training's: its final tables, or said to be otherwise
             state = tables_state(weights)
             tables_label = state["label"]
@@ -324,7 +327,8 @@ def _weights_table(weights: Any, trial: int | None, trials: int, models: Any
         weights = table
     if table is not None and table.ndim == 3 and table.shape[0] != trials:
         raise InputError(f"holds {table.shape[0]} tables for {trials} trials",
-                         culprit=f"--weights {weights if not isinstance(weights, np.ndarray) else ''}")
+                         culprit=setting("weights", "" if isinstance(weights, np.ndarray)
+                                         else weights))
     return table, weights, tables_label
 
 
@@ -405,7 +409,7 @@ def with_trained_populations(weights: Any, given: dict[str, Any]) -> dict[str, A
         raise InputError(f"the training in {weights} added {clash} from another file (recorded "
                          f"sha256 {recorded[clash]['sha256'][:12]}, given "
                          f"{given[clash]['sha256'][:12]}); its tables run on its own network",
-                         culprit="--population")
+                         culprit=setting("populations"))
     return dict(recorded) | {k: v for k, v in given.items() if k not in recorded}
 
 
@@ -607,19 +611,17 @@ def _replay(given: dict[str, Any]) -> Result:
 
     weights = given["weights"]
     if not isinstance(weights, (str, os.PathLike)):
-        raise InputError("replays a session of a training: give the training folder with "
-                         "--weights DIR", culprit="--session")
+        raise InputError(f"replays a session of a training: give the training folder with "
+                         f"{setting('weights', 'DIR')}", culprit=setting("session"))
     for name, default in REPLAY_FIXED.items():
         value = given[name]
         if value != default and not (default is None and not value):
-            option = "--" + {"overrides": "set", "models": "model"}.get(
-                name, name).replace("_", "-")
             raise InputError("a replay takes the training's own (the session's length, seed, "
-                             "models and robot); drop it", culprit=option)
+                             "models and robot); drop it", culprit=setting(name))
     if given["out"] is None:
-        raise InputError("a replay writes a folder: give one", culprit="--out")
+        raise InputError("a replay writes a folder: give one", culprit=setting("out"))
     resolve_workers(given["workers"])  # checked (a replay is one trial: one process)
-    stride = whole_steps(float(given["trace_dt"]) * 1e-3, 1e-3, culprit="--trace-dt")
+    stride = whole_steps(float(given["trace_dt"]) * 1e-3, 1e-3, culprit=setting("trace_dt"))
     return replay_session(weights, trial=given["trial"] or 0, session=given["session"],
                           out=given["out"], record_stride=stride, spikes=given["spikes"],
                           traces=given["traces"], trace_dtype=given["trace_dtype"],
@@ -742,11 +744,11 @@ def controller_tables(folder: str | Path, session: int | None = None) -> np.ndar
         return load_weights(folder, culprit="", session=session)
     if session is not None:
         raise InputError("a run folder has no sessions: give a training folder",
-                         culprit=f"--session {session}")
+                         culprit=setting("session", session))
     verify(p, strict=False)  # its files are what its manifest lists
     if training_settings(p).get("robot"):
-        raise InputError("ran a robot model of its own (--robot); its tables are replayed on "
-                         "the project's A1 only", culprit=str(folder))
+        raise InputError(f"ran a robot model of its own ({setting('robot')}); its tables are "
+                         f"replayed on the project's A1 only", culprit=str(folder))
     try:
         with np.load(p / "robot.npz", allow_pickle=False) as z:
             w = np.asarray(z["interlimb_weights_mV"], dtype=float) * 1e-3
@@ -780,7 +782,7 @@ def with_variant(settings: Mapping[str, Any], *, overrides: Overrides | None = N
         clash = set(record) & set(settings.get("populations") or {})
         if clash:
             raise InputError(f"the controller already has the population "
-                             f"{sorted(clash)[0]}", culprit="--population")
+                             f"{sorted(clash)[0]}", culprit=setting("populations"))
         out["populations"] = {**(settings.get("populations") or {}), **record}
     if any((overrides, equations, models, populations)):
         with added_populations(out.get("populations")):
@@ -802,9 +804,9 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
     variant over the training's models (``overrides``, ``equations``, ``models``,
     ``populations``: :func:`with_variant`). Returns the result and
     the ``n`` tables (volt). The populations the training added are built too: its network."""
-    seconds = number(seconds, "--seconds", positive=True)
+    seconds = number(seconds, setting("seconds"), positive=True)
     check_duration(seconds, STEP)
-    repeats = number(repeats, "--repeats", integer=True, minimum=1)
+    repeats = number(repeats, setting("repeats"), integer=True, minimum=1)
     settings = with_variant(training_settings(folder), **dict(variant or {}))
     procs = resolve_workers(workers)
     if seed is None:
@@ -823,8 +825,9 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
     runs = len(weights) * repeats
     procs = min(procs, runs)
     check_memory(estimate_batched(procs, trials=runs, seconds=seconds, dt=STEP, robot_stride=1),
-                 culprit=f"--seconds {seconds:g} x {len(weights)} trained trial(s) x "
-                         f"{repeats} repeat(s)" + (f" x --workers {procs}" if procs > 1 else ""))
+                 culprit=f"{setting('seconds', f'{seconds:g}')} x {len(weights)} trained "
+                         f"trial(s) x {repeats} repeat(s)"
+                         + (f" x {setting('workers', procs)}" if procs > 1 else ""))
     tables = np.concatenate([weights] * repeats)
     with added_populations(populations):
         result = try_batched("replay", {"modelset": models, "populations": populations,
@@ -848,7 +851,7 @@ def in_world_settings(models: ModelSet, world: Sequence[str]) -> ModelSet:
         if name not in models.world.parameters:
             raise InputError(f"is not a world parameter "
                              f"({', '.join(sorted(models.world.parameters))})",
-                             culprit=f"--world {text}")
+                             culprit=setting("world", text))
         values.update([models.parse_assignment(text)])
     if not values:
         return models

@@ -7,7 +7,7 @@ from __future__ import annotations
 import contextlib
 from typing import Any, Iterator, Mapping
 
-from ...errors import InputError
+from ...errors import Field, InputError, setting, shown_with
 from ...network import populations as _table
 from ...network.populations import Population, population_from_toml
 from ...network.runlock import RUN_LOCK
@@ -40,7 +40,7 @@ def check_grid(cells: int, what: str, culprit: str) -> None:
                          f"(split it into several files)", culprit=culprit)
 
 
-def seed_number(value: Any, culprit: str = "--seed", trials: int = 1) -> int:
+def seed_number(value: Any, culprit: str | Field = setting("seed"), trials: int = 1) -> int:
     """A seed for ``trials`` trials (seeds value .. value + trials - 1), each in Brian2's range
     0 .. 2**32 - 1, or an InputError naming the culprit."""
     seed = number(value, culprit, integer=True, minimum=0)
@@ -50,7 +50,7 @@ def seed_number(value: Any, culprit: str = "--seed", trials: int = 1) -> int:
     return seed
 
 
-def population_rows(populations: Any, option: str = "--population"
+def population_rows(populations: Any, option: str | Field = setting("populations")
                     ) -> tuple[tuple[Population, ...], dict[str, Any]]:
     """The rows of ``populations`` (model files with a ``[population]`` table: their texts, or
     ``{file: text}``, or a manifest's record ``{name: {"sha256", "content"}}``), and the
@@ -62,7 +62,7 @@ def population_rows(populations: Any, option: str = "--population"
         return (), {}
     if isinstance(populations, str) or not isinstance(populations, (Mapping, list, tuple)):
         raise InputError(f"expected model file texts (a list, or {{file: text}}), got "
-                         f"{type(populations).__name__}", culprit="populations")
+                         f"{type(populations).__name__}", culprit=setting("populations"))
     items = populations.items() if isinstance(populations, Mapping) else \
         ((f"populations[{k}]", text) for k, text in enumerate(populations))
     rows, record = [], {}
@@ -70,8 +70,8 @@ def population_rows(populations: Any, option: str = "--population"
         if isinstance(text, Mapping):  # a manifest's record
             text = text.get("content")
         if not isinstance(text, str):
-            raise InputError("expected a model file's text", culprit=f"{option} {where}")
-        row = population_from_toml(text, culprit=f"{option} {where}")
+            raise InputError("expected a model file's text", culprit=shown_with(option, where))
+        row = population_from_toml(text, culprit=shown_with(option, where))
         if row.name in record:
             raise InputError("is given twice", culprit=f"population {row.name}")
         rows.append(row)
@@ -110,7 +110,7 @@ def same_populations(recorded: Mapping[str, Any], given: Mapping[str, Any]) -> s
     from ...models.files import model_to_toml
 
     def defined(record: Mapping[str, Any]) -> tuple[Any, str]:
-        row = population_from_toml(record["content"], culprit=f"--population {name}")
+        row = population_from_toml(record["content"], culprit=setting("populations", name))
         return row.to_json(1), model_to_toml(row.model)
 
     for name, record in given.items():

@@ -17,7 +17,7 @@ from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import ORDER_MEASURE
 from ...coupling.robot_recording import Recording
 from ...coupling.robot import A1Parameters, RobotLayout
-from ...errors import Diverged, InputError, did_you_mean
+from ...errors import Diverged, Field, InputError, did_you_mean, setting
 from ...models import ModelSet
 from ...models.units import whole_steps
 from ...network import (CPG, DivergenceCheck, build_cpg, check_runs, exclusive,
@@ -66,17 +66,17 @@ def check_selection(spikes: tuple[str, ...] | None,
     ``"none"`` or ``""``: nothing), as the command line takes them. The names are the
     population table's (:mod:`astrocpg.network.populations`), added rows included."""
     POPULATIONS, TRACES = spike_populations(), tuple(trace_sources())
-    spikes = POPULATIONS if spikes is None else names_list(spikes, "--spikes")
-    traces = TRACES if traces is None else names_list(traces, "--traces")
+    spikes = POPULATIONS if spikes is None else names_list(spikes, setting("spikes"))
+    traces = TRACES if traces is None else names_list(traces, setting("traces"))
     for name in spikes:
         if name not in POPULATIONS:
             raise InputError(f"unknown population '{name}'{did_you_mean(name, POPULATIONS)} "
-                             f"(populations: {', '.join(POPULATIONS)})", culprit=f"--spikes")
+                             f"(populations: {', '.join(POPULATIONS)})", culprit=setting("spikes"))
     for name in traces:
         if name not in TRACES:
             raise InputError(f"unknown trace '{name}'{did_you_mean(name, TRACES)} (traces: "
                              f"{', '.join(TRACES)})",
-                             culprit=f"--traces")
+                             culprit=setting("traces"))
     return spikes, traces
 
 
@@ -321,7 +321,8 @@ def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
 STEP = A1Parameters().timestep
 
 
-def check_duration(seconds: float, dt: float = STEP, culprit: str = "--seconds") -> int:
+def check_duration(seconds: float, dt: float = STEP,
+                   culprit: str | Field = setting("seconds")) -> int:
     """A run lasts a whole number of steps, at least one; returns that number (an
     InputError names ``culprit`` and the nearest valid durations otherwise)."""
     if not np.isfinite(seconds) or seconds <= 0:
@@ -329,13 +330,14 @@ def check_duration(seconds: float, dt: float = STEP, culprit: str = "--seconds")
     return whole_steps(seconds, dt, culprit=culprit, unit="s")
 
 
-def check_trace_dt(trace_dt_ms: float, dt: float = STEP, culprit: str = "--trace-dt") -> int:
+def check_trace_dt(trace_dt_ms: float, dt: float = STEP,
+                   culprit: str | Field = setting("trace_dt")) -> int:
     """A trace sampling interval (ms) is a whole number of steps: samples are taken at steps,
     and labelled with the sampling times. Returns the steps between samples."""
     return whole_steps(trace_dt_ms, dt * 1e3, culprit=culprit, unit="ms")
 
 
-def check_trace_dtype(dtype: Any, culprit: str = "--trace-dtype") -> str:
+def check_trace_dtype(dtype: Any, culprit: str | Field = setting("trace_dtype")) -> str:
     """What the traces are kept as: "float32" or "float64" (InputError otherwise)."""
     if dtype not in TRACE_DTYPES:
         raise InputError(f"must be one of {', '.join(TRACE_DTYPES)}, got {dtype!r}",

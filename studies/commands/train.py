@@ -32,7 +32,7 @@ from brian2 import Network, NetworkOperation, second
 from ...coupling.assembly import build_closed_loop
 from ...coupling.recorder import RecordPlan, SessionRecorder
 from ...coupling.training import SESSION_COLUMNS, SessionMemory, SessionStart, Training
-from ...errors import Diverged, EnvironmentFault, InputError, did_you_mean
+from ...errors import Diverged, EnvironmentFault, Field, InputError, advice, did_you_mean, setting
 from ...models import ModelSet
 from ...network import codegen_target, exclusive, interlimb_labels, run_network
 from ...network.recording import overflow_words, overflowed
@@ -47,7 +47,7 @@ from ..outputs.writing import (atomic_write, read_manifest, save_npz, save_spike
 from ..outputs.result import Result
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..runtime.resources import check_memory, estimate_batched, estimate_bytes
-from ..runtime.workers import resolve_workers
+from ..runtime.workers import resolve_workers, workers_words
 from ...models.compose import model_files_record, model_set, override_items
 from .settings import (added_populations, number, population_models, population_rows,
                        same_populations, seed_number)
@@ -379,8 +379,8 @@ def _same_codegen(started: str, now: str) -> None:
     floating point can part after many sessions: an exact resume needs the same one."""
     if started != now:
         raise InputError(f"this training started with Brian2's {started} target and continues "
-                         f"only with it (now: {now}); resume with --codegen {started}",
-                         culprit="--codegen")
+                         f"only with it (now: {now}); resume with {advice('codegen', started)}",
+                         culprit=advice("codegen"))
 
 
 def _rename_clocks(state: dict[str, Any], net) -> dict[str, Any]:
@@ -600,7 +600,7 @@ def check_belongs(out: Path, settings: TrainSettings) -> int:
         mine = TrainSettings(**recorded)
     except TypeError:
         raise InputError("manifest.json records settings this astrocpg cannot read",
-                         culprit=f"--resume {out}") from None
+                         culprit=setting("resume", out)) from None
     if mine.fingerprint() == settings.fingerprint():
         return settings.n_sessions
     if (isinstance(mine.n_sessions, int) and mine.n_sessions > settings.n_sessions
@@ -637,20 +637,22 @@ def record_plan(every: int | None, stride: int | None = None,
     :func:`~astrocpg.studies.commands.train.check_resume_options`)."""
     if every is None:
         if stride is not None:
-            raise InputError("a training records sessions only with --record-every N",
-                             culprit="--record-stride")
+            raise InputError(f"a training records sessions only with "
+                             f"{setting('record_every', 'N')}",
+                             culprit=setting("record_stride"))
         if spikes is not None or traces is not None:
-            raise InputError("a training records spikes and traces only with --record-every N",
-                             culprit="--spikes/--traces")
+            raise InputError(f"a training records spikes and traces only with "
+                             f"{setting('record_every', 'N')}",
+                             culprit=f"{setting('spikes')}/{setting('traces')}")
         if trace_dtype is not None:
-            raise InputError("a training records traces only with --record-every N",
-                             culprit="--trace-dtype")
+            raise InputError(f"a training records traces only with {setting('record_every', 'N')}",
+                             culprit=setting("trace_dtype"))
         return None
     stride = 1 if stride is None else stride
     if every < 1:
-        raise InputError(f"must be at least 1, got {every}", culprit="--record-every")
+        raise InputError(f"must be at least 1, got {every}", culprit=setting("record_every"))
     if stride < 1:
-        raise InputError(f"must be at least 1, got {stride}", culprit="--record-stride")
+        raise InputError(f"must be at least 1, got {stride}", culprit=setting("record_stride"))
     spikes, traces = check_selection(spikes, traces)
     dtype = "float32" if trace_dtype is None else check_trace_dtype(trace_dtype)
     return RecordPlan(every=every, spikes=spikes, traces=traces, stride=stride, dtype=dtype)
@@ -790,7 +792,7 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
 
     """
     if out is None or (isinstance(out, str) and not out):
-        raise InputError("is required (or --resume DIR)", culprit="--out")
+        raise InputError(f"is required (or {advice('resume', 'DIR')})", culprit=setting("out"))
     settings, models = _train_settings(sessions, seed, trials, astrocytes, overrides, equations,
                                        models, populations)
     out = _checked_new_training(out, overwrite, inputs)
@@ -799,8 +801,8 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
         plan = record_plan(record_every, record_stride, spikes, traces, trace_dtype)
         check_memory(estimate_batched(procs, trials=settings.n_trials, seconds=0.0, spikes=False,
                                       sessions=settings.n_sessions),
-                     culprit=f"--sessions {settings.n_sessions} x --trials {settings.n_trials}"
-                             + (f" x --workers {procs}" if procs > 1 else ""))
+                     culprit=f"{setting('sessions', settings.n_sessions)} x "
+                             f"{setting('trials', settings.n_trials)}{workers_words(procs)}")
         return Result.from_training(_train(settings, out, plan, None, progress,
                                            replace=overwrite, new=True, models=models,
                                            workers=procs), out)
@@ -811,9 +813,9 @@ def _train_settings(sessions: Any, seed: Any, trials: Any, astrocytes: Any, over
     """A new training's settings, checked, and its model set (composed once, before any file
     is touched, and handed to the training)."""
     population_record = population_rows(populations)[1]  # each file parsed and checked
-    n_trials = number(trials, "--trials", integer=True, minimum=1)
+    n_trials = number(trials, setting("trials"), integer=True, minimum=1)
     settings = TrainSettings(
-        n_sessions=number(sessions, "--sessions", integer=True, minimum=1),
+        n_sessions=number(sessions, setting("sessions"), integer=True, minimum=1),
         seed=seed_number(seed, trials=n_trials), n_trials=n_trials,
         astrocytes=bool(astrocytes), overrides=override_items(overrides),
         equations=dict(equations or {}), models=model_files_record(models),
@@ -825,12 +827,13 @@ def _train_settings(sessions: Any, seed: Any, trials: Any, astrocytes: Any, over
 def _checked_new_training(out: Any, overwrite: bool, inputs: Sequence[Any]) -> Path:
     """``out`` as a path a new training may write: not a training that holds a checkpoint
     (that is resumed, or replaced with ``overwrite``), not holding an input."""
-    out = as_path(out, "--out")
+    out = as_path(out, setting("out"))
     if not overwrite:
         refuse_legacy(out)  # --resume would refuse it too: say what to do with it
     if holds_checkpoint(out) and not overwrite:
-        raise InputError(f"already holds a training run (continue it with --resume {out}, or "
-                         f"replace it with --overwrite)", culprit=f"--out {out}")
+        raise InputError(f"already holds a training run (continue it with "
+                         f"{advice('resume', out)}, or "
+                         f"replace it with {setting('overwrite')})", culprit=setting("out", out))
     OutputFolder(out, overwrite=overwrite, inputs=inputs, command="train").check()
     return out
 
@@ -892,13 +895,13 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     if sessions is None:
         sessions = asked
     elif asked is not None and asked != sessions:
-        raise InputError(f"given twice ({asked} and {sessions})", culprit="--sessions")
+        raise InputError(f"given twice ({asked} and {sessions})", culprit=setting("sessions"))
     if sessions is not None:
-        sessions = number(sessions, "--sessions", integer=True, minimum=1)
+        sessions = number(sessions, setting("sessions"), integer=True, minimum=1)
     payload, settings, fresh = _stored_training(out)
     if payload["fingerprint"] != settings.fingerprint():
         raise InputError(f"{out / CHECKPOINT} is not consistent with its settings",
-                         culprit="--resume")
+                         culprit=setting("resume"))
     planned = settings.n_sessions
     if not fresh:  # a checkpoint copied or linked in from another training
         # an extension stopped before its first checkpoint: the manifest plans more sessions
@@ -913,13 +916,14 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
 def _resume_folder(folder: Any, out: Any, overwrite: bool) -> Path:
     """The folder a resume continues (and writes into): ``out``, if given, must be it, and
     ``overwrite`` is refused (it would replace what the resume continues)."""
-    out_given = None if out is None else as_path(out, "--out")
-    folder = as_path(folder, "--resume")
+    out_given = None if out is None else as_path(out, setting("out"))
+    folder = as_path(folder, setting("resume"))
     if out_given is not None and Path(out_given).resolve() != folder.resolve():
-        raise InputError("--resume writes into its own folder; drop --out", culprit="--out")
+        raise InputError(f"{advice('resume')} writes into its own folder; drop {setting('out')}",
+                         culprit=setting("out"))
     if overwrite:  # never ignored: it would replace what --resume continues
-        raise InputError("replaces a training, --resume continues one: use one of them",
-                         culprit="--overwrite")
+        raise InputError(f"replaces a training, {advice('resume')} continues one: use one of them",
+                         culprit=setting("overwrite"))
     return folder
 
 
@@ -929,7 +933,7 @@ def _stored_training(out: Path) -> tuple[dict[str, Any], TrainSettings, bool]:
     settings its manifest recorded."""
     # a training (or a study's run) that another process is training now: its files are in
     # flux and its lock is that process's, whatever they say
-    refuse_in_use(out, culprit=f"--resume {out}")
+    refuse_in_use(out, culprit=setting("resume", out))
     refuse_legacy(out)
     if (out / CHECKPOINT).exists():
         payload = read_checkpoint(out / CHECKPOINT)
@@ -937,7 +941,7 @@ def _stored_training(out: Path) -> tuple[dict[str, Any], TrainSettings, bool]:
     manifest = read_manifest(out)
     if manifest is None or manifest.get("astrocpg_command") != "train":
         raise InputError(f"holds no training (no {CHECKPOINT}, no training manifest)",
-                         culprit=f"--resume {out}")
+                         culprit=setting("resume", out))
     stored_settings = {k: v for k, v in manifest["settings"].items()
                        if k not in ("record", "replay_of")}
     payload = {"settings": stored_settings, "record_plan": manifest["settings"].get("record")}
@@ -956,7 +960,7 @@ def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any],
                        else RecordPlan.from_dict(payload["record_plan"]))
     except (TypeError, ValueError):
         raise InputError(f"{out / CHECKPOINT} is corrupt (its recording plan)",
-                         culprit="--resume") from None
+                         culprit=setting("resume")) from None
     check_resume_options(settings, stored_plan, given | recording)
     if not fresh:
         _same_codegen(payload.get("codegen", "numpy"), codegen_target())
@@ -968,15 +972,15 @@ def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any],
     if target < int(done.max(initial=0)):
         raise InputError(f"{target} sessions per trial is fewer than the {int(done.max())} this "
                          f"training has done; a training is extended, never shortened",
-                         culprit="--sessions")
+                         culprit=setting("sessions"))
     if target < planned:
         raise InputError(f"{target} sessions per trial is fewer than the {planned} this training "
                          f"trains to; a training is extended, never shortened",
-                         culprit="--sessions")
+                         culprit=setting("sessions"))
     if not fresh and bool(np.all(done >= target)) and _sealed(out):
         raise InputError(f"the training is already finished ({target} sessions per trial); "
-                         f"nothing was changed (--sessions N, more, extends it)",
-                         culprit=f"--resume {out}")
+                         f"nothing was changed ({setting('sessions', 'N')}, more, extends it)",
+                         culprit=setting("resume", out))
     # every session done but not sealed (stopped after its last session, before its manifest
     # said finished, as its interruption line said): the resume trains nothing and seals it
     extend_from = None
@@ -985,7 +989,8 @@ def _resume_checked(out: Path, settings: TrainSettings, payload: dict[str, Any],
                          None if fresh else _loop_state(payload))
         check_memory(estimate_bytes(trials=settings.n_trials, seconds=0.0, spikes=False,
                                     sessions=target),
-                     culprit=f"--sessions {target} x --trials {settings.n_trials}")
+                     culprit=f"{setting('sessions', target)} x "
+                             f"{setting('trials', settings.n_trials)}")
         extend_from = None if fresh else settings.n_sessions
         settings = dataclasses.replace(settings, n_sessions=target)
     return Result.from_training(_train(settings, out, stored_plan, None if fresh else payload,
@@ -1039,7 +1044,8 @@ def _check_extension(out: Path, sessions: int, target: int,
     if isinstance(manifest, dict) and manifest.get("astrocpg_command") == "study-run":
         raise InputError(f"{out} is a run of a study, which trains the study's {sessions} "
                          f"sessions per trial; extend the study instead (astrocpg study FILE "
-                         f"--sessions {target}, a new study folder)", culprit="--sessions")
+                         f"{setting('sessions', target)}, a new study folder)",
+                         culprit=setting("sessions"))
     if state is None:
         return
     finished = np.asarray(state["done"], dtype=bool)
@@ -1051,7 +1057,8 @@ def _check_extension(out: Path, sessions: int, target: int,
             f"cannot extend this training exactly to {target} sessions per trial: {which} "
             f"finished its {sessions} sessions before the last trial did and ran on idle "
             f"(learning off) until then, which a {target}-session training would not have "
-            f"done; start a new training with --sessions {target}", culprit="--sessions")
+            f"done; start a new training with {setting('sessions', target)}",
+            culprit=setting("sessions"))
 
 
 #: Relative difference below which two values of a parameter are the same value spelled
@@ -1075,15 +1082,15 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     spelling is the same model); equation files by their text."""
     refuse = _refuse_resume
     for key, option, recorded, noun in (
-            ("sessions", "--sessions", settings.n_sessions, "sessions per trial"),
-            ("seed", "--seed", settings.seed, "as its seed"),
-            ("trials", "--trials", settings.n_trials, "trials")):
+            ("sessions", setting("sessions"), settings.n_sessions, "sessions per trial"),
+            ("seed", setting("seed"), settings.seed, "as its seed"),
+            ("trials", setting("trials"), settings.n_trials, "trials")):
         value = given.get(key)
         if value is not None and value != recorded:
             refuse(option, f"that run has {recorded} {noun}, not {value}")
     astro = given.get("astrocytes")
     if astro is not None and bool(astro) != settings.astrocytes:
-        refuse("--no-astrocytes", "that run trained with astrocytes (recorded: astrocytes on, "
+        refuse(setting("astrocytes"), "that run trained with astrocytes (recorded: astrocytes on, "
                                   "given: off)" if settings.astrocytes else
                "that run trained without astrocytes (recorded: off, given: on)")
     for name, record in model_files_record(given.get("models")).items():  # texts or records
@@ -1094,9 +1101,9 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     _check_recording_given(plan, given)
 
 
-def _refuse_resume(option: str, message: str) -> NoReturn:
+def _refuse_resume(option: Field, message: str) -> NoReturn:
     raise InputError(f"{message}; a resumed training keeps the settings it started with "
-                     f"(start a new one with --out DIR)", culprit=option)
+                     f"(start a new one with {advice('train', 'DIR')})", culprit=option)
 
 
 def _check_equations_given(settings: TrainSettings, equations: Mapping[str, str]) -> None:
@@ -1108,15 +1115,15 @@ def _check_equations_given(settings: TrainSettings, equations: Mapping[str, str]
     for name, text in equations.items():
         if name not in known:
             raise InputError(f"unknown model '{name}'{did_you_mean(name, known)} (models: "
-                             f"{', '.join(known)})", culprit="--equations")
+                             f"{', '.join(known)})", culprit=setting("equations"))
         recorded_text = settings.equations.get(name)
         if recorded_text is None:  # the model's own equations, as trained
             if text.strip() != known[name].code.strip():
-                _refuse_resume(f"--equations {name}", f"that run was trained with the "
+                _refuse_resume(setting("equations", name), f"that run was trained with the "
                                                       f"built-in equations of {name}, not "
                                                       f"these (sha256 {_short_sha(text)})")
         elif text.strip() != recorded_text.strip():
-            _refuse_resume(f"--equations {name}", f"that run was trained with other equations "
+            _refuse_resume(setting("equations", name), f"that run was trained with other equations "
                                                   f"of {name} (recorded sha256 "
                                                   f"{_short_sha(recorded_text)}, given "
                                                   f"{_short_sha(text)})")
@@ -1134,8 +1141,8 @@ def _check_overrides_given(settings: TrainSettings, items: Sequence[str]) -> Non
         name, value = recorded_models.parse_assignment(item)
         was = recorded_models.parameter(name).value
         if not _same_quantity(was, value):
-            _refuse_resume(f"--set {name}", f"that run has {name}={value_text(was)}, not "
-                                            f"{value_text(value)}")
+            _refuse_resume(setting("overrides", name),
+                           f"that run has {name}={value_text(was)}, not {value_text(value)}")
 
 
 def _check_recording_given(plan: RecordPlan | None, given: dict[str, Any]) -> None:
@@ -1145,25 +1152,27 @@ def _check_recording_given(plan: RecordPlan | None, given: dict[str, Any]) -> No
     spikes, traces = given.get("spikes"), given.get("traces")
     dtype = given.get("trace_dtype")
     if plan is None:
-        for option, value in (("--record-every", every), ("--record-stride", stride),
-                              ("--spikes", spikes), ("--traces", traces),
-                              ("--trace-dtype", dtype)):
+        for option, value in ((setting("record_every"), every),
+                              (setting("record_stride"), stride), (setting("spikes"), spikes),
+                              (setting("traces"), traces), (setting("trace_dtype"), dtype)):
             if value is not None:
-                refuse(option, f"that run records no sessions (given {option} "
-                               f"{_option_text(value)})")
+                refuse(option, f"that run records no sessions (given "
+                               f"{option.given(_option_text(value))})")
         return
     if every is not None and every != plan.every:
-        refuse("--record-every", f"that run records every {plan.every} sessions, not {every}")
+        refuse(setting("record_every"),
+               f"that run records every {plan.every} sessions, not {every}")
     if dtype is not None and dtype != plan.dtype:
-        refuse("--trace-dtype", f"that run keeps its traces as {plan.dtype}, not {dtype}")
+        refuse(setting("trace_dtype"), f"that run keeps its traces as {plan.dtype}, not {dtype}")
     if stride is not None and stride != plan.stride:
-        refuse("--record-stride", f"that run records every {plan.stride} steps, not {stride}")
+        refuse(setting("record_stride"),
+               f"that run records every {plan.stride} steps, not {stride}")
     want_spikes, want_traces = check_selection(spikes, traces)
     if spikes is not None and set(want_spikes) != set(plan.spikes):
-        refuse("--spikes", f"that run records the spikes of {_option_text(plan.spikes)}, "
+        refuse(setting("spikes"), f"that run records the spikes of {_option_text(plan.spikes)}, "
                            f"not {_option_text(want_spikes)}")
     if traces is not None and set(want_traces) != set(plan.traces):
-        refuse("--traces", f"that run records the traces {_option_text(plan.traces)}, "
+        refuse(setting("traces"), f"that run records the traces {_option_text(plan.traces)}, "
                            f"not {_option_text(want_traces)}")
 
 
@@ -1177,9 +1186,9 @@ def _check_populations(recorded: dict[str, dict[str, str]], given: Mapping[str, 
     sha = given[name]["sha256"][:12]
     if name not in recorded:
         had = ", ".join(sorted(recorded)) or "none"
-        refuse("--population", f"that run did not add the population {name} (sha256 {sha}; "
+        refuse(setting("populations"), f"that run did not add the population {name} (sha256 {sha}; "
                                f"added: {had})")
-    refuse("--population", f"that run added {name} from another file (recorded sha256 "
+    refuse(setting("populations"), f"that run added {name} from another file (recorded sha256 "
                            f"{recorded[name]['sha256'][:12]}, given {sha})")
 
 
@@ -1207,12 +1216,13 @@ def _same_quantity(a: Any, b: Any) -> bool:
 def _check_model_file(name: str, recorded: dict[str, str] | None, given: dict[str, str],
                       refuse: Callable[[str, str], NoReturn]) -> None:
     """``--model NAME=FILE`` against the model file the training recorded for NAME."""
-    option = f"--model {name}"
+    option = setting("models", name)
     if recorded is not None and recorded["sha256"] == given["sha256"]:
         return
     # the same model spelled otherwise (comments, order, number spelling) is the same model;
     # a file given for a model the run did not replace must define the built-in one
-    given_json = model_set(models={name: given["content"]}, option="--model").to_json()[name]
+    given_json = model_set(models={name: given["content"]},
+                           option=setting("models")).to_json()[name]
     recorded_json = (model_set() if recorded is None
                      else model_set(models={name: recorded["content"]})).to_json()[name]
     if given_json == recorded_json:
@@ -1268,12 +1278,12 @@ def _train(settings: TrainSettings, out: Path, plan: RecordPlan | None,
         raise EnvironmentFault.from_os_error(e, out, "cannot create the folder") from None
     cleared = False
     try:
-        with FolderLock(out, culprit="--out" if payload is None else "--resume"):
+        with FolderLock(out, culprit=setting("out") if payload is None else setting("resume")):
             if replace:  # --overwrite: the old run goes whole, never mixed with the new one
-                clear_folder(out, culprit=f"--out {out}")
+                clear_folder(out, culprit=setting("out", out))
             elif new and holds_results(out):  # another process filled it since the check
-                raise InputError("is not empty; --overwrite replaces it whole",
-                                 culprit=f"--out {out}")
+                raise InputError(f"is not empty; {setting('overwrite')} replaces it whole",
+                                 culprit=setting("out", out))
             clean_stale_temporaries(out)
             if resumed:  # made from the weights this run is about to change: stale from now on
                 remove_derived(out)

@@ -11,7 +11,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, setting
 from ...network import LEGS
 from ..analysis.gait import (MEASURE_COLUMNS, NAMED, leg_phases, phase_matrix, trial_measures,
                              weight_structure)
@@ -224,10 +224,12 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]).check()
     training = load(folder)
     if not 0 <= trial < training.n_trials:
-        raise InputError(f"{folder} has {training.n_trials} trial(s)", culprit=f"--trial {trial}")
+        raise InputError(f"{folder} has {training.n_trials} trial(s)",
+                         culprit=setting("trial", trial))
     if window is not None and window[0] >= seconds:
         raise InputError(f"starts after the {seconds:g} s run with the trained weights "
-                         f"(--seconds)", culprit=f"--window {window[0]:g} {window[1]:g}")
+                         f"({setting('seconds')})",
+                         culprit=setting("window", f"{window[0]:g} {window[1]:g}"))
     recorded = sorted(s for b, s in training.recordings if b == trial)
     result, weights = replay(folder, seconds=seconds, progress=progress)
     b = trial

@@ -12,7 +12,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ...errors import Diverged
+from ...errors import Diverged, setting
 from ...network.populations import trace_columns
 from ...network.recording import overflowed
 from ..analysis.rhythm import rhythm_summary
@@ -98,10 +98,10 @@ def _plan_unit(a: dict[str, Any], rows: Sequence[Any]) -> tuple[dict[str, Any], 
     """:func:`unit`'s arguments ``a`` checked and its memory estimated: the manifest's
     settings (the checked values, whichever door called), the model set and the processes;
     refused (InputError) before anything is simulated or written."""
-    seconds = number(a["seconds"], "--seconds", positive=True)
-    trials = number(a["trials"], "--trials", integer=True, minimum=1)
+    seconds = number(a["seconds"], setting("seconds"), positive=True)
+    trials = number(a["trials"], setting("trials"), integer=True, minimum=1)
     seed = seed_number(a["seed"], trials=trials)
-    trace_dt = number(a["trace_dt"], "--trace-dt", positive=True)
+    trace_dt = number(a["trace_dt"], setting("trace_dt"), positive=True)
     check_trace_dt(trace_dt)  # samples are taken at steps: a whole number of them
     trace_dtype = check_trace_dtype(a["trace_dtype"])
     check_duration(seconds, STEP)
@@ -113,8 +113,9 @@ def _plan_unit(a: dict[str, Any], rows: Sequence[Any]) -> tuple[dict[str, Any], 
                                   trace_dt=trace_dt * 1e-3, traces=trace_columns(names),
                                   spikes=bool(pops),
                                   trace_bytes=np.dtype(trace_dtype).itemsize),
-                 culprit=f"--seconds {seconds:g} x --trials {trials}"
-                         + (f" x --workers {procs}" if procs > 1 else ""))
+                 culprit=f"{setting('seconds', f'{seconds:g}')} x {setting('trials', trials)}"
+                         + (f" x {setting('workers', procs)}" if procs > 1 else ""),
+                 record_less=("spikes", "traces", "trace_dt"))
     files = model_files_record(a["models"])
     models = model_set(a["overrides"], a["equations"], models=a["models"],
                        added=[r.model for r in rows])

@@ -13,7 +13,7 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from ...errors import EnvironmentFault, InputError, did_you_mean, one_line
+from ...errors import EnvironmentFault, InputError, advice, did_you_mean, one_line, setting
 from ..figures.save import FORMATS, save_figures
 from ..figures.traces import FIGURE_FUNCTIONS, recorded_span, trace_figures
 from ..outputs.folder import (OutputFolder, as_path, check_output_path, check_replaceable,
@@ -27,7 +27,7 @@ from .trained_controller import FIGURES, plot_training
 def _check_trial(result: Result, trial: int) -> None:
     if not isinstance(trial, (int, np.integer)) or not 0 <= trial < result.n_trials:
         raise InputError(f"{result.folder} has {result.n_trials} trial(s) (0.."
-                         f"{result.n_trials - 1})", culprit=f"--trial {trial}")
+                         f"{result.n_trials - 1})", culprit=setting("trial", trial))
 
 
 def _check_window(window: Any, span: tuple[float, float] | None) -> tuple[float, float] | None:
@@ -36,8 +36,8 @@ def _check_window(window: Any, span: tuple[float, float] | None) -> tuple[float,
     try:
         t0, t1 = (float(x) for x in window)
     except (TypeError, ValueError):
-        raise InputError("needs two numbers, T0 T1 in s", culprit="--window") from None
-    culprit = f"--window {window[0]} {window[1]}"
+        raise InputError("needs two numbers, T0 T1 in s", culprit=setting("window")) from None
+    culprit = setting("window", f"{window[0]} {window[1]}")
     if not (np.isfinite(t0) and np.isfinite(t1)) or t0 < 0 or t1 <= t0:
         raise InputError("needs 0 <= T0 < T1 (s)", culprit=culprit)
     if span is not None and t0 >= span[1]:
@@ -85,7 +85,7 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     if fmt not in FORMATS:
         raise InputError(f"unknown format{did_you_mean(fmt, FORMATS)} (formats: "
                          f"{', '.join(FORMATS)})",
-                         culprit=f"--format {fmt}")
+                         culprit=setting("format", fmt))
     folder = as_path(folder, "folder")
     result = load(folder)
     if result.kind == "train":
@@ -95,8 +95,9 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
                              progress=progress)
     if seconds is not None:  # a recording is drawn as it is: nothing is simulated
         raise InputError(f"simulates a training's weights; {folder} is a {result.kind} "
-                         f"folder, drawn from its recording (--window T0 T1 picks a part)",
-                         culprit="--seconds")
+                         f"folder, drawn from its recording ({setting('window', 'T0 T1')} picks "
+                         f"a part)",
+                         culprit=setting("seconds"))
     _check_trial(result, trial)
     span = recorded_span(result)
     win = _check_window(window, span) or span
@@ -148,7 +149,7 @@ def _replayed(folder: Path, trial: int) -> tuple[Result, int]:
         recorded = sorted(s for b, s in result.recordings if b == trial)
         if not recorded:
             raise InputError(f"has no recorded session of trial {trial} to replay (train with "
-                             f"--record-every N)", culprit=str(folder))
+                             f"{advice('record_every', 'N')})", culprit=str(folder))
         return result.recording(trial, recorded[-1]), 0
     if result.robot is None:
         raise InputError(f"holds no robot recording (a {result.kind}); video replays a run or "
@@ -204,10 +205,10 @@ def _size(size: Any) -> tuple[int, int]:
     try:
         w, h = (int(x) for x in size)
     except (TypeError, ValueError):
-        raise InputError("needs WIDTH HEIGHT in pixels", culprit="--size") from None
+        raise InputError("needs WIDTH HEIGHT in pixels", culprit=setting("size")) from None
     if not (16 <= w <= 4096 and 16 <= h <= 4096) or w % 2 or h % 2:
         raise InputError("needs even WIDTH and HEIGHT in 16..4096 pixels (H.264)",
-                         culprit=f"--size {w} {h}")
+                         culprit=setting("size", f"{w} {h}"))
     return w, h
 
 
@@ -270,8 +271,8 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     n_frames = frame_count(rob["t"], fps, speed, start=start, stop=stop)
     if n_frames > MAX_FRAMES:  # before a frame index of that length is built
         raise InputError(f"{n_frames:.3g} frames ({_span(rob['t'])} s recorded x fps {fps:g} / "
-                         f"speed {speed:g}) is more than {MAX_FRAMES}; lower --fps or raise "
-                         f"--speed", culprit=f"--fps {fps:g} --speed {speed:g}")
+                         f"speed {speed:g}) is more than {MAX_FRAMES}; lower {setting('fps')} or "
+                         f"raise {setting('speed')}", culprit=_rates_given(fps, speed))
     samples = frame_samples(rob["t"], fps, speed, start=start, stop=stop)
     model, layout = _robot_model(result)
 
@@ -293,14 +294,20 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
             "seconds": len(samples) / fps, "start": shown[0], "stop": shown[1]}
 
 
+def _rates_given(fps: float, speed: float) -> str:
+    """``fps`` and ``speed`` as a culprit: the two settings with their values."""
+    return f"{setting('fps', f'{fps:g}')} {setting('speed', f'{speed:g}')}"
+
+
 def _check_rates(fps: Any, speed: Any) -> None:
     """``fps`` and ``speed`` positive numbers, ``fps`` at most :data:`MAX_FPS`."""
-    for name, value in (("--fps", fps), ("--speed", speed)):
+    for name, value in ((setting("fps"), fps), (setting("speed"), speed)):
         if isinstance(value, bool) or not isinstance(value, (int, float)) \
                 or not np.isfinite(value) or value <= 0:
-            raise InputError("must be a positive number", culprit=f"{name} {value}")
+            raise InputError("must be a positive number", culprit=name.given(value))
     if fps > MAX_FPS:
-        raise InputError(f"must be at most {MAX_FPS} frames per second", culprit=f"--fps {fps}")
+        raise InputError(f"must be at most {MAX_FPS} frames per second",
+                         culprit=setting("fps", fps))
 
 
 def _video_path(folder: Path, trial: int, out: str | Path | None, overwrite: bool) -> Path:
@@ -309,17 +316,18 @@ def _video_path(folder: Path, trial: int, out: str | Path | None, overwrite: boo
     file the folder lists, nor one another process holds."""
     path = Path(out) if out is not None else folder / f"video_trial{trial:02d}.mp4"
     if path.suffix.lower() != ".mp4":
-        raise InputError("the file name must end in .mp4", culprit=f"--out {path}")
+        raise InputError("the file name must end in .mp4", culprit=setting("out", path))
     if not path.parent.is_dir():
-        raise InputError(f"folder '{path.parent}' does not exist", culprit=f"--out {path}")
+        raise InputError(f"folder '{path.parent}' does not exist", culprit=setting("out", path))
     if path.is_dir():
-        raise InputError("is a folder; name the file to write", culprit=f"--out {path}")
+        raise InputError("is a folder; name the file to write", culprit=setting("out", path))
     # not inside the folder it replays (but as its video_trialTT.mp4), never a listed file
-    check_output_path(path, [folder], culprit=f"--out {path}", file=True)
+    check_output_path(path, [folder], culprit=setting("out", path), file=True)
     if out is not None and path.exists() and not overwrite:
-        raise InputError("exists; --overwrite replaces it", culprit=f"--out {path}")
-    check_replaceable(path, culprit=f"--out {path}")
-    refuse_in_use(path, culprit=f"--out {path}" if out is not None else str(folder))
+        raise InputError(f"exists; {setting('overwrite')} replaces it",
+                         culprit=setting("out", path))
+    check_replaceable(path, culprit=setting("out", path))
+    refuse_in_use(path, culprit=setting("out", path) if out is not None else str(folder))
     return path
 
 
@@ -371,23 +379,23 @@ def _time_window(t: Any, start: Any, stop: Any) -> tuple[float, float]:
 
     first, end = recording_span(t)
     values = []
-    for name, value, default in (("--start", start, first), ("--stop", stop, end)):
+    for name, value, default in ((setting("start"), start, first), (setting("stop"), stop, end)):
         if value is None:
             values.append(default)
             continue
         if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) \
                 or not np.isfinite(value):
-            raise InputError("must be a number of seconds", culprit=f"{name} {value}")
+            raise InputError("must be a number of seconds", culprit=name.given(value))
         if value < first - 1e-9:
             raise InputError(f"is before the recording's start ({first:g} s)",
-                             culprit=f"{name} {value:g}")
+                             culprit=name.given(f"{value:g}"))
         if value > end + 1e-9:
             raise InputError(f"is past the recording's end ({end:g} s recorded)",
-                             culprit=f"{name} {value:g}")
+                             culprit=name.given(f"{value:g}"))
         values.append(float(value))
     if values[0] >= values[1]:
-        raise InputError(f"must be before --stop ({values[1]:g} s)",
-                         culprit=f"--start {values[0]:g}")
+        raise InputError(f"must be before {setting('stop')} ({values[1]:g} s)",
+                         culprit=setting("start", f"{values[0]:g}"))
     return values[0], values[1]
 
 

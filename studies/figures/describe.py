@@ -19,7 +19,7 @@ from brian2 import Equations
 from brian2.equations.equations import DIFFERENTIAL_EQUATION, SUBEXPRESSION
 from brian2.parsing.rendering import SympyNodeRenderer
 
-from ...errors import InputError, did_you_mean
+from ...errors import InputError, did_you_mean, setting
 from ...models import DEFAULT_MODELS, ModelSet
 
 #: what ``format`` may be: plain text for a terminal, Markdown, LaTeX
@@ -361,7 +361,7 @@ def describe(name: str | None = None, fmt: str = "text", models: ModelSet | None
     models = DEFAULT_MODELS if models is None else models
     if fmt not in FORMATS:
         raise InputError(f"must be {', '.join(FORMATS[:-1])} or {FORMATS[-1]}, got "
-                         f"'{fmt}'{did_you_mean(fmt, FORMATS)}", culprit="--format")
+                         f"'{fmt}'{did_you_mean(fmt, FORMATS)}", culprit=setting("format"))
     if name == "senses":  # not a model: what a neuron model may bind (models/senses.py)
         return _senses(fmt)
     if name is not None and name not in dict(models.items()) and _declaring(name, models):

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import EnvironmentFault, InputError
+from ...errors import EnvironmentFault, InputError, advice, setting
 from ...reading import check_npy, loads_json, open_regular
 from .writing import atomic_write, savez
 
@@ -66,7 +66,7 @@ def _old_format(path: Path, culprit: Any = None) -> InputError:
     return _error(path, culprit,
         f"is a checkpoint of an old format (a Python pickle, astrocpg before checkpoint "
         f"format {VERSION}); it is never loaded, because loading a pickle can run code: retrain "
-        f"that run (astrocpg train --out DIR --overwrite, or the study into a new --out) or "
+        f"that run ({advice('retrain')}, or the study into a new {setting('out')}) or "
         f"replace the file with a checkpoint this version wrote", cls=InputError)
 
 
@@ -316,7 +316,7 @@ def _check_sizes(f: Any, path: Path, culprit: Any) -> None:
                     try:
                         check_npy(member, info.file_size, path, path, info.filename)
                     except InputError as e:
-                        raise _error(path, culprit, f"is corrupt ({e.message})") from None
+                        raise _error(path, culprit, f"is corrupt ({e.raw_message})") from None
 
 
 def _referenced(tree: Any, found: set[str], depth: int = 0) -> set[str]:

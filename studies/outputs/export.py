@@ -70,7 +70,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import InputError, did_you_mean
+from ...errors import InputError, advice, did_you_mean, setting
 from ...reading import check_regular
 from ...network.populations import Population, rows_of, trace_meaning, trace_sources
 from ...network.recording import overflow_words, overflowed
@@ -120,7 +120,7 @@ def _load(folder: Path) -> dict[str, Any]:
         raise InputError(f"holds a '{manifest.get('astrocpg_command')}' "
                          f"folder; export reads the output of astrocpg run or unit, or a "
                          f"recorded training session (DIR/recordings/trialTT_sessionSSSS, from "
-                         f"astrocpg train --record-every N)", culprit=f"export {folder}")
+                         f"{advice('record_every', 'N')})", culprit=f"export {folder}")
     data: dict[str, Any] = {"manifest": manifest}
     for name in ("spikes", "traces", "robot"):
         path = folder / f"{name}.npz"
@@ -587,7 +587,7 @@ def export(folder: Path, fmt: str, out: Path | None = None, *, overwrite: bool =
     them (its only messages on the file)."""
     if fmt not in ("nwb", "npz"):
         raise InputError(f"must be nwb or npz, got '{fmt}'{did_you_mean(fmt, ('nwb', 'npz'))}",
-                         culprit="--format")
+                         culprit=setting("format"))
     experimenter = tuple(experimenter)
     if not experimenter and os.environ.get("ASTROCPG_EXPERIMENTER", "").strip():
         experimenter = tuple(n.strip() for n in os.environ["ASTROCPG_EXPERIMENTER"].split(";")
@@ -597,18 +597,18 @@ def export(folder: Path, fmt: str, out: Path | None = None, *, overwrite: bool =
     for name in experimenter:
         if not re.match(EXPERIMENTER_FORM, name):
             raise InputError(f"'{name}' is not of the form 'Last, First' (e.g. 'Doe, Jane')",
-                             culprit="--experimenter")
+                             culprit=setting("experimenter"))
     if institution is not None and not institution.strip():
-        raise InputError("is empty", culprit="--institution")
+        raise InputError("is empty", culprit=setting("institution"))
     folder = Path(folder)
     path = Path(out) if out is not None else default_path(folder, fmt)
-    shown = f"--out {out}" if out is not None else f"export {path}"
+    shown = setting("out", out) if out is not None else f"export {path}"
     if path.is_dir():
         raise InputError("is a folder; name the file to write", culprit=shown)
     # an export never writes into the folder it reads, nor replaces a file an output lists
     check_output_path(path, [folder], culprit=shown, file=True)
     if path.exists() and not overwrite:
-        raise InputError("exists; --overwrite replaces it", culprit=shown)
+        raise InputError(f"exists; {setting('overwrite')} replaces it", culprit=shown)
     check_replaceable(path, culprit=shown)
     if not path.parent.is_dir():
         raise InputError(f"folder '{path.parent}' does not exist", culprit=shown)

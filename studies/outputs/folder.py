@@ -51,7 +51,7 @@ import time
 from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping
 
-from ...errors import EnvironmentFault, InputError
+from ...errors import EnvironmentFault, Field, InputError, setting, shown_with
 from ...reading import open_regular, read_json
 
 MANIFEST = "manifest.json"
@@ -287,7 +287,8 @@ def _refuse_part_of_output(path: Path, culprit: str) -> None:
                 command = None
             what = f"the astrocpg {command} folder" if isinstance(command, str) \
                 else "the astrocpg output folder"
-            raise InputError(f"is part of {what} {folder}; --overwrite never replaces a part "
+            raise InputError(f"is part of {what} {folder}; {setting('overwrite')} never "
+                             f"replaces a part "
                              f"of another output (rerun that {command or 'command'} instead, "
                              f"or write to a folder of its own)", culprit=culprit)
 
@@ -443,11 +444,11 @@ def _refuse_foreign_files(path: Path, culprit: str) -> None:
     if manifest is not None and _listing(manifest) is None:
         raise InputError(f"holds {foreign[0]}{more}, and its {MANIFEST} lists no files (no "
                          f"\"inventory\": an older astrocpg's?), so astrocpg cannot tell its "
-                         f"files from yours; --overwrite replaces only what astrocpg wrote: "
-                         f"delete the folder yourself, or choose another", culprit=culprit)
+                         f"files from yours; {setting('overwrite')} replaces only what astrocpg "
+                         f"wrote: delete the folder yourself, or choose another", culprit=culprit)
     raise InputError(f"holds {foreign[0]}{more} that astrocpg did not write (not listed in "
-                     f"its {MANIFEST}, or changed since); --overwrite replaces only what "
-                     f"astrocpg wrote: move your files out first, or choose another folder",
+                     f"its {MANIFEST}, or changed since); {setting('overwrite')} replaces only "
+                     f"what astrocpg wrote: move your files out first, or choose another folder",
                      culprit=culprit)
 
 
@@ -461,8 +462,8 @@ def _refuse_other_command(path: Path, command: str | None, culprit: str) -> None
     made_by = None if manifest is None else manifest.get("astrocpg_command")
     if made_by in _KEPT_WORK and made_by != command:
         raise InputError(f"holds an astrocpg {made_by} output (its {MANIFEST} says so); "
-                         f"--overwrite replaces it only with another {made_by}: choose another "
-                         f"folder, or delete it yourself", culprit=culprit)
+                         f"{setting('overwrite')} replaces it only with another {made_by}: "
+                         f"choose another folder, or delete it yourself", culprit=culprit)
 
 
 #: How the files astrocpg writes alone (an export, a video) begin, by suffix: ``--overwrite``
@@ -485,7 +486,8 @@ def _refuse_foreign_file(path: Path, culprit: str) -> None:
             head = b""
     if not magic or head != magic:
         kind = f"an {path.suffix[1:]} file" if magic else "a file of a kind astrocpg writes"
-        raise InputError(f"exists and is not {kind}; --overwrite replaces only a file of the "
+        raise InputError(f"exists and is not {kind}; {setting('overwrite')} replaces only a "
+                         f"file of the "
                          f"kind astrocpg writes there: choose another name, or remove it "
                          f"yourself", culprit=culprit)
 
@@ -504,8 +506,8 @@ def check_replaceable(target: str | os.PathLike, *, culprit: str,
     if path.is_dir():
         if not is_astrocpg_output(path):
             raise InputError(f"holds files that are not an astrocpg output (no astrocpg "
-                             f"{MANIFEST}); --overwrite replaces only a folder astrocpg wrote: "
-                             f"choose another folder, or empty this one yourself",
+                             f"{MANIFEST}); {setting('overwrite')} replaces only a folder "
+                             f"astrocpg wrote: choose another folder, or empty this one yourself",
                              culprit=culprit)
         _refuse_part_of_output(path, culprit)
         _refuse_foreign_files(path, culprit)
@@ -522,8 +524,8 @@ def check_replaceable(target: str | os.PathLike, *, culprit: str,
                 listed = {}
             if rel == MANIFEST or rel in listed:
                 raise InputError(f"is a file of the astrocpg output folder {folder} (listed in "
-                                 f"its {MANIFEST}); --overwrite never replaces part of a "
-                                 f"folder", culprit=culprit)
+                                 f"its {MANIFEST}); {setting('overwrite')} never replaces part "
+                                 f"of a folder", culprit=culprit)
             if any(fnmatch.fnmatchcase(rel, p) for p in _DERIVED_BY_NAME):
                 return  # a video or power estimate of the folder: astrocpg's by its name
             break
@@ -584,7 +586,7 @@ def exchange(a: Path, b: Path) -> bool:
 class OutputFolder:
     """One invocation's result folder, whole or nothing::
 
-        with OutputFolder(args.out, overwrite=args.overwrite, culprit="--out") as tmp:
+        with OutputFolder(args.out, overwrite=args.overwrite, culprit=setting("out")) as tmp:
             save_npz(tmp / "spikes.npz", ...)
             write_manifest(tmp, ...)        # last, with inventory(tmp)
 
@@ -610,7 +612,7 @@ class OutputFolder:
     """
 
     def __init__(self, target: str | os.PathLike, *, overwrite: bool = False,
-                 culprit: str | None = "--out",
+                 culprit: str | Field | None = setting("out"),
                  inputs: Iterable[str | os.PathLike | None] = (),
                  command: str | None = None) -> None:
         self.shown = as_path(target, culprit or "out")
@@ -632,7 +634,7 @@ class OutputFolder:
 
     @property
     def _who(self) -> str:
-        return f"{self.culprit} {self.shown}" if self.culprit else str(self.shown)
+        return str(shown_with(self.culprit, self.shown)) if self.culprit else str(self.shown)
 
     def check(self) -> "OutputFolder":
         """Refuse a bad target now, before a long computation whose result it would receive
@@ -688,7 +690,8 @@ class OutputFolder:
         if not holds_files:
             return
         if not self.overwrite:
-            raise InputError("is not empty; --overwrite replaces it whole (its files are deleted, "
+            raise InputError(f"is not empty; {setting('overwrite')} replaces it whole (its "
+                             f"files are deleted, "
                              "never mixed with the new ones)", culprit=self._who)
         if os.path.lexists(t / LOCK_NAME):  # a running train/study: say so, whatever it holds
             self._lock = FolderLock(t, culprit=self.culprit).acquire()
@@ -768,7 +771,8 @@ class OutputFolder:
             except OSError as e:
                 if e.errno in (errno.ENOTEMPTY, errno.EEXIST):
                     raise InputError("is not empty: another process wrote into it meanwhile; "
-                                     "--overwrite replaces it whole", culprit=self._who) from None
+                                     f"{setting('overwrite')} replaces it whole",
+                                     culprit=self._who) from None
                 if e.errno == errno.ENOTDIR:
                     raise InputError("exists and is not a folder", culprit=self._who) from None
                 raise
@@ -990,7 +994,7 @@ def verify(folder: str | os.PathLike, *, culprit: str | None = None,
     manifest ("not an astrocpg output folder"). ``only``: check just these files (those of
     them the inventory lists), e.g. what a reader is about to read."""
     root = Path(folder)
-    who = f"{culprit} {folder}" if culprit else str(folder)
+    who = shown_with(culprit, folder) if culprit else str(folder)
     if not os.path.lexists(root):  # a missing input: the environment's (exit 1)
         raise EnvironmentFault("no such folder", culprit=who)
     if not root.is_dir():
@@ -1058,7 +1062,7 @@ def clear_folder(folder: str | os.PathLike, *, culprit: str | None = None) -> No
     ``culprit`` and the user's first entry, and nothing is deleted (checked again here, under
     the folder's lock, in case a file was added since :func:`check_replaceable`)."""
     root = Path(folder)
-    _refuse_foreign_files(root, culprit or f"--out {root}")
+    _refuse_foreign_files(root, culprit or setting("out", root))
     try:
         for entry in list(root.iterdir()):
             if entry.name in (LOCK_NAME, OWNER_NAME):
@@ -1168,12 +1172,12 @@ def refuse_in_use(path: str | os.PathLike, *, culprit: str,
 
 
 class FolderLock:
-    """``with FolderLock(folder, culprit="--out"):`` -- this process owns ``folder`` while the
-    block runs (train, study). A non-blocking exclusive lock (filelock; ``flock`` on Unix) on
+    """``with FolderLock(folder, culprit=setting("out")):`` -- this process owns ``folder`` while
+    the block runs (train, study). A non-blocking exclusive lock (filelock; ``flock`` on Unix) on
     ``folder/.astrocpg.lock``; ``.astrocpg.lock.owner`` says who holds it. When another process
-    holds it: InputError "is in use by another astrocpg process (pid N since <time>)". The lock
-    of a killed process does not block (the kernel drops it). Released, and both files removed,
-    on exit. The folder must exist."""
+    holds it: InputError "is in use by another astrocpg process (pid N since <time>)". The lock of a
+    killed process does not block (the kernel drops it). Released, and both files removed, on exit.
+    The folder must exist."""
 
     def __init__(self, folder: str | os.PathLike, *, culprit: str | None = None,
                  inside: str | os.PathLike | None = None) -> None:
@@ -1187,7 +1191,7 @@ class FolderLock:
 
     @property
     def _who(self) -> str:
-        return f"{self.culprit} {self.folder}" if self.culprit else str(self.folder)
+        return str(shown_with(self.culprit, self.folder)) if self.culprit else str(self.folder)
 
     @property
     def path(self) -> Path:

@@ -29,7 +29,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, setting
 from ...reading import MAX_TABLE_BYTES, check_npz, check_regular, read_bytes, read_json
 from .folder import MANIFEST
 from .weights import WEIGHTS, by_labels
@@ -63,7 +63,7 @@ def keep_tables(study: str | Path, out: str | Path,
     study, out = Path(study), Path(out)
     for s in sessions:  # "after session 0" would be the last session's tables, mislabelled
         if isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 1:
-            raise InputError(f"a session is counted from 1, got {s}", culprit="--sessions")
+            raise InputError(f"a session is counted from 1, got {s}", culprit=setting("sessions"))
     runs = sorted(p for p in (study / "runs").glob("*") if (p / WEIGHTS).is_file())
     if not runs:
         raise InputError(f"no run with a weights.npz under {study / 'runs'}", culprit=str(study))
@@ -190,7 +190,7 @@ def kept_weights(controller: dict[str, Any], session: int | None = None) -> np.n
                       | ({int(done.min())} if done.size and done.min() == done.max() else set()))
         raise InputError(f"{where} keeps the tables after sessions "
                          f"{', '.join(map(str, kept)) or 'none'} only",
-                         culprit=f"--session {session}")
+                         culprit=setting("session", session))
     w = np.asarray(w, dtype=float)
     if w.ndim != 3 or w.shape[-2:] != (8, 8):
         raise InputError(f"holds tables of shape {w.shape}, not (seeds, 8, 8)", culprit=where)

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import EnvironmentFault, InputError, did_you_mean
+from ...errors import EnvironmentFault, Field, InputError, did_you_mean, setting, shown_with
 from ...network import interlimb_labels
 from ...reading import (MAX_TABLE_BYTES, check_npy, check_npz, check_regular, loads_json,
                         open_regular, read_bytes)
@@ -30,13 +30,14 @@ WEIGHTS = "weights.npz"
 
 
 def load_weights(path: str | Path, trial: int | None = None, *,
-                 culprit: str = "--weights", session: int | None = None) -> np.ndarray:
+                 culprit: str | Field = setting("weights"),
+                 session: int | None = None) -> np.ndarray:
     """An 8x8 inter-limb table in mV from .npy, .npz ('weights_mV' or 'weights'), .json or
     text, or a training folder (its final tables, or with ``session`` its tables after that
     session, which every trial must have done: all trials, or ``trial``); returns volt.
     Every problem is an InputError naming ``culprit`` and the path as the user typed it."""
     p = Path(path)
-    where = f"{culprit} {path}" if culprit else str(path)
+    where = shown_with(culprit, path) if culprit else str(path)
     if p.is_dir():
         check_regular(p / WEIGHTS, where)  # a FIFO is refused, never waited on
         check_regular(p / MANIFEST, where)
@@ -64,12 +65,12 @@ def load_weights(path: str | Path, trial: int | None = None, *,
                              culprit=where)
         if trial is not None:
             if not 0 <= trial < len(w):
-                raise InputError(f"{path} has {len(w)} trial(s)", culprit=f"--trial {trial}")
+                raise InputError(f"{path} has {len(w)} trial(s)", culprit=setting("trial", trial))
             w = w[trial]
     else:
         if session is not None:
             raise InputError("a table file has no sessions: give a training folder",
-                             culprit=f"--session {session}")
+                             culprit=setting("session", session))
         check_regular(p, where)  # a FIFO, device or socket: refused, never waited on
         if not os.path.lexists(p):  # a missing input: the environment's (exit 1)
             raise EnvironmentFault("no such file or folder", culprit=where)
@@ -115,11 +116,11 @@ def _after_session(z: Any, session: int, where: str) -> np.ndarray:
     ``weights_mV`` holds the table after each session; refused unless every trial did it."""
     if isinstance(session, bool) or not isinstance(session, (int, np.integer)) or session < 1:
         raise InputError(f"must be a whole number of at least 1, got {session!r}",
-                         culprit="--session")
+                         culprit=setting("session"))
     done = np.asarray(z["sessions_done"])
     if int(done.min()) < session:
         raise InputError(f"{where}: not every trial has done {session} sessions (the fewest: "
-                         f"{int(done.min())})", culprit=f"--session {session}")
+                         f"{int(done.min())})", culprit=setting("session", session))
     return np.asarray(z["weights_mV"][:, session - 1], dtype=float)
 
 

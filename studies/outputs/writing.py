@@ -22,7 +22,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, setting
 from ...reading import read_json
 from .folder import (MANIFEST, clean_stale_temporaries, file_sha256, inventory, remember_sha256,
                      remember_written, temp_prefix, temp_suffix, written_in_place)
@@ -113,11 +113,12 @@ def prepare_output_dir(path: str | os.PathLike) -> Path:
     """Create the output folder (parents too). Refuses a path that is a file."""
     p = Path(path)
     if p.exists() and not p.is_dir():
-        raise InputError("exists and is not a folder", culprit=f"--out {p}")
+        raise InputError("exists and is not a folder", culprit=setting("out", p))
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise InputError(f"cannot create the folder ({e.strerror})", culprit=f"--out {p}") from None
+        raise InputError(f"cannot create the folder ({e.strerror})",
+                         culprit=setting("out", p)) from None
     return p
 
 

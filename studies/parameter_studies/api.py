@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 from typing import Any, Callable
 
-from ...errors import InputError
+from ...errors import InputError, setting
 from ..commands.settings import number
 
 
@@ -70,7 +70,7 @@ def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
 
     if scheduler is not None and not isinstance(scheduler, str):
         raise InputError(f"expected an address as text, got {type(scheduler).__name__}",
-                         culprit="scheduler")
+                         culprit=setting("scheduler"))
     given = study_overrides(seeds, sessions, overrides)
     loaded = load_study(_path(file, "file"), overrides=given)
     folder = Path("out") / loaded.name if out is None else _path(out, "out")
@@ -147,8 +147,8 @@ def report(folder: str | os.PathLike, *, smooth: int = 1, last: int = 50,
 
     return write_report(_path(folder, "folder"),
                         # named as the command's options; ac.report names its keywords
-                        last=number(last, "--last", integer=True, minimum=1),
-                        smooth=number(smooth, "--smooth", integer=True, minimum=1),
+                        last=number(last, setting("last"), integer=True, minimum=1),
+                        smooth=number(smooth, setting("smooth"), integer=True, minimum=1),
                         out=None if out is None else _path(out, "out"), overwrite=overwrite)
 
 

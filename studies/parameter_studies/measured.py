@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ...errors import EnvironmentFault, InputError
+from ...errors import EnvironmentFault, Field, InputError, setting, shown_with
 from ...reading import MAX_PLAN_BYTES, read_bytes, read_json, too_large
 from ..outputs.writing import read_manifest
 from .trial_cost import TrialCost
@@ -60,7 +60,7 @@ def _sessions_by_run(path: Path, culprit: str) -> dict[str, dict[int, tuple[floa
     ``path`` names (a study folder or the table), refused naming the file and the row where it
     is not a study's results."""
     table = results_table(Path(path), culprit)
-    where = f"{culprit} {table}"
+    where = shown_with(culprit, table)
     try:
         # bounded: the file by its size before it is read, its gzip content while it inflates
         # (a 10 MB .gz can hold gigabytes: refused at the bound, never inflated whole)
@@ -100,7 +100,7 @@ def _sessions_by_run(path: Path, culprit: str) -> dict[str, dict[int, tuple[floa
     return runs
 
 
-def measured_lengths(path: str | Path, *, culprit: str = "--plan-from"
+def measured_lengths(path: str | Path, *, culprit: str | Field = setting("plan_from")
                      ) -> dict[str, dict[int, tuple[float, int]]]:
     """``{group: {seed: (simulated seconds trained, sessions)}}`` from the results table of the
     study folder ``path`` (or the table itself): per condition and sweep point
@@ -131,7 +131,8 @@ class RunCost:
         return self.wall_s / self.busiest_s
 
 
-def measured_run_costs(path: str | Path, *, culprit: str = "--plan-from") -> list[RunCost]:
+def measured_run_costs(path: str | Path, *,
+                       culprit: str | Field = setting("plan_from")) -> list[RunCost]:
     """The runs of the study folder ``path`` that finished in one attempt, with what each
     cost (its ``timeline.csv``; its trials and busiest seed from the results table). A run
     resumed after a stop is left out (its wall time includes starting again); a folder
@@ -152,7 +153,8 @@ def measured_run_costs(path: str | Path, *, culprit: str = "--plan-from") -> lis
         wall = row["duration_s"]
         if not (wall is not None and 0.0 < wall < float("inf")):  # a finished run took time
             raise InputError(f"line {line}: duration_s {wall!r} of a finished run is not a "
-                             f"positive number of seconds", culprit=f"{culprit} {path / TIMELINE}")
+                             f"positive number of seconds",
+                             culprit=shown_with(culprit, path / TIMELINE))
         busiest = max(total for total, _ in seeds.values())
         if busiest > 0.0:
             out.append(RunCost(run_id, len(seeds), busiest, wall))
@@ -173,7 +175,7 @@ def _study_manifest(path: Path) -> dict[str, Any] | None:
 
 
 def fitted_cost(path: str | Path, *, codegen: str, workers: int,
-                culprit: str = "--plan-from") -> tuple[TrialCost | None, str]:
+                culprit: str | Field = setting("plan_from")) -> tuple[TrialCost | None, str]:
     """The cost per simulated second fitted to the runs of the study in ``path``
     (:func:`measured_run_costs`; the mean per size where several runs have one: runs of
     different conditions with as many trials are pooled), and what it was fitted to; or

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import InputError, setting
 from ...reading import check_regular, read_json
 from ..analysis.compare import N_BOOT, N_PERM, SEED, p_text, reading_words
 from ..analysis.final_figures import (CURVES, MEASURES, WEIGHT_MEASURES, Measure, across_seeds,
@@ -254,8 +254,8 @@ def _write_files(dest: Path, name: str, figures: dict[str, Any], shows: dict[str
     files.append(dest / "final_figures.csv")
     described = dict(shows)
     described["final_figures.csv"] = (f"per group (condition and sweep point): the final figures "
-                                      f"of each seed (mean over its last sessions, --last "
-                                      f"{last}), mean and std across seeds"
+                                      f"of each seed (mean over its last sessions, "
+                                      f"{setting('last')} {last}), mean and std across seeds"
                                       + ("; a group with no data yet has seeds 0 and no figures"
                                          if empty else "")
                                       + ("; a group with a diverged run has state diverged, "
@@ -392,8 +392,9 @@ def _markdown(name: str, rows: list[dict[str, Any]], tests: list[dict[str, Any]]
     used = [o["last_sessions"] for o in per_seed]
     planned = _span(min(study_sessions), max(study_sessions))
     if min(used) == max(used) == min(trained) == max(trained):
-        window = (f"its last {used[0]} sessions" + (f" (all it trained: --last {last} asks "
-                                                     f"for more)" if last > used[0] else ""))
+        window = (f"its last {used[0]} sessions"
+                  + (f" (all it trained: {setting('last', last)} asks for more)"
+                     if last > used[0] else ""))
     else:
         window = (f"its last {_span(min(used), max(used))} sessions (at most {last}; a seed "
                   f"that trained fewer uses all of its {_span(min(trained), max(trained))})")

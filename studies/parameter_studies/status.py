@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ...errors import InputError
+from ...errors import Field, InputError, setting
 from ...reading import open_regular, read_bytes
 from ..outputs.study_index import read_current
 from .layout import RUNS, STATUS, TIMELINE, as_it_stands
@@ -81,8 +81,8 @@ class StudyProgress:
     runs: list[RunProgress] = field(default_factory=list)
     workers: int = 1
     left_s: float | None = None
-    #: where ``workers`` comes from: "the study" (its manifest) or "--workers" (asked)
-    workers_from: str = "--workers"
+    #: where ``workers`` comes from: "the study" (its manifest) or "workers" (the setting given)
+    workers_from: str = "workers"
     #: rows of the folder's files that could not be read (skipped), each naming its line
     skipped: list[str] = field(default_factory=list)
 
@@ -303,14 +303,14 @@ def study_status(folder: str | Path, *, workers: int | None = None,
     if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool)
                                 or workers < 1):
         raise InputError(f"must be a whole number of at least 1, got {workers!r}",
-                         culprit="--workers")
-    specs = read_current(out, culprit=f"--status {out}")
+                         culprit=setting("workers"))
+    specs = read_current(out, culprit=setting("status", out))
     now = time.time() if now is None else now
     skipped: list[str] = []
     ended_attempts = _attempt_seconds(out, skipped)
     recorded = _study_workers(out) if workers is None else None
     progress = StudyProgress(folder=out, workers=workers or recorded or 1,
-                             workers_from="the study" if recorded else "--workers",
+                             workers_from="the study" if recorded else "workers",
                              skipped=skipped)
     for run_id, spec in sorted(specs.items(), key=lambda item: _natural(str(item[0]))):
         n_trials, n_sessions = _run_size(out, run_id, spec)

@@ -65,7 +65,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any, Sequence
 
-from ...errors import EnvironmentFault, InputError
+from ...errors import EnvironmentFault, InputError, setting
 from ...reading import read_bytes, read_json
 from ..runtime.cluster import check_scheduler, check_workers, connect_cluster
 from ..runtime.workers import default_workers
@@ -231,18 +231,18 @@ def _check_folder(study: Study, out: Path) -> None:
         try:
             known = read_json(index_path)["runs"]
         except (OSError, ValueError, KeyError):
-            raise InputError(f"{STUDY_INDEX} is unreadable", culprit=f"--out {out}") from None
+            raise InputError(f"{STUDY_INDEX} is unreadable", culprit=setting("out", out)) from None
     elif any(out.iterdir()):
         raise InputError(f"is not empty and holds no study (no {STUDY_INDEX}); "
-                         f"use a new folder", culprit=f"--out {out}")
+                         f"use a new folder", culprit=setting("out", out))
     if index_path.exists():
         try:
             name = read_json(index_path)["name"]
         except (OSError, ValueError, KeyError):
-            raise InputError(f"{STUDY_INDEX} is unreadable", culprit=f"--out {out}") from None
+            raise InputError(f"{STUDY_INDEX} is unreadable", culprit=setting("out", out)) from None
         if name != study.name:
             raise InputError(f"belongs to study '{name}', not '{study.name}' "
-                             f"(use a new --out)", culprit=f"--out {out}")
+                             f"(use a new {setting('out')})", culprit=setting("out", out))
         _check_overrides(study, out, json.loads(index_path.read_text()).get("overrides") or {})
     specs = {}
     if index_path.exists():
@@ -255,8 +255,8 @@ def _check_folder(study: Study, out: Path) -> None:
         if fp is not None and fp != run.fingerprint():
             changed = _what_changed(specs.get(run.run_id), json.loads(json.dumps(asdict(run))))
             raise InputError(f"run '{run.run_id}' there has other settings than "
-                             f"in {study.path.name}{changed} (use a new --out, or undo the "
-                             f"change to continue it)", culprit=f"--out {out}")
+                             f"in {study.path.name}{changed} (use a new {setting('out')}, or "
+                             f"undo the change to continue it)", culprit=setting("out", out))
 
 
 def _assignments(items: Any) -> dict[str, str] | None:
@@ -302,20 +302,21 @@ def _check_overrides(study: Study, out: Path, recorded: dict[str, Any]) -> None:
     it, other overrides (or none where it had some) are refused naming the option, as an edited
     study file that changes its runs is."""
     given = study.overrides.record()
-    for key in ("seeds", "sessions", "set"):
+    for key, name in (("seeds", "seeds"), ("sessions", "sessions"), ("set", "overrides")):
         was, now = recorded.get(key), given.get(key)
         if was == now:
             continue
-        option = f"--{key}"
+        option = setting(name)
 
         def said(v: Any) -> str:
             if v is None:
                 return f"without {option}"
-            return f"with {option} " + (" --set ".join(v) if isinstance(v, list) else str(v))
+            return "with " + " ".join(str(option.given(x)) for x in (v if isinstance(v, list)
+                                                                   else [v]))
 
         raise InputError(f"{out} holds the study run {said(was)}, not {said(now)}; a study "
                          f"folder keeps its overrides: run the same command again to continue "
-                         f"it, or use a new --out", culprit=option)
+                         f"it, or use a new {setting('out')}", culprit=option)
 
 
 def _check_checkpoints(pending: Sequence[RunSpec], folders: dict[str, Path]) -> None:
@@ -331,7 +332,7 @@ def _check_checkpoints(pending: Sequence[RunSpec], folders: dict[str, Path]) -> 
             payload = read_checkpoint(folder / CHECKPOINT)
             if payload["fingerprint"] != r.train_settings().fingerprint():
                 raise InputError("belongs to other settings than its run in the study file "
-                                 "(use a new --out)", culprit=folder / CHECKPOINT)
+                                 f"(use a new {setting('out')})", culprit=folder / CHECKPOINT)
 
 
 def _save_index(study: Study, out: Path) -> None:
@@ -366,27 +367,27 @@ def prepare_study(study: Study, out: Path, *, workers: int | None = None,
     if scheduler is None:  # a local cluster of that many processes: bounded by the cores
         check_workers(workers)
     elif workers is not None and workers < 1:
-        raise InputError(f"must be at least 1, got {workers}", culprit="--workers")
+        raise InputError(f"must be at least 1, got {workers}", culprit=setting("workers"))
     if scheduler is not None:  # a short probe now, not a long wait (or a strange error) later
         check_scheduler(scheduler)
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise InputError("exists and is not a folder", culprit=f"--out {out}")
+        raise InputError("exists and is not a folder", culprit=setting("out", out))
     # the study file (and a worlds file it names) is never the folder nor inside it; what
     # --overwrite replaces is a folder astrocpg wrote, never the user's own files
     worlds = (study.evaluate or {}).get("worlds")
     inputs = [study.path, *([worlds] if isinstance(worlds, str) and os.path.isfile(worlds)
                             else [])]
-    check_output_path(out, inputs, culprit=f"--out {out}")
+    check_output_path(out, inputs, culprit=setting("out", out))
     # a study running there (or one started a moment before): "in use", never a reason read
     # from the half-written folder
-    refuse_in_use(out, culprit=f"--out {out}")
+    refuse_in_use(out, culprit=setting("out", out))
     if overwrite and holds_results(out):
-        check_replaceable(out, culprit=f"--out {out}", command="study")
+        check_replaceable(out, culprit=setting("out", out), command="study")
     if plan_from is not None:  # named now, also where a resumed folder keeps its plan
         from .measured import results_table
 
-        results_table(Path(plan_from), "--plan-from")
+        results_table(Path(plan_from), setting("plan_from"))
     # --overwrite starts afresh: the batch the old folder began with does not count
     return resolve_batch(study, None if overwrite else out, workers=workers,
                          scheduler=scheduler, progress=progress,
@@ -409,7 +410,7 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
         try:
             _check_folder(study, out)
         except InputError:  # a study that took the folder since: that is the reason
-            refuse_in_use(out, culprit=f"--out {out}")
+            refuse_in_use(out, culprit=setting("out", out))
             raise
     created = not out.exists()
     try:
@@ -417,9 +418,9 @@ def run_study(study: Study, out: Path, *, workers: int | None = None,
     except OSError as e:
         raise EnvironmentFault.from_os_error(e, out, "cannot create the folder") from None
     try:
-        with FolderLock(out, culprit="--out"):
+        with FolderLock(out, culprit=setting("out")):
             if overwrite:
-                clear_folder(out, culprit=f"--out {out}")
+                clear_folder(out, culprit=setting("out", out))
             clean_stale_temporaries(out)
             return _run_study_locked(study, out, workers=workers, scheduler=scheduler,
                                      progress=progress)

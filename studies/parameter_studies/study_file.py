@@ -21,7 +21,7 @@ import numpy as np
 from ...coupling.assembly import check_models
 from ...coupling.recorder import RecordPlan
 from ...coupling.training import session_steps
-from ...errors import InputError, did_you_mean
+from ...errors import Field, InputError, did_you_mean, setting
 from ...reading import loads_toml
 from ...models import DEFAULT_MODELS
 from ..runtime.resources import check_memory, estimate_bytes, estimate_wall_seconds
@@ -133,14 +133,14 @@ def study_overrides(seeds: Any = None, sessions: Any = None,
     text: str | None = None
     if seeds is not None:
         if isinstance(seeds, bool):
-            raise InputError(f"expected {SEEDS_GRAMMAR}, got {seeds!r}", culprit="--seeds")
+            raise InputError(f"expected {SEEDS_GRAMMAR}, got {seeds!r}", culprit=setting("seeds"))
         if isinstance(seeds, int):
             seeds = str(seeds)
         if isinstance(seeds, (list, tuple)):
             if not seeds or not all(isinstance(x, int) and not isinstance(x, bool)
                                     for x in seeds):
                 raise InputError(f"expected a non-empty list of integers, got {seeds!r}",
-                                 culprit="--seeds")
+                                 culprit=setting("seeds"))
             seeds_list, text = tuple(seeds), ",".join(map(str, seeds))
         elif isinstance(seeds, str):
             text = seeds.strip()
@@ -149,10 +149,10 @@ def study_overrides(seeds: Any = None, sessions: Any = None,
                 first, last = int(m.group(1)), int(m.group(2))
                 if last < first:
                     raise InputError(f"{text}: the last seed is before the first",
-                                     culprit="--seeds")
+                                     culprit=setting("seeds"))
                 if last - first + 1 > MAX_SEEDS:
                     raise InputError(f"{text}: {last - first + 1} seeds is more than "
-                                     f"{MAX_SEEDS}", culprit="--seeds")
+                                     f"{MAX_SEEDS}", culprit=setting("seeds"))
                 seeds_list = tuple(range(first, last + 1))
             elif re.fullmatch(r"\d+(\s*,\s*\d+)+\s*,?", text):
                 seeds_list = tuple(int(x) for x in text.split(",") if x.strip())
@@ -160,37 +160,39 @@ def study_overrides(seeds: Any = None, sessions: Any = None,
                 count = int(text)
                 if not 1 <= count <= MAX_SEEDS:
                     raise InputError(f"a count of seeds must be 1 to {MAX_SEEDS}, got {count}",
-                                     culprit="--seeds")
+                                     culprit=setting("seeds"))
             else:
-                raise InputError(f"expected {SEEDS_GRAMMAR}, got {seeds!r}", culprit="--seeds")
+                raise InputError(f"expected {SEEDS_GRAMMAR}, got {seeds!r}",
+                                 culprit=setting("seeds"))
         else:
             raise InputError(f"expected {SEEDS_GRAMMAR}, got {type(seeds).__name__}",
-                             culprit="--seeds")
+                             culprit=setting("seeds"))
         if seeds_list is not None:
             if len(set(seeds_list)) != len(seeds_list):
-                raise InputError(f"{text} lists a seed twice", culprit="--seeds")
+                raise InputError(f"{text} lists a seed twice", culprit=setting("seeds"))
             if len(seeds_list) > MAX_SEEDS:
                 raise InputError(f"{len(seeds_list)} seeds is more than {MAX_SEEDS}",
-                                 culprit="--seeds")
+                                 culprit=setting("seeds"))
             if min(seeds_list) < 0 or max(seeds_list) > MAX_SEED:
-                raise InputError(f"seeds must be 0 to {MAX_SEED}, got {text}", culprit="--seeds")
+                raise InputError(f"seeds must be 0 to {MAX_SEED}, got {text}",
+                                 culprit=setting("seeds"))
             seeds_list = tuple(sorted(seeds_list))
     if isinstance(sessions, str):  # the command line's text: parsed, never eval-ed
         try:
             sessions = int(sessions, 10)
         except ValueError:
             raise InputError(f"expected a whole number, got {sessions!r}",
-                             culprit="--sessions") from None
-    n = None if sessions is None else number(sessions, "--sessions", integer=True, minimum=1)
+                             culprit=setting("sessions")) from None
+    n = None if sessions is None else number(sessions, setting("sessions"), integer=True, minimum=1)
     items = override_items(sets)
     for item in items:
         name, eq, value = item.partition("=")
         if not eq or not name.strip() or not value.strip():
-            raise InputError(f"expected NAME=VALUE, got {item!r}", culprit="--set")
+            raise InputError(f"expected NAME=VALUE, got {item!r}", culprit=setting("overrides"))
     names = [i.partition("=")[0].strip() for i in items]
     twice = next((x for x in names if names.count(x) > 1), None)
     if twice is not None:
-        raise InputError(f"{twice} is set twice", culprit=f"--set {twice}")
+        raise InputError(f"{twice} is set twice", culprit=setting("overrides", twice))
     return StudyOverrides(seeds=seeds_list, count=count, sessions=n, sets=tuple(items),
                           seeds_text=text)
 
@@ -239,12 +241,14 @@ def _value_text(key: str, value: Any, where: str) -> str:
     return str(value)
 
 
-def _check_override(models, key: str, value: str, where: str) -> str:
+def _check_override(models, key: str, value: str, where: Any) -> str:
     item = f"{key}={value}"
     try:
         models.parse_assignment(item)
     except InputError as e:
-        raise InputError(f"{e}", culprit=where) from None
+        # an override given as a setting already names the parameter: said once, not twice
+        said = e.raw_message if isinstance(where, Field) else e.raw_line
+        raise InputError(said, culprit=where) from None
     return item
 
 
@@ -303,7 +307,7 @@ def parse_study(text: str, p: Path, batch_given: int | None,
     elif given.count is not None:
         if seeds[0] + given.count - 1 > MAX_SEED:
             raise InputError(f"{given.count} seeds from {seeds[0]} go past {MAX_SEED}",
-                             culprit="--seeds")
+                             culprit=setting("seeds"))
         seeds = list(range(seeds[0], seeds[0] + given.count))
     batch_setting, batch = _batch(head, seeds, n_sessions, batch_given, where)
     populations = _population_files(p, head.get("populations"), where)
@@ -355,17 +359,19 @@ def _apply_sets(doc: dict[str, Any], models, base: list[str], axes: dict[str, li
     for item in sets:
         name, _, value = item.partition("=")
         name, value = name.strip(), value.strip()
-        culprit = f"--set {name}"
+        culprit = setting("overrides", name)
         if name in axes:
             raise InputError(f"the study sweeps {name} ([sweep.axes] of {where[6:]}): every "
-                             f"run takes its axis value; drop --set or the axis", culprit=culprit)
+                             f"run takes its axis value; drop {setting('overrides')} or the axis",
+                             culprit=culprit)
         if isinstance(conditions, dict):
             for cname, cond in conditions.items():
                 if isinstance(cond, dict) and (
                         name in (cond.get("set") or {})
                         or (name == "astrocyte_regulation" and cond.get("astrocytes") is False)):
                     raise InputError(f"condition '{cname}' of {where[6:]} sets {name}: its "
-                                     f"runs take the condition's value; drop --set or edit "
+                                     f"runs take the condition's value; drop "
+                                     f"{setting('overrides')} or edit "
                                      f"the condition", culprit=culprit)
         checked = _check_override(models, name, value, culprit)
         out = [b for b in out if b.partition("=")[0] != name] + [checked]
@@ -558,12 +564,12 @@ def _runs(doc: dict[str, Any], slots: set[str], base_files: dict[str, Any], mode
                                                            for o in overrides))
                 session_steps(run_models, STEP)  # whole steps, before anything runs
             except InputError as e:
-                raise InputError(f"{e}", culprit=cw) from None
+                raise InputError(e.raw_line, culprit=cw) from None
             try:  # what a run's build would refuse (delays, world): now, not in every run
                 check_models(run_models)
             except InputError as e:
                 at = ", ".join(f"{k}={v}" for k, v in point.items())
-                raise InputError(f"{'point ' + at + ': ' if at else ''}{e}", culprit=cw) \
+                raise InputError(f"{'point ' + at + ': ' if at else ''}{e.raw_line}", culprit=cw) \
                     from None
             session_s = run_models.value("L_max")
             tag = "_".join(f"{k}={_slug(v)}" for k, v in point.items())
@@ -651,7 +657,9 @@ def _evaluate_table(doc: Any, study: Path, where: str) -> dict[str, Any] | None:
                          culprit=where)
     if worlds not in BUILTIN_WORLDS:
         worlds = str((study.parent / worlds).resolve())
-    n_worlds = len(read_worlds(worlds, DEFAULT_MODELS).worlds)
+    # named by its place in the study file: a study has no worlds setting of its own
+    n_worlds = len(read_worlds(worlds, DEFAULT_MODELS,
+                               culprit=f"{where} [evaluate] worlds {doc.get('worlds', worlds)}").worlds)
     seconds, repeats = doc.get("seconds", 10.0), doc.get("repeats", 5)
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not seconds > 0:
         raise InputError("[evaluate] seconds must be a positive number", culprit=where)

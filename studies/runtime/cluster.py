@@ -10,7 +10,7 @@ import socket
 import time
 from typing import Any, Callable, Sequence
 
-from ...errors import InputError
+from ...errors import Field, InputError, setting, shown_with
 from .workers import MAX_WORKERS_PER_CORE, default_workers
 
 
@@ -41,7 +41,7 @@ def cores() -> int:
     return default_workers()
 
 
-def check_workers(workers: int | None, culprit: str = "--workers") -> int | None:
+def check_workers(workers: int | None, culprit: str | Field = setting("workers")) -> int | None:
     """``workers`` for a local cluster: at least 1 and at most :data:`MAX_WORKERS_PER_CORE`
     per core of this machine (InputError naming ``culprit``), or None (one per core)."""
     if workers is None:
@@ -53,7 +53,7 @@ def check_workers(workers: int | None, culprit: str = "--workers") -> int | None
         raise InputError(f"{workers} worker processes on {n} core(s) is more than "
                          f"{MAX_WORKERS_PER_CORE} per core (at most "
                          f"{MAX_WORKERS_PER_CORE * n} here; each worker trains on one core)",
-                         culprit=f"{culprit} {workers}")
+                         culprit=shown_with(culprit, workers))
     return workers
 
 
@@ -69,7 +69,7 @@ def connect_cluster(workers: int | None, scheduler: str | None):
             return Client(scheduler, timeout="10s"), None
         except Exception as e:  # OSError / TimeoutError / ValueError for a bad address
             first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-            raise InputError(f"cannot connect ({first})", culprit=f"--scheduler {scheduler}") \
+            raise InputError(f"cannot connect ({first})", culprit=setting("scheduler", scheduler)) \
                 from None
     n = check_workers(workers) or default_workers()
     check_main_guarded()
@@ -175,7 +175,7 @@ def check_scheduler(scheduler: str) -> None:
     Dask's client waiting out its whole timeout), or a server that speaks something else (an
     HTTP server such as the dashboard, SSH). ``tcp://`` addresses are probed; other protocols
     (tls://, ucx://, inproc://) are left to Dask's client."""
-    culprit = f"--scheduler {scheduler}"
+    culprit = setting("scheduler", scheduler)
     if not isinstance(scheduler, str) or not scheduler.strip():
         raise InputError("needs an address such as tcp://127.0.0.1:8786", culprit=culprit)
     text = scheduler.strip()

@@ -5,9 +5,9 @@ machine part-way through."""
 from __future__ import annotations
 
 import os
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
-from ...errors import InputError
+from ...errors import InputError, setting
 
 # Measured (build_cpg + a short run, RSS difference between 1 and 33 trials): 0.33 MB of Brian2
 # state per trial; with its MjData, bridge arrays and code-object buffers we count 1 MB.
@@ -91,13 +91,27 @@ def estimate_batched(workers: int, *, trials: int, **sizes: Any) -> int:
     return per_batch + 2 * estimate_bytes(trials=trials, **held)
 
 
-def check_memory(needed: int, culprit: str) -> None:
-    """Refuse (InputError) a plan that needs more memory than the machine has available."""
+#: the settings that record less, as a remedy names them (spikes and traces: set to none)
+RECORD_LESS = ("spikes", "traces", "trace_dt", "robot_stride")
+
+
+def check_memory(needed: int, culprit: Any, record_less: Sequence[str] = ()) -> None:
+    """Refuse (InputError) a plan that needs more memory than the machine has available.
+    ``record_less``: the settings of the caller (of :data:`RECORD_LESS`) that would record less,
+    named as a remedy; a command that has none of them is not told to use them."""
     have = available_memory()
     if needed > have:
         raise InputError(f"needs about {_gib(needed)} of memory; this machine has "
-                         f"{_gib(have)} available (fewer trials, a shorter run, or record less: "
-                         f"--spikes/--traces none, --trace-dt, --robot-stride)", culprit=culprit)
+                         f"{_gib(have)} available (fewer trials, a shorter run"
+                         f"{_record_less_words(record_less)})", culprit=culprit)
+
+
+def _record_less_words(names: Sequence[str]) -> str:
+    """``, or record less: spikes/traces none, trace_dt`` (as fields), or "" for none."""
+    none = [str(setting(n)) for n in names if n in ("spikes", "traces")]
+    said = ["/".join(none) + " none"] if none else []
+    said += [str(setting(n)) for n in names if n not in ("spikes", "traces")]
+    return f", or record less: {', '.join(said)}" if said else ""
 
 
 def _gib(n: float) -> str:

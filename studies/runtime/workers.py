@@ -19,7 +19,7 @@ import signal
 import sys
 from typing import Any, Callable, Sequence
 
-from ...errors import InputError
+from ...errors import Field, InputError, setting, shown_with
 
 #: A command has at most this many worker processes per core: each simulates on one core, so
 #: more only share the cores (and each holds its own Brian2 and MuJoCo).
@@ -37,7 +37,7 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def check_workers(workers: Any, culprit: str = "--workers") -> int | None:
+def check_workers(workers: Any, culprit: str | Field = setting("workers")) -> int | None:
     """``workers`` checked: a whole number, at least 1 and at most
     :data:`MAX_WORKERS_PER_CORE` per core here (InputError naming ``culprit``), or None (the
     default, :func:`default_workers`)."""
@@ -51,11 +51,11 @@ def check_workers(workers: Any, culprit: str = "--workers") -> int | None:
         raise InputError(f"{workers} worker processes on {n} core(s) is more than "
                          f"{MAX_WORKERS_PER_CORE} per core (at most "
                          f"{MAX_WORKERS_PER_CORE * n} here; each worker simulates on one core)",
-                         culprit=f"{culprit} {workers}")
+                         culprit=shown_with(culprit, workers))
     return workers
 
 
-def resolve_workers(workers: Any, culprit: str = "--workers") -> int:
+def resolve_workers(workers: Any, culprit: str | Field = setting("workers")) -> int:
     """``workers`` checked (:func:`check_workers`), None as :func:`default_workers`; in a
     daemonic process (a Dask worker, a multiprocessing pool's worker), which may start no
     processes of its own, None is 1 and more is refused."""
@@ -72,8 +72,9 @@ def resolve_workers(workers: Any, culprit: str = "--workers") -> int:
 
 
 def workers_words(procs: int) -> str:
-    """`` x --workers N`` for a culprit where more than one process works, else nothing."""
-    return f" x --workers {procs}" if procs > 1 else ""
+    """`` x workers=N`` (as each door names it) for a culprit where more than one process
+    works, else nothing."""
+    return f" x {setting('workers', procs)}" if procs > 1 else ""
 
 
 def split_trials(n_trials: int, workers: int) -> list[tuple[int, int]]:
