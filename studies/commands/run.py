@@ -32,6 +32,7 @@ from .settings import (added_populations, number, population_models, population_
                        same_populations, seed_number)
 from ..runtime.resources import RECORD_LESS, check_memory, estimate_batched, estimate_bytes
 from ..runtime.workers import resolve_workers, workers_words
+from ..settings import RunSettings
 from .batched import try_batched
 from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
                        check_trace_dtype,
@@ -160,18 +161,14 @@ def _plan_run(a: dict[str, Any], rows: Sequence[Any]) -> RunPlan:
                        added=[r.model for r in rows])
     table, weights, tables_label = _weights_table(weights, trial, trials, models)
     params, model, layout = _robot_world(models, robot)
-    record = a["population_record"]
-    settings = {
-        "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-        "trace_dtype": trace_dtype, "robot_stride": robot_stride,
-        "overrides": override_items(a["overrides"]), "equations": dict(a["equations"] or {}),
-        "spikes": a["spikes"], "traces": a["traces"],
-        "weights": None if weights is None or isinstance(weights, np.ndarray)
-        else str(weights), "trial": trial, "robot": None if robot is None else str(robot),
-        **({} if tables_label is None else {"tables": tables_label}),
-        "figure": bool(a["figure"]),
-        **({"models": files} if files else {}),  # each model file's content and sha256
-        **({"populations": record} if record else {})}  # each added population's model file
+    values = RunSettings(
+        seconds=seconds, seed=seed, trials=trials, trace_dt=trace_dt, trace_dtype=trace_dtype,
+        robot_stride=robot_stride, overrides=override_items(a["overrides"]),
+        equations=a["equations"], spikes=a["spikes"], traces=a["traces"],
+        weights=None if weights is None or isinstance(weights, np.ndarray) else str(weights),
+        trial=trial, robot=None if robot is None else str(robot), tables=tables_label,
+        figure=a["figure"], models=files, populations=a["population_record"])
+    settings = values.record()
     robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
                   else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
     return RunPlan(settings=settings, models=models, model=model, layout=layout, table=table,

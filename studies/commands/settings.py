@@ -11,43 +11,8 @@ from ...errors import Field, InputError, setting, shown_with
 from ...network import populations as _table
 from ...network.populations import Population, population_from_toml
 from ...network.runlock import RUN_LOCK
-from ...models.units import finite_number
+from ..settings.checks import MAX_GRID, MAX_SEED, check_grid, number, seed_number  # noqa: F401
 
-
-def number(value: Any, culprit: str, *, integer: bool = False, minimum: float | None = None,
-           positive: bool = False) -> Any:
-    """A finite number (int if ``integer``) within bounds, or an InputError naming the culprit
-    (:func:`astrocpg.models.units.finite_number`)."""
-    return finite_number(value, culprit=culprit, kind=int if integer else float,
-                         minimum=minimum, strictly_positive=positive)
-
-
-#: Brian2 seeds its (and numpy's legacy) generator with an unsigned 32-bit integer.
-MAX_SEED = 2**32 - 1
-
-#: The most units of work one grid may hold, refused before any is built: a study's trainings
-#: (sweep points x conditions x seeds), the worlds of a worlds file and the cells of an
-#: evaluation (trained trainings x worlds; each cell one closed-loop simulation). There is no
-#: switch past it: split the work into several studies or worlds files.
-MAX_GRID = 100_000
-
-
-def check_grid(cells: int, what: str, culprit: str) -> None:
-    """Refuse a grid of more than :data:`MAX_GRID` ``cells``, in one line naming its size
-    (``what``: how it is made) and the bound."""
-    if cells > MAX_GRID:
-        raise InputError(f"{cells} {what} is more than {MAX_GRID}, the most one grid may hold "
-                         f"(split it into several files)", culprit=culprit)
-
-
-def seed_number(value: Any, culprit: str | Field = setting("seed"), trials: int = 1) -> int:
-    """A seed for ``trials`` trials (seeds value .. value + trials - 1), each in Brian2's range
-    0 .. 2**32 - 1, or an InputError naming the culprit."""
-    seed = number(value, culprit, integer=True, minimum=0)
-    if seed + trials - 1 > MAX_SEED:
-        raise InputError(f"must be at most {MAX_SEED - trials + 1} (seeds of {trials} trial(s) "
-                         f"up to 2**32 - 1), got {seed}", culprit=culprit)
-    return seed
 
 
 def population_rows(populations: Any, option: str | Field = setting("populations")

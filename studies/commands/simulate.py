@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from collections.abc import Iterable
 from typing import Any
 
 import mujoco
@@ -16,15 +15,16 @@ from brian2 import NetworkOperation, ms, second
 from ...coupling.assembly import build_closed_loop
 from ...coupling.bridge import ORDER_MEASURE
 from ...coupling.robot_recording import Recording
-from ...coupling.robot import A1Parameters, RobotLayout
-from ...errors import Diverged, Field, InputError, did_you_mean, setting
+from ...coupling.robot import RobotLayout
+from ...errors import Diverged
 from ...models import ModelSet
-from ...models.units import whole_steps
 from ...network import (CPG, DivergenceCheck, build_cpg, check_runs, exclusive,
                         network_time, run_network)
 from ...network.populations import BUILT_IN, spike_populations, trace_sources
-from ...network.recording import TRACE_DTYPES, SpikeRecorder, TraceRecorder
+from ...network.recording import SpikeRecorder, TraceRecorder
 from ..runtime.progress import time_bar
+from ..settings.checks import (STEP, check_duration, check_selection,  # noqa: F401 (their home)
+                               check_trace_dt, check_trace_dtype, names_list)
 
 
 
@@ -40,44 +40,6 @@ class SimulationResult:
     wall_seconds: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
     monitors: dict[str, Any] = field(default_factory=dict)  # the Brian2 monitors, by name
-
-
-def names_list(value: Any, culprit: str) -> tuple[str, ...]:
-    """Names from a list (tuple, set...) of texts or one text of names separated by commas
-    (never read one character at a time); InputError naming ``culprit`` for anything else."""
-    if isinstance(value, str):
-        text = value.strip()
-        return () if text in ("", "none") else tuple(x.strip() for x in text.split(","))
-    if isinstance(value, (bytes, bytearray)) or not isinstance(value, Iterable):
-        raise InputError(f"expected names (a list of texts, or one text of names separated by "
-                         f"commas), got {type(value).__name__}", culprit=culprit)
-    names = tuple(value)
-    for name in names:
-        if not isinstance(name, str):
-            raise InputError(f"expected names as text, got {name!r} ({type(name).__name__})",
-                             culprit=culprit)
-    return names
-
-
-def check_selection(spikes: tuple[str, ...] | None,
-                    traces: tuple[str, ...] | None) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """Validate which populations' spikes and which traces to record (None: all). Each is a
-    list of names or one text of names separated by commas (``"motor"``, ``"motor,astrocyte"``;
-    ``"none"`` or ``""``: nothing), as the command line takes them. The names are the
-    population table's (:mod:`astrocpg.network.populations`), added rows included."""
-    POPULATIONS, TRACES = spike_populations(), tuple(trace_sources())
-    spikes = POPULATIONS if spikes is None else names_list(spikes, setting("spikes"))
-    traces = TRACES if traces is None else names_list(traces, setting("traces"))
-    for name in spikes:
-        if name not in POPULATIONS:
-            raise InputError(f"unknown population '{name}'{did_you_mean(name, POPULATIONS)} "
-                             f"(populations: {', '.join(POPULATIONS)})", culprit=setting("spikes"))
-    for name in traces:
-        if name not in TRACES:
-            raise InputError(f"unknown trace '{name}'{did_you_mean(name, TRACES)} (traces: "
-                             f"{', '.join(TRACES)})",
-                             culprit=setting("traces"))
-    return spikes, traces
 
 
 #: what a built-in network can record (the default of add_monitors)
@@ -318,31 +280,6 @@ def _run(cpg: CPG, seconds: float, bar: _Progress) -> float:
 
 
 # The CPG steps with the physics (the A1 model's timestep, 1 ms)
-STEP = A1Parameters().timestep
-
-
-def check_duration(seconds: float, dt: float = STEP,
-                   culprit: str | Field = setting("seconds")) -> int:
-    """A run lasts a whole number of steps, at least one; returns that number (an
-    InputError names ``culprit`` and the nearest valid durations otherwise)."""
-    if not np.isfinite(seconds) or seconds <= 0:
-        raise InputError(f"must be positive, got {seconds:g}", culprit=culprit)
-    return whole_steps(seconds, dt, culprit=culprit, unit="s")
-
-
-def check_trace_dt(trace_dt_ms: float, dt: float = STEP,
-                   culprit: str | Field = setting("trace_dt")) -> int:
-    """A trace sampling interval (ms) is a whole number of steps: samples are taken at steps,
-    and labelled with the sampling times. Returns the steps between samples."""
-    return whole_steps(trace_dt_ms, dt * 1e3, culprit=culprit, unit="ms")
-
-
-def check_trace_dtype(dtype: Any, culprit: str | Field = setting("trace_dtype")) -> str:
-    """What the traces are kept as: "float32" or "float64" (InputError otherwise)."""
-    if dtype not in TRACE_DTYPES:
-        raise InputError(f"must be one of {', '.join(TRACE_DTYPES)}, got {dtype!r}",
-                         culprit=culprit)
-    return str(dtype)
 
 
 def firing_rates(result: SimulationResult) -> dict[str, Any]:

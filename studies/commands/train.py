@@ -61,9 +61,11 @@ from .simulate import check_selection, check_trace_dtype
 CHECKPOINT_SPACING = 49.0
 
 
-@dataclass
+@dataclass(frozen=True)
 class TrainSettings:
-    """What defines a training run (a resumed run must have the same)."""
+    """What defines a training run (a resumed run must have the same): one value, which cannot
+    change once built; the manifest and the checkpoint record it (:meth:`record`), and a
+    resume reads it back (:meth:`from_record`)."""
 
     n_sessions: int
     seed: int
@@ -95,6 +97,15 @@ class TrainSettings:
         if not out["populations"]:
             del out["populations"]
         return out
+
+    #: what a training's manifest records beside its settings: how it records, what it replays
+    NOT_SETTINGS = ("record", "replay_of")
+
+    @classmethod
+    def from_record(cls, record: dict[str, Any]) -> "TrainSettings":
+        """The settings a manifest's or a checkpoint's ``settings`` record (:meth:`record`),
+        without what the manifest records beside them (:data:`NOT_SETTINGS`)."""
+        return cls(**{k: v for k, v in record.items() if k not in cls.NOT_SETTINGS})
 
 
 class TrainingStopped(RuntimeError):
@@ -942,10 +953,8 @@ def _stored_training(out: Path) -> tuple[dict[str, Any], TrainSettings, bool]:
     if manifest is None or manifest.get("astrocpg_command") != "train":
         raise InputError(f"holds no training (no {CHECKPOINT}, no training manifest)",
                          culprit=setting("resume", out))
-    stored_settings = {k: v for k, v in manifest["settings"].items()
-                       if k not in ("record", "replay_of")}
-    payload = {"settings": stored_settings, "record_plan": manifest["settings"].get("record")}
-    settings = TrainSettings(**stored_settings)
+    settings = TrainSettings.from_record(manifest["settings"])
+    payload = {"settings": settings.record(), "record_plan": manifest["settings"].get("record")}
     payload["fingerprint"] = settings.fingerprint()
     return payload, settings, True
 

@@ -21,6 +21,7 @@ from ..outputs.writing import save_spikes_and_traces, write_manifest
 from ..outputs.result import Result
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from .settings import added_populations, number, population_rows, seed_number
+from ..settings import UnitSettings
 from ..runtime.resources import check_memory, estimate_batched
 from ..runtime.workers import resolve_workers
 from .batched import BatchedCPG, try_batched
@@ -119,14 +120,11 @@ def _plan_unit(a: dict[str, Any], rows: Sequence[Any]) -> tuple[dict[str, Any], 
     files = model_files_record(a["models"])
     models = model_set(a["overrides"], a["equations"], models=a["models"],
                        added=[r.model for r in rows])
-    record = a["population_record"]
-    settings = {
-        "seconds": seconds, "seed": seed, "trials": trials, "trace_dt": trace_dt,
-        "trace_dtype": trace_dtype, "overrides": override_items(a["overrides"]),
-        "equations": dict(a["equations"] or {}), "spikes": a["spikes"], "traces": a["traces"],
-        **({"models": files} if files else {}),  # each model file's content and sha256
-        **({"populations": record} if record else {})}  # each added population's model file
-    return settings, models, procs
+    values = UnitSettings(seconds=seconds, seed=seed, trials=trials, trace_dt=trace_dt,
+                          trace_dtype=trace_dtype, overrides=override_items(a["overrides"]),
+                          equations=a["equations"], spikes=a["spikes"], traces=a["traces"],
+                          models=files, populations=a["population_record"])
+    return values.record(), models, procs
 
 
 def _unit_planned(settings: dict[str, Any], models: Any, procs: int,
