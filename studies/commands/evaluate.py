@@ -36,7 +36,7 @@ import numpy as np
 from ..runtime.cells import pending, run_cells
 from ..runtime.cluster import check_scheduler, check_workers
 from ..runtime.workers import default_workers
-from ...errors import Diverged, InputError, setting
+from ...errors import KEYWORDS, Diverged, InputError, setting
 from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
@@ -291,7 +291,7 @@ def _tables_label(controllers: Sequence[Mapping[str, Any]], session: int | None)
         else:  # a run folder: the tables its trials ran with, no sessions
             continue
         if state["warning"]:
-            warnings.warn(state["warning"], UserWarning, stacklevel=3)
+            warnings.warn(KEYWORDS(state["warning"]), UserWarning, stacklevel=3)
         labels.append(state["label"])
     if not labels:  # run folders only: each ran with a fixed table
         return "as run"

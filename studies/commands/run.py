@@ -14,7 +14,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ...errors import Diverged, InputError, setting
+from ...errors import KEYWORDS, Diverged, InputError, setting
 from ...network import recording
 from ...network.populations import trace_columns
 from ...network.recording import overflow_words, overflowed
@@ -317,7 +317,7 @@ def _weights_table(weights: Any, trial: int | None, trials: int, models: Any
             state = tables_state(weights)
             tables_label = state["label"]
             if state["warning"]:
-                warnings.warn(state["warning"], UserWarning, stacklevel=3)
+                warnings.warn(KEYWORDS(state["warning"]), UserWarning, stacklevel=3)
     else:  # an array with a unit (mV, like every file and ac.load(...).weights)
         table = array_table(weights)
         check_table(table, models, "weights")  # in the synapse's range, as a file's is
@@ -814,7 +814,7 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
     if (Path(folder) / "weights.npz").is_file():  # a training's: final, or said otherwise
         state = tables_state(folder)
         if state["warning"]:
-            warnings.warn(state["warning"], UserWarning, stacklevel=2)
+            warnings.warn(KEYWORDS(state["warning"]), UserWarning, stacklevel=2)
     populations = settings.get("populations")
     with added_populations(populations):
         models = trained_models(settings)

@@ -20,7 +20,8 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import EnvironmentFault, Field, InputError, did_you_mean, setting, shown_with
+from ...errors import (EnvironmentFault, Field, InputError, advice, did_you_mean, setting,
+                      shown_with)
 from ...network import interlimb_labels
 from ...reading import (MAX_TABLE_BYTES, check_npy, check_npz, check_regular, loads_json,
                         open_regular, read_bytes)
@@ -280,6 +281,6 @@ def tables_state(folder: str | Path) -> dict[str, Any]:
     elif not final:
         warning = (f"{p} stopped before its end: its tables are those {after}"
                    + (f" of {planned}" if planned else "")
-                   + " (continue it with astrocpg train --resume)")
+                   + f" (continue it with {advice('resume', p)})")
     return {"final": final, "running": running, "sessions_done": [lo, hi], "sessions": planned,
             "label": label, "warning": warning}
