@@ -45,3 +45,15 @@ def test_the_suite_runs_from_a_clone_of_any_name(tmp_path, name):
                          cwd=clone, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-3000:]
     assert "2 passed" in run.stdout
+
+
+def test_no_test_puts_the_checkouts_parent_on_the_import_path():
+    """A test that puts the folder above the checkout on PYTHONPATH or sys.path makes the clone's
+    folder importable under its own name: a clone in copy/ then shadows the standard library's
+    copy in that process (the installed astrocpg is what a test imports)."""
+    import re
+
+    above = re.compile(r"(PYTHONPATH|sys\.path).*(parents\[1\]|ROOT\.parent|\.parent\.parent)")
+    found = [f"{p.name}:{k}" for p in sorted((ROOT / "tests").glob("*.py"))
+             for k, line in enumerate(p.read_text().splitlines(), 1) if above.search(line)]
+    assert found == []
