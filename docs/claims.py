@@ -477,12 +477,13 @@ def c_md_cell(file: str, row: str, column: str, block: str = "", other_column: s
 
 
 def c_md_summaries(file: str, row: str, column: str, other_column: str, n: int,
-                   other_n: int | None = None, block: str = "") -> dict[str, float]:
+                   other_n: int | None = None, block: str = "", ddof: int = 0
+                   ) -> dict[str, float]:
     """Two cells ``mean ± std`` of a committed markdown table whose per-seed values were not
     kept (the row as in :func:`c_md_cell`): ``a`` and ``b`` the means, ``d`` = a − b, and the
-    95 % Welch t interval of d from the two summaries (``n`` and ``other_n`` seeds; the std
-    as written, taken as the sample std). A summary allows no permutation test: the interval
-    is all the direction is read from."""
+    95 % Welch t interval of d from the two summaries (``n`` and ``other_n`` seeds; the std as
+    written has ``ddof``, 0 as astrocpg's tables write it, and is made the sample std). A
+    summary allows no permutation test: the interval is all the direction is read from."""
     from scipy import stats
 
     def cell(col: str) -> tuple[float, float]:
@@ -498,7 +499,9 @@ def c_md_summaries(file: str, row: str, column: str, other_column: str, n: int,
 
     (a, sa), (b, sb) = cell(column), cell(other_column)
     m = other_n or n
-    va, vb = sa ** 2 / n, sb ** 2 / m
+    # a std over n seeds with ddof 0 (as the tables are written) to the sample std (ddof 1)
+    ssa, ssb = sa * math.sqrt(n / (n - 1 + ddof)), sb * math.sqrt(m / (m - 1 + ddof))
+    va, vb = ssa ** 2 / n, ssb ** 2 / m
     se = math.sqrt(va + vb)
     dof = (va + vb) ** 2 / (va ** 2 / (n - 1) + vb ** 2 / (m - 1)) if se > 0 else n + m - 2
     half = float(stats.t.ppf(0.975, dof)) * se
@@ -510,8 +513,7 @@ def c_columns(table: str, other_table: str, column: str) -> dict[str, float]:
     """One numeric column of two committed CSV files (a value per seed each), unpaired, with
     astrocpg's own comparison (``astrocpg.studies.analysis.compare.compare``, what
     ``analyse.py columns`` prints): ``a``, ``b`` the means, ``d`` = a − b with its 95 %
-    bootstrap interval ``lo``, ``hi``, the permutation ``p`` and the Mann-Whitney ``mwu``;
-    ``less``, ``less_lo``, ``less_hi``: the same difference read as b − a."""
+    bootstrap interval ``lo``, ``hi``, the permutation ``p`` and the Mann-Whitney ``mwu``."""
     from astrocpg.studies.analysis.compare import compare
 
     def read(name: str) -> list[float]:
@@ -519,8 +521,7 @@ def c_columns(table: str, other_table: str, column: str) -> dict[str, float]:
     t = compare(read(table), read(other_table))
     return {"a": t["mean_a"], "b": t["mean_b"], "d": t["difference"],
             "lo": t["difference_low"], "hi": t["difference_high"], "p": t["perm_p"],
-            "mwu": t["mwu_p"], "less": -t["difference"], "less_lo": -t["difference_high"],
-            "less_hi": -t["difference_low"]}
+            "mwu": t["mwu_p"]}
 
 
 def c_csv_row(table: str, where: dict) -> dict[str, float]:

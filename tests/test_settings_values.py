@@ -72,6 +72,8 @@ def test_a_manifest_with_a_bad_or_unknown_setting_is_refused():
     good = RunSettings(seconds=0.1, seed=1, trials=1).record()
     with pytest.raises(InputError):
         RunSettings.from_record({**good, "seconds": -2})
+    with pytest.raises(InputError, match="expected a mapping"):   # a hand-edited text
+        RunSettings.from_record({**good, "equations": "dv/dt = -v/tau : volt"})
     with pytest.raises(InputError, match="does not know: speed"):
         RunSettings.from_record({**good, "speed": 3})
 

@@ -30,7 +30,7 @@ from ..outputs.weights import check_table, load_weights, tables_state
 from ...models.compose import Overrides, model_files_record, model_set, override_items
 from .settings import (added_populations, number, population_models, population_rows,
                        same_populations, seed_number)
-from ..runtime.resources import RECORD_LESS, check_memory, estimate_batched, estimate_bytes
+from ..runtime.resources import RECORD_LESS, check_memory, estimate_batched
 from ..runtime.workers import resolve_workers, workers_words
 from ..settings import RunSettings
 from .batched import try_batched

@@ -8,7 +8,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Mapping
 
-from ...errors import InputError
+from ...errors import InputError, setting
 from .checks import (STEP, check_duration, check_selection, check_trace_dt, check_trace_dtype,
                      names_list, number, seed_number)
 
@@ -18,11 +18,17 @@ def _names(value: Any, name: str) -> tuple[str, ...] | None:
     text of names separated by commas, "none"; a list of names): the names, in order. The
     command line's ``--spikes motor`` and Python's ``spikes="motor"`` or ``["motor"]`` are one
     setting, recorded alike."""
-    return None if value is None else names_list(value, _s(name))
+    return None if value is None else names_list(value, setting(name))
 
 
-def _frozen_mapping(value: Any) -> dict[str, Any]:
-    return {} if not value else {str(k): v for k, v in dict(value).items()}
+def _frozen_mapping(value: Any, name: str) -> dict[str, Any]:
+    """A mapping setting (``equations``, ``models``, ``populations``) as a dict; anything else
+    (a hand-edited manifest's text, say) refused naming the setting."""
+    if not value:
+        return {}
+    if not isinstance(value, Mapping):
+        raise InputError(f"expected a mapping, got {type(value).__name__}", culprit=setting(name))
+    return {str(k): v for k, v in value.items()}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,17 +59,17 @@ class UnitSettings:
     def __post_init__(self) -> None:
         """Checked when built, however built: a value that exists is one a command runs."""
         set_ = object.__setattr__
-        set_(self, "seconds", number(self.seconds, _s("seconds"), positive=True))
+        set_(self, "seconds", number(self.seconds, setting("seconds"), positive=True))
         check_duration(self.seconds, STEP)
-        set_(self, "trials", number(self.trials, _s("trials"), integer=True, minimum=1))
-        set_(self, "seed", seed_number(self.seed, _s("seed"), trials=self.trials))
-        set_(self, "trace_dt", number(self.trace_dt, _s("trace_dt"), positive=True))
+        set_(self, "trials", number(self.trials, setting("trials"), integer=True, minimum=1))
+        set_(self, "seed", seed_number(self.seed, setting("seed"), trials=self.trials))
+        set_(self, "trace_dt", number(self.trace_dt, setting("trace_dt"), positive=True))
         check_trace_dt(self.trace_dt)  # samples are taken at steps: a whole number of them
         set_(self, "trace_dtype", check_trace_dtype(self.trace_dtype))
         set_(self, "overrides", tuple(str(o) for o in (self.overrides or ())))
-        set_(self, "equations", _frozen_mapping(self.equations))
-        set_(self, "models", _frozen_mapping(self.models))
-        set_(self, "populations", _frozen_mapping(self.populations))
+        set_(self, "equations", _frozen_mapping(self.equations, "equations"))
+        set_(self, "models", _frozen_mapping(self.models, "models"))
+        set_(self, "populations", _frozen_mapping(self.populations, "populations"))
         set_(self, "spikes", _names(self.spikes, "spikes"))
         set_(self, "traces", _names(self.traces, "traces"))
         check_selection(self.spikes, self.traces)
@@ -114,20 +120,15 @@ class RunSettings(UnitSettings):
     def __post_init__(self) -> None:
         super().__post_init__()
         object.__setattr__(self, "robot_stride",
-                           number(self.robot_stride, _s("robot_stride"), integer=True, minimum=1))
+                           number(self.robot_stride, setting("robot_stride"), integer=True, minimum=1))
         if self.trial is not None:
             object.__setattr__(self, "trial",
-                               number(self.trial, _s("trial"), integer=True, minimum=0))
+                               number(self.trial, setting("trial"), integer=True, minimum=0))
         object.__setattr__(self, "figure", bool(self.figure))
 
     def _extra_record(self) -> dict[str, Any]:
         return {**({} if self.tables is None else {"tables": self.tables}),
                 "figure": self.figure}
-
-
-def _s(name: str) -> Any:
-    from ...errors import setting
-    return setting(name)
 
 
 def _plain(value: Any) -> Any:
