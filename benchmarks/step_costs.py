@@ -29,13 +29,15 @@ from pathlib import Path
 import numpy as np
 
 
-def simulated_wall(trials: int, seconds: float, where: Path) -> float:
-    """The simulation's wall time (the manifest's) of one run as typed."""
-    out = where / f"run{trials}"
+def simulated_wall(trials: int, seconds: float, where: Path, name: str = "") -> float:
+    """The simulation's wall time (the manifest's) of one run as typed, into a new folder."""
+    out = where / (name or f"run{trials}")
     cmd = [sys.executable, "-m", "astrocpg", "run", "--trials", str(trials), "--seconds",
            f"{seconds:g}", "--spikes", "none", "--traces", "none", "--workers", "1",
            "--no-progress", "--out", str(out)]
-    subprocess.run(cmd, check=True, capture_output=True, text=True)
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd[2:])}: exit {done.returncode}: {done.stderr.strip()}")
     manifest = json.loads((out / "manifest.json").read_text())
     wall = manifest.get("wall_seconds", manifest.get("results", {}).get("wall_seconds"))
     if wall is None:
@@ -51,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     steps = round(args.seconds * 1000)
     with tempfile.TemporaryDirectory() as tmp:
         where = Path(tmp)
-        simulated_wall(2, 0.1, where)  # untimed: compiled code cached, files warm
+        simulated_wall(2, 0.1, where, "warm-up")  # untimed: compiled code cached, files warm
         walls = [simulated_wall(n, args.seconds, where) for n in args.trials]
     x = np.column_stack([np.ones(len(args.trials)), args.trials]) * steps
     (per_step, per_trial_step), *_ = np.linalg.lstsq(x, np.array(walls), rcond=None)

@@ -177,6 +177,17 @@ def test_benchmark_script_runs(tmp_path):
     assert rows["run"]["workers_1_s"] > 0 and rows["run"]["workers_2_s"] > 0
 
 
+def test_step_costs_script_runs():
+    """benchmarks/step_costs.py (the performance page's bound on splitting) at a tiny size: it
+    fits the two parts of a step from runs as typed and prints the bound for 2, 4 and 8
+    processes (timings here mean nothing)."""
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "step_costs.py"
+    p = subprocess.run([sys.executable, str(script), "--seconds", "0.05", "--trials", "1", "2"],
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    assert "per step:" in p.stdout and "20 trials over 8 processes" in p.stdout
+
+
 @pytest.mark.slow
 def test_run_interrupted_stops_every_worker(tmp_path):
     """SIGINT to the command alone while its workers simulate: exit 130, no folder, no
