@@ -13,7 +13,7 @@ import astrocpg
 from astrocpg.studies.cli import build_parser, main
 from astrocpg.studies.cli.words import command_words
 from astrocpg.studies.parameter_studies.study import load_study
-from astrocpg.studies.parameter_studies.study_file import study_overrides
+from astrocpg.studies.settings.study import study_overrides
 
 from tiny_study import tiny_study
 

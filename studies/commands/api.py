@@ -442,14 +442,12 @@ def power(folder: str | os.PathLike, *, trial: int = 0, sessions: int = 10,
     tuple of (pathlib.Path, dict)
         The file written (``folder/power_trial<K>.json``) and the figures.
     """
-    from ...models.compose import override_items
+    from ..settings.power import PowerSettings
     from .power import power as measure_power
-    from .settings import number
 
-    return measure_power(_path(folder, "folder"),
-                         trial=number(trial, setting("trial"), integer=True, minimum=0),
-                         sessions=number(sessions, setting("sessions"), integer=True, minimum=1),
-                         progress=progress, overrides=override_items(overrides))
+    return measure_power(PowerSettings(folder=_path(folder, "folder"), trial=trial,
+                                       sessions=sessions, overrides=overrides),
+                         progress=progress)
 
 
 def list_models(*, overrides: Overrides | None = None,

@@ -37,6 +37,7 @@ from ..runtime.cells import pending, run_cells
 from ..runtime.cluster import check_scheduler, check_workers
 from ..runtime.workers import default_workers
 from ...errors import KEYWORDS, Diverged, InputError, setting
+from ..settings.evaluation import EvaluateSettings
 from ...reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
@@ -52,8 +53,8 @@ from ..outputs.weights import tables_state
 from ..outputs.kept_tables import is_kept_tables, kept_controllers, kept_state, kept_weights
 from ..runtime.resources import check_memory, estimate_bytes
 from .run import controller_tables, trained_models, training_settings, with_variant
-from .settings import added_populations, check_grid, number, seed_number
-from .simulate import STEP, check_duration, simulate_closed_loop
+from .settings import added_populations, check_grid
+from .simulate import STEP, simulate_closed_loop
 
 BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}
 EVALUATION = "evaluation.csv"
@@ -401,16 +402,20 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     done it) rather than its final tables, e.g. a long study's tables after 120 and 200 of its
     400 sessions, evaluated the same way as the final ones."""
     folder = as_path(folder, "folder")
-    seconds, repeats, seed = _checked_sizes(seconds, repeats, seed, workers, scheduler)
+    value = EvaluateSettings(folder=folder, worlds=worlds, seconds=seconds, repeats=repeats,
+                             seed=seed, conditions=conditions, points=points,
+                             baseline=baseline, variant=variant, session=session)
+    seconds, repeats, seed = value.seconds, value.repeats, value.seed
+    _check_runner(workers, scheduler)
     target = Path(out) if out is not None else folder / "evaluation"
     # what it reads (the training or study, a worlds file) is never replaced nor written into
     # but at folder/evaluation
     inputs = [folder, *([worlds] if isinstance(worlds, (str, os.PathLike))
                         and os.path.isfile(worlds) else [])]
     OutputFolder(target, overwrite=overwrite or out is None, inputs=inputs).check()
-    controllers = _chosen_controllers(folder, conditions, points, variant)
-    plans = _controller_plans(controllers, session)
-    tables_label = _tables_label(controllers, session)  # its warning before the work
+    controllers = _chosen_controllers(folder, value.conditions, value.points, value.variant)
+    plans = _controller_plans(controllers, value.session)
+    tables_label = _tables_label(controllers, value.session)  # its warning before the work
     world_set = read_worlds(worlds, plans[0][2])
     if baseline is not None and baseline not in world_set.worlds:
         raise InputError(f"is not a world of {setting('worlds', worlds)} (worlds: "
@@ -434,12 +439,8 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
         _run_cells(todo, done, parts, workers=workers, scheduler=scheduler, progress=progress,
                    n_cells=len(cells))
     rows: list[dict[str, Any]] = [row for cell in cells for row in done[cell]]
-    settings = {"folder": str(folder), **world_set.to_json(),
-                "worlds_source": str(worlds), "seconds": seconds, "repeats": repeats,
-                "seed": seed, "conditions": list(conditions or []),
-                "points": list(points or []), "baseline": baseline,
-                "variant": {k: v for k, v in (variant or {}).items() if v} or None,
-                "tables": tables_label,
+    # the settings (read back by EvaluateSettings.from_record), then what the evaluation found
+    settings = {**value.record(), **world_set.to_json(), "tables": tables_label,
                 "trainings": [str(c["folder"]) for c, _, _ in plans],
                 "workers": workers, "scheduler": scheduler,
                 "cells_reused": len(cells) - len(todo)}
@@ -449,21 +450,15 @@ def evaluate(folder: str | Path, *, worlds: str | Path = "robustness", seconds: 
     return {"out": target, **out_files}
 
 
-def _checked_sizes(seconds: Any, repeats: Any, seed: Any, workers: Any, scheduler: Any
-                   ) -> tuple[float, int, int]:
-    """An evaluation's seconds (whole steps), repeats and seed checked, and its workers or
-    scheduler."""
-    seconds = number(seconds, setting("seconds"), positive=True)
-    check_duration(seconds, STEP)
-    repeats = number(repeats, setting("repeats"), integer=True, minimum=1)
-    seed = seed_number(seed)
+def _check_runner(workers: Any, scheduler: Any) -> None:
+    """An evaluation's workers, or its scheduler (how it runs: not among its settings, which
+    do not change its rows)."""
     if scheduler is None:
         check_workers(workers)
     elif workers is not None and workers < 1:
         raise InputError(f"must be at least 1, got {workers}", culprit=setting("workers"))
     else:
         check_scheduler(scheduler)
-    return seconds, repeats, seed
 
 
 def _chosen_controllers(folder: Path, conditions: Sequence[str] | None,

@@ -32,6 +32,7 @@ from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..runtime.resources import check_memory, estimate_bytes
 from ...models import ModelSet
 from ...models.compose import model_set
+from ..settings.power import PowerSettings
 from .settings import added_populations, number, population_models
 
 # The paper's figures, shown next to ours (not used in any computation).
@@ -186,22 +187,23 @@ def format_power(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def power(folder: Path, *, trial: int = 0, sessions: int = 10, progress: bool = True,
-          overrides: list[str] | tuple[str, ...] = ()) -> tuple[Path, dict[str, Any]]:
-    """:func:`measure`, then ``power_trial<K>.json`` in ``folder`` (with package versions and
-    the process's command line, as manifests record it, whichever door called;
-    with ``overrides``, ``power_trial<K>_<name>=<value>....json``, one file per setting);
-    returns its path and the figures."""
+def power(value: PowerSettings, *, progress: bool = True) -> tuple[Path, dict[str, Any]]:
+    """:func:`measure` with the settings ``value``, then ``power_trial<K>.json`` in its folder
+    (with the settings, package versions and the process's command line, as manifests record
+    them, whichever door called; with ``overrides``, ``power_trial<K>_<name>=<value>....json``,
+    one file per setting); returns its path and the figures."""
     import sys
 
     from ..outputs.folder import refuse_in_use
     from ..outputs.writing import package_versions, save_json
 
-    tag = "".join("_" + re.sub(r"[^A-Za-z0-9_.=+-]+", "", o) for o in overrides)
-    path = Path(folder) / f"power_trial{trial}{tag}.json"
+    folder = Path(value.folder)
+    tag = "".join("_" + re.sub(r"[^A-Za-z0-9_.=+-]+", "", o) for o in value.overrides)
+    path = folder / f"power_trial{value.trial}{tag}.json"
     refuse_in_use(path, culprit=str(folder))  # a training or study run that is running
-    res = measure(Path(folder), trial=trial, sessions=sessions, progress=progress,
-                  overrides=tuple(overrides))
+    res = measure(folder, trial=value.trial, sessions=value.sessions, progress=progress,
+                  overrides=value.overrides)
     refuse_in_use(path, culprit=str(folder))
-    save_json(path, res | {"package_versions": package_versions(), "argv": sys.argv})
+    save_json(path, res | {"settings": value.record(), "package_versions": package_versions(),
+                           "argv": sys.argv})
     return path, res

@@ -207,12 +207,13 @@ FIGURES = "figures"
 def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
                   out: str | Path | None = None, overwrite: bool = False, fmt: str = "png",
                   window: tuple[float, float] | None = None,
-                  progress: bool = True) -> list[Path]:
+                  progress: bool = True, record: dict[str, Any] | None = None) -> list[Path]:
     """weights, training, thigh_extensor_activity and gait figures of one trial of the
     training in ``folder`` (from a run of ``seconds`` with its trained weights; ``window``
     within it, default its last 2 s), and the trace figures of the trial's last recorded
     session (``train --record-every``) if any, in ``recording_trialTT_sessionSSSS/``; into
-    ``out`` (default ``folder/figures``, which each plot replaces whole); returns the paths."""
+    ``out`` (default ``folder/figures``, which each plot replaces whole); returns the paths.
+    ``record``: the plot's settings as its manifest records them (the window drawn is added)."""
     from ..figures import plots
     from ..figures.save import save_figure, save_figures
     from ..figures.traces import FIGURE_FUNCTIONS, trace_figures
@@ -274,8 +275,10 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
         if recorded:
             files[sub + "/"] = "figures of the trial's last recorded session"
         write_manifest(tmp, command="plot", seed=1, models_json={}, files=files,
-                       settings={"training": os.path.abspath(folder), "trial": b,
-                                 "seconds": seconds, "window": window, "format": fmt})
+                       settings={**(record or {"trial": b, "seconds": seconds,
+                                                "window": None, "format": fmt}),
+                                 "folder": os.path.abspath(folder),
+                                 "window_drawn": list(window)})
     return written
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import json
 import os
 import sys
 import tempfile
@@ -13,8 +14,9 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from ...errors import EnvironmentFault, InputError, advice, did_you_mean, one_line, setting
-from ..figures.save import FORMATS, save_figures
+from ...errors import EnvironmentFault, InputError, advice, one_line, setting
+from ..figures.save import save_figures
+from ..settings.views import MAX_FRAMES, PlotSettings, VideoSettings, check_window
 from ..figures.traces import FIGURE_FUNCTIONS, recorded_span, trace_figures
 from ..outputs.folder import (OutputFolder, as_path, check_output_path, check_replaceable,
                             refuse_in_use)
@@ -30,19 +32,6 @@ def _check_trial(result: Result, trial: int) -> None:
                          f"{result.n_trials - 1})", culprit=setting("trial", trial))
 
 
-def _check_window(window: Any, span: tuple[float, float] | None) -> tuple[float, float] | None:
-    if window is None:
-        return None
-    try:
-        t0, t1 = (float(x) for x in window)
-    except (TypeError, ValueError):
-        raise InputError("needs two numbers, T0 T1 in s", culprit=setting("window")) from None
-    culprit = setting("window", f"{window[0]} {window[1]}")
-    if not (np.isfinite(t0) and np.isfinite(t1)) or t0 < 0 or t1 <= t0:
-        raise InputError("needs 0 <= T0 < T1 (s)", culprit=culprit)
-    if span is not None and t0 >= span[1]:
-        raise InputError(f"starts after the recording ends ({span[1]:g} s)", culprit=culprit)
-    return t0, t1
 
 
 def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "png",
@@ -82,43 +71,43 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
     list of pathlib.Path
         The files written.
     """
-    if fmt not in FORMATS:
-        raise InputError(f"unknown format{did_you_mean(fmt, FORMATS)} (formats: "
-                         f"{', '.join(FORMATS)})",
-                         culprit=setting("format", fmt))
-    folder = as_path(folder, "folder")
+    value = PlotSettings(folder=as_path(folder, "folder"), trial=trial, window=window,
+                         format=fmt, seconds=seconds)
+    folder = Path(value.folder)
     result = load(folder)
     if result.kind == "train":
-        return plot_training(folder, trial=trial, seconds=10.0 if seconds is None else seconds,
-                             out=out,
-                             overwrite=overwrite, fmt=fmt, window=_check_window(window, None),
-                             progress=progress)
-    if seconds is not None:  # a recording is drawn as it is: nothing is simulated
+        return plot_training(folder, trial=value.trial,
+                             seconds=10.0 if value.seconds is None else value.seconds,
+                             out=out, overwrite=overwrite, fmt=value.format,
+                             window=value.window, progress=progress, record=value.record())
+    if value.seconds is not None:  # a recording is drawn as it is: nothing is simulated
         raise InputError(f"simulates a training's weights; {folder} is a {result.kind} "
                          f"folder, drawn from its recording ({setting('window', 'T0 T1')} picks "
                          f"a part)",
                          culprit=setting("seconds"))
-    _check_trial(result, trial)
+    _check_trial(result, value.trial)
     span = recorded_span(result)
-    win = _check_window(window, span) or span
+    win = check_window(window, span) or span
     target = Path(out) if out is not None else folder / FIGURES
     OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]).check()
     # two bars, each with the total it ends at: the kinds of figure drawn, then the files
     with Bar(total=len(FIGURE_FUNCTIONS), unit="step", desc="plot",
              disable=not progress) as bar:
-        figures = trace_figures(result, trial, win, on_part=lambda: bar.update(1))
+        figures = trace_figures(result, value.trial, win, on_part=lambda: bar.update(1))
         bar.finish()
     if not figures:
         raise InputError("recorded nothing to draw (no spikes, traces or robot)",
                          culprit=str(folder))
+    # the settings as given (the folder made absolute), and the window drawn
+    recorded = {**value.record(), "folder": os.path.abspath(folder),
+                "window_drawn": list(win) if win else None}
     with Bar(total=len(figures), unit="file", desc="plot: saving",
              disable=not progress) as bar:
         with OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]) as tmp:
-            paths = save_figures(figures, tmp, fmt, on_saved=lambda: bar.update(1))
+            paths = save_figures(figures, tmp, value.format, on_saved=lambda: bar.update(1))
             write_manifest(tmp, command="plot", seed=int(result.manifest.get("seed", 0) or 0),
                            models_json={}, files={p.name: "figure" for p in paths},
-                           settings={"folder": os.path.abspath(folder), "trial": trial,
-                                     "window": list(win) if win else None, "format": fmt})
+                           settings=recorded)
     return [target / p.name for p in paths]
 
 
@@ -159,8 +148,6 @@ def _replayed(folder: Path, trial: int) -> tuple[Result, int]:
 
 #: Bounds of a video, checked before anything is rendered: H.264 players show at most a few
 #: hundred frames per second, and 100,000 frames (55 minutes at 30 fps) render for hours.
-MAX_FPS = 1000
-MAX_FRAMES = 100_000
 
 
 def _span(t: Any) -> str:
@@ -199,17 +186,6 @@ def _ffmpeg_fault(err: BaseException, log: Any, path: Path) -> BaseException:
         return OSError(errno.EFBIG, os.strerror(errno.EFBIG), os.fspath(path))
     return EnvironmentFault(f"ffmpeg could not write the video: "
                             f"{one_line(text, 300) or type(err).__name__}", culprit=str(path))
-
-
-def _size(size: Any) -> tuple[int, int]:
-    try:
-        w, h = (int(x) for x in size)
-    except (TypeError, ValueError):
-        raise InputError("needs WIDTH HEIGHT in pixels", culprit=setting("size")) from None
-    if not (16 <= w <= 4096 and 16 <= h <= 4096) or w % 2 or h % 2:
-        raise InputError("needs even WIDTH and HEIGHT in 16..4096 pixels (H.264)",
-                         culprit=setting("size", f"{w} {h}"))
-    return w, h
 
 
 def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float = 1.0,
@@ -255,9 +231,10 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     from ...coupling.render import Replay, frame_count, frame_samples
     from ..outputs.writing import atomic_path
 
-    folder = as_path(folder, "folder")
-    _check_rates(fps, speed)
-    width, height = _size(size)
+    value = VideoSettings(folder=as_path(folder, "folder"), trial=trial, fps=fps, speed=speed,
+                          size=size, panel=panel, start=start, stop=stop)
+    folder, trial, fps, speed = Path(value.folder), value.trial, value.fps, value.speed
+    width, height = value.size
     result, b = _replayed(folder, trial)
     rob = result.robot
     if "torso_quaternion" not in rob:
@@ -266,8 +243,9 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
                          culprit=str(result.folder))
     path = _video_path(folder, trial, out, overwrite)
     # checked against the recording; None (not given) keeps the recording's own ends
-    shown = _time_window(rob["t"], start, stop)
-    start, stop = (None if start is None else shown[0]), (None if stop is None else shown[1])
+    shown = _time_window(rob["t"], value.start, value.stop)
+    start = None if value.start is None else shown[0]
+    stop = None if value.stop is None else shown[1]
     n_frames = frame_count(rob["t"], fps, speed, start=start, stop=stop)
     if n_frames > MAX_FRAMES:  # before a frame index of that length is built
         raise InputError(f"{n_frames:.3g} frames ({_span(rob['t'])} s recorded x fps {fps:g} / "
@@ -277,37 +255,29 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     model, layout = _robot_model(result)
 
     strip = None
-    if panel:
+    if value.panel:
         from ..figures.panel import GaitPanel, panel_height
 
         # the replayed result (a training: its recorded session) gives the spikes and traces
         strip = GaitPanel(rob, b, width, panel_height(height, result), speed=speed,
                           result=result)
+    # the video's own record of what it shows: its settings, in the MP4's comment
+    comment = json.dumps(value.record(), sort_keys=True)
 
     def write(tmp: Path) -> None:
         with Replay(model, layout, rob["joint_angles"][b], rob["torso_position"][b],
                     rob["torso_quaternion"][b], width=width, height=height) as replay:
-            _write_frames(tmp, path, samples, replay, strip, fps, progress)
+            _write_frames(tmp, path, samples, replay, strip, fps, progress, comment)
 
     atomic_path(path, write)
     return {"path": path, "frames": len(samples), "fps": fps,
-            "seconds": len(samples) / fps, "start": shown[0], "stop": shown[1]}
+            "seconds": len(samples) / fps, "start": shown[0], "stop": shown[1],
+            "settings": value.record()}
 
 
 def _rates_given(fps: float, speed: float) -> str:
     """``fps`` and ``speed`` as a culprit: the two settings with their values."""
     return f"{setting('fps', f'{fps:g}')} {setting('speed', f'{speed:g}')}"
-
-
-def _check_rates(fps: Any, speed: Any) -> None:
-    """``fps`` and ``speed`` positive numbers, ``fps`` at most :data:`MAX_FPS`."""
-    for name, value in ((setting("fps"), fps), (setting("speed"), speed)):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or not np.isfinite(value) or value <= 0:
-            raise InputError("must be a positive number", culprit=name.given(value))
-    if fps > MAX_FPS:
-        raise InputError(f"must be at most {MAX_FPS} frames per second",
-                         culprit=setting("fps", fps))
 
 
 def _video_path(folder: Path, trial: int, out: str | Path | None, overwrite: bool) -> Path:
@@ -332,7 +302,7 @@ def _video_path(folder: Path, trial: int, out: str | Path | None, overwrite: boo
 
 
 def _write_frames(tmp: Path, path: Path, samples: Any, replay: Any, strip: Any, fps: float,
-                  progress: bool) -> None:
+                  progress: bool, comment: str = "") -> None:
     """Every frame of ``replay`` at ``samples`` (with the panel ``strip`` below it) encoded
     into ``tmp`` by ffmpeg; an ffmpeg error (a full disk, ...) becomes one line naming
     ``path``."""
@@ -344,7 +314,8 @@ def _write_frames(tmp: Path, path: Path, samples: Any, replay: Any, strip: Any, 
     with tempfile.TemporaryFile() as log:
         writer = imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264",
                                     pixelformat="yuv420p", macro_block_size=2, quality=7,
-                                    ffmpeg_log_level="error")
+                                    ffmpeg_log_level="error",
+                                    output_params=["-metadata", f"comment={comment}"])
         try:
             try:
                 started = False

@@ -65,14 +65,15 @@ def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
         (``failed``) and their errors, the study's ``name``, its ``runs`` (how many) and its
         folder (``out``).
     """
+    from ..settings.study import StudySettings
     from .study import load_study, prepare_study, run_study
-    from .study_file import study_overrides
 
     if scheduler is not None and not isinstance(scheduler, str):
         raise InputError(f"expected an address as text, got {type(scheduler).__name__}",
                          culprit=setting("scheduler"))
-    given = study_overrides(seeds, sessions, overrides)
-    loaded = load_study(_path(file, "file"), overrides=given)
+    value = StudySettings(file=_path(file, "file"), seeds=seeds, sessions=sessions,
+                          overrides=overrides)
+    loaded = load_study(Path(value.file), overrides=value.changes)
     folder = Path("out") / loaded.name if out is None else _path(out, "out")
     plan = None if plan_from is None else _path(plan_from, "plan_from")
     loaded = prepare_study(loaded, folder, workers=workers, scheduler=scheduler,

@@ -79,7 +79,8 @@ from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write
 from ..runtime.cells import pending
 from .execute import dispatch, ended_status, read_status, write_failures
 from .layout import FAILURES, RUNS, STUDY_COPY, STUDY_INDEX, study_files
-from .study_file import (RunSpec, Study, StudyOverrides, consecutive_groups, parse_study,
+from ..settings.study import StudyOverrides
+from .study_file import (RunSpec, Study, consecutive_groups, parse_study,
                          run_group)
 from .tables import write_results, write_timeline
 

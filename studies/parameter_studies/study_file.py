@@ -16,8 +16,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
-import numpy as np
-
 from ...coupling.assembly import check_models
 from ...coupling.recorder import RecordPlan
 from ...coupling.training import session_steps
@@ -27,12 +25,12 @@ from ...models import DEFAULT_MODELS
 from ..runtime.resources import check_memory, estimate_bytes, estimate_wall_seconds
 from ...models.compose import model_files_record, model_set, read_model_files
 from ..analysis.margins import read_margins
-from ..commands.settings import (MAX_GRID, MAX_SEED, added_populations, check_grid,
+from ..settings.study import MAX_SEEDS, StudyOverrides
+from ..commands.settings import (MAX_SEED, added_populations, check_grid,
                                  population_models, population_rows)
 from ..commands.simulate import STEP, check_duration
 from ..commands.train import TrainSettings
 
-MAX_SEEDS = MAX_GRID  # trainings of a study (and seeds): the bound of every grid
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
 _STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch", "record", "paired",
                "populations"}
@@ -85,116 +83,6 @@ class RunSpec:
 
     def fingerprint(self) -> str:
         return self.train_settings().fingerprint()
-
-
-@dataclass(frozen=True)
-class StudyOverrides:
-    """What the command line (``astrocpg study FILE --seeds --sessions --set``) or
-    ``astrocpg.study(...)``'s keywords change in a study as loaded: ``seeds`` (the seeds, or
-    ``count``: that many from the file's first seed), ``sessions`` per trial, ``sets``
-    (``NAME=VALUE`` items, each replacing the file's ``[base]`` value or added to it). They
-    are recorded in the study folder: a rerun with other ones is refused."""
-
-    seeds: tuple[int, ...] | None = None
-    count: int | None = None
-    sessions: int | None = None
-    sets: tuple[str, ...] = ()
-    seeds_text: str | None = None  # as given, for the record and the messages
-
-    def record(self) -> dict[str, Any]:
-        """The options given, as ``study.json`` and the manifest record them."""
-        out: dict[str, Any] = {}
-        if self.seeds_text is not None:
-            out["seeds"] = self.seeds_text
-        if self.sessions is not None:
-            out["sessions"] = self.sessions
-        if self.sets:
-            out["set"] = list(self.sets)
-        return out
-
-
-#: ``--seeds``: ``FIRST-LAST`` (inclusive), ``A,B,C`` (a list) or ``N`` (a count: N seeds from
-#: the study's first seed).
-SEEDS_GRAMMAR = ("FIRST-LAST (e.g. 1-3), a list A,B,C (e.g. 1,4,9), or a count N (N seeds "
-                 "from the study's first seed)")
-
-
-def study_overrides(seeds: Any = None, sessions: Any = None,
-                    sets: Any = None) -> StudyOverrides:
-    """The overrides checked (an InputError naming ``--seeds``, ``--sessions`` or ``--set``).
-    ``seeds``: text in the grammar of :data:`SEEDS_GRAMMAR`, an int (a count) or a list of
-    ints; ``sets``: ``NAME=VALUE`` texts or a mapping {name: value} (checked against the
-    study's models when it is parsed)."""
-    from ...models.compose import override_items
-    from ..commands.settings import number
-
-    seeds_list: tuple[int, ...] | None = None
-    count: int | None = None
-    text: str | None = None
-    if seeds is not None:
-        if isinstance(seeds, bool):
-            raise InputError(f"expected {SEEDS_GRAMMAR}, got {seeds!r}", culprit=setting("seeds"))
-        if isinstance(seeds, int):
-            seeds = str(seeds)
-        if isinstance(seeds, (list, tuple)):
-            if not seeds or not all(isinstance(x, int) and not isinstance(x, bool)
-                                    for x in seeds):
-                raise InputError(f"expected a non-empty list of integers, got {seeds!r}",
-                                 culprit=setting("seeds"))
-            seeds_list, text = tuple(seeds), ",".join(map(str, seeds))
-        elif isinstance(seeds, str):
-            text = seeds.strip()
-            m = re.fullmatch(r"(\d+)-(\d+)", text)
-            if m:
-                first, last = int(m.group(1)), int(m.group(2))
-                if last < first:
-                    raise InputError(f"{text}: the last seed is before the first",
-                                     culprit=setting("seeds"))
-                if last - first + 1 > MAX_SEEDS:
-                    raise InputError(f"{text}: {last - first + 1} seeds is more than "
-                                     f"{MAX_SEEDS}", culprit=setting("seeds"))
-                seeds_list = tuple(range(first, last + 1))
-            elif re.fullmatch(r"\d+(\s*,\s*\d+)+\s*,?", text):
-                seeds_list = tuple(int(x) for x in text.split(",") if x.strip())
-            elif re.fullmatch(r"\d+", text):
-                count = int(text)
-                if not 1 <= count <= MAX_SEEDS:
-                    raise InputError(f"a count of seeds must be 1 to {MAX_SEEDS}, got {count}",
-                                     culprit=setting("seeds"))
-            else:
-                raise InputError(f"expected {SEEDS_GRAMMAR}, got {seeds!r}",
-                                 culprit=setting("seeds"))
-        else:
-            raise InputError(f"expected {SEEDS_GRAMMAR}, got {type(seeds).__name__}",
-                             culprit=setting("seeds"))
-        if seeds_list is not None:
-            if len(set(seeds_list)) != len(seeds_list):
-                raise InputError(f"{text} lists a seed twice", culprit=setting("seeds"))
-            if len(seeds_list) > MAX_SEEDS:
-                raise InputError(f"{len(seeds_list)} seeds is more than {MAX_SEEDS}",
-                                 culprit=setting("seeds"))
-            if min(seeds_list) < 0 or max(seeds_list) > MAX_SEED:
-                raise InputError(f"seeds must be 0 to {MAX_SEED}, got {text}",
-                                 culprit=setting("seeds"))
-            seeds_list = tuple(sorted(seeds_list))
-    if isinstance(sessions, str):  # the command line's text: parsed, never eval-ed
-        try:
-            sessions = int(sessions, 10)
-        except ValueError:
-            raise InputError(f"expected a whole number, got {sessions!r}",
-                             culprit=setting("sessions")) from None
-    n = None if sessions is None else number(sessions, setting("sessions"), integer=True, minimum=1)
-    items = override_items(sets)
-    for item in items:
-        name, eq, value = item.partition("=")
-        if not eq or not name.strip() or not value.strip():
-            raise InputError(f"expected NAME=VALUE, got {item!r}", culprit=setting("overrides"))
-    names = [i.partition("=")[0].strip() for i in items]
-    twice = next((x for x in names if names.count(x) > 1), None)
-    if twice is not None:
-        raise InputError(f"{twice} is set twice", culprit=setting("overrides", twice))
-    return StudyOverrides(seeds=seeds_list, count=count, sessions=n, sets=tuple(items),
-                          seeds_text=text)
 
 
 @dataclass(kw_only=True)

@@ -1,13 +1,21 @@
 """The settings of the commands as typed values and the checks they are built with.
 
 Each command's settings are one frozen value, checked when built (a bad value is refused in one
-line naming its setting, which each door says in its own words: ``--seconds`` on the command
-line, ``seconds`` from Python), recorded in the output folder's manifest and read back from it
-(``from_record``): :class:`~.simulation.UnitSettings` (``unit``),
-:class:`~.simulation.RunSettings` (``run``). The training's are
-:class:`astrocpg.studies.commands.train.TrainSettings`, which a resume reads back.
+line naming its setting, which each door says in its own words: ``seconds`` in Python, the
+command line its own option), recorded where the command writes its results and read back
+from that record (``from_record``): :class:`~.simulation.UnitSettings` (``unit``),
+:class:`~.simulation.RunSettings` (``run``), :class:`~.evaluation.EvaluateSettings`
+(``evaluate``), :class:`~.study.StudySettings` (``study``), :class:`~.power.PowerSettings`
+(``power``), :class:`~.views.PlotSettings` and :class:`~.views.VideoSettings` (the views of a
+result). The training's are :class:`astrocpg.studies.commands.train.TrainSettings`, which a
+resume reads back.
 """
 
+from .evaluation import EvaluateSettings
+from .power import PowerSettings
 from .simulation import RunSettings, UnitSettings
+from .study import StudySettings
+from .views import PlotSettings, VideoSettings
 
-__all__ = ["RunSettings", "UnitSettings"]
+__all__ = ["EvaluateSettings", "PlotSettings", "PowerSettings", "RunSettings", "StudySettings",
+           "UnitSettings", "VideoSettings"]
