@@ -170,7 +170,7 @@ def format_power(res: dict[str, Any]) -> str:
     lengths = [s["length_s"] for s in res["sessions"]]
     over = res.get("overrides") or []
     lines = [f"{len(lengths)} sessions with the trained table of trial {res['trial']} "
-             f"(seed {res['seed']}{', --set ' + ' '.join(over) if over else ''}), lengths "
+             f"(seed {res['seed']}{', overrides ' + ' '.join(over) if over else ''}), lengths "
              f"{min(lengths):.2f}–{max(lengths):.2f} s",
              f"{'population':28s} {'events/spike':>12s} {'(paper)':>8s} {'total rate (Hz)':>16s}"
              f" {'(paper)':>9s}"]

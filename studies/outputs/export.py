@@ -184,7 +184,7 @@ def _overflow_note(manifest: dict[str, Any], name: str) -> str:
         return ""
     return (f"; WARNING: {over['values']} of {over['of']} values (in {over['samples']} of "
             f"{over['of_samples']} samples) were beyond float32's range and are stored as inf, "
-            f"not as simulated (record again with --trace-dtype float64)")
+            f"not as simulated (record again with trace_dtype float64)")
 
 
 def _metadata(manifest: dict[str, Any]) -> dict[str, Any]:
