@@ -73,7 +73,7 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
             ) -> dict[str, Any]:
     """Run trial ``trial``'s trained table of the training in ``folder`` for ``sessions``
     sessions with learning off; return rates, events per spike and the power estimates.
-    ``overrides``: ``NAME=VALUE`` settings over the training's models (``--set``, e.g.
+    ``overrides``: ``NAME=VALUE`` settings over the training's models (e.g.
     ``limit_margin=0*radian``), to measure what one parameter does to the rates."""
     trial = number(trial, setting("trial"), integer=True, minimum=0)
     sessions = number(sessions, setting("sessions"), integer=True, minimum=1)
