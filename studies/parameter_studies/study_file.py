@@ -89,8 +89,8 @@ class RunSpec:
 
 @dataclass(frozen=True)
 class StudyOverrides:
-    """What the command line (``astrocpg study FILE --seeds --sessions --set``) or
-    ``astrocpg.study(...)``'s keywords change in a study as loaded: ``seeds`` (the seeds, or
+    """What the ``seeds``, ``sessions`` and ``overrides`` given to ``astrocpg study FILE`` or
+    ``astrocpg.study(...)`` change in a study as loaded: ``seeds`` (the seeds, or
     ``count``: that many from the file's first seed), ``sessions`` per trial, ``sets``
     (``NAME=VALUE`` items, each replacing the file's ``[base]`` value or added to it). They
     are recorded in the study folder: a rerun with other ones is refused."""
@@ -113,7 +113,7 @@ class StudyOverrides:
         return out
 
 
-#: ``--seeds``: ``FIRST-LAST`` (inclusive), ``A,B,C`` (a list) or ``N`` (a count: N seeds from
+#: ``seeds``: ``FIRST-LAST`` (inclusive), ``A,B,C`` (a list) or ``N`` (a count: N seeds from
 #: the study's first seed).
 SEEDS_GRAMMAR = ("FIRST-LAST (e.g. 1-3), a list A,B,C (e.g. 1,4,9), or a count N (N seeds "
                  "from the study's first seed)")
@@ -121,7 +121,7 @@ SEEDS_GRAMMAR = ("FIRST-LAST (e.g. 1-3), a list A,B,C (e.g. 1,4,9), or a count N
 
 def study_overrides(seeds: Any = None, sessions: Any = None,
                     sets: Any = None) -> StudyOverrides:
-    """The overrides checked (an InputError naming ``--seeds``, ``--sessions`` or ``--set``).
+    """The overrides checked (an InputError naming ``seeds``, ``sessions`` or ``overrides``).
     ``seeds``: text in the grammar of :data:`SEEDS_GRAMMAR`, an int (a count) or a list of
     ints; ``sets``: ``NAME=VALUE`` texts or a mapping {name: value} (checked against the
     study's models when it is parsed)."""
@@ -351,7 +351,7 @@ def parse_study(text: str, p: Path, batch_given: int | None,
 
 def _apply_sets(doc: dict[str, Any], models, base: list[str], axes: dict[str, list[str]],
                 sets: Sequence[str], where: str) -> list[str]:
-    """``base`` with each ``--set NAME=VALUE`` checked against the study's models and put in
+    """``base`` with each override ``NAME=VALUE`` checked against the study's models and put in
     place of the file's ``[base]`` NAME (or added). A name the study sweeps, or a condition
     sets, is refused: its runs would take the axis's or the condition's value, not this one."""
     out = list(base)
@@ -442,7 +442,7 @@ def _base(doc: dict[str, Any], p: Path, slots: set[str], where: str, added: Any 
             raise InputError(f"[models] unknown model '{slot}'{did_you_mean(slot, slots)} (models: "
                              f"{', '.join(sorted(slots))})", culprit=where)
         base_files[slot] = _model_file(p, slot, file, f"{where} [models]")
-    # the added populations' models join the set: [base], the sweep and --set reach them
+    # the added populations' models join the set: [base], the sweep and overrides reach them
     models = model_set(models=base_files, option=f"{where} [models]", added=added)
     base = [_check_override(models, k, _value_text(k, v, f"{where} [base]"), f"{where} [base]")
             for k, v in doc.get("base", {}).items()]
@@ -610,7 +610,7 @@ def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]
 def _population_files(study: Path, files: Any, where: str) -> dict[str, dict[str, str]]:
     """``[study] populations``: model files with a ``[population]`` table (paths relative to
     the study file's folder, or a shipped model file's name when no such path exists, as
-    :func:`_model_file` reads them), each read and checked as ``--population FILE`` is; the
+    :func:`_model_file` reads them), each read and checked as a run's ``populations`` are; the
     record ``{name: {"sha256", "content"}}`` every run of the study adds."""
     if files is None:
         return {}
@@ -692,7 +692,7 @@ def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
     from ...network.populations import spike_populations, trace_sources
 
     # by default every population and trace of the table, the study's added ones included
-    # (as a training's --record-every records them)
+    # (as a training's record_every records them)
     fields = {"spikes": spike_populations(), "traces": tuple(trace_sources())} | dict(doc)
     try:
         plan = RecordPlan.from_dict(fields)
