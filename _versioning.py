@@ -66,7 +66,7 @@ def from_git(root: Path = ROOT, release: str | None = None) -> dict[str, Any] | 
     if not commit:
         return None
     release = release or release_in(root)
-    base = _git(root, "log", "-1", "--format=%H", "-G", '^RELEASE = "', "--", "__init__.py")
+    base = _git(root, "log", "-1", "--pretty=%H", "-G", '^RELEASE = "', "--", "__init__.py")
     count = _git(root, "rev-list", "--count", f"{base}..HEAD" if base else "HEAD")
     n = int(count) if count and count.isdigit() else 0
     dirty = bool(_git(root, "status", "--porcelain"))

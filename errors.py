@@ -18,9 +18,9 @@ user gave or the object at fault: ``setting("overrides", "tau_motor")``,
 place: ``<culprit>: <message>``.
 
 A user's setting is named by its field (:func:`setting`), never as one door spells it: the
-command line renders the line with its options (``--set tau_motor``, read from the failing
-command's parser), the Python API with the called function's keywords (``overrides
-tau_motor``); :meth:`AstrocpgError.render` takes the door's :class:`Vocabulary`.
+command line renders the line with the failing command's options (the one that sets the field,
+read from the command's parser), the Python API with the called function's keywords
+(``overrides tau_motor``); :meth:`AstrocpgError.render` takes the door's :class:`Vocabulary`.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def did_you_mean(name: str, choices: Any, cutoff: float = 0.6) -> str:
 
 # ---------------------------------------------------------------- settings named in a message
 # A message names the user's settings by their field names (``out``, ``seconds``, ``overrides``),
-# never by how one door spells them: the command line says ``--out``, the Python API ``out=``.
+# never by how one door spells them: the command line names an option, the Python API ``out=``.
 # A reference is embedded in the message as a token (below), which the error records and each
 # door renders in its own words (:meth:`AstrocpgError.render`). The token's marks are control
 # characters that are not whitespace, so :func:`one_line` leaves them whole.
@@ -72,8 +72,8 @@ class Field:
     """A reference to one of the user's settings: ``name`` is its field (the API's keyword,
     the settings' attribute: ``out``, ``seconds``, ``overrides``), ``value`` what was given with
     it, shown beside it (a path, a number, a parameter's name for ``overrides``); ``advice``
-    marks a door's way of doing something (``resume``: ``--resume DIR`` on the command line,
-    ``ac.resume(DIR)`` in Python) rather than a setting.
+    marks a door's way of doing something (``resume``: an option of ``astrocpg train`` on the
+    command line, ``ac.resume(DIR)`` in Python) rather than a setting.
 
     Embedded in an f-string (``f"drop {setting('out')}"``) or given as a culprit, it becomes a
     token that :meth:`AstrocpgError.render` names in a door's words."""
@@ -108,7 +108,7 @@ def advice(name: str, value: Any = "") -> Field:
 
 def shown_with(culprit: Any, value: Any) -> Any:
     """``culprit`` shown with ``value``: a field given that value (each door then writes it its
-    own way: ``--out DIR``, ``out=DIR``), anything else followed by it."""
+    own way: an option and its value, ``out=DIR``), anything else followed by it."""
     if isinstance(culprit, Field):
         return culprit.given(value)
     return f"{culprit} {value}"

@@ -103,7 +103,7 @@ MAX_TABLE_BYTES = 64 << 20
 #: The largest JSON document astrocpg reads (a manifest, a study's index, a run's status):
 #: a training's manifest with hundreds of recorded sessions is about 1 MB.
 MAX_JSON_BYTES = 256 << 20
-#: The largest results table a study plan reads (``--plan-from``: ``results.csv``, or its
+#: The largest results table a study plan reads (``plan_from``: ``results.csv``, or its
 #: content once inflated from ``results.csv.gz``): a 100,000-run study's is about 30 MB.
 MAX_PLAN_BYTES = 256 << 20
 

@@ -1,7 +1,7 @@
 """Files the package ships, reachable by name: model files, studies and worlds; and the manual
 with the files its recipes read.
 
-``astrocpg study compare_astrocytes`` and ``--model alive=alive_height`` name a shipped file by
+``astrocpg study compare_astrocytes`` and a model file ``alive=alive_height`` name a shipped file by
 its stem; a path that exists is always read as it is, so a name resolves to the shipped file
 only when no such path exists. The repository's own spelling (``models/variants/x.toml``)
 resolves the same way, so the manual's commands also run from an installed wheel.

@@ -249,7 +249,7 @@ def a1_xml(params: A1Parameters = A1Parameters()) -> str:
 
 
 def export_xml(path: str | os.PathLike, params: A1Parameters = A1Parameters()) -> None:
-    """Write the A1 as MJCF (opens in MuJoCo's viewer; loads with ``--robot``)."""
+    """Write the A1 as MJCF (opens in MuJoCo's viewer; loads as a run's ``robot``)."""
     Path(path).write_text(a1_xml(params))
 
 

@@ -50,7 +50,7 @@ from .world import WORLD
 class ModelSet:
     """Every model the CPG, its astrocytes and its coupling are built from (defaults: the paper
     plus the facts it leaves out, docs/model.md). Parameter names are unique across the set, so
-    ``--set NAME=VALUE`` is unambiguous.
+    an override ``NAME=VALUE`` (the ``overrides`` setting) is unambiguous.
 
     Compose one with :func:`astrocpg.models.compose.model_set` (model files, equation texts,
     ``NAME=VALUE`` overrides), once per command, and hand it down.
@@ -89,7 +89,7 @@ class ModelSet:
 
     #: the models of populations added to the network (a population file's neuron model,
     #: ``with_added``), after the slots: their parameters are the set's like any slot's, so
-    #: ``--set`` and the manifest's models reach them; ``items()`` yields them by their names
+    #: ``overrides`` and the manifest's models reach them; ``items()`` yields them by their names
     added: tuple[NeuronModel, ...] = ()
 
     def __post_init__(self) -> None:
@@ -163,7 +163,7 @@ class ModelSet:
 
     def parameter(self, name: str) -> Parameter:
         """The declared parameter ``name`` (value with unit, symbol, meaning), whatever model
-        owns it: for names a user gives (``--set``, a worlds file's ``scale``). The framework
+        owns it: for names a user gives (``overrides``, a worlds file's ``scale``). The framework
         reads its own names with :meth:`~astrocpg.models.ModelSet.value`."""
         return self.model(self.owner_of(name)).parameters[name]
 

@@ -40,7 +40,7 @@ from .units import example_value, unit_spelling
 class Parameter:
     """One model parameter.
 
-    name: identifier used in the equation strings (and by ``--set NAME=VALUE``).
+    name: identifier used in the equation strings (and by an override ``NAME=VALUE``).
     value: the value, a Brian2 quantity or a plain number for dimensionless parameters.
     symbol: the paper's symbol (LaTeX), so the table can be checked against the paper.
     meaning: one line saying what the parameter is, and where the value comes from when it is
@@ -393,7 +393,7 @@ class Model:
 
     def with_code(self, text: str) -> "Model":
         """A copy with the main code string (``code_field``) replaced, e.g. an edited equation
-        string from ``--equations MODEL=FILE``, whatever the kind of model."""
+        string given as ``equations`` (``MODEL=FILE``), whatever the kind of model."""
         return self.replace(**{self.code_field: text})
 
     def statements(self) -> dict[str, str]:

@@ -1,6 +1,6 @@
 """Model composition: the one place a :class:`~astrocpg.models.ModelSet` is made from what a
-user gives: whole model files (``--model NAME=FILE``, TOML), equation texts (``--equations
-MODEL=FILE``) and ``NAME=VALUE`` overrides (``--set``), each checked against its slot's
+user gives: whole model files (``models``: ``NAME=FILE``, TOML), equation texts (``equations``:
+``MODEL=FILE``) and ``NAME=VALUE`` overrides (``overrides``), each checked against its slot's
 interface (:data:`astrocpg.models.INTERFACES`), plus the record of the model files used
 (:func:`model_files_record`, for manifests). Commands compose a set once with
 :func:`model_set` and hand it down; they read its values with
@@ -77,7 +77,7 @@ def read_model_files(items: Sequence[str],
     """``MODEL=FILE`` items of model files (TOML) -> {model: text}, checked as
     :func:`read_equation_files` checks files, and each file read once as a model so that a
     mistake within it (a reserved or shadowing parameter name, a field of the wrong TOML type,
-    a missing interface variable) names the file: ``--model astrocyte (a.toml): ...``. What
+    a missing interface variable) names the file: ``models astrocyte (a.toml): ...``. What
     involves other models (a parameter another model declares) is checked by
     :func:`model_set`."""
     from . import INTERFACES

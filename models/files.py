@@ -1,5 +1,5 @@
-"""Model files: one model, whole, as TOML (``astrocpg models dump NAME`` writes one, ``--model
-NAME=FILE`` reads one back).
+"""Model files: one model, whole, as TOML (``astrocpg models dump NAME`` writes one, the
+``models`` setting, ``NAME=FILE``, reads one back).
 
 A file holds ``name``, ``kind`` (neuron, synapse, expression), ``description``, the model's code
 strings (``equations``, ``threshold``, ``reset``, ``refractory`` of a neuron; ``model``,
@@ -179,7 +179,7 @@ def _declared_twice(text: str) -> str | None:
 
 
 def model_from_toml(text: str, *, culprit: str, default: Model | None = None) -> Model:
-    """The model a model file holds. ``culprit`` (e.g. ``--model astrocyte``) heads every
+    """The model a model file holds. ``culprit`` (e.g. ``models astrocyte``) heads every
     error; ``default`` (the built-in model of that slot) gives the kind when the file has
     none. Every mistake is an :class:`InputError` of one line."""
     try:
@@ -299,7 +299,7 @@ def check_interface(model: Model, interface: Interface | None, *, culprit: str) 
 def check_parameters_used(model: Model, default: Model | None, *, culprit: str) -> None:
     """Refuse a parameter the model declares that nothing reads: not one of the built-in
     slot's parameters (``default``: those the network reads by name) and named by none of the
-    model's code strings. ``--set`` on such a parameter would change nothing, yet the manifest
+    model's code strings. An override of such a parameter would change nothing, yet the manifest
     would record the value."""
     from brian2.utils.stringtools import get_identifiers
 

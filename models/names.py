@@ -5,7 +5,7 @@ A parameter reaches Brian2's code through the group's namespace, which Brian2 co
 the group's own variables and *together with* its units, functions and constants, and the
 first of those wins. A parameter named ``dt``, ``t``, ``ms``, ``exp``, ``rand``, ``pi`` or like
 one of the model's own state variables (``Ca``) would therefore be declared, shown in every
-table and accepted by ``--set``, yet never read: the equations would use Brian2's ``dt`` or the
+table and accepted by ``overrides``, yet never read: the equations would use Brian2's ``dt`` or the
 state variable instead. Such names are refused when the model is made
 (:func:`check_parameter_names`), so that a value set on a parameter is the value the network
 uses.

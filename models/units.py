@@ -1,14 +1,14 @@
 """Reading and writing values with units that users type, without ``eval``, and checking the
 numbers of the command line.
 
-* :func:`parse_value` reads a value with units (``--set tau_motor=9*ms``, a study file's
+* :func:`parse_value` reads a value with units (an override ``tau_motor=9*ms``, a study file's
   ``C_K_chan = "8 volt/second"``): numbers, Brian2 unit names, ``pi``, ``+ - * / **`` and
   parentheses. The text is cut into tokens by a whitelist, parsed by :mod:`ast` and computed by
   walking a whitelist of node types; nothing is ever handed to ``eval``/``exec``.
 * :func:`unit_spelling` writes the units of a value or of dimensions in words that
   :func:`parse_value` reads back (``joule``, ``volt/second``, ``umolar``, ``1``), for messages
   such as ``needs units of joule, e.g. 30*joule`` (:func:`example_value` writes the example).
-* :func:`finite_number` checks a command-line number (``--seconds``, ``--trials``), and
+* :func:`finite_number` checks a command-line number (``seconds``, ``trials``), and
   :func:`whole_steps` a duration that must be a whole number of simulation steps.
 
 Model expressions (the reward, the alive indicator...) are compiled in ``expressions.py``.
@@ -518,7 +518,7 @@ _INT_TEXT = re.compile(r"[+-]?[0-9]+", re.ASCII)
 
 def finite_number(text: Any, *, culprit: str, kind: type = float, minimum: float | None = None,
                   strictly_positive: bool = False) -> float | int:
-    """A finite number from a command-line option (``--seconds 2.5``, ``--trials 8``).
+    """A finite number from a command-line option (``seconds`` 2.5, ``trials`` 8).
 
     kind: ``float`` (decimal or scientific notation) or ``int`` (digits only).
     minimum: the smallest value accepted; strictly_positive: the value must be > 0.
@@ -557,10 +557,10 @@ def whole_steps(value: float, step: float, *, culprit: str, unit: str = "s",
     number of at least ``minimum``; else an :class:`InputError` naming ``culprit`` and the
     nearest valid values.
 
-    Every duration the simulation takes (``--seconds``, ``--trace-dt``, a session's
+    Every duration the simulation takes (``seconds``, ``trace_dt``, a session's
     ``L_max``...) is run as a number of steps; one that is not a whole number of them would
     run a rounded number of steps while the manifest, the labels and the summary showed the
-    value as typed (``--seconds 0.0015`` ran 2 steps and recorded 0.0015 s)."""
+    value as typed (``seconds`` 0.0015 ran 2 steps and recorded 0.0015 s)."""
     value, step = float(value), float(step)
     if not math.isfinite(value) or not step > 0:
         raise InputError(f"must be a finite number of {unit}, got {value:g}", culprit=culprit)

@@ -3,12 +3,12 @@
 Brian2 runs each of the network's ~20 code objects every 1 ms step. With the numpy target each
 costs a fixed Python/numpy overhead, which dominates at small batches; Cython compiles every
 code object to a C extension, which ran the closed loop 2.0 x as fast per trial for 1 and 4
-trials and 1.5 x at 20 (``python benchmarks/speed.py --codegen numpy cython``). The first build
+trials and 1.5 x at 20 (``python benchmarks/speed.py``, given both targets). The first build
 compiles ~20 modules (minutes); Brian2 caches them on disk (``cache_dir()``) keyed by their
 code, so later runs, other seeds, batch sizes and parameter values load them in seconds; an
 edited equation compiles its own modules once.
 
-The target is chosen per process: ``--codegen cython`` on the command line, or the environment
+The target is chosen per process: the command line's ``codegen`` setting, or the environment
 variable ``ASTROCPG_CODEGEN`` (which a study's local Dask workers inherit). Both targets draw
 the same counter-based noise, bit for bit (:mod:`astrocpg.network.noise`: NumPy's Philox in
 blocks on numpy, the same Philox in C on Cython), so a seed gives the same trajectory up to

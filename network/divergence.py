@@ -6,10 +6,11 @@ The rule (:func:`invalid`): a state value is invalid when it is NaN, infinite, o
 :data:`LIMIT` (1e50, in SI units) in magnitude, which is Brian2's own bound of a valid state. A
 run in which any float state variable of any group or synapse of the CPG (neurons, astrocytes,
 pools, torque traces, synaptic weights and traces; constants too) is invalid has diverged: exit
-3, whatever the variable. ``--set C_K_chan=1e300*mV/second`` drives the motor neurons' ``v`` to
--3e251 V without ever reaching inf: that run has diverged too. The robot (MuJoCo's qpos, qvel and
-ctrl) is held to MuJoCo's stricter bound (1e10), which its instability warnings report the step
-it is crossed (:mod:`astrocpg.coupling.bridge`); beyond that the bridge applies this rule.
+3, whatever the variable. The override ``C_K_chan=1e300*mV/second`` drives the motor neurons'
+``v`` to -3e251 V without ever reaching inf: that run has diverged too. The robot (MuJoCo's
+qpos, qvel and ctrl) is held to MuJoCo's stricter bound (1e10), which its instability warnings
+report the step it is crossed (:mod:`astrocpg.coupling.bridge`); beyond that the bridge
+applies this rule.
 
 The scan (:class:`StateScan`, :meth:`astrocpg.network.CPG.first_invalid`) runs in the 1 ms hot
 loop every ``check_every`` steps (10), so it allocates nothing: one dot product per array (cached

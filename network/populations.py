@@ -16,9 +16,9 @@ folder (:func:`rows_of`), never from this process's table.
 
 Adding a population (docs/model-files.md, "A new population"): a model file with a
 ``[population]`` table (:func:`population_from_toml`: its inputs from and outputs to the other
-populations), given to ``astrocpg unit``, ``run`` or ``train`` with ``--population FILE``; or,
-in Python, a row given to the build (``build_cpg(populations=rows)``), or registered for a
-block where a command builds the network (:func:`registered`)::
+populations), given to ``astrocpg unit``, ``run`` or ``train`` as an added population file
+(``populations``); or, in Python, a row given to the build (``build_cpg(populations=rows)``),
+or registered for a block where a command builds the network (:func:`registered`)::
 
     from astrocpg.network import populations, build_cpg
 
@@ -26,7 +26,7 @@ block where a command builds the network (:func:`registered`)::
     cpg = build_cpg(..., populations=[row])
 
 An added row's model joins the build's model set (:attr:`astrocpg.models.ModelSet.added`), so
-that ``--set`` reaches its parameters.
+that ``overrides`` reach its parameters.
 
 The projections (synapse objects) have their own, smaller table (:data:`PROJECTIONS`: object
 name -> model slot), which the divergence check uses to name the model of a failing object.
@@ -113,7 +113,7 @@ class Population:
         for an added population, the ``NeuronModel`` itself.
     cells_per_leg: given the pool size, the label of each cell of one limb in index order
         (a pool, an interneuron's name); a label repeats for the cells of one pool.
-    spikes: are its spikes recordable (``--spikes``)?
+    spikes: are its spikes recordable (the ``spikes`` setting)?
     traces: recordable traces, trace name -> :class:`~astrocpg.models.base.TraceSource`.
     cell_noun: what one cell is called in the export (``motor_neuron``: table ``motor_neurons``).
     label_meaning: what a cell's label (the ``pool`` column of the export) means.
@@ -169,7 +169,7 @@ class Population:
 
     def model_in(self, models: Any) -> Any:
         """Its model, taken from ``models`` (a ModelSet): the slot it names, or, for an added
-        population, the set's model of its model's name (which carries the values ``--set``
+        population, the set's model of its model's name (which carries the values ``overrides``
         gave), else its own."""
         if isinstance(self.model, str):
             return getattr(models, self.model)
@@ -546,7 +546,7 @@ def _output(given: Any, culprit: str) -> Output:
 
 
 def _check_parameter_names(model: Any, culprit: str) -> None:
-    """The population's model joins the model set (``--set`` reaches its parameters), so a
+    """The population's model joins the model set (``overrides`` reach its parameters), so a
     parameter named like one of the built-in models' is refused, naming both."""
     owners = {p: name for name, m in DEFAULT_MODELS.items() for p in m.parameters}
     if model.name in dict(DEFAULT_MODELS.items()):

@@ -470,7 +470,7 @@ def overflowed(traces: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, di
     always this overflow: the simulation went on with the finite value, only its record lost
     it. The run is marked rather than refused or widened: the values are not known before the
     run, and widening every trace to float64 would double the memory the run was sized for
-    (``--trace-dtype float64`` is the remedy, named wherever the mark is shown)."""
+    (``trace_dtype`` float64 is the remedy, named wherever the mark is shown)."""
     out: dict[str, dict[str, Any]] = {}
     for name, (_, v) in traces.items():
         if isinstance(v, SpilledTrace):  # counted as it was written
@@ -498,13 +498,15 @@ def overflowed(traces: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict[str, di
 
 
 def overflow_words(overflow: dict[str, dict[str, Any]]) -> str:
-    """One sentence naming what :func:`overflowed` found, with the remedy; "" for nothing."""
+    """One sentence naming what :func:`overflowed` found, with the remedy (the ``trace_dtype``
+    setting, by its field: the sentence is printed, warned and exported alike); "" for
+    nothing."""
     if not overflow:
         return ""
     what = "; ".join(f"{name} in {o['samples']} of {o['of_samples']} samples ({o['values']} "
                      f"values)" for name, o in overflow.items())
     return (f"traces beyond float32's range, recorded as inf: {what}; the simulation used "
-            f"the finite values: record again with --trace-dtype float64 to keep them")
+            f"the finite values: record again with trace_dtype float64 to keep them")
 
 
 __all__ = ["SpikeRecorder", "TraceRecorder", "SpilledTrace", "SPILL_BYTES", "Sink",

@@ -369,7 +369,7 @@ WIRING_STEPS = (_wire_pool_activity, _wire_intra_pool, _wire_interneurons, _wire
 
 def check_parameters_reach(obj: Any, model: BrianModel) -> None:
     """Refuse a network in which a parameter of ``model`` is not what ``obj`` (the Brian2 group
-    or projection built from it) reads by that name, so that a value set with ``--set`` and
+    or projection built from it) reads by that name, so that a value set with ``overrides`` and
     recorded in a manifest is the value the network uses.
 
     Brian2 resolves a name in a group's code from the group's own variables first (for a

@@ -19,7 +19,7 @@ def test_power_with_a_parameter_set_writes_its_own_file(tmp_path, capsys) -> Non
     assert main(["power", str(train), "--sessions", "1", "--set", "limit_margin=0",
                  "--no-progress"]) == 0
     out = capsys.readouterr().out
-    assert "--set limit_margin=0" in out
+    assert "overrides limit_margin=0" in out
     default = json.loads((train / "power_trial0.json").read_text())
     zero = json.loads((train / "power_trial0_limit_margin=0.json").read_text())
     assert default["overrides"] == [] and zero["overrides"] == ["limit_margin=0"]

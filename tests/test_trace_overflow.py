@@ -1,7 +1,7 @@
 """A value beyond float32's range (about 3.4e38, but finite and under the 1e50 divergence
 bound) is stored as inf in a float32 trace: never silently. The run's manifest records which
 traces overflowed and how much, the summary of ``astrocpg run``/``unit`` says so with the
-remedy (``--trace-dtype float64``), and an export carries the warning in its notes and the
+remedy (``trace_dtype float64``), and an export carries the warning in its notes and the
 series' descriptions."""
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ def test_overflowed_counts_infinities_of_float32_traces_only():
         big[2, 1] = -np.inf
         assert overflowed({"motor_Ca": (t, big)})["motor_Ca"]["values"] == 1
     words = overflow_words(found)
-    assert "motor_Ca in 2 of 4 samples" in words and "--trace-dtype float64" in words
+    assert "motor_Ca in 2 of 4 samples" in words and "trace_dtype float64" in words
     assert overflow_words({}) == ""
 
 
@@ -52,7 +52,7 @@ def test_a_run_whose_traces_overflow_float32_says_so(tmp_path, capsys, command):
     assert n_inf > 0 and over["motor_Ca"]["values"] == n_inf
     warning = [x for x in said.splitlines() if x.startswith("warning:")]
     assert len(warning) == 1 and "motor_Ca" in warning[0] \
-        and "--trace-dtype float64" in warning[0], said
+        and "trace_dtype float64" in warning[0], said
 
 
 def test_float64_traces_keep_the_values_and_say_nothing(tmp_path, capsys):
@@ -89,7 +89,7 @@ def test_an_export_of_such_a_run_carries_the_warning(tmp_path, capsys, fmt):
         with np.load(path) as z:
             meta = json.loads(str(z["metadata_json"]))
         assert meta["trace_overflow"]["motor_Ca"]["values"] > 0, meta
-        assert "--trace-dtype float64" in meta["warning"]
+        assert "trace_dtype float64" in meta["warning"]
         return
     from pynwb import NWBHDF5IO
 

@@ -15,11 +15,14 @@
     ac.study("quick"); ac.report("out/quick")    # a parameter study; its report
 
 Each command of ``astrocpg`` has its function here (``astrocpg models list`` and ``models dump
-NAME`` are ``ac.list_models()`` and ``ac.dump_model(NAME)``, ``astrocpg robot export PATH`` is ``ac.robot(PATH)``; ``study`` and
-``report`` live in :mod:`astrocpg.studies.parameter_studies.api`), with the command's options as keyword
-arguments named like them (``--no-progress``: ``progress=False``; ``--set``: ``overrides``;
-``--model``: ``models``; ``--condition``: ``conditions``; ``plot --format``: ``fmt``).
-``--codegen`` is the process's choice, not a keyword: set ``ASTROCPG_CODEGEN`` in the
+NAME`` are ``ac.list_models()`` and ``ac.dump_model(NAME)``, ``astrocpg robot export PATH`` is
+``ac.robot(PATH)``; ``study`` and ``report`` live in
+:mod:`astrocpg.studies.parameter_studies.api`), with the command's settings as keyword
+arguments: the settings' own names, which the command line's options are named after (where
+an option is spelt otherwise, :mod:`astrocpg.studies.cli.words` maps the keyword to it:
+``progress=False`` hides the progress bar, ``overrides`` are the ``NAME=VALUE`` texts,
+``models`` the model files, ``conditions`` a study's conditions, ``fmt`` a plot's format). The
+code-generation target is the process's choice, not a keyword: set ``ASTROCPG_CODEGEN`` in the
 environment (see :mod:`astrocpg.network.codegen`).
 
 Every function takes the settings of its command (seconds, seed, trials, ``overrides`` with
@@ -171,7 +174,8 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
     Parameters
     ----------
     folder : path
-        A training folder, or a run folder (``astrocpg run --out``: each trial's table).
+        A training folder, or a run folder (the ``out`` of ``astrocpg run``: each trial's
+        table).
     seconds : float
         Simulated time of each run, in s (rhythm and gait are read from its second half).
     repeats : int
@@ -540,7 +544,7 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
                          culprit=f"robot export {target}")
     refuse_in_use(target, culprit=f"robot export {target}")
     xml = a1_xml(A1Parameters())
-    if os.path.lexists(target):  # --overwrite: only an unchanged export of this A1 is replaced
+    if os.path.lexists(target):  # overwrite: only an unchanged export of this A1 is replaced
         check_regular(target, f"robot export {target}")
         same = (target.is_file() and not target.is_symlink()
                 and target.stat().st_size == len(xml.encode())

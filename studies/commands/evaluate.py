@@ -245,7 +245,7 @@ def _controllers(folder: Path) -> list[dict[str, Any]]:
                  "astrocytes" if settings.get("astrocytes", True) else "no_astrocytes",
                  "point": "", "first_seed": int(settings.get("seed", 1))}]
     if (folder / "robot.npz").is_file() and not (folder / STUDY_INDEX).exists():
-        settings = training_settings(folder)  # a run folder (astrocpg run --out): its tables
+        settings = training_settings(folder)  # a run folder (astrocpg run's out): its tables
         return [{"folder": folder, "settings": settings, "condition": "run", "point": "",
                  "first_seed": int(settings.get("seed", 1))}]
     runs = folder / "runs"

@@ -74,7 +74,7 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
             ) -> dict[str, Any]:
     """Run trial ``trial``'s trained table of the training in ``folder`` for ``sessions``
     sessions with learning off; return rates, events per spike and the power estimates.
-    ``overrides``: ``NAME=VALUE`` settings over the training's models (``--set``, e.g.
+    ``overrides``: ``NAME=VALUE`` settings over the training's models (e.g.
     ``limit_margin=0*radian``), to measure what one parameter does to the rates."""
     trial = number(trial, setting("trial"), integer=True, minimum=0)
     sessions = number(sessions, setting("sessions"), integer=True, minimum=1)
@@ -171,7 +171,7 @@ def format_power(res: dict[str, Any]) -> str:
     lengths = [s["length_s"] for s in res["sessions"]]
     over = res.get("overrides") or []
     lines = [f"{len(lengths)} sessions with the trained table of trial {res['trial']} "
-             f"(seed {res['seed']}{', --set ' + ' '.join(over) if over else ''}), lengths "
+             f"(seed {res['seed']}{', overrides ' + ' '.join(over) if over else ''}), lengths "
              f"{min(lengths):.2f}–{max(lengths):.2f} s",
              f"{'population':28s} {'events/spike':>12s} {'(paper)':>8s} {'total rate (Hz)':>16s}"
              f" {'(paper)':>9s}"]

@@ -8,7 +8,8 @@ the trial's seed, starts its single session from them, and records it. With the 
 target the replayed session is the recorded one, step for step: the same spikes, the same
 robot, the same final x as the row of ``sessions.csv``.
 
-``astrocpg run --weights TRAINING --trial T --session N`` runs it from the command line.
+``astrocpg run`` (``ac.run``) runs it, given the training as ``weights``, a ``trial`` and a
+``session``.
 """
 
 from __future__ import annotations
@@ -83,7 +84,8 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
            spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
            trace_dtype: str = "float32", overwrite: bool = False, progress: bool = True,
            inputs: Sequence[str | os.PathLike] = ()) -> Result:
-    """Replay one session of a training alone, learning on: ``astrocpg run --weights DIR --session N``.
+    """Replay one session of a training alone, learning on: ``astrocpg run`` given the training
+    as ``weights`` and a ``session``.
 
     The replay is a one-session training folder whose ``recordings/trial00_session0001/`` holds
     the session's spikes, traces and robot, and whose manifest's ``settings.replay_of`` names the

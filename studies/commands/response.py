@@ -2,7 +2,7 @@
 spike rate, alone, for any astrocyte model (``astrocpg response astrocyte``).
 
 The astrocyte is the one the network builds: the model set's ``astrocyte`` (the built-in one,
-or a model file given with ``--model astrocyte=FILE``, with ``--set`` overrides), integrated by
+or a model file given as ``models`` ``astrocyte=FILE``, with ``overrides``), integrated by
 Brian2 from its own equations, threshold, reset, refractory period and parameters. Only its
 input is not the network's: in place of a motor-neuron pool, each astrocyte's ``n_pool`` (the
 spikes of its pool in a 1 ms step) is drawn each step from a Poisson distribution of mean

@@ -142,7 +142,7 @@ def _plan_run(a: dict[str, Any], rows: Sequence[Any]) -> RunPlan:
     seconds, trials, seed, trace_dt, robot_stride, trace_dtype = _checked_sizes(
         a["seconds"], a["trials"], a["seed"], weights, trial, a["trace_dt"], a["robot_stride"],
         a["trace_dtype"])
-    # what the run reads: --out may not replace it (nor hold it)
+    # what the run reads: out may not replace it (nor hold it)
     inputs = [*a["inputs"], *([weights] if isinstance(weights, (str, os.PathLike)) else []),
               *([robot] if robot is not None else [])]
     if out is not None:  # before the simulation, not after
@@ -391,10 +391,10 @@ def read_spilled(traces: dict[str, tuple[np.ndarray, Any]],
 
 
 def with_trained_populations(weights: Any, given: dict[str, Any]) -> dict[str, Any]:
-    """``given`` (a record of ``--population`` files, :func:`population_rows`) with the
-    populations the training folder ``weights`` added (none for a weights file, an array or a
-    folder that recorded none); a file given for one of them that is not the training's is
-    refused, naming ``--population``."""
+    """``given`` (a record of added population files, ``populations``, :func:`population_rows`)
+    with the populations the training folder ``weights`` added (none for a weights file, an
+    array or a folder that recorded none); a file given for one of them that is not the
+    training's is refused, naming ``populations``."""
     if not (isinstance(weights, (str, os.PathLike)) and Path(weights).is_dir()):
         return given
     settings = (read_manifest(Path(weights)) or {}).get("settings")
@@ -734,8 +734,8 @@ def trained_models(settings: Mapping[str, Any]) -> ModelSet:
 
 def controller_tables(folder: str | Path, session: int | None = None) -> np.ndarray:
     """The tables (volt, (trials, 8, 8)) of the controller in ``folder``: a training's final
-    tables (``weights.npz``; ``session``: after that session), or a run folder's (``astrocpg
-    run --out``: the inter-limb tables its trials ran with, ``robot.npz``)."""
+    tables (``weights.npz``; ``session``: after that session), or a run folder's (the ``out``
+    of ``astrocpg run``: the inter-limb tables its trials ran with, ``robot.npz``)."""
     p = Path(folder)
     if (p / "weights.npz").is_file() or not (p / "robot.npz").is_file():
         return load_weights(folder, culprit="", session=session)
@@ -840,7 +840,7 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
 
 
 def in_world_settings(models: ModelSet, world: Sequence[str]) -> ModelSet:
-    """``models`` with the world parameters ``world`` (``NAME=VALUE`` texts, ``--world``)
+    """``models`` with the world parameters ``world`` (``NAME=VALUE`` texts)
     set; a name that is not a world parameter is refused, naming it."""
     values = {}
     for text in world:

@@ -47,8 +47,8 @@ def population_rows(populations: Any, option: str | Field = setting("populations
 
 def population_models(populations: Any) -> tuple[Any, ...]:
     """The neuron models of ``populations`` (as :func:`population_rows` takes them), for
-    ``model_set(..., added=...)``: the set then holds them, so that ``--set`` and
-    ``overrides`` reach their parameters and the manifest's models record them."""
+    ``model_set(..., added=...)``: the set then holds them, so that ``overrides`` reach their
+    parameters and the manifest's models record them."""
     return tuple(row.model for row in population_rows(populations)[0])
 
 

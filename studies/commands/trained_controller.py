@@ -211,7 +211,7 @@ def plot_training(folder: str | Path, *, trial: int = 0, seconds: float = 10.0,
     """weights, training, thigh_extensor_activity and gait figures of one trial of the
     training in ``folder`` (from a run of ``seconds`` with its trained weights; ``window``
     within it, default its last 2 s), and the trace figures of the trial's last recorded
-    session (``train --record-every``) if any, in ``recording_trialTT_sessionSSSS/``; into
+    session (a training's ``record_every``) if any, in ``recording_trialTT_sessionSSSS/``; into
     ``out`` (default ``folder/figures``, which each plot replaces whole); returns the paths.
     ``record``: the plot's settings as its manifest records them (the window drawn is added)."""
     from ..figures import plots

@@ -113,7 +113,7 @@ def plot(folder: str | Path, *, trial: int = 0, window: Any = None, fmt: str = "
 
 # ---------------------------------------------------------------- video
 def _robot_model(result: Result) -> tuple[Any, Any]:
-    """The MjModel the run simulated (its --robot file, else the project's A1) and its layout."""
+    """The MjModel the run simulated (its ``robot`` file, else the project's A1) and its layout."""
     from ...coupling.robot import A1Parameters, RobotLayout, load_robot
     from ...coupling.world import world_model
     from ...models import DEFAULT_MODELS
@@ -343,7 +343,7 @@ def _write_frames(tmp: Path, path: Path, samples: Any, replay: Any, strip: Any, 
 
 
 def _time_window(t: Any, start: Any, stop: Any) -> tuple[float, float]:
-    """``--start``/``--stop`` checked against the recording's span (0 to its length, in
+    """``start``/``stop`` checked against the recording's span (0 to its length, in
     simulated s): each a number within it, ``start`` before ``stop``; the defaults are the
     span's ends."""
     from ...coupling.render import recording_span

@@ -1,4 +1,4 @@
-"""The panel under a video's frames (``astrocpg video --panel``), drawn with matplotlib's Agg
+"""The panel under a video's frames (``astrocpg video`` with ``panel``), drawn with matplotlib's Agg
 canvas: the time and forward speed, a scrolling gait diagram and, when the replayed result
 recorded them, the activity of each leg's thigh pools and the Ca2+ of their astrocytes, all in
 one time window that scrolls with the frame's time (a vertical line marks "now").

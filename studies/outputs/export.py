@@ -1,10 +1,11 @@
-"""``astrocpg export DIR --format nwb|npz``: a simulation folder as one file for analysis tools.
+"""``astrocpg export DIR`` (``format`` nwb or npz): a simulation folder as one file for analysis
+tools.
 
 DIR is the output of ``astrocpg run`` or ``astrocpg unit``, or one recorded session of a
-training (``TRAINING/recordings/trialTT_sessionSSSS``, written by ``astrocpg train
---record-every N``): ``spikes.npz``, ``traces.npz``, ``robot.npz``, ``manifest.json``. What it
-holds was chosen when it was recorded: ``--spikes`` and ``--traces`` pick populations and traces,
-``--trace-dt``/``--robot-stride`` (``--record-stride`` and ``--record-every`` in training) the
+training (``TRAINING/recordings/trialTT_sessionSSSS``, written by ``astrocpg train`` with
+``record_every``): ``spikes.npz``, ``traces.npz``, ``robot.npz``, ``manifest.json``. What it
+holds was chosen when it was recorded: ``spikes`` and ``traces`` pick populations and traces,
+``trace_dt``/``robot_stride`` (``record_stride`` and ``record_every`` in training) the
 sampling, so a long run or training does not fill the disk.
 
 NWB (pynwb, core types only, no extension; nwbinspector finds nothing at any importance once
@@ -132,7 +133,7 @@ def _load(folder: Path) -> dict[str, Any]:
             except (ValueError, EOFError, zipfile.BadZipFile, zlib.error) as e:
                 raise InputError(f"{name}.npz is corrupt or truncated ({type(e).__name__}); "
                                  f"record the run again", culprit=f"export {folder}") from None
-    data.setdefault("spikes", {})  # recorded with --spikes none: export what exists
+    data.setdefault("spikes", {})  # recorded with spikes "none": export what exists
     # traces that overflowed float32 (stored as inf): counted from the data itself (a folder
     # recorded before its manifest said so has them too), carried into the export's notes
     # and each such series' description: never passed off as a clean record
@@ -184,7 +185,7 @@ def _overflow_note(manifest: dict[str, Any], name: str) -> str:
         return ""
     return (f"; WARNING: {over['values']} of {over['of']} values (in {over['samples']} of "
             f"{over['of_samples']} samples) were beyond float32's range and are stored as inf, "
-            f"not as simulated (record again with --trace-dtype float64)")
+            f"not as simulated (record again with trace_dtype float64)")
 
 
 def _metadata(manifest: dict[str, Any]) -> dict[str, Any]:
@@ -358,7 +359,7 @@ def _add_units(nwb: Any, m: dict[str, Any], populations: dict[str, list[dict[str
 
     recorded = [pop for pop in populations if f"{pop}_times" in spikes]
     spiking = [r for r in _rows(m) if r.spikes]
-    if recorded:  # recorded with --spikes none: no Units table
+    if recorded:  # recorded with spikes "none": no Units table
         nwb.units = Units(name="units", resolution=dt, description=(
             "spikes of the simulated cells" + "".join(
                 f"; {r.name}: {r.spike_meaning}" for r in spiking

@@ -3,10 +3,10 @@
 * :class:`OutputFolder` -- a command writes into a hidden temporary sibling
   (``.<name>.partial-<pid>-<random>``) that is renamed into place only when the command
   finishes; on an exception, Ctrl-C or ``SystemExit`` the temporary is deleted. A folder that
-  holds files is refused unless ``--overwrite``, which replaces it whole (never merges).
-* :func:`check_output_path` / :func:`check_replaceable` -- the one rule of every ``--out``: it
+  holds files is refused unless ``overwrite``, which replaces it whole (never merges).
+* :func:`check_output_path` / :func:`check_replaceable` -- the one rule of every ``out``: it
   is never the current folder, a folder or file the command reads, nor holds one, nor lies
-  inside one but at a derived place (``figures/``, ``report/``, ...); and ``--overwrite``
+  inside one but at a derived place (``figures/``, ``report/``, ...); and ``overwrite``
   replaces only an astrocpg output folder (it has astrocpg's ``manifest.json``) that holds
   nothing but what astrocpg wrote and recorded (``sort_out``: never a user's file, link or
   empty folder), never a folder of the user's own files, nor a file an output folder's
@@ -22,7 +22,7 @@
 Temporary names (one scheme for folders and files, made by :func:`temp_prefix`)::
 
     .<name>.partial-<pid>-<token>            a folder being written by OutputFolder
-    .<name>.replaced-<pid>-<token>           an old folder set aside by an --overwrite
+    .<name>.replaced-<pid>-<token>           an old folder set aside by an overwrite
     .<stem>.tmp-<pid>-<token><suffix>        a file being written by an atomic writer
 
 ``<token>`` is 6 to 32 characters of ``[A-Za-z0-9_]`` (what ``tempfile.mkstemp`` appends).
@@ -164,7 +164,7 @@ def clean_stale_temporaries(parent: str | os.PathLike) -> list[Path]:
     """Remove the hidden temporaries in ``parent`` (not below it) left by processes that no
     longer exist; returns what was removed. Temporaries of live processes are kept.
 
-    An old folder that a killed ``--overwrite`` had set aside (``.<name>.replaced-<pid>-...``)
+    An old folder that a killed overwrite had set aside (``.<name>.replaced-<pid>-...``)
     while ``<name>`` is absent is renamed back to ``<name>``: the interrupted overwrite did not
     happen. (Where ``<name>`` was too long to fit, the aside name holds a shortened one and the
     folder is left as it is, hidden but whole: never deleted.) Best effort: what cannot be removed (a read-only folder, another process cleaning at
@@ -237,18 +237,18 @@ def is_astrocpg_output(folder: str | os.PathLike) -> bool:
 
 def check_output_path(target: str | os.PathLike, inputs: Iterable[str | os.PathLike] = (), *,
                       culprit: str, file: bool = False) -> None:
-    """The rule of every ``--out`` (a folder, or with ``file`` a file) against what the command
+    """The rule of every ``out`` (a folder, or with ``file`` a file) against what the command
     reads (``inputs``: folders and files; None and paths that do not exist are skipped).
     InputError naming ``culprit`` when the output
 
     * is the current folder, or holds it (replacing it would pull the folder from under the
       user's shell);
-    * is an input, or holds one (``--out`` would delete what the command reads);
+    * is an input, or holds one (writing ``out`` would delete what the command reads);
     * lies inside an input folder anywhere but at a place later commands write into
       (:data:`DERIVED`: ``figures/``, ``report/``, ``evaluation/``, ``video_trial*.mp4``, ...):
       elsewhere it would change the input, which would then no longer match its manifest.
 
-    Applies whether or not ``--overwrite`` is given; what ``--overwrite`` may replace on top of
+    Applies whether or not ``overwrite`` is given; what ``overwrite`` may replace on top of
     this: :func:`check_replaceable`."""
     real = _real(target)
     cwd = _real(os.getcwd())
@@ -434,7 +434,7 @@ def _refuse_foreign_files(path: Path, culprit: str) -> None:
     """InputError naming the first entry (and how many there are) of the astrocpg output
     folder ``path`` that astrocpg did not write and record (``sort_out``: a file its
     manifest's inventory does not list, or one changed since; a link; an empty folder): a
-    thing the user added is never deleted by ``--overwrite``. A manifest without an inventory
+    thing the user added is never deleted by ``overwrite``. A manifest without an inventory
     (an older astrocpg's, or not astrocpg's) claims nothing but itself."""
     manifest = _astrocpg_manifest(path)
     _, foreign = sort_out(path)
@@ -452,7 +452,7 @@ def _refuse_foreign_files(path: Path, culprit: str) -> None:
                      culprit=culprit)
 
 
-#: Outputs that hold work a later command continues (a training, a study): ``--overwrite``
+#: Outputs that hold work a later command continues (a training, a study): ``overwrite``
 #: replaces them only with the same command's output, never with a plot or a run.
 _KEPT_WORK = ("train", "study")
 
@@ -466,7 +466,7 @@ def _refuse_other_command(path: Path, command: str | None, culprit: str) -> None
                          f"choose another folder, or delete it yourself", culprit=culprit)
 
 
-#: How the files astrocpg writes alone (an export, a video) begin, by suffix: ``--overwrite``
+#: How the files astrocpg writes alone (an export, a video) begin, by suffix: ``overwrite``
 #: replaces an existing file only when it is of the kind the command writes.
 _MAGIC = {".nwb": (0, b"\x89HDF\r\n\x1a\n"), ".npz": (0, b"PK\x03\x04"),
           ".mp4": (4, b"ftyp")}
@@ -494,7 +494,7 @@ def _refuse_foreign_file(path: Path, culprit: str) -> None:
 
 def check_replaceable(target: str | os.PathLike, *, culprit: str,
                       command: str | None = None) -> None:
-    """What ``--overwrite`` may replace: an existing folder that :func:`is_astrocpg_output`
+    """What ``overwrite`` may replace: an existing folder that :func:`is_astrocpg_output`
     and holds nothing but what astrocpg wrote and recorded (``sort_out``), and that is
     no training or study unless ``command`` (the command writing) is the same (an existing
     file: one that no astrocpg output folder around it lists in its manifest). Anything else,
@@ -953,7 +953,7 @@ def inventory(folder: str | os.PathLike,
     those ``previous`` listed (as it listed them: a change since is for readers to find) and,
     inside a folder with an astrocpg manifest of its own (a study's run written by a worker),
     what that manifest's inventory lists as it is. A file the user put there is never
-    adopted: a later ``--overwrite`` refuses to delete it."""
+    adopted: a later ``overwrite`` refuses to delete it."""
     root = Path(folder)
     whole = not in_place
     out: dict[str, dict[str, Any]] = {}
@@ -1078,7 +1078,7 @@ def clear_folder(folder: str | os.PathLike, *, culprit: str | None = None) -> No
 def remove_derived(folder: str | os.PathLike) -> list[str]:
     """Delete what later commands derived from ``folder`` (the :data:`DERIVED` entries at its
     top: ``figures/``, ``report/``, ``evaluation/`` and ``evaluation.parts/``, videos, power
-    estimates); returns their names. A training that continues (``train --resume``) calls it:
+    estimates); returns their names. A training that continues (a resumed one) calls it:
     those were made from weights the training is about to change, and a stale evaluation beside
     new weights would read as theirs (and ``evaluation.parts/`` would even be reused by the next
     ``evaluate``). Only what astrocpg wrote and recorded goes (``sort_out``): a file of the

@@ -343,7 +343,7 @@ class Result:
         return out
 
     def recording(self, trial: int = 0, session: int = 1) -> "Result":
-        """(training) One recorded session (``train --record-every N``) as a Result."""
+        """(training) One recorded session (a training's ``record_every``) as a Result."""
         found = self.recordings
         if (trial, session) not in found:
             shown = _choices(f"({b}, {s})" for b, s in found) or "none"

@@ -365,7 +365,7 @@ def save_npz(path: Path, arrays: Mapping[str, np.ndarray], *, compressed: bool =
     Uncompressed by default: a run's traces are noise-like float32 that deflate shrinks by a
     quarter at about 30 times the CPU of writing them as they are (for 20 trials of 6 s, 5 s
     against 0.2 s: as much as the simulation itself), and a reader gets them back without
-    inflating them. ``compressed`` for a file made to be sent (``astrocpg export --format npz``).
+    inflating them. ``compressed`` for a file made to be sent (``astrocpg export`` as npz).
     Folders written compressed by earlier versions read the same. From :data:`DIRECT_BYTES` of
     arrays on, the file is written past the page cache (:class:`DirectFile`), its sha256 taken
     on the way for the folder's inventory."""
@@ -543,7 +543,7 @@ def write_manifest(out: Path, *, command: str, seed: int, settings: Mapping[str,
                    invocation: Mapping[str, Any] | None = None) -> None:
     """``manifest.json``: what was run, with what, and what each file holds.
 
-    With ``history`` (a folder that several invocations continue, e.g. ``train --resume``), the
+    With ``history`` (a folder that several invocations continue, e.g. a resumed training), the
     first invocation's ``argv`` and ``created`` are kept and each invocation has an entry in
     ``history`` (argv, start, commit, status, and ``invocation``'s entries, e.g. the sessions
     per trial it trained to), the latest updated in place."""

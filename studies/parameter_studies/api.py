@@ -35,11 +35,11 @@ def study(file: str | os.PathLike, *, out: str | os.PathLike | None = None,
         The study folder (default ``out/<study name>``); a second call continues it.
     seeds : str, int or list of int, optional
         "1-3", "1,4,9", a count (that many from the file's first seed) or a list of ints, in
-        place of the file's seeds (``--seeds``).
+        place of the file's seeds.
     sessions : int, optional
-        Sessions per trial, in place of the file's (``--sessions``).
+        Sessions per trial, in place of the file's.
     overrides : sequence of str or mapping, optional
-        ``["NAME=VALUE", ...]`` or ``{name: value}``, over the file's ``[base]`` (``--set``).
+        ``["NAME=VALUE", ...]`` or ``{name: value}``, over the file's ``[base]``.
         The study folder records ``seeds``, ``sessions`` and ``overrides``; a second call into it
         must give the same.
     workers : int, optional
@@ -154,7 +154,7 @@ def report(folder: str | os.PathLike, *, smooth: int = 1, last: int = 50,
 
 
 def study_status(folder: str | os.PathLike, *, workers: int | None = None) -> Any:
-    """What a study has done and what is left: ``astrocpg study --status``.
+    """What a study has done and what is left: the status ``astrocpg study`` prints of a folder.
 
     Reads only: safe while the study runs in another process.
 

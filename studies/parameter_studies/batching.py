@@ -9,10 +9,10 @@ free worker takes the next run). The batch with the shortest projected wall time
 2 % of it the largest batch wins (it spends the least CPU).
 
 A seed's simulated time is its training's length: at most ``sessions x L_max``, which is all
-that is known before a study has run. ``astrocpg study --plan-from DIR`` gives each seed the
-length it trained in an earlier study of the same conditions (``measured_lengths``), so that a
-condition whose robots walk longer (longer sessions) is costed longer than one whose robots
-fall.
+that is known before a study has run. A study's ``plan_from`` (an earlier study's folder)
+gives each seed the length it trained in that study of the same conditions
+(``measured_lengths``), so that a condition whose robots walk longer (longer sessions) is
+costed longer than one whose robots fall.
 
 One batch for every group leaves a core idle at the end when the groups do not share out
 evenly (5 conditions on 2 workers: the fifth runs alone; or one condition trains longer than
@@ -24,7 +24,7 @@ of 20; 5 conditions: four runs of 20 and one condition as two runs of 10, 10 % s
 Splitting never comes free: each run pays the fixed part of the cost again, which is why two
 conditions of equal length on two workers stay one run each.
 
-With ``--scheduler`` the cost is measured where the command runs, not on the cluster's machines.
+With a ``scheduler`` the cost is measured where the command runs, not on the cluster's machines.
 Only the ratio of the fixed part to a trial's part matters to the choice, but that ratio does
 vary between machines, targets and sittings (about 4 trials' with Cython, about 13 with numpy,
 on the same 2-core machine), so on a cluster unlike the submitting machine give ``batch`` a

@@ -84,7 +84,7 @@ def execute_run(spec: RunSpec, folder: str) -> dict[str, Any]:
 
     out = prepare_output_dir(folder)
     # the run folder is this worker's while it trains (inside the study's folder, which the
-    # study's process holds): `train --resume` or `run --out ... --overwrite` on it is refused
+    # study's process holds): resuming it as a training or overwriting it as a run's out is refused
     lock = FolderLock(out, culprit=f"run folder {out}", inside=out.parent.parent)
     refused = 0
     while True:
@@ -290,7 +290,7 @@ def dispatch(study, pending, folders, client, progress, total_sessions, n_done_b
 
 def _projection(study: Any, pending: list[RunSpec]) -> Callable[[RunSpec], float]:
     """What orders the runs, longest first: the seconds ``batch = "auto"`` projected for each
-    (measured lengths with ``--plan-from``), else each run's bound (every session at L_max)."""
+    (measured lengths with ``plan_from``), else each run's bound (every session at L_max)."""
     planned = (study.batch_choice or {}).get("run_seconds")
     if isinstance(planned, dict) and all(r.run_id in planned for r in pending):
         return lambda r: float(planned[r.run_id])

@@ -1,5 +1,5 @@
-"""How long each seed trained in an earlier study: what ``astrocpg study --plan-from DIR`` costs
-a study's runs with, in place of the bound ``sessions x L_max``.
+"""How long each seed trained in an earlier study: what a study given that study's folder as
+``plan_from`` costs its runs with, in place of the bound ``sessions x L_max``.
 
 A run's trials step together until its last trial has done its sessions, so a run lasts as
 long as its busiest seed's training, and a training's length is the sum of its sessions'

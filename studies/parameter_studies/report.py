@@ -134,7 +134,7 @@ def report(folder: Path, *, last: int = 50, smooth: int = 1, out: Path | None = 
     if not (Path(folder) / STUDY_INDEX).is_file():
         raise InputError(f"not a study folder (no {STUDY_INDEX})", culprit=f"report {folder}")
     target = Path(out) if out is not None else Path(folder) / REPORT
-    # never the study it reports on, nor inside it but at its report/ (--overwrite: of a study)
+    # never the study it reports on, nor inside it but at its report/ (overwrite: of a study)
     OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]).check()
     with OutputFolder(target, overwrite=overwrite or out is None, inputs=[folder]) as tmp:
         written = _report(Path(folder), tmp, last=last, smooth=smooth)

@@ -1,4 +1,5 @@
-"""What a study folder has done and what is left (``astrocpg study --status DIR``).
+"""What a study folder has done and what is left (the status ``astrocpg study`` prints of a
+folder, ``ac.study_status``).
 
 A long study (hours on a laptop) is one folder that resumes with the same command after any
 stop. This module reads that folder without running or locking anything, so it may be asked
@@ -95,7 +96,7 @@ class StudyProgress:
         return sum(r.sessions_total for r in self.runs)
 
     def text(self) -> str:
-        """The summary ``astrocpg study --status`` prints."""
+        """The summary ``astrocpg study`` prints of a study's status."""
         states: dict[str, int] = {}
         for r in self.runs:
             states[r.state] = states.get(r.state, 0) + 1

@@ -90,9 +90,9 @@ def load_study(path: str | os.PathLike, *, batch: int | None = None,
     """Read and validate a study file; every error names the file and the offending key.
 
     batch: seeds per run, instead of the file's ``batch`` (how a ``batch = "auto"`` study is
-    split once its batch is chosen: :func:`resolve_batch`). overrides: the command line's
-    ``--seeds``, ``--sessions``, ``--set`` (:func:`study_overrides`), applied to the study as
-    read."""
+    split once its batch is chosen: :func:`resolve_batch`). overrides: the ``seeds``,
+    ``sessions`` and ``overrides`` given with the command (:func:`study_overrides`), applied to
+    the study as read."""
 
     from ...shipped import resolve, unreadable
     p = resolve(path, "study")  # `astrocpg study quick`: a shipped study by name
@@ -298,10 +298,10 @@ def _what_changed(recorded: Any, now: dict[str, Any]) -> str:
 
 
 def _check_overrides(study: Study, out: Path, recorded: dict[str, Any]) -> None:
-    """A study folder keeps the command-line overrides it was started with (``--seeds``,
-    ``--sessions``, ``--set``, recorded in its study.json): rerunning the same command resumes
-    it, other overrides (or none where it had some) are refused naming the option, as an edited
-    study file that changes its runs is."""
+    """A study folder keeps the overrides it was started with (``seeds``, ``sessions``,
+    ``overrides``, recorded in its study.json): rerunning the same command resumes it, other
+    overrides (or none where it had some) are refused naming the setting, as an edited study
+    file that changes its runs is."""
     given = study.overrides.record()
     for key, name in (("seeds", "seeds"), ("sessions", "sessions"), ("set", "overrides")):
         was, now = recorded.get(key), given.get(key)
@@ -375,7 +375,7 @@ def prepare_study(study: Study, out: Path, *, workers: int | None = None,
     if out.exists() and not out.is_dir():
         raise InputError("exists and is not a folder", culprit=setting("out", out))
     # the study file (and a worlds file it names) is never the folder nor inside it; what
-    # --overwrite replaces is a folder astrocpg wrote, never the user's own files
+    # overwrite replaces is a folder astrocpg wrote, never the user's own files
     worlds = (study.evaluate or {}).get("worlds")
     inputs = [study.path, *([worlds] if isinstance(worlds, str) and os.path.isfile(worlds)
                             else [])]
@@ -389,7 +389,7 @@ def prepare_study(study: Study, out: Path, *, workers: int | None = None,
         from .measured import results_table
 
         results_table(Path(plan_from), setting("plan_from"))
-    # --overwrite starts afresh: the batch the old folder began with does not count
+    # overwrite starts afresh: the batch the old folder began with does not count
     return resolve_batch(study, None if overwrite else out, workers=workers,
                          scheduler=scheduler, progress=progress,
                          plan_from=None if plan_from is None else Path(plan_from))
@@ -453,8 +453,8 @@ def _run_study_locked(study: Study, out: Path, *, workers: int | None, scheduler
                 "overrides": study.overrides.record(), "workers": workers,
                 "scheduler": scheduler, "batch": study.batch, "batch_choice": study.batch_choice}
     cluster = connect_cluster(workers, scheduler) if waiting else None
-    # the worker processes (threads of a --scheduler cluster) the runs share: what
-    # `study --status` projects the time left with
+    # the worker processes (threads of a scheduler's cluster) the runs share: what a study's
+    # status projects the time left with
     settings["worker_count"] = (sum(cluster[0].nthreads().values()) or None
                                 if cluster is not None and scheduler else
                                 workers or os.cpu_count() or 1)

@@ -239,7 +239,7 @@ def parse_study(text: str, p: Path, batch_given: int | None,
 
 def _apply_sets(doc: dict[str, Any], models, base: list[str], axes: dict[str, list[str]],
                 sets: Sequence[str], where: str) -> list[str]:
-    """``base`` with each ``--set NAME=VALUE`` checked against the study's models and put in
+    """``base`` with each override ``NAME=VALUE`` checked against the study's models and put in
     place of the file's ``[base]`` NAME (or added). A name the study sweeps, or a condition
     sets, is refused: its runs would take the axis's or the condition's value, not this one."""
     out = list(base)
@@ -330,7 +330,7 @@ def _base(doc: dict[str, Any], p: Path, slots: set[str], where: str, added: Any 
             raise InputError(f"[models] unknown model '{slot}'{did_you_mean(slot, slots)} (models: "
                              f"{', '.join(sorted(slots))})", culprit=where)
         base_files[slot] = _model_file(p, slot, file, f"{where} [models]")
-    # the added populations' models join the set: [base], the sweep and --set reach them
+    # the added populations' models join the set: [base], the sweep and overrides reach them
     models = model_set(models=base_files, option=f"{where} [models]", added=added)
     base = [_check_override(models, k, _value_text(k, v, f"{where} [base]"), f"{where} [base]")
             for k, v in doc.get("base", {}).items()]
@@ -498,7 +498,7 @@ def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]
 def _population_files(study: Path, files: Any, where: str) -> dict[str, dict[str, str]]:
     """``[study] populations``: model files with a ``[population]`` table (paths relative to
     the study file's folder, or a shipped model file's name when no such path exists, as
-    :func:`_model_file` reads them), each read and checked as ``--population FILE`` is; the
+    :func:`_model_file` reads them), each read and checked as a run's ``populations`` are; the
     record ``{name: {"sha256", "content"}}`` every run of the study adds."""
     if files is None:
         return {}
@@ -580,7 +580,7 @@ def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
     from ...network.populations import spike_populations, trace_sources
 
     # by default every population and trace of the table, the study's added ones included
-    # (as a training's --record-every records them)
+    # (as a training's record_every records them)
     fields = {"spikes": spike_populations(), "traces": tuple(trace_sources())} | dict(doc)
     try:
         plan = RecordPlan.from_dict(fields)

@@ -26,7 +26,7 @@ from .workers import MAX_WORKERS_PER_CORE, default_workers
 #: progress from the run folders, so none of it is used. Off or slower, Dask's own CPU beside
 #: 2 workers' tasks fell from 4.9 % of a core in each worker and 4.8 % in the study's process to
 #: 0.4 % and 1.0 %; the tasks' own CPU did not change measurably
-#: (``python benchmarks/dask_overhead.py``). A ``--scheduler`` cluster keeps its own settings.
+#: (``python benchmarks/dask_overhead.py``). A ``scheduler``'s cluster keeps its own settings.
 LEAN_DASK: dict[str, Any] = {
     "distributed.worker.profile.enabled": False,
     "distributed.admin.tick.interval": "1s",
@@ -160,7 +160,7 @@ def check_main_guarded() -> None:
                      f"manual's studies page)", culprit=path)
 
 
-#: Seconds the probe of ``--scheduler`` waits to connect, and then for the scheduler to greet.
+#: Seconds the probe of a ``scheduler`` waits to connect, and then for the scheduler to greet.
 PROBE_TIMEOUT = 5.0
 #: A Dask comm's first message starts with its header's length (8 bytes, little-endian): a
 #: handshake is a few hundred bytes. Anything longer is not a Dask scheduler (an HTTP server,
@@ -170,7 +170,7 @@ MAX_GREETING = 1 << 20
 
 
 def check_scheduler(scheduler: str) -> None:
-    """Refuse in a few seconds, with one line naming ``--scheduler``, an address where no Dask
+    """Refuse in a few seconds, with one line naming ``scheduler``, an address where no Dask
     scheduler answers: a malformed address, a closed port or an unreachable host (instead of
     Dask's client waiting out its whole timeout), or a server that speaks something else (an
     HTTP server such as the dashboard, SSH). ``tcp://`` addresses are probed; other protocols
@@ -259,7 +259,7 @@ def run_on_cluster(client: Any, fn: Callable[..., Any], items: Sequence[tuple[st
     stealing moved every waiting task onto it (measured with 8 workers x 16 study runs: 7 runs
     queued on one worker while the others sat idle). With at most one task per thread
     in flight, no task ever waits on a busy worker while another is free, whatever the
-    scheduler's settings (``--scheduler`` clusters included), and a freed thread gets the next
+    scheduler's settings (a ``scheduler``'s cluster included), and a freed thread gets the next
     task at once. Interrupted, the tasks in flight are released (they stop with the cluster).
     """
     from distributed import wait

@@ -2,7 +2,7 @@
 is kept in a cache file named by a hash of the model sources (every file under ``models/``)
 and the versions of Brian2 and sympy (they write the LaTeX), so a later ``describe`` reads it
 in milliseconds instead of importing Brian2 (about a second). Any edit of a model file gives a
-new hash, hence a fresh text; ``--set``/``--model``/``--equations`` bypass the cache.
+new hash, hence a fresh text; ``overrides``/``models``/``equations`` bypass the cache.
 
 Only the standard library is imported here; the cache lives in astrocpg's cache folder
 (:func:`~astrocpg.studies.runtime.caches.cache_dir`); a cache that cannot be written is simply

@@ -1,5 +1,5 @@
 """Memory an experiment will need, estimated before anything is allocated, so that
-``--seconds 1e7`` or ``--trials 100000`` is refused in one line instead of exhausting the
+``seconds`` 1e7 or ``trials`` 100000 is refused in one line instead of exhausting the
 machine part-way through."""
 
 from __future__ import annotations

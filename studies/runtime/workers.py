@@ -115,7 +115,7 @@ def _worker_start() -> None:
 def _in_environment(environ: dict[str, str], fn: Callable[..., Any], *args: Any) -> Any:
     """``fn(*args)`` with this process's environment made the caller's as it is at the call
     (a worker started fresh, or by a fork server, keeps the one it started with: a later
-    ``--codegen``, or a variable the caller changed since, would not reach it)."""
+    ``codegen`` setting, or a variable the caller changed since, would not reach it)."""
     if environ != dict(os.environ):
         os.environ.clear()
         os.environ.update(environ)

@@ -16,7 +16,7 @@ from .checks import (STEP, check_duration, check_selection, check_trace_dt, chec
 def _names(value: Any, name: str) -> tuple[str, ...] | None:
     """A recording selection as one value whichever way it was given (None: everything; a
     text of names separated by commas, "none"; a list of names): the names, in order. The
-    command line's ``--spikes motor`` and Python's ``spikes="motor"`` or ``["motor"]`` are one
+    command line's text ``motor`` and Python's ``spikes="motor"`` or ``["motor"]`` are one
     setting, recorded alike."""
     return None if value is None else names_list(value, setting(name))
 
