@@ -28,7 +28,8 @@ from ..outputs.folder import OutputFolder, as_path, refuse_in_use
 from ..outputs.result import Result
 from ..outputs.writing import read_manifest
 from .settings import added_populations, population_models
-from .train import SESSION_STARTS, TrainSettings, record_plan, train_from_start
+from ..settings import TrainSettings
+from .train import SESSION_STARTS, record_plan, train_from_start
 from ...models.compose import model_set
 
 

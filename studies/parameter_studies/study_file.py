@@ -30,7 +30,7 @@ from ..analysis.margins import read_margins
 from ..commands.settings import (MAX_GRID, MAX_SEED, added_populations, check_grid,
                                  population_models, population_rows)
 from ..commands.simulate import STEP, check_duration
-from ..commands.train import TrainSettings
+from ..settings import TrainSettings
 
 MAX_SEEDS = MAX_GRID  # trainings of a study (and seeds): the bound of every grid
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")

@@ -4,10 +4,11 @@ Each command's settings are one frozen value, checked when built (a bad value is
 line naming its setting, which each door says in its own words: ``--seconds`` on the command
 line, ``seconds`` from Python), recorded in the output folder's manifest and read back from it
 (``from_record``): :class:`~.simulation.UnitSettings` (``unit``),
-:class:`~.simulation.RunSettings` (``run``). The training's are
-:class:`astrocpg.studies.commands.train.TrainSettings`, which a resume reads back.
+:class:`~.simulation.RunSettings` (``run``), :class:`~.training.TrainSettings` (``train``,
+which a resume reads back).
 """
 
 from .simulation import RunSettings, UnitSettings
+from .training import TrainSettings
 
-__all__ = ["RunSettings", "UnitSettings"]
+__all__ = ["RunSettings", "TrainSettings", "UnitSettings"]
