@@ -29,7 +29,8 @@ from ..outputs.result import Result
 from ..outputs.writing import read_manifest
 from .settings import added_populations, population_models
 from ..settings import TrainSettings
-from .train import SESSION_STARTS, record_plan, train_from_start
+from .train import record_plan, train_from_start
+from .train_files import SESSION_STARTS
 from ...models.compose import model_set
 
 
