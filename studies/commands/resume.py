@@ -36,8 +36,7 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
            seed: int | None = None,
            trials: int | None = None, astrocytes: bool | None = None, overrides: Any = None,
            equations: Mapping[str, str] | None = None, models: Mapping[str, Any] | None = None,
-           out: str | Path | None = None, overwrite: bool = False,
-           expect: dict[str, Any] | None = None, populations: Any = None,
+           out: str | Path | None = None, overwrite: bool = False, populations: Any = None,
            workers: int | None = None) -> Result:
     """Continue the training in ``folder`` from its checkpoint: ``astrocpg train --resume``.
 
@@ -66,8 +65,6 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
         Only ``folder`` itself (a resume writes where it continues).
     overwrite : bool
         Refused when true (it would replace what the resume continues).
-    expect : dict, optional
-        The same checks, as ``{option: value}``.
     workers : int, optional
         The processes a training split over processes (``checkpoint.npz`` of batches) continues
         its batches on (default: the cores this process may use); a training of one network
@@ -80,13 +77,7 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     """
     procs = resolve_workers(workers)
     out = _resume_folder(folder, out, overwrite)
-    given = _given_again(seed, trials, astrocytes, overrides, equations, models, populations) \
-        | dict(expect or {})
-    asked = given.pop("sessions", None)
-    if sessions is None:
-        sessions = asked
-    elif asked is not None and asked != sessions:
-        raise InputError(f"given twice ({asked} and {sessions})", culprit=setting("sessions"))
+    given = _given_again(seed, trials, astrocytes, overrides, equations, models, populations)
     if sessions is not None:
         sessions = number(sessions, setting("sessions"), integer=True, minimum=1)
     payload, settings, fresh = _stored_training(out)
