@@ -38,7 +38,7 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
            equations: Mapping[str, str] | None = None, models: Mapping[str, Any] | None = None,
            out: str | Path | None = None, overwrite: bool = False, populations: Any = None,
            workers: int | None = None) -> Result:
-    """Continue the training in ``folder`` from its checkpoint: ``astrocpg train --resume``.
+    """Continue the training in ``folder`` from its checkpoint.
 
     It ends with the same files as a training never interrupted (what later commands derived
     from the earlier weights, ``evaluation/`` and ``figures/``, is removed: it would be stale).
@@ -103,7 +103,7 @@ def _resume_folder(folder: Any, out: Any, overwrite: bool) -> Path:
     if out_given is not None and Path(out_given).resolve() != folder.resolve():
         raise InputError(f"{advice('resume')} writes into its own folder; drop {setting('out')}",
                          culprit=setting("out"))
-    if overwrite:  # never ignored: it would replace what --resume continues
+    if overwrite:  # never ignored: it would replace what the resume continues
         raise InputError(f"replaces a training, {advice('resume')} continues one: use one of them",
                          culprit=setting("overwrite"))
     return folder
@@ -272,7 +272,7 @@ def check_belongs(out: Path, settings: TrainSettings) -> int:
     folder's manifest records (a checkpoint copied or linked in from another training, e.g.
     of another seed, is refused naming the file and what differs, before anything changes).
     Returns the sessions per trial the folder plans: the checkpoint's, or more where the
-    manifest records an extension (``--resume --sessions``) stopped before its first
+    manifest records an extension (a resume with more ``sessions``) stopped before its first
     checkpoint (everything else the same)."""
     manifest = read_manifest(out)
     if not isinstance(manifest, dict) or manifest.get("astrocpg_command") != "train" \

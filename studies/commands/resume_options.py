@@ -30,7 +30,7 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     with the recorded value is accepted (the run continues with it). ``given``: ``sessions``,
     ``seed``, ``trials``, ``astrocytes`` (bool), ``models`` ({model: {"sha256", "content"}}),
     ``equations`` ({model: text}), ``overrides`` (``NAME=VALUE`` items), ``populations``
-    ({name: {"sha256", "content"}} of ``--population`` files), ``record_every``,
+    ({name: {"sha256", "content"}} of added population files), ``record_every``,
     ``record_stride``, ``spikes``, ``traces``; None: not given.
 
     Parameter values are compared as quantities in SI (:data:`SAME_VALUE_RTOL`), not as
@@ -86,7 +86,7 @@ def _check_equations_given(settings: TrainSettings, equations: Mapping[str, str]
 
 
 def _check_overrides_given(settings: TrainSettings, items: Sequence[str]) -> None:
-    """``--set`` values given to a resume: each must equal the training's, as a quantity."""
+    """``overrides`` given to a resume: each must equal the training's, as a quantity."""
     from ...models.files import value_text
 
     if not items:
@@ -134,7 +134,7 @@ def _check_recording_given(plan: RecordPlan | None, given: dict[str, Any]) -> No
 
 def _check_populations(recorded: dict[str, dict[str, str]], given: Mapping[str, Any],
                        refuse: Callable[[str, str], NoReturn]) -> None:
-    """``--population FILE`` given to a resume: each must be a file the training added (the
+    """``populations`` given to a resume: each must be a file the training added (the
     same file, or one that defines the same population and model)."""
     name = same_populations(recorded, given)
     if name is None:
@@ -171,7 +171,8 @@ def _same_quantity(a: Any, b: Any) -> bool:
 
 def _check_model_file(name: str, recorded: dict[str, str] | None, given: dict[str, str],
                       refuse: Callable[[str, str], NoReturn]) -> None:
-    """``--model NAME=FILE`` against the model file the training recorded for NAME."""
+    """A model file given for NAME (``models``) against the one the training recorded for
+    NAME."""
     option = setting("models", name)
     if recorded is not None and recorded["sha256"] == given["sha256"]:
         return

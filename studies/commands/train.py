@@ -174,7 +174,7 @@ def _checked_new_training(out: Any, overwrite: bool, inputs: Sequence[Any]) -> P
     (that is resumed, or replaced with ``overwrite``), not holding an input."""
     out = as_path(out, setting("out"))
     if not overwrite:
-        refuse_legacy(out)  # --resume would refuse it too: say what to do with it
+        refuse_legacy(out)  # a resume would refuse it too: say what to do with it
     if holds_checkpoint(out) and not overwrite:
         raise InputError(f"already holds a training run (continue it with "
                          f"{advice('resume', out)}, or "

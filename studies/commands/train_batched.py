@@ -1,4 +1,4 @@
-"""A training split over worker processes (``astrocpg train --workers N``).
+"""A training split over worker processes (``workers``).
 
 The trials split into contiguous batches (:func:`~astrocpg.studies.runtime.workers.split_trials`);
 each worker trains its batch session by session with the one-process :class:`~.trainer.Trainer`
@@ -9,14 +9,14 @@ the batches' session memories from their checkpoints, as they are written, into 
 training's ``sessions.csv``, ``weights.npz`` and ``session_starts.npz`` (rows in the order one
 network ends them: by the step a session ended, then by trial) and packs the batches'
 checkpoints into the training's ``checkpoint.npz`` (:func:`packed_payload`), from which
-``--resume`` continues every batch where its checkpoint left it.
+a resume continues every batch where its checkpoint left it.
 
 When every batch has finished, those three files are the one-process training's, byte for byte,
 and so are the recordings; the manifest differs in its timings and worker count. The packed
-``checkpoint.npz`` differs (it holds one network state per batch). ``--resume --sessions``
-extends each batch as one network extends its trials (a trial that ran idle in its batch
-refuses it, as in one network). A batch that diverges stops the others: the folder keeps the
-sessions so far and says it diverged.
+``checkpoint.npz`` differs (it holds one network state per batch). A resume with more
+``sessions`` extends each batch as one network extends its trials (a trial that ran idle in its
+batch refuses it, as in one network). A batch that diverges stops the others: the folder keeps
+the sessions so far and says it diverged.
 """
 
 from __future__ import annotations
@@ -68,7 +68,7 @@ def train_batch(spec: dict[str, Any], first: int, count: int, folder: str,
         if payload is not None:
             trainer.restore(payload)
             trained_to = int(payload["settings"]["n_sessions"])
-            if trained_to < batch.n_sessions:  # an extension (resume --sessions): as one network
+            if trained_to < batch.n_sessions:  # an extension (more sessions): as one network
                 trainer.extend(trained_to)
         try:
             trainer.run()

@@ -75,10 +75,10 @@ TRAIN_FILES = {
                     "first step), progress, t_learning_start and state.<population>.<variable> "
                     "(what a session reset leaves: astrocytes, inter-limb weights in SI), what "
                     "a replay of one session reads",
-    CHECKPOINT: "state to continue exactly (astrocpg train --resume DIR): a NumPy archive of "
-                "plain arrays and JSON (meta, state), no code",
-    "recordings/": "with --record-every: trialTT_sessionSSSS/ per recorded session (spikes, "
-                   "traces, robot, manifest; astrocpg export reads it)",
+    CHECKPOINT: "state to continue exactly (resume the training): a NumPy archive of plain "
+                "arrays and JSON (meta, state), no code",
+    "recordings/": "with record_every: trialTT_sessionSSSS/ per recorded session (spikes, "
+                   "traces, robot, manifest; export reads it)",
 }
 
 

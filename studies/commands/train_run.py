@@ -64,7 +64,7 @@ def run_training(settings: TrainSettings, out: Path, plan: RecordPlan | None,
     cleared = False
     try:
         with FolderLock(out, culprit=setting("out") if payload is None else setting("resume")):
-            if replace:  # --overwrite: the old run goes whole, never mixed with the new one
+            if replace:  # overwrite: the old run goes whole, never mixed with the new one
                 clear_folder(out, culprit=setting("out", out))
             elif new and holds_results(out):  # another process filled it since the check
                 raise InputError(f"is not empty; {setting('overwrite')} replaces it whole",

@@ -23,7 +23,7 @@ class TrainSettings:
     equations: dict[str, str] = field(default_factory=dict)  # model -> equation text
     # model -> {"sha256", "content"} of a model file (TOML)
     models: dict[str, dict[str, str]] = field(default_factory=dict)
-    # population -> {"sha256", "content"} of the model file that added it (``--population``)
+    # population -> {"sha256", "content"} of the model file that added it (``populations``)
     populations: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def fingerprint(self) -> str:
