@@ -129,7 +129,7 @@ class Trainer:
         if over:
             if not self.trace_overflow:  # said once; every such session is in the manifest
                 warnings.warn(f"{folder}: " + overflow_words(over) + " (every session that "
-                              f"does is listed in the training's manifest.json)", UserWarning,
+                              "does is listed in the training's manifest.json)", UserWarning,
                               stacklevel=2)
             self.trace_overflow[folder.name] = over
         robot = {k: (v if k == "t" else v[None]) for k, v in arrays["robot"].items()}
