@@ -34,7 +34,6 @@ from ..outputs.result import Result
 from ..runtime.resources import check_memory, estimate_batched
 from ..runtime.workers import resolve_workers, workers_words
 from ..settings import TrainSettings
-from .resume_options import SAME_VALUE_RTOL, check_resume_options
 from .settings import added_populations, number, population_models, population_rows, seed_number
 from .simulate import check_selection, check_trace_dtype
 from .train_run import run_training
@@ -193,7 +192,6 @@ def train_from_start(settings: TrainSettings, out: Path, plan: RecordPlan | None
                         models=models, start=(start, origin))
 
 
-# TrainSettings, Trainer, train_summary, check_resume_options and SAME_VALUE_RTOL live in
-# rooms of their own (above); the tests and the manual import them from here too
-__all__ = ["SAME_VALUE_RTOL", "TrainSettings", "Trainer", "check_resume_options", "record_plan",
-           "train", "train_from_start", "train_summary"]
+# TrainSettings, Trainer and train_summary live in rooms of their own (above); the tests import
+# them from here too
+__all__ = ["TrainSettings", "Trainer", "record_plan", "train", "train_from_start", "train_summary"]
