@@ -7,7 +7,7 @@ after 0, 50, 200 and 400 sessions each (the paper's ablation run), on this machi
 The session memory is filled with synthetic rows and tables of the real sizes; the network is
 the real one. With 20 trials a session ends about every L / 20 simulated seconds (L the mean
 session length), so writing at every session end, as trainings did before the writes were
-spaced (``CHECKPOINT_SPACING`` in ``studies/commands/train.py``), adds about
+spaced (``CHECKPOINT_SPACING`` in ``studies/commands/trainer.py``), adds about
 ``write_s x 20 / L`` wall seconds per simulated second. Spaced, at most 1 / (1 + 49) = 2 % of the
 wall time goes to writing.
 """
@@ -26,7 +26,8 @@ import numpy as np  # noqa: E402
 
 from astrocpg.coupling.training import SESSION_COLUMNS  # noqa: E402
 from astrocpg.models import DEFAULT_MODELS  # noqa: E402
-from astrocpg.studies.commands.train import Trainer, TrainSettings  # noqa: E402
+from astrocpg.studies.commands.trainer import Trainer  # noqa: E402
+from astrocpg.studies.settings import TrainSettings  # noqa: E402
 
 
 def measure(trials: int = 20, sessions: tuple[int, ...] = (0, 50, 200, 400),

@@ -11,7 +11,7 @@ build theirs (the same network, astrocytes on, the same robots, seed and Brian2 
   compiled code runs as in every closed loop (``interlimb_learning``: the learning flag is 0,
   so no weight moves), nothing is recorded: what ``astrocpg run`` steps, its recording aside.
 - **training**: the same loop with the training's session loop
-  (:class:`astrocpg.studies.commands.train.Trainer`, as ``astrocpg train`` builds it, no
+  (:class:`astrocpg.studies.commands.trainer.Trainer`, as ``astrocpg train`` builds it, no
   sessions recorded): rewards and the learning flag every step, the spike counts of
   interneurons and astrocytes, session ends (a row, the trial's reset, fallen robots
   included), session starts remembered, ``sessions.csv``, ``weights.npz``, the checkpoint and
@@ -111,7 +111,9 @@ def build_training(models: Any, args: argparse.Namespace, out: Path) -> Any:
     """A Trainer as ``astrocpg train`` builds and runs it (the manifest after every
     checkpoint), ready for ``Network.run`` on its own."""
     from astrocpg.studies.runtime.progress import Bar
-    from astrocpg.studies.commands.train import TRAIN_FILES, Trainer, TrainSettings
+    from astrocpg.studies.commands.train_files import TRAIN_FILES
+    from astrocpg.studies.commands.trainer import Trainer
+    from astrocpg.studies.settings import TrainSettings
     from astrocpg.studies.outputs.writing import write_manifest
 
     settings = TrainSettings(n_sessions=SESSIONS, seed=args.seed, n_trials=args.trials,

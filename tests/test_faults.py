@@ -277,7 +277,7 @@ def test_train_interrupted_after_sessions_resumes_to_the_same_result(sig, childr
     out = tmp_path / "train"
     c = children("train", *TRAIN, "--out", out)
     # the first checkpoint comes at the first session end, after sessions.csv; later ones are
-    # spaced (train.py), so the signal goes once the first is whole (renamed into place)
+    # spaced (trainer.py), so the signal goes once the first is whole (renamed into place)
     assert c.until(lambda: (out / "checkpoint.npz").exists(), "the first checkpoint",
                    poll=0.01), c.stderr
     c.signal(sig)

@@ -42,7 +42,7 @@ NOT_PARAMETER_READS: dict[tuple[str, str], str] = {
         "an old manifest's recorded parameter table (JSON text, not a model set)",
     ("studies/parameter_studies/study_file.py", "astrocyte_regulation"):
         "names, in a conflict message, the parameter 'astrocytes = false' sets",
-    ("studies/commands/train.py", "payload"):
+    ("studies/commands/resume.py", "payload"):
         "a key of a checkpoint split into batches (each batch's saved state), not the world's",
     ("studies/commands/train_batched.py", "payload"):
         "a key of a checkpoint split into batches (each batch's saved state), not the world's",

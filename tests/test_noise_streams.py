@@ -236,7 +236,7 @@ def test_a_replayed_session_ends_where_the_training_recorded(tmp_path: Path) -> 
 
 def test_session_starts_survive_the_checkpoint(tmp_path: Path) -> None:
     """What a resume reads back holds every session start the training wrote."""
-    from astrocpg.studies.commands.train import _memory_from_state, read_checkpoint
+    from astrocpg.studies.commands.train_state import _memory_from_state, read_checkpoint
     training = tmp_path / "t"
     ac.train(out=training, sessions=2, trials=2, seed=2, progress=False, workers=1,
              overrides=["L_max=0.5*second", "L_non_alive=0.2*second"])

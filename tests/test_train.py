@@ -177,9 +177,9 @@ def test_checkpoints_are_spaced_by_their_cost_and_the_files_stay_the_same(tmp_pa
     """Writes are spaced (CHECKPOINT_SPACING x the last write's duration): with slow writes
     (0.1 s each) a training writes at its first session end and its last and little between,
     where unspaced it writes at every step with a session end; the files are the same."""
-    import astrocpg.studies.commands.train as train_module
+    import astrocpg.studies.commands.trainer as trainer_module
 
-    original = train_module.Trainer.write_checkpoint
+    original = trainer_module.Trainer.write_checkpoint
     writes: list[list[int]] = []
 
     def slow_write(self):
@@ -187,13 +187,13 @@ def test_checkpoints_are_spaced_by_their_cost_and_the_files_stay_the_same(tmp_pa
         writes.append(self.training.sessions_done.tolist())
         original(self)
 
-    monkeypatch.setattr(train_module.Trainer, "write_checkpoint", slow_write)
+    monkeypatch.setattr(trainer_module.Trainer, "write_checkpoint", slow_write)
     # one process: the checkpoints counted are written here
     args = ("--sessions", "6", "--trials", "2", "--seed", "3", "--workers", "1")
     assert _train(tmp_path / "spaced", *args) == 0
     spaced = list(writes)
     writes.clear()
-    monkeypatch.setattr(train_module, "CHECKPOINT_SPACING", 0.0)
+    monkeypatch.setattr(trainer_module, "CHECKPOINT_SPACING", 0.0)
     assert _train(tmp_path / "every", *args) == 0
     every = list(writes)
     assert every[0] != [0, 0] and every[-1] == [6, 6]

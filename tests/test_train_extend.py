@@ -91,7 +91,7 @@ def test_extension_through_the_api_and_after_a_stop_before_its_checkpoint(tmp_pa
 def test_a_trial_that_ran_idle_is_not_extended(tmp_path):
     """Two trials: the one that finished first ran on idle, learning off; an extension would
     not be what the longer training does, so it is refused with the reason."""
-    from astrocpg.studies.commands.train import _check_extension
+    from astrocpg.studies.commands.resume import _check_extension
 
     state = {"done": np.array([True, True]), "step_in_session": np.array([120, 0])}
     with pytest.raises(astrocpg.InputError) as e:
@@ -118,7 +118,7 @@ def test_two_trials_that_finish_together_extend_exactly(tmp_path):
 
 def test_a_study_run_is_not_extended(tmp_path):
     """A study's run trains the study's sessions: extending it alone is refused."""
-    from astrocpg.studies.commands.train import _check_extension
+    from astrocpg.studies.commands.resume import _check_extension
 
     (tmp_path / "manifest.json").write_text(json.dumps({"astrocpg_command": "study-run"}))
     with pytest.raises(astrocpg.InputError) as e:

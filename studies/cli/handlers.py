@@ -85,7 +85,10 @@ def train_command(args: argparse.Namespace) -> int:
     """``astrocpg train`` (``ac.train``) or ``train --resume DIR`` (``ac.resume``, which
     refuses an option given again that differs from the training's own). Only the options
     given are passed: the defaults are the API's."""
-    from ..commands.train import TrainingStopped, format_train, resume, train
+    from ..commands.resume import resume
+    from ..commands.train import train
+    from ..commands.train_summary import format_train
+    from ..commands.trainer import TrainingStopped
 
     given = {key: value for key, value in (
         ("sessions", args.sessions), ("seed", args.seed), ("trials", args.trials),

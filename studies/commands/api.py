@@ -50,7 +50,8 @@ from ..outputs.export import export as export_folder
 from ..outputs.result import Result, Trace, load
 from .run import run
 from ...models.compose import Overrides, model_set
-from .train import resume, train
+from .resume import resume
+from .train import train
 from .unit import unit
 
 

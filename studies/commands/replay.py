@@ -29,7 +29,9 @@ from ..outputs.folder import OutputFolder, as_path, refuse_in_use
 from ..outputs.result import Result
 from ..outputs.writing import read_manifest
 from .settings import added_populations, population_models
-from .train import SESSION_STARTS, TrainSettings, record_plan, train_from_start
+from ..settings import TrainSettings
+from .train import record_plan, train_from_start
+from .train_files import SESSION_STARTS
 from ...models.compose import model_set
 
 

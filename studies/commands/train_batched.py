@@ -1,7 +1,7 @@
-"""A training split over worker processes (``astrocpg train --workers N``).
+"""A training split over worker processes (``workers``).
 
 The trials split into contiguous batches (:func:`~astrocpg.studies.runtime.workers.split_trials`);
-each worker trains its batch session by session with the one-process :class:`~.train.Trainer`
+each worker trains its batch session by session with the one-process :class:`~.trainer.Trainer`
 (seed ``seed + first``: a trial is the same in any batch) in a folder of its own under the
 training's ``.workers/``, checkpointing as a training does, its recorded sessions written
 straight into the training's ``recordings/`` under their trials' numbers. The parent gathers
@@ -9,21 +9,20 @@ the batches' session memories from their checkpoints, as they are written, into 
 training's ``sessions.csv``, ``weights.npz`` and ``session_starts.npz`` (rows in the order one
 network ends them: by the step a session ended, then by trial) and packs the batches'
 checkpoints into the training's ``checkpoint.npz`` (:func:`packed_payload`), from which
-``--resume`` continues every batch where its checkpoint left it.
+a resume continues every batch where its checkpoint left it.
 
 When every batch has finished, those three files are the one-process training's, byte for byte,
 and so are the recordings; the manifest differs in its timings and worker count. The packed
-``checkpoint.npz`` differs (it holds one network state per batch). ``--resume --sessions``
-extends each batch as one network extends its trials (a trial that ran idle in its batch
-refuses it, as in one network). A batch that diverges stops the others: the folder keeps the
-sessions so far and says it diverged.
+``checkpoint.npz`` differs (it holds one network state per batch). A resume with more
+``sessions`` extends each batch as one network extends its trials (a trial that ran idle in its
+batch refuses it, as in one network). A batch that diverges stops the others: the folder keeps
+the sessions so far and says it diverged.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import os
 import shutil
 import time
 from pathlib import Path
@@ -54,7 +53,8 @@ def train_batch(spec: dict[str, Any], first: int, count: int, folder: str,
     from ...models.compose import model_set
     from ...network import populations as _table
     from .batched import missing_rows
-    from .train import Trainer, TrainingStopped, TrainSettings
+    from ..settings import TrainSettings
+    from .trainer import Trainer, TrainingStopped
 
     settings = TrainSettings(**spec["settings"])
     batch = dataclasses.replace(settings, seed=settings.seed + first, n_trials=count)
@@ -67,14 +67,14 @@ def train_batch(spec: dict[str, Any], first: int, count: int, folder: str,
         if payload is not None:
             trainer.restore(payload)
             trained_to = int(payload["settings"]["n_sessions"])
-            if trained_to < batch.n_sessions:  # an extension (resume --sessions): as one network
+            if trained_to < batch.n_sessions:  # an extension (more sessions): as one network
                 trainer.extend(trained_to)
         try:
             trainer.run()
         except TrainingStopped:
             return {"status": "stopped"}
         except Diverged as e:  # the sessions so far and the diverged one, for the files
-            from .train import memory_state
+            from .train_state import memory_state
             return {"status": "diverged", "line": e.line,
                     "memory": memory_state(trainer.training.memory,
                                            trainer.cpg.interlimb_weights().shape[1:])}
@@ -100,7 +100,7 @@ def merged_memory(batches: list[tuple[int, int, dict[str, Any] | None]], dt: flo
     """The batches' session memories as one training's: per trial in trial order, the rows in
     the order one network appends them (the step each session ended, then the trial)."""
     from ...coupling.training import SessionMemory
-    from .train import memory_from_state
+    from .train_state import memory_from_state
 
     lengths: list = []
     weights: list = []
@@ -149,7 +149,7 @@ class Gatherer:
         if now >= self.next_at and self._changed():
             self.gather()
             done = time.monotonic()
-            from .train import CHECKPOINT_SPACING
+            from .trainer import CHECKPOINT_SPACING
             self.next_at = done + CHECKPOINT_SPACING * (done - now)
 
     def _stamps(self) -> list[Any]:
@@ -170,7 +170,8 @@ class Gatherer:
         session memory from ``memories[k]`` where given: a batch that diverged, whose
         checkpoint stays as last written); returns the sessions done per trial (None when no
         batch has a checkpoint or a memory and none was resumed)."""
-        from .train import CHECKPOINT, read_checkpoint, write_payload, write_training_files
+        from .train_files import write_training_files
+        from .train_state import CHECKPOINT, read_checkpoint, write_payload
 
         self.seen = self._stamps()
         batches = []

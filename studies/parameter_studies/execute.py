@@ -33,7 +33,8 @@ from ...network import exclusive
 from ..runtime.cells import run_cells
 from ...models.compose import model_set
 from ..commands.settings import added_populations, population_models
-from ..commands.train import CHECKPOINT, Trainer, TrainingStopped, read_checkpoint
+from ..commands.train_state import CHECKPOINT, read_checkpoint
+from ..commands.trainer import Trainer, TrainingStopped
 from ..outputs.checkpoint import refuse_legacy
 from ..outputs.folder import FolderLock, remember_written
 from ..outputs.writing import atomic_write, prepare_output_dir, save_json, write_manifest

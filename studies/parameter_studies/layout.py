@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ..commands.train import TRAIN_FILES
+from ..commands.train_files import TRAIN_FILES
 from ..outputs.writing import read_manifest
 from ..outputs.study_index import INDEX
 

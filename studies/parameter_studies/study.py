@@ -70,7 +70,7 @@ from ...reading import read_bytes, read_json
 from ..runtime.cluster import check_scheduler, check_workers, connect_cluster
 from ..runtime.workers import default_workers
 from ..runtime.resources import available_memory, check_memory, estimate_bytes
-from ..commands.train import CHECKPOINT, read_checkpoint
+from ..commands.train_state import CHECKPOINT, read_checkpoint
 from ..outputs.checkpoint import refuse_legacy
 from ..outputs.folder import (FolderLock, check_output_path, check_replaceable,
                             clean_stale_temporaries, clear_folder, holds_results,

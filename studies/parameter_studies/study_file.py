@@ -29,7 +29,7 @@ from ..settings.study import MAX_SEEDS, StudyOverrides
 from ..commands.settings import (MAX_SEED, added_populations, check_grid,
                                  population_models, population_rows)
 from ..commands.simulate import STEP, check_duration
-from ..commands.train import TrainSettings
+from ..settings import TrainSettings
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
 _STUDY_KEYS = {"name", "description", "sessions", "seeds", "batch", "record", "paired",
