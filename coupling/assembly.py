@@ -10,7 +10,7 @@ start from :func:`build_closed_loop`.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import mujoco
 import numpy as np
@@ -19,6 +19,7 @@ from brian2 import second
 from ..errors import InputError
 from ..models import ModelSet
 from ..network import CPG, LEGS, build_cpg, check_runs, limb_stages, run_network
+from ..network.populations import Population
 from .bridge import Bridge
 from .robot import A1Parameters, RobotLayout
 from .world import World, add_disturbances, world_model
@@ -62,7 +63,8 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
                       robot_params: A1Parameters | None = None,
                       on_step: Callable[[int], None] | None = None,
                       check_every: int = 10, check: bool = True,
-                      codegen: str | None = None) -> ClosedLoop:
+                      codegen: str | None = None,
+                      populations: Sequence[Population] | None = None) -> ClosedLoop:
     """Robot + CPG + bridge from settings, the bridge's operation added to the network.
 
     robot: None = the project's A1 in the world of ``models.world`` (slope, terrain, friction,
@@ -77,6 +79,8 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
     check: prepare every Brian2 object first (:func:`check_runs`: one-line errors naming the
         model; nothing to do for the built-in models).
     codegen: Brian2's target, numpy or cython (default $ASTROCPG_CODEGEN, else numpy).
+    populations: rows added to the built-in population table (the CPG is built from both:
+        :func:`~astrocpg.network.build_cpg`).
     """
     params = robot_params if robot_params is not None else A1Parameters()
     model = world_model(models, params) if robot is None else robot
@@ -84,7 +88,8 @@ def build_closed_loop(models: ModelSet, *, n_trials: int = 1, seed: int = 0,
         raise InputError(f"robot timestep must be positive, got {model.opt.timestep}")
     layout = robot_layout if robot_layout is not None else RobotLayout.from_model(model, params)
     cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=LEGS,
-                    dt=model.opt.timestep * second, interlimb_weights=weights, codegen=codegen)
+                    dt=model.opt.timestep * second, interlimb_weights=weights, codegen=codegen,
+                    populations=populations)
     if check:
         check_runs(cpg)
     bridge = Bridge(cpg, model, layout, models, on_step=on_step, check_every=check_every)

@@ -298,7 +298,7 @@ class Bridge:
         run). ``t``: the time to report (default: the end of the step in progress)."""
         found = self.cpg.first_invalid(full)
         if found is not None:
-            self.diverge(found.error(self.t if t is None else t))
+            self.diverge(found.error(self.t if t is None else t, self.cpg.layout.rows))
 
     def diverge(self, error: Diverged) -> None:
         """Run the ``diverged`` hooks with ``error``, then raise it."""

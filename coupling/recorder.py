@@ -60,11 +60,16 @@ class RecordPlan:
             raise ValueError(f"RecordPlan.stride must be at least 1, got {self.stride}")
         if self.dtype not in ("float32", "float64"):
             raise ValueError(f"RecordPlan.dtype must be float32 or float64, got {self.dtype!r}")
+
+    def check_names(self, rows: Any) -> None:
+        """Its populations and traces are among those of ``rows`` (a network's population
+        rows: which it can record depends on the populations it was built with)."""
         for p in self.spikes:
-            if p not in spike_populations():
+            if p not in spike_populations(rows):
                 raise ValueError(f"RecordPlan.spikes: unknown population '{p}'")
+        sources = trace_sources(rows)
         for t in self.traces:
-            if t not in trace_sources():
+            if t not in sources:
                 raise ValueError(f"RecordPlan.traces: unknown trace '{t}'")
 
     @classmethod
@@ -83,6 +88,7 @@ class SessionRecorder:
     def __init__(self, cpg: CPG, bridge: Bridge, plan: RecordPlan, *, n_sessions: int,
                  max_steps: int, step_in_session: np.ndarray,
                  on_recorded: Callable[[int, int, dict[str, Any]], None]) -> None:
+        plan.check_names(cpg.layout.rows)
         self.cpg, self.bridge, self.plan = cpg, bridge, plan
         self.n_sessions, self.max_steps = int(n_sessions), int(max_steps)
         self.on_recorded = on_recorded
@@ -92,8 +98,9 @@ class SessionRecorder:
         # (trial, element) tables in the files' order (live arrays with one stage of limbs)
         self._lastspike = {p: cpg.table(p, "lastspike") for p in plan.spikes}
         self._traces = {}
+        sources = trace_sources(cpg.layout.rows)  # the network's rows, added ones too
         for name in plan.traces:
-            group, var, scale, _ = trace_sources()[name]
+            group, var, scale, _ = sources[name]
             self._traces[name] = (cpg.table(group, var), scale)
         self._clock = cpg.clock
         self.session = np.zeros(B, dtype=np.int64)  # the session being recorded, 0 = none

@@ -94,7 +94,7 @@ class CPG:
         key = (group, variable)
         if key not in self._arrays:
             obj = self._object(group)
-            require_variables(obj, variable)
+            require_variables(obj, variable, rows=self.layout.rows)
             arr = obj.variables[variable].get_value()
             if not isinstance(arr, np.ndarray):  # pragma: no cover - other devices
                 raise RuntimeError("astrocpg needs Brian2's runtime (numpy) target")
@@ -225,13 +225,14 @@ class CPG:
 
 
 
-def require_variables(obj: Any, *variables: str) -> None:
+def require_variables(obj: Any, *variables: str, rows: Any = None) -> None:
     """The network (or the coupling) sets or reads ``variables`` of ``obj``: an equation
-    string that lacks one is an InputError naming its model and the variable."""
+    string that lacks one is an InputError naming its model (found among the network's
+    population ``rows``; None: the built-in rows) and the variable."""
     defined = set(obj.variables) | set(getattr(obj, "equations", {}) or {})  # linked ones too
     for var in variables:
         if var not in defined:
-            model = model_of(obj.name) or obj.name
+            model = model_of(obj.name, rows) or obj.name
             raise InputError(f"the equations do not define '{var}', which astrocpg sets or "
                              f"reads (keep its line in the {model} equations)", culprit=model)
 

@@ -79,12 +79,12 @@ def _screen_vector(arr: np.ndarray) -> np.ndarray:
 MODEL_OF = {**{p.name: p.model_name for p in BUILT_IN}, **PROJECTIONS}
 
 
-def model_of(name: str) -> str | None:
+def model_of(name: str, rows: Any = None) -> str | None:
     """The model a Brian2 object of the network (or one of its code objects) is built from,
     by its name: ``interlimb_FR`` (a stage's object) and ``motor_stateupdater`` start with the
-    name of their kind (rows added to the population table included). None for a name of no
-    model."""
-    table = model_of_object()
+    name of their kind (``rows``: the network's population rows, added ones included; None:
+    the built-in rows). None for a name of no model."""
+    table = model_of_object(rows)
     for obj in sorted(table, key=len, reverse=True):  # pool_activity before pool
         if name.startswith(obj):
             return table[obj]
@@ -108,9 +108,10 @@ class InvalidState:
     def culprit(self) -> str:
         return f"{self.population}.{self.variable}"
 
-    def error(self, t: float | None) -> Diverged:
-        """The :class:`Diverged` to raise, at simulated time ``t`` (s)."""
-        model = model_of(self.population) or self.population
+    def error(self, t: float | None, rows: Any = None) -> Diverged:
+        """The :class:`Diverged` to raise, at simulated time ``t`` (s), in a network of the
+        population ``rows`` (None: the built-in rows)."""
+        model = model_of(self.population, rows) or self.population
         where = f"trial {self.trial}" if self.trial is not None else "unknown trial"
         at = f" at t = {t:.3f} s" if t is not None else ""
         also = f" (also invalid: {', '.join(self.others)})" if self.others else ""
@@ -272,7 +273,9 @@ def overflowed(exc: BaseException, net: Any) -> InputError | None:
     line = m.group(1).strip() if m else ""
     values = {ident: namespace[ident] for ident in dict.fromkeys(_NAME.findall(line))
               if not ident.startswith("_") and ident in namespace}
-    return overflow_refusal(model_of_object().get(name, name or "the network"), line, values)
+    rows = getattr(net, "population_rows", None)  # the rows the network was built from
+    return overflow_refusal(model_of_object(rows).get(name, name or "the network"), line,
+                            values)
 
 
 def _no_stop_chatter(record: logging.LogRecord) -> bool:
@@ -315,14 +318,20 @@ class DivergenceCheck:
         # in the "end" slot of the step that began at clock.t: the state after that step
         found = self.cpg.first_invalid()
         if found is not None:
-            raise found.error(float(self._t[0]) + self._dt)
+            raise found.error(float(self._t[0]) + self._dt, _rows(self.cpg))
 
     def check(self) -> None:
         """Raise :class:`Diverged` if any state is invalid now (e.g. after the run)."""
         found = self.cpg.first_invalid(full=True)
         if found is not None:
             t = float(self._t[0])
-            raise found.error(t if math.isfinite(t) else None)
+            raise found.error(t if math.isfinite(t) else None, _rows(self.cpg))
+
+
+def _rows(cpg: Any) -> Any:
+    """A network's population rows (None where it has no layout: the built-in rows)."""
+    layout = getattr(cpg, "layout", None)
+    return None if layout is None else layout.rows
 
 
 __all__ = ["LIMIT", "invalid", "InvalidState", "StateScan", "leave_to_the_scan",

@@ -103,7 +103,7 @@ def check_constants(net: Any) -> None:
         return
     from .populations import model_of_object
 
-    models = model_of_object()
+    models = model_of_object(getattr(net, "population_rows", None))
     for runner in _runners(net):
         variables = runner.codeobj.variables
         computed: dict[str, float] = {}

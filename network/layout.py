@@ -43,13 +43,13 @@ class Layout:
     #: a step; None: one stage of every limb (no 0 ms inter-limb delay)
     stages: tuple[tuple[int, ...], ...] | None = None
     #: the population rows this layout places (a built network's, or a folder's manifest's);
-    #: None: this process's table (:func:`astrocpg.network.populations.table`)
+    #: None: the built-in rows (:data:`astrocpg.network.populations.BUILT_IN`)
     populations: tuple[_table.Population, ...] | None = field(default=None, compare=False)
 
     @property
     def rows(self) -> tuple[_table.Population, ...]:
-        """Its population rows (:attr:`populations`, else this process's table)."""
-        return self.populations if self.populations is not None else _table.table()
+        """Its population rows (:attr:`populations`, else the built-in rows)."""
+        return self.populations if self.populations is not None else _table.BUILT_IN
 
     def row(self, population: str) -> _table.Population:
         """The row of ``population`` among :attr:`rows` (KeyError if there is none)."""

@@ -17,8 +17,10 @@ folder (:func:`rows_of`), never from this process's table.
 Adding a population (docs/model-files.md, "A new population"): a model file with a
 ``[population]`` table (:func:`population_from_toml`: its inputs from and outputs to the other
 populations), given to ``astrocpg unit``, ``run`` or ``train`` as an added population file
-(``populations``); or, in Python, a row given to the build (``build_cpg(populations=rows)``),
-or registered for a block where a command builds the network (:func:`registered`)::
+(``populations``); or, in Python, a row given to the build (``build_cpg(populations=rows)``,
+``build_closed_loop(models, populations=rows)``). The table is a value passed down, never a
+process's state: a network, a recording and a folder each carry the rows they were made
+with::
 
     from astrocpg.network import populations, build_cpg
 
@@ -34,9 +36,8 @@ name -> model slot), which the divergence check uses to name the model of a fail
 
 from __future__ import annotations
 
-import contextlib
 import tomllib
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -298,46 +299,29 @@ PROJECTIONS: dict[str, str] = {
     "pool_to_interneuron": "pool_to_interneuron", "interneuron_to_pool": "interneuron_to_pool",
     "interlimb": "interlimb_synapse"}
 
-_ADDED: list[Population] = []
-
-
-def table() -> tuple[Population, ...]:
-    """Every population, built-in rows first, then those added by :func:`register`."""
-    return BUILT_IN + tuple(_ADDED)
-
-
-def added() -> tuple[Population, ...]:
-    """The rows added by :func:`register` (populations with their own wiring step)."""
-    return tuple(_ADDED)
-
-
 def row(name: str, rows: Sequence[Population] | None = None) -> Population:
-    """The row of population ``name`` in ``rows`` (None: this process's table); KeyError if
+    """The row of population ``name`` in ``rows`` (None: the built-in rows); KeyError if
     there is none."""
-    for p in table() if rows is None else rows:
+    for p in BUILT_IN if rows is None else rows:
         if p.name == name:
             return p
     raise KeyError(f"no population {name!r}")
 
 
-def names() -> tuple[str, ...]:
-    return tuple(p.name for p in table())
-
-
-def register(population: Population) -> Population:
-    """Add a row to the table for this process (its ``inputs``, ``outputs`` or ``wire`` step
-    connects it). A name or a trace name the table already holds is an InputError naming it.
-    Prefer passing the rows to the build (``build_cpg(populations=rows)``)."""
-    _check_added(population, table())
-    _ADDED.append(population)
-    return population
+def names(rows: Sequence[Population] | None = None) -> tuple[str, ...]:
+    return tuple(p.name for p in (BUILT_IN if rows is None else rows))
 
 
 def with_added(rows: Sequence[Population] | None) -> tuple[Population, ...]:
     """The table a build reads: the built-in rows and ``rows`` (populations added for this
-    build, checked as :func:`register` checks them); None: this process's table."""
-    if rows is None:
-        return table()
+    build), each added row checked (its name and its traces' names new, its connections
+    given); None or none: the built-in rows. The built-in rows among ``rows`` (a whole table
+    given again: a built network's) are the built-in rows already."""
+    if not rows:
+        return BUILT_IN
+    built_in = {p.name for p in BUILT_IN}
+    rows = tuple(r for r in rows
+                 if not (isinstance(r, Population) and r.built_in and r.name in built_in))
     out = BUILT_IN
     for r in rows:
         if not isinstance(r, Population):
@@ -358,35 +342,18 @@ def _check_added(population: Population, rows: Sequence[Population]) -> None:
             raise InputError("is already in the population table", culprit=f"population {name}")
 
 
-def unregister(name: str) -> None:
-    """Remove an added row (built-in rows stay)."""
-    _ADDED[:] = [p for p in _ADDED if p.name != name]
-
-
-@contextlib.contextmanager
-def registered(*populations: Population) -> Iterator[tuple[Population, ...]]:
-    """Add rows for the ``with`` block only (a command's run, tests, a notebook's experiment)."""
-    done = []
-    try:
-        for p in populations:
-            done.append(register(p))
-        yield tuple(done)
-    finally:
-        for p in done:
-            unregister(p.name)
-
-
-# ---- the views the rest of the package reads (rows: a folder's; None: this process's table)
+# ---- the views the rest of the package reads (rows: a network's or a folder's; None: the
+# built-in rows)
 def spike_populations(rows: Sequence[Population] | None = None) -> tuple[str, ...]:
     """The populations whose spikes can be recorded, in table order."""
-    return tuple(p.name for p in (table() if rows is None else rows) if p.spikes)
+    return tuple(p.name for p in (BUILT_IN if rows is None else rows) if p.spikes)
 
 
 def trace_sources(rows: Sequence[Population] | None = None
                   ) -> dict[str, tuple[str, str, float, str]]:
     """trace -> (population, variable, factor to the stored unit, stored unit)."""
     return {t: (p.name, s.variable, s.factor, s.unit)
-            for p in (table() if rows is None else rows) for t, s in p.traces.items()}
+            for p in (BUILT_IN if rows is None else rows) for t, s in p.traces.items()}
 
 
 def trace_columns(traces: Sequence[str], rows: Sequence[Population] | None = None
@@ -397,20 +364,23 @@ def trace_columns(traces: Sequence[str], rows: Sequence[Population] | None = Non
     from .layout import Layout
 
     sources = trace_sources(rows)
-    layout = Layout(n_trials=1, pool_size=int(DEFAULT_MODELS.value("pool_size")))
+    layout = Layout(n_trials=1, pool_size=int(DEFAULT_MODELS.value("pool_size")),
+                    populations=with_added(rows))
     return {t: layout.cells_per_trial(sources[t][0]) if t in sources else 8 for t in traces}
 
 
 def trace_meaning(trace: str, rows: Sequence[Population] | None = None) -> str:
-    for p in table() if rows is None else rows:
+    for p in BUILT_IN if rows is None else rows:
         if trace in p.traces:
             return p.traces[trace].meaning
     return trace
 
 
-def model_of_object() -> dict[str, str]:
-    """Brian2 object name (or stage prefix) -> the name of the model it is built from."""
-    return {**{p.name: p.model_name for p in table()}, **PROJECTIONS}
+def model_of_object(rows: Sequence[Population] | None = None) -> dict[str, str]:
+    """Brian2 object name (or stage prefix) -> the name of the model it is built from, for a
+    network of ``rows`` (None: the built-in rows)."""
+    return {**{p.name: p.model_name for p in (BUILT_IN if rows is None else rows)},
+            **PROJECTIONS}
 
 
 # ---- a population declared in a model file
@@ -561,7 +531,7 @@ def _check_parameter_names(model: Any, culprit: str) -> None:
 
 
 __all__ = ["Population", "TraceSource", "Input", "Output", "Wire", "MATCHES", "BUILT_IN", "PROJECTIONS",
-           "table", "added", "with_added", "row", "names", "register", "unregister", "registered",
+           "with_added", "row", "names",
            "spike_populations", "trace_sources", "trace_meaning", "model_of_object",
            "from_json", "rows_of", "population_from_toml", "LEGS", "POOLS", "THIGH_POOLS",
            "JOINTS_DRIVEN", "INTERNEURONS"]

@@ -326,8 +326,9 @@ class TraceRecorder:
         if spill_bytes is None:
             spill_bytes = SPILL_BYTES
         try:
+            sources = trace_sources(cpg.layout.rows)  # the network's rows, added ones too
             for name in traces:
-                group, var, scale, _ = trace_sources()[name]
+                group, var, scale, _ = sources[name]
                 table = cpg.table(group, var)
                 columns = table.values.size
                 # the table's values as one flat view, cached (read() refreshes it in place)

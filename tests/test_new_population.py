@@ -62,13 +62,11 @@ def file_row() -> populations.Population:
 
 @pytest.fixture
 def renshaw():
-    with populations.registered(file_row()) as rows:
-        yield rows[0]
-    assert "renshaw" not in populations.names()  # the row is gone after the block
+    return file_row()
 
 
 def test_built_and_scanned(renshaw):
-    cpg = build_cpg(n_trials=2, seed=3)
+    cpg = build_cpg(n_trials=2, seed=3, populations=[renshaw])
     assert len(cpg.groups["renshaw"]) == 2 * 4 * len(POOLS)
     assert cpg.table("renshaw", "v").values.shape == (2, 16)
     assert "motor_to_renshaw" in cpg.synapse_kinds
@@ -86,7 +84,7 @@ def test_staged_limbs(renshaw):
 
     authors = Path(__file__).parents[1] / "models" / "variants" / "interlimb_authors_delays.toml"
     models = model_set(models={"interlimb_synapse": authors.read_text()})
-    cpg = build_cpg(models, n_trials=1, seed=0)
+    cpg = build_cpg(models, n_trials=1, seed=0, populations=[renshaw])
     assert len(cpg.motor_groups) > 1
     total = sum(len(s) for s in cpg.synapse_kinds["motor_to_renshaw"])
     assert total == 4 * len(POOLS) * cpg.layout.pool_size
@@ -97,7 +95,8 @@ def test_recorded_exported_plotted(renshaw, tmp_path):
     import astrocpg as ac
 
     folder = tmp_path / "unit"
-    result = ac.unit(seconds=1.0, seed=1, out=folder, progress=False)
+    result = ac.unit(seconds=1.0, seed=1, out=folder, progress=False,
+                     populations=[POPULATION_FILE.read_text()])
     assert "renshaw" in result.spikes and "renshaw_v" in result.traces
     loaded = ac.load(folder)
     spikes = loaded.spike_times("renshaw", trial=0, leg="FR", pool="thigh_flexor")
@@ -125,8 +124,7 @@ def test_recorded_exported_plotted(renshaw, tmp_path):
     paths = ac.plot(folder, out=tmp_path / "figures", progress=False)
     assert any(p.name.startswith("rasters") for p in paths)
 
-    # a process that has not added the row reads the folder whole: its manifest's rows
-    populations.unregister("renshaw")
+    # read without the row given: the folder's manifest holds its rows
     plain = ac.load(folder)
     assert "renshaw" in plain.spikes and "renshaw_v" in plain.traces
     assert plain.trace("renshaw_v").unit == "mV"
@@ -144,20 +142,18 @@ def test_recorded_exported_plotted(renshaw, tmp_path):
 
 def test_python_wiring_step():
     """A row made in Python may wire its population with a step of its own."""
-    with populations.registered(renshaw_row()):
-        cpg = build_cpg(n_trials=1, seed=3)
+    cpg = build_cpg(n_trials=1, seed=3, populations=[renshaw_row()])
     assert len(cpg.synapses["motor_to_renshaw"]) == 4 * len(POOLS) * cpg.layout.pool_size
 
 
 def test_file_row_wires_like_the_python_step(renshaw):
     """The file's declared input (motor -> renshaw by pool) makes the same pairs as the Python
     wiring step."""
-    cpg = build_cpg(n_trials=2, seed=3)
+    cpg = build_cpg(n_trials=2, seed=3, populations=[renshaw])
     s = cpg.synapses["motor_to_renshaw"]
     declared = sorted(zip(np.asarray(s.i[:]), np.asarray(s.j[:])))
-    populations.unregister("renshaw")
-    with populations.registered(renshaw_row()):
-        by_hand = build_cpg(n_trials=2, seed=3).synapses["motor_to_renshaw"]
+    by_hand = build_cpg(n_trials=2, seed=3,
+                        populations=[renshaw_row()]).synapses["motor_to_renshaw"]
     assert declared == sorted(zip(np.asarray(by_hand.i[:]), np.asarray(by_hand.j[:])))
 
 
@@ -203,24 +199,40 @@ def test_command_line(tmp_path):
 ])
 def test_bad_population_file(change, words):
     text = POPULATION_FILE.read_text().replace(*((change, words)))
-    from astrocpg.studies.commands.settings import population_rows
+    from astrocpg.studies.settings.populations import population_table
 
     with pytest.raises(InputError):
-        with populations.registered(*population_rows({"bad.toml": text})[0]):
-            pass
+        population_table({"bad.toml": text})
 
 
-def test_register_refuses_a_taken_name():
+def test_an_added_row_with_a_taken_name_is_refused():
     row = renshaw_row()
     for name in ("interneuron", "interlimb"):
         with pytest.raises(InputError, match="already in the population table"):
-            populations.register(populations.Population(name=name, model=row.model,
-                                                        cells_per_leg=row.cells_per_leg,
-                                                        wire=wire_renshaw))
+            populations.with_added([populations.Population(name=name, model=row.model,
+                                                           cells_per_leg=row.cells_per_leg,
+                                                           wire=wire_renshaw)])
     with pytest.raises(InputError, match="inputs, outputs or its wiring step"):
-        populations.register(populations.Population(name="x", model=row.model,
-                                                    cells_per_leg=row.cells_per_leg))
+        populations.with_added([populations.Population(name="x", model=row.model,
+                                                       cells_per_leg=row.cells_per_leg)])
+    with pytest.raises(InputError, match="already in the population table"):
+        populations.with_added([row, renshaw_row()])  # the same name twice
+
+
+def test_the_table_is_a_value_not_the_process_state():
+    """Building with an added row leaves nothing behind: the next build, the recording
+    checks and the views read the built-in rows unless they are given the rows."""
+    from astrocpg.studies.settings.checks import check_selection
+
+    cpg = build_cpg(n_trials=1, seed=3, populations=[renshaw_row()])
+    assert "renshaw" in cpg.layout.to_json()["cells_per_leg"]
     assert populations.names() == tuple(p.name for p in populations.BUILT_IN)
+    assert "renshaw" not in build_cpg(n_trials=1, seed=3).groups
+    with pytest.raises(InputError, match="unknown population 'renshaw'"):
+        check_selection(("renshaw",), None)
+    assert check_selection(("renshaw",), ("renshaw_v",), cpg.layout.rows) == (
+        ("renshaw",), ("renshaw_v",))
+    assert not hasattr(populations, "register") and not hasattr(populations, "registered")
 
 
 def test_built_in_rows_are_the_former_lists():
@@ -257,8 +269,8 @@ def test_a_folder_written_before_rows_reads_the_built_in_rows():
     old = {"n_trials": 1, "pool_size": 3, "legs": ["FR"]}
     assert Layout.from_json(old).rows == populations.BUILT_IN
     assert list(unit_rows({"results": {"layout": old}})) == ["motor", "interneuron", "astrocyte"]
-    with populations.registered(file_row()):
-        new = Layout(n_trials=1, pool_size=3, legs=("FR",)).to_json()
+    new = Layout(n_trials=1, pool_size=3, legs=("FR",),
+                 populations=populations.with_added([file_row()])).to_json()
     read = Layout.from_json(new)
     assert [r.name for r in read.rows][-1] == "renshaw" and read.cells_per_trial("renshaw") == 4
     assert read.row("renshaw").traces["renshaw_v"].unit == "mV"

@@ -157,7 +157,7 @@ def test_replays_build_it(trained, tmp_path):
 
 def test_evaluate_and_power_build_it(trained, tmp_path, monkeypatch):
     """The cells of an evaluation and the power measurement build the trained network: the
-    table holds the training's population while they build it."""
+    table they build from holds the training's population (the rows given to the build)."""
     from astrocpg.studies.commands import evaluate, power
 
     seen = []
@@ -166,7 +166,7 @@ def test_evaluate_and_power_build_it(trained, tmp_path, monkeypatch):
         pass
 
     def spy(*args, **kwargs):
-        seen.append(populations.names())
+        seen.append(populations.names(kwargs.get("populations")))
         raise Built
 
     monkeypatch.setattr(evaluate, "simulate_closed_loop", spy)
@@ -178,7 +178,7 @@ def test_evaluate_and_power_build_it(trained, tmp_path, monkeypatch):
     with pytest.raises(Built):
         ac.power(trained, sessions=1, progress=False)
     assert seen == [BUILT_IN + ("renshaw",)] * 2
-    assert populations.names() == BUILT_IN
+    assert populations.names() == BUILT_IN  # nothing left behind in the process
 
 
 STUDY = """

@@ -56,10 +56,11 @@ def test_the_old_names_are_gone():
 
     from astrocpg.coupling import bridge
     from astrocpg.network import CPG, divergence
-    from astrocpg.studies.commands import settings
     from astrocpg.studies.parameter_studies import study
+    from astrocpg.studies.settings import populations as settings
 
-    for module in ("astrocpg.models.values", "astrocpg.network.recordable"):
+    for module in ("astrocpg.models.values", "astrocpg.network.recordable",
+                   "astrocpg.studies.commands.settings"):
         with pytest.raises(ModuleNotFoundError):
             importlib.import_module(module)
     for module, names in ((study, ("execute_run", "utilisation", "timeline", "RESULTS",

@@ -108,20 +108,22 @@ def test_the_run_records_the_senses_a_model_binds(tmp_path):
     """Every step the coupling writes the robot's state after the physics step into the bound
     variables; the trace sampled at the start of step k holds the robot's state after step k-1,
     which the robot recording samples at its sample k-1."""
-    import astrocpg as ac
+    from astrocpg.models import DEFAULT_MODELS
+    from astrocpg.studies.commands.simulate import simulate_closed_loop
 
-    with populations.registered(_sensor_row()):
-        # one process: a row registered in this process is not in a worker started by the
-        # fork server (a population reaches workers as ``populations=``)
-        result = ac.run(seconds=0.3, seed=2, trials=2, progress=False, workers=1,
-                        traces=("foot_sensor_load", "foot_sensor_contact", "foot_sensor_thigh"),
-                        spikes=())
-        def trace(name):  # (t, trial-major cells) -> (trial, t, leg)
-            t, values = result.traces[name]
-            return np.asarray(values).reshape(len(t), 2, 4).transpose(1, 0, 2)
-        load, contact, thigh = (trace(f"foot_sensor_{k}") for k in ("load", "contact", "thigh"))
-    force = np.asarray(result.robot["foot_force"])  # (trial, t, leg)
-    angles = np.asarray(result.robot["joint_angles"])  # (trial, t, leg, joint)
+    # a row made in Python (its Python wiring step) is given to the simulation as a value
+    result = simulate_closed_loop(
+        DEFAULT_MODELS, seconds=0.3, seed=2, n_trials=2, progress=False, spikes=(),
+        traces=("foot_sensor_load", "foot_sensor_contact", "foot_sensor_thigh"),
+        populations=[_sensor_row()])
+
+    def trace(name):  # (t, trial-major cells) -> (trial, t, leg)
+        t, values = result.traces[name]
+        return np.asarray(values).reshape(len(t), 2, 4).transpose(1, 0, 2)
+
+    load, contact, thigh = (trace(f"foot_sensor_{k}") for k in ("load", "contact", "thigh"))
+    force = np.asarray(result.robot.foot_force)  # (trial, t, leg)
+    angles = np.asarray(result.robot.joint_angles)  # (trial, t, leg, joint)
     assert load.shape == force.shape == (2, 300, 4)
     assert force.max() > 10  # the feet carry the robot
     stored = load.dtype  # traces are stored in their own dtype (float32)

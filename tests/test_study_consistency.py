@@ -15,7 +15,7 @@ import pytest
 from astrocpg.errors import InputError
 from astrocpg.studies.cli import main
 from astrocpg.studies.commands import evaluate as ev
-from astrocpg.studies.commands.settings import MAX_GRID
+from astrocpg.studies.settings.checks import MAX_GRID
 from astrocpg.studies.parameter_studies.report import report
 from astrocpg.studies.parameter_studies.study import _save_index, load_study
 from test_report import CONDITIONS, HEAD, _study_folder

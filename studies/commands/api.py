@@ -88,7 +88,7 @@ def describe(model: str | None = None, format: str = "text", *,
         The text, ending in a newline.
     """
     from ..figures.describe import describe as render
-    from .settings import population_models
+    from ..settings.populations import population_models
 
     return render(model, format, model_set(overrides, equations, models=models,
                                            added=population_models(populations)))
@@ -202,7 +202,7 @@ def gait(folder: str | os.PathLike, *, seconds: float = 10.0, repeats: int = 5,
         speed, fall, rhythm and gait columns).
     """
     from ..runtime.workers import resolve_workers
-    from .settings import number, seed_number
+    from ..settings.checks import number, seed_number
     from .trained_controller import describe_gait, gait_runs
 
     if isinstance(world, str):  # one setting, not its characters

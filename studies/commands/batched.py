@@ -61,16 +61,6 @@ class BatchDiverged(Exception):
     """A batch diverged: the command runs again in one process (it writes what diverged)."""
 
 
-def missing_rows(populations: Any) -> tuple[Any, ...]:
-    """The rows of ``populations`` (:func:`~.settings.population_rows`) this process's table
-    lacks: a worker forked from the command has the command's already."""
-    from ...network import populations as _table
-    from .settings import population_rows
-
-    present = {p.name for p in _table.table()}
-    return tuple(r for r in population_rows(populations)[0] if r.name not in present)
-
-
 def simulate_batch(kind: str, spec: Mapping[str, Any], first: int, count: int) -> dict[str, Any]:
     """Trials ``[first, first + count)`` of a ``run`` or ``unit`` (``kind``) of ``spec`` (the
     command's checked settings: model changes as texts, the robot file, the weights), in this
@@ -78,52 +68,53 @@ def simulate_batch(kind: str, spec: Mapping[str, Any], first: int, count: int) -
     from brian2 import ms
 
     from ...models.compose import model_set
-    from ...network import populations as _table
+    from ..settings.populations import population_table
     from .simulate import simulate_closed_loop, simulate_unit
 
-    with _table.registered(*missing_rows(spec.get("populations"))):
-        models = (spec["modelset"] if "modelset" in spec else
-                  model_set(spec["overrides"], spec["equations"], models=spec.get("models")))
-        common = {} if kind == "replay" else dict(
-            seconds=spec["seconds"], seed=spec["seed"] + first, n_trials=count,
-            trace_dt=spec["trace_dt"] * ms, spikes=spec["spikes"], traces=spec["traces"],
-            progress=False, trace_dtype=spec["trace_dtype"])
-        try:
-            if kind == "unit":
-                result = simulate_unit(models, **common)
-            elif kind == "replay":  # a training's tables (run.replay): the project's A1
-                result = simulate_closed_loop(
-                    models, seconds=spec["seconds"], seed=spec["seed"] + first, n_trials=count,
-                    weights=spec["weights"][first:first + count], record_traces=False,
-                    progress=False)
-            else:
-                from ...coupling.robot import A1Parameters, RobotLayout, load_robot
-                from ...coupling.world import world_model
+    rows = population_table(spec.get("populations"))  # the command's table, as it built it
+    models = (spec["modelset"] if "modelset" in spec else
+              model_set(spec["overrides"], spec["equations"], models=spec.get("models")))
+    common = {} if kind == "replay" else dict(
+        seconds=spec["seconds"], seed=spec["seed"] + first, n_trials=count,
+        trace_dt=spec["trace_dt"] * ms, spikes=spec["spikes"], traces=spec["traces"],
+        progress=False, trace_dtype=spec["trace_dtype"], populations=rows)
+    try:
+        if kind == "unit":
+            result = simulate_unit(models, **common)
+        elif kind == "replay":  # a training's tables (run.replay): the project's A1
+            result = simulate_closed_loop(
+                models, seconds=spec["seconds"], seed=spec["seed"] + first, n_trials=count,
+                weights=spec["weights"][first:first + count], record_traces=False,
+                progress=False, populations=rows)
+        else:
+            from ...coupling.robot import A1Parameters, RobotLayout, load_robot
+            from ...coupling.world import world_model
 
-                params = A1Parameters()
-                robot = world_model(models, params,
-                                    load_robot(spec["robot"]) if spec["robot"] else None)
-                table = spec["weights"]
-                if table is not None and table.ndim == 3:
-                    table = table[first:first + count]
-                result = simulate_closed_loop(models, robot, RobotLayout.from_model(robot, params),
-                                              weights=table, robot_stride=spec["robot_stride"],
-                                              **common)
-        except Diverged as e:
-            return {"diverged": e.line}
-        cpg = result.cpg
-        out = {"first": first, "count": count, "seconds": result.seconds,
-               "spikes": spike_parts(cpg, result.monitors),
-               "traces": {k: (np.asarray(t), np.asarray(v)) for k, (t, v) in result.traces.items()},
-               "dt": float(cpg.dt), "codegen": cpg.codegen,
-               "layout": (cpg.layout.pool_size, cpg.layout.legs, cpg.layout.stages),
-               "weights": cpg.interlimb_weights(), "pairs": np.asarray(cpg.interlimb_pairs),
-               "wall_seconds": result.wall_seconds, "environment": simulation_environment()}
-        if result.robot is not None:
-            rec = result.robot
-            out["robot"] = {f: np.asarray(getattr(rec, f)) for f in rec.__dataclass_fields__}
-            out["limit_inhibition"] = result.extra["limit_inhibition"]
-        return out
+            params = A1Parameters()
+            robot = world_model(models, params,
+                                load_robot(spec["robot"]) if spec["robot"] else None)
+            table = spec["weights"]
+            if table is not None and table.ndim == 3:
+                table = table[first:first + count]
+            result = simulate_closed_loop(models, robot, RobotLayout.from_model(robot, params),
+                                          weights=table, robot_stride=spec["robot_stride"],
+                                          **common)
+    except Diverged as e:
+        return {"diverged": e.line}
+    cpg = result.cpg
+    out = {"first": first, "count": count, "seconds": result.seconds,
+           "spikes": spike_parts(cpg, result.monitors),
+           "traces": {k: (np.asarray(t), np.asarray(v)) for k, (t, v) in result.traces.items()},
+           "dt": float(cpg.dt), "codegen": cpg.codegen,
+           "layout": (cpg.layout.pool_size, cpg.layout.legs, cpg.layout.stages),
+           "weights": cpg.interlimb_weights(), "pairs": np.asarray(cpg.interlimb_pairs),
+           "wall_seconds": result.wall_seconds, "environment": simulation_environment(),
+           "populations": spec.get("populations")}
+    if result.robot is not None:
+        rec = result.robot
+        out["robot"] = {f: np.asarray(getattr(rec, f)) for f in rec.__dataclass_fields__}
+        out["limit_inhibition"] = result.extra["limit_inhibition"]
+    return out
 
 
 def simulate_batched(kind: str, spec: Mapping[str, Any], trials: int, workers: int,
@@ -166,13 +157,13 @@ def merge_batches(parts: list[dict[str, Any]], wall: float) -> SimulationResult:
     in index order (as the object records them), then the objects merged as
     :func:`~.simulate.merge_parts` merges them; traces side by side in trial-major columns;
     the robot's arrays in a recording laid out as one run's (:meth:`Recording.allocate`)."""
-    from ...network import populations as _table
+    from ..settings.populations import population_table
 
     note_worker_environment(parts[0]["environment"])
     n = sum(p["count"] for p in parts)
     pool_size, legs, stages = parts[0]["layout"]
     layout = Layout(n_trials=n, pool_size=pool_size, legs=legs, stages=stages,
-                    populations=_table.table())
+                    populations=population_table(parts[0].get("populations")))
     spikes = {}
     for name, objects in parts[0]["spikes"].items():
         per_trial = layout.cells_per_trial(name)

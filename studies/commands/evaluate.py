@@ -53,8 +53,9 @@ from ..outputs.weights import tables_state
 from ..outputs.kept_tables import is_kept_tables, kept_controllers, kept_state, kept_weights
 from ..runtime.resources import check_memory, estimate_bytes
 from .run import controller_tables, trained_models, training_settings, with_variant
-from .settings import added_populations, check_grid
-from .simulate import STEP, simulate_closed_loop
+from ..settings.checks import STEP, check_grid
+from ..settings.populations import population_table
+from .simulate import simulate_closed_loop
 
 BUILTIN_WORLDS = {"robustness": Path(__file__).with_name("robustness.toml")}
 EVALUATION = "evaluation.csv"
@@ -328,10 +329,10 @@ def evaluate_cell(controller: Mapping[str, Any], tables: np.ndarray, world: str,
     n = len(tables)
     batch = np.concatenate([tables] * repeats)
     try:
-        with added_populations(controller["settings"].get("populations")):
-            result = simulate_closed_loop(here, seconds=seconds, seed=seed, n_trials=len(batch),
-                                          weights=batch, record_traces=False,
-                                          spikes=("motor",), progress=progress)
+        result = simulate_closed_loop(
+            here, seconds=seconds, seed=seed, n_trials=len(batch), weights=batch,
+            record_traces=False, spikes=("motor",), progress=progress,
+            populations=population_table(controller["settings"].get("populations")))
     except Diverged as e:
         raise _in_cell(e, controller, world, n, repeats) from None
     rows = []
@@ -493,8 +494,8 @@ def _controller_plans(controllers: Sequence[dict[str, Any]], session: int | None
         else:
             verify(c["folder"], strict=False)
             tables = controller_tables(c["folder"], session=session)
-        with added_populations(c["settings"].get("populations")):
-            plans.append((c, tables, trained_models(c["settings"])))
+        population_table(c["settings"].get("populations"))  # its rows checked now
+        plans.append((c, tables, trained_models(c["settings"])))
     return plans
 
 

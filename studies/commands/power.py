@@ -33,7 +33,8 @@ from ..runtime.resources import check_memory, estimate_bytes
 from ...models import ModelSet
 from ...models.compose import model_set
 from ..settings.power import PowerSettings
-from .settings import added_populations, number, population_models
+from ..settings.checks import number
+from ..settings.populations import population_models, population_table
 
 # The paper's figures, shown next to ours (not used in any computation).
 PAPER = {
@@ -52,8 +53,8 @@ def synaptic_events_per_spike(cpg) -> dict[str, float]:
     # every synapse object's source element, as the files' motor-neuron (or pool) number
     motor_number = [p.numbers() for p in cpg.parts("motor")]
     for name in ("intra_pool", "pool_to_interneuron"):
-        for s, number in zip(cpg.synapse_kinds[name], motor_number):
-            fanout += np.bincount(number[np.asarray(s.i[:])], minlength=n_motor)
+        for s, numbers in zip(cpg.synapse_kinds[name], motor_number):
+            fanout += np.bincount(numbers[np.asarray(s.i[:])], minlength=n_motor)
     if "interlimb" in cpg.synapse_kinds:
         n_pools = L.n_trials * L.pools_per_trial
         pool_number = cpg.parts("pool")[0].numbers()
@@ -85,8 +86,8 @@ def measure(folder: Path, *, trial: int = 0, sessions: int = 10,
     settings, models = _trained(folder, manifest, overrides)
     seed = int(manifest.get("seed", settings.get("seed", 1))) + trial
     # the network the table trained on: with the populations its training added
-    with added_populations(settings.get("populations")):
-        loop = build_closed_loop(models, n_trials=1, seed=seed, weights=weights)
+    loop = build_closed_loop(models, n_trials=1, seed=seed, weights=weights,
+                             populations=population_table(settings.get("populations")))
     cpg, bridge = loop.cpg, loop.bridge
     L_max = models.value("L_max")
     bar = tqdm(total=sessions, unit="session", desc="power", disable=not progress)

@@ -28,7 +28,7 @@ from ...network.codegen import framework_target
 from ..outputs.folder import OutputFolder, as_path, refuse_in_use
 from ..outputs.result import Result
 from ..outputs.writing import read_manifest
-from .settings import added_populations, population_models
+from ..settings.populations import population_models, population_table
 from ..settings import TrainSettings
 from .train import record_plan, train_from_start
 from .train_files import SESSION_STARTS
@@ -146,10 +146,10 @@ def replay_session(training: str | os.PathLike, *, trial: int = 0, session: int 
               "step": start.step, "seed": settings.seed,
               "recorded_final_x_m": None if row is None else row["final_x_m"]}
     # the populations the training added: the same network, recorded like its own
-    with added_populations(settings.populations):
-        plan = record_plan(1, record_stride, spikes, traces, trace_dtype)
-        trainer = train_from_start(settings, out_path, plan, start, origin, models=models,
-                                   progress=progress, overwrite=overwrite)
+    plan = record_plan(1, record_stride, spikes, traces, trace_dtype,
+                       rows=population_table(settings.populations))
+    trainer = train_from_start(settings, out_path, plan, start, origin, models=models,
+                               progress=progress, overwrite=overwrite)
     result = Result.from_training(trainer, out_path)
     replayed = f"{trainer.training.memory.rows[0]['final_x_m']:.9g}"
     result.summary["replay"] = origin | {

@@ -36,8 +36,7 @@ from ...network.runlock import exclusive
 from ..outputs.folder import OutputFolder
 from ..outputs.writing import atomic_write, write_manifest
 from ..runtime.progress import time_bar
-from .settings import number, seed_number
-from .simulate import STEP, check_duration
+from ..settings.checks import STEP, check_duration, number, seed_number
 
 #: the most astrocytes one response runs (rates x replicates)
 MAX_CELLS = 100_000

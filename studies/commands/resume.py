@@ -24,7 +24,8 @@ from ..runtime.resources import check_memory, estimate_bytes
 from ..runtime.workers import resolve_workers
 from ..settings import TrainSettings
 from .resume_options import check_resume_options
-from .settings import added_populations, number, population_rows
+from ..settings.checks import number
+from ..settings.populations import population_rows
 from .train_run import run_training
 from .train_state import CHECKPOINT, read_checkpoint, same_codegen
 
@@ -88,11 +89,10 @@ def resume(folder: str | Path, *, sessions: int | None = None, progress: bool = 
     if not fresh:  # a checkpoint copied or linked in from another training
         # an extension stopped before its first checkpoint: the manifest plans more sessions
         planned = check_belongs(out, settings)
-    with added_populations(settings.populations):  # its recording plan may name them
-        return _resume_checked(out, settings, payload, fresh, planned, sessions, given,
-                               dict(record_every=record_every, record_stride=record_stride,
-                                    spikes=spikes, traces=traces, trace_dtype=trace_dtype),
-                               progress, procs)
+    return _resume_checked(out, settings, payload, fresh, planned, sessions, given,
+                           dict(record_every=record_every, record_stride=record_stride,
+                                spikes=spikes, traces=traces, trace_dtype=trace_dtype),
+                           progress, procs)
 
 
 def _resume_folder(folder: Any, out: Any, overwrite: bool) -> Path:

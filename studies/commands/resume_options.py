@@ -13,8 +13,8 @@ from ...coupling.recorder import RecordPlan
 from ...errors import Field, InputError, advice, did_you_mean, setting
 from ...models.compose import model_files_record, model_set, override_items
 from ..settings import TrainSettings
-from .settings import population_models, same_populations
-from .simulate import check_selection
+from ..settings.populations import population_models, population_table, same_populations
+from ..settings.checks import check_selection
 
 
 #: Relative difference below which two values of a parameter are the same value spelled
@@ -54,7 +54,7 @@ def check_resume_options(settings: TrainSettings, plan: RecordPlan | None,
     _check_populations(settings.populations, given.get("populations") or {}, refuse)
     _check_equations_given(settings, given.get("equations") or {})
     _check_overrides_given(settings, given.get("overrides") or [])
-    _check_recording_given(plan, given)
+    _check_recording_given(plan, given, population_table(settings.populations))
 
 
 def _refuse_resume(option: Field, message: str) -> NoReturn:
@@ -101,8 +101,10 @@ def _check_overrides_given(settings: TrainSettings, items: Sequence[str]) -> Non
                            f"that run has {name}={value_text(was)}, not {value_text(value)}")
 
 
-def _check_recording_given(plan: RecordPlan | None, given: dict[str, Any]) -> None:
-    """The recording options given to a resume: each must be the training's plan."""
+def _check_recording_given(plan: RecordPlan | None, given: dict[str, Any],
+                           rows: Any = None) -> None:
+    """The recording options given to a resume: each must be the training's plan (the names
+    those of its population table ``rows``)."""
     refuse = _refuse_resume
     every, stride = given.get("record_every"), given.get("record_stride")
     spikes, traces = given.get("spikes"), given.get("traces")
@@ -123,7 +125,7 @@ def _check_recording_given(plan: RecordPlan | None, given: dict[str, Any]) -> No
     if stride is not None and stride != plan.stride:
         refuse(setting("record_stride"),
                f"that run records every {plan.stride} steps, not {stride}")
-    want_spikes, want_traces = check_selection(spikes, traces)
+    want_spikes, want_traces = check_selection(spikes, traces, rows)
     if spikes is not None and set(want_spikes) != set(plan.spikes):
         refuse(setting("spikes"), f"that run records the spikes of {_option_text(plan.spikes)}, "
                            f"not {_option_text(want_spikes)}")

@@ -28,15 +28,15 @@ from ..outputs.writing import (file_sha256, read_manifest, remove_files, save_np
 from ..outputs.result import Result
 from ..outputs.weights import check_table, load_weights, tables_state
 from ...models.compose import Overrides, model_files_record, model_set, override_items
-from .settings import (added_populations, number, population_models, population_rows,
-                       same_populations, seed_number)
+from ..settings.checks import (STEP, check_duration, check_selection, check_trace_dt,
+                               check_trace_dtype, number, seed_number)
+from ..settings.populations import (population_models, population_rows, population_table,
+                                    same_populations)
 from ..runtime.resources import RECORD_LESS, check_memory, estimate_batched
 from ..runtime.workers import resolve_workers, workers_words
 from ..settings import RunSettings
 from .batched import try_batched
-from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
-                       check_trace_dtype,
-                       firing_rates, simulate_closed_loop)
+from .simulate import SimulationResult, firing_rates, simulate_closed_loop
 
 ROBOT_FILE = ("t (s); joint_angles (trial, t, leg, joint) rad; torques (trial, t, leg, joint) "
               "N m; torso_position/velocity (trial, t, xyz) m, m/s world; torso_quaternion "
@@ -114,16 +114,16 @@ def run(*, seconds: float = 10.0, seed: int | None = None, trials: int = 1,
 
     # before any other check; a training's tables run on its network: its populations too
     population_record = with_trained_populations(weights, population_rows(populations)[1])
-    with added_populations(population_record) as rows:  # this call's: under the run lock
-        plan = _plan_run(dict(locals()), rows)  # every check and estimate: nothing touched
-        return _run_planned(plan, out, overwrite, progress, figure)
+    rows = population_table(population_record)  # the table this run is built from
+    plan = _plan_run(dict(locals()), rows)  # every check and estimate: nothing touched
+    return _run_planned(plan, out, overwrite, progress, figure)
 
 
 @dataclasses.dataclass(frozen=True)
 class RunPlan:
     """What :func:`run` simulates, checked: the manifest's ``settings`` (the checked values,
-    whichever door called), the model set, the world with its robot, the tables, the processes
-    and what the folder may not replace (``inputs``)."""
+    whichever door called), the model set, the population table, the world with its robot,
+    the tables, the processes and what the folder may not replace (``inputs``)."""
 
     settings: dict[str, Any]
     models: ModelSet
@@ -133,6 +133,7 @@ class RunPlan:
     procs: int
     inputs: list[Any]
     robot_info: dict[str, Any]
+    rows: tuple[Any, ...] = ()
 
 
 def _plan_run(a: dict[str, Any], rows: Sequence[Any]) -> RunPlan:
@@ -147,18 +148,18 @@ def _plan_run(a: dict[str, Any], rows: Sequence[Any]) -> RunPlan:
               *([robot] if robot is not None else [])]
     if out is not None:  # before the simulation, not after
         OutputFolder(out, overwrite=a["overwrite"], inputs=inputs).check()
-    pops, names = check_selection(a["spikes"], a["traces"])
+    pops, names = check_selection(a["spikes"], a["traces"], rows)
     procs = min(resolve_workers(a["workers"]), trials)
     check_memory(estimate_batched(
         procs, trials=trials, seconds=seconds, dt=STEP, trace_dt=trace_dt * 1e-3,
-        traces=trace_columns(names), spikes=bool(pops), robot_stride=robot_stride,
+        traces=trace_columns(names, rows), spikes=bool(pops), robot_stride=robot_stride,
         trace_bytes=np.dtype(trace_dtype).itemsize, spill_bytes=None if out is None
         else recording.SPILL_BYTES),
         culprit=f"{setting('seconds', f'{seconds:g}')} x {setting('trials', trials)}"
         + workers_words(procs), record_less=RECORD_LESS)
     files = model_files_record(a["models"])
     models = model_set(a["overrides"], a["equations"], models=a["models"],
-                       added=[r.model for r in rows])
+                       added=[r.model for r in rows if not r.built_in])
     table, weights, tables_label = _weights_table(weights, trial, trials, models)
     params, model, layout = _robot_world(models, robot)
     values = RunSettings(
@@ -172,7 +173,7 @@ def _plan_run(a: dict[str, Any], rows: Sequence[Any]) -> RunPlan:
     robot_info = ({"file": os.path.abspath(robot), "sha256": file_sha256(robot)} if robot
                   else {"file": None, "builtin": "astrocpg A1", "parameters": str(params)})
     return RunPlan(settings=settings, models=models, model=model, layout=layout, table=table,
-                   procs=procs, inputs=inputs, robot_info=robot_info)
+                   procs=procs, inputs=inputs, robot_info=robot_info, rows=tuple(rows))
 
 
 def _run_planned(plan: RunPlan, out: str | Path | None, overwrite: bool, progress: bool,
@@ -184,7 +185,7 @@ def _run_planned(plan: RunPlan, out: str | Path | None, overwrite: bool, progres
 
     def simulate(spill: Any) -> Any:  # over the workers, or here
         return _simulate(p.models, p.model, p.layout, dict(p.settings, weights=p.table),
-                         p.procs, progress, spill)
+                         p.procs, progress, spill, p.rows)
 
     def summarise(r: Any, e: Any = None) -> None:
         _summarise(r, p.models, start_x, p.robot_info, p.table, e)
@@ -330,8 +331,9 @@ def _weights_table(weights: Any, trial: int | None, trials: int, models: Any
 
 
 def _simulate(models: ModelSet, model: Any, layout: Any, spec: dict[str, Any], procs: int,
-              progress: bool, spill: Any) -> SimulationResult:
-    """The run of ``spec`` (its checked settings, ``weights`` the tables in volt): over
+              progress: bool, spill: Any, rows: Sequence[Any] = ()) -> SimulationResult:
+    """The run of ``spec`` (its checked settings, ``weights`` the tables in volt), with the
+    population table ``rows``: over
     ``procs`` processes (:mod:`.batched`), else here (one process, or a batch that diverged:
     what diverged is then written as one process writes it)."""
     from brian2 import ms
@@ -344,7 +346,7 @@ def _simulate(models: ModelSet, model: Any, layout: Any, spec: dict[str, Any], p
         models, model, layout, seconds=spec["seconds"], seed=spec["seed"],
         n_trials=spec["trials"], weights=spec["weights"], trace_dt=spec["trace_dt"] * ms,
         robot_stride=spec["robot_stride"], spikes=spec["spikes"], traces=spec["traces"],
-        progress=progress, trace_dtype=spec["trace_dtype"], spill=spill)
+        progress=progress, trace_dtype=spec["trace_dtype"], spill=spill, populations=rows)
 
 
 def _simulate_into(folder: OutputFolder, simulate: Any, summarise: Any,
@@ -782,8 +784,8 @@ def with_variant(settings: Mapping[str, Any], *, overrides: Overrides | None = N
                              f"{sorted(clash)[0]}", culprit=setting("populations"))
         out["populations"] = {**(settings.get("populations") or {}), **record}
     if any((overrides, equations, models, populations)):
-        with added_populations(out.get("populations")):
-            trained_models(out)  # every value of the variant checked now, not mid-run
+        population_table(out.get("populations"))  # its rows checked together
+        trained_models(out)  # every value of the variant checked now, not mid-run
     return out
 
 
@@ -816,9 +818,8 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
         if state["warning"]:
             warnings.warn(KEYWORDS(state["warning"]), UserWarning, stacklevel=2)
     populations = settings.get("populations")
-    with added_populations(populations):
-        models = trained_models(settings)
-        models = in_world_settings(models, world)
+    rows = population_table(populations)  # the training's network: its populations too
+    models = in_world_settings(trained_models(settings), world)
     runs = len(weights) * repeats
     procs = min(procs, runs)
     check_memory(estimate_batched(procs, trials=runs, seconds=seconds, dt=STEP, robot_stride=1),
@@ -826,16 +827,15 @@ def replay(folder: str | Path, *, seconds: float = 10.0, seed: int | None = None
                          f"trial(s) x {repeats} repeat(s)"
                          + (f" x {setting('workers', procs)}" if procs > 1 else ""))
     tables = np.concatenate([weights] * repeats)
-    with added_populations(populations):
-        result = try_batched("replay", {"modelset": models, "populations": populations,
-                                        "seconds": seconds, "seed": seed, "weights": tables},
-                             runs, procs, progress)
-        if result is None:  # one process (or a batch diverged: it diverges here too)
-            result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
-                                          n_trials=runs, weights=tables,
-                                          record_traces=False, progress=progress)
-        else:
-            result.cpg.models = models
+    result = try_batched("replay", {"modelset": models, "populations": populations,
+                                    "seconds": seconds, "seed": seed, "weights": tables},
+                         runs, procs, progress)
+    if result is None:  # one process (or a batch diverged: it diverges here too)
+        result = simulate_closed_loop(models, seconds=seconds, seed=seed,  # the project's A1
+                                      n_trials=runs, weights=tables, record_traces=False,
+                                      progress=progress, populations=rows)
+    else:
+        result.cpg.models = models
     return result, weights
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Sequence
 
 import mujoco
 import numpy as np
@@ -23,8 +23,7 @@ from ...network import (CPG, DivergenceCheck, build_cpg, check_runs, exclusive,
 from ...network.populations import BUILT_IN, spike_populations, trace_sources
 from ...network.recording import SpikeRecorder, TraceRecorder
 from ..runtime.progress import time_bar
-from ..settings.checks import (STEP, check_duration, check_selection,  # noqa: F401 (their home)
-                               check_trace_dt, check_trace_dtype, names_list)
+from ..settings.checks import STEP, check_duration, check_selection
 
 
 
@@ -152,13 +151,16 @@ class _Progress:
 def simulate_unit(models: ModelSet, *, seconds: float, seed: int, n_trials: int = 1,
                   trace_dt: Any = 1 * ms, record_traces: bool = True,
                   spikes: tuple[str, ...] | None = None, traces: tuple[str, ...] | None = None,
-                  progress: bool = True, trace_dtype: str = "float32") -> SimulationResult:
+                  progress: bool = True, trace_dtype: str = "float32",
+                  populations: Sequence[Any] | None = None) -> SimulationResult:
     """One locomotion unit (the FR limb's CPG) open loop: no robot, torso speed 0, no
-    limit-position inhibition (the paper's Fig. 1c). ``n_trials`` units with seeds seed..."""
+    limit-position inhibition (the paper's Fig. 1c). ``n_trials`` units with seeds seed...
+    ``populations``: the population table (None: the built-in rows)."""
     check_duration(seconds)
-    cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=("FR",))
+    cpg = build_cpg(models, n_trials=n_trials, seed=seed, legs=("FR",), populations=populations)
     check_runs(cpg)
-    mons = add_monitors(cpg, trace_dt, record_traces, *check_selection(spikes, traces),
+    mons = add_monitors(cpg, trace_dt, record_traces,
+                        *check_selection(spikes, traces, cpg.layout.rows),
                         n_steps=check_duration(seconds), trace_dtype=trace_dtype)
     bar = _Progress(seconds, "unit", progress and seconds > 3)
     steps = [0]
@@ -191,21 +193,23 @@ def simulate_closed_loop(models: ModelSet, robot: mujoco.MjModel | None = None,
                          record_spikes: bool = True, spikes: tuple[str, ...] | None = None,
                          traces: tuple[str, ...] | None = None,
                          progress: bool = True, trace_dtype: str = "float32",
-                         spill: Any = None) -> SimulationResult:
+                         spill: Any = None,
+                         populations: Sequence[Any] | None = None) -> SimulationResult:
     """The whole CPG driving ``n_trials`` robots (default: the project's A1) for ``seconds``,
     inter-limb weights fixed (``weights``: (8, 8) or (n_trials, 8, 8) in volt; default zero).
-    ``spill``: see :func:`add_monitors` (a run that writes its folder)."""
+    ``spill``: see :func:`add_monitors` (a run that writes its folder). ``populations``: the
+    population table (None: the built-in rows)."""
     check_duration(seconds)
     bar = _Progress(seconds, f"run ({n_trials} trial{'s' if n_trials > 1 else ''})",
                     progress and seconds * n_trials > 3)
     loop = build_closed_loop(models, n_trials=n_trials, seed=seed, weights=weights, robot=robot,
-                             robot_layout=robot_layout, on_step=bar)
+                             robot_layout=robot_layout, on_step=bar, populations=populations)
     cpg, bridge = loop.cpg, loop.bridge
     n_steps = int(round(seconds / loop.robot.opt.timestep))
     rec = bridge.start_recording(n_steps, robot_stride)
     limit = LimitCount(cpg)
     bridge.add_hook("after_physics", "limit_count", limit, order=ORDER_MEASURE)
-    selection = check_selection(spikes, traces)
+    selection = check_selection(spikes, traces, cpg.layout.rows)
     mons = add_monitors(cpg, trace_dt, record_traces, *selection, n_steps=n_steps,
                         trace_dtype=trace_dtype, spill=spill) if record_spikes else {}
     t0 = time.perf_counter()

@@ -34,8 +34,8 @@ from ..outputs.result import Result
 from ..runtime.resources import check_memory, estimate_batched
 from ..runtime.workers import resolve_workers, workers_words
 from ..settings import TrainSettings
-from .settings import added_populations, number, population_models, population_rows, seed_number
-from .simulate import check_selection, check_trace_dtype
+from ..settings.checks import check_selection, check_trace_dtype, number, seed_number
+from ..settings.populations import population_models, population_rows, population_table
 from .train_run import run_training
 from .train_summary import train_summary
 from .trainer import Trainer
@@ -44,9 +44,10 @@ from .trainer import Trainer
 def record_plan(every: int | None, stride: int | None = None,
                 spikes: tuple[str, ...] | None = None,
                 traces: tuple[str, ...] | None = None,
-                trace_dtype: str | None = None) -> RecordPlan | None:
+                trace_dtype: str | None = None, rows: Any = None) -> RecordPlan | None:
     """The new training's RecordPlan from the options (a resumed one keeps its own:
-    :func:`~astrocpg.studies.commands.resume_options.check_resume_options`)."""
+    :func:`~astrocpg.studies.commands.resume_options.check_resume_options`), the names
+    those of the population table ``rows`` (None: the built-in rows)."""
     if every is None:
         if stride is not None:
             raise InputError(f"a training records sessions only with "
@@ -65,7 +66,7 @@ def record_plan(every: int | None, stride: int | None = None,
         raise InputError(f"must be at least 1, got {every}", culprit=setting("record_every"))
     if stride < 1:
         raise InputError(f"must be at least 1, got {stride}", culprit=setting("record_stride"))
-    spikes, traces = check_selection(spikes, traces)
+    spikes, traces = check_selection(spikes, traces, rows)
     dtype = "float32" if trace_dtype is None else check_trace_dtype(trace_dtype)
     return RecordPlan(every=every, spikes=spikes, traces=traces, stride=stride, dtype=dtype)
 
@@ -141,15 +142,15 @@ def train(*, out: str | Path | None, sessions: int = 400, seed: int = 1, trials:
                                        models, populations)
     out = _checked_new_training(out, overwrite, inputs)
     procs = min(resolve_workers(workers), settings.n_trials)
-    with added_populations(settings.populations):  # recorded and built like the others
-        plan = record_plan(record_every, record_stride, spikes, traces, trace_dtype)
-        check_memory(estimate_batched(procs, trials=settings.n_trials, seconds=0.0, spikes=False,
-                                      sessions=settings.n_sessions),
-                     culprit=f"{setting('sessions', settings.n_sessions)} x "
-                             f"{setting('trials', settings.n_trials)}{workers_words(procs)}")
-        return Result.from_training(run_training(settings, out, plan, None, progress,
-                                                 replace=overwrite, new=True, models=models,
-                                                 workers=procs), out)
+    plan = record_plan(record_every, record_stride, spikes, traces, trace_dtype,
+                       rows=population_table(settings.populations))  # its populations too
+    check_memory(estimate_batched(procs, trials=settings.n_trials, seconds=0.0, spikes=False,
+                                  sessions=settings.n_sessions),
+                 culprit=f"{setting('sessions', settings.n_sessions)} x "
+                         f"{setting('trials', settings.n_trials)}{workers_words(procs)}")
+    return Result.from_training(run_training(settings, out, plan, None, progress,
+                                             replace=overwrite, new=True, models=models,
+                                             workers=procs), out)
 
 
 def _train_settings(sessions: Any, seed: Any, trials: Any, astrocytes: Any, overrides: Any,

@@ -51,33 +51,33 @@ def train_batch(spec: dict[str, Any], first: int, count: int, folder: str,
     checkpoint's) when given. Returns ``{"status": "finished" | "stopped" | "diverged"}``."""
     from ...coupling.recorder import RecordPlan
     from ...models.compose import model_set
-    from ...network import populations as _table
-    from .batched import missing_rows
     from ..settings import TrainSettings
+    from ..settings.populations import population_models
     from .trainer import Trainer, TrainingStopped
 
     settings = TrainSettings(**spec["settings"])
     batch = dataclasses.replace(settings, seed=settings.seed + first, n_trials=count)
     plan = None if spec["plan"] is None else RecordPlan.from_dict(spec["plan"])
-    with _table.registered(*missing_rows(settings.populations)):
-        models = model_set(settings.overrides, settings.equations, models=settings.models)
-        Path(folder).mkdir(parents=True, exist_ok=True)
-        trainer = Trainer(models, batch, Path(folder), progress=False, record=plan,
-                          trial_offset=first, folder=Path(spec["out"]))
-        if payload is not None:
-            trainer.restore(payload)
-            trained_to = int(payload["settings"]["n_sessions"])
-            if trained_to < batch.n_sessions:  # an extension (more sessions): as one network
-                trainer.extend(trained_to)
-        try:
-            trainer.run()
-        except TrainingStopped:
-            return {"status": "stopped"}
-        except Diverged as e:  # the sessions so far and the diverged one, for the files
-            from .train_state import memory_state
-            return {"status": "diverged", "line": e.line,
-                    "memory": memory_state(trainer.training.memory,
-                                           trainer.cpg.interlimb_weights().shape[1:])}
+    # the training's models, its added populations' too (its overrides may set theirs)
+    models = model_set(settings.overrides, settings.equations, models=settings.models,
+                       added=population_models(settings.populations))
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    trainer = Trainer(models, batch, Path(folder), progress=False, record=plan,
+                      trial_offset=first, folder=Path(spec["out"]))
+    if payload is not None:
+        trainer.restore(payload)
+        trained_to = int(payload["settings"]["n_sessions"])
+        if trained_to < batch.n_sessions:  # an extension (more sessions): as one network
+            trainer.extend(trained_to)
+    try:
+        trainer.run()
+    except TrainingStopped:
+        return {"status": "stopped"}
+    except Diverged as e:  # the sessions so far and the diverged one, for the files
+        from .train_state import memory_state
+        return {"status": "diverged", "line": e.line,
+                "memory": memory_state(trainer.training.memory,
+                                       trainer.cpg.interlimb_weights().shape[1:])}
     return {"status": "finished"}
 
 

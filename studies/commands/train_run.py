@@ -22,7 +22,7 @@ from ..outputs.folder import (FolderLock, clean_stale_temporaries, clear_folder,
                               remove_derived)
 from ..outputs.writing import write_manifest
 from ..settings import TrainSettings
-from .settings import population_models
+from ..settings.populations import population_models
 from .train_files import TRAIN_FILES
 from .train_summary import recorded_overflow, train_summary
 from .trainer import Trainer, TrainingStopped

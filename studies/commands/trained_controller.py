@@ -181,17 +181,18 @@ with ``final_gait_reason`` when it is none)."""
 
 
 def final_gaits(models, tables: np.ndarray, *, seconds: float = 5.0,
-                seed: int = 1) -> list[dict[str, Any]]:
+                seed: int = 1, populations: Any = None) -> list[dict[str, Any]]:
     """The rhythm and the gait of each trained table (volt, (trials, 8, 8)) with learning off:
     one run of ``seconds`` for all of them, both read over its second half
     (:func:`~astrocpg.studies.analysis.gait.trial_measures`), and the mean forward speed; one
     dict of :data:`GAIT_COLUMNS` per trial. Table ``b`` runs with seed ``seed + b`` (give a
-    training's seed: each table on the network and noise it trained with)."""
+    training's seed: each table on the network and noise it trained with; ``populations``:
+    its population table, None: the built-in rows)."""
     from .simulate import simulate_closed_loop
 
     result = simulate_closed_loop(models, seconds=seconds, seed=seed, n_trials=len(tables),
                                   weights=tables, record_traces=False, spikes=("motor",),
-                                  progress=False)
+                                  progress=False, populations=populations)
     t, i = result.spikes["motor"]
     rows = []
     for b in range(len(tables)):

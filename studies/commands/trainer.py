@@ -17,6 +17,7 @@ import numpy as np
 from brian2 import Network, NetworkOperation, second
 
 from ...coupling.assembly import build_closed_loop
+from ..settings.populations import population_table
 from ...coupling.recorder import RecordPlan, SessionRecorder
 from ...coupling.training import Training
 from ...errors import Diverged, InputError
@@ -62,7 +63,9 @@ class Trainer:
         if not settings.astrocytes:
             models = models.with_values({"astrocyte_regulation": 0.0})
         self.models = models
-        loop = build_closed_loop(models, n_trials=settings.n_trials, seed=settings.seed)
+        # the network it trains: the built-in populations and those the training added
+        loop = build_closed_loop(models, n_trials=settings.n_trials, seed=settings.seed,
+                                 populations=population_table(settings.populations))
         self.robot, self.layout, self.cpg, self.bridge = (loop.robot, loop.robot_layout,
                                                           loop.cpg, loop.bridge)
         self.training = Training(self.cpg, self.bridge, models, n_sessions=settings.n_sessions,

@@ -20,14 +20,14 @@ from ..outputs.folder import OutputFolder
 from ..outputs.writing import save_spikes_and_traces, write_manifest
 from ..outputs.result import Result
 from ...models.compose import Overrides, model_files_record, model_set, override_items
-from .settings import added_populations, number, population_rows, seed_number
+from ..settings.checks import (STEP, check_duration, check_selection, check_trace_dt,
+                               check_trace_dtype, number, seed_number)
+from ..settings.populations import population_rows, population_table
 from ..settings import UnitSettings
 from ..runtime.resources import check_memory, estimate_batched
 from ..runtime.workers import resolve_workers
 from .batched import BatchedCPG, try_batched
-from .simulate import (STEP, SimulationResult, check_duration, check_selection, check_trace_dt,
-                       check_trace_dtype,
-                       simulate_unit)
+from .simulate import SimulationResult, simulate_unit
 
 
 def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
@@ -90,15 +90,16 @@ def unit(*, seconds: float = 30.0, seed: int = 1, trials: int = 1,
         Bad input, naming the culprit, before anything is simulated or written.
     """
     population_record = population_rows(populations)[1]  # before any other check
-    with added_populations(population_record) as rows:  # this call's: under the run lock
-        settings, models, procs = _plan_unit(dict(locals()), rows)  # nothing touched yet
-        return _unit_planned(settings, models, procs, out, overwrite, inputs, progress)
+    rows = population_table(population_record)  # the table this unit is built from
+    settings, models, procs = _plan_unit(dict(locals()), rows)  # nothing touched yet
+    return _unit_planned(settings, models, procs, rows, out, overwrite, inputs, progress)
 
 
 def _plan_unit(a: dict[str, Any], rows: Sequence[Any]) -> tuple[dict[str, Any], Any, int]:
-    """:func:`unit`'s arguments ``a`` checked and its memory estimated: the manifest's
-    settings (the checked values, whichever door called), the model set and the processes;
-    refused (InputError) before anything is simulated or written."""
+    """:func:`unit`'s arguments ``a`` checked and its memory estimated, with the population
+    table ``rows``: the manifest's settings (the checked values, whichever door called), the
+    model set and the processes; refused (InputError) before anything is simulated or
+    written."""
     seconds = number(a["seconds"], setting("seconds"), positive=True)
     trials = number(a["trials"], setting("trials"), integer=True, minimum=1)
     seed = seed_number(a["seed"], trials=trials)
@@ -108,10 +109,10 @@ def _plan_unit(a: dict[str, Any], rows: Sequence[Any]) -> tuple[dict[str, Any], 
     check_duration(seconds, STEP)
     if a["out"] is not None:  # before the simulation, not after
         OutputFolder(a["out"], overwrite=a["overwrite"], inputs=a["inputs"]).check()
-    pops, names = check_selection(a["spikes"], a["traces"])
+    pops, names = check_selection(a["spikes"], a["traces"], rows)
     procs = min(resolve_workers(a["workers"]), trials)
     check_memory(estimate_batched(procs, trials=trials, seconds=seconds, dt=STEP,
-                                  trace_dt=trace_dt * 1e-3, traces=trace_columns(names),
+                                  trace_dt=trace_dt * 1e-3, traces=trace_columns(names, rows),
                                   spikes=bool(pops),
                                   trace_bytes=np.dtype(trace_dtype).itemsize),
                  culprit=f"{setting('seconds', f'{seconds:g}')} x {setting('trials', trials)}"
@@ -119,7 +120,7 @@ def _plan_unit(a: dict[str, Any], rows: Sequence[Any]) -> tuple[dict[str, Any], 
                  record_less=("spikes", "traces", "trace_dt"))
     files = model_files_record(a["models"])
     models = model_set(a["overrides"], a["equations"], models=a["models"],
-                       added=[r.model for r in rows])
+                       added=[r.model for r in rows if not r.built_in])
     values = UnitSettings(seconds=seconds, seed=seed, trials=trials, trace_dt=trace_dt,
                           trace_dtype=trace_dtype, overrides=override_items(a["overrides"]),
                           equations=a["equations"], spikes=a["spikes"], traces=a["traces"],
@@ -127,11 +128,12 @@ def _plan_unit(a: dict[str, Any], rows: Sequence[Any]) -> tuple[dict[str, Any], 
     return values.record(), models, procs
 
 
-def _unit_planned(settings: dict[str, Any], models: Any, procs: int,
+def _unit_planned(settings: dict[str, Any], models: Any, procs: int, rows: Sequence[Any],
                   out: str | Path | None, overwrite: bool,
                   inputs: Sequence[str | os.PathLike], progress: bool) -> Result:
-    """Simulate the checked ``settings`` (over ``procs`` processes, or here), then write the
-    folder (whole, or nothing; what ran, where it diverged) where ``out`` is given."""
+    """Simulate the checked ``settings`` (over ``procs`` processes, or here) with the
+    population table ``rows``, then write the folder (whole, or nothing; what ran, where it
+    diverged) where ``out`` is given."""
     from brian2 import ms
 
     seconds, seed, trials = settings["seconds"], settings["seed"], settings["trials"]
@@ -141,7 +143,8 @@ def _unit_planned(settings: dict[str, Any], models: Any, procs: int,
             result = simulate_unit(models, seconds=seconds, seed=seed, n_trials=trials,
                                    trace_dt=settings["trace_dt"] * ms,
                                    spikes=settings["spikes"], traces=settings["traces"],
-                                   progress=progress, trace_dtype=settings["trace_dtype"])
+                                   progress=progress, trace_dtype=settings["trace_dtype"],
+                                   populations=rows)
     except Diverged as e:  # the folder keeps what ran, and says it diverged
         partial = getattr(e, "result", None)
         if out is not None and partial is not None:

@@ -228,7 +228,7 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     dict
         ``{"path", "frames", "fps", "seconds", "start", "stop"}``.
     """
-    from ...coupling.render import Replay, frame_count, frame_samples
+    from ...coupling.render import Replay
     from ..outputs.writing import atomic_path
 
     value = VideoSettings(folder=as_path(folder, "folder"), trial=trial, fps=fps, speed=speed,
@@ -242,16 +242,7 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
                          "torso's orientation); run it again to make a video",
                          culprit=str(result.folder))
     path = _video_path(folder, trial, out, overwrite)
-    # checked against the recording; None (not given) keeps the recording's own ends
-    shown = _time_window(rob["t"], value.start, value.stop)
-    start = None if value.start is None else shown[0]
-    stop = None if value.stop is None else shown[1]
-    n_frames = frame_count(rob["t"], fps, speed, start=start, stop=stop)
-    if n_frames > MAX_FRAMES:  # before a frame index of that length is built
-        raise InputError(f"{n_frames:.3g} frames ({_span(rob['t'])} s recorded x fps {fps:g} / "
-                         f"speed {speed:g}) is more than {MAX_FRAMES}; lower {setting('fps')} or "
-                         f"raise {setting('speed')}", culprit=_rates_given(fps, speed))
-    samples = frame_samples(rob["t"], fps, speed, start=start, stop=stop)
+    shown, samples = _frames(rob["t"], value)
     model, layout = _robot_model(result)
 
     strip = None
@@ -273,6 +264,23 @@ def video(folder: str | Path, *, trial: int = 0, fps: float = 30.0, speed: float
     return {"path": path, "frames": len(samples), "fps": fps,
             "seconds": len(samples) / fps, "start": shown[0], "stop": shown[1],
             "settings": value.record()}
+
+
+def _frames(t: Any, value: VideoSettings) -> tuple[tuple[float, float], Any]:
+    """The window shown (checked against the recording ``t``; a start or stop not given
+    keeps the recording's own end) and the recording's sample of each frame."""
+    from ...coupling.render import frame_count, frame_samples
+
+    fps, speed = value.fps, value.speed
+    shown = _time_window(t, value.start, value.stop)
+    start = None if value.start is None else shown[0]
+    stop = None if value.stop is None else shown[1]
+    n_frames = frame_count(t, fps, speed, start=start, stop=stop)
+    if n_frames > MAX_FRAMES:  # before a frame index of that length is built
+        raise InputError(f"{n_frames:.3g} frames ({_span(t)} s recorded x fps {fps:g} / "
+                         f"speed {speed:g}) is more than {MAX_FRAMES}; lower {setting('fps')} or "
+                         f"raise {setting('speed')}", culprit=_rates_given(fps, speed))
+    return shown, frame_samples(t, fps, speed, start=start, stop=stop)
 
 
 def _rates_given(fps: float, speed: float) -> str:

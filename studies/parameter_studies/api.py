@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ...errors import InputError, setting
-from ..commands.settings import number
+from ..settings.checks import number
 
 
 def _path(value: Any, culprit: str) -> Path:

@@ -13,7 +13,6 @@ diverge again (:data:`ENDED`).
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import io
 import os
@@ -32,7 +31,7 @@ from ...reading import read_json
 from ...network import exclusive
 from ..runtime.cells import run_cells
 from ...models.compose import model_set
-from ..commands.settings import added_populations, population_models
+from ..settings.populations import population_models
 from ..commands.train_state import CHECKPOINT, read_checkpoint
 from ..commands.trainer import Trainer, TrainingStopped
 from ..outputs.checkpoint import refuse_legacy
@@ -130,11 +129,8 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
     t0 = time.perf_counter()
     manifest: dict[str, Any] = {}  # once written, the run's manifest says how it ended
     layout: dict[str, Any] = {}  # the network's population rows, once it is built
-    # the populations the study adds, in the table from the run's build to its gaits' runs
-    added = contextlib.ExitStack()
     try:
         _write_status(out, status)
-        added.enter_context(added_populations(spec.populations))
         settings = spec.train_settings()
         payload = None
         refuse_legacy(out)  # an old pickled checkpoint is never loaded
@@ -184,8 +180,6 @@ def _execute_run_locked(spec: RunSpec, out: Path) -> dict[str, Any]:
     except Exception as e:  # recorded, not raised: the other runs go on
         status.update({"state": "failed", "error": f"{type(e).__name__}: {e}",
                        "traceback": traceback.format_exc(), "finished": time.time()})
-    finally:
-        added.close()
     _end_attempt(status)
     _write_status(out, status)
     if manifest:  # never left "running": the manifest says how the attempt ended
@@ -204,7 +198,8 @@ def _write_gaits(out: Path, trainer: Trainer) -> None:
 
     with np.load(out / WEIGHTS, allow_pickle=False) as z:  # written by this process a moment ago
         tables = np.asarray(z["final_weights_mV"], dtype=float) * 1e-3
-    rows = final_gaits(trainer.models, tables, seed=trainer.settings.seed)
+    rows = final_gaits(trainer.models, tables, seed=trainer.settings.seed,
+                       populations=trainer.cpg.layout.rows)  # the network it trained
     buf = io.StringIO()  # a reason is text: quoted where it needs it
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(["trial", *GAIT_COLUMNS])

@@ -43,7 +43,7 @@ from ..analysis.final_figures import (CURVES, MEASURES, WEIGHT_MEASURES, Measure
                                       condition_tests, seed_finals, session_curve)
 from ..analysis.gait import weight_structure
 from ...models.compose import model_set
-from ..commands.settings import population_models
+from ..settings.populations import population_models
 from ..outputs.folder import OutputFolder, verify
 from ..outputs.study_index import current_specs
 from ..figures.save import save_figure

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ...errors import Field, InputError, setting
+from ...errors import InputError, setting
 from ...reading import open_regular, read_bytes
 from ..outputs.study_index import read_current
 from .layout import RUNS, STATUS, TIMELINE, as_it_stands

@@ -26,9 +26,8 @@ from ..runtime.resources import check_memory, estimate_bytes, estimate_wall_seco
 from ...models.compose import model_files_record, model_set, read_model_files
 from ..analysis.margins import read_margins
 from ..settings.study import MAX_SEEDS, StudyOverrides
-from ..commands.settings import (MAX_SEED, added_populations, check_grid,
-                                 population_models, population_rows)
-from ..commands.simulate import STEP, check_duration
+from ..settings.checks import MAX_SEED, STEP, check_duration, check_grid
+from ..settings.populations import population_models, population_rows, population_table
 from ..settings import TrainSettings
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
@@ -199,8 +198,8 @@ def parse_study(text: str, p: Path, batch_given: int | None,
         seeds = list(range(seeds[0], seeds[0] + given.count))
     batch_setting, batch = _batch(head, seeds, n_sessions, batch_given, where)
     populations = _population_files(p, head.get("populations"), where)
-    with added_populations(populations):  # what the runs may record: theirs too
-        record = _record_table(head.get("record"), where)
+    # what the runs may record: theirs too
+    record = _record_table(head.get("record"), where, population_table(populations))
     slots = {name for name, _ in DEFAULT_MODELS.items()}
     base_files, models, base = _base(doc, p, slots, where, population_models(populations))
     names, axes, axis_files, points = _sweep(doc, p, slots, base_files, models, len(seeds),
@@ -522,8 +521,7 @@ def _population_files(study: Path, files: Any, where: str) -> dict[str, dict[str
             raise InputError(f"cannot be read ({type(e).__name__}: {e})",
                              culprit=f"{culprit} {file}") from None
     record = population_rows(texts, option=culprit)[1]
-    with added_populations(record):  # a name the table holds already is refused now
-        pass
+    population_table(record)  # a name the table holds already is refused now
     return record
 
 
@@ -562,7 +560,7 @@ def _evaluate_table(doc: Any, study: Path, where: str) -> dict[str, Any] | None:
             "conditions": conditions, "n_worlds": n_worlds}
 
 
-def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
+def _record_table(doc: Any, where: str, rows: Any) -> dict[str, Any] | None:
     """``[study] record = { every = N, spikes = [...], traces = [...], stride = S }``."""
 
     if doc is None:
@@ -581,9 +579,10 @@ def _record_table(doc: Any, where: str) -> dict[str, Any] | None:
 
     # by default every population and trace of the table, the study's added ones included
     # (as a training's record_every records them)
-    fields = {"spikes": spike_populations(), "traces": tuple(trace_sources())} | dict(doc)
+    fields = {"spikes": spike_populations(rows), "traces": tuple(trace_sources(rows))} | dict(doc)
     try:
         plan = RecordPlan.from_dict(fields)
+        plan.check_names(rows)
     except (TypeError, ValueError) as e:
         raise InputError(f"[study] record: {e}", culprit=where) from None
     return {"every": plan.every, "spikes": list(plan.spikes), "traces": list(plan.traces),

@@ -73,13 +73,14 @@ def names_list(value: Any, culprit: str) -> tuple[str, ...]:
     return names
 
 
-def check_selection(spikes: tuple[str, ...] | None,
-                    traces: tuple[str, ...] | None) -> tuple[tuple[str, ...], tuple[str, ...]]:
+def check_selection(spikes: tuple[str, ...] | None, traces: tuple[str, ...] | None,
+                    rows: Any = None) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """Validate which populations' spikes and which traces to record (None: all). Each is a
     list of names or one text of names separated by commas (``"motor"``, ``"motor,astrocyte"``;
-    ``"none"`` or ``""``: nothing), as the command line takes them. The names are the
-    population table's (:mod:`astrocpg.network.populations`), added rows included."""
-    POPULATIONS, TRACES = spike_populations(), tuple(trace_sources())
+    ``"none"`` or ``""``: nothing), as the command line takes them. The names are those of the
+    population table ``rows`` (the built-in rows and the added ones; None: the built-in rows,
+    :mod:`astrocpg.network.populations`)."""
+    POPULATIONS, TRACES = spike_populations(rows), tuple(trace_sources(rows))
     spikes = POPULATIONS if spikes is None else names_list(spikes, setting("spikes"))
     traces = TRACES if traces is None else names_list(traces, setting("traces"))
     for name in spikes:

@@ -9,6 +9,7 @@ import dataclasses
 from typing import Any, Mapping
 
 from ...errors import InputError, setting
+from .populations import population_table
 from .checks import (STEP, check_duration, check_selection, check_trace_dt, check_trace_dtype,
                      names_list, number, seed_number)
 
@@ -72,7 +73,8 @@ class UnitSettings:
         set_(self, "populations", _frozen_mapping(self.populations, "populations"))
         set_(self, "spikes", _names(self.spikes, "spikes"))
         set_(self, "traces", _names(self.traces, "traces"))
-        check_selection(self.spikes, self.traces)
+        # the names its network can record: the built-in populations and its added ones
+        check_selection(self.spikes, self.traces, population_table(self.populations))
 
     def record(self) -> dict[str, Any]:
         """The manifest's ``settings``: every field (``models`` and ``populations`` only where

@@ -1,18 +1,14 @@
-"""Settings shared by the experiments: the checks of the numbers every experiment takes
-(durations, counts, sampling) and the populations a call adds (:func:`population_rows`). Model
-composition lives in :mod:`astrocpg.models.compose`."""
+"""The populations a command adds to the network, as values: the rows of the model files
+given as ``populations`` (:func:`population_rows`), the table a network of them is built from
+(:func:`population_table`), their models (:func:`population_models`) and whether a training
+was made with the same (:func:`same_populations`)."""
 
 from __future__ import annotations
 
-import contextlib
-from typing import Any, Iterator, Mapping
+from typing import Any, Mapping
 
 from ...errors import Field, InputError, setting, shown_with
-from ...network import populations as _table
-from ...network.populations import Population, population_from_toml
-from ...network.runlock import RUN_LOCK
-from ..settings.checks import MAX_GRID, MAX_SEED, check_grid, number, seed_number  # noqa: F401
-
+from ...network.populations import Population, population_from_toml, with_added
 
 
 def population_rows(populations: Any, option: str | Field = setting("populations")
@@ -52,19 +48,12 @@ def population_models(populations: Any) -> tuple[Any, ...]:
     return tuple(row.model for row in population_rows(populations)[0])
 
 
-@contextlib.contextmanager
-def added_populations(populations: Any) -> Iterator[tuple[Population, ...]]:
-    """The populations of ``populations`` (as :func:`population_rows` takes them: a call's
-    files, or what a training's manifest recorded) in the population table for the ``with``
-    block, holding the run lock: the table is the process's, so another thread's build must
-    not see them (:mod:`astrocpg.network.runlock`). None given: nothing is added and the lock
-    is not taken."""
-    rows, _ = population_rows(populations)
-    if not rows:
-        yield ()
-        return
-    with RUN_LOCK, _table.registered(*rows) as done:
-        yield done
+def population_table(populations: Any) -> tuple[Population, ...]:
+    """The population table a network of ``populations`` (as :func:`population_rows` takes
+    them: a call's files, or what a training's manifest recorded) is built from: the
+    built-in rows, then these, each checked (a name the table holds already is refused). A
+    value: given to the build, the recording and the checks of what may be recorded."""
+    return with_added(population_rows(populations)[0])
 
 
 def same_populations(recorded: Mapping[str, Any], given: Mapping[str, Any]) -> str | None:
@@ -85,3 +74,6 @@ def same_populations(recorded: Mapping[str, Any], given: Mapping[str, Any]) -> s
         if was.get("sha256") != record.get("sha256") and defined(was) != defined(record):
             return name
     return None
+
+
+__all__ = ["population_models", "population_rows", "population_table", "same_populations"]
