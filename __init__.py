@@ -31,13 +31,13 @@ from __future__ import annotations
 
 import importlib
 
-from . import _streams
+from .support import _streams
 
 # a standard stream closed at start (`astrocpg run ... 2>&-`): /dev/null on its descriptor before
 # anything opens a file that would take it
 _streams.mend_closed()
 
-from . import _quiet_brian  # noqa: E402
+from .support import _quiet_brian  # noqa: E402
 
 #: The release this code is or follows: the one version written by hand (the changelog and
 #: CITATION.cff name it). ``__version__`` is this copy's version: ``RELEASE`` itself, or a

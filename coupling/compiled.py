@@ -30,7 +30,7 @@ from typing import Any, Callable
 import mujoco
 import numpy as np
 
-from ..environment import flag
+from ..support.environment import flag
 from ..network import native
 
 log = logging.getLogger("astrocpg.compiled")

@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 
 from ..errors import EnvironmentFault, InputError, setting
-from ..reading import check_regular
+from ..support.reading import check_regular
 
 def quiet_mujoco_log() -> None:
     """MuJoCo's default warning handler appends every warning to ``MUJOCO_LOG.TXT`` in the

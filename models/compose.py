@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Any, Iterable, Mapping, Sequence
 
 from ..errors import Field, InputError, did_you_mean, setting, shown_with
-from ..reading import read_bytes
+from ..support.reading import read_bytes
 from . import DEFAULT_MODELS, ModelSet
 
 Overrides = Mapping[str, Any] | Sequence[str]
@@ -58,7 +58,7 @@ def read_equation_files(items: Sequence[str], option: str | Field = setting("equ
         try:
             raw = read_bytes(file, shown_with(option, name))  # a FIFO is refused, never waited on
         except OSError as e:
-            from ..shipped import unreadable
+            from ..support.shipped import unreadable
             raise unreadable(file, kind, e, culprit=shown_with(option, name)) from None
         try:
             text = raw.decode("utf-8")
@@ -83,7 +83,7 @@ def read_model_files(items: Sequence[str],
     from . import INTERFACES
     from .files import check_interface, check_parameters_used, model_from_toml
 
-    from ..shipped import resolve
+    from ..support.shipped import resolve
     items = [f"{name}={resolve(file, 'model')}" if sep and file else item  # a shipped name
              for item in items for name, sep, file in [item.partition("=")]]
     texts = read_equation_files(items, option=option, kind="model")

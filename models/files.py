@@ -28,7 +28,7 @@ import numpy as np
 from brian2 import Quantity
 
 from ..errors import InputError, did_you_mean, setting
-from ..reading import loads_toml
+from ..support.reading import loads_toml
 from .base import BrianModel, Interface, Model, Parameter, ParameterTable, model_kinds
 from .units import parse_value, unit_spelling
 

@@ -15,7 +15,7 @@ import brian2
 import numpy as np
 from brian2 import Network, NeuronGroup, Synapses, ms, second
 
-from .._quiet_brian import close_debug_files, mend_interrupt_handler
+from ..support._quiet_brian import close_debug_files, mend_interrupt_handler
 from ..errors import InputError, did_you_mean
 from ..models import DEFAULT_MODELS, ModelSet
 from .codegen import use_codegen
@@ -32,7 +32,7 @@ from .wiring import (WIRING_STEPS, Wiring, blame, build_groups, link_pool_variab
 # Brian2's settings (target, warning filters) are applied only while the framework builds and
 # runs, by RUN_LOCK (brian_prefs.py), never at import: a user's own Brian2 models are untouched.
 # Brian2 opened its debug log and script copy at import; if it was imported before astrocpg
-# (so astrocpg._quiet_brian did not wrap that import), close and delete them now. Our errors
+# (so astrocpg.support._quiet_brian did not wrap that import), close and delete them now. Our errors
 # are one line naming the culprit; no process should leave Brian2's files behind. Its Ctrl-C
 # handler is mended the same way (a process started with SIGINT ignored).
 close_debug_files(switch_off=False)

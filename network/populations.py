@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from ..errors import InputError, did_you_mean, setting
-from ..reading import loads_toml
+from ..support.reading import loads_toml
 from ..models import DEFAULT_MODELS, INTERFACES
 from ..models.base import TraceSource
 

@@ -21,7 +21,7 @@ from typing import Any, Callable, Protocol
 import brian2
 import numpy as np
 
-from ..environment import flag
+from ..support.environment import flag
 from . import native
 from .populations import trace_sources
 

@@ -34,7 +34,7 @@ import functools
 import threading
 from typing import Callable, TypeVar
 
-from .._quiet_brian import install_interrupt_handler
+from ..support._quiet_brian import install_interrupt_handler
 from . import brian_prefs
 from .codegen import framework_target
 

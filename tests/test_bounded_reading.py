@@ -176,7 +176,7 @@ def test_a_deep_worlds_file_is_refused(tmp_path):
 
 
 def test_ordinary_documents_still_read():
-    from astrocpg.reading import MAX_DEPTH, loads_json, loads_toml
+    from astrocpg.support.reading import MAX_DEPTH, loads_json, loads_toml
 
     assert loads_json("[" * MAX_DEPTH + "]" * MAX_DEPTH, "x") is not None
     assert loads_json('{"a": "[[[[{{{{", "b": [1, [2, [3]]]}', "x")["a"] == "[[[[{{{{"
@@ -289,7 +289,7 @@ def test_a_fifo_among_a_folders_files_is_refused_not_hashed(tmp_path, fifo):
 
 
 def test_a_device_is_refused_too():
-    from astrocpg.reading import read_bytes
+    from astrocpg.support.reading import read_bytes
 
     with pytest.raises(InputError, match=r"not a regular file \(a character device\)"):
         read_bytes("/dev/zero")  # would otherwise be read without end

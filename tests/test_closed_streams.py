@@ -20,7 +20,7 @@ from typing import Callable
 
 import pytest
 
-from astrocpg._streams import Guarded, mend_closed
+from astrocpg.support._streams import Guarded, mend_closed
 from astrocpg.studies.cli import main
 from tiny_study import tiny_study
 
@@ -187,7 +187,7 @@ def test_a_guarded_stream_becomes_a_sink_when_its_pipe_breaks() -> None:
 def test_a_closed_descriptor_gets_dev_null_and_a_stream(tmp_path) -> None:
     """mend_closed in a child whose descriptor 2 was closed: sys.stderr exists, and a file
     opened afterwards does not take descriptor 2."""
-    code = ("import os, sys; from astrocpg._streams import mend_closed; mend_closed(); "
+    code = ("import os, sys; from astrocpg.support._streams import mend_closed; mend_closed(); "
             "f = open(sys.argv[1], 'w'); print(f.fileno(), sys.stderr is not None, "
             "os.path.realpath('/proc/self/fd/2'), file=f)")
     subprocess.run([sys.executable, "-c", code, str(tmp_path / "o.txt")], check=True,

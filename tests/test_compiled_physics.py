@@ -71,7 +71,7 @@ def test_without_a_compiler_the_robots_step_from_python(monkeypatch):
                                        ("no", False), (" Off ", False), ("1", True),
                                        ("true", True), ("Yes", True), ("on", True), ("", True)])
 def test_the_switch_is_a_boolean(monkeypatch, value, on):
-    from astrocpg.environment import flag
+    from astrocpg.support.environment import flag
 
     monkeypatch.setenv("ASTROCPG_COMPILED_PHYSICS", value)
     assert flag("ASTROCPG_COMPILED_PHYSICS") is on

@@ -14,7 +14,7 @@ import pytest
 from astrocpg.studies.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGE = ("models", "network", "coupling", "studies", "errors.py", "shipped.py", "reading.py")
+PACKAGE = ("models", "network", "coupling", "studies", "errors.py", "support")
 
 #: refusals of an "unknown" thing that is no name a user typed, and why
 NOT_A_TYPED_NAME = {

@@ -10,7 +10,7 @@ executed by myst-nb when the manual is built, tests/test_docs.py).
 The fast test checks each command without running it: the subcommand exists and
 ``astrocpg.studies.cli.build_parser()`` accepts every option; every file it reads (model,
 equation, study, worlds, robot files, scripts, committed tables) exists in the repository or is
-resolved by ``astrocpg.shipped`` by name, or was written by an earlier command of the manual;
+resolved by ``astrocpg.support.shipped`` by name, or was written by an earlier command of the manual;
 every folder it reads was written by an earlier command; a ``python -m`` module is importable;
 a snippet compiles and the ``astrocpg`` names it imports exist. The analyse.py commands of
 docs/beyond/README.md run for real on the committed tables (seconds).
@@ -284,7 +284,7 @@ def _value(path: str) -> str:
 
 def reads_writes(argv: list[str]) -> tuple[list[tuple[str, str]], list[str]]:
     """(kind, path) read and paths written by ``astrocpg ARGV``; kind: file kinds of
-    astrocpg.shipped (model, study, worlds), 'file' or 'folder'."""
+    astrocpg.support.shipped (model, study, worlds), 'file' or 'folder'."""
     a = _parse(argv)
     reads: list[tuple[str, str]] = []
     writes: list[str] = []
@@ -312,7 +312,7 @@ def reads_writes(argv: list[str]) -> tuple[list[tuple[str, str]], list[str]]:
         reads.append(("folder", a.status))
     elif c == "study":
         reads.append(("study", a.file))
-        from astrocpg.shipped import resolve
+        from astrocpg.support.shipped import resolve
         study = resolve(a.file, "study")
         name = tomllib.loads(study.read_text())["study"]["name"] if study.exists() else ""
         writes.append(a.out or f"out/{name}")
@@ -370,7 +370,7 @@ def _under(path: str, made: set[str]) -> bool:
 def static_problems(cmds: list[Command]) -> list[str]:
     """Every problem of every command, walking the pages in order (so a folder or file a
     command reads must exist in the repository or have been written before)."""
-    from astrocpg.shipped import resolve
+    from astrocpg.support.shipped import resolve
 
     problems: list[str] = []
     made: set[str] = set()
@@ -663,7 +663,7 @@ def shorten(argv: list[str], copy: Path, shortened: set[Path]) -> list[str]:
     if c == "evaluate":
         argv = _set(argv, "--repeats", "1")
     if c == "study" and "--status" not in argv:
-        from astrocpg.shipped import resolve
+        from astrocpg.support.shipped import resolve
         original = resolve(argv[1], "study")
         target = (copy / original.resolve().relative_to(ROOT)) if original.resolve() \
             .is_relative_to(ROOT) else copy / argv[1]

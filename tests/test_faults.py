@@ -129,7 +129,7 @@ class Child:
 
     def no_debug_files(self) -> None:
         # Brian2's own files, or the private folder a process killed while importing Brian2
-        # keeps them in (astrocpg._quiet_brian; the next start removes it)
+        # keeps them in (astrocpg.support._quiet_brian; the next start removes it)
         left = [n for n in os.listdir(self.tmpdir) if n.startswith(("brian", "astrocpg-brian-"))]
         assert not left, f"Brian2 left {left} in the temp folder"
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGE_DIRS = ("models", "network", "coupling", "studies")
+PACKAGE_DIRS = ("models", "network", "coupling", "studies", "support")
 
 
 def _package_files() -> list[Path]:

@@ -11,7 +11,7 @@ from brian2 import SpikeMonitor, second
 from astrocpg.models.compose import model_set
 from astrocpg.network import build_cpg
 from astrocpg.network.populations import LEGS
-from astrocpg.shipped import resolve
+from astrocpg.support.shipped import resolve
 
 VARIANT = resolve("leg_drive_motor_neuron", "model")
 

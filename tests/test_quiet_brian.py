@@ -1,5 +1,5 @@
 """Brian2 leaves no debug files in the temp folder, even from a process killed while it was
-importing Brian2 (astrocpg._quiet_brian)."""
+importing Brian2 (astrocpg.support._quiet_brian)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from pathlib import Path
 # removed them. The child kills itself exactly there, as SIGKILL or the OOM killer could.
 KILLED_IN_THE_WINDOW = """
 import os, signal
-import astrocpg._quiet_brian as q
+import astrocpg.support._quiet_brian as q
 q.close_debug_files = lambda: os.kill(os.getpid(), signal.SIGKILL)
 import brian2
 """

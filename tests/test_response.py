@@ -10,7 +10,7 @@ import json
 import pytest
 
 from astrocpg.errors import InputError
-from astrocpg.shipped import resolve
+from astrocpg.support.shipped import resolve
 from astrocpg.studies.cli import main
 from astrocpg.studies.commands.response import parse_marks, parse_rates, response
 

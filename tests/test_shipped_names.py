@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from astrocpg.models.compose import read_model_files
-from astrocpg.shipped import resolve, shipped
+from astrocpg.support.shipped import resolve, shipped
 from astrocpg.studies.parameter_studies.study import load_study
 
 
@@ -60,7 +60,7 @@ def test_astrocpg_docs_finds_the_manual_and_the_recipes_files(capsys, tmp_path, 
     the files its recipes read are; a path the manual spells reads the shipped file from any
     folder, and a missing input is the environment's (exit 1)."""
     import astrocpg as ac
-    from astrocpg.shipped import DOCS, resolve_data
+    from astrocpg.support.shipped import DOCS, resolve_data
     from astrocpg.studies.cli import main
 
     monkeypatch.setenv("ASTROCPG_CACHE", str(tmp_path / "cache"))

@@ -138,7 +138,7 @@ def test_build_gives_an_sdist_and_a_wheel_with_the_package_data(dist: Path) -> N
     assert "astrocpg/docs/index.md" in names and "astrocpg/docs/training.md" in names
     missing = [p for p in recipe_inputs() if f"astrocpg/{p}" not in names]
     assert not missing, f"files the manual's recipes read, not in the wheel: {missing}"
-    assert "astrocpg/shipped.py" in names and "astrocpg/__main__.py" in names
+    assert "astrocpg/support/shipped.py" in names and "astrocpg/__main__.py" in names
     sdist = set(tarfile.open(sdists[0]).getnames())
     for shown in ("CHANGELOG.md", "CITATION.cff", "docs/index.md", "benchmarks/all.py"):
         assert any(n.endswith("/" + shown) for n in sdist), shown

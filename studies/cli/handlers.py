@@ -23,7 +23,7 @@ def model_args(args: argparse.Namespace) -> dict[str, Any]:
 
 def population_args(args: argparse.Namespace) -> dict[str, Any]:
     """``--population FILE`` as the API's ``populations`` ({file: text}, each read once)."""
-    from ...reading import read_text
+    from ...support.reading import read_text
 
     return {"populations": {f: read_text(f, culprit=f"--population {f}")
                             for f in getattr(args, "population_files", [])}}
@@ -359,7 +359,7 @@ def models_command(args: argparse.Namespace) -> int:
         for name, model in list_models().items():
             print(f"{name:20s} {model.kind:10s} {len(model.parameters):3d} parameters  "
                   f"{INTERFACES.get(name) or '-'}")
-        from ...shipped import ROOT, shipped
+        from ...support.shipped import ROOT, shipped
         for kind, use in (("model", "--model MODEL=NAME"), ("study", "astrocpg study NAME"),
                           ("worlds", "evaluate --worlds NAME")):
             print(f"\nshipped {kind} files ({use}):")

@@ -1,7 +1,7 @@
 """The command line's process plumbing: what every command shares around its handler. SIGTERM
 stops a command like Ctrl-C; exit codes (0 done, 1 environment, 2 bad input, 3 diverged, 130
 interrupted); the one line on stderr of a failure, by the kind of error; standard streams that
-survive any bytes, and being closed or a broken pipe (:mod:`astrocpg._streams`); library warnings and log records kept off stderr; ``--codegen`` set for the
+survive any bytes, and being closed or a broken pipe (:mod:`astrocpg.support._streams`); library warnings and log records kept off stderr; ``--codegen`` set for the
 command alone; and :func:`entry`, which ends the process without the interpreter's teardown."""
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ import threading
 import warnings
 from typing import Any, NoReturn, Sequence
 
-from ..._streams import guarded
-from ...environment import check as check_environment, flag
+from ...support._streams import guarded
+from ...support.environment import check as check_environment, flag
 from ...errors import AstrocpgError, EnvironmentFault, InputError, one_line
 from .grammar import build_parser
 from .handlers import COMMANDS
@@ -86,7 +86,7 @@ def _survive_any_bytes() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; its exit code (0 done, 1 environment, 2 bad input, 3 diverged, 130
     interrupted). Standard streams that are closed, or pipes nobody reads, do not change it
-    (:func:`astrocpg._streams.guarded`)."""
+    (:func:`astrocpg.support._streams.guarded`)."""
     with guarded():
         code = _main(argv)
     if code == 130:  # interrupted, whichever layer caught the KeyboardInterrupt
@@ -186,10 +186,10 @@ def _check_inputs(args: argparse.Namespace) -> None:
     """The files and folders a command reads, before it starts: one spelled as the manual
     spells a file or folder the package ships (``docs/examples/interlimb_table.csv``) reads the
     shipped one, so the manual's recipes run from any folder with an installed wheel
-    (:func:`astrocpg.shipped.resolve_data`); one that does not exist is the environment's
+    (:func:`astrocpg.support.shipped.resolve_data`); one that does not exist is the environment's
     (exit 1, docs/errors.md), named with its option."""
     from ...errors import EnvironmentFault
-    from ...shipped import resolve_data
+    from ...support.shipped import resolve_data
 
     for name, option in _INPUT_PATHS.items():
         value = getattr(args, name, None)

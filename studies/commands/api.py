@@ -528,7 +528,7 @@ def robot(path: str | os.PathLike, *, overwrite: bool = False) -> Path:
         The file written.
     """
     from ...coupling.robot import A1Parameters, a1_xml
-    from ...reading import check_regular
+    from ...support.reading import check_regular
     from ..outputs.folder import refuse_in_use
     from ..outputs.writing import atomic_path
 
@@ -583,7 +583,7 @@ def docs(*, path: bool = False, open: bool = False) -> Path:
         ``manual/``), else the pages' ``index.md``.
     """
     from ...errors import EnvironmentFault
-    from ...shipped import DOCS
+    from ...support.shipped import DOCS
     from ..runtime.caches import cache_dir
 
     if not (DOCS / "index.md").is_file():

@@ -38,7 +38,7 @@ from ..runtime.cluster import check_scheduler, check_workers
 from ..runtime.workers import default_workers
 from ...errors import KEYWORDS, Diverged, InputError, setting
 from ..settings.evaluation import EvaluateSettings
-from ...reading import check_regular, loads_toml, read_bytes, read_json
+from ...support.reading import check_regular, loads_toml, read_bytes, read_json
 from ...models import DEFAULT_MODELS, ModelSet
 from ...network import codegen_target
 from ..analysis.fall import first_fall
@@ -138,7 +138,7 @@ def read_worlds(source: str | Path, models: ModelSet, culprit: Any = None) -> Wo
 def _worlds_document(source: str | Path, where: str) -> tuple[dict[str, Any], dict[str, Any]]:
     """The ``[worlds]`` and ``[grid]`` tables of a worlds file or built-in name, read bounded
     (a regular file only: a FIFO is refused, never waited on)."""
-    from ...shipped import resolve, unreadable
+    from ...support.shipped import resolve, unreadable
     path = BUILTIN_WORLDS.get(str(source)) or resolve(source, "worlds")
     try:
         doc = loads_toml(read_bytes(path, where).decode("utf-8"), where)

@@ -23,7 +23,7 @@ import numpy as np
 
 from ...coupling.training import SessionStart
 from ...errors import InputError, setting
-from ...reading import check_regular
+from ...support.reading import check_regular
 from ...network.codegen import framework_target
 from ..outputs.folder import OutputFolder, as_path, refuse_in_use
 from ..outputs.result import Result

@@ -18,7 +18,7 @@ from ...errors import KEYWORDS, Diverged, InputError, setting
 from ...network import recording
 from ...network.populations import trace_columns
 from ...network.recording import overflow_words, overflowed
-from ...reading import read_json
+from ...support.reading import read_json
 from ...models import ModelSet
 from ..analysis.fall import fall_words, falls
 from ..outputs.folder import OutputFolder, verify

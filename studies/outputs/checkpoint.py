@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import EnvironmentFault, InputError, advice, setting
-from ...reading import check_npy, loads_json, open_regular
+from ...support.reading import check_npy, loads_json, open_regular
 from .writing import atomic_write, savez
 
 CHECKPOINT = "checkpoint.npz"
@@ -297,7 +297,7 @@ def _check_sizes(f: Any, path: Path, culprit: Any) -> None:
     must add up to no more than the file: nothing in it can make the reader use more memory
     than the file's own size (a compressed entry, a compression bomb, a declared size larger
     than the file is refused before anything is decompressed), nor can an array's header
-    claim more than its entry holds (:func:`~astrocpg.reading.check_npy`)."""
+    claim more than its entry holds (:func:`~astrocpg.support.reading.check_npy`)."""
     size = os.fstat(f.fileno()).st_size
     with zipfile.ZipFile(f) as zf:
         total = 0

@@ -72,7 +72,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError, advice, did_you_mean, setting
-from ...reading import check_regular
+from ...support.reading import check_regular
 from ...network.populations import Population, rows_of, trace_meaning, trace_sources
 from ...network.recording import overflow_words, overflowed
 from .folder import (check_output_path, check_replaceable, clean_stale_temporaries,

@@ -52,7 +52,7 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping
 
 from ...errors import EnvironmentFault, Field, InputError, setting, shown_with
-from ...reading import open_regular, read_json
+from ...support.reading import open_regular, read_json
 
 MANIFEST = "manifest.json"
 LOCK_NAME = ".astrocpg.lock"

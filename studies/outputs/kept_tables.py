@@ -30,7 +30,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ...errors import InputError, setting
-from ...reading import MAX_TABLE_BYTES, check_npz, check_regular, read_bytes, read_json
+from ...support.reading import MAX_TABLE_BYTES, check_npz, check_regular, read_bytes, read_json
 from .folder import MANIFEST
 from .weights import WEIGHTS, by_labels
 

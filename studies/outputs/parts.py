@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import EnvironmentFault
-from ...reading import read_json
+from ...support.reading import read_json
 from .writing import atomic_write
 
 PARTS_SUFFIX = ".parts"  # <out>.parts/: finished cells of a command not yet written whole

@@ -27,7 +27,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ...errors import EnvironmentFault, InputError, did_you_mean
-from ...reading import open_regular, read_json
+from ...support.reading import open_regular, read_json
 from ...network.layout import LEGS, Layout
 from ...network.populations import spike_populations, trace_sources
 from .folder import MANIFEST, as_path, verify

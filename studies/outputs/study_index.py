@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import InputError
-from ...reading import read_json
+from ...support.reading import read_json
 
 INDEX = "study.json"
 

@@ -23,7 +23,7 @@ import numpy as np
 from ...errors import (EnvironmentFault, Field, InputError, advice, did_you_mean, setting,
                       shown_with)
 from ...network import interlimb_labels
-from ...reading import (MAX_TABLE_BYTES, check_npy, check_npz, check_regular, loads_json,
+from ...support.reading import (MAX_TABLE_BYTES, check_npy, check_npz, check_regular, loads_json,
                         open_regular, read_bytes)
 from .folder import MANIFEST, verify
 

@@ -23,7 +23,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from ...errors import InputError, setting
-from ...reading import read_json
+from ...support.reading import read_json
 from .folder import (MANIFEST, clean_stale_temporaries, file_sha256, inventory, remember_sha256,
                      remember_written, temp_prefix, temp_suffix, written_in_place)
 
@@ -63,11 +63,11 @@ def simulation_environment() -> dict[str, str]:
 
 
 def environment_record() -> dict[str, str | None]:
-    """The environment variables that can change a result (:data:`astrocpg.environment.RECORDED`)
+    """The environment variables that can change a result (:data:`astrocpg.support.environment.RECORDED`)
     as set, ``physics``: how the robots' physics stepped in this process (compiled or from
     Python; absent where no robot was simulated), and ``trace_sampling``: how traces were
     sampled (compiled or numpy; absent where none was recorded)."""
-    from ...environment import recorded
+    from ...support.environment import recorded
 
     out: dict[str, str | None] = dict(recorded())
     compiled = sys.modules.get("astrocpg.coupling.compiled")  # loaded only where robots ran

@@ -27,7 +27,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ...errors import Diverged, InputError
-from ...reading import read_json
+from ...support.reading import read_json
 from ...network import exclusive
 from ..runtime.cells import run_cells
 from ...models.compose import model_set

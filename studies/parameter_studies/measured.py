@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import EnvironmentFault, Field, InputError, setting, shown_with
-from ...reading import MAX_PLAN_BYTES, read_bytes, read_json, too_large
+from ...support.reading import MAX_PLAN_BYTES, read_bytes, read_json, too_large
 from ..outputs.writing import read_manifest
 from .trial_cost import TrialCost
 from .layout import TIMELINE

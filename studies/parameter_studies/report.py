@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import InputError, setting
-from ...reading import check_regular, read_json
+from ...support.reading import check_regular, read_json
 from ..analysis.compare import N_BOOT, N_PERM, SEED, p_text, reading_words
 from ..analysis.final_figures import (CURVES, MEASURES, WEIGHT_MEASURES, Measure, across_seeds,
                                       condition_tests, seed_finals, session_curve)

@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import InputError, setting
-from ...reading import open_regular, read_bytes
+from ...support.reading import open_regular, read_bytes
 from ..outputs.study_index import read_current
 from .layout import RUNS, STATUS, TIMELINE, as_it_stands
 

@@ -66,7 +66,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from ...errors import EnvironmentFault, InputError, setting
-from ...reading import read_bytes, read_json
+from ...support.reading import read_bytes, read_json
 from ..runtime.cluster import check_scheduler, check_workers, connect_cluster
 from ..runtime.workers import default_workers
 from ..runtime.resources import available_memory, check_memory, estimate_bytes
@@ -94,7 +94,7 @@ def load_study(path: str | os.PathLike, *, batch: int | None = None,
     ``sessions`` and ``overrides`` given with the command (:func:`study_overrides`), applied to
     the study as read."""
 
-    from ...shipped import resolve, unreadable
+    from ...support.shipped import resolve, unreadable
     p = resolve(path, "study")  # `astrocpg study quick`: a shipped study by name
     try:
         text = read_bytes(p, f"study {p}").decode("utf-8")  # a FIFO: refused, not waited on

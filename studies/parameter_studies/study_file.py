@@ -20,7 +20,7 @@ from ...coupling.assembly import check_models
 from ...coupling.recorder import RecordPlan
 from ...coupling.training import session_steps
 from ...errors import Field, InputError, did_you_mean, setting
-from ...reading import loads_toml
+from ...support.reading import loads_toml
 from ...models import DEFAULT_MODELS
 from ..runtime.resources import check_memory, estimate_bytes, estimate_wall_seconds
 from ...models.compose import model_files_record, model_set, read_model_files
@@ -485,7 +485,7 @@ def _model_file(study: Path, slot: str, file: Any, where: str) -> dict[str, str]
     if not isinstance(file, str) or not file:
         raise InputError(f"expected the path of a model file, got {file!r}",
                          culprit=f"{where} {slot}")
-    from ...shipped import resolve
+    from ...support.shipped import resolve
 
     path = Path(file) if Path(file).is_absolute() else study.parent / file
     if not path.exists() and not path.is_symlink():  # a shipped model file by its name
@@ -505,8 +505,8 @@ def _population_files(study: Path, files: Any, where: str) -> dict[str, dict[str
     if not isinstance(files, list) or not all(isinstance(f, str) and f for f in files):
         raise InputError(f"must be a list of model files (paths relative to the study file), "
                          f"got {files!r}", culprit=culprit)
-    from ...reading import read_text
-    from ...shipped import resolve
+    from ...support.reading import read_text
+    from ...support.shipped import resolve
 
     texts = {}
     for file in files:

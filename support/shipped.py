@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent
+ROOT = Path(__file__).resolve().parents[1]  # the package (support/ is one of its folders)
 # kind -> folders (relative to the package) whose *.toml files of that kind are shipped
 FOLDERS = ("models/variants", "studies/parameter_studies", "studies/commands", "docs/beyond")
 
@@ -82,7 +82,7 @@ def unreadable(given: str | os.PathLike, kind: str | None, err: OSError, culprit
     ``.toml``) that names no shipped file of ``kind`` is a misspelt name, an InputError (exit 2)
     naming the closest shipped names (and ``builtin`` ones); a path that does not exist or
     cannot be read is the environment's, an EnvironmentFault (exit 1), as docs/errors.md says."""
-    from .errors import EnvironmentFault, InputError, did_you_mean
+    from ..errors import EnvironmentFault, InputError, did_you_mean
 
     p = Path(given)
     if kind is not None and len(p.parts) == 1 and not p.suffix and isinstance(

@@ -25,7 +25,7 @@ import re
 import stat
 from typing import Any, BinaryIO
 
-from .errors import InputError
+from ..errors import InputError
 
 #: The deepest nesting of lists/objects (JSON) or arrays/tables (TOML) astrocpg reads. What
 #: astrocpg writes stays far below it (a checkpoint's state tree is refused beyond 64 levels

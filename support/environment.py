@@ -16,7 +16,7 @@ from __future__ import annotations
 import os
 from typing import Mapping
 
-from .errors import InputError
+from ..errors import InputError
 
 TRUE = ("1", "true", "yes", "on")
 FALSE = ("0", "false", "no", "off")
