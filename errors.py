@@ -150,7 +150,8 @@ class Vocabulary:
     ADVICE: dict[str, str | tuple[str, str]] = {
         "resume": "ac.resume({})", "record_every": "ac.train(record_every={})",
         "train": "ac.train(out={})", "retrain": "ac.train(out=DIR, overwrite=True)",
-        "codegen": ("ASTROCPG_CODEGEN={}", "ASTROCPG_CODEGEN")}
+        "codegen": ("ASTROCPG_CODEGEN={}", "ASTROCPG_CODEGEN"),
+        "extend_study": "ac.study(FILE, sessions={}, out=NEW_DIR)"}
 
     def __init__(self, renames: dict[str, str] | None = None) -> None:
         self.renames = dict(renames or {})

@@ -27,6 +27,7 @@ ADVICE: dict[str, tuple[str, tuple[tuple[str, str | None], ...]]] = {
     "train": ("train", (("out", None),)),
     "retrain": ("train", (("out", "DIR"), ("overwrite", ""))),
     "codegen": ("", (("codegen", None),)),
+    "extend_study": ("study", (("file", "FILE"), ("sessions", None), ("out", "NEW_DIR"))),
 }
 
 

@@ -224,8 +224,8 @@ def _check_extension(out: Path, sessions: int, target: int,
     manifest = read_manifest(out)
     if isinstance(manifest, dict) and manifest.get("astrocpg_command") == "study-run":
         raise InputError(f"{out} is a run of a study, which trains the study's {sessions} "
-                         f"sessions per trial; extend the study instead (astrocpg study FILE "
-                         f"{setting('sessions', target)}, a new study folder)",
+                         f"sessions per trial; extend the study instead, into a new study "
+                         f"folder ({advice('extend_study', target)})",
                          culprit=setting("sessions"))
     if state is None:
         return
