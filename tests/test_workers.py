@@ -310,3 +310,30 @@ def test_a_training_interrupted_after_its_last_session_is_sealed_by_its_resume(t
     assert {n: (out / n).read_bytes() for n in before} == before
     again = astrocpg("train", "--resume", "out", "--no-progress", cwd=tmp_path, check=False)
     assert again.returncode == 2 and "already finished" in again.stderr, again.stderr
+
+
+@pytest.mark.slow
+def test_a_command_killed_outright_leaves_no_worker(tmp_path):
+    """SIGKILL to the command alone (nothing of it runs again: the out-of-memory killer does
+    this): its workers notice their parent is gone, stop as a SIGTERM stops them (a training
+    writes its checkpoint) and end; none waits for work forever."""
+    p = subprocess.Popen([sys.executable, "-m", "astrocpg", "train", "--trials", "2",
+                          "--sessions", "200", *SHORT, "--out", "out", "--no-progress",
+                          "--workers", "2"], cwd=tmp_path, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.monotonic() + 300
+    while not list((tmp_path / "out").rglob("checkpoint.npz")) and p.poll() is None:
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
+    workers = [int(x) for x in subprocess.run(["pgrep", "-g", str(p.pid)], capture_output=True,
+                                              text=True).stdout.split() if int(x) != p.pid]
+    assert workers, "the training did not split over processes"
+    os.kill(p.pid, signal.SIGKILL)
+    p.wait()
+    deadline = time.monotonic() + 60  # a step, its checkpoint, then the worker ends
+    while any(Path(f"/proc/{w}").exists() for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.5)
+    left = [w for w in workers if Path(f"/proc/{w}").exists()]
+    for w in left:  # not left to the next test
+        os.kill(w, signal.SIGKILL)
+    assert not left, "a worker outlived its killed command"

@@ -103,13 +103,38 @@ def _stop_on_sigterm(signum: int, frame: Any) -> None:
     raise SystemExit(130)
 
 
+#: Seconds between two looks of a worker at its parent, and how long an orphaned worker may
+#: take to stop cleanly (a training writes its checkpoint) before it ends regardless.
+PARENT_POLL_S = 1.0
+ORPHAN_GRACE_S = 30.0
+
+
 def _worker_start() -> None:
     """Each worker process as it starts: Brian2 imported (it installs a SIGINT handler of its
-    own), then SIGINT ignored and SIGTERM a clean stop (:func:`_stop_on_sigterm`)."""
+    own), then SIGINT ignored and SIGTERM a clean stop (:func:`_stop_on_sigterm`), and a
+    watch on its parent (:func:`_watch_parent`)."""
+    import threading
+
     import brian2  # noqa: F401
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _stop_on_sigterm)
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True,
+                     name="astrocpg-parent-watch").start()
+
+
+def _watch_parent(parent: int) -> None:
+    """A worker whose command was killed outright (SIGKILL, the machine's out-of-memory
+    killer: no chance to stop its workers) would wait for work forever. When its parent is
+    gone, the worker stops as a SIGTERM stops it (a training at the end of its step, writing
+    its checkpoint), and ends after :data:`ORPHAN_GRACE_S` whatever it was doing."""
+    import time
+
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL_S)
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(ORPHAN_GRACE_S)
+    os._exit(1)
 
 
 def _in_environment(environ: dict[str, str], fn: Callable[..., Any], *args: Any) -> Any:
