@@ -93,3 +93,29 @@ def test_h2_reads_the_lopsided_study(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "| graded - constant | trot rhythm (thigh bursts) | 12 | 1.000 | 0.000 |" in out
     assert "**Verdict (H2): supported.**" in out
+
+
+@pytest.mark.parametrize("hypothesis, written, args", [
+    ("h1", "glia_drive/h1.md", ["--glia-drive", "glia_drive/evaluation.csv"]),
+    ("h2", "glia_lopsided/h2.md", ["--glia-lopsided", "glia_lopsided/evaluation.csv",
+                                   "--glia-drive", "glia_drive/evaluation.csv"]),
+])
+def test_the_committed_reading_is_what_the_rules_make_of_the_committed_evaluations(
+        hypothesis, written, args, capsys):
+    """h1.md and h2.md, which the pages quote, are decide.py's output on the committed
+    evaluations, verdict included: a conclusion on the pages follows from its tables."""
+    beyond = ROOT / "docs" / "beyond"
+    assert decide.main([hypothesis, *[str(beyond / a) if a.endswith(".csv") else a
+                                      for a in args]]) == 0
+    assert capsys.readouterr().out.strip() == (beyond / written).read_text().strip()
+
+
+def test_the_graded_astrocytes_realised_mean_is_read_from_its_rows(capsys):
+    """realised_mean.md, which the pages quote, is realised_mean.py on the committed rows."""
+    spec = importlib.util.spec_from_file_location(
+        "realised_mean", ROOT / "docs" / "beyond" / "glia_question" / "realised_mean.py")
+    realised = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(realised)
+    drive = ROOT / "docs" / "beyond" / "glia_drive"
+    assert realised.main([str(drive / "results.csv.gz")]) == 0
+    assert capsys.readouterr().out.strip() == (drive / "realised_mean.md").read_text().strip()
