@@ -117,5 +117,5 @@ def test_the_graded_astrocytes_realised_mean_is_read_from_its_rows(capsys):
     realised = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(realised)
     drive = ROOT / "docs" / "beyond" / "glia_drive"
-    assert realised.main([str(drive / "results.csv.gz")]) == 0
+    assert realised.main([str(drive / "results_graded.csv.gz")]) == 0
     assert capsys.readouterr().out.strip() == (drive / "realised_mean.md").read_text().strip()

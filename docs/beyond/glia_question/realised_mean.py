@@ -4,7 +4,7 @@ astrocyte and second, r_ADO * tau_ADO * sum(adenosine_releases) / (8 * sum(lengt
 every session of every seed of the run (8 astrocytes per trial, one per thigh pool). It is
 reported beside the results, not a criterion for keeping or dropping a run.
 
-    python docs/beyond/glia_question/realised_mean.py docs/beyond/glia_drive/results.csv.gz
+    python docs/beyond/glia_question/realised_mean.py docs/beyond/glia_drive/results_graded.csv.gz
 
 r_ADO and tau_ADO are read from the shipped model file (``graded_astrocyte``).
 """
