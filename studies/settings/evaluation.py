@@ -9,7 +9,7 @@ from typing import Any, ClassVar, Mapping
 
 from ...errors import InputError, setting
 from .checks import STEP, check_duration, number, seed_number
-from .recorded import Recorded, names_tuple
+from .recorded import Recorded, folder_text, names_tuple
 
 #: The parts of a model variant an evaluation may put over each controller's own models.
 VARIANT_PARTS = ("overrides", "equations", "models", "populations")
@@ -47,10 +47,7 @@ class EvaluateSettings(Recorded):
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        if not isinstance(self.folder, (str, os.PathLike)):
-            raise InputError(f"expected a folder, got {type(self.folder).__name__}",
-                             culprit=setting("folder"))
-        set_(self, "folder", str(self.folder))
+        set_(self, "folder", folder_text(self.folder))
         if not isinstance(self.worlds, (str, os.PathLike)):
             raise InputError(f"expected a worlds file or 'robustness', got "
                              f"{type(self.worlds).__name__}", culprit=setting("worlds"))

@@ -4,13 +4,12 @@ checked when built, recorded in the figures' file (its ``settings``) and read ba
 from __future__ import annotations
 
 import dataclasses
-import os
 from typing import Any, ClassVar
 
-from ...errors import InputError, setting
+from ...errors import setting
 from ...models.compose import override_items
 from .checks import number
-from .recorded import Recorded
+from .recorded import Recorded, folder_text
 
 
 @dataclasses.dataclass(frozen=True)
@@ -28,10 +27,7 @@ class PowerSettings(Recorded):
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        if not isinstance(self.folder, (str, os.PathLike)):
-            raise InputError(f"expected a folder, got {type(self.folder).__name__}",
-                             culprit=setting("folder"))
-        set_(self, "folder", str(self.folder))
+        set_(self, "folder", folder_text(self.folder))
         set_(self, "trial", number(self.trial, setting("trial"), integer=True, minimum=0))
         set_(self, "sessions",
              number(self.sessions, setting("sessions"), integer=True, minimum=1))

@@ -59,6 +59,19 @@ def plain(value: Any) -> Any:
     return value
 
 
+def folder_text(value: Any) -> str:
+    """A folder setting (``folder``) as its text; anything but a path or text is refused,
+    naming the setting."""
+    import os
+
+    from ...errors import setting
+
+    if not isinstance(value, (str, os.PathLike)):
+        raise InputError(f"expected a folder, got {type(value).__name__}",
+                         culprit=setting("folder"))
+    return os.fspath(value)
+
+
 def names_tuple(value: Any, name: str) -> tuple[str, ...]:
     """A list setting of names (``conditions``, ``points``): one text is one name, not its
     characters; anything but texts is refused naming the setting."""
@@ -78,4 +91,4 @@ def names_tuple(value: Any, name: str) -> tuple[str, ...]:
     return tuple(items)
 
 
-__all__ = ["Recorded", "names_tuple", "plain"]
+__all__ = ["Recorded", "folder_text", "names_tuple", "plain"]

@@ -6,7 +6,6 @@ view is written (the figures' manifest, the video's metadata) and read back from
 from __future__ import annotations
 
 import dataclasses
-import os
 from typing import Any, ClassVar
 
 import numpy as np
@@ -14,18 +13,11 @@ import numpy as np
 from ...errors import InputError, did_you_mean, setting
 from ..figures.save import FORMATS
 from .checks import STEP, check_duration, number
-from .recorded import Recorded
+from .recorded import Recorded, folder_text
 
 #: The most frames per second of video, and the most frames a video may have.
 MAX_FPS = 1000
 MAX_FRAMES = 100_000
-
-
-def _folder(value: Any) -> str:
-    if not isinstance(value, (str, os.PathLike)):
-        raise InputError(f"expected a folder, got {type(value).__name__}",
-                         culprit=setting("folder"))
-    return os.fspath(value)
 
 
 def _trial(value: Any) -> int:
@@ -106,7 +98,7 @@ class PlotSettings(Recorded):
         if self.format not in FORMATS:
             raise InputError(f"unknown format{did_you_mean(self.format, FORMATS)} (formats: "
                              f"{', '.join(FORMATS)})", culprit=setting("format", self.format))
-        set_(self, "folder", _folder(self.folder))
+        set_(self, "folder", folder_text(self.folder))
         set_(self, "trial", _trial(self.trial))
         set_(self, "window", check_window(self.window))
         if self.seconds is not None:
@@ -135,7 +127,7 @@ class VideoSettings(Recorded):
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
-        set_(self, "folder", _folder(self.folder))
+        set_(self, "folder", folder_text(self.folder))
         set_(self, "trial", _trial(self.trial))
         check_rates(self.fps, self.speed)
         set_(self, "fps", float(self.fps))
