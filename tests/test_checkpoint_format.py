@@ -616,3 +616,33 @@ def test_two_identical_trainings_write_the_same_bytes(tmp_path):
     sha = [{k: v["sha256"] for k, v in json.loads((tmp_path / d / "manifest.json").read_text())
             ["inventory"].items() if not k.endswith("manifest.json")} for d in "ab"]
     assert sha[0] == sha[1]
+
+
+def test_a_checkpoint_holds_no_address_of_brian2s_random_buffers(tmp_path, monkeypatch):
+    """Brian2's random state holds the addresses of its Cython draw buffers: where a buffer lies
+    in this process's memory (it differs after a Cython network drew ``randn()``). A
+    checkpoint stores 0 there, and a resume keeps this process's addresses instead of writing
+    an address from the file into Brian2's device (in another process it would point into
+    memory never allocated there). Fails when the checkpoint stores Brian2's state as it is."""
+    from brian2.devices.device import get_device
+
+    from astrocpg.studies.commands import train_state
+
+    device = get_device()
+    # the addresses a Cython network that drew leaves behind (new arrays: compiled code that
+    # holds the old ones is untouched)
+    for name, fake in (("rand_buffer", 0x5A5A5A50), ("randn_buffer", 0x6B6B6B60)):
+        monkeypatch.setattr(device, name, np.array([fake], dtype=np.intp))
+    argv = ["train", "--sessions", "1", *SHORT, "--workers", "1", "--no-progress"]
+    assert main([*argv, "--out", str(tmp_path / "a")]) == 0
+    state = train_state.read_checkpoint(tmp_path / "a" / "checkpoint.npz")["brian"]
+    random = state["_random_generator_state"]
+    assert set(train_state.RANDOM_ADDRESSES) <= set(random)
+    assert all(int(np.asarray(random[k]).ravel()[0]) == 0 for k in train_state.RANDOM_ADDRESSES)
+    # restored: the device keeps its own addresses (not the file's 0)
+    local = train_state.local_random_state(state)["_random_generator_state"]
+    assert int(local["rand_buffer"][0]) == 0x5A5A5A50
+    assert int(local["randn_buffer"][0]) == 0x6B6B6B60
+    assert main(["train", "--resume", str(tmp_path / "a"), "--sessions", "2",
+                 "--no-progress"]) == 0
+    assert int(device.randn_buffer[0]) == 0x6B6B6B60

@@ -22,6 +22,41 @@ from ..settings import TrainSettings
 CLOCK = re.compile(r"^(.*_clock)(_\d+)?$")
 
 
+#: The entries of Brian2's random generator state that hold a C address (the Cython target's
+#: buffers of ``rand()`` and ``randn()`` draws): where a buffer lies in this process's memory,
+#: not a state of the training (:func:`portable_random_state`).
+RANDOM_ADDRESSES = ("rand_buffer", "randn_buffer")
+
+
+def portable_random_state(state: dict[str, Any]) -> dict[str, Any]:
+    """Brian2's stored random generator state without its buffers' addresses (0, as in a
+    process that has drawn nothing on the Cython target): the address depends on what ran in
+    the process before (a Cython network that drew ``randn()``), so two identical trainings
+    would write different checkpoints, and restored in another process it would point into
+    memory that process never allocated. astrocpg's networks draw from their own streams
+    (:mod:`astrocpg.network.noise`), never from these buffers."""
+    random = state.get("_random_generator_state")
+    if not isinstance(random, dict):
+        return state
+    random = {k: (np.zeros_like(v) if k in RANDOM_ADDRESSES else v) for k, v in random.items()}
+    return {**state, "_random_generator_state": random}
+
+
+def local_random_state(state: dict[str, Any]) -> dict[str, Any]:
+    """A checkpoint's Brian2 state with the buffers' addresses of this process (Brian2's
+    ``restore`` writes them back into its device), so that restoring never points Brian2's
+    Cython buffers at an address written by another process (:func:`portable_random_state`)."""
+    from brian2.devices.device import get_device
+
+    random = state.get("_random_generator_state")
+    if not isinstance(random, dict):
+        return state
+    device = get_device()
+    random = {k: (np.array(getattr(device, k)) if k in RANDOM_ADDRESSES and hasattr(device, k)
+                  else v) for k, v in random.items()}
+    return {**state, "_random_generator_state": random}
+
+
 def same_codegen(started: str, now: str) -> None:
     """A training continues under the Brian2 target it started with (checkpoints written before
     targets were recorded: numpy). The targets draw the same noise, but C's and numpy's

@@ -30,8 +30,8 @@ from ..outputs.writing import save_npz, save_spikes_and_traces, write_manifest
 from ..runtime.progress import Bar as tqdm  # warnings wait until the bar closes
 from ..settings import TrainSettings
 from .train_files import write_training_files
-from .train_state import (CLOCK, memory_from_state, memory_state, rename_clocks, same_codegen,
-                          write_payload)
+from .train_state import (CLOCK, local_random_state, memory_from_state, memory_state,
+                          portable_random_state, rename_clocks, same_codegen, write_payload)
 
 # Writing the outputs and the checkpoint costs time that grows with the sessions done (20 trials
 # x 400 sessions: about 0.2 s a write, and with 20 trials a session ends about twice per
@@ -162,7 +162,7 @@ class Trainer:
     def write_checkpoint(self) -> None:
         net = self.cpg.net
         net.store("checkpoint")
-        brian_state = net._stored_state.pop("checkpoint")
+        brian_state = portable_random_state(net._stored_state.pop("checkpoint"))
         # the same training writes the same checkpoint, byte for byte: in sorted order
         # (Brian2 stores its objects in an order that varies between processes), each clock
         # under its stem (the suffix a clock's name gets when the name
@@ -216,7 +216,7 @@ class Trainer:
 
     def _restore(self, payload: dict[str, Any]) -> None:
         net = self.cpg.net
-        net._stored_state["checkpoint"] = rename_clocks(payload["brian"], net)
+        net._stored_state["checkpoint"] = local_random_state(rename_clocks(payload["brian"], net))
         net.restore("checkpoint", restore_random_state=True)
         del net._stored_state["checkpoint"]
         spec = mujoco.mjtState.mjSTATE_INTEGRATION
