@@ -4,6 +4,7 @@ tests only; set ASTROCPG_SHARED to point elsewhere."""
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -11,6 +12,15 @@ from pathlib import Path
 import pytest
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# The interrupt tests press Ctrl-C on commands they start (SIGINT to the child or its group).
+# A suite started in the background (`bash .ci/run &`, nohup from a script: a shell without
+# job control starts such a job with SIGINT ignored) would pass that on: an ignored signal stays
+# ignored across exec, Python then installs no KeyboardInterrupt, and every command would run
+# through its Ctrl-C. A handler, unlike SIG_IGN, is reset to the default at exec, so each
+# command starts as it does from a terminal.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def shared_dir() -> Path:
