@@ -188,6 +188,25 @@ def test_step_costs_script_runs():
     assert "per step:" in p.stdout and "20 trials over 8 processes" in p.stdout
 
 
+def test_split_phases_script_runs(tmp_path):
+    """benchmarks/split_phases.py (the performance page's account of a run's time) at a tiny
+    size: its hooks see the run's simulation in both commands and, split, each batch, the
+    records coming back and the merge; the phases add up to the whole (timings mean nothing)."""
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "split_phases.py"
+    p = subprocess.run([sys.executable, str(script), "--trials", "2", "--seconds", "0.1",
+                        "--json", str(tmp_path / "p.json")],
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    rows = json.loads((tmp_path / "p.json").read_text())
+    assert "batches" not in rows["1"] and rows["2"]["batches"] > 0
+    for r in rows.values():
+        assert abs(r["start"] + r["simulation"] + r["end"] - r["total"]) < 1e-6
+        assert r["folder MB"] > 0
+    split = rows["2"]
+    assert split["batches"] + split["records coming back"] + split["merge"] \
+        <= split["simulation"] + 1e-6
+
+
 @pytest.mark.slow
 def test_run_interrupted_stops_every_worker(tmp_path):
     """SIGINT to the command alone while its workers simulate: exit 130, no folder, no

@@ -11,9 +11,10 @@ version, or edited by hand, does not pass for this one."""
 from __future__ import annotations
 
 import dataclasses
+import os
 from typing import Any, ClassVar, Mapping
 
-from ...errors import InputError
+from ...errors import InputError, setting
 
 
 class Recorded:
@@ -62,10 +63,6 @@ def plain(value: Any) -> Any:
 def folder_text(value: Any) -> str:
     """A folder setting (``folder``) as its text; anything but a path or text is refused,
     naming the setting."""
-    import os
-
-    from ...errors import setting
-
     if not isinstance(value, (str, os.PathLike)):
         raise InputError(f"expected a folder, got {type(value).__name__}",
                          culprit=setting("folder"))
@@ -75,7 +72,6 @@ def folder_text(value: Any) -> str:
 def names_tuple(value: Any, name: str) -> tuple[str, ...]:
     """A list setting of names (``conditions``, ``points``): one text is one name, not its
     characters; anything but texts is refused naming the setting."""
-    from ...errors import setting
 
     if value is None:
         return ()

@@ -1,8 +1,8 @@
 """The graded astrocyte's realised mean [ADO] in its trainings, per drive, as the glia
 question's rules read it (RULES.md, "Matched means"): r_ADO x tau_ADO x its releases per
 astrocyte and second, r_ADO * tau_ADO * sum(adenosine_releases) / (8 * sum(length_s)) over
-every session of every seed of the run (8 astrocytes per trial, one per thigh pool). It is
-reported beside the results, not a criterion for keeping or dropping a run.
+every session of every seed of the run (the astrocytes of a trial as the network's layout
+counts them: one per thigh pool, 8). It is reported beside the results, not a criterion for keeping or dropping a run.
 
     python docs/beyond/glia_question/realised_mean.py docs/beyond/glia_drive/results_graded.csv.gz
 
@@ -17,9 +17,8 @@ import sys
 import pandas as pd
 
 from astrocpg.models.compose import model_set
+from astrocpg.network.layout import Layout
 from astrocpg.support.shipped import resolve
-
-ASTROCYTES_PER_TRIAL = 8  # one per thigh pool: 4 limbs x (flexor, extensor)
 
 
 def realised(results: str, astrocyte: str = "graded_astrocyte") -> pd.DataFrame:
@@ -29,10 +28,11 @@ def realised(results: str, astrocyte: str = "graded_astrocyte") -> pd.DataFrame:
     tau_ado = float(models.parameter("tau_ADO").value)
     rows = pd.read_csv(results)
     rows = rows[rows["astrocyte"] == astrocyte]
+    # one astrocyte per thigh pool: the layout's count (it does not depend on the pool size)
+    astrocytes = Layout(n_trials=1, pool_size=1).cells_per_trial("astrocyte")
     out = []
     for drive, g in rows.groupby("I_background_0", sort=False):
-        releases_per_s = g["adenosine_releases"].sum() / (ASTROCYTES_PER_TRIAL
-                                                          * g["length_s"].sum())
+        releases_per_s = g["adenosine_releases"].sum() / (astrocytes * g["length_s"].sum())
         out.append({"I_background_0": drive, "seeds": g["seed"].nunique(),
                     "sessions": len(g), "releases_per_astrocyte_s": releases_per_s,
                     "mean_ADO": r_ado * tau_ado * releases_per_s})
